@@ -1,0 +1,213 @@
+#include "RunCommand.h"
+
+#include <unistd.h>
+
+#include <chrono>
+#include <cmath>
+#include <cstdio>
+#include <cstdlib>
+#include <filesystem>
+#include <fstream>
+#include <iomanip>
+#include <iostream>
+#include <nlohmann/json.hpp>
+#include <sstream>
+
+#include "loom/cloth/Error.h"
+#include "loom/scene/Scene.h"
+
+namespace fs = std::filesystem;
+
+namespace loom::app {
+
+namespace {
+
+constexpr const char* kDefaultScene = "hanging_cloth.json";
+
+void write_obj(const fs::path& path, const std::vector<std::unique_ptr<cloth::Cloth>>& cloths) {
+  std::ofstream out(path);
+  if (!out) throw Error(path.string(), "", "cannot write frame");
+  out << std::setprecision(9);
+  int base = 1;
+  for (const auto& c : cloths) {
+    out << "o " << c->name() << "\n";
+    for (const cloth::Vec3& p : c->state().x) out << "v " << p.x() << ' ' << p.y() << ' ' << p.z() << "\n";
+    for (const cloth::Tri& t : c->mesh().triangles())
+      out << "f " << t[0] + base << ' ' << t[1] + base << ' ' << t[2] + base << "\n";
+    base += c->state().size();
+  }
+  if (!out) throw Error(path.string(), "", "write failed");
+}
+
+// Writes `text` to `path` through a temporary file and a rename, so a reader never sees half a file.
+void write_atomically(const fs::path& path, const std::string& text) {
+  const fs::path tmp = path.string() + ".tmp";
+  {
+    std::ofstream out(tmp);
+    out << text;
+    if (!out) throw Error(path.string(), "", "write failed");
+  }
+  fs::rename(tmp, path);
+}
+
+class ProgressBar {
+ public:
+  explicit ProgressBar(int total) : total_(total), enabled_(isatty(STDERR_FILENO)) {}
+  void update(int done, double ms_per_frame) {
+    if (!enabled_) return;
+    const int width = 30, filled = total_ ? done * width / total_ : width;
+    std::fprintf(stderr, "\r[%s%s] %3d%% frame %d/%d  %.2f ms/frame", std::string(filled, '#').c_str(),
+                 std::string(width - filled, ' ').c_str(), total_ ? 100 * done / total_ : 100, done, total_, ms_per_frame);
+    std::fflush(stderr);
+  }
+  void finish() {
+    if (enabled_) std::fprintf(stderr, "\n");
+  }
+
+ private:
+  int total_;
+  bool enabled_;
+};
+
+void print_profile(const cloth::Simulation& sim, int frames) {
+  std::printf("%-22s %12s %12s  %s\n", "stage", "total ms", "ms/frame", "counters");
+  for (const cloth::StageProfile& p : sim.profile()) {
+    std::string counters;
+    for (const auto& [k, v] : p.counters) {
+      std::ostringstream s;
+      s << k << '=' << v;
+      counters += (counters.empty() ? "" : " ") + s.str();
+    }
+    const bool sub = p.name.find('/') != std::string::npos;
+    std::printf("%-22s %12.3f %12.4f  %s\n", ((sub ? "  " : "") + p.name).c_str(), p.total_ms,
+                frames ? p.total_ms / frames : 0.0, counters.c_str());
+  }
+}
+
+}  // namespace
+
+std::string default_scene_path() {
+  if (const char* env = std::getenv("LOOM_SCENES")) return (fs::path(env) / kDefaultScene).string();
+  if (fs::exists(fs::path("scenes") / kDefaultScene)) return (fs::path("scenes") / kDefaultScene).string();
+  return (fs::path(LOOM_SOURCE_DIR) / "scenes" / kDefaultScene).string();
+}
+
+int run_command(const RunOptions& o) {
+  const auto wall_start = std::chrono::steady_clock::now();
+  const std::string scene_path = o.scene.empty() ? default_scene_path() : o.scene;
+  scene::Scene sc = scene::load_scene(scene_path, o.sets);
+  if (o.threads > 0) sc.setup.threads = o.threads;
+  const int frames = o.frames >= 0 ? o.frames : sc.frames;
+  cloth::Simulation sim(sc.setup, scene_path);  // validates everything before any output exists
+
+  // Output folder: our files from an earlier run are removed first, so nothing stale passes for new.
+  const fs::path out = o.out.empty() ? fs::path("out") / sc.name : fs::path(o.out);
+  std::error_code ec;
+  fs::create_directories(out / "frames", ec);
+  if (ec || !fs::is_directory(out / "frames")) throw Error(out.string(), "--out", "cannot create output folder: " + ec.message());
+  {
+    const fs::path probe = out / ".loom_write_test";
+    std::ofstream test(probe);
+    if (!test) throw Error(out.string(), "--out", "output folder is not writable");
+    test.close();
+    fs::remove(probe);
+  }
+  fs::remove(out / "summary.json");
+  fs::remove(out / "stats.csv");
+  for (const auto& entry : fs::directory_iterator(out / "frames"))
+    if (entry.path().extension() == ".obj" && entry.path().filename().string().rfind("frame_", 0) == 0) fs::remove(entry.path());
+
+  const std::vector<std::string> stage_names = sim.stage_names();
+  const fs::path stats_partial = out / "stats.csv.partial";
+  std::ofstream csv(stats_partial);
+  if (!csv) throw Error(stats_partial.string(), "", "cannot write");
+  csv << std::setprecision(10);
+  csv << "frame,time,kinetic_energy,potential_energy,elastic_energy,max_strain,mean_strain,ms_total";
+  for (const auto& n : stage_names) csv << ",ms_" << n;
+  csv << "\n";
+  auto write_row = [&](const cloth::FrameStats& s) {
+    csv << s.frame << ',' << s.time << ',' << s.kinetic << ',' << s.potential << ',' << s.elastic << ','
+        << s.max_strain << ',' << s.mean_strain << ',' << s.total_ms;
+    for (double ms : s.stage_ms) csv << ',' << ms;
+    csv << "\n";
+  };
+  auto frame_path = [&](int f) {
+    char name[32];
+    std::snprintf(name, sizeof name, "frame_%05d.obj", f);
+    return out / "frames" / name;
+  };
+
+  cloth::FrameStats s0 = sim.measure();
+  write_row(s0);
+  if (sc.output.frames) write_obj(frame_path(0), sim.cloths());
+  double max_strain = s0.max_strain, mean_strain_sum = 0.0, sim_ms = 0.0;
+  int done = 0;
+  bool finite = s0.finite;
+  std::string error;
+  ProgressBar bar(frames);
+  for (int f = 1; f <= frames && finite; ++f) {
+    cloth::FrameStats s = sim.step_frame();
+    sim_ms += s.total_ms;
+    if (!s.finite) {
+      finite = false;
+      error = "state became non-finite during frame " + std::to_string(f) + " (t = " + std::to_string(s.time) +
+              " s); stopped, frames up to " + std::to_string(f - 1) + " are valid";
+      break;
+    }
+    write_row(s);
+    if (sc.output.frames && f % sc.output.every == 0) write_obj(frame_path(f), sim.cloths());
+    max_strain = std::max(max_strain, s.max_strain);
+    mean_strain_sum += s.mean_strain;
+    done = f;
+    bar.update(done, sim_ms / done);
+  }
+  bar.finish();
+  csv.close();
+  if (!csv) throw Error(stats_partial.string(), "", "write failed");
+  fs::rename(stats_partial, out / "stats.csv");
+
+  nlohmann::ordered_json j;
+  j["scene"] = scene_path;
+  j["frames"] = done;
+  j["sim_seconds"] = done * sc.setup.frame_dt;
+  j["wall_seconds"] = std::chrono::duration<double>(std::chrono::steady_clock::now() - wall_start).count();
+  j["ms_per_frame"] = done ? sim_ms / done : 0.0;
+  nlohmann::ordered_json stages, per_frame, counters;
+  for (const cloth::StageProfile& p : sim.profile()) {
+    stages[p.name] = p.total_ms;
+    per_frame[p.name] = done ? p.total_ms / done : 0.0;
+    nlohmann::ordered_json c = nlohmann::ordered_json::object();
+    for (const auto& [k, v] : p.counters) c[k] = v;
+    counters[p.name] = c;
+  }
+  j["stages"] = stages;
+  j["stages_ms_per_frame"] = per_frame;
+  j["counters"] = counters;
+  j["max_strain"] = max_strain;
+  j["mean_strain"] = done ? mean_strain_sum / done : s0.mean_strain;
+  j["finite"] = finite;
+  j["solver"] = sc.setup.solver.method;
+  j["substeps"] = sc.setup.substeps;
+  j["dt"] = sim.step_size();
+  j["threads"] = sc.setup.threads;
+  int vertices = 0, triangles = 0;
+  for (const auto& c : sim.cloths()) {
+    vertices += c->state().size();
+    triangles += c->mesh().num_triangles();
+  }
+  j["vertices"] = vertices;
+  j["triangles"] = triangles;
+  if (!finite) j["error"] = error;
+  write_atomically(out / "summary.json", j.dump(2) + "\n");
+
+  if (o.profile) print_profile(sim, done);
+  if (!finite) {
+    std::cerr << "loom: error: " << scene_path << ": " << error << "\n";
+    return 3;
+  }
+  std::cout << "loom: " << done << " frames of " << sc.name << " in " << std::fixed << std::setprecision(2)
+            << (done ? sim_ms / done : 0.0) << " ms/frame -> " << out.string() << "\n";
+  return 0;
+}
+
+}  // namespace loom::app

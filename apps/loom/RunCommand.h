@@ -1,0 +1,21 @@
+#pragma once
+// `loom run`: loads a scene, runs it and writes DIR/frames/*.obj, DIR/stats.csv and DIR/summary.json.
+#include <string>
+#include <vector>
+
+namespace loom::app {
+
+struct RunOptions {
+  std::string scene;             // empty: the default scene
+  std::string out;               // empty: out/<scene name>
+  int frames = -1;               // -1: the scene's duration
+  int threads = -1;              // -1: the scene's value
+  bool profile = false;
+  std::vector<std::string> sets;  // --set PATH=VALUE
+};
+
+// Returns the process exit code: 0 ok, 1 bad input or I/O error, 3 the simulation diverged.
+int run_command(const RunOptions& options);
+std::string default_scene_path();
+
+}  // namespace loom::app

@@ -1,0 +1,124 @@
+// loom: the command-line front end. `loom --help` lists the commands.
+#include <cstdio>
+#include <cstring>
+#include <exception>
+#include <iostream>
+#include <string>
+
+#include "RunCommand.h"
+#include "loom/cloth/Error.h"
+#include "loom/cloth/Material.h"
+#include "loom/cloth/Solver.h"
+
+namespace {
+
+const char* kUsage =
+    "loom — cloth simulation for game physics\n"
+    "\n"
+    "Usage:\n"
+    "  loom run [SCENE] [options]   run a scene (default: the default scene in scenes/)\n"
+    "  loom --help                  this text\n"
+    "  loom run --help              the options of `run`\n"
+    "\n"
+    "Exit codes: 0 success, 1 bad input or I/O error, 2 bad command line, 3 simulation diverged.\n";
+
+std::string run_usage() {
+  std::string solvers, presets;
+  for (const auto& s : loom::cloth::solver_names()) solvers += (solvers.empty() ? "" : ", ") + s;
+  for (const auto& p : loom::cloth::material_preset_names()) presets += (presets.empty() ? "" : ", ") + p;
+  return "Usage: loom run [SCENE] [--out DIR] [--frames N] [--threads N] [--profile] [--set PATH=VALUE ...]\n"
+         "\n"
+         "Runs SCENE (a JSON file; default: " +
+         loom::app::default_scene_path() +
+         ") and writes\n"
+         "  DIR/frames/frame_NNNNN.obj  every k-th frame (scene: output.every)\n"
+         "  DIR/stats.csv               one row per frame: time, energies, strain, per-stage ms\n"
+         "  DIR/summary.json            frames, sim_seconds, wall_seconds, ms_per_frame, stages, max_strain,\n"
+         "                              mean_strain, finite (written last: its presence means the run ended)\n"
+         "\n"
+         "Options:\n"
+         "  --out DIR          output folder (default: out/<scene name>)\n"
+         "  --frames N         number of frames to simulate (default: the scene's duration x fps)\n"
+         "  --threads N        OpenMP threads for the per-element loops (default: the scene's, else 1)\n"
+         "  --profile          print a table of pipeline stages: total and per-frame milliseconds, counters\n"
+         "  --set PATH=VALUE   override any scene value before it is checked, e.g.\n"
+         "                     --set solver.method=verlet  --set cloths[0].material.preset=denim_11oz\n"
+         "                     VALUE is read as JSON when it parses (numbers, arrays), else as a string\n"
+         "  -h, --help         this text\n"
+         "\n"
+         "Solvers: " + solvers + "\nMaterial presets: " + presets + "\n";
+}
+
+int parse_int(const char* flag, const char* value) {
+  char* end = nullptr;
+  const long v = std::strtol(value, &end, 10);
+  if (!*value || *end || v < 0 || v > 100000000) {
+    std::fprintf(stderr, "loom: error: %s expects a non-negative integer, got '%s'\n", flag, value);
+    std::exit(2);
+  }
+  return static_cast<int>(v);
+}
+
+int run_main(int argc, char** argv) {
+  loom::app::RunOptions o;
+  for (int i = 2; i < argc; ++i) {
+    const std::string a = argv[i];
+    auto value = [&]() -> const char* {
+      if (i + 1 >= argc) {
+        std::fprintf(stderr, "loom: error: %s needs a value (see loom run --help)\n", a.c_str());
+        std::exit(2);
+      }
+      return argv[++i];
+    };
+    if (a == "-h" || a == "--help") {
+      std::cout << run_usage();
+      return 0;
+    } else if (a == "--out") {
+      o.out = value();
+    } else if (a == "--frames") {
+      o.frames = parse_int("--frames", value());
+    } else if (a == "--threads") {
+      o.threads = parse_int("--threads", value());
+      if (o.threads < 1) {
+        std::fprintf(stderr, "loom: error: --threads must be >= 1\n");
+        return 2;
+      }
+    } else if (a == "--profile") {
+      o.profile = true;
+    } else if (a == "--set") {
+      o.sets.push_back(value());
+    } else if (a.rfind("--set=", 0) == 0) {
+      o.sets.push_back(a.substr(6));
+    } else if (!a.empty() && a[0] == '-') {
+      std::fprintf(stderr, "loom: error: unknown option '%s' (see loom run --help)\n", a.c_str());
+      return 2;
+    } else if (o.scene.empty()) {
+      o.scene = a;
+    } else {
+      std::fprintf(stderr, "loom: error: more than one scene given ('%s', '%s')\n", o.scene.c_str(), a.c_str());
+      return 2;
+    }
+  }
+  return loom::app::run_command(o);
+}
+
+}  // namespace
+
+int main(int argc, char** argv) {
+  if (argc < 2 || !std::strcmp(argv[1], "-h") || !std::strcmp(argv[1], "--help")) {
+    std::cout << kUsage;
+    return argc < 2 ? 2 : 0;
+  }
+  const std::string cmd = argv[1];
+  try {
+    if (cmd == "run") return run_main(argc, argv);
+  } catch (const loom::Error& e) {
+    std::cerr << "loom: error: " << e.what() << "\n";
+    return 1;
+  } catch (const std::exception& e) {
+    std::cerr << "loom: error: " << e.what() << "\n";
+    return 1;
+  }
+  std::fprintf(stderr, "loom: error: unknown command '%s' (see loom --help)\n", cmd.c_str());
+  return 2;
+}

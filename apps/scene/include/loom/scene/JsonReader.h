@@ -1,0 +1,50 @@
+#pragma once
+// JsonReader: typed, path-tracking access to one JSON object of a scene. Every error names the file, the
+// JSON path (`cloths[0].material.areal_density`) and the problem; finish() rejects keys nobody read.
+#include <nlohmann/json.hpp>
+#include <optional>
+#include <set>
+#include <string>
+#include <vector>
+
+#include "loom/cloth/Types.h"
+
+namespace loom::scene {
+
+class JsonReader {
+ public:
+  JsonReader(const nlohmann::json& j, std::string path, std::string file);
+
+  const std::string& path() const { return path_; }
+  const std::string& file() const { return file_; }
+  bool has(const std::string& key) const;
+  [[noreturn]] void fail(const std::string& key, const std::string& problem) const;
+
+  // Each getter marks the key as read. `min`/`max` bound the value; strict bounds exclude the limit.
+  double number(const std::string& key, std::optional<double> fallback = std::nullopt,
+                std::optional<double> min = std::nullopt, bool strict_min = false) const;
+  int integer(const std::string& key, std::optional<int> fallback = std::nullopt, std::optional<int> min = std::nullopt) const;
+  bool boolean(const std::string& key, std::optional<bool> fallback = std::nullopt) const;
+  std::string string(const std::string& key, std::optional<std::string> fallback = std::nullopt,
+                     const std::vector<std::string>& allowed = {}) const;
+  cloth::Vec3 vec3(const std::string& key, std::optional<cloth::Vec3> fallback = std::nullopt) const;
+  std::vector<double> numbers(const std::string& key, size_t count = 0) const;  // count 0: any length >= 1
+  JsonReader object(const std::string& key) const;
+  std::vector<JsonReader> objects(const std::string& key) const;  // an array of objects
+  const nlohmann::json& raw(const std::string& key) const;        // marks as read, no type check
+  // Throws for every key of this object that was never read.
+  void finish() const;
+
+  std::string child(const std::string& key) const { return path_.empty() ? key : path_ + "." + key; }
+
+ private:
+  const nlohmann::json& at(const std::string& key) const;
+  double as_number(const nlohmann::json& v, const std::string& where) const;
+
+  const nlohmann::json& j_;
+  std::string path_;
+  std::string file_;
+  mutable std::set<std::string> read_;
+};
+
+}  // namespace loom::scene

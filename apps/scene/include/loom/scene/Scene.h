@@ -1,0 +1,35 @@
+#pragma once
+// A scene: one JSON file naming cloths, solver, effects, duration and outputs (DESIGN.md, "Scenes").
+// The format is documented in README.md ("Scene format").
+#include <nlohmann/json.hpp>
+#include <string>
+#include <vector>
+
+#include "loom/cloth/Simulation.h"
+
+namespace loom::scene {
+
+struct OutputSettings {
+  int every = 1;       // write every k-th frame's OBJ
+  bool frames = true;  // write OBJ frames at all
+};
+
+struct Scene {
+  std::string file;  // path it was read from
+  std::string name;
+  cloth::SimulationSetup setup;
+  double duration = 1.0;  // s
+  int frames = 60;        // frames to simulate (duration * fps, rounded)
+  OutputSettings output;
+};
+
+// Reads a JSON file; syntax errors name the file, line and column.
+nlohmann::json read_json_file(const std::string& path);
+// Applies one `--set path=value` override (path: `solver.method`, `cloths.0.material.preset`, or
+// `cloths[0].material.preset`; value: JSON if it parses, else a string).
+void apply_override(nlohmann::json& root, const std::string& assignment, const std::string& file);
+// Builds the simulation setup; relative mesh paths resolve against the scene's folder.
+Scene parse_scene(const nlohmann::json& root, const std::string& file);
+Scene load_scene(const std::string& path, const std::vector<std::string>& overrides = {});
+
+}  // namespace loom::scene

@@ -1,0 +1,152 @@
+#include "loom/scene/JsonReader.h"
+
+#include <cmath>
+#include <sstream>
+
+#include "loom/cloth/Error.h"
+
+namespace loom::scene {
+
+namespace {
+std::string type_name(const nlohmann::json& v) {
+  if (v.is_null()) return "null";
+  if (v.is_boolean()) return "a boolean";
+  if (v.is_number()) return "a number";
+  if (v.is_string()) return "a string";
+  if (v.is_array()) return "an array";
+  return "an object";
+}
+std::string show(double v) {
+  std::ostringstream s;
+  s << v;
+  return s.str();
+}
+}  // namespace
+
+JsonReader::JsonReader(const nlohmann::json& j, std::string path, std::string file)
+    : j_(j), path_(std::move(path)), file_(std::move(file)) {
+  if (!j_.is_object()) throw Error(file_, path_.empty() ? "(top level)" : path_, "expected an object, got " + type_name(j_));
+}
+
+bool JsonReader::has(const std::string& key) const { return j_.contains(key); }
+
+void JsonReader::fail(const std::string& key, const std::string& problem) const {
+  throw Error(file_, key.empty() ? path_ : child(key), problem);
+}
+
+const nlohmann::json& JsonReader::at(const std::string& key) const {
+  read_.insert(key);
+  return j_.at(key);
+}
+
+const nlohmann::json& JsonReader::raw(const std::string& key) const {
+  if (!has(key)) fail(key, "is required");
+  return at(key);
+}
+
+double JsonReader::as_number(const nlohmann::json& v, const std::string& where) const {
+  if (!v.is_number()) throw Error(file_, where, "expected a number, got " + type_name(v));
+  const double d = v.get<double>();
+  if (!std::isfinite(d)) throw Error(file_, where, "must be a finite number");
+  return d;
+}
+
+double JsonReader::number(const std::string& key, std::optional<double> fallback, std::optional<double> min,
+                          bool strict_min) const {
+  if (!has(key)) {
+    if (fallback) return *fallback;
+    fail(key, "is required");
+  }
+  const double d = as_number(at(key), child(key));
+  if (min && (strict_min ? !(d > *min) : !(d >= *min)))
+    fail(key, "must be " + std::string(strict_min ? "> " : ">= ") + show(*min) + " (got " + show(d) + ")");
+  return d;
+}
+
+int JsonReader::integer(const std::string& key, std::optional<int> fallback, std::optional<int> min) const {
+  if (!has(key)) {
+    if (fallback) return *fallback;
+    fail(key, "is required");
+  }
+  const nlohmann::json& v = at(key);
+  if (!v.is_number_integer()) fail(key, "expected an integer, got " + (v.is_number() ? std::string("a fractional number") : type_name(v)));
+  const long long i = v.get<long long>();
+  if (i > 1000000000LL || i < -1000000000LL) fail(key, "is out of range");
+  if (min && i < *min) fail(key, "must be >= " + std::to_string(*min) + " (got " + std::to_string(i) + ")");
+  return static_cast<int>(i);
+}
+
+bool JsonReader::boolean(const std::string& key, std::optional<bool> fallback) const {
+  if (!has(key)) {
+    if (fallback) return *fallback;
+    fail(key, "is required");
+  }
+  const nlohmann::json& v = at(key);
+  if (!v.is_boolean()) fail(key, "expected a boolean, got " + type_name(v));
+  return v.get<bool>();
+}
+
+std::string JsonReader::string(const std::string& key, std::optional<std::string> fallback,
+                               const std::vector<std::string>& allowed) const {
+  if (!has(key)) {
+    if (fallback) return *fallback;
+    fail(key, "is required");
+  }
+  const nlohmann::json& v = at(key);
+  if (!v.is_string()) fail(key, "expected a string, got " + type_name(v));
+  std::string s = v.get<std::string>();
+  if (!allowed.empty()) {
+    bool ok = false;
+    std::string list;
+    for (const auto& a : allowed) {
+      ok = ok || a == s;
+      list += (list.empty() ? "" : ", ") + a;
+    }
+    if (!ok) fail(key, "unknown value '" + s + "' (expected one of: " + list + ")");
+  }
+  return s;
+}
+
+std::vector<double> JsonReader::numbers(const std::string& key, size_t count) const {
+  const nlohmann::json& v = raw(key);
+  if (!v.is_array()) fail(key, "expected an array of numbers, got " + type_name(v));
+  if (count && v.size() != count) fail(key, "expected " + std::to_string(count) + " numbers, got " + std::to_string(v.size()));
+  if (!count && v.empty()) fail(key, "must not be empty");
+  std::vector<double> out;
+  for (size_t i = 0; i < v.size(); ++i) out.push_back(as_number(v[i], child(key) + "[" + std::to_string(i) + "]"));
+  return out;
+}
+
+cloth::Vec3 JsonReader::vec3(const std::string& key, std::optional<cloth::Vec3> fallback) const {
+  if (!has(key)) {
+    if (fallback) return *fallback;
+    fail(key, "is required");
+  }
+  const auto n = numbers(key, 3);
+  return cloth::Vec3(n[0], n[1], n[2]);
+}
+
+JsonReader JsonReader::object(const std::string& key) const {
+  const nlohmann::json& v = raw(key);
+  if (!v.is_object()) fail(key, "expected an object, got " + type_name(v));
+  return JsonReader(v, child(key), file_);
+}
+
+std::vector<JsonReader> JsonReader::objects(const std::string& key) const {
+  const nlohmann::json& v = raw(key);
+  if (!v.is_array()) fail(key, "expected an array, got " + type_name(v));
+  std::vector<JsonReader> out;
+  for (size_t i = 0; i < v.size(); ++i) {
+    const std::string where = child(key) + "[" + std::to_string(i) + "]";
+    if (!v[i].is_object()) throw Error(file_, where, "expected an object, got " + type_name(v[i]));
+    out.emplace_back(v[i], where, file_);
+  }
+  return out;
+}
+
+void JsonReader::finish() const {
+  for (auto it = j_.begin(); it != j_.end(); ++it)
+    if (!read_.count(it.key())) fail(it.key(), "unknown key");
+}
+
+}  // namespace loom::scene

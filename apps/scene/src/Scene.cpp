@@ -1,0 +1,305 @@
+#include "loom/scene/Scene.h"
+
+#include <cmath>
+#include <filesystem>
+#include <fstream>
+#include <sstream>
+
+#include "loom/cloth/Error.h"
+#include "loom/scene/JsonReader.h"
+
+namespace loom::scene {
+
+using cloth::Vec3;
+
+nlohmann::json read_json_file(const std::string& path) {
+  std::ifstream in(path);
+  if (!in) throw Error(path, "", "cannot open scene file");
+  std::stringstream ss;
+  ss << in.rdbuf();
+  const std::string text = ss.str();
+  try {
+    return nlohmann::json::parse(text);
+  } catch (const nlohmann::json::parse_error& e) {
+    // Turn the byte offset into a line and column.
+    const size_t at = std::min<size_t>(e.byte == 0 ? 0 : e.byte - 1, text.size());
+    int line = 1, col = 1;
+    for (size_t i = 0; i < at; ++i) {
+      if (text[i] == '\n') {
+        ++line;
+        col = 1;
+      } else {
+        ++col;
+      }
+    }
+    std::string what = e.what();
+    const size_t p = what.find("syntax error");
+    throw Error(path, "line " + std::to_string(line) + ", column " + std::to_string(col),
+                "invalid JSON: " + (p == std::string::npos ? what : what.substr(p)));
+  }
+}
+
+void apply_override(nlohmann::json& root, const std::string& assignment, const std::string& file) {
+  const size_t eq = assignment.find('=');
+  const std::string where = "--set " + assignment;
+  if (eq == std::string::npos || eq == 0) throw Error(file, where, "expected PATH=VALUE");
+  std::string path = assignment.substr(0, eq);
+  const std::string value = assignment.substr(eq + 1);
+  // cloths[0].x -> cloths.0.x
+  for (char& c : path)
+    if (c == '[' || c == ']') c = '.';
+  std::vector<std::string> parts;
+  std::stringstream ps(path);
+  std::string part;
+  while (std::getline(ps, part, '.'))
+    if (!part.empty()) parts.push_back(part);
+  if (parts.empty()) throw Error(file, where, "empty path");
+  nlohmann::json* node = &root;
+  for (size_t k = 0; k < parts.size(); ++k) {
+    const std::string& key = parts[k];
+    const bool last = k + 1 == parts.size();
+    if (node->is_array()) {
+      size_t used = 0;
+      long idx = -1;
+      try {
+        idx = std::stol(key, &used);
+      } catch (...) {
+      }
+      if (used != key.size() || idx < 0 || idx >= static_cast<long>(node->size()))
+        throw Error(file, where, "'" + key + "' is not an index of the array (size " + std::to_string(node->size()) + ")");
+      node = &(*node)[idx];
+    } else {
+      if (node->is_null()) *node = nlohmann::json::object();
+      if (!node->is_object()) throw Error(file, where, "'" + key + "' goes inside a value that is not an object");
+      if (!last && !node->contains(key)) (*node)[key] = nlohmann::json::object();
+      node = &(*node)[key];
+    }
+  }
+  nlohmann::json v;
+  try {
+    v = nlohmann::json::parse(value);
+  } catch (...) {
+    v = value;  // a bare word is a string
+  }
+  *node = v;
+}
+
+namespace {
+
+cloth::Material parse_material(const JsonReader& cloth_reader, const std::string& file) {
+  if (!cloth_reader.has("material")) return cloth::material_preset("cotton");
+  const nlohmann::json& raw = cloth_reader.raw("material");
+  const std::string where = cloth_reader.child("material");
+  auto preset = [&](const std::string& name, const std::string& at) {
+    try {
+      return cloth::material_preset(name);
+    } catch (const Error& e) {
+      throw Error(file, at, e.what());
+    }
+  };
+  if (raw.is_string()) return preset(raw.get<std::string>(), where);
+  const JsonReader r = cloth_reader.object("material");
+  cloth::Material m = r.has("preset") ? preset(r.string("preset"), r.child("preset")) : cloth::Material();
+  if (!r.has("preset")) m.name = "custom";
+  // A value that must be positive (> 0) or non-negative (>= 0).
+  auto positive = [&](const char* key, double& field) { field = r.number(key, field, 0.0, true); };
+  auto non_negative = [&](const char* key, double& field) { field = r.number(key, field, 0.0, false); };
+  if (r.has("stretch")) m.stretch_weft = m.stretch_warp = r.number("stretch", std::nullopt, 0.0, true);
+  positive("stretch_weft", m.stretch_weft);
+  positive("stretch_warp", m.stretch_warp);
+  non_negative("shear", m.shear);
+  if (r.has("bend")) m.bend_weft = m.bend_warp = r.number("bend", std::nullopt, 0.0, false);
+  non_negative("bend_weft", m.bend_weft);
+  non_negative("bend_warp", m.bend_warp);
+  positive("areal_density", m.areal_density);
+  non_negative("damping", m.damping);
+  non_negative("friction", m.friction);
+  non_negative("thickness", m.thickness);
+  r.finish();
+  return m;
+}
+
+std::shared_ptr<const cloth::ClothMesh> parse_mesh(const JsonReader& r, const std::string& file) {
+  const std::string type = r.string("type", std::nullopt, {"grid", "obj"});
+  // Mesh construction errors name the mesh (or OBJ file and line); the scene path goes in front.
+  auto build = [&](auto&& make) {
+    try {
+      return make();
+    } catch (const Error& e) {
+      throw Error(file, r.path(), e.what());
+    }
+  };
+  {
+    if (type == "grid") {
+      cloth::GridSpec g;
+      const auto size = r.numbers("size", 2);
+      for (int k = 0; k < 2; ++k)
+        if (!(size[k] > 0.0)) r.fail("size", "both sizes must be > 0");
+      g.size_u = size[0];
+      g.size_v = size[1];
+      const nlohmann::json& nodes = r.raw("nodes");
+      if (!nodes.is_array() || nodes.size() != 2 || !nodes[0].is_number_integer() || !nodes[1].is_number_integer())
+        r.fail("nodes", "expected two integers [nodes_u, nodes_v]");
+      g.nodes_u = nodes[0].get<int>();
+      g.nodes_v = nodes[1].get<int>();
+      if (g.nodes_u < 2 || g.nodes_v < 2 || g.nodes_u > 4096 || g.nodes_v > 4096)
+        r.fail("nodes", "each count must be in [2, 4096]");
+      const std::string plane = r.string("plane", "xz", {"xy", "xz", "yz"});
+      g.plane = plane == "xy" ? cloth::GridPlane::kXY : plane == "yz" ? cloth::GridPlane::kYZ : cloth::GridPlane::kXZ;
+      g.origin = r.vec3("origin", Vec3::Zero());
+      r.finish();
+      return build([&] { return cloth::ClothMesh::grid(g); });
+    }
+    std::string path = r.string("path");
+    const double scale = r.number("scale", 1.0, 0.0, true);
+    const Vec3 translate = r.vec3("translate", Vec3::Zero());
+    r.finish();
+    std::filesystem::path p(path);
+    if (p.is_relative()) p = std::filesystem::path(file).parent_path() / p;
+    return build([&] { return cloth::ClothMesh::from_obj(p.string(), scale, translate); });
+  }
+}
+
+std::vector<cloth::PinSpec> parse_pins(const JsonReader& r, const cloth::ClothMesh& mesh) {
+  std::vector<cloth::PinSpec> pins;
+  if (!r.has("pins")) return pins;
+  for (const JsonReader& p : r.objects("pins")) {
+    cloth::PinSpec spec;
+    if (static_cast<int>(p.has("vertex")) + p.has("grid") + p.has("grid_edge") != 1)
+      p.fail("", "give exactly one of 'vertex', 'grid' or 'grid_edge'");
+    if (p.has("grid_edge")) {
+      // A whole side of a grid: u0 (iu = 0), u1 (iu = last), v0 (iv = 0), v1 (iv = last).
+      if (!mesh.is_grid()) p.fail("grid_edge", "grid pins need a grid mesh");
+      const std::string side = p.string("grid_edge", std::nullopt, {"u0", "u1", "v0", "v1"});
+      p.finish();
+      const int nu = mesh.grid_nodes_u(), nv = mesh.grid_nodes_v();
+      const bool along_v = side[0] == 'u';
+      const int fixed = side[1] == '0' ? 0 : (along_v ? nu : nv) - 1;
+      for (int k = 0; k < (along_v ? nv : nu); ++k) {
+        cloth::PinSpec e;
+        e.vertex = along_v ? mesh.grid_index(fixed, k) : mesh.grid_index(k, fixed);
+        pins.push_back(e);
+      }
+      continue;
+    }
+    if (p.has("vertex")) {
+      spec.vertex = p.integer("vertex");
+      if (spec.vertex < 0 || spec.vertex >= mesh.num_vertices())
+        p.fail("vertex", "vertex " + std::to_string(spec.vertex) + " is out of range [0, " + std::to_string(mesh.num_vertices()) + ")");
+    } else {
+      if (!mesh.is_grid()) p.fail("grid", "grid pins need a grid mesh");
+      const nlohmann::json& g = p.raw("grid");
+      if (!g.is_array() || g.size() != 2 || !g[0].is_number_integer() || !g[1].is_number_integer())
+        p.fail("grid", "expected [iu, iv] (negative counts from the far side)");
+      int iu = g[0].get<int>(), iv = g[1].get<int>();
+      if (iu < 0) iu += mesh.grid_nodes_u();
+      if (iv < 0) iv += mesh.grid_nodes_v();
+      if (iu < 0 || iu >= mesh.grid_nodes_u() || iv < 0 || iv >= mesh.grid_nodes_v())
+        p.fail("grid", "node is outside the " + std::to_string(mesh.grid_nodes_u()) + "x" + std::to_string(mesh.grid_nodes_v()) + " grid");
+      spec.vertex = mesh.grid_index(iu, iv);
+    }
+    if (p.has("anchor")) spec.anchor = p.vec3("anchor");
+    if (p.has("path")) {
+      const JsonReader path = p.object("path");
+      spec.times = path.numbers("times");
+      const nlohmann::json& offsets = path.raw("offsets");
+      if (!offsets.is_array() || offsets.size() != spec.times.size())
+        path.fail("offsets", "expected one [x, y, z] offset per time");
+      for (size_t k = 0; k < offsets.size(); ++k) {
+        const auto& o = offsets[k];
+        if (!o.is_array() || o.size() != 3 || !o[0].is_number() || !o[1].is_number() || !o[2].is_number())
+          path.fail("offsets", "entry " + std::to_string(k) + " must be [x, y, z]");
+        Vec3 v(o[0].get<double>(), o[1].get<double>(), o[2].get<double>());
+        if (!v.allFinite()) path.fail("offsets", "entry " + std::to_string(k) + " is not finite");
+        spec.offsets.push_back(v);
+      }
+      for (size_t k = 1; k < spec.times.size(); ++k)
+        if (!(spec.times[k] > spec.times[k - 1])) path.fail("times", "must increase strictly");
+      path.finish();
+    }
+    p.finish();
+    pins.push_back(spec);
+  }
+  return pins;
+}
+
+}  // namespace
+
+Scene parse_scene(const nlohmann::json& root, const std::string& file) {
+  const JsonReader r(root, "", file);
+  Scene scene;
+  scene.file = file;
+  scene.name = r.string("name", std::filesystem::path(file).stem().string());
+  if (r.has("description")) r.string("description");
+  scene.duration = r.number("duration", 1.0, 0.0, true);
+  const double fps = r.number("fps", 60.0, 0.0, true);
+  if (fps > 100000.0) r.fail("fps", "must be <= 100000");
+  scene.setup.frame_dt = 1.0 / fps;
+  scene.frames = std::max(1, static_cast<int>(std::lround(scene.duration * fps)));
+  scene.setup.gravity = r.vec3("gravity", Vec3(0.0, -9.81, 0.0));
+  scene.setup.threads = r.integer("threads", 1, 1);
+
+  if (r.has("solver")) {
+    const JsonReader s = r.object("solver");
+    scene.setup.solver.method = s.string("method", "symplectic_euler");
+    if (s.has("substeps") && s.has("dt")) s.fail("", "give either 'substeps' or 'dt', not both");
+    if (s.has("dt")) {
+      const double dt = s.number("dt", std::nullopt, 0.0, true);
+      if (dt > scene.setup.frame_dt * (1.0 + 1e-12)) s.fail("dt", "must not exceed the frame time 1/fps");
+      scene.setup.substeps = static_cast<int>(std::ceil(scene.setup.frame_dt / dt - 1e-9));
+    } else {
+      scene.setup.substeps = s.integer("substeps", 1, 1);
+    }
+    if (scene.setup.substeps > 1000000) s.fail("substeps", "must be <= 1000000");
+    s.finish();
+  }
+  cloth::make_solver(scene.setup.solver, file);  // an unknown method fails here, naming solver.method
+
+  if (r.has("effects")) {
+    const JsonReader e = r.object("effects");
+    if (e.has("drag")) {
+      const JsonReader d = e.object("drag");
+      cloth::DragSettings ds;
+      ds.isotropic = d.number("isotropic", 0.0, 0.0);
+      ds.normal = d.number("normal", 0.0, 0.0);
+      ds.wind = d.vec3("wind", Vec3::Zero());
+      ds.gust_amplitude = d.number("gust_amplitude", 0.0, 0.0);
+      ds.gust_frequency = d.number("gust_frequency", 0.0, 0.0);
+      d.finish();
+      scene.setup.drag = ds;
+    }
+    e.finish();
+  }
+
+  const auto cloths = r.objects("cloths");
+  if (cloths.empty()) r.fail("cloths", "a scene needs at least one cloth");
+  for (const JsonReader& c : cloths) {
+    cloth::ClothSetup cs;
+    cs.name = c.string("name", "cloth" + std::to_string(scene.setup.cloths.size()));
+    cs.mesh = parse_mesh(c.object("mesh"), file);
+    cs.material = parse_material(c, file);
+    c.string("model", "springs", {"springs"});
+    if (c.has("mass")) cs.material.areal_density = c.number("mass", std::nullopt, 0.0, true) / cs.mesh->total_area();
+    cs.initial_velocity = c.vec3("velocity", Vec3::Zero());
+    cs.pins = parse_pins(c, *cs.mesh);
+    c.finish();
+    scene.setup.cloths.push_back(std::move(cs));
+  }
+
+  if (r.has("output")) {
+    const JsonReader o = r.object("output");
+    scene.output.every = o.integer("every", 1, 1);
+    scene.output.frames = o.boolean("frames", true);
+    o.finish();
+  }
+  r.finish();
+  return scene;
+}
+
+Scene load_scene(const std::string& path, const std::vector<std::string>& overrides) {
+  nlohmann::json root = read_json_file(path);
+  for (const std::string& o : overrides) apply_override(root, o, path);
+  return parse_scene(root, path);
+}
+
+}  // namespace loom::scene

@@ -1,0 +1,26 @@
+#pragma once
+// loom::Error: the one exception type thrown at the boundary (scene, mesh and file loading). The message
+// always names where the problem is (file, field or line) and what it is (STYLE.md, "Errors").
+#include <stdexcept>
+#include <string>
+
+namespace loom {
+
+class Error : public std::runtime_error {
+ public:
+  explicit Error(const std::string& message) : std::runtime_error(message) {}
+  // "FILE: WHERE: PROBLEM", the shape every user-facing error takes. `where` is a JSON path
+  // (`cloths[0].material.areal_density`), a line (`line 12`) or a field name; empty parts are left out.
+  Error(const std::string& file, const std::string& where, const std::string& problem)
+      : std::runtime_error(compose(file, where, problem)) {}
+
+ private:
+  static std::string compose(const std::string& file, const std::string& where, const std::string& problem) {
+    std::string m;
+    if (!file.empty()) m += file + ": ";
+    if (!where.empty()) m += where + ": ";
+    return m + problem;
+  }
+};
+
+}  // namespace loom

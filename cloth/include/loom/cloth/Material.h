@@ -1,0 +1,29 @@
+#pragma once
+// Material: a fabric in physical units only (DESIGN.md; reference/methods.md §4). Per-element stiffnesses
+// are derived from it by resolution-independent mappings (SpringSet.h), never stored here.
+#include <string>
+#include <vector>
+
+namespace loom::cloth {
+
+struct Material {
+  std::string name = "custom";
+  double stretch_weft = 2000.0;  // N/m, 2D Young's modulus along the weft (material u axis)
+  double stretch_warp = 2000.0;  // N/m, 2D Young's modulus along the warp (material v axis)
+  double shear = 100.0;          // N/m, 2D in-plane shear modulus
+  double bend_weft = 1.0e-5;     // N·m, bending rigidity for curvature along the weft
+  double bend_warp = 1.0e-5;     // N·m, bending rigidity for curvature along the warp
+  double areal_density = 0.2;    // kg/m²
+  double damping = 0.0;          // s, stiffness-proportional internal damping: c = damping * k per element
+  double friction = 0.3;         // 1, Coulomb coefficient (used by collision)
+  double thickness = 0.001;      // m, collision offset (never used to derive bending)
+
+  // Throws loom::Error("", where + ".<field>", problem) if a value is non-finite or out of range.
+  void validate(const std::string& file, const std::string& where) const;
+};
+
+// Measured presets. Each one cites its source in Material.cpp. Throws loom::Error for an unknown name.
+Material material_preset(const std::string& name);
+std::vector<std::string> material_preset_names();
+
+}  // namespace loom::cloth

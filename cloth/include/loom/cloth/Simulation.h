@@ -1,0 +1,100 @@
+#pragma once
+// Simulation: cloths plus a pipeline of stages built once from the setup:
+//   pins (only with pins) -> solve (terms) -> [constraint passes, collision: later issues] -> stats
+// Only the effects the setup names exist: no drag term without drag, no pin stage without pins.
+#include <chrono>
+#include <map>
+#include <memory>
+#include <optional>
+#include <string>
+#include <vector>
+
+#include "loom/cloth/AirDragTerm.h"
+#include "loom/cloth/Cloth.h"
+#include "loom/cloth/Solver.h"
+#include "loom/cloth/Stage.h"
+
+namespace loom::cloth {
+
+struct PinSpec {
+  int vertex = 0;
+  std::optional<Vec3> anchor;  // m; default: the vertex's start position
+  std::vector<double> times;   // s
+  std::vector<Vec3> offsets;   // m
+};
+
+struct ClothSetup {
+  std::string name = "cloth";
+  std::shared_ptr<const ClothMesh> mesh;
+  Material material;
+  std::vector<PinSpec> pins;
+  Vec3 initial_velocity = Vec3::Zero();  // m/s
+};
+
+struct SimulationSetup {
+  std::vector<ClothSetup> cloths;
+  Vec3 gravity{0.0, -9.81, 0.0};  // m/s²
+  std::optional<DragSettings> drag;  // the drag effect; absent = no drag term at all
+  SolverSettings solver;
+  double frame_dt = 1.0 / 60.0;  // s
+  int substeps = 1;              // solver steps per frame
+  int threads = 1;
+};
+
+// Per-frame measurements (stats.csv).
+struct FrameStats {
+  int frame = 0;
+  double time = 0.0;              // s
+  double kinetic = 0.0;           // J
+  double potential = 0.0;         // J, gravitational, zero at y = 0 (along -g)
+  double elastic = 0.0;           // J
+  double max_strain = 0.0;        // 1, largest stretch l/L - 1 over strain edges (0 if none stretched)
+  double mean_strain = 0.0;       // 1, mean |l/L - 1| over strain edges
+  bool finite = true;
+  std::vector<double> stage_ms;   // per row of stage_names(), this frame
+  double total_ms = 0.0;          // the frame's pipeline time: top-level stages only (no "solve/<term>" rows)
+};
+
+struct StageProfile {
+  std::string name;
+  double total_ms = 0.0;
+  std::vector<std::pair<std::string, double>> counters;
+};
+
+class Simulation {
+ public:
+  explicit Simulation(SimulationSetup setup, const std::string& file = "");
+
+  // Inserts a stage before "stats" (collision and constraint stages of later issues plug in here).
+  void add_stage(std::unique_ptr<Stage> stage);
+
+  // Runs `substeps` pipeline steps and returns the frame's statistics.
+  FrameStats step_frame();
+  // Statistics of the current state (no stepping); used for frame 0.
+  FrameStats measure() const;
+
+  double time() const { return t_; }
+  int frame() const { return frame_; }
+  double step_size() const { return setup_.frame_dt / setup_.substeps; }
+  const SimulationSetup& setup() const { return setup_; }
+  std::vector<std::unique_ptr<Cloth>>& cloths() { return cloths_; }
+  const std::vector<std::unique_ptr<Cloth>>& cloths() const { return cloths_; }
+
+  // Names of the timed rows: each stage, then "solve/<term>" rows for every term present, then "stats".
+  std::vector<std::string> stage_names() const;
+  std::vector<StageProfile> profile() const;
+
+ private:
+  void fill_stats(FrameStats& s) const;
+
+  SimulationSetup setup_;
+  std::vector<std::unique_ptr<Cloth>> cloths_;
+  std::vector<std::unique_ptr<Stage>> stages_;
+  std::vector<double> stage_total_ms_;
+  double stats_total_ms_ = 0.0;
+  std::vector<double> last_term_ms_;  // term totals at the previous frame, to report per-frame deltas
+  double t_ = 0.0;
+  int frame_ = 0;
+};
+
+}  // namespace loom::cloth

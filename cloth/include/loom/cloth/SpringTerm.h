@@ -1,0 +1,38 @@
+#pragma once
+// Hooke springs with damping along the spring (reference/methods.md §1.1):
+//   f_i = k (l - L) x̂ + c (x̂·(v_j - v_i)) x̂,  f_j = -f_i,  x̂ = (x_j - x_i) / l,  E = k/2 (l - L)².
+// Forces are computed per spring in parallel, then gathered per vertex in a fixed order, so the result is
+// bit-identical for any thread count.
+#include "loom/cloth/Term.h"
+
+namespace loom::cloth {
+
+struct Spring {
+  int i = 0, j = 0;
+  double rest_length = 0.0;  // m
+  double k = 0.0;            // N/m
+  double c = 0.0;            // N·s/m, damping along the spring
+};
+
+class SpringTerm final : public Term {
+ public:
+  SpringTerm(int num_vertices, std::vector<Spring> springs, const char* name = "springs");
+  const char* name() const override { return name_; }
+  double energy(const EvalContext& c) const override;
+  void add_forces(const EvalContext& c, Vec3s& f) const override;
+  void add_pattern(std::vector<std::pair<int, int>>& pairs) const override;
+  void add_jacobians(const EvalContext& c, const JacobianOptions& o, BlockMatrix* dfdx,
+                     BlockMatrix* dfdv) const override;
+  long work_items() const override { return static_cast<long>(springs_.size()); }
+  const std::vector<Spring>& springs() const { return springs_; }
+
+ private:
+  const char* name_;
+  int n_;
+  std::vector<Spring> springs_;
+  std::vector<int> incident_start_;  // CSR: springs incident to each vertex, with the sign of their force
+  std::vector<int> incident_;        // spring index * 2 + (1 if the vertex is j)
+  mutable Vec3s spring_force_;       // scratch: force on end i of each spring
+};
+
+}  // namespace loom::cloth

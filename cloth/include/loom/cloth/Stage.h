@@ -1,0 +1,29 @@
+#pragma once
+// Stage: one step of the pipeline (DESIGN.md, "One step"). The pipeline is built from the scene once and
+// holds only the stages the scene needs; each stage reports its time and work counters.
+#include <memory>
+#include <string>
+#include <utility>
+#include <vector>
+
+#include "loom/cloth/Cloth.h"
+
+namespace loom::cloth {
+
+struct StageContext {
+  std::vector<std::unique_ptr<Cloth>>& cloths;
+  double t = 0.0;   // s, time at the start of the step
+  double h = 0.0;   // s, step size
+  int threads = 1;
+};
+
+class Stage {
+ public:
+  virtual ~Stage() = default;
+  virtual const char* name() const = 0;
+  virtual void run(StageContext& ctx) = 0;
+  // Work counters since the start (name, value), e.g. ("pinned_vertices", 2).
+  virtual std::vector<std::pair<std::string, double>> counters() const { return {}; }
+};
+
+}  // namespace loom::cloth

@@ -1,0 +1,45 @@
+#pragma once
+// Term: one piece of physics (gravity, springs, drag, ...). Every term gives its energy, its forces and its
+// 3x3 Jacobian blocks; solvers consume terms only through this interface (DESIGN.md, "terms"). Virtual
+// dispatch happens per term, never per element.
+#include <utility>
+#include <vector>
+
+#include "loom/cloth/BlockMatrix.h"
+#include "loom/cloth/Types.h"
+
+namespace loom::cloth {
+
+// What a term is evaluated at.
+struct EvalContext {
+  const Vec3s& x;   // m
+  const Vec3s& v;   // m/s
+  double t = 0.0;   // s
+  int threads = 1;  // OpenMP threads for per-element loops
+};
+
+// How Jacobians are formed. Defaults give the exact derivatives (what the finite-difference tests check);
+// implicit solvers ask for the symmetric, positive-definite-friendly variants.
+struct JacobianOptions {
+  bool clamp_compression = false;      // springs: clamp (1 - L/l) to >= 0 (methods.md §1.1)
+  bool damping_position_terms = true;  // include d(damping force)/dx (non-symmetric; usually dropped)
+};
+
+class Term {
+ public:
+  virtual ~Term() = default;
+  virtual const char* name() const = 0;
+  // Conservative terms have force = -grad(energy); the others (drag) return energy 0.
+  virtual bool conservative() const { return true; }
+  virtual double energy(const EvalContext& c) const = 0;       // J
+  virtual void add_forces(const EvalContext& c, Vec3s& f) const = 0;  // N, accumulated into f
+  // Vertex pairs this term couples in its Jacobians (for BlockMatrix's pattern).
+  virtual void add_pattern(std::vector<std::pair<int, int>>& pairs) const { (void)pairs; }
+  // Accumulates df/dx into dfdx and df/dv into dfdv (either may be null).
+  virtual void add_jacobians(const EvalContext& c, const JacobianOptions& o, BlockMatrix* dfdx,
+                             BlockMatrix* dfdv) const = 0;
+  // Work done by the last add_forces call, for the profile (elements evaluated).
+  virtual long work_items() const { return 0; }
+};
+
+}  // namespace loom::cloth

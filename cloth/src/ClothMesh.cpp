@@ -1,0 +1,388 @@
+#include "loom/cloth/ClothMesh.h"
+
+#include <Eigen/Eigenvalues>
+#include <Eigen/Geometry>
+#include <algorithm>
+#include <cstdlib>
+#include <cmath>
+#include <fstream>
+#include <sstream>
+#include <tuple>
+
+#include "loom/cloth/Error.h"
+
+namespace loom::cloth {
+
+const char* to_string(SpringKind kind) {
+  switch (kind) {
+    case SpringKind::kStructural: return "structural";
+    case SpringKind::kShear: return "shear";
+    case SpringKind::kBend: return "bend";
+    case SpringKind::kEdge: return "edge";
+    case SpringKind::kHinge: return "hinge";
+  }
+  return "?";
+}
+
+namespace {
+
+void plane_axes(GridPlane plane, Vec3& a1, Vec3& a2) {
+  a1 = plane == GridPlane::kYZ ? Vec3::UnitY() : Vec3::UnitX();
+  a2 = plane == GridPlane::kXY ? Vec3::UnitY() : Vec3::UnitZ();
+}
+
+int other_vertex(const Tri& t, int a, int b) {
+  for (int v : t)
+    if (v != a && v != b) return v;
+  return -1;
+}
+
+}  // namespace
+
+double ClothMesh::total_area() const {
+  double a = 0.0;
+  for (double t : tri_area_) a += t;
+  return a;
+}
+
+std::shared_ptr<const ClothMesh> ClothMesh::grid(const GridSpec& spec) {
+  if (spec.nodes_u < 2 || spec.nodes_v < 2) throw Error("", "grid", "needs at least 2 nodes per side");
+  if (!(spec.size_u > 0.0) || !(spec.size_v > 0.0) || !std::isfinite(spec.size_u) || !std::isfinite(spec.size_v))
+    throw Error("", "grid", "size must be finite and > 0");
+  auto mesh = std::shared_ptr<ClothMesh>(new ClothMesh());
+  ClothMesh& m = *mesh;
+  const int nu = spec.nodes_u, nv = spec.nodes_v;
+  const double du = spec.size_u / (nu - 1), dv = spec.size_v / (nv - 1);
+  Vec3 a1, a2;
+  plane_axes(spec.plane, a1, a2);
+  m.grid_nodes_u_ = nu;
+  m.grid_nodes_v_ = nv;
+  m.rest_positions_.resize(static_cast<size_t>(nu) * nv);
+  for (int iv = 0; iv < nv; ++iv)
+    for (int iu = 0; iu < nu; ++iu) m.rest_positions_[m.grid_index(iu, iv)] = spec.origin + iu * du * a1 + iv * dv * a2;
+  // Cells split along alternating diagonals, counter-clockwise in (u, v).
+  for (int iv = 0; iv + 1 < nv; ++iv)
+    for (int iu = 0; iu + 1 < nu; ++iu) {
+      const int a = m.grid_index(iu, iv), b = m.grid_index(iu + 1, iv);
+      const int c = m.grid_index(iu + 1, iv + 1), d = m.grid_index(iu, iv + 1);
+      if ((iu + iv) % 2 == 0) {
+        m.triangles_.push_back({a, b, c});
+        m.triangles_.push_back({a, c, d});
+      } else {
+        m.triangles_.push_back({a, b, d});
+        m.triangles_.push_back({b, c, d});
+      }
+    }
+  m.build_topology("grid");
+  // Material frame: weft along the first axis, warp along the second.
+  m.frames_.resize(m.triangles_.size());
+  for (size_t t = 0; t < m.triangles_.size(); ++t) {
+    TriangleFrame& f = m.frames_[t];
+    f.weft = a1;
+    f.warp = a2;
+    for (int k = 0; k < 3; ++k) {
+      const int idx = m.triangles_[t][k];
+      f.rest_uv[k] = Vec2((idx % nu) * du, (idx / nu) * dv);
+    }
+  }
+  // Provot springs: structural (i+1), shear (both diagonals), bend (i+2).
+  const double cell_area = du * dv;
+  auto add = [&](int iu0, int iv0, int iu1, int iv1, SpringKind kind) {
+    if (iu1 < 0 || iu1 >= nu || iv1 >= nv) return;
+    SpringDef s;
+    s.i = m.grid_index(iu0, iv0);
+    s.j = m.grid_index(iu1, iv1);
+    const Vec2 d((iu1 - iu0) * du, (iv1 - iv0) * dv);
+    s.rest_length = d.norm();
+    s.rest_uv_dir = d / s.rest_length;
+    s.kind = kind;
+    s.area = cell_area;
+    if (kind == SpringKind::kStructural) m.strain_springs_.push_back(static_cast<int>(m.springs_.size()));
+    m.springs_.push_back(s);
+  };
+  for (int iv = 0; iv < nv; ++iv)
+    for (int iu = 0; iu < nu; ++iu) {
+      add(iu, iv, iu + 1, iv, SpringKind::kStructural);
+      add(iu, iv, iu, iv + 1, SpringKind::kStructural);
+      add(iu, iv, iu + 1, iv + 1, SpringKind::kShear);
+      add(iu, iv, iu - 1, iv + 1, SpringKind::kShear);
+      add(iu, iv, iu + 2, iv, SpringKind::kBend);
+      add(iu, iv, iu, iv + 2, SpringKind::kBend);
+    }
+  return mesh;
+}
+
+std::shared_ptr<const ClothMesh> ClothMesh::from_triangles(Vec3s positions, std::vector<Tri> triangles,
+                                                           std::vector<std::array<Vec2, 3>> corner_uvs,
+                                                           const std::string& source) {
+  if (positions.empty()) throw Error(source, "", "mesh has no vertices");
+  if (triangles.empty()) throw Error(source, "", "mesh has no triangles");
+  if (!corner_uvs.empty() && corner_uvs.size() != triangles.size())
+    throw Error(source, "", "texture coordinates must be given for every triangle or none");
+  const int n = static_cast<int>(positions.size());
+  for (int i = 0; i < n; ++i)
+    if (!positions[i].allFinite()) throw Error(source, "vertex " + std::to_string(i), "coordinate is not finite");
+  std::vector<char> used(n, 0);
+  double max_edge2 = 0.0;
+  for (size_t t = 0; t < triangles.size(); ++t) {
+    const Tri& tri = triangles[t];
+    for (int k = 0; k < 3; ++k) {
+      if (tri[k] < 0 || tri[k] >= n)
+        throw Error(source, "triangle " + std::to_string(t),
+                    "vertex index " + std::to_string(tri[k]) + " is out of range [0, " + std::to_string(n) + ")");
+      used[tri[k]] = 1;
+    }
+    if (tri[0] == tri[1] || tri[1] == tri[2] || tri[0] == tri[2])
+      throw Error(source, "triangle " + std::to_string(t), "repeats a vertex (degenerate triangle)");
+    for (int k = 0; k < 3; ++k) max_edge2 = std::max(max_edge2, (positions[tri[k]] - positions[tri[(k + 1) % 3]]).squaredNorm());
+  }
+  for (size_t t = 0; t < triangles.size(); ++t) {
+    const Tri& tri = triangles[t];
+    const Vec3 e1 = positions[tri[1]] - positions[tri[0]], e2 = positions[tri[2]] - positions[tri[0]];
+    double longest = std::max({e1.squaredNorm(), e2.squaredNorm(), (e2 - e1).squaredNorm()});
+    if (e1.cross(e2).norm() <= 1e-10 * longest || longest <= 1e-24 * max_edge2)
+      throw Error(source, "triangle " + std::to_string(t), "has zero area (degenerate triangle)");
+  }
+  for (int i = 0; i < n; ++i)
+    if (!used[i]) throw Error(source, "vertex " + std::to_string(i), "is not used by any triangle");
+
+  auto mesh = std::shared_ptr<ClothMesh>(new ClothMesh());
+  ClothMesh& m = *mesh;
+  m.rest_positions_ = std::move(positions);
+  m.triangles_ = std::move(triangles);
+  m.build_topology(source);
+  m.build_frames(corner_uvs);
+  m.build_mesh_springs();
+  return mesh;
+}
+
+void ClothMesh::build_topology(const std::string& source) {
+  const int n = num_vertices();
+  tri_area_.resize(triangles_.size());
+  vertex_area_.assign(n, 0.0);
+  for (size_t t = 0; t < triangles_.size(); ++t) {
+    const Tri& tri = triangles_[t];
+    const Vec3& p0 = rest_positions_[tri[0]];
+    tri_area_[t] = 0.5 * (rest_positions_[tri[1]] - p0).cross(rest_positions_[tri[2]] - p0).norm();
+    for (int k = 0; k < 3; ++k) vertex_area_[tri[k]] += tri_area_[t] / 3.0;
+  }
+  // Unique edges by sorting (min, max, triangle) triples.
+  std::vector<std::tuple<int, int, int>> half;
+  half.reserve(triangles_.size() * 3);
+  for (size_t t = 0; t < triangles_.size(); ++t)
+    for (int k = 0; k < 3; ++k) {
+      int a = triangles_[t][k], b = triangles_[t][(k + 1) % 3];
+      half.emplace_back(std::min(a, b), std::max(a, b), static_cast<int>(t));
+    }
+  std::sort(half.begin(), half.end());
+  edges_.clear();
+  hinges_.clear();
+  for (size_t s = 0; s < half.size();) {
+    size_t e = s;
+    while (e < half.size() && std::get<0>(half[e]) == std::get<0>(half[s]) && std::get<1>(half[e]) == std::get<1>(half[s])) ++e;
+    const int a = std::get<0>(half[s]), b = std::get<1>(half[s]);
+    if (e - s > 2)
+      throw Error(source, "edge (" + std::to_string(a) + ", " + std::to_string(b) + ")",
+                  "is shared by " + std::to_string(e - s) + " triangles (non-manifold edge)");
+    if (e - s == 2 && std::get<2>(half[s]) == std::get<2>(half[s + 1]))
+      throw Error(source, "triangle " + std::to_string(std::get<2>(half[s])), "uses an edge twice");
+    edges_.push_back({a, b});
+    if (e - s == 2) {
+      Hinge h;
+      h.e0 = a;
+      h.e1 = b;
+      h.o0 = other_vertex(triangles_[std::get<2>(half[s])], a, b);
+      h.o1 = other_vertex(triangles_[std::get<2>(half[s + 1])], a, b);
+      if (h.o0 != h.o1) hinges_.push_back(h);
+    }
+    s = e;
+  }
+}
+
+void ClothMesh::build_frames(const std::vector<std::array<Vec2, 3>>& corner_uvs) {
+  // Best-fit plane of the whole mesh, the fallback frame when a triangle has no usable UVs.
+  Vec3 mean = Vec3::Zero();
+  for (const Vec3& p : rest_positions_) mean += p;
+  mean /= static_cast<double>(rest_positions_.size());
+  Mat3 cov = Mat3::Zero();
+  for (const Vec3& p : rest_positions_) cov += (p - mean) * (p - mean).transpose();
+  Eigen::SelfAdjointEigenSolver<Mat3> eig(cov);
+  const Vec3 axis1 = eig.eigenvectors().col(2), axis2 = eig.eigenvectors().col(1);
+
+  frames_.resize(triangles_.size());
+  for (size_t t = 0; t < triangles_.size(); ++t) {
+    const Tri& tri = triangles_[t];
+    const Vec3 e1 = rest_positions_[tri[1]] - rest_positions_[tri[0]];
+    const Vec3 e2 = rest_positions_[tri[2]] - rest_positions_[tri[0]];
+    const Vec3 normal = e1.cross(e2).normalized();
+    Vec3 weft = Vec3::Zero();
+    if (!corner_uvs.empty()) {
+      // dX/du from [e1 e2] = [dX/du dX/dv] [duv1 duv2].
+      const Vec2 d1 = corner_uvs[t][1] - corner_uvs[t][0], d2 = corner_uvs[t][2] - corner_uvs[t][0];
+      const double det = d1.x() * d2.y() - d2.x() * d1.y();
+      if (std::abs(det) > 1e-14) weft = (e1 * d2.y() - e2 * d1.y()) / det;
+    }
+    if (weft.squaredNorm() < 1e-24) {
+      weft = axis1 - axis1.dot(normal) * normal;
+      if (weft.squaredNorm() < 1e-6) weft = axis2 - axis2.dot(normal) * normal;
+    }
+    weft = (weft - weft.dot(normal) * normal).normalized();
+    TriangleFrame& f = frames_[t];
+    f.weft = weft;
+    f.warp = normal.cross(weft);
+    f.rest_uv[0] = Vec2::Zero();
+    f.rest_uv[1] = Vec2(e1.dot(f.weft), e1.dot(f.warp));
+    f.rest_uv[2] = Vec2(e2.dot(f.weft), e2.dot(f.warp));
+  }
+}
+
+void ClothMesh::build_mesh_springs() {
+  // Edge springs carry the area and the material direction of their triangles; hinge springs join the two
+  // vertices opposite an interior edge (methods.md §1.1).
+  std::vector<std::vector<int>> vertex_tris(num_vertices());
+  for (size_t t = 0; t < triangles_.size(); ++t)
+    for (int v : triangles_[t]) vertex_tris[v].push_back(static_cast<int>(t));
+  auto direction_in = [&](int t, const Vec3& d) {
+    Vec2 uv(d.dot(frames_[t].weft), d.dot(frames_[t].warp));
+    return uv.norm() > 0 ? Vec2(uv.normalized()) : Vec2(1.0, 0.0);
+  };
+  springs_.clear();
+  strain_springs_.clear();
+  for (const Edge& e : edges_) {
+    SpringDef s;
+    s.i = e.i;
+    s.j = e.j;
+    s.kind = SpringKind::kEdge;
+    const Vec3 d = rest_positions_[e.j] - rest_positions_[e.i];
+    s.rest_length = d.norm();
+    Vec2 dir = Vec2::Zero();
+    for (int t : vertex_tris[e.i]) {
+      const Tri& tri = triangles_[t];
+      if (std::find(tri.begin(), tri.end(), e.j) == tri.end()) continue;
+      s.area += tri_area_[t];
+      Vec2 uv = direction_in(t, d);
+      if (dir.squaredNorm() > 0 && dir.dot(uv) < 0) uv = -uv;
+      dir += uv;
+    }
+    s.rest_uv_dir = dir.normalized();
+    strain_springs_.push_back(static_cast<int>(springs_.size()));
+    springs_.push_back(s);
+  }
+  for (const Hinge& h : hinges_) {
+    SpringDef s;
+    s.i = h.o0;
+    s.j = h.o1;
+    s.kind = SpringKind::kHinge;
+    const Vec3 d = rest_positions_[h.o1] - rest_positions_[h.o0];
+    s.rest_length = d.norm();
+    double a = 0.0;
+    int first = -1;
+    for (int t : vertex_tris[h.e0]) {
+      const Tri& tri = triangles_[t];
+      const bool has_e1 = std::find(tri.begin(), tri.end(), h.e1) != tri.end();
+      const bool has_o = std::find(tri.begin(), tri.end(), h.o0) != tri.end() ||
+                         std::find(tri.begin(), tri.end(), h.o1) != tri.end();
+      if (has_e1 && has_o) {
+        a += tri_area_[t];
+        if (first < 0) first = t;
+      }
+    }
+    s.area = a / 3.0;
+    s.rest_uv_dir = direction_in(first, d);
+    springs_.push_back(s);
+  }
+}
+
+std::shared_ptr<const ClothMesh> ClothMesh::from_obj(const std::string& path, double scale, const Vec3& translate) {
+  std::ifstream in(path);
+  if (!in) throw Error(path, "", "cannot open OBJ file");
+  Vec3s positions;
+  std::vector<Vec2> texcoords;
+  std::vector<Tri> triangles;
+  std::vector<std::array<int, 3>> tri_vt;
+  bool any_vt = false, all_vt = true;
+  std::string line;
+  int line_no = 0;
+  auto fail = [&](const std::string& problem) { throw Error(path, "line " + std::to_string(line_no), problem); };
+  while (std::getline(in, line)) {
+    ++line_no;
+    if (!line.empty() && line.back() == '\r') line.pop_back();
+    std::istringstream ls(line);
+    std::string tag;
+    if (!(ls >> tag) || tag[0] == '#') continue;
+    // Reads `count` numbers with strtod, so that "nan" and "inf" are read and then rejected by name.
+    auto read_numbers = [&](int count, double* out) {
+      for (int k = 0; k < count; ++k) {
+        std::string tok;
+        if (!(ls >> tok)) return false;
+        char* end = nullptr;
+        out[k] = std::strtod(tok.c_str(), &end);
+        if (end == tok.c_str() || *end) return false;
+      }
+      return true;
+    };
+    if (tag == "v") {
+      Vec3 p;
+      if (!read_numbers(3, p.data())) fail("'v' needs three numbers");
+      if (!p.allFinite()) fail("vertex coordinate is not finite");
+      positions.push_back(p);
+    } else if (tag == "vt") {
+      Vec2 uv;
+      if (!read_numbers(2, uv.data())) fail("'vt' needs two numbers");
+      if (!uv.allFinite()) fail("texture coordinate is not finite");
+      texcoords.push_back(uv);
+    } else if (tag == "f") {
+      std::vector<int> vi, ti;
+      std::string corner;
+      while (ls >> corner) {
+        // v, v/vt, v//vn or v/vt/vn; negative indices count back from the end.
+        const size_t slash = corner.find('/');
+        auto parse_index = [&](const std::string& s, size_t count, const char* what) {
+          size_t used = 0;
+          long idx = 0;
+          try {
+            idx = std::stol(s, &used);
+          } catch (...) {
+            fail(std::string("bad ") + what + " index '" + s + "'");
+          }
+          if (used != s.size()) fail(std::string("bad ") + what + " index '" + s + "'");
+          long resolved = idx > 0 ? idx - 1 : static_cast<long>(count) + idx;
+          if (idx == 0 || resolved < 0 || resolved >= static_cast<long>(count))
+            fail(std::string(what) + " index " + s + " is out of range (" + std::to_string(count) + " defined so far)");
+          return static_cast<int>(resolved);
+        };
+        vi.push_back(parse_index(corner.substr(0, slash), positions.size(), "vertex"));
+        int t = -1;
+        if (slash != std::string::npos) {
+          const size_t slash2 = corner.find('/', slash + 1);
+          const std::string vt = corner.substr(slash + 1, slash2 == std::string::npos ? std::string::npos : slash2 - slash - 1);
+          if (!vt.empty()) t = parse_index(vt, texcoords.size(), "texture");
+        }
+        ti.push_back(t);
+      }
+      if (vi.size() < 3) fail("a face needs at least 3 vertices");
+      for (size_t k = 1; k + 1 < vi.size(); ++k) {
+        triangles.push_back({vi[0], vi[k], vi[k + 1]});
+        tri_vt.push_back({ti[0], ti[k], ti[k + 1]});
+        const bool has = ti[0] >= 0 && ti[k] >= 0 && ti[k + 1] >= 0;
+        any_vt = any_vt || has;
+        all_vt = all_vt && has;
+      }
+    } else if (tag == "vn" || tag == "o" || tag == "g" || tag == "s" || tag == "usemtl" || tag == "mtllib" ||
+               tag == "l" || tag == "vp") {
+      continue;
+    } else {
+      fail("unknown OBJ directive '" + tag + "'");
+    }
+  }
+  for (Vec3& p : positions) p = scale * p + translate;
+  std::vector<std::array<Vec2, 3>> corner_uvs;
+  if (any_vt && all_vt) {
+    corner_uvs.resize(triangles.size());
+    for (size_t t = 0; t < triangles.size(); ++t)
+      for (int k = 0; k < 3; ++k) corner_uvs[t][k] = texcoords[tri_vt[t][k]];
+  }
+  return from_triangles(std::move(positions), std::move(triangles), std::move(corner_uvs), path);
+}
+
+}  // namespace loom::cloth

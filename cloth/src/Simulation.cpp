@@ -1,0 +1,217 @@
+#include "loom/cloth/Simulation.h"
+
+#include <algorithm>
+#include <chrono>
+#include <cmath>
+
+#include "loom/cloth/Error.h"
+#include "loom/cloth/GravityTerm.h"
+#include "loom/cloth/SpringSet.h"
+#include "loom/cloth/SpringTerm.h"
+
+namespace loom::cloth {
+
+namespace {
+
+using Clock = std::chrono::steady_clock;
+double ms_since(Clock::time_point start) {
+  return std::chrono::duration<double, std::milli>(Clock::now() - start).count();
+}
+
+// Sets each pinned vertex's velocity so that x + h v reaches its target at t + h (Solver.h contract).
+class PinStage final : public Stage {
+ public:
+  const char* name() const override { return "pins"; }
+  void run(StageContext& ctx) override {
+    long count = 0;
+    for (auto& cloth : ctx.cloths) {
+      ClothState& s = cloth->state();
+      for (const Pin& p : cloth->pins()) {
+        s.v[p.vertex] = (p.target(ctx.t + ctx.h) - s.x[p.vertex]) / ctx.h;
+        ++count;
+      }
+    }
+    pinned_ += count;
+  }
+  std::vector<std::pair<std::string, double>> counters() const override {
+    return {{"pin_updates", static_cast<double>(pinned_)}};
+  }
+
+ private:
+  long pinned_ = 0;
+};
+
+// Advances every cloth with its own instance of the scene's solver.
+class SolveStage final : public Stage {
+ public:
+  SolveStage(std::vector<std::unique_ptr<Solver>> solvers) : solvers_(std::move(solvers)) {}
+  const char* name() const override { return "solve"; }
+  void run(StageContext& ctx) override {
+    for (size_t k = 0; k < ctx.cloths.size(); ++k) solvers_[k]->step(*ctx.cloths[k], ctx.t, ctx.h, ctx.threads);
+    ++steps_;
+  }
+  std::vector<std::pair<std::string, double>> counters() const override {
+    return {{"steps", static_cast<double>(steps_)}};
+  }
+
+ private:
+  std::vector<std::unique_ptr<Solver>> solvers_;
+  long steps_ = 0;
+};
+
+}  // namespace
+
+Simulation::Simulation(SimulationSetup setup, const std::string& file) : setup_(std::move(setup)) {
+  if (!(setup_.frame_dt > 0.0) || !std::isfinite(setup_.frame_dt)) throw Error(file, "fps", "frame time step must be > 0");
+  if (setup_.substeps < 1) throw Error(file, "solver.substeps", "must be >= 1");
+  if (setup_.threads < 1) throw Error(file, "threads", "must be >= 1");
+  if (!setup_.gravity.allFinite()) throw Error(file, "gravity", "must be finite");
+  if (setup_.cloths.empty()) throw Error(file, "cloths", "a scene needs at least one cloth");
+  std::vector<std::unique_ptr<Solver>> solvers;
+  for (size_t c = 0; c < setup_.cloths.size(); ++c) {
+    const ClothSetup& cs = setup_.cloths[c];
+    const std::string where = "cloths[" + std::to_string(c) + "]";
+    if (!cs.mesh) throw Error(file, where + ".mesh", "missing");
+    cs.material.validate(file, where + ".material");
+    auto cloth = std::make_unique<Cloth>(cs.name, cs.mesh, cs.material);
+    const Material& mat = cloth->material();
+    // Only the effects the scene names become terms.
+    if (setup_.gravity.squaredNorm() > 0.0)
+      cloth->add_term(std::make_unique<GravityTerm>(cloth->state().mass, setup_.gravity));
+    cloth->add_term(std::make_unique<SpringTerm>(cs.mesh->num_vertices(), make_springs(*cs.mesh, mat)));
+    if (setup_.drag)
+      cloth->add_term(std::make_unique<AirDragTerm>(*setup_.drag, cs.mesh->triangles(), cs.mesh->vertex_areas()));
+    for (Vec3& v : cloth->state().v) v = cs.initial_velocity;
+    for (size_t p = 0; p < cs.pins.size(); ++p) {
+      const PinSpec& ps = cs.pins[p];
+      const std::string pw = where + ".pins[" + std::to_string(p) + "]";
+      if (ps.vertex < 0 || ps.vertex >= cs.mesh->num_vertices())
+        throw Error(file, pw + ".vertex", "vertex " + std::to_string(ps.vertex) + " is out of range [0, " +
+                                              std::to_string(cs.mesh->num_vertices()) + ")");
+      if (ps.times.size() != ps.offsets.size()) throw Error(file, pw + ".path", "needs one offset per time");
+      for (size_t k = 1; k < ps.times.size(); ++k)
+        if (!(ps.times[k] > ps.times[k - 1])) throw Error(file, pw + ".path", "times must increase strictly");
+      Pin pin;
+      pin.vertex = ps.vertex;
+      pin.anchor = ps.anchor.value_or(cloth->state().x[ps.vertex]);
+      pin.times = ps.times;
+      pin.offsets = ps.offsets;
+      cloth->state().x[ps.vertex] = pin.target(0.0);
+      cloth->state().v[ps.vertex] = Vec3::Zero();
+      cloth->add_pin(std::move(pin));
+    }
+    cloth->state().x_prev = cloth->state().x;
+    auto solver = make_solver(setup_.solver, file);
+    solver->check(*cloth);
+    solvers.push_back(std::move(solver));
+    cloths_.push_back(std::move(cloth));
+  }
+  bool any_pins = false;
+  for (const auto& c : cloths_) any_pins = any_pins || !c->pins().empty();
+  if (any_pins) stages_.push_back(std::make_unique<PinStage>());
+  stages_.push_back(std::make_unique<SolveStage>(std::move(solvers)));
+  stage_total_ms_.assign(stages_.size(), 0.0);
+}
+
+void Simulation::add_stage(std::unique_ptr<Stage> stage) {
+  stages_.push_back(std::move(stage));
+  stage_total_ms_.push_back(0.0);
+}
+
+std::vector<std::string> Simulation::stage_names() const {
+  std::vector<std::string> names;
+  for (const auto& s : stages_) names.push_back(s->name());
+  for (const auto& c : cloths_)
+    for (const auto& t : c->terms()) {
+      const std::string row = std::string("solve/") + t->name();
+      if (std::find(names.begin(), names.end(), row) == names.end()) names.push_back(row);
+    }
+  names.push_back("stats");
+  return names;
+}
+
+std::vector<StageProfile> Simulation::profile() const {
+  std::vector<StageProfile> rows;
+  for (size_t k = 0; k < stages_.size(); ++k) rows.push_back({stages_[k]->name(), stage_total_ms_[k], stages_[k]->counters()});
+  for (const std::string& name : stage_names()) {
+    if (name.rfind("solve/", 0) != 0) continue;
+    StageProfile p{name, 0.0, {}};
+    long calls = 0, items = 0;
+    for (const auto& c : cloths_)
+      for (size_t k = 0; k < c->terms().size(); ++k)
+        if (name.compare(6, std::string::npos, c->terms()[k]->name()) == 0) {
+          p.total_ms += c->term_timings()[k].ms;
+          calls += c->term_timings()[k].calls;
+          items += c->term_timings()[k].items;
+        }
+    p.counters = {{"evaluations", static_cast<double>(calls)}, {"elements", static_cast<double>(items)}};
+    rows.push_back(p);
+  }
+  rows.push_back({"stats", stats_total_ms_, {}});
+  return rows;
+}
+
+FrameStats Simulation::step_frame() {
+  const std::vector<StageProfile> before = profile();
+  const double h = step_size();
+  for (int s = 0; s < setup_.substeps; ++s) {
+    StageContext ctx{cloths_, t_, h, setup_.threads};
+    for (size_t k = 0; k < stages_.size(); ++k) {
+      const auto start = Clock::now();
+      stages_[k]->run(ctx);
+      stage_total_ms_[k] += ms_since(start);
+    }
+    // Time advanced by counting steps, not by summing h, so it does not drift.
+    t_ = (frame_ + static_cast<double>(s + 1) / setup_.substeps) * setup_.frame_dt;
+  }
+  ++frame_;
+  t_ = frame_ * setup_.frame_dt;
+  const auto start = Clock::now();
+  FrameStats stats;
+  fill_stats(stats);
+  stats_total_ms_ += ms_since(start);
+  const std::vector<StageProfile> after = profile();
+  stats.stage_ms.resize(after.size());
+  for (size_t k = 0; k < after.size(); ++k) {
+    stats.stage_ms[k] = after[k].total_ms - (k < before.size() ? before[k].total_ms : 0.0);
+    if (after[k].name.find('/') == std::string::npos) stats.total_ms += stats.stage_ms[k];
+  }
+  return stats;
+}
+
+FrameStats Simulation::measure() const {
+  FrameStats stats;
+  fill_stats(stats);
+  stats.stage_ms.assign(stage_names().size(), 0.0);
+  return stats;
+}
+
+void Simulation::fill_stats(FrameStats& s) const {
+  s.frame = frame_;
+  s.time = t_;
+  double strain_sum = 0.0;
+  long strain_count = 0;
+  for (const auto& c : cloths_) {
+    const ClothState& st = c->state();
+    if (!st.is_finite()) s.finite = false;
+    for (int i = 0; i < st.size(); ++i) {
+      s.kinetic += 0.5 * st.mass[i] * st.v[i].squaredNorm();
+      s.potential -= st.mass[i] * setup_.gravity.dot(st.x[i]);
+    }
+    s.elastic += c->elastic_energy(setup_.threads);
+    const auto& springs = c->mesh().springs();
+    for (int k : c->mesh().strain_springs()) {
+      const SpringDef& d = springs[k];
+      const double strain = (st.x[d.j] - st.x[d.i]).norm() / d.rest_length - 1.0;
+      s.max_strain = std::max(s.max_strain, strain);
+      strain_sum += std::abs(strain);
+      ++strain_count;
+    }
+  }
+  s.mean_strain = strain_count ? strain_sum / strain_count : 0.0;
+  if (!std::isfinite(s.kinetic) || !std::isfinite(s.potential) || !std::isfinite(s.elastic) ||
+      !std::isfinite(s.max_strain) || !std::isfinite(s.mean_strain))
+    s.finite = false;
+}
+
+}  // namespace loom::cloth

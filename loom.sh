@@ -1,0 +1,80 @@
+#!/usr/bin/env bash
+# Loom's two README commands, set-up included:
+#   ./loom.sh demo   install what is missing, build (Release, -j2), run the default scene, say what it wrote
+#   ./loom.sh test   the same set-up, then the whole test suite (ctest, output on failure)
+# Environment: LOOM_BUILD_DIR (default: build), LOOM_OUT (demo output, default: out/demo).
+set -euo pipefail
+
+here="$(cd "$(dirname "${BASH_SOURCE[0]}")" && pwd)"
+cd "$here"
+build_dir="${LOOM_BUILD_DIR:-build}"
+
+# Debian packages Loom builds with. Installed only when missing, so a second run installs nothing.
+packages=(
+  build-essential cmake pkg-config
+  libeigen3-dev nlohmann-json3-dev
+  libgtest-dev libgmock-dev libbenchmark-dev
+  libbullet-dev libfcl-dev libccd-dev
+)
+
+install_missing() {
+  local missing=()
+  for p in "${packages[@]}"; do
+    dpkg-query -W -f='${Status}' "$p" 2>/dev/null | grep -q "install ok installed" || missing+=("$p")
+  done
+  [ ${#missing[@]} -eq 0 ] && return 0
+  echo "loom.sh: installing Debian packages: ${missing[*]}"
+  local sudo=()
+  if [ "$(id -u)" -ne 0 ]; then
+    if command -v sudo >/dev/null 2>&1; then
+      sudo=(sudo)
+    else
+      echo "loom.sh: error: missing packages (${missing[*]}) and not root, no sudo" >&2
+      exit 1
+    fi
+  fi
+  "${sudo[@]}" env DEBIAN_FRONTEND=noninteractive apt-get update -qq
+  "${sudo[@]}" env DEBIAN_FRONTEND=noninteractive apt-get install -y -qq --no-install-recommends "${missing[@]}"
+}
+
+configure_and_build() {
+  if [ ! -f "$build_dir/CMakeCache.txt" ]; then
+    cmake -S . -B "$build_dir" -DCMAKE_BUILD_TYPE=Release
+  fi
+  cmake --build "$build_dir" -j2
+}
+
+usage() {
+  cat <<'USAGE'
+Usage: ./loom.sh demo | test
+  demo   install missing Debian packages, build (Release, -j2), run the default scene
+  test   install missing Debian packages, build, run the whole test suite (ctest)
+USAGE
+}
+
+cmd="${1:-}"
+case "$cmd" in
+  demo)
+    install_missing
+    configure_and_build
+    out="${LOOM_OUT:-out/demo}"
+    "$build_dir/apps/loom" run --out "$out" --profile
+    echo
+    echo "loom.sh: the default scene's output is in $out/:"
+    echo "  $out/frames/frame_NNNNN.obj   one OBJ per frame (open in Blender, MeshLab, ...)"
+    echo "  $out/stats.csv                per-frame energies, strain and per-stage milliseconds"
+    echo "  $out/summary.json             totals: frames, ms_per_frame, stages, max_strain, finite"
+    ;;
+  test)
+    install_missing
+    configure_and_build
+    ctest --test-dir "$build_dir" --output-on-failure -j2
+    ;;
+  -h|--help|help)
+    usage
+    ;;
+  *)
+    usage >&2
+    exit 2
+    ;;
+esac

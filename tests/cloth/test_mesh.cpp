@@ -1,0 +1,163 @@
+// ClothMesh: grid topology counts, areas, material frames, OBJ loading and every rejection path.
+#include <gtest/gtest.h>
+
+#include <filesystem>
+#include <fstream>
+#include <functional>
+
+#include "loom/cloth/ClothMesh.h"
+#include "loom/cloth/Error.h"
+#include "loom/cloth/SpringSet.h"
+
+namespace loom::cloth {
+namespace {
+
+namespace fs = std::filesystem;
+
+std::string write_temp(const std::string& name, const std::string& text) {
+  const fs::path dir = fs::temp_directory_path() / "loom_mesh_tests";
+  fs::create_directories(dir);
+  const fs::path p = dir / name;
+  std::ofstream(p) << text;
+  return p.string();
+}
+
+std::string error_of(const std::function<void()>& f) {
+  try {
+    f();
+  } catch (const Error& e) {
+    return e.what();
+  }
+  return "(no error)";
+}
+
+TEST(Grid, CountsFollowProvotTopology) {
+  GridSpec g;
+  g.nodes_u = 5;
+  g.nodes_v = 4;
+  g.size_u = 2.0;
+  g.size_v = 1.5;
+  auto m = ClothMesh::grid(g);
+  const int nu = 5, nv = 4;
+  EXPECT_EQ(m->num_vertices(), nu * nv);
+  EXPECT_EQ(m->num_triangles(), 2 * (nu - 1) * (nv - 1));
+  int structural = 0, shear = 0, bend = 0;
+  for (const SpringDef& s : m->springs()) {
+    structural += s.kind == SpringKind::kStructural;
+    shear += s.kind == SpringKind::kShear;
+    bend += s.kind == SpringKind::kBend;
+  }
+  EXPECT_EQ(structural, (nu - 1) * nv + nu * (nv - 1));
+  EXPECT_EQ(shear, 2 * (nu - 1) * (nv - 1));
+  EXPECT_EQ(bend, (nu - 2) * nv + nu * (nv - 2));
+  const int edges = structural + (nu - 1) * (nv - 1);
+  EXPECT_EQ(static_cast<int>(m->edges().size()), edges);
+  EXPECT_EQ(static_cast<int>(m->hinges().size()), edges - 2 * (nu - 1) - 2 * (nv - 1));
+  EXPECT_NEAR(m->total_area(), 3.0, 1e-12);
+  double vertex_area = 0.0;
+  for (double a : m->vertex_areas()) vertex_area += a;
+  EXPECT_NEAR(vertex_area, 3.0, 1e-12);
+  EXPECT_EQ(m->strain_springs().size(), static_cast<size_t>(structural));
+}
+
+TEST(Grid, HingeOppositeVerticesAreNotOnTheEdge) {
+  auto m = ClothMesh::grid(GridSpec{});
+  for (const Hinge& h : m->hinges()) {
+    EXPECT_NE(h.o0, h.o1);
+    for (int o : {h.o0, h.o1}) {
+      EXPECT_NE(o, h.e0);
+      EXPECT_NE(o, h.e1);
+    }
+  }
+}
+
+TEST(Grid, PlaneAndOriginPlaceTheNodes) {
+  GridSpec g;
+  g.nodes_u = 3;
+  g.nodes_v = 3;
+  g.plane = GridPlane::kXY;
+  g.origin = Vec3(1, 2, 3);
+  auto m = ClothMesh::grid(g);
+  EXPECT_TRUE(m->rest_positions()[m->grid_index(2, 2)].isApprox(Vec3(2, 3, 3)));
+  EXPECT_TRUE(m->triangle_frames()[0].weft.isApprox(Vec3::UnitX()));
+  EXPECT_TRUE(m->triangle_frames()[0].warp.isApprox(Vec3::UnitY()));
+}
+
+TEST(Springs, StiffnessIsResolutionIndependentOnGrids) {
+  // A 2D modulus maps to the same spring constant at every resolution (methods.md §4.3).
+  Material mat = material_preset("cotton");
+  for (int n : {9, 33}) {
+    GridSpec g;
+    g.nodes_u = g.nodes_v = n;
+    auto m = ClothMesh::grid(g);
+    const auto springs = make_springs(*m, mat);
+    const double kd = std::min(mat.shear, 0.5 * std::min(mat.stretch_weft, mat.stretch_warp));
+    for (size_t k = 0; k < springs.size(); ++k) {
+      const SpringDef& d = m->springs()[k];
+      if (d.kind == SpringKind::kStructural && d.rest_uv_dir.x() > 0.5) {
+        EXPECT_NEAR(springs[k].k, mat.stretch_weft - kd, 1e-9);
+      } else if (d.kind == SpringKind::kStructural) {
+        EXPECT_NEAR(springs[k].k, mat.stretch_warp - kd, 1e-9);
+      } else if (d.kind == SpringKind::kShear) {
+        EXPECT_NEAR(springs[k].k, kd, 1e-9);
+      }
+    }
+  }
+}
+
+TEST(Obj, LoadsQuadsAsTwoTrianglesWithFramesFromUVs) {
+  // A unit quad in the YZ plane whose u runs along +y: the weft must follow +y.
+  const std::string path = write_temp("quad.obj",
+                                      "# quad\nv 0 0 0\nv 0 1 0\nv 0 1 1\nv 0 0 1\n"
+                                      "vt 0 0\nvt 1 0\nvt 1 1\nvt 0 1\nf 1/1 2/2 3/3 4/4\n");
+  auto m = ClothMesh::from_obj(path);
+  EXPECT_EQ(m->num_vertices(), 4);
+  EXPECT_EQ(m->num_triangles(), 2);
+  EXPECT_NEAR(m->total_area(), 1.0, 1e-12);
+  for (const TriangleFrame& f : m->triangle_frames()) {
+    EXPECT_TRUE(f.weft.isApprox(Vec3::UnitY(), 1e-12));
+    EXPECT_NEAR(std::abs(f.warp.z()), 1.0, 1e-12);
+  }
+  EXPECT_EQ(m->hinges().size(), 1u);
+  EXPECT_EQ(m->edges().size(), 5u);
+}
+
+TEST(Obj, ScaleAndTranslateApply) {
+  const std::string path = write_temp("tri.obj", "v 0 0 0\nv 1 0 0\nv 0 1 0\nf 1 2 3\n");
+  auto m = ClothMesh::from_obj(path, 2.0, Vec3(0, 0, 1));
+  EXPECT_TRUE(m->rest_positions()[1].isApprox(Vec3(2, 0, 1)));
+}
+
+TEST(Obj, RejectsBadInputWithFileLineAndProblem) {
+  struct Case {
+    const char* name;
+    const char* text;
+    const char* expect_where;
+    const char* expect_problem;
+  };
+  const Case cases[] = {
+      {"out_of_range.obj", "v 0 0 0\nv 1 0 0\nv 0 1 0\n\nf 1 2 7\n", "line 5", "out of range"},
+      {"bad_number.obj", "v 0 0 zero\n", "line 1", "three numbers"},
+      {"nan.obj", "v 0 0 nan\nv 1 0 0\nv 0 1 0\nf 1 2 3\n", "line 1", "not finite"},
+      {"short_face.obj", "v 0 0 0\nv 1 0 0\nf 1 2\n", "line 3", "at least 3"},
+      {"bad_index.obj", "v 0 0 0\nv 1 0 0\nv 0 1 0\nf 1 2 x\n", "line 4", "bad vertex index"},
+      {"unknown.obj", "v 0 0 0\nbogus 1 2\n", "line 2", "unknown OBJ directive"},
+      {"degenerate.obj", "v 0 0 0\nv 1 0 0\nv 2 0 0\nv 0 1 0\nf 1 4 2\nf 1 2 3\n", "triangle 1", "zero area"},
+      {"repeated.obj", "v 0 0 0\nv 1 0 0\nv 0 1 0\nf 1 2 2\n", "triangle 0", "degenerate"},
+      {"nonmanifold.obj", "v 0 0 0\nv 1 0 0\nv 0 1 0\nv 0 -1 0\nv 0 0 1\nf 1 2 3\nf 2 1 4\nf 1 2 5\n",
+       "edge (0, 1)", "non-manifold"},
+      {"unused.obj", "v 0 0 0\nv 1 0 0\nv 0 1 0\nv 5 5 5\nf 1 2 3\n", "vertex 3", "not used"},
+      {"empty.obj", "# nothing\n", "", "no vertices"},
+  };
+  for (const Case& c : cases) {
+    const std::string path = write_temp(c.name, c.text);
+    const std::string msg = error_of([&] { ClothMesh::from_obj(path); });
+    EXPECT_NE(msg.find(path), std::string::npos) << c.name << ": " << msg;
+    EXPECT_NE(msg.find(c.expect_where), std::string::npos) << c.name << ": " << msg;
+    EXPECT_NE(msg.find(c.expect_problem), std::string::npos) << c.name << ": " << msg;
+  }
+  EXPECT_NE(error_of([] { ClothMesh::from_obj("/nonexistent/cloth.obj"); }).find("cannot open"), std::string::npos);
+}
+
+}  // namespace
+}  // namespace loom::cloth

@@ -1,0 +1,151 @@
+// Every scene error path: the message names the file, the JSON path and the problem.
+#include <gtest/gtest.h>
+
+#include <filesystem>
+#include <fstream>
+
+#include "loom/cloth/Error.h"
+#include "loom/scene/Scene.h"
+
+namespace loom::scene {
+namespace {
+
+namespace fs = std::filesystem;
+
+const char* kValid = R"({
+  "duration": 0.1, "fps": 60,
+  "solver": {"method": "symplectic_euler", "substeps": 10},
+  "cloths": [{"name": "sheet",
+              "mesh": {"type": "grid", "size": [1, 1], "nodes": [5, 5]},
+              "material": {"preset": "cotton"},
+              "mass": 0.2,
+              "pins": [{"grid": [0, 0]}, {"grid": [-1, 0]}]}]
+})";
+
+std::string write_scene(const std::string& name, const std::string& text) {
+  const fs::path dir = fs::temp_directory_path() / "loom_scene_tests";
+  fs::create_directories(dir);
+  const fs::path p = dir / name;
+  std::ofstream(p) << text;
+  return p.string();
+}
+
+struct Case {
+  const char* name;
+  std::vector<std::string> sets;  // applied to the valid scene (or `text` when given)
+  const char* where;              // expected JSON path (or line) in the message
+  const char* problem;            // expected words of the problem
+  const char* text = nullptr;
+};
+
+class SceneErrors : public ::testing::TestWithParam<Case> {};
+
+TEST_P(SceneErrors, MessageNamesFilePathAndProblem) {
+  const Case& c = GetParam();
+  const std::string path = write_scene(std::string(c.name) + ".json", c.text ? c.text : kValid);
+  std::string msg = "(no error)";
+  try {
+    Scene s = load_scene(path, c.sets);
+    cloth::Simulation sim(s.setup, path);  // some checks happen when the simulation is built
+  } catch (const Error& e) {
+    msg = e.what();
+  }
+  EXPECT_EQ(msg.rfind(path + ": ", 0), 0u) << msg;
+  EXPECT_NE(msg.find(c.where), std::string::npos) << "expected '" << c.where << "' in: " << msg;
+  EXPECT_NE(msg.find(c.problem), std::string::npos) << "expected '" << c.problem << "' in: " << msg;
+}
+
+const Case kCases[] = {
+    {"syntax", {}, "line 3, column", "invalid JSON", "{\n  \"duration\": 1,\n}\n"},
+    {"top_not_object", {}, "(top level)", "expected an object", "[1, 2]"},
+    {"unknown_key", {"durration=2"}, "durration", "unknown key"},
+    {"unknown_nested_key", {"cloths[0].material.stiffnes=3"}, "cloths[0].material.stiffnes", "unknown key"},
+    {"wrong_type", {"duration=\"long\""}, "duration", "expected a number, got a string"},
+    {"nan_value", {"cloths[0].mass=NaN"}, "cloths[0].mass", "expected a number"},
+    {"infinite_value", {"duration=1e999"}, "duration", "finite"},
+    {"negative_mass", {"cloths[0].mass=-0.2"}, "cloths[0].mass", "must be > 0"},
+    {"negative_density", {"cloths[0].material.areal_density=-1"}, "cloths[0].material.areal_density", "must be > 0"},
+    {"negative_stretch", {"cloths[0].material.stretch_warp=-5"}, "cloths[0].material.stretch_warp", "must be > 0"},
+    {"negative_damping", {"cloths[0].material.damping=-0.1"}, "cloths[0].material.damping", "must be >= 0"},
+    {"zero_dt", {"solver={\"dt\": 0}"}, "solver.dt", "must be > 0"},
+    {"dt_over_frame", {"solver={\"dt\": 0.5}"}, "solver.dt", "must not exceed"},
+    {"zero_substeps", {"solver.substeps=0"}, "solver.substeps", "must be >= 1"},
+    {"fractional_substeps", {"solver.substeps=2.5"}, "solver.substeps", "expected an integer"},
+    {"substeps_and_dt", {"solver.dt=0.001"}, "solver", "either 'substeps' or 'dt'"},
+    {"unknown_method", {"solver.method=rk99"}, "solver.method", "unknown method 'rk99'"},
+    {"zero_duration", {"duration=0"}, "duration", "must be > 0"},
+    {"negative_fps", {"fps=-60"}, "fps", "must be > 0"},
+    {"gravity_length", {"gravity=[0, -9.81]"}, "gravity", "expected 3 numbers"},
+    {"threads_zero", {"threads=0"}, "threads", "must be >= 1"},
+    {"missing_cloths", {}, "cloths", "is required", "{\"duration\": 1}"},
+    {"empty_cloths", {"cloths=[]"}, "cloths", "at least one cloth"},
+    {"cloth_not_object", {"cloths=[3]"}, "cloths[0]", "expected an object"},
+    {"unknown_preset", {"cloths[0].material.preset=silk"}, "cloths[0].material.preset", "unknown material preset 'silk'"},
+    {"unknown_model", {"cloths[0].model=fem"}, "cloths[0].model", "unknown value 'fem'"},
+    {"mesh_type", {"cloths[0].mesh.type=sphere"}, "cloths[0].mesh.type", "unknown value 'sphere'"},
+    {"grid_nodes", {"cloths[0].mesh.nodes=[1, 5]"}, "cloths[0].mesh.nodes", "[2, 4096]"},
+    {"grid_size", {"cloths[0].mesh.size=[0, 1]"}, "cloths[0].mesh.size", "> 0"},
+    {"missing_obj", {"cloths[0].mesh={\"type\": \"obj\", \"path\": \"no_such.obj\"}"}, "cloths[0].mesh", "cannot open OBJ file"},
+    {"pin_vertex_range", {"cloths[0].pins=[{\"vertex\": 99}]"}, "cloths[0].pins[0].vertex", "out of range"},
+    {"pin_grid_range", {"cloths[0].pins=[{\"grid\": [7, 0]}]"}, "cloths[0].pins[0].grid", "outside the 5x5 grid"},
+    {"pin_two_kinds", {"cloths[0].pins=[{\"grid\": [0, 0], \"vertex\": 1}]"}, "cloths[0].pins[0]", "exactly one"},
+    {"pin_path_offsets", {"cloths[0].pins=[{\"vertex\": 1, \"path\": {\"times\": [0, 1], \"offsets\": [[0,0,0]]}}]"},
+     "cloths[0].pins[0].path.offsets", "one [x, y, z] offset per time"},
+    {"pin_path_times", {"cloths[0].pins=[{\"vertex\": 1, \"path\": {\"times\": [1, 0], \"offsets\": [[0,0,0],[0,0,0]]}}]"},
+     "cloths[0].pins[0].path.times", "increase strictly"},
+    {"drag_negative", {"effects={\"drag\": {\"normal\": -1}}"}, "effects.drag.normal", "must be >= 0"},
+    {"unknown_effect", {"effects={\"tornado\": {}}"}, "effects.tornado", "unknown key"},
+    {"output_every", {"output={\"every\": 0}"}, "output.every", "must be >= 1"},
+    {"set_bad_index", {"cloths[3].mass=1"}, "--set cloths[3].mass=1", "not an index"},
+    {"set_no_equals", {"duration"}, "--set duration", "PATH=VALUE"},
+};
+
+INSTANTIATE_TEST_SUITE_P(AllCases, SceneErrors, ::testing::ValuesIn(kCases),
+                         [](const ::testing::TestParamInfo<Case>& info) { return std::string(info.param.name); });
+
+TEST(Scene, ObjErrorsNameSceneMeshAndObjLine) {
+  const fs::path dir = fs::temp_directory_path() / "loom_scene_tests";
+  fs::create_directories(dir);
+  std::ofstream(dir / "broken.obj") << "v 0 0 0\nv 1 0 0\nv 0 1 0\nf 1 2 9\n";
+  const std::string path = write_scene("obj_scene.json", kValid);
+  try {
+    load_scene(path, {"cloths[0].mesh={\"type\": \"obj\", \"path\": \"broken.obj\"}", "cloths[0].pins=[]"});
+    FAIL() << "broken OBJ accepted";
+  } catch (const Error& e) {
+    const std::string msg = e.what();
+    EXPECT_NE(msg.find(path), std::string::npos) << msg;
+    EXPECT_NE(msg.find("cloths[0].mesh"), std::string::npos) << msg;
+    EXPECT_NE(msg.find("broken.obj: line 4"), std::string::npos) << msg;
+    EXPECT_NE(msg.find("out of range"), std::string::npos) << msg;
+  }
+}
+
+TEST(Scene, ValidSceneAndOverridesApply) {
+  const std::string path = write_scene("valid.json", kValid);
+  Scene s = load_scene(path, {"solver.method=verlet", "cloths.0.material.preset=denim_11oz", "duration=0.5"});
+  EXPECT_EQ(s.setup.solver.method, "verlet");
+  EXPECT_EQ(s.setup.cloths[0].material.name, "denim_11oz");
+  EXPECT_EQ(s.frames, 30);
+  EXPECT_EQ(s.setup.substeps, 10);
+  EXPECT_NEAR(s.setup.cloths[0].material.areal_density, 0.2, 1e-12);  // from "mass" over 1 m²
+  EXPECT_EQ(s.setup.cloths[0].pins.size(), 2u);
+  EXPECT_EQ(s.setup.cloths[0].pins[1].vertex, 4);
+  Scene d = load_scene(path, {"solver={\"dt\": 0.001}"});
+  EXPECT_EQ(d.setup.substeps, 17);  // ceil((1/60) / 0.001)
+}
+
+TEST(Scene, ShippedScenesLoad) {
+  for (const char* name : {"hanging_cloth.json", "flag_in_wind.json"}) {
+    const std::string path = std::string(LOOM_SOURCE_DIR) + "/scenes/" + name;
+    Scene s = load_scene(path);
+    EXPECT_NO_THROW(cloth::Simulation(s.setup, path)) << name;
+  }
+  Scene h = load_scene(std::string(LOOM_SOURCE_DIR) + "/scenes/hanging_cloth.json");
+  double area = h.setup.cloths[0].mesh->total_area();
+  EXPECT_NEAR(area, 1.0, 1e-12);
+  EXPECT_NEAR(area * h.setup.cloths[0].material.areal_density, 0.2, 1e-12);  // 1 m², 0.2 kg
+  EXPECT_FALSE(h.setup.drag.has_value());
+}
+
+}  // namespace
+}  // namespace loom::scene
