@@ -62,15 +62,4 @@ void Verlet::step(Cloth& cloth, double t, double h, int threads) {
   h_prev_ = h;
 }
 
-std::unique_ptr<Solver> make_solver(const SolverSettings& settings, const std::string& file) {
-  if (settings.method == "explicit_euler") return std::make_unique<ExplicitEuler>();
-  if (settings.method == "symplectic_euler") return std::make_unique<SymplecticEuler>();
-  if (settings.method == "verlet") return std::make_unique<Verlet>();
-  std::string known;
-  for (const auto& n : solver_names()) known += (known.empty() ? "" : ", ") + n;
-  throw Error(file, "solver.method", "unknown method '" + settings.method + "' (known: " + known + ")");
-}
-
-std::vector<std::string> solver_names() { return {"explicit_euler", "symplectic_euler", "verlet"}; }
-
 }  // namespace loom::cloth

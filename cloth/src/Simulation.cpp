@@ -6,8 +6,7 @@
 
 #include "loom/cloth/Error.h"
 #include "loom/cloth/GravityTerm.h"
-#include "loom/cloth/SpringSet.h"
-#include "loom/cloth/SpringTerm.h"
+#include "loom/cloth/Model.h"
 
 namespace loom::cloth {
 
@@ -74,11 +73,10 @@ Simulation::Simulation(SimulationSetup setup, const std::string& file) : setup_(
     if (!cs.mesh) throw Error(file, where + ".mesh", "missing");
     cs.material.validate(file, where + ".material");
     auto cloth = std::make_unique<Cloth>(cs.name, cs.mesh, cs.material);
-    const Material& mat = cloth->material();
     // Only the effects the scene names become terms.
     if (setup_.gravity.squaredNorm() > 0.0)
       cloth->add_term(std::make_unique<GravityTerm>(cloth->state().mass, setup_.gravity));
-    cloth->add_term(std::make_unique<SpringTerm>(cs.mesh->num_vertices(), make_springs(*cs.mesh, mat)));
+    add_model_terms(*cloth, cs.model, file, where + ".model");
     if (setup_.drag)
       cloth->add_term(std::make_unique<AirDragTerm>(*setup_.drag, cs.mesh->triangles(), cs.mesh->vertex_areas()));
     for (Vec3& v : cloth->state().v) v = cs.initial_velocity;

@@ -14,6 +14,12 @@ namespace {
 
 constexpr double kPi = 3.14159265358979323846;
 
+SolverSettings settings_for(const std::string& method) {
+  SolverSettings s;
+  s.method = method;
+  return s;
+}
+
 // Vertex 0 is free with mass m; vertices 1 and 2 are fixed (inverse mass 0).
 std::unique_ptr<Cloth> one_free_vertex(double m) {
   auto c = test::triangle_cloth();
@@ -29,7 +35,7 @@ double free_fall_error(const std::string& method, double h, double T) {
   c->add_term(std::make_unique<GravityTerm>(c->state().mass, g));
   c->state().x[0] = x0;
   c->state().v[0] = v0;
-  auto solver = make_solver(SolverSettings{method});
+  auto solver = make_solver(settings_for(method));
   const int steps = static_cast<int>(std::lround(T / h));
   for (int k = 0; k < steps; ++k) solver->step(*c, k * h, h, 1);
   const Vec3 exact = x0 + v0 * T + 0.5 * g * T * T;
@@ -63,7 +69,7 @@ struct Oscillator {
     s.x = {Vec3::Zero(), Vec3(L + A, 0, 0), Vec3(0, 5, 0)};
     s.v.assign(3, Vec3::Zero());
     cloth->add_term(std::make_unique<SpringTerm>(3, std::vector<Spring>{{0, 1, L, k, 0.0}}));
-    solver = make_solver(SolverSettings{method});
+    solver = make_solver(settings_for(method));
   }
   double displacement() const { return cloth->state().x[1].x() - L; }
   double energy() const {

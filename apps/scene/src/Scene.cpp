@@ -6,6 +6,7 @@
 #include <sstream>
 
 #include "loom/cloth/Error.h"
+#include "loom/cloth/Model.h"
 #include "loom/scene/JsonReader.h"
 
 namespace loom::scene {
@@ -241,6 +242,7 @@ Scene parse_scene(const nlohmann::json& root, const std::string& file) {
 
   if (r.has("solver")) {
     const JsonReader s = r.object("solver");
+    const nlohmann::json& s_json = root.at("solver");
     scene.setup.solver.method = s.string("method", "symplectic_euler");
     if (s.has("substeps") && s.has("dt")) s.fail("", "give either 'substeps' or 'dt', not both");
     if (s.has("dt")) {
@@ -249,6 +251,16 @@ Scene parse_scene(const nlohmann::json& root, const std::string& file) {
       scene.setup.substeps = static_cast<int>(std::ceil(scene.setup.frame_dt / dt - 1e-9));
     } else {
       scene.setup.substeps = s.integer("substeps", 1, 1);
+    }
+    // Every other key is a solver-specific parameter; the solver checks names and ranges.
+    for (auto it = s_json.begin(); it != s_json.end(); ++it) {
+      const std::string& key = it.key();
+      if (key == "method" || key == "substeps" || key == "dt") continue;
+      if (it.value().is_boolean()) {
+        scene.setup.solver.params[key] = s.boolean(key) ? 1.0 : 0.0;
+      } else {
+        scene.setup.solver.params[key] = s.number(key);
+      }
     }
     if (scene.setup.substeps > 1000000) s.fail("substeps", "must be <= 1000000");
     s.finish();
@@ -278,7 +290,7 @@ Scene parse_scene(const nlohmann::json& root, const std::string& file) {
     cs.name = c.string("name", "cloth" + std::to_string(scene.setup.cloths.size()));
     cs.mesh = parse_mesh(c.object("mesh"), file);
     cs.material = parse_material(c, file);
-    c.string("model", "springs", {"springs"});
+    cs.model = c.string("model", "springs", cloth::model_names());
     if (c.has("mass")) cs.material.areal_density = c.number("mass", std::nullopt, 0.0, true) / cs.mesh->total_area();
     cs.initial_velocity = c.vec3("velocity", Vec3::Zero());
     cs.pins = parse_pins(c, *cs.mesh);

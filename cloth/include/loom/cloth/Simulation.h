@@ -27,6 +27,7 @@ struct ClothSetup {
   std::string name = "cloth";
   std::shared_ptr<const ClothMesh> mesh;
   Material material;
+  std::string model = "springs";  // one of model_names() (Model.h)
   std::vector<PinSpec> pins;
   Vec3 initial_velocity = Vec3::Zero();  // m/s
 };

@@ -3,7 +3,10 @@
 // only through Term; a solver that cannot use a term says so in check(), at set-up time.
 // Contract for kinematic vertices (inverse mass 0): their velocity was set by the pin stage to reach the
 // target at t + h, and the solver moves them by x += h v, whatever its scheme.
+#include <functional>
+#include <map>
 #include <memory>
+#include <set>
 #include <string>
 #include <vector>
 
@@ -12,7 +15,26 @@
 namespace loom::cloth {
 
 struct SolverSettings {
-  std::string method = "symplectic_euler";  // explicit_euler | symplectic_euler | verlet
+  std::string method = "symplectic_euler";  // one of solver_names()
+  // Solver-specific knobs by name (iterations, tolerance, ...): every key of the scene's `solver` object
+  // other than method/substeps/dt. Each solver reads its own through SolverParams; others are errors.
+  std::map<std::string, double> params;
+};
+
+// Typed access to SolverSettings::params for one solver; finish() rejects keys the solver did not read,
+// naming `solver.<key>`.
+class SolverParams {
+ public:
+  SolverParams(const SolverSettings& s, std::string file) : s_(s), file_(std::move(file)) {}
+  double number(const std::string& key, double fallback, double min, double max);
+  int integer(const std::string& key, int fallback, int min, int max);
+  bool flag(const std::string& key, bool fallback);
+  void finish() const;
+
+ private:
+  const SolverSettings& s_;
+  std::string file_;
+  std::set<std::string> read_;
 };
 
 class Solver {
@@ -27,7 +49,8 @@ class Solver {
   virtual void reset() {}
 };
 
-// Throws loom::Error(file, "solver.method", ...) for an unknown method.
+// Throws loom::Error(file, "solver.method", ...) for an unknown method and (file, "solver.<key>", ...) for
+// a parameter the method does not take or a value out of its range. Registry: SolverFactory.cpp.
 std::unique_ptr<Solver> make_solver(const SolverSettings& settings, const std::string& file = "");
 std::vector<std::string> solver_names();
 

@@ -1,0 +1,72 @@
+#include <cmath>
+
+#include "loom/cloth/Error.h"
+#include "loom/cloth/ExplicitSolvers.h"
+#include "loom/cloth/Solver.h"
+
+namespace loom::cloth {
+
+double SolverParams::number(const std::string& key, double fallback, double min, double max) {
+  read_.insert(key);
+  auto it = s_.params.find(key);
+  if (it == s_.params.end()) return fallback;
+  const double v = it->second;
+  if (!std::isfinite(v) || v < min || v > max)
+    throw Error(file_, "solver." + key,
+                "must be in [" + std::to_string(min) + ", " + std::to_string(max) + "] (got " + std::to_string(v) + ")");
+  return v;
+}
+
+int SolverParams::integer(const std::string& key, int fallback, int min, int max) {
+  const double v = number(key, fallback, min, max);
+  if (v != std::floor(v)) throw Error(file_, "solver." + key, "expected an integer");
+  return static_cast<int>(v);
+}
+
+bool SolverParams::flag(const std::string& key, bool fallback) { return number(key, fallback ? 1 : 0, 0, 1) != 0.0; }
+
+void SolverParams::finish() const {
+  for (const auto& kv : s_.params)
+    if (!read_.count(kv.first))
+      throw Error(file_, "solver." + kv.first, "unknown parameter for method '" + s_.method + "'");
+}
+
+namespace {
+
+struct Entry {
+  const char* name;
+  std::function<std::unique_ptr<Solver>(SolverParams&)> make;
+};
+
+// Every solver, by the name scenes use for it (`solver.method`).
+const std::vector<Entry>& registry() {
+  static const std::vector<Entry> entries = {
+      {"explicit_euler", [](SolverParams&) { return std::make_unique<ExplicitEuler>(); }},
+      {"symplectic_euler", [](SolverParams&) { return std::make_unique<SymplecticEuler>(); }},
+      {"verlet", [](SolverParams&) { return std::make_unique<Verlet>(); }},
+  };
+  return entries;
+}
+
+}  // namespace
+
+std::unique_ptr<Solver> make_solver(const SolverSettings& settings, const std::string& file) {
+  for (const Entry& e : registry())
+    if (settings.method == e.name) {
+      SolverParams params(settings, file);
+      auto solver = e.make(params);
+      params.finish();
+      return solver;
+    }
+  std::string known;
+  for (const auto& n : solver_names()) known += (known.empty() ? "" : ", ") + n;
+  throw Error(file, "solver.method", "unknown method '" + settings.method + "' (known: " + known + ")");
+}
+
+std::vector<std::string> solver_names() {
+  std::vector<std::string> names;
+  for (const Entry& e : registry()) names.push_back(e.name);
+  return names;
+}
+
+}  // namespace loom::cloth
