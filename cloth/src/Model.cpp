@@ -2,6 +2,9 @@
 
 #include <functional>
 
+#include "loom/cloth/ChoiKoTerm.h"
+#include "loom/cloth/BaraffWitkinTerm.h"
+#include "loom/cloth/DihedralBendingTerm.h"
 #include "loom/cloth/Error.h"
 #include "loom/cloth/SpringSet.h"
 #include "loom/cloth/SpringTerm.h"
@@ -20,6 +23,16 @@ const std::vector<Entry>& registry() {
       {"springs",
        [](Cloth& c) {
          c.add_term(std::make_unique<SpringTerm>(c.mesh().num_vertices(), make_springs(c.mesh(), c.material())));
+       }},
+      // Choi & Ko 2002: tension-only sequential springs + interlaced buckling springs (ChoiKoTerm.h).
+      {"choi_ko", [](Cloth& c) { c.add_term(make_choi_ko_term(c.mesh(), c.material())); }},
+      // Baraff & Witkin 1998 triangle stretch + shear, dihedral-angle bending (BaraffWitkinTerm.h,
+      // DihedralBendingTerm.h).
+      {"baraff_witkin",
+       [](Cloth& c) {
+         c.add_term(make_bw_stretch_term(c.mesh(), c.material()));
+         c.add_term(make_bw_shear_term(c.mesh(), c.material()));
+         c.add_term(make_dihedral_bending_term(c.mesh(), c.material()));
        }},
   };
   return entries;

@@ -5,19 +5,7 @@
 namespace loom::cloth {
 
 SpringTerm::SpringTerm(int num_vertices, std::vector<Spring> springs, const char* name)
-    : name_(name), n_(num_vertices), springs_(std::move(springs)) {
-  incident_start_.assign(n_ + 1, 0);
-  for (const Spring& s : springs_) {
-    ++incident_start_[s.i + 1];
-    ++incident_start_[s.j + 1];
-  }
-  for (int i = 0; i < n_; ++i) incident_start_[i + 1] += incident_start_[i];
-  incident_.resize(incident_start_[n_]);
-  std::vector<int> fill(incident_start_.begin(), incident_start_.end() - 1);
-  for (int s = 0; s < static_cast<int>(springs_.size()); ++s) {
-    incident_[fill[springs_[s].i]++] = 2 * s;
-    incident_[fill[springs_[s].j]++] = 2 * s + 1;
-  }
+    : name_(name), n_(num_vertices), springs_(std::move(springs)), gather_(num_vertices, springs_) {
   spring_force_.resize(springs_.size());
 }
 
@@ -44,17 +32,7 @@ void SpringTerm::add_forces(const EvalContext& c, Vec3s& f) const {
     }
     // Gather in a fixed order per vertex: deterministic for any thread count.
 #pragma omp for schedule(static)
-    for (int i = 0; i < n_; ++i) {
-      Vec3 acc = Vec3::Zero();
-      for (int q = incident_start_[i]; q < incident_start_[i + 1]; ++q) {
-        const int e = incident_[q];
-        if (e & 1)
-          acc -= spring_force_[e >> 1];
-        else
-          acc += spring_force_[e >> 1];
-      }
-      f[i] += acc;
-    }
+    for (int i = 0; i < n_; ++i) f[i] += gather_.sum(i, spring_force_);
   }
 }
 

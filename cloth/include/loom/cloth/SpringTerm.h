@@ -3,6 +3,7 @@
 //   f_i = k (l - L) x̂ + c (x̂·(v_j - v_i)) x̂,  f_j = -f_i,  x̂ = (x_j - x_i) / l,  E = k/2 (l - L)².
 // Forces are computed per spring in parallel, then gathered per vertex in a fixed order, so the result is
 // bit-identical for any thread count.
+#include "loom/cloth/PairGather.h"
 #include "loom/cloth/Term.h"
 
 namespace loom::cloth {
@@ -30,8 +31,7 @@ class SpringTerm final : public Term {
   const char* name_;
   int n_;
   std::vector<Spring> springs_;
-  std::vector<int> incident_start_;  // CSR: springs incident to each vertex, with the sign of their force
-  std::vector<int> incident_;        // spring index * 2 + (1 if the vertex is j)
+  PairGather gather_;
   mutable Vec3s spring_force_;       // scratch: force on end i of each spring
 };
 
