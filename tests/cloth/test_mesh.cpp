@@ -161,3 +161,67 @@ TEST(Obj, RejectsBadInputWithFileLineAndProblem) {
 
 }  // namespace
 }  // namespace loom::cloth
+
+namespace loom::cloth {
+namespace {
+
+TEST(Materials, EveryPresetIsValidAndCitesPhysicalRanges) {
+  const auto names = material_preset_names();
+  EXPECT_GE(names.size(), 12u);
+  for (const std::string& n : names) {
+    const Material m = material_preset(n);
+    EXPECT_NO_THROW(m.validate("", n)) << n;
+    EXPECT_GT(m.areal_density, 0.05) << n;  // fabrics: 50-500 g/m²
+    EXPECT_LT(m.areal_density, 0.5) << n;
+    EXPECT_GT(m.bend_weft, 1e-6) << n;      // µN·m range
+    EXPECT_LT(m.bend_weft, 1e-3) << n;
+  }
+  // Anisotropy survives: 11 oz denim is ~5x stiffer along the warp than the weft (Wang et al. 2011).
+  const Material d = material_preset("denim_11oz");
+  EXPECT_GT(d.stretch_warp / d.stretch_weft, 4.0);
+  EXPECT_THROW(material_preset("silk"), Error);
+}
+
+TEST(Materials, CloStyleParametersMapToPhysicalUnits) {
+  CloStyleParameters p;
+  p.weight = 250;
+  p.thickness = 0.8;
+  p.bending_weft = 15;
+  p.bending_warp = 30;
+  p.internal_damping = 0.002;
+  const Material m = from_clo_style(p);
+  EXPECT_DOUBLE_EQ(m.areal_density, 0.25);
+  EXPECT_DOUBLE_EQ(m.thickness, 0.0008);
+  EXPECT_DOUBLE_EQ(m.bend_weft, 15e-6);
+  EXPECT_DOUBLE_EQ(m.bend_warp, 30e-6);
+  EXPECT_DOUBLE_EQ(m.damping, 0.002);
+}
+
+TEST(Materials, WarpAndWeftFollowTheMaterialFrameOnAnyMesh) {
+  // The same sheet as a grid and as an OBJ-like mesh rotated in its plane with UVs: edge springs along the
+  // warp get the warp modulus.
+  Material m = material_preset("denim_11oz");
+  // A right triangle whose legs run along weft (u) and warp (v), rotated by 30° in 3D.
+  const double c = std::cos(0.5236), s = std::sin(0.5236);
+  auto mesh = ClothMesh::from_triangles({Vec3(0, 0, 0), Vec3(c, s, 0), Vec3(-s, c, 0), Vec3(c - s, s + c, 0)},
+                                        {{0, 1, 3}, {0, 3, 2}},
+                                        {{Vec2(0, 0), Vec2(1, 0), Vec2(1, 1)}, {Vec2(0, 0), Vec2(1, 1), Vec2(0, 1)}}, "test");
+  const auto springs = make_springs(*mesh, m);
+  for (size_t k = 0; k < springs.size(); ++k) {
+    const SpringDef& d = mesh->springs()[k];
+    if (d.kind != SpringKind::kEdge) continue;
+    const bool along_weft = (d.i == 0 && d.j == 1) || (d.i == 2 && d.j == 3);
+    const bool along_warp = (d.i == 0 && d.j == 2) || (d.i == 1 && d.j == 3);
+    if (along_weft) {
+      EXPECT_NEAR(d.rest_uv_dir.x() * d.rest_uv_dir.x(), 1.0, 1e-9);
+      EXPECT_NEAR(springs[k].k, m.stretch_weft * d.area / (d.rest_length * d.rest_length), 1e-9);
+    }
+    if (along_warp) {
+      EXPECT_NEAR(d.rest_uv_dir.y() * d.rest_uv_dir.y(), 1.0, 1e-9);
+      EXPECT_NEAR(springs[k].k, m.stretch_warp * d.area / (d.rest_length * d.rest_length), 1e-9);
+    }
+  }
+}
+
+}  // namespace
+}  // namespace loom::cloth
