@@ -64,6 +64,12 @@ Simulation::Simulation(SimulationSetup setup, const std::string& file) : setup_(
   if (!(setup_.frame_dt > 0.0) || !std::isfinite(setup_.frame_dt)) throw Error(file, "fps", "frame time step must be > 0");
   if (setup_.substeps < 1) throw Error(file, "solver.substeps", "must be >= 1");
   if (setup_.threads < 1) throw Error(file, "threads", "must be >= 1");
+  if (setup_.strain_limit && !(setup_.strain_limit->max_stretch >= 0.0 && setup_.strain_limit->max_stretch < 1e6))
+    throw Error(file, "constraints.strain_limit.max_stretch", "must be >= 0");
+  if (setup_.strain_limit && setup_.strain_limit->iterations < 1)
+    throw Error(file, "constraints.strain_limit.iterations", "must be >= 1");
+  if (setup_.tethers && !(setup_.tethers->slack >= 0.0 && setup_.tethers->slack < 1e6))
+    throw Error(file, "constraints.tethers.slack", "must be >= 0");
   if (!setup_.gravity.allFinite()) throw Error(file, "gravity", "must be finite");
   if (setup_.cloths.empty()) throw Error(file, "cloths", "a scene needs at least one cloth");
   std::vector<std::unique_ptr<Solver>> solvers;
@@ -108,6 +114,8 @@ Simulation::Simulation(SimulationSetup setup, const std::string& file) : setup_(
   for (const auto& c : cloths_) any_pins = any_pins || !c->pins().empty();
   if (any_pins) stages_.push_back(std::make_unique<PinStage>());
   stages_.push_back(std::make_unique<SolveStage>(std::move(solvers)));
+  if (setup_.strain_limit) stages_.push_back(std::make_unique<StrainLimitStage>(*setup_.strain_limit));
+  if (setup_.tethers) stages_.push_back(std::make_unique<TetherStage>(*setup_.tethers));
   stage_total_ms_.assign(stages_.size(), 0.0);
 }
 

@@ -2,6 +2,9 @@
 
 #include "loom/cloth/Error.h"
 #include "loom/cloth/ExplicitSolvers.h"
+#include "loom/cloth/DesbrunSolver.h"
+#include "loom/cloth/PositionBasedSolvers.h"
+#include "loom/cloth/ProjectiveSolver.h"
 #include "loom/cloth/Solver.h"
 
 namespace loom::cloth {
@@ -44,6 +47,28 @@ const std::vector<Entry>& registry() {
       {"explicit_euler", [](SolverParams&) { return std::make_unique<ExplicitEuler>(); }},
       {"symplectic_euler", [](SolverParams&) { return std::make_unique<SymplecticEuler>(); }},
       {"verlet", [](SolverParams&) { return std::make_unique<Verlet>(); }},
+      // Position-based and projective solvers on the springs (PositionBasedSolvers.h, ProjectiveSolver.h).
+      {"pbd",
+       [](SolverParams& p) {
+         const int iterations = p.integer("iterations", 10, 1, 100000);
+         return std::make_unique<PbdSolver>(iterations, p.number("stiffness", 1.0, 0.0, 1.0));
+       }},
+      {"xpbd",
+       [](SolverParams& p) {
+         const int iterations = p.integer("iterations", 10, 1, 100000);
+         return std::make_unique<XpbdSolver>(iterations, p.number("compliance_scale", 1.0, 0.0, 1e12));
+       }},
+      {"projective",
+       [](SolverParams& p) {
+         ProjectiveSettings s;
+         s.iterations = p.integer("iterations", s.iterations, 1, 100000);
+         s.chebyshev = p.flag("chebyshev", s.chebyshev);
+         s.rho = p.number("rho", s.rho, 0.0, 0.9999);
+         s.warmup = p.integer("warmup", s.warmup, 0, 100000);
+         return std::make_unique<ProjectiveSolver>(s);
+       }},
+      {"desbrun",
+       [](SolverParams& p) { return std::make_unique<DesbrunSolver>(p.flag("angular_correction", true)); }},
   };
   return entries;
 }

@@ -13,6 +13,8 @@
 #include "loom/cloth/Cloth.h"
 #include "loom/cloth/Solver.h"
 #include "loom/cloth/Stage.h"
+#include "loom/cloth/StrainLimitStage.h"
+#include "loom/cloth/TetherStage.h"
 
 namespace loom::cloth {
 
@@ -36,6 +38,9 @@ struct SimulationSetup {
   std::vector<ClothSetup> cloths;
   Vec3 gravity{0.0, -9.81, 0.0};  // m/s²
   std::optional<DragSettings> drag;  // the drag effect; absent = no drag term at all
+  // Constraint passes after the solver, in this order; absent = no stage (StrainLimitStage.h, TetherStage.h).
+  std::optional<StrainLimitSettings> strain_limit;
+  std::optional<TetherSettings> tethers;
   SolverSettings solver;
   double frame_dt = 1.0 / 60.0;  // s
   int substeps = 1;              // solver steps per frame

@@ -1,0 +1,44 @@
+#pragma once
+// Desbrun, Schröder & Barr 1999, "Interactive animation of structured deformable objects" (reference/
+// methods.md §1.5): an approximate implicit step with a constant filter.
+//   H = the springs' linear part (zero rest length): H_ij = k_ij I, H_ii = -Σ_j k_ij I, so M - h² H = M + h² L.
+//   Predictor:  (M + h² L) Δv = h f(x_n, v_n)   (all forces, nonlinear), v+ = v + Δv, x+ = x + h v+.
+// Instead of the paper's dense inverse W = (M - h² H)⁻¹ the matrix is factorised once (sparse Cholesky,
+// kinematic vertices eliminated) and refactorised only when h or the kinematic set changes.
+// Corrector: the filter keeps linear momentum (the columns of L sum to zero) but not angular
+// momentum; a rigid rotation Δv_i += ω × (x_i - x_c) of the free vertices restores the angular impulse of
+// the unfiltered forces, h Σ (x_i - x_c) × f_i, with I ω = that impulse - Σ m_i (x_i - x_c) × Δv_i.
+// Heavily damped by design (methods.md §2.3).
+#include <Eigen/SparseCholesky>
+#include <vector>
+
+#include "loom/cloth/Solver.h"
+#include "loom/cloth/SpringTerm.h"
+
+namespace loom::cloth {
+
+class DesbrunSolver final : public Solver {
+ public:
+  explicit DesbrunSolver(bool angular_correction = true) : angular_correction_(angular_correction) {}
+  const char* name() const override { return "desbrun"; }
+  void check(const Cloth& cloth) const override;
+  void step(Cloth& cloth, double t, double h, int threads) override;
+  long factorizations() const { return factorizations_; }
+
+ private:
+  void prepare(const Cloth& cloth, double h);
+  void correct_angular_momentum(const ClothState& s, double h);
+
+  bool angular_correction_;
+  Eigen::SimplicialLLT<Eigen::SparseMatrix<double>> llt_;
+  const Cloth* cloth_ = nullptr;
+  double h_ = 0.0;               // s
+  std::vector<char> kinematic_;  // 1 for inverse mass 0
+  std::vector<int> index_;       // free index per vertex, -1 for kinematic
+  int num_free_ = 0;
+  long factorizations_ = 0;
+  Vec3s f_;                      // N
+  Eigen::MatrixX3d rhs_, dv_;    // N·s, m/s (free rows)
+};
+
+}  // namespace loom::cloth

@@ -1,0 +1,38 @@
+#pragma once
+// Provot 1995, "Deformation constraints in a mass-spring model to describe rigid cloth behavior"
+// (reference/methods.md §1.3), as a pipeline stage after the solver, usable with any solver.
+// Every structural and shear spring (edges on meshes) stretched beyond (1 + τ) L is shortened to exactly
+// (1 + τ) L by moving its ends along the spring, in inverse-mass proportion (half each for equal masses,
+// all of it to the free end if the other is kinematic). Gauss-Seidel sweeps alternate their order
+// (forward, backward, ...) so the result does not favour one side. Velocities of the moved vertices are
+// recomputed from the corrected positions, v = (x_corr - x_prev) / h, so springs do not re-stretch.
+#include <vector>
+
+#include "loom/cloth/Stage.h"
+
+namespace loom::cloth {
+
+struct StrainLimitSettings {
+  double max_stretch = 0.1;  // 1, τ: largest allowed l/L - 1
+  int iterations = 4;        // Gauss-Seidel sweeps per step
+};
+
+class StrainLimitStage final : public Stage {
+ public:
+  explicit StrainLimitStage(StrainLimitSettings settings) : settings_(settings) {}
+  const char* name() const override { return "strain_limit"; }
+  void run(StageContext& ctx) override;
+  // corrections: projections made since the start; remaining_violations: springs still above (1 + τ) L
+  // after the last step's sweeps (all cloths).
+  std::vector<std::pair<std::string, double>> counters() const override;
+  long remaining_violations() const { return remaining_; }
+
+ private:
+  StrainLimitSettings settings_;
+  std::vector<std::vector<int>> limited_;  // per cloth: indices of the limited springs in mesh().springs()
+  std::vector<char> moved_;                // scratch
+  long corrections_ = 0;
+  long remaining_ = 0;
+};
+
+}  // namespace loom::cloth

@@ -1,0 +1,133 @@
+#include "loom/cloth/ProjectiveSolver.h"
+
+#include <cmath>
+
+#include "loom/cloth/Error.h"
+#include "loom/cloth/SpringSolverSupport.h"
+
+namespace loom::cloth {
+
+void ProjectiveSolver::check(const Cloth& cloth) const { check_spring_terms(cloth, name()); }
+
+void ProjectiveSolver::prepare(const Cloth& cloth, double h) {
+  const ClothState& s = cloth.state();
+  std::vector<char> kinematic(s.size());
+  for (int i = 0; i < s.size(); ++i) kinematic[i] = s.inv_mass[i] == 0.0;
+  if (cloth_ == &cloth && h == h_ && kinematic == kinematic_) return;
+  if (cloth_ != &cloth) {
+    springs_ = collect_springs(cloth);
+    gather_ = PairGather(s.size(), springs_);
+  }
+  cloth_ = &cloth;
+  h_ = h;
+  kinematic_ = std::move(kinematic);
+  index_ = free_index(s, &num_free_);
+  // Liu 2013, global step: M + h² L_k (+ h L_c for the damping term), kinematic DOFs eliminated.
+  llt_.compute(spring_system_matrix(s, index_, num_free_, springs_, h * h, h));
+  if (llt_.info() != Eigen::Success) throw Error("", "solver", "projective: factorisation of M + h² L failed");
+  ++factorizations_;
+}
+
+void ProjectiveSolver::step(Cloth& cloth, double t, double h, int threads) {
+  prepare(cloth, h);
+  ClothState& s = cloth.state();
+  const int n = s.size();
+  const int ns = static_cast<int>(springs_.size());
+  external_forces(cloth, s.x, s.v, t, threads, f_);
+  x_n_ = s.x;
+  y_.resize(n);
+  // y = x_n + h v_n + h² M⁻¹ f_ext; kinematic vertices sit at their target x_n + h v from the start.
+  for (int i = 0; i < n; ++i) {
+    y_[i] = s.x[i] + h * (s.v[i] + h * s.inv_mass[i] * f_[i]);
+    s.x[i] = y_[i];
+  }
+  // Constant part of the right-hand side: M y + h L_c x_n + couplings to kinematic vertices (sequential
+  // over springs: deterministic for any thread count).
+  base_rhs_.resize(num_free_, 3);
+  for (int i = 0; i < n; ++i)
+    if (index_[i] >= 0) base_rhs_.row(index_[i]) = s.mass[i] * y_[i].transpose();
+  for (const Spring& sp : springs_) {
+    const int fi = index_[sp.i], fj = index_[sp.j];
+    const Vec3 damp = h * sp.c * (x_n_[sp.j] - x_n_[sp.i]);
+    const double w = h * h * sp.k + h * sp.c;
+    if (fi >= 0) base_rhs_.row(fi) -= damp.transpose();
+    if (fj >= 0) base_rhs_.row(fj) += damp.transpose();
+    if (fi >= 0 && fj < 0) base_rhs_.row(fi) += w * s.x[sp.j].transpose();
+    if (fj >= 0 && fi < 0) base_rhs_.row(fj) += w * s.x[sp.i].transpose();
+  }
+  if (static_cast<int>(spring_rhs_.size()) != ns) spring_rhs_.resize(ns);
+  q_.resize(num_free_, 3);
+  for (int i = 0; i < n; ++i)
+    if (index_[i] >= 0) q_.row(index_[i]) = s.x[i].transpose();
+  q_prev_ = q_;
+  rhs_.resize(num_free_, 3);
+  trace_.clear();
+  if (record_) trace_.push_back(measure(s, h, threads));
+  double omega = 1.0;
+  const double rho2 = settings_.rho * settings_.rho;
+  for (int it = 0; it < settings_.iterations; ++it) {
+    // Local step (Liu 2013, local step): the closest point of each spring's constraint set, as the force term
+    // h² J d (on end i: -h² k d, on end j: +h² k d).
+#pragma omp parallel num_threads(threads) if (threads > 1)
+    {
+#pragma omp for schedule(static)
+      for (int k = 0; k < ns; ++k) {
+        const Spring& sp = springs_[k];
+        const Vec3 dx = s.x[sp.j] - s.x[sp.i];
+        const double l = dx.norm();
+        const Vec3 d = l > 1e-12 ? Vec3(dx * (sp.rest_length / l)) : Vec3(dx);
+        spring_rhs_[k] = (-h * h * sp.k) * d;
+      }
+#pragma omp for schedule(static)
+      for (int i = 0; i < n; ++i)
+        if (index_[i] >= 0) rhs_.row(index_[i]) = base_rhs_.row(index_[i]) + gather_.sum(i, spring_rhs_).transpose();
+    }
+    // Global step: the prefactorised solve, three right-hand sides at once.
+    q_hat_ = llt_.solve(rhs_);
+    if (settings_.chebyshev && it >= settings_.warmup) {
+      // Wang 2015 with γ = 1 (direct global solve).
+      omega = it == settings_.warmup ? 2.0 / (2.0 - rho2) : 4.0 / (4.0 - rho2 * omega);
+      q_hat_ = omega * (q_hat_ - q_prev_) + q_prev_;
+    }
+    q_prev_.swap(q_);
+    q_.swap(q_hat_);
+#pragma omp parallel for num_threads(threads) if (threads > 1) schedule(static)
+    for (int i = 0; i < n; ++i)
+      if (index_[i] >= 0) s.x[i] = q_.row(index_[i]).transpose();
+    if (record_) trace_.push_back(measure(s, h, threads));
+  }
+  s.x_prev = x_n_;
+#pragma omp parallel for num_threads(threads) if (threads > 1) schedule(static)
+  for (int i = 0; i < n; ++i)
+    if (index_[i] >= 0) s.v[i] = (s.x[i] - x_n_[i]) / h;
+}
+
+ProjectiveIteration ProjectiveSolver::measure(const ClothState& s, double h, int) {
+  ProjectiveIteration r;
+  const int n = s.size();
+  gradient_.assign(n, Vec3::Zero());
+  for (int i = 0; i < n; ++i) {
+    if (index_[i] < 0) continue;
+    const Vec3 e = s.x[i] - y_[i];
+    r.objective += 0.5 * s.mass[i] * e.squaredNorm();
+    gradient_[i] = s.mass[i] * e;
+  }
+  for (const Spring& sp : springs_) {
+    const Vec3 dx = s.x[sp.j] - s.x[sp.i];
+    const double l = dx.norm();
+    const double stretch = l - sp.rest_length;
+    const Vec3 rel = dx - (x_n_[sp.j] - x_n_[sp.i]);
+    r.objective += h * h * 0.5 * sp.k * stretch * stretch + 0.5 * h * sp.c * rel.squaredNorm();
+    // ∇ of the spring and damping terms with respect to x_j (minus for x_i).
+    const Vec3 g = h * h * sp.k * stretch * (l > 0.0 ? Vec3(dx / l) : Vec3::Zero()) + h * sp.c * rel;
+    gradient_[sp.i] -= g;
+    gradient_[sp.j] += g;
+  }
+  double sum = 0.0;
+  for (int i = 0; i < n; ++i)
+    if (index_[i] >= 0) sum += gradient_[i].squaredNorm();
+  r.residual = std::sqrt(sum);
+  return r;
+}
+
+}  // namespace loom::cloth

@@ -1,0 +1,283 @@
+// The spring-based solvers of issue 3: pbd, xpbd, projective (Liu 2013 / projective dynamics, with
+// Chebyshev acceleration) and desbrun. Their fixed points, monotonicity, pins and hard cases.
+#include <gtest/gtest.h>
+
+#include <cmath>
+#include <random>
+
+#include "loom/cloth/Error.h"
+#include "loom/cloth/ProjectiveSolver.h"
+#include "loom/cloth/Simulation.h"
+#include "loom/cloth/SpringSolverSupport.h"
+
+namespace loom::cloth {
+namespace {
+
+// A small cotton sheet, flat, two corners pinned, no damping (so the backward Euler equations of the
+// spring energy are exactly what projective dynamics solves).
+SimulationSetup sheet(int n, const std::string& method, std::map<std::string, double> params = {}) {
+  SimulationSetup s;
+  ClothSetup c;
+  GridSpec g;
+  g.nodes_u = g.nodes_v = n;
+  g.origin = Vec3(-0.5, 1.0, -0.5);
+  c.mesh = ClothMesh::grid(g);
+  c.material = material_preset("cotton");
+  c.material.areal_density = 0.2;
+  c.material.damping = 0.0;
+  c.pins = {PinSpec{c.mesh->grid_index(0, 0), {}, {}, {}}, PinSpec{c.mesh->grid_index(n - 1, 0), {}, {}, {}}};
+  s.cloths.push_back(c);
+  s.solver.method = method;
+  s.solver.params = std::move(params);
+  s.substeps = 4;
+  return s;
+}
+
+// A start state off equilibrium: free vertices displaced by up to `amount` (m) and moving at up to
+// 25 * amount (m/s).
+void disturb(ClothState& s, unsigned seed, double amount = 0.02) {
+  std::mt19937 rng(seed);
+  std::uniform_real_distribution<double> u(-1.0, 1.0);
+  for (int i = 0; i < s.size(); ++i) {
+    if (s.inv_mass[i] == 0.0) continue;
+    s.x[i] += amount * Vec3(u(rng), u(rng), u(rng));
+    s.v[i] = 25.0 * amount * Vec3(u(rng), u(rng), u(rng));
+  }
+  s.x_prev = s.x;
+}
+
+// One step of `settings` from the disturbed start; returns the positions after the step.
+Vec3s one_step(const SolverSettings& settings, double h, Vec3s* y_out = nullptr, double amount = 0.02) {
+  SimulationSetup setup = sheet(9, "symplectic_euler");
+  Simulation sim(setup);
+  Cloth& cloth = *sim.cloths()[0];
+  disturb(cloth.state(), 7, amount);
+  if (y_out) {
+    const ClothState& s = cloth.state();
+    Vec3s f;
+    external_forces(cloth, s.x, s.v, 0.0, 1, f);
+    y_out->resize(s.size());
+    for (int i = 0; i < s.size(); ++i) (*y_out)[i] = s.x[i] + h * (s.v[i] + h * s.inv_mass[i] * f[i]);
+  }
+  auto solver = make_solver(settings);
+  solver->check(cloth);
+  solver->step(cloth, 0.0, h, 1);
+  return cloth.state().x;
+}
+
+double rms_difference(const Vec3s& a, const Vec3s& b) {
+  double sum = 0.0;
+  for (size_t i = 0; i < a.size(); ++i) sum += (a[i] - b[i]).squaredNorm();
+  return std::sqrt(sum / a.size());
+}
+
+// |M (x - y) - h² f_springs(x)| over free vertices: the backward Euler residual, computed here from the
+// SpringTerm itself (not from the solver).
+double backward_euler_residual(const Vec3s& x, const Vec3s& y, double h) {
+  Simulation sim(sheet(9, "symplectic_euler"));
+  const Cloth& cloth = *sim.cloths()[0];
+  const ClothState& s = cloth.state();
+  Vec3s f(x.size(), Vec3::Zero());
+  const Vec3s v(x.size(), Vec3::Zero());
+  const EvalContext ctx{x, v, 0.0, 1};
+  cloth.find_term("springs")->add_forces(ctx, f);
+  double sum = 0.0;
+  for (int i = 0; i < s.size(); ++i)
+    if (s.inv_mass[i] > 0.0) sum += (s.mass[i] * (x[i] - y[i]) - h * h * f[i]).squaredNorm();
+  return std::sqrt(sum);
+}
+
+SolverSettings settings(const std::string& method, std::map<std::string, double> params) {
+  SolverSettings s;
+  s.method = method;
+  s.params = std::move(params);
+  return s;
+}
+
+const double kH = 1.0 / 120.0;
+
+TEST(ProjectiveDynamics, FixedPointIsTheBackwardEulerStep) {
+  Vec3s y;
+  // Converged with Chebyshev (plain iterations converge at a rate of about 0.998 here).
+  const Vec3s x = one_step(settings("projective", {{"iterations", 3000}, {"chebyshev", 1}, {"rho", 0.99}}), kH, &y);
+  const double r0 = backward_euler_residual(y, y, kH);
+  EXPECT_LT(backward_euler_residual(x, y, kH), 1e-11 * r0);
+}
+
+TEST(ProjectiveDynamics, ObjectiveNeverIncreasesAndResidualShrinks) {
+  SimulationSetup setup = sheet(9, "projective");
+  Simulation sim(setup);
+  Cloth& cloth = *sim.cloths()[0];
+  disturb(cloth.state(), 7);
+  ProjectiveSettings ps;
+  ps.iterations = 200;
+  ProjectiveSolver solver(ps);
+  solver.record_iterations(true);
+  solver.step(cloth, 0.0, kH, 1);
+  const auto& trace = solver.last_iterations();
+  ASSERT_EQ(trace.size(), 201u);
+  for (size_t k = 1; k < trace.size(); ++k)
+    EXPECT_LE(trace[k].objective, trace[k - 1].objective * (1.0 + 1e-13)) << "iteration " << k;
+  EXPECT_LT(trace[10].residual, trace[1].residual);
+  EXPECT_LT(trace[100].residual, 0.5 * trace[10].residual);
+  EXPECT_LT(trace[200].residual, 0.5 * trace[100].residual);
+}
+
+TEST(ProjectiveDynamics, ResidualOfBackwardEulerShrinksWithIterations) {
+  Vec3s y;
+  double previous = 1e300;
+  for (int it : {1, 10, 100, 1000}) {
+    const Vec3s x = one_step(settings("projective", {{"iterations", it}}), kH, &y);
+    const double r = backward_euler_residual(x, y, kH);
+    EXPECT_LT(r, previous) << it << " iterations";
+    previous = r;
+  }
+}
+
+TEST(ProjectiveDynamics, ChebyshevReachesTheSameResidualInFewerIterations) {
+  auto iterations_to = [](bool chebyshev, double target) {
+    Simulation sim(sheet(9, "projective"));
+    Cloth& cloth = *sim.cloths()[0];
+    disturb(cloth.state(), 7);
+    ProjectiveSettings ps;
+    ps.iterations = 5000;
+    ps.chebyshev = chebyshev;
+    ps.rho = 0.99;
+    ProjectiveSolver solver(ps);
+    solver.record_iterations(true);
+    solver.step(cloth, 0.0, kH, 1);
+    const auto& trace = solver.last_iterations();
+    for (size_t k = 0; k < trace.size(); ++k)
+      if (trace[k].residual < target * trace[0].residual) return static_cast<int>(k);
+    return 1 << 30;
+  };
+  const int plain = iterations_to(false, 1e-6);
+  const int fast = iterations_to(true, 1e-6);
+  EXPECT_LT(plain, 5000);
+  EXPECT_LT(fast, plain / 2) << "plain " << plain << ", chebyshev " << fast;
+}
+
+TEST(Xpbd, ApproachesTheBackwardEulerStepAsIterationsGrow) {
+  // XPBD's Gauss-Seidel fixed point differs from backward Euler by the rotation of the constraint
+  // gradients within the step (Macklin 2016 drops that term), so a gentle start (2 mm, 5 cm/s) is used:
+  // the error then falls by more than 100x before it levels off.
+  const double amount = 0.002;
+  const Vec3s reference =
+      one_step(settings("projective", {{"iterations", 3000}, {"chebyshev", 1}, {"rho", 0.99}}), kH, nullptr, amount);
+  std::vector<double> errors;
+  for (int it : {1, 4, 16, 64, 256})
+    errors.push_back(rms_difference(one_step(settings("xpbd", {{"iterations", it}}), kH, nullptr, amount), reference));
+  for (size_t k = 1; k < errors.size(); ++k) EXPECT_LT(errors[k], errors[k - 1]) << "step " << k;
+  EXPECT_LT(errors.back(), 0.01 * errors.front());
+}
+
+TEST(Xpbd, ZeroComplianceStaysFiniteAndInextensible) {
+  SimulationSetup setup = sheet(9, "xpbd", {{"compliance_scale", 0.0}, {"iterations", 20}});
+  Simulation sim(setup);
+  FrameStats st;
+  for (int f = 0; f < 30; ++f) st = sim.step_frame();
+  EXPECT_TRUE(st.finite);
+  EXPECT_LT(st.max_strain, 0.01);
+}
+
+TEST(Xpbd, ZeroComplianceWithPinsPulledToThreeTimesTheSizeStaysFinite) {
+  SimulationSetup setup = sheet(9, "xpbd", {{"compliance_scale", 0.0}});
+  auto& pins = setup.cloths[0].pins;
+  pins[0].times = pins[1].times = {0.0, 0.5};
+  pins[0].offsets = {Vec3::Zero(), Vec3(-1.0, 0, 0)};
+  pins[1].offsets = {Vec3::Zero(), Vec3(1.0, 0, 0)};
+  Simulation sim(setup);
+  const FrameStats start = sim.measure();
+  for (int f = 0; f < 60; ++f) {
+    const FrameStats st = sim.step_frame();
+    ASSERT_TRUE(st.finite) << "frame " << f;
+    EXPECT_LT(st.kinetic + st.potential, 10.0 * std::abs(start.potential) + 1.0);
+  }
+}
+
+TEST(SpringSolvers, PinsFollowTheirTargetsExactly) {
+  for (const char* method : {"pbd", "xpbd", "projective", "desbrun"}) {
+    SimulationSetup setup = sheet(7, method);
+    setup.cloths[0].pins[1].times = {0.0, 0.2};
+    setup.cloths[0].pins[1].offsets = {Vec3::Zero(), Vec3(0.1, 0.2, 0.0)};
+    Simulation sim(setup);
+    for (int f = 0; f < 12; ++f) {
+      const FrameStats st = sim.step_frame();
+      ASSERT_TRUE(st.finite) << method;
+      const ClothState& s = sim.cloths()[0]->state();
+      for (const Pin& p : sim.cloths()[0]->pins())
+        EXPECT_LT((s.x[p.vertex] - p.target(sim.time())).norm(), 1e-12) << method << " frame " << f;
+    }
+  }
+}
+
+TEST(SpringSolvers, HangingSheetSettlesWithBoundedStrain) {
+  // Every solver, realistic settings: the sheet falls and hangs, stays finite, strain stays moderate.
+  for (const char* method : {"pbd", "xpbd", "projective", "desbrun"}) {
+    SimulationSetup setup = sheet(9, method);
+    setup.cloths[0].material.damping = 1e-4;
+    Simulation sim(setup);
+    double lowest = 1e9;
+    for (int f = 0; f < 60; ++f) {
+      const FrameStats st = sim.step_frame();
+      ASSERT_TRUE(st.finite) << method;
+      EXPECT_LT(st.max_strain, 0.2) << method;
+      lowest = std::min(lowest, sim.cloths()[0]->state().x.back().y());
+    }
+    // It swung down: the free corner far from the pins went well below the start height (1 m).
+    EXPECT_LT(lowest, 0.3) << method;
+  }
+}
+
+TEST(SpringSolvers, ProjectiveFactorisesOnlyWhenTheStepChanges) {
+  Simulation sim(sheet(7, "symplectic_euler"));
+  Cloth& cloth = *sim.cloths()[0];
+  ProjectiveSolver solver(ProjectiveSettings{});
+  for (int k = 0; k < 5; ++k) solver.step(cloth, 0.0, 0.01, 1);
+  EXPECT_EQ(solver.factorizations(), 1);
+  solver.step(cloth, 0.0, 0.005, 1);
+  EXPECT_EQ(solver.factorizations(), 2);
+}
+
+TEST(SpringSolvers, ResultsDoNotDependOnTheThreadCount) {
+  for (const char* method : {"pbd", "xpbd", "projective", "desbrun"}) {
+    Vec3s x[2];
+    for (int t = 0; t < 2; ++t) {
+      SimulationSetup setup = sheet(7, method);
+      setup.threads = t + 1;
+      Simulation sim(setup);
+      for (int f = 0; f < 2; ++f) sim.step_frame();
+      x[t] = sim.cloths()[0]->state().x;
+    }
+    for (size_t i = 0; i < x[0].size(); ++i) ASSERT_EQ(x[0][i], x[1][i]) << method;
+  }
+}
+
+// An elastic term none of the spring solvers can project or filter.
+class MysteryTerm final : public Term {
+ public:
+  const char* name() const override { return "mystery"; }
+  double energy(const EvalContext&) const override { return 0.0; }
+  void add_forces(const EvalContext&, Vec3s&) const override {}
+  void add_jacobians(const EvalContext&, const JacobianOptions&, BlockMatrix*, BlockMatrix*) const override {}
+};
+
+TEST(SpringSolvers, RejectTermsTheyCannotUseNamingThem) {
+  for (const char* method : {"pbd", "xpbd", "projective", "desbrun"}) {
+    Simulation sim(sheet(5, "symplectic_euler"));
+    Cloth& cloth = *sim.cloths()[0];
+    auto solver = make_solver(settings(method, {}));
+    EXPECT_NO_THROW(solver->check(cloth)) << method;
+    cloth.add_term(std::make_unique<MysteryTerm>());
+    try {
+      solver->check(cloth);
+      ADD_FAILURE() << method << " accepted an unknown term";
+    } catch (const Error& e) {
+      EXPECT_NE(std::string(e.what()).find("'mystery'"), std::string::npos) << e.what();
+      EXPECT_NE(std::string(e.what()).find(method), std::string::npos) << e.what();
+    }
+  }
+}
+
+}  // namespace
+}  // namespace loom::cloth
