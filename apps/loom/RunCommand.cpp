@@ -2,6 +2,7 @@
 
 #include <unistd.h>
 
+#include <algorithm>
 #include <chrono>
 #include <cmath>
 #include <cstdio>
@@ -14,6 +15,7 @@
 #include <sstream>
 
 #include "loom/cloth/Error.h"
+#include "loom/export/Exporters.h"
 #include "loom/scene/Scene.h"
 
 namespace fs = std::filesystem;
@@ -137,9 +139,14 @@ int run_command(const RunOptions& o) {
     return out / "frames" / name;
   };
 
+  // output.formats: "obj" below (with output.frames), "pc2" and "gltf" through loom::export.
+  const bool obj = sc.output.frames && std::find(sc.output.formats.begin(), sc.output.formats.end(), "obj") != sc.output.formats.end();
+  exporter::Exporters exports(out.string(), sc.output.formats, sim.cloths(), sc.output.every);
+
   cloth::FrameStats s0 = sim.measure();
   write_row(s0);
-  if (sc.output.frames) write_obj(frame_path(0), sim.cloths());
+  if (obj) write_obj(frame_path(0), sim.cloths());
+  exports.frame(sim.time(), sim.cloths());
   double max_strain = s0.max_strain, mean_strain_sum = 0.0, sim_ms = 0.0;
   int done = 0;
   bool finite = s0.finite;
@@ -155,13 +162,15 @@ int run_command(const RunOptions& o) {
       break;
     }
     write_row(s);
-    if (sc.output.frames && f % sc.output.every == 0) write_obj(frame_path(f), sim.cloths());
+    if (obj && f % sc.output.every == 0) write_obj(frame_path(f), sim.cloths());
+    if (f % sc.output.every == 0) exports.frame(sim.time(), sim.cloths());
     max_strain = std::max(max_strain, s.max_strain);
     mean_strain_sum += s.mean_strain;
     done = f;
     bar.update(done, sim_ms / done);
   }
   bar.finish();
+  exports.finish();
   csv.close();
   if (!csv) throw Error(stats_partial.string(), "", "write failed");
   fs::rename(stats_partial, out / "stats.csv");

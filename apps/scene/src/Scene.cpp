@@ -1,5 +1,6 @@
 #include "loom/scene/Scene.h"
 
+#include <algorithm>
 #include <cmath>
 #include <filesystem>
 #include <fstream>
@@ -302,6 +303,21 @@ Scene parse_scene(const nlohmann::json& root, const std::string& file) {
     const JsonReader o = r.object("output");
     scene.output.every = o.integer("every", 1, 1);
     scene.output.frames = o.boolean("frames", true);
+    if (o.has("formats")) {
+      const nlohmann::json& f = o.raw("formats");
+      if (!f.is_array()) o.fail("formats", "expected an array of format names (\"obj\", \"pc2\", \"gltf\")");
+      scene.output.formats.clear();
+      for (size_t i = 0; i < f.size(); ++i) {
+        const std::string where = "formats[" + std::to_string(i) + "]";
+        if (!f[i].is_string()) o.fail(where, "expected a format name (\"obj\", \"pc2\", \"gltf\")");
+        const std::string name = f[i].get<std::string>();
+        if (name != "obj" && name != "pc2" && name != "gltf")
+          o.fail(where, "unknown format '" + name + "' (known: obj, pc2, gltf)");
+        if (std::find(scene.output.formats.begin(), scene.output.formats.end(), name) != scene.output.formats.end())
+          o.fail(where, "format '" + name + "' is listed twice");
+        scene.output.formats.push_back(name);
+      }
+    }
     o.finish();
   }
   r.finish();

@@ -12,6 +12,9 @@ namespace loom::scene {
 struct OutputSettings {
   int every = 1;       // write every k-th frame's OBJ
   bool frames = true;  // write OBJ frames at all
+  // Geometry formats, each at most once: "obj" (DIR/frames/*.obj), "pc2" (DIR/pc2/<cloth>.pc2 + .obj),
+  // "gltf" (DIR/animation.gltf + .bin, morph-target animation). Default: {"obj"}.
+  std::vector<std::string> formats{"obj"};
 };
 
 struct Scene {

@@ -1,0 +1,38 @@
+#pragma once
+// The run's extra geometry outputs (scene `output.formats`), fed once per written frame by `loom run`:
+//   "pc2"  -> DIR/pc2/<cloth>.pc2 (PC2 point cache, every written frame) + DIR/pc2/<cloth>.obj (frame 0
+//             mesh, same vertex order: import it with "keep vertex order", add a Mesh Cache modifier)
+//   "gltf" -> DIR/animation.gltf + DIR/animation.bin (GltfWriter.h: base mesh + morph-target animation)
+// "obj" (DIR/frames/frame_NNNNN.obj) stays in RunCommand.cpp.
+#include <memory>
+#include <string>
+#include <vector>
+
+#include "loom/cloth/Cloth.h"
+#include "loom/export/GltfWriter.h"
+#include "loom/export/Pc2.h"
+
+namespace loom::exporter {
+
+class Exporters {
+ public:
+  // Removes this writer's files of an earlier run in `out`, then opens the writers of `formats` (unknown
+  // names and "obj" are ignored). `every`: frames between samples.
+  Exporters(const std::string& out, const std::vector<std::string>& formats,
+            const std::vector<std::unique_ptr<cloth::Cloth>>& cloths, int every);
+  // Call for every written frame (frame 0 first); `time` in s.
+  void frame(double time, const std::vector<std::unique_ptr<cloth::Cloth>>& cloths);
+  void finish();
+  // Paths written (for messages).
+  std::vector<std::string> files() const;
+
+  // File-safe, unique names per cloth ("sheet", "sheet_1", ...).
+  static std::vector<std::string> file_names(const std::vector<std::unique_ptr<cloth::Cloth>>& cloths);
+
+ private:
+  std::vector<std::unique_ptr<Pc2Writer>> pc2_;
+  std::unique_ptr<GltfWriter> gltf_;
+  std::vector<std::string> files_;
+};
+
+}  // namespace loom::exporter

@@ -1,0 +1,89 @@
+#include "loom/export/Exporters.h"
+
+#include <algorithm>
+#include <cctype>
+#include <filesystem>
+#include <fstream>
+#include <iomanip>
+#include <set>
+
+#include "loom/cloth/Error.h"
+
+namespace loom::exporter {
+
+namespace fs = std::filesystem;
+
+namespace {
+
+bool has(const std::vector<std::string>& v, const char* s) { return std::find(v.begin(), v.end(), s) != v.end(); }
+
+void write_mesh_obj(const fs::path& path, const cloth::Cloth& c) {
+  std::ofstream out(path);
+  if (!out) throw Error(path.string(), "", "cannot write");
+  out << std::setprecision(9) << "o " << c.name() << "\n";
+  for (const cloth::Vec3& p : c.state().x) out << "v " << p.x() << ' ' << p.y() << ' ' << p.z() << "\n";
+  for (const cloth::Tri& t : c.mesh().triangles()) out << "f " << t[0] + 1 << ' ' << t[1] + 1 << ' ' << t[2] + 1 << "\n";
+  if (!out) throw Error(path.string(), "", "write failed");
+}
+
+}  // namespace
+
+std::vector<std::string> Exporters::file_names(const std::vector<std::unique_ptr<cloth::Cloth>>& cloths) {
+  std::vector<std::string> names;
+  std::set<std::string> used;
+  for (size_t i = 0; i < cloths.size(); ++i) {
+    std::string n = cloths[i]->name();
+    for (char& ch : n)
+      if (!(std::isalnum(static_cast<unsigned char>(ch)) || ch == '-' || ch == '_')) ch = '_';
+    if (n.empty()) n = "cloth";
+    std::string unique = n;
+    for (int k = 1; used.count(unique); ++k) unique = n + "_" + std::to_string(k);
+    used.insert(unique);
+    names.push_back(unique);
+  }
+  return names;
+}
+
+Exporters::Exporters(const std::string& out_dir, const std::vector<std::string>& formats,
+                     const std::vector<std::unique_ptr<cloth::Cloth>>& cloths, int every) {
+  const fs::path out(out_dir);
+  std::error_code ec;
+  fs::remove_all(out / "pc2", ec);
+  fs::remove(out / "animation.gltf", ec);
+  fs::remove(out / "animation.bin", ec);
+  if (has(formats, "pc2")) {
+    fs::create_directories(out / "pc2", ec);
+    if (ec) throw Error((out / "pc2").string(), "output.formats", "cannot create folder: " + ec.message());
+    const std::vector<std::string> names = file_names(cloths);
+    for (size_t i = 0; i < cloths.size(); ++i) {
+      const fs::path base = out / "pc2" / names[i];
+      write_mesh_obj(base.string() + ".obj", *cloths[i]);
+      pc2_.push_back(std::make_unique<Pc2Writer>(base.string() + ".pc2", cloths[i]->state().size(), 0.0, every));
+      files_.push_back(base.string() + ".pc2");
+    }
+  }
+  if (has(formats, "gltf")) {
+    std::vector<AnimatedMesh> meshes;
+    for (const auto& c : cloths) meshes.push_back({c->name(), c->state().size(), c->mesh().triangles()});
+    gltf_ = std::make_unique<GltfWriter>((out / "animation.gltf").string(), std::move(meshes));
+    files_.push_back(gltf_->gltf_path());
+  }
+}
+
+void Exporters::frame(double time, const std::vector<std::unique_ptr<cloth::Cloth>>& cloths) {
+  for (size_t i = 0; i < pc2_.size(); ++i) pc2_[i]->add_sample(cloths[i]->state().x);
+  if (gltf_) {
+    std::vector<const cloth::Vec3s*> x;
+    for (const auto& c : cloths) x.push_back(&c->state().x);
+    gltf_->add_frame(time, x);
+  }
+}
+
+void Exporters::finish() {
+  for (auto& w : pc2_) w->finish();
+  if (gltf_) gltf_->finish();
+}
+
+std::vector<std::string> Exporters::files() const { return files_; }
+
+}  // namespace loom::exporter
