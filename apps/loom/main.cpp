@@ -5,6 +5,7 @@
 #include <iostream>
 #include <string>
 
+#include "CcdEvalCommand.h"
 #include "RunCommand.h"
 #include "loom/cloth/Error.h"
 #include "loom/cloth/Material.h"
@@ -17,6 +18,7 @@ const char* kUsage =
     "\n"
     "Usage:\n"
     "  loom run [SCENE] [options]   run a scene (default: the default scene in scenes/)\n"
+    "  loom ccd-eval FILE.csv...    evaluate the continuous collision test on CCD sample queries\n"
     "  loom --help                  this text\n"
     "  loom run --help              the options of `run`\n"
     "\n"
@@ -112,6 +114,7 @@ int main(int argc, char** argv) {
   const std::string cmd = argv[1];
   try {
     if (cmd == "run") return run_main(argc, argv);
+    if (cmd == "ccd-eval") return loom::app::ccd_eval_main(argc, argv);
   } catch (const loom::Error& e) {
     std::cerr << "loom: error: " << e.what() << "\n";
     return 1;
