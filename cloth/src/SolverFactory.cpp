@@ -2,6 +2,7 @@
 
 #include "loom/cloth/Error.h"
 #include "loom/cloth/ExplicitSolvers.h"
+#include "loom/cloth/ImplicitSolver.h"
 #include "loom/cloth/DesbrunSolver.h"
 #include "loom/cloth/PositionBasedSolvers.h"
 #include "loom/cloth/ProjectiveSolver.h"
@@ -36,6 +37,16 @@ void SolverParams::finish() const {
 
 namespace {
 
+std::unique_ptr<Solver> make_implicit_solver(ImplicitSolver::Scheme scheme, SolverParams& p) {
+  ImplicitParams ip;
+  ip.cg_tolerance = p.number("cg_tolerance", ip.cg_tolerance, 1e-14, 1.0);
+  ip.cg_max_iterations = p.integer("cg_max_iterations", ip.cg_max_iterations, 1, 1000000);
+  ip.newton_iterations = p.integer("newton_iterations", ip.newton_iterations, 1, 1000);
+  ip.adaptive = p.flag("adaptive", ip.adaptive);
+  ip.max_strain_change = p.number("max_strain_change", ip.max_strain_change, 1e-9, 1e9);
+  return std::make_unique<ImplicitSolver>(scheme, ip);
+}
+
 struct Entry {
   const char* name;
   std::function<std::unique_ptr<Solver>(SolverParams&)> make;
@@ -47,6 +58,9 @@ const std::vector<Entry>& registry() {
       {"explicit_euler", [](SolverParams&) { return std::make_unique<ExplicitEuler>(); }},
       {"symplectic_euler", [](SolverParams&) { return std::make_unique<SymplecticEuler>(); }},
       {"verlet", [](SolverParams&) { return std::make_unique<Verlet>(); }},
+      // Baraff & Witkin 1998 backward Euler and Choi & Ko 2002 BDF2 (ImplicitSolver.h).
+      {"implicit_euler", [](SolverParams& p) { return make_implicit_solver(ImplicitSolver::Scheme::kBackwardEuler, p); }},
+      {"bdf2", [](SolverParams& p) { return make_implicit_solver(ImplicitSolver::Scheme::kBdf2, p); }},
       // Position-based and projective solvers on the springs (PositionBasedSolvers.h, ProjectiveSolver.h).
       {"pbd",
        [](SolverParams& p) {

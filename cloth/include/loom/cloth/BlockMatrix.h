@@ -25,6 +25,12 @@ class BlockMatrix {
   Eigen::MatrixXd to_dense() const;
   Eigen::SparseMatrix<double> to_sparse() const;
   int num_blocks() const { return static_cast<int>(cols_.size()); }
+  // Raw CSR access for solvers that combine matrices of the same pattern (blocks of row i are
+  // blocks()[row_start()[i] .. row_start()[i+1]), in column order cols()).
+  const std::vector<int>& row_start() const { return row_start_; }
+  const std::vector<int>& cols() const { return cols_; }
+  std::vector<Mat3>& blocks() { return blocks_; }
+  const std::vector<Mat3>& blocks() const { return blocks_; }
 
  private:
   int n_ = 0;

@@ -1,0 +1,38 @@
+#pragma once
+// Filtered (projected) preconditioned conjugate gradients for A Δv = b with per-vertex constraints
+// (Baraff & Witkin 1998 §5.3, modified PCG; reference/methods.md §1.4, written with a consistent
+// preconditioner P⁻¹ ≈ A⁻¹). Each vertex has a filter S_i: I (free) or 0 (pinned: Δv_i is prescribed,
+// z_i). The solution satisfies S(b - AΔv) ≈ 0 and (I - S)Δv = z exactly: a pinned vertex gets exactly
+// its prescribed velocity. With S_i in {0, I}, MPCG is the exact PCG of the system restricted to the free
+// vertices (Ascher & Boxerman 2003), so the usual CG convergence holds.
+// Preconditioner: 3x3 block-Jacobi, P⁻¹_i = (A_ii)⁻¹ on free vertices.
+// Dot products are summed in fixed-size chunks in a fixed order: bit-identical for any thread count.
+#include <vector>
+
+#include "loom/cloth/BlockMatrix.h"
+#include "loom/cloth/Types.h"
+
+namespace loom::cloth {
+
+struct PcgResult {
+  int iterations = 0;
+  double relative_residual = 0.0;  // sqrt(rᵀP⁻¹r / bᵀP⁻¹b) at exit (filtered)
+  bool converged = false;
+};
+
+class FilteredPCG {
+ public:
+  // fixed[i] != 0: vertex i is constrained (S_i = 0). `dv` holds z (prescribed values) on entry for fixed
+  // vertices (free entries are ignored: the iteration starts from Δv = z on fixed, 0 on free) and the
+  // solution on exit. Stops when rᵀP⁻¹r <= tol² bᵀP⁻¹b (filtered b) or after max_iterations.
+  PcgResult solve(const BlockMatrix& A, const Vec3s& b, const std::vector<char>& fixed, Vec3s& dv, double tol,
+                  int max_iterations, int threads);
+
+ private:
+  double dot(const Vec3s& a, const Vec3s& b, int threads);
+  std::vector<Mat3> pinv_;
+  Vec3s r_, c_, q_, s_;
+  std::vector<double> partial_;
+};
+
+}  // namespace loom::cloth

@@ -1,0 +1,93 @@
+#pragma once
+// Implicit integrators (reference/methods.md §1.4 "Step", §1.6 "BDF2", §2.2):
+//  - implicit_euler: Baraff & Witkin 1998 backward Euler, M(v+ - v) = h f(x+, v+), x+ = x + h v+.
+//  - bdf2:           Choi & Ko 2002 second-order BDF, x+ - 4/3 x + 1/3 x- = 2h/3 v+ and
+//                    v+ - 4/3 v + 1/3 v- = 2h/3 M⁻¹ f+; variable-step coefficients when h changes
+//                    (ω = h/h_prev: 1, (1+ω)²/(1+2ω), ω²/(1+2ω), γ = h (1+ω)/(1+2ω)); the first step after
+//                    construction or reset() is backward Euler.
+// Both are one scheme: with (x_b, v_b, γ) = (x, v, h) for backward Euler and the BDF2 combinations above,
+//   M (v+ - v_b) = γ f(x_b + γ v+, v+),   x+ = x_b + γ v+.
+// newton_iterations = 1 (default): the linearised step, f(x+, v+) ≈ f + K (x+ - x) + D (v+ - v), i.e.
+//   (M - γD - γ²K) Δv = M (v_b - v) + γ (f + K (x_b - x + γ v)),  v+ = v + Δv
+// which is Baraff-Witkin's (M - hD - h²K) Δv = h (f + h K v) for backward Euler and methods.md §1.6's
+// linearised BDF2. newton_iterations > 1: Newton on the optimisation form (Gast et al. 2015 style), from
+// v+ = v, minimising the incremental potential
+//   Φ(v+) = 1/2 (v+ - v_b)ᵀ M (v+ - v_b) + E(x_b + γ v+) + γ Ψ(v+)
+// (E: conservative terms, gravity included; Ψ: the non-conservative forces — damping, drag — as a quadratic
+// dissipation potential about the current iterate, Ψ = -f_ncᵀ δ - 1/2 δᵀ D δ), with a backtracking
+// (Armijo) line search; it stops early when |g|_M⁻¹ <= cg_tolerance |g_0|_M⁻¹.
+// Matrix: A = M - γD - γ²K with M on the left, symmetric: K and D from JacobianOptions{clamp_compression,
+// no damping position terms} (springs: clamped transverse term; Baraff-Witkin: clamped stretch, Gauss-Newton
+// shear and bending). Non-conservative terms (drag) contribute only their velocity Jacobian D (their
+// position dependence is explicit), and A is symmetrised ((A + Aᵀ)/2) after assembly.
+// Linear solve: FilteredPCG (block-Jacobi). Kinematic vertices (inverse mass 0) are constrained in the
+// filter (S = 0) with the prescribed velocity that makes x+ = x + h v exactly (Solver.h contract).
+// adaptive = 1: a substep is rejected and halved when the state turns non-finite or some edge's strain
+// |l/L - 1| changes by more than max_strain_change in it; after 4 successful substeps the substep doubles
+// again (up to the step asked for). One step(h) call may thus take several substeps.
+#include "loom/cloth/FilteredPCG.h"
+#include "loom/cloth/Solver.h"
+
+namespace loom::cloth {
+
+struct ImplicitParams {
+  double cg_tolerance = 1e-4;      // 1, relative residual of the filtered PCG (and the Newton stop)
+  int cg_max_iterations = 200;     // per linear solve
+  int newton_iterations = 1;       // 1 = linearised step; > 1 = Newton with line search
+  bool adaptive = false;           // reject-and-halve substeps
+  double max_strain_change = 0.1;  // 1, largest |Δ(l/L)| of an edge in one accepted substep (adaptive)
+};
+
+// Work counters since construction.
+struct ImplicitCounters {
+  long substeps = 0;         // accepted substeps
+  long rejected = 0;         // rejected substeps (adaptive)
+  long linear_solves = 0;
+  long cg_iterations = 0;
+  long newton_iterations = 0;
+  long line_search_halvings = 0;
+};
+
+class ImplicitSolver final : public Solver {
+ public:
+  enum class Scheme { kBackwardEuler, kBdf2 };
+  ImplicitSolver(Scheme scheme, ImplicitParams params) : scheme_(scheme), p_(params) {}
+  const char* name() const override { return scheme_ == Scheme::kBdf2 ? "bdf2" : "implicit_euler"; }
+  void step(Cloth& cloth, double t, double h, int threads) override;
+  void reset() override { has_history_ = false; }
+  const ImplicitCounters& counters() const { return counters_; }
+  const ImplicitParams& params() const { return p_; }
+  double substep_size() const { return h_sub_; }  // s, the adaptive substep of the last call
+
+ private:
+  void prepare(const Cloth& cloth);
+  bool substep(Cloth& cloth, double t, double h, int threads);
+  void assemble(Cloth& cloth, const Vec3s& x, const Vec3s& v, double t, double gamma, int threads);
+  void multiply(const BlockMatrix& m, const Vec3s& x, Vec3s& y, int threads) const;
+  double incremental_potential(Cloth& cloth, const Vec3s& v, double t, int threads);
+  double max_strain_change(const Vec3s& before, const Vec3s& after) const;
+
+  Scheme scheme_;
+  ImplicitParams p_;
+  ImplicitCounters counters_;
+  FilteredPCG pcg_;
+  // Pattern (built once per cloth).
+  const Cloth* cloth_ = nullptr;
+  int n_ = 0;
+  BlockMatrix K_, D_, A_;
+  std::vector<int> transpose_;  // index of block (j, i) for block (i, j)
+  std::vector<char> fixed_;
+  std::vector<double> edge_rest_;  // m
+  // BDF2 history: the state at the start of the previous step and that step's size.
+  bool has_history_ = false;
+  Vec3s x_hist_, v_hist_;
+  double h_hist_ = 0.0;
+  // Adaptive substep.
+  double h_sub_ = 0.0;
+  int streak_ = 0;
+  // Scratch.
+  Vec3s f_, fc_, xb_, vb_, rhs_, dv_, y_, tmp_, vk_, xk_, g_, p_dir_, vtry_;
+  double gamma_ = 0.0;
+};
+
+}  // namespace loom::cloth

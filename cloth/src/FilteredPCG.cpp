@@ -1,0 +1,89 @@
+#include "loom/cloth/FilteredPCG.h"
+
+#include <cmath>
+
+namespace loom::cloth {
+
+namespace {
+constexpr int kChunk = 256;  // vertices per partial sum (fixed, so sums do not depend on the thread count)
+}
+
+double FilteredPCG::dot(const Vec3s& a, const Vec3s& b, int threads) {
+  const int n = static_cast<int>(a.size());
+  const int chunks = (n + kChunk - 1) / kChunk;
+  partial_.assign(chunks, 0.0);
+#pragma omp parallel for num_threads(threads) if (threads > 1) schedule(static)
+  for (int c = 0; c < chunks; ++c) {
+    double acc = 0.0;
+    const int end = std::min(n, (c + 1) * kChunk);
+    for (int i = c * kChunk; i < end; ++i) acc += a[i].dot(b[i]);
+    partial_[c] = acc;
+  }
+  double sum = 0.0;
+  for (double p : partial_) sum += p;
+  return sum;
+}
+
+PcgResult FilteredPCG::solve(const BlockMatrix& A, const Vec3s& b, const std::vector<char>& fixed, Vec3s& dv,
+                             double tol, int max_iterations, int threads) {
+  const int n = A.size();
+  dv.resize(n);
+  pinv_.resize(n);
+  r_.resize(n);
+  c_.resize(n);
+  s_.resize(n);
+  // Block-Jacobi preconditioner; Δv starts at z (fixed) / 0 (free).
+  for (int i = 0; i < n; ++i) {
+    if (fixed[i]) {
+      pinv_[i].setZero();
+    } else {
+      dv[i].setZero();
+      const Mat3* d = A.find(i, i);
+      Mat3 inv;
+      bool ok = false;
+      if (d) d->computeInverseWithCheck(inv, ok);
+      pinv_[i] = ok && inv.allFinite() ? inv : Mat3::Identity();
+    }
+  }
+  // δ0 = filter(b)ᵀ P⁻¹ filter(b)   (P⁻¹ is zero on fixed vertices, so it filters too)
+  for (int i = 0; i < n; ++i) s_[i] = pinv_[i] * b[i];
+  const double delta0 = dot(b, s_, threads);
+  PcgResult res;
+  // r = filter(b - AΔv)
+  A.multiply(dv, q_);
+  for (int i = 0; i < n; ++i) r_[i] = fixed[i] ? Vec3::Zero() : Vec3(b[i] - q_[i]);
+  for (int i = 0; i < n; ++i) c_[i] = pinv_[i] * r_[i];
+  double delta = dot(r_, c_, threads);
+  if (!(delta0 > 0.0)) {
+    res.converged = true;
+    return res;
+  }
+  const double stop = tol * tol * delta0;
+  int it = 0;
+  while (delta > stop && it < max_iterations) {
+    A.multiply(c_, q_);
+    for (int i = 0; i < n; ++i)
+      if (fixed[i]) q_[i].setZero();
+    const double cq = dot(c_, q_, threads);
+    if (!(cq > 0.0)) break;  // A not positive definite along c: stop with what we have (methods.md §1.4)
+    const double alpha = delta / cq;
+#pragma omp parallel for num_threads(threads) if (threads > 1) schedule(static)
+    for (int i = 0; i < n; ++i) {
+      dv[i] += alpha * c_[i];
+      r_[i] -= alpha * q_[i];
+      s_[i] = pinv_[i] * r_[i];
+    }
+    const double delta_old = delta;
+    delta = dot(r_, s_, threads);
+    const double beta = delta / delta_old;
+#pragma omp parallel for num_threads(threads) if (threads > 1) schedule(static)
+    for (int i = 0; i < n; ++i) c_[i] = s_[i] + beta * c_[i];
+    ++it;
+  }
+  res.iterations = it;
+  res.relative_residual = std::sqrt(std::max(delta, 0.0) / delta0);
+  res.converged = delta <= stop;
+  return res;
+}
+
+}  // namespace loom::cloth

@@ -1,0 +1,276 @@
+#include "loom/cloth/ImplicitSolver.h"
+
+#include <algorithm>
+#include <cmath>
+
+namespace loom::cloth {
+
+void ImplicitSolver::prepare(const Cloth& cloth) {
+  const int n = cloth.state().size();
+  if (&cloth == cloth_ && n == n_) return;
+  cloth_ = &cloth;
+  n_ = n;
+  std::vector<std::pair<int, int>> pairs;
+  for (const auto& t : cloth.terms()) t->add_pattern(pairs);
+  for (auto& p : pairs)
+    if (p.first > p.second) std::swap(p.first, p.second);
+  std::sort(pairs.begin(), pairs.end());
+  pairs.erase(std::unique(pairs.begin(), pairs.end()), pairs.end());
+  K_ = BlockMatrix(n, pairs);
+  D_ = BlockMatrix(n, pairs);
+  A_ = BlockMatrix(n, pairs);
+  transpose_.resize(A_.num_blocks());
+  const Mat3* base = A_.blocks().data();
+  for (int i = 0; i < n; ++i)
+    for (int k = A_.row_start()[i]; k < A_.row_start()[i + 1]; ++k)
+      transpose_[k] = static_cast<int>(A_.find(A_.cols()[k], i) - base);
+  const Vec3s& X = cloth.mesh().rest_positions();
+  edge_rest_.clear();
+  for (const Edge& e : cloth.mesh().edges()) edge_rest_.push_back((X[e.j] - X[e.i]).norm());
+  fixed_.assign(n, 0);
+  has_history_ = false;
+}
+
+void ImplicitSolver::multiply(const BlockMatrix& m, const Vec3s& x, Vec3s& y, int threads) const {
+  const int n = m.size();
+  y.resize(n);
+  const auto& rs = m.row_start();
+  const auto& cols = m.cols();
+  const auto& b = m.blocks();
+#pragma omp parallel for num_threads(threads) if (threads > 1) schedule(static)
+  for (int i = 0; i < n; ++i) {
+    Vec3 acc = Vec3::Zero();
+    for (int k = rs[i]; k < rs[i + 1]; ++k) acc += b[k] * x[cols[k]];
+    y[i] = acc;
+  }
+}
+
+void ImplicitSolver::assemble(Cloth& cloth, const Vec3s& x, const Vec3s& v, double t, double gamma, int threads) {
+  K_.set_zero();
+  D_.set_zero();
+  JacobianOptions o;
+  o.clamp_compression = true;
+  o.damping_position_terms = false;
+  const EvalContext ctx{x, v, t, threads};
+  for (const auto& term : cloth.terms()) {
+    // Non-conservative terms (drag): only df/dv goes into A; their position dependence stays explicit.
+    term->add_jacobians(ctx, o, term->conservative() ? &K_ : nullptr, &D_);
+  }
+  // A = M - γD - γ²K, then symmetrised: A_ij = (A_ij + A_jiᵀ)/2.
+  const ClothState& s = cloth.state();
+  auto& a = A_.blocks();
+  const auto& kb = K_.blocks();
+  const auto& db = D_.blocks();
+  const int nb = A_.num_blocks();
+  for (int k = 0; k < nb; ++k) a[k] = -gamma * db[k] - gamma * gamma * kb[k];
+  for (int i = 0; i < n_; ++i)
+    for (int k = A_.row_start()[i]; k < A_.row_start()[i + 1]; ++k) {
+      const int j = A_.cols()[k];
+      if (j == i) {
+        a[k] = 0.5 * (a[k] + a[k].transpose()).eval();
+        a[k] += s.mass[i] * Mat3::Identity();
+      } else if (j > i) {
+        const Mat3 avg = 0.5 * (a[k] + a[transpose_[k]].transpose());
+        a[k] = avg;
+        a[transpose_[k]] = avg.transpose();
+      }
+    }
+}
+
+double ImplicitSolver::incremental_potential(Cloth& cloth, const Vec3s& v, double t, int threads) {
+  // Φ_c(v) = 1/2 (v - v_b)ᵀ M (v - v_b) + E(x_b + γ v)
+  const ClothState& s = cloth.state();
+  for (int i = 0; i < n_; ++i) xk_[i] = xb_[i] + gamma_ * v[i];
+  double phi = 0.0;
+  for (int i = 0; i < n_; ++i) phi += 0.5 * s.mass[i] * (v[i] - vb_[i]).squaredNorm();
+  const EvalContext ctx{xk_, v, t, threads};
+  for (const auto& term : cloth.terms())
+    if (term->conservative()) phi += term->energy(ctx);
+  return phi;
+}
+
+double ImplicitSolver::max_strain_change(const Vec3s& before, const Vec3s& after) const {
+  const auto& edges = cloth_->mesh().edges();
+  double worst = 0.0;
+  for (size_t k = 0; k < edges.size(); ++k) {
+    const double l0 = (before[edges[k].j] - before[edges[k].i]).norm();
+    const double l1 = (after[edges[k].j] - after[edges[k].i]).norm();
+    worst = std::max(worst, std::abs(l1 - l0) / edge_rest_[k]);
+  }
+  return std::isfinite(worst) ? worst : 1e300;
+}
+
+bool ImplicitSolver::substep(Cloth& cloth, double t, double h, int threads) {
+  ClothState& s = cloth.state();
+  const int n = n_;
+  for (int i = 0; i < n; ++i) fixed_[i] = s.inv_mass[i] == 0.0;
+  xb_.resize(n);
+  vb_.resize(n);
+  xk_.resize(n);
+  const bool bdf2 = scheme_ == Scheme::kBdf2 && has_history_ && h_hist_ > 0.0;
+  double c1 = 1.0, c2 = 0.0, gamma = h;
+  if (bdf2) {
+    // Variable-step BDF2 with ω = h_n / h_{n-1}.
+    const double w = h / h_hist_;
+    c1 = (1.0 + w) * (1.0 + w) / (1.0 + 2.0 * w);
+    c2 = w * w / (1.0 + 2.0 * w);
+    gamma = h * (1.0 + w) / (1.0 + 2.0 * w);
+  }
+  gamma_ = gamma;
+  for (int i = 0; i < n; ++i) {
+    xb_[i] = bdf2 ? Vec3(c1 * s.x[i] - c2 * x_hist_[i]) : s.x[i];
+    vb_[i] = bdf2 ? Vec3(c1 * s.v[i] - c2 * v_hist_[i]) : s.v[i];
+  }
+  // The velocity in the scheme that puts a kinematic vertex at x + h v.
+  auto pinned_velocity = [&](int i) -> Vec3 { return bdf2 ? Vec3((s.x[i] + h * s.v[i] - xb_[i]) / gamma) : s.v[i]; };
+  Vec3s& vplus = vk_;
+  vplus.resize(n);
+  if (p_.newton_iterations <= 1) {
+    // Linearised step (Baraff & Witkin 1998 eq. 18; methods.md §1.6 for BDF2).
+    cloth.compute_forces(s.x, s.v, t, threads, f_);
+    assemble(cloth, s.x, s.v, t, gamma, threads);
+    y_.resize(n);
+    for (int i = 0; i < n; ++i) y_[i] = xb_[i] - s.x[i] + gamma * s.v[i];
+    multiply(K_, y_, tmp_, threads);
+    rhs_.resize(n);
+    dv_.resize(n);
+    for (int i = 0; i < n; ++i) {
+      rhs_[i] = s.mass[i] * (vb_[i] - s.v[i]) + gamma * (f_[i] + tmp_[i]);
+      if (fixed_[i]) dv_[i] = pinned_velocity(i) - s.v[i];
+    }
+    const PcgResult r = pcg_.solve(A_, rhs_, fixed_, dv_, p_.cg_tolerance, p_.cg_max_iterations, threads);
+    ++counters_.linear_solves;
+    counters_.cg_iterations += r.iterations;
+    for (int i = 0; i < n; ++i) vplus[i] = s.v[i] + dv_[i];
+  } else {
+    // Newton on the incremental potential with a backtracking line search.
+    for (int i = 0; i < n; ++i) vplus[i] = fixed_[i] ? pinned_velocity(i) : s.v[i];
+    const Vec3s zero(n, Vec3::Zero());
+    g_.resize(n);
+    double g0 = 0.0;
+    Vec3s xk(n);
+    for (int it = 0; it < p_.newton_iterations; ++it) {
+      for (int i = 0; i < n; ++i) xk[i] = xb_[i] + gamma * vplus[i];
+      cloth.compute_forces(xk, vplus, t + h, threads, f_);
+      double gnorm = 0.0;
+      for (int i = 0; i < n; ++i) {
+        g_[i] = fixed_[i] ? Vec3::Zero() : Vec3(s.mass[i] * (vplus[i] - vb_[i]) - gamma * f_[i]);
+        if (!fixed_[i]) gnorm += g_[i].squaredNorm() / s.mass[i];
+      }
+      gnorm = std::sqrt(gnorm);
+      if (it == 0) g0 = gnorm;
+      if (!std::isfinite(gnorm)) break;
+      if (gnorm == 0.0 || (it > 0 && gnorm <= p_.cg_tolerance * g0)) break;
+      ++counters_.newton_iterations;
+      // Conservative forces alone (at zero velocity): the rest is f_nc, the dissipative part.
+      fc_.assign(n, Vec3::Zero());
+      {
+        const EvalContext ctx{xk, zero, t + h, threads};
+        for (const auto& term : cloth.terms())
+          if (term->conservative()) term->add_forces(ctx, fc_);
+      }
+      assemble(cloth, xk, vplus, t + h, gamma, threads);
+      rhs_.resize(n);
+      for (int i = 0; i < n; ++i) rhs_[i] = -g_[i];
+      p_dir_.assign(n, Vec3::Zero());
+      const PcgResult r = pcg_.solve(A_, rhs_, fixed_, p_dir_, p_.cg_tolerance, p_.cg_max_iterations, threads);
+      ++counters_.linear_solves;
+      counters_.cg_iterations += r.iterations;
+      double slope = 0.0, fnc_p = 0.0;
+      for (int i = 0; i < n; ++i) {
+        slope += g_[i].dot(p_dir_[i]);
+        fnc_p += (f_[i] - fc_[i]).dot(p_dir_[i]);
+      }
+      if (!(slope < 0.0)) break;  // no descent direction (truncated CG on an indefinite model)
+      multiply(D_, p_dir_, tmp_, threads);
+      double pDp = 0.0;
+      for (int i = 0; i < n; ++i) pDp += p_dir_[i].dot(tmp_[i]);
+      const double phi0 = incremental_potential(cloth, vplus, t + h, threads);
+      double step = 1.0;
+      vtry_.resize(n);
+      bool accepted = false;
+      for (int ls = 0; ls < 20; ++ls) {
+        for (int i = 0; i < n; ++i) vtry_[i] = vplus[i] + step * p_dir_[i];
+        // Ψ = -f_ncᵀ δ - 1/2 δᵀ D δ with δ = step p.
+        const double phi = incremental_potential(cloth, vtry_, t + h, threads) +
+                           gamma * (-step * fnc_p - 0.5 * step * step * pDp);
+        if (std::isfinite(phi) && phi <= phi0 + 1e-4 * step * slope) {
+          accepted = true;
+          break;
+        }
+        step *= 0.5;
+        ++counters_.line_search_halvings;
+      }
+      if (!accepted) break;
+      vplus.swap(vtry_);
+    }
+  }
+  // Commit: free vertices x+ = x_b + γ v+; kinematic vertices x+ = x + h v exactly.
+  y_.resize(n);
+  for (int i = 0; i < n; ++i) y_[i] = s.x[i];  // start of the step
+  tmp_.resize(n);
+  for (int i = 0; i < n; ++i) tmp_[i] = s.v[i];
+  for (int i = 0; i < n; ++i) {
+    if (fixed_[i]) {
+      s.x[i] = s.x[i] + h * s.v[i];
+    } else {
+      s.v[i] = vplus[i];
+      s.x[i] = xb_[i] + gamma * vplus[i];
+    }
+  }
+  s.x_prev = y_;
+  x_hist_ = y_;
+  v_hist_ = tmp_;
+  h_hist_ = h;
+  has_history_ = true;
+  return s.is_finite();
+}
+
+void ImplicitSolver::step(Cloth& cloth, double t, double h, int threads) {
+  prepare(cloth);
+  if (!p_.adaptive) {
+    substep(cloth, t, h, threads);
+    ++counters_.substeps;
+    return;
+  }
+  ClothState& s = cloth.state();
+  if (!(h_sub_ > 0.0) || h_sub_ > h) h_sub_ = h;
+  const double h_min = h * std::ldexp(1.0, -16);
+  double done = 0.0;
+  Vec3s x0, v0, xp0, xh0, vh0;
+  while (done < h) {
+    double hs = std::min(h_sub_, h - done);
+    if (h - done - hs <= 1e-9 * h) hs = h - done;  // the last substep ends exactly at t + h
+    x0 = s.x;
+    v0 = s.v;
+    xp0 = s.x_prev;
+    xh0 = x_hist_;
+    vh0 = v_hist_;
+    const bool had_history = has_history_;
+    const double hh0 = h_hist_;
+    const bool finite = substep(cloth, t + done, hs, threads);
+    const bool ok = finite && max_strain_change(x0, s.x) <= p_.max_strain_change;
+    if (!ok && hs > h_min) {
+      s.x = x0;
+      s.v = v0;
+      s.x_prev = xp0;
+      x_hist_ = xh0;
+      v_hist_ = vh0;
+      has_history_ = had_history;
+      h_hist_ = hh0;
+      h_sub_ = 0.5 * hs;
+      streak_ = 0;
+      ++counters_.rejected;
+      continue;
+    }
+    done = hs == h - done ? h : done + hs;
+    ++counters_.substeps;
+    if (++streak_ >= 4 && h_sub_ < h) {
+      h_sub_ = std::min(2.0 * h_sub_, h);
+      streak_ = 0;
+    }
+    if (!finite) return;  // could not be rescued at the smallest substep: leave it to the caller
+  }
+}
+
+}  // namespace loom::cloth
