@@ -284,6 +284,29 @@ Scene parse_scene(const nlohmann::json& root, const std::string& file) {
     e.finish();
   }
 
+  if (r.has("constraints")) {
+    // Constraint passes after the solver (StrainLimitStage.h, TetherStage.h); only the named ones exist.
+    const JsonReader k = r.object("constraints");
+    if (k.has("strain_limit")) {
+      const JsonReader sl = k.object("strain_limit");
+      cloth::StrainLimitSettings s;
+      s.max_stretch = sl.number("max_stretch", s.max_stretch, 0.0);
+      s.iterations = sl.integer("iterations", s.iterations, 1);
+      if (s.iterations > 100000) sl.fail("iterations", "must be <= 100000");
+      sl.finish();
+      scene.setup.strain_limit = s;
+    }
+    if (k.has("tethers")) {
+      const JsonReader t = k.object("tethers");
+      cloth::TetherSettings s;
+      s.slack = t.number("slack", s.slack, 0.0);
+      s.geodesic = t.string("distance", "geodesic", {"geodesic", "euclidean"}) == "geodesic";
+      t.finish();
+      scene.setup.tethers = s;
+    }
+    k.finish();
+  }
+
   const auto cloths = r.objects("cloths");
   if (cloths.empty()) r.fail("cloths", "a scene needs at least one cloth");
   for (const JsonReader& c : cloths) {
