@@ -32,6 +32,7 @@
 // 5. Every box that is not discarded is either split (its halves cover it) or accepted as a hit (when its
 //    image is narrower than the tolerance, when it cannot be split further, or when the box budget is spent).
 //    So a contact point always lies in a box that is split or accepted: the answer is never a false "no".
+// 6. A second rejection along a normal direction (separated_along_normal) uses the same argument; see there.
 #include "loom/collision/Ccd.h"
 
 #include <algorithm>
@@ -94,16 +95,55 @@ Query make_query(bool vf, const Vec3* p0, const Vec3* p1, const CcdOptions& o) {
   return q;
 }
 
+// (6.) The same rejection along one more direction n: the normal of the triangle (VF) or the cross product of
+// the edges (EE) at the box's mid time. Any fixed double vector n is valid, so n needs no accuracy; g = n . F
+// is multilinear (n is constant), so its range is spanned by the corners. With F^_k the computed corners and
+// e_k = thr_k - s their error bound: |fl(n . F^) - n . F| <= sum_k |n_k| e_k + gamma_3 sum_k |n_k| |F^_k|
+// (Higham 2002, Sec. 3.1), and a contact (|F| <= s) has |n . F| <= |n|_2 s <= |n|_1 s. The bound B below is
+// computed with an upward margin (1 + 2^-40) that covers the few roundings of its own evaluation.
+bool separated_along_normal(const Query& q, const Box& b, const double (&f)[3][8]) {
+  const double tm = 0.5 * (b.lo[0] + b.hi[0]);
+  double x[4][3];
+  for (int i = 0; i < 4; ++i)
+    for (int k = 0; k < 3; ++k) x[i][k] = q.q0[i][k] + tm * q.dq[i][k];
+  double d1[3], d2[3];
+  for (int k = 0; k < 3; ++k) {
+    d1[k] = q.vf ? x[2][k] - x[1][k] : x[1][k] - x[0][k];
+    d2[k] = q.vf ? x[3][k] - x[1][k] : x[3][k] - x[2][k];
+  }
+  double n[3] = {d1[1] * d2[2] - d1[2] * d2[1], d1[2] * d2[0] - d1[0] * d2[2], d1[0] * d2[1] - d1[1] * d2[0]};
+  const double scale = std::max({std::abs(n[0]), std::abs(n[1]), std::abs(n[2])});
+  if (!(scale > 0) || !std::isfinite(scale)) return false;
+  for (double& c : n) c /= scale;  // |n_k| <= 1; still just some fixed vector
+  double mn = HUGE_VAL, mx = -HUGE_VAL, mag = 0;
+  for (int c = 0; c < 8; ++c) {
+    const double g = (n[0] * f[0][c] + n[1] * f[1][c]) + n[2] * f[2][c];
+    mn = std::min(mn, g);
+    mx = std::max(mx, g);
+    mag = std::max(mag, std::abs(n[0] * f[0][c]) + std::abs(n[1] * f[1][c]) + std::abs(n[2] * f[2][c]));
+  }
+  double bound = 0x1p-50 * mag;  // >= gamma_3 sum |n_k| |F^_k| (8u > gamma_3)
+  for (int k = 0; k < 3; ++k) bound += std::abs(n[k]) * q.thr[k];  // thr_k >= s + e_k
+  bound *= 1.0 + 0x1p-40;
+  return mn > bound || mx < -bound;
+}
+
 CcdResult solve(const Query& q, const CcdOptions& o) {
   CcdResult r;
   std::vector<Box> stack;
   stack.reserve(64);
   stack.push_back(Box{{0, 0, 0}, {1, 1, 1}});
   double f[3][8];
+  long hit_boxes = 0;  // boxes evaluated when the first hit was found
   while (!stack.empty()) {
     const Box b = stack.back();
     stack.pop_back();
     if (r.hit && b.lo[0] >= r.toi) continue;  // cannot lower the first-contact bound
+    if (r.hit && r.boxes >= hit_boxes + o.toi_max_boxes) {  // refinement budget spent: bound from what is left
+      r.toi = std::min(r.toi, b.lo[0]);
+      for (const Box& s : stack) r.toi = std::min(r.toi, s.lo[0]);
+      return r;
+    }
     if (q.vf && b.lo[1] + b.lo[2] > 1.0) continue;  // outside the triangle (2.)
     ++r.boxes;
     bool separated = false;
@@ -121,7 +161,7 @@ CcdResult solve(const Query& q, const CcdOptions& o) {
       separated = mn > q.thr[k] || mx < -q.thr[k];
       width[k] = mx - mn;
     }
-    if (separated) continue;  // (4.)
+    if (separated || separated_along_normal(q, b, f)) continue;  // (4.), (6.)
     const bool narrow = width[0] <= q.tol && width[1] <= q.tol && width[2] <= q.tol;
     // Split the parameter whose variation moves F the most (largest corner difference along it).
     int split = -1;
@@ -139,6 +179,7 @@ CcdResult solve(const Query& q, const CcdOptions& o) {
     // Once a hit is known, a box only serves to lower the first-contact bound: thin enough in t is enough.
     const bool thin = r.hit && b.hi[0] - b.lo[0] <= o.toi_tolerance;
     if (narrow || thin || split < 0 || exhausted) {  // accept: a hit (5.)
+      if (!r.hit) hit_boxes = r.boxes;
       r.hit = true;
       r.toi = std::min(r.toi, b.lo[0]);
       if (exhausted && !narrow && !thin && split >= 0) {

@@ -21,6 +21,7 @@ struct CcdOptions {
   double min_separation = 0.0;  // m; a pair closer than this (per axis, so also in Euclidean norm) is a contact
   double tolerance = 1e-6;      // 1; relative to the query's extent: a box whose image is narrower is a hit
   double toi_tolerance = 1e-4;  // 1; after the first hit, the time of impact is refined to this width in t
+  long toi_max_boxes = 1024;    // 1; boxes spent refining the time of impact after the first hit
   long max_boxes = 1L << 18;    // 1; inclusion boxes per query; an exhausted budget reports a hit (conservative)
 };
 

@@ -1,0 +1,60 @@
+// `loom ccd-eval`: one output line with the documented fields, exit codes, errors naming the file.
+#include <gtest/gtest.h>
+
+#include <cstdio>
+#include <cstdlib>
+#include <fstream>
+#include <regex>
+#include <sstream>
+#include <string>
+#include <sys/wait.h>
+
+namespace {
+
+struct CcdEvalRun {
+  int code = -1;
+  std::string out, err;
+};
+
+CcdEvalRun ccd_eval(const std::string& args) {
+  const std::string base = testing::TempDir() + "/ccd_eval_cli";
+  const std::string cmd =
+      std::string(LOOM_BINARY) + " ccd-eval " + args + " >" + base + ".out 2>" + base + ".err";
+  const int status = std::system(cmd.c_str());
+  CcdEvalRun r;
+  r.code = WIFEXITED(status) ? WEXITSTATUS(status) : -1;
+  for (auto* s : {&r.out, &r.err}) {
+    std::ifstream in(base + (s == &r.out ? ".out" : ".err"));
+    std::stringstream ss;
+    ss << in.rdbuf();
+    *s = ss.str();
+  }
+  return r;
+}
+
+const std::string kData = std::string(LOOM_TEST_DATA) + "/ccd-sample-queries/unit-tests/";
+
+}  // namespace
+
+TEST(CcdEvalCli, PrintsOneLineWithZeroFalseNegatives) {
+  for (const std::string extra : {"", " --scale-exp -10 --translate 5", " --scale-exp 10 --translate 5"}) {
+    const CcdEvalRun r =
+        ccd_eval(kData + "vertex-face/data_0_0.csv " + kData + "edge-edge/data_0_0.csv" + extra);
+    ASSERT_EQ(r.code, 0) << r.err;
+    std::smatch m;
+    const std::regex line(
+        "queries=(\\d+) positives=(\\d+) false_negatives=(\\d+) false_positives=(\\d+) us_per_query=[0-9.]+\\n");
+    ASSERT_TRUE(std::regex_match(r.out, m, line)) << r.out;
+    EXPECT_EQ(m[1], "179");  // 125 VF + 54 EE queries
+    EXPECT_EQ(m[3], "0") << extra;
+  }
+}
+
+TEST(CcdEvalCli, ErrorsAndExitCodes) {
+  EXPECT_EQ(ccd_eval("").code, 2);
+  const CcdEvalRun missing = ccd_eval(kData + "vertex-face/missing.csv");
+  EXPECT_EQ(missing.code, 1);
+  EXPECT_NE(missing.err.find("missing.csv"), std::string::npos) << missing.err;
+  EXPECT_EQ(ccd_eval(kData + "vertex-face/data_0_0.csv --scale-exp x").code, 2);
+  EXPECT_EQ(ccd_eval("--help").code, 0);
+}
