@@ -174,8 +174,9 @@ void BaraffWitkinTerm::add_jacobians(const EvalContext& c, const JacobianOptions
     const Tri& v = tris_[k].v;
     for (int m = 0; m < 3; ++m)
       for (int n = 0; n < 3; ++n) {
-        if (dfdx) dfdx->add(v[m], v[n], dx_blocks_[9 * k + 3 * m + n]);
-        if (dfdv && damping_ != 0.0) dfdv->add(v[m], v[n], dv_blocks_[9 * k + 3 * m + n]);
+        const int q = 9 * k + 3 * m + n;
+        if (dfdx) scatter_.add(*dfdx, q, v[m], v[n], dx_blocks_[q]);
+        if (dfdv && damping_ != 0.0) scatter_.add(*dfdv, q, v[m], v[n], dv_blocks_[q]);
       }
   }
 }

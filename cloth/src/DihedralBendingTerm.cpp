@@ -160,8 +160,9 @@ void DihedralBendingTerm::add_jacobians(const EvalContext& c, const JacobianOpti
     const auto& v = hinges_[k].v;
     for (int i = 0; i < 4; ++i)
       for (int j = 0; j < 4; ++j) {
-        if (dfdx) dfdx->add(v[i], v[j], dx_blocks_[16 * k + 4 * i + j]);
-        if (dfdv && damping_ != 0.0) dfdv->add(v[i], v[j], dv_blocks_[16 * k + 4 * i + j]);
+        const int q = 16 * k + 4 * i + j;
+        if (dfdx) scatter_.add(*dfdx, q, v[i], v[j], dx_blocks_[q]);
+        if (dfdv && damping_ != 0.0) scatter_.add(*dfdv, q, v[i], v[j], dv_blocks_[q]);
       }
   }
 }

@@ -6,7 +6,22 @@ namespace loom::cloth {
 
 namespace {
 constexpr int kChunk = 256;  // vertices per partial sum (fixed, so sums do not depend on the thread count)
+
+// y = A x, rows in parallel (each row is summed in a fixed order).
+void multiply(const BlockMatrix& A, const Vec3s& x, Vec3s& y, int threads) {
+  const int n = A.size();
+  y.resize(n);
+  const auto& rs = A.row_start();
+  const auto& cols = A.cols();
+  const auto& b = A.blocks();
+#pragma omp parallel for num_threads(threads) if (threads > 1) schedule(static)
+  for (int i = 0; i < n; ++i) {
+    Vec3 acc = Vec3::Zero();
+    for (int k = rs[i]; k < rs[i + 1]; ++k) acc += b[k] * x[cols[k]];
+    y[i] = acc;
+  }
 }
+}  // namespace
 
 double FilteredPCG::dot(const Vec3s& a, const Vec3s& b, int threads) {
   const int n = static_cast<int>(a.size());
@@ -50,7 +65,7 @@ PcgResult FilteredPCG::solve(const BlockMatrix& A, const Vec3s& b, const std::ve
   const double delta0 = dot(b, s_, threads);
   PcgResult res;
   // r = filter(b - AΔv)
-  A.multiply(dv, q_);
+  multiply(A, dv, q_, threads);
   for (int i = 0; i < n; ++i) r_[i] = fixed[i] ? Vec3::Zero() : Vec3(b[i] - q_[i]);
   for (int i = 0; i < n; ++i) c_[i] = pinv_[i] * r_[i];
   double delta = dot(r_, c_, threads);
@@ -61,7 +76,7 @@ PcgResult FilteredPCG::solve(const BlockMatrix& A, const Vec3s& b, const std::ve
   const double stop = tol * tol * delta0;
   int it = 0;
   while (delta > stop && it < max_iterations) {
-    A.multiply(c_, q_);
+    multiply(A, c_, q_, threads);
     for (int i = 0; i < n; ++i)
       if (fixed[i]) q_[i].setZero();
     const double cq = dot(c_, q_, threads);

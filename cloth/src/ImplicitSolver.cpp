@@ -1,9 +1,15 @@
 #include "loom/cloth/ImplicitSolver.h"
 
 #include <algorithm>
+#include <chrono>
 #include <cmath>
 
 namespace loom::cloth {
+
+namespace {
+using Clock = std::chrono::steady_clock;
+double ms_since(Clock::time_point t0) { return std::chrono::duration<double, std::milli>(Clock::now() - t0).count(); }
+}  // namespace
 
 void ImplicitSolver::prepare(const Cloth& cloth) {
   const int n = cloth.state().size();
@@ -46,6 +52,7 @@ void ImplicitSolver::multiply(const BlockMatrix& m, const Vec3s& x, Vec3s& y, in
 }
 
 void ImplicitSolver::assemble(Cloth& cloth, const Vec3s& x, const Vec3s& v, double t, double gamma, int threads) {
+  const auto t0 = Clock::now();
   K_.set_zero();
   D_.set_zero();
   JacobianOptions o;
@@ -75,6 +82,7 @@ void ImplicitSolver::assemble(Cloth& cloth, const Vec3s& x, const Vec3s& v, doub
         a[transpose_[k]] = avg.transpose();
       }
     }
+  counters_.assembly_ms += ms_since(t0);
 }
 
 double ImplicitSolver::incremental_potential(Cloth& cloth, const Vec3s& v, double t, int threads) {
@@ -138,7 +146,9 @@ bool ImplicitSolver::substep(Cloth& cloth, double t, double h, int threads) {
       rhs_[i] = s.mass[i] * (vb_[i] - s.v[i]) + gamma * (f_[i] + tmp_[i]);
       if (fixed_[i]) dv_[i] = pinned_velocity(i) - s.v[i];
     }
+    const auto t0 = Clock::now();
     const PcgResult r = pcg_.solve(A_, rhs_, fixed_, dv_, p_.cg_tolerance, p_.cg_max_iterations, threads);
+    counters_.cg_ms += ms_since(t0);
     ++counters_.linear_solves;
     counters_.cg_iterations += r.iterations;
     for (int i = 0; i < n; ++i) vplus[i] = s.v[i] + dv_[i];
@@ -173,7 +183,9 @@ bool ImplicitSolver::substep(Cloth& cloth, double t, double h, int threads) {
       rhs_.resize(n);
       for (int i = 0; i < n; ++i) rhs_[i] = -g_[i];
       p_dir_.assign(n, Vec3::Zero());
+      const auto t0 = Clock::now();
       const PcgResult r = pcg_.solve(A_, rhs_, fixed_, p_dir_, p_.cg_tolerance, p_.cg_max_iterations, threads);
+      counters_.cg_ms += ms_since(t0);
       ++counters_.linear_solves;
       counters_.cg_iterations += r.iterations;
       double slope = 0.0, fnc_p = 0.0;

@@ -15,6 +15,7 @@
 #include <memory>
 #include <vector>
 
+#include "loom/cloth/BlockScatter.h"
 #include "loom/cloth/ClothMesh.h"
 #include "loom/cloth/ElementGather.h"
 #include "loom/cloth/Material.h"
@@ -54,6 +55,7 @@ class BaraffWitkinTerm final : public Term {
   ElementGather gather_;
   mutable Vec3s corner_force_;          // scratch: 3 per triangle
   mutable std::vector<Mat3> dx_blocks_, dv_blocks_;  // scratch: 9 per triangle (row m, column n)
+  mutable BlockScatter scatter_;
 };
 
 // The stretch and shear terms of a cloth's mesh and material.

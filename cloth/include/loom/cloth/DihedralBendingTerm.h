@@ -21,6 +21,7 @@
 #include <memory>
 #include <vector>
 
+#include "loom/cloth/BlockScatter.h"
 #include "loom/cloth/ClothMesh.h"
 #include "loom/cloth/ElementGather.h"
 #include "loom/cloth/Material.h"
@@ -56,6 +57,7 @@ class DihedralBendingTerm final : public Term {
   ElementGather gather_;
   mutable Vec3s corner_force_;                       // scratch: 4 per hinge
   mutable std::vector<Mat3> dx_blocks_, dv_blocks_;  // scratch: 16 per hinge
+  mutable BlockScatter scatter_;
 };
 
 std::unique_ptr<Term> make_dihedral_bending_term(const ClothMesh& mesh, const Material& m);

@@ -46,6 +46,8 @@ struct ImplicitCounters {
   long cg_iterations = 0;
   long newton_iterations = 0;
   long line_search_halvings = 0;
+  double assembly_ms = 0.0;  // ms, Jacobian assembly (K, D, A)
+  double cg_ms = 0.0;        // ms, filtered PCG
 };
 
 class ImplicitSolver final : public Solver {
