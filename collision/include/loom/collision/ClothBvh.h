@@ -1,0 +1,85 @@
+#pragma once
+// ClothBvh: the cloth's bounding-volume hierarchy for self- and cloth-cloth collision (issue 5, reference/
+// collision.md Sec. 4 step 4). An AABB tree over the triangles, built in material (rest) space as in PSCC
+// (Tang et al., I3D 2018), so grouping stays patch-coherent under deformation; leaves are swept boxes of
+// x_t and x_t+1 inflated by the thickness; refit every step (leaves in parallel, then parents bottom-up);
+// rebuilt from the current positions when its summed node surface area grows past `rebuild_ratio` times the
+// value after the last (re)build (Lauterbach et al. 2006), or after `rebuild_every` steps.
+#include <cmath>
+#include <memory>
+#include <utility>
+#include <vector>
+
+#include "loom/cloth/ClothMesh.h"
+
+namespace loom::collision {
+
+using loom::cloth::Vec3;
+using loom::cloth::Vec3s;
+
+struct Aabb {
+  Vec3 lo = Vec3::Constant(HUGE_VAL);   // m
+  Vec3 hi = Vec3::Constant(-HUGE_VAL);  // m
+  void grow(const Vec3& p) { lo = lo.cwiseMin(p), hi = hi.cwiseMax(p); }
+  void grow(const Aabb& b) { lo = lo.cwiseMin(b.lo), hi = hi.cwiseMax(b.hi); }
+  bool overlaps(const Aabb& b) const { return (lo.array() <= b.hi.array()).all() && (b.lo.array() <= hi.array()).all(); }
+  double surface_area() const;  // m^2
+};
+
+struct ClothBvhSettings {
+  double rebuild_ratio = 1.5;  // 1; rebuild when summed surface area > ratio x the value after the last build
+  int rebuild_every = 100;     // steps; rebuild at least this often (0: never by count)
+};
+
+using TrianglePair = std::pair<int, int>;  // (i, j), i < j
+
+class ClothBvh {
+ public:
+  // Builds the tree over the mesh's rest positions (material space); boxes are the rest triangles.
+  explicit ClothBvh(std::shared_ptr<const loom::cloth::ClothMesh> mesh, ClothBvhSettings settings = {});
+
+  // Leaf boxes = box(triangle at x0, triangle at x1) inflated by thickness (m); parents refitted.
+  void refit(const Vec3s& x0, const Vec3s& x1, double thickness, int threads = 1);
+  // New topology from the triangle centroids at x1, then refit.
+  void rebuild(const Vec3s& x0, const Vec3s& x1, double thickness, int threads = 1);
+  // One step's update: refit, and rebuild if the quality dropped or rebuild_every steps passed. Returns
+  // whether it rebuilt.
+  bool update(const Vec3s& x0, const Vec3s& x1, double thickness, int threads = 1);
+
+  // Pairs of distinct triangles whose leaf boxes overlap, sorted; with skip_adjacent, pairs that share a
+  // vertex are left out.
+  std::vector<TrianglePair> self_pairs(bool skip_adjacent) const;
+  // Triangles whose leaf box overlaps `box`, sorted.
+  std::vector<int> query(const Aabb& box) const;
+
+  double surface_area_sum() const;  // m^2, over the internal nodes
+  int num_nodes() const { return static_cast<int>(nodes_.size()); }
+  int rebuilds() const { return rebuilds_; }  // rebuilds since construction (the first build not counted)
+
+ private:
+  struct Node {
+    Aabb box;
+    int left = -1, right = -1;  // children (index > this node's), -1 for a leaf
+    int triangle = -1;          // leaf: the triangle
+  };
+  void build(const Vec3s& points);
+  int build_range(std::vector<int>& tris, const std::vector<Vec3>& centroids, int begin, int end);
+  void self_recurse(int n, bool skip_adjacent, std::vector<TrianglePair>& out) const;
+  void cross_recurse(int a, int b, bool skip_adjacent, std::vector<TrianglePair>& out) const;
+  bool adjacent(int i, int j) const;
+
+  std::shared_ptr<const loom::cloth::ClothMesh> mesh_;
+  ClothBvhSettings settings_;
+  std::vector<Node> nodes_;      // root = 0; children after parents (pre-order)
+  std::vector<int> leaf_of_;     // triangle -> leaf node
+  double area_after_build_ = 0;  // m^2; surface_area_sum() right after the last (re)build and refit
+  int steps_since_build_ = 0;
+  int rebuilds_ = 0;
+  bool rebuilt_pending_ = false;  // build() ran; the next refit records area_after_build_
+};
+
+// Brute force over all triangle pairs, with the same leaf boxes: the reference for tests.
+std::vector<TrianglePair> brute_force_pairs(const loom::cloth::ClothMesh& mesh, const Vec3s& x0, const Vec3s& x1,
+                                            double thickness, bool skip_adjacent);
+
+}  // namespace loom::collision
