@@ -1,0 +1,100 @@
+// Exact orient3d / triangle-triangle intersection (ExactPredicates.h) and the intersection census.
+#include <gtest/gtest.h>
+
+#include <cmath>
+#include <random>
+
+#include "loom/collision/ExactPredicates.h"
+#include "loom/collision/IntersectionCensus.h"
+
+namespace lc = loom::collision;
+using loom::cloth::ClothMesh;
+using loom::cloth::GridSpec;
+using lc::Vec3;
+using loom::cloth::Vec3s;
+
+TEST(ExactPredicates, Orient3dDecidesNearCoplanarPointsExactly) {
+  // The plane z = (x + y) / 4 through a, b, c; d is exactly on it, d +- 2^-e z is not.
+  const Vec3 a(0, 0, 0), b(4, 0, 1), c(0, 4, 1);
+  const double x = 1.0 + std::ldexp(1.0, -30), y = 3.0;
+  const Vec3 d(x, y, (x + y) / 4);  // 1 + 2^-32: exact
+  EXPECT_EQ(lc::orient3d(a, b, c, d), 0);
+  for (int e = 20; e <= 52; e += 4) {
+    const Vec3 up(0, 0, std::ldexp(1.0, -e));
+    const int above = lc::orient3d(a, b, c, d + up);
+    EXPECT_NE(above, 0) << e;
+    EXPECT_EQ(above, -lc::orient3d(a, b, c, d - up)) << e;
+    EXPECT_EQ(above, lc::orient3d(a, b, c, Vec3(0, 0, 1)));  // same side as a point far above
+  }
+  EXPECT_EQ(lc::orient2d(Vec3(0, 0, 0), Vec3(4, 0, 1), d, 2), 1);
+  EXPECT_EQ(lc::orient2d(Vec3(0, 0, 0), Vec3(2, 6, 0), Vec3(1, 3, 7), 2), 0);
+}
+
+TEST(ExactPredicates, TriangleTriangleCases) {
+  const Vec3 a0(0, 0, 0), a1(4, 0, 1), a2(0, 4, 1);  // plane z = (x + y) / 4
+  // A vertex exactly on the face (z = 0.5 at (1, 1)), the rest above: touching counts.
+  const Vec3 on(1, 1, 0.5), up1(2, 1, 3), up2(1, 2, 3);
+  EXPECT_TRUE(lc::triangles_intersect(a0, a1, a2, on, up1, up2));
+  const Vec3 lifted(1, 1, std::nextafter(0.5, 1.0));
+  EXPECT_FALSE(lc::triangles_intersect(a0, a1, a2, lifted, up1, up2));
+  EXPECT_TRUE(lc::triangles_intersect(a0, a1, a2, Vec3(1, 1, std::nextafter(0.5, 0.0)), up1, up2));  // pierces
+  // Piercing through the middle.
+  EXPECT_TRUE(lc::triangles_intersect(a0, a1, a2, Vec3(1, 1, -1), Vec3(1.2, 1, 2), Vec3(1, 1.2, 2)));
+  // Coplanar: overlapping, nested, touching at an edge point, disjoint.
+  const Vec3 p0(0, 0, 0), p1(1, 0, 0), p2(0, 1, 0);
+  EXPECT_TRUE(lc::triangles_intersect(p0, p1, p2, Vec3(0.5, 0.5, 0) - Vec3(0.2, 0.2, 0), Vec3(2, 0.3, 0), Vec3(0.3, 2, 0)));
+  EXPECT_TRUE(lc::triangles_intersect(p0, p1, p2, Vec3(0.1, 0.1, 0), Vec3(0.2, 0.1, 0), Vec3(0.1, 0.2, 0)));
+  EXPECT_TRUE(lc::triangles_intersect(p0, p1, p2, Vec3(0.5, 0.5, 0), Vec3(1, 1, 0), Vec3(2, 0.5, 0)));
+  EXPECT_FALSE(lc::triangles_intersect(p0, p1, p2, Vec3(0.6, 0.6, 0), Vec3(1, 1, 0), Vec3(2, 0.5, 0)));
+  // Parallel planes 2^-60 apart.
+  const Vec3 dz(0, 0, std::ldexp(1.0, -60));
+  EXPECT_FALSE(lc::triangles_intersect(p0, p1, p2, Vec3(0.1, 0.1, 0) + dz, Vec3(0.2, 0.1, 0) + dz, Vec3(0.1, 0.2, 0) + dz));
+  // A degenerate (collinear) triangle piercing the face, and one beside it.
+  EXPECT_TRUE(lc::triangles_intersect(p0, p1, p2, Vec3(0.2, 0.2, -1), Vec3(0.2, 0.2, 0), Vec3(0.2, 0.2, 1)));
+  EXPECT_FALSE(lc::triangles_intersect(p0, p1, p2, Vec3(0.8, 0.8, -1), Vec3(0.8, 0.8, 0), Vec3(0.8, 0.8, 1)));
+}
+
+namespace {
+
+std::shared_ptr<const ClothMesh> sheet(int nodes) {
+  GridSpec g;
+  g.nodes_u = g.nodes_v = nodes;
+  g.origin = Vec3(-0.5, 0, -0.5);
+  return ClothMesh::grid(g);
+}
+
+long brute_census(const ClothMesh& mesh, const Vec3s& x) {
+  const auto& t = mesh.triangles();
+  long n = 0;
+  for (size_t i = 0; i < t.size(); ++i)
+    for (size_t j = i + 1; j < t.size(); ++j) {
+      bool shared = false;
+      for (int a = 0; a < 3; ++a)
+        for (int b = 0; b < 3; ++b) shared = shared || t[i][a] == t[j][b];
+      if (!shared) n += lc::triangles_intersect(x[t[i][0]], x[t[i][1]], x[t[i][2]], x[t[j][0]], x[t[j][1]], x[t[j][2]]);
+    }
+  return n;
+}
+
+}  // namespace
+
+TEST(IntersectionCensus, FlatSheetHasNoneAndAFoldThroughItselfHasSome) {
+  const auto mesh = sheet(17);
+  EXPECT_EQ(lc::count_intersecting_pairs(*mesh, mesh->rest_positions()), 0);
+  // Fold the x > 0 half back over the other half, twisted so it passes through it along z = 0.
+  Vec3s x = mesh->rest_positions();
+  for (Vec3& p : x)
+    if (p.x() > 0) p = Vec3(-p.x(), 0.6 * p.x() * p.z(), p.z());
+  const long census = lc::count_intersecting_pairs(*mesh, x);
+  EXPECT_GT(census, 0);
+  EXPECT_EQ(census, brute_census(*mesh, x));
+  EXPECT_EQ(lc::count_intersecting_pairs(*mesh, x, 2), census);
+  // Random crumpling: the census equals brute force over all non-adjacent pairs.
+  std::mt19937_64 rng(4);
+  std::uniform_real_distribution<double> u(-1.0, 1.0);
+  for (int it = 0; it < 3; ++it) {
+    Vec3s y = mesh->rest_positions();
+    for (Vec3& p : y) p = 0.3 * p + 0.03 * Vec3(u(rng), u(rng), u(rng));
+    EXPECT_EQ(lc::count_intersecting_pairs(*mesh, y), brute_census(*mesh, y)) << it;
+  }
+}
