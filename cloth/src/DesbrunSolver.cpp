@@ -7,6 +7,11 @@
 
 namespace loom::cloth {
 
+namespace {
+// Loops shorter than this run on one thread: a parallel region costs more than the work it would split.
+constexpr int kMinParallel = 512;
+}  // namespace
+
 void DesbrunSolver::check(const Cloth& cloth) const { check_spring_terms(cloth, name()); }
 
 void DesbrunSolver::prepare(const Cloth& cloth, double h) {
@@ -18,8 +23,10 @@ void DesbrunSolver::prepare(const Cloth& cloth, double h) {
   h_ = h;
   kinematic_ = std::move(kinematic);
   index_ = free_index(s, &num_free_);
-  // M - h² H with H the zero-rest-length spring matrix, i.e. M + h² L_k.
-  llt_.compute(spring_system_matrix(s, index_, num_free_, collect_springs(cloth), h * h, 0.0));
+  // M - h² H with H the zero-rest-length spring matrix, i.e. M + h² L_k; plus h L_c so that the springs'
+  // damping is filtered too (explicit damping with c h / m > 2 would blow up at frame-size steps).
+  springs_ = collect_springs(cloth);
+  llt_.compute(spring_system_matrix(s, index_, num_free_, springs_, h * h, h));
   if (llt_.info() != Eigen::Success) throw Error("", "solver", "desbrun: factorisation of M + h² L failed");
   ++factorizations_;
 }
@@ -35,7 +42,7 @@ void DesbrunSolver::step(Cloth& cloth, double t, double h, int threads) {
   dv_ = llt_.solve(rhs_);
   if (angular_correction_) correct_angular_momentum(s, h);
   s.x_prev = s.x;
-#pragma omp parallel for num_threads(threads) if (threads > 1) schedule(static)
+#pragma omp parallel for num_threads(threads) if (threads > 1 && n >= kMinParallel) schedule(static)
   for (int i = 0; i < n; ++i) {
     if (index_[i] >= 0) s.v[i] += dv_.row(index_[i]).transpose();
     s.x[i] += h * s.v[i];
@@ -44,6 +51,10 @@ void DesbrunSolver::step(Cloth& cloth, double t, double h, int threads) {
 
 void DesbrunSolver::correct_angular_momentum(const ClothState& s, double h) {
   if (num_free_ < 3) return;
+  // The internal forces (springs between free vertices) are central: zero net torque. Their filtered
+  // response W h f_int carries a spurious angular momentum; remove it with a rigid rotation about the free
+  // vertices' centre of mass (keeps linear momentum). Forces from kinematic vertices, gravity and drag have
+  // genuine torques and are left alone.
   double m = 0.0;
   Vec3 c = Vec3::Zero();
   for (int i = 0; i < s.size(); ++i)
@@ -52,21 +63,33 @@ void DesbrunSolver::correct_angular_momentum(const ClothState& s, double h) {
       c += s.mass[i] * s.x[i];
     }
   c /= m;
-  Vec3 wanted = Vec3::Zero(), got = Vec3::Zero();
+  rhs_.setZero();
+  for (const Spring& sp : springs_) {
+    const int fi = index_[sp.i], fj = index_[sp.j];
+    if (fi < 0 || fj < 0) continue;
+    const Vec3 d = s.x[sp.j] - s.x[sp.i];
+    const double l = d.norm();
+    if (l < 1e-12) continue;
+    const Vec3 n = d / l;
+    const Vec3 f = h * (sp.k * (l - sp.rest_length) + sp.c * n.dot(s.v[sp.j] - s.v[sp.i])) * n;
+    rhs_.row(fi) += f.transpose();
+    rhs_.row(fj) -= f.transpose();
+  }
+  const Eigen::MatrixX3d dv_int = llt_.solve(rhs_);
+  Vec3 spurious = Vec3::Zero();
   Mat3 inertia = Mat3::Zero();
   for (int i = 0; i < s.size(); ++i) {
     if (index_[i] < 0) continue;
     const Vec3 r = s.x[i] - c;
-    wanted += h * r.cross(f_[i]);
-    got += s.mass[i] * r.cross(dv_.row(index_[i]).transpose());
+    spurious += s.mass[i] * r.cross(dv_int.row(index_[i]).transpose());
     inertia += s.mass[i] * (r.squaredNorm() * Mat3::Identity() - r * r.transpose());
   }
   // A degenerate (collinear) vertex set has a singular inertia tensor: leave the step uncorrected.
   Eigen::SelfAdjointEigenSolver<Mat3> eig(inertia);
   if (!(eig.eigenvalues()(0) > 1e-12 * eig.eigenvalues()(2))) return;
-  const Vec3 omega = inertia.ldlt().solve(wanted - got);
+  const Vec3 omega = inertia.ldlt().solve(spurious);
   for (int i = 0; i < s.size(); ++i)
-    if (index_[i] >= 0) dv_.row(index_[i]) += omega.cross(s.x[i] - c).transpose();
+    if (index_[i] >= 0) dv_.row(index_[i]) -= omega.cross(s.x[i] - c).transpose();
 }
 
 }  // namespace loom::cloth

@@ -6,6 +6,12 @@
 
 namespace loom::cloth {
 
+namespace {
+// Loops shorter than this run on one thread: a parallel region costs more than the work it would split.
+// Results do not depend on it (colours share no vertex; per-vertex loops are independent).
+constexpr int kMinParallel = 512;
+}  // namespace
+
 void PositionBasedSolver::check(const Cloth& cloth) const { check_spring_terms(cloth, name()); }
 
 void PositionBasedSolver::prepare(const Cloth& cloth) {
@@ -21,13 +27,13 @@ void PositionBasedSolver::step(Cloth& cloth, double t, double h, int threads) {
   external_forces(cloth, s.x, s.v, t, threads, f_);
   p_.resize(n);
   // Prediction (Müller 2007, Alg. 1 lines 5-7): kinematic vertices have inv_mass 0, so p = x + h v exactly.
-#pragma omp parallel for num_threads(threads) if (threads > 1) schedule(static)
+#pragma omp parallel for num_threads(threads) if (threads > 1 && n >= kMinParallel) schedule(static)
   for (int i = 0; i < n; ++i) p_[i] = s.x[i] + h * (s.v[i] + h * s.inv_mass[i] * f_[i]);
   begin_step();
   for (int it = 0; it < iterations_; ++it)
     for (const auto& color : colors_) project(color, s, h, threads);
   s.x_prev = s.x;
-#pragma omp parallel for num_threads(threads) if (threads > 1) schedule(static)
+#pragma omp parallel for num_threads(threads) if (threads > 1 && n >= kMinParallel) schedule(static)
   for (int i = 0; i < n; ++i) {
     if (s.inv_mass[i] > 0.0) s.v[i] = (p_[i] - s.x[i]) / h;
     s.x[i] = p_[i];
@@ -39,7 +45,7 @@ PbdSolver::PbdSolver(int iterations, double stiffness)
 
 void PbdSolver::project(const std::vector<int>& color, const ClothState& s, double, int threads) {
   const int nc = static_cast<int>(color.size());
-#pragma omp parallel for num_threads(threads) if (threads > 1) schedule(static)
+#pragma omp parallel for num_threads(threads) if (threads > 1 && nc >= kMinParallel) schedule(static)
   for (int q = 0; q < nc; ++q) {
     const Spring& sp = springs_[color[q]];
     const double wi = s.inv_mass[sp.i], wj = s.inv_mass[sp.j];
@@ -60,7 +66,7 @@ XpbdSolver::XpbdSolver(int iterations, double compliance_scale)
 void XpbdSolver::project(const std::vector<int>& color, const ClothState& s, double h, int threads) {
   const int nc = static_cast<int>(color.size());
   const double inv_h2 = 1.0 / (h * h);
-#pragma omp parallel for num_threads(threads) if (threads > 1) schedule(static)
+#pragma omp parallel for num_threads(threads) if (threads > 1 && nc >= kMinParallel) schedule(static)
   for (int q = 0; q < nc; ++q) {
     const int k = color[q];
     const Spring& sp = springs_[k];

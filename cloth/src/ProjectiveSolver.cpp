@@ -7,6 +7,11 @@
 
 namespace loom::cloth {
 
+namespace {
+// Loops shorter than this run on one thread: a parallel region costs more than the work it would split.
+constexpr int kMinParallel = 512;
+}  // namespace
+
 void ProjectiveSolver::check(const Cloth& cloth) const { check_spring_terms(cloth, name()); }
 
 void ProjectiveSolver::prepare(const Cloth& cloth, double h) {
@@ -68,7 +73,7 @@ void ProjectiveSolver::step(Cloth& cloth, double t, double h, int threads) {
   for (int it = 0; it < settings_.iterations; ++it) {
     // Local step (Liu 2013, local step): the closest point of each spring's constraint set, as the force term
     // h² J d (on end i: -h² k d, on end j: +h² k d).
-#pragma omp parallel num_threads(threads) if (threads > 1)
+#pragma omp parallel num_threads(threads) if (threads > 1 && n >= kMinParallel)
     {
 #pragma omp for schedule(static)
       for (int k = 0; k < ns; ++k) {
@@ -91,13 +96,13 @@ void ProjectiveSolver::step(Cloth& cloth, double t, double h, int threads) {
     }
     q_prev_.swap(q_);
     q_.swap(q_hat_);
-#pragma omp parallel for num_threads(threads) if (threads > 1) schedule(static)
+#pragma omp parallel for num_threads(threads) if (threads > 1 && n >= kMinParallel) schedule(static)
     for (int i = 0; i < n; ++i)
       if (index_[i] >= 0) s.x[i] = q_.row(index_[i]).transpose();
     if (record_) trace_.push_back(measure(s, h, threads));
   }
   s.x_prev = x_n_;
-#pragma omp parallel for num_threads(threads) if (threads > 1) schedule(static)
+#pragma omp parallel for num_threads(threads) if (threads > 1 && n >= kMinParallel) schedule(static)
   for (int i = 0; i < n; ++i)
     if (index_[i] >= 0) s.v[i] = (s.x[i] - x_n_[i]) / h;
 }

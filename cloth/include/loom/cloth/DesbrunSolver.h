@@ -2,12 +2,16 @@
 // Desbrun, Schröder & Barr 1999, "Interactive animation of structured deformable objects" (reference/
 // methods.md §1.5): an approximate implicit step with a constant filter.
 //   H = the springs' linear part (zero rest length): H_ij = k_ij I, H_ii = -Σ_j k_ij I, so M - h² H = M + h² L.
-//   Predictor:  (M + h² L) Δv = h f(x_n, v_n)   (all forces, nonlinear), v+ = v + Δv, x+ = x + h v+.
+//   Predictor:  (M + h² L + h L_c) Δv = h f(x_n, v_n)   (all forces, nonlinear), v+ = v + Δv, x+ = x + h v+,
+//   where L_c = Σ c A Aᵀ filters the springs' damping the same way (our addition: the damping force is
+//   explicit in f, and unfiltered it limits h to about 2 m / Σc).
 // Instead of the paper's dense inverse W = (M - h² H)⁻¹ the matrix is factorised once (sparse Cholesky,
 // kinematic vertices eliminated) and refactorised only when h or the kinematic set changes.
-// Corrector: the filter keeps linear momentum (the columns of L sum to zero) but not angular
-// momentum; a rigid rotation Δv_i += ω × (x_i - x_c) of the free vertices restores the angular impulse of
-// the unfiltered forces, h Σ (x_i - x_c) × f_i, with I ω = that impulse - Σ m_i (x_i - x_c) × Δv_i.
+// Corrector: the filter keeps linear momentum (the columns of L sum to zero) but not angular momentum.
+// The internal spring forces (both ends free) are central and carry no torque, but their filtered response
+// W h f_int does; a rigid rotation Δv_i -= ω × (x_i - x_c) of the free vertices, I ω = Σ m_i (x_i - x_c) ×
+// (W h f_int)_i, removes it (one extra solve). Torques of gravity, drag and springs to kinematic vertices
+// are genuine and kept.
 // Heavily damped by design (methods.md §2.3).
 #include <Eigen/SparseCholesky>
 #include <vector>
@@ -34,6 +38,7 @@ class DesbrunSolver final : public Solver {
   const Cloth* cloth_ = nullptr;
   double h_ = 0.0;               // s
   std::vector<char> kinematic_;  // 1 for inverse mass 0
+  std::vector<Spring> springs_;
   std::vector<int> index_;       // free index per vertex, -1 for kinematic
   int num_free_ = 0;
   long factorizations_ = 0;
