@@ -109,76 +109,87 @@ void BaraffWitkinTerm::add_pattern(std::vector<std::pair<int, int>>& pairs) cons
   }
 }
 
+void BaraffWitkinTerm::triangle_blocks(int k, const EvalContext& c, const JacobianOptions& o, Mat3* kx,
+                                       Mat3* kv) const {
+  const Mat3 I = Mat3::Identity();
+  const BwTriangle& t = tris_[k];
+  const Deformation d = deformation(t, c.x, c.v);
+  for (int q = 0; q < 9; ++q) {
+    kx[q].setZero();
+    kv[q].setZero();
+  }
+  const double a2 = t.alpha * t.alpha;
+  if (kind_ == Kind::kStretch) {
+    auto stretch = [&](const Vec3& w, const Vec3& w_dot, const std::array<double, 3>& coef, double k) {
+      const double l = w.norm();
+      if (!(l > 0.0)) return;
+      const Vec3 n = w / l;
+      const Mat3 nn = n * n.transpose(), P = I - nn;
+      // K_mn = -k α² c_m c_n [n̂n̂ᵀ + (1 - 1/|w|)(I - n̂n̂ᵀ)]  (∂²C_u/∂x_m∂x_n = α a_m a_n P / |w|)
+      double ratio = 1.0 - 1.0 / l;
+      if (o.clamp_compression) ratio = std::max(ratio, 0.0);
+      Mat3 Ke = k * (nn + ratio * P);
+      const double kd = damping_ * k;
+      if (o.damping_position_terms && kd != 0.0)  // d/dx of -k_d α² a_m (n̂·ẇ) n̂
+        Ke += kd * (n.dot(w_dot) * P + n * w_dot.transpose() * P) / l;
+      const Mat3 De = kd * nn;
+      for (int m = 0; m < 3; ++m)
+        for (int nn_ = 0; nn_ < 3; ++nn_) {
+          const double s = -a2 * coef[m] * coef[nn_];
+          kx[3 * m + nn_] += s * Ke;
+          kv[3 * m + nn_] += s * De;
+        }
+    };
+    stretch(d.wu, d.wu_dot, t.a, k_u_);
+    stretch(d.wv, d.wv_dot, t.b, k_v_);
+  } else {
+    const double C = t.alpha * d.wu.dot(d.wv);
+    const double C_dot = t.alpha * (d.wu_dot.dot(d.wv) + d.wu.dot(d.wv_dot));
+    const double kd = damping_ * k_s_;
+    std::array<Vec3, 3> g;
+    for (int m = 0; m < 3; ++m) g[m] = t.alpha * (t.a[m] * d.wv + t.b[m] * d.wu);
+    for (int m = 0; m < 3; ++m)
+      for (int n = 0; n < 3; ++n) {
+        const double hess = t.alpha * (t.a[m] * t.b[n] + t.a[n] * t.b[m]);  // ∂²C/∂x_m∂x_n = hess I
+        // K_mn = -k (g_m g_nᵀ + C ∂²C)
+        Mat3 Ke = k_s_ * g[m] * g[n].transpose();
+        if (!o.clamp_compression) Ke += (k_s_ * C * hess) * I;
+        if (o.damping_position_terms && kd != 0.0)
+          Ke += kd * (hess * C_dot * I + t.alpha * g[m] * (t.a[n] * d.wv_dot + t.b[n] * d.wu_dot).transpose());
+        kx[3 * m + n] = -Ke;
+        kv[3 * m + n] = -kd * g[m] * g[n].transpose();
+      }
+  }
+}
+
 void BaraffWitkinTerm::add_jacobians(const EvalContext& c, const JacobianOptions& o, BlockMatrix* dfdx,
                                      BlockMatrix* dfdv) const {
   if (!dfdx && !dfdv) return;
   const int nt = static_cast<int>(tris_.size());
-  dx_blocks_.resize(9 * tris_.size());
-  dv_blocks_.resize(9 * tris_.size());
-  const Mat3 I = Mat3::Identity();
-#pragma omp parallel for num_threads(c.threads) if (c.threads > 1) schedule(static)
-  for (int k = 0; k < nt; ++k) {
-    const BwTriangle& t = tris_[k];
-    const Deformation d = deformation(t, c.x, c.v);
-    Mat3* kx = &dx_blocks_[9 * k];
-    Mat3* kv = &dv_blocks_[9 * k];
-    for (int q = 0; q < 9; ++q) {
-      kx[q].setZero();
-      kv[q].setZero();
-    }
-    const double a2 = t.alpha * t.alpha;
-    if (kind_ == Kind::kStretch) {
-      auto stretch = [&](const Vec3& w, const Vec3& w_dot, const std::array<double, 3>& coef, double k) {
-        const double l = w.norm();
-        if (!(l > 0.0)) return;
-        const Vec3 n = w / l;
-        const Mat3 nn = n * n.transpose(), P = I - nn;
-        // K_mn = -k α² c_m c_n [n̂n̂ᵀ + (1 - 1/|w|)(I - n̂n̂ᵀ)]  (∂²C_u/∂x_m∂x_n = α a_m a_n P / |w|)
-        double ratio = 1.0 - 1.0 / l;
-        if (o.clamp_compression) ratio = std::max(ratio, 0.0);
-        Mat3 Ke = k * (nn + ratio * P);
-        const double kd = damping_ * k;
-        if (o.damping_position_terms && kd != 0.0)  // d/dx of -k_d α² a_m (n̂·ẇ) n̂
-          Ke += kd * (n.dot(w_dot) * P + n * w_dot.transpose() * P) / l;
-        const Mat3 De = kd * nn;
-        for (int m = 0; m < 3; ++m)
-          for (int nn_ = 0; nn_ < 3; ++nn_) {
-            const double s = -a2 * coef[m] * coef[nn_];
-            kx[3 * m + nn_] += s * Ke;
-            kv[3 * m + nn_] += s * De;
-          }
-      };
-      stretch(d.wu, d.wu_dot, t.a, k_u_);
-      stretch(d.wv, d.wv_dot, t.b, k_v_);
-    } else {
-      const double C = t.alpha * d.wu.dot(d.wv);
-      const double C_dot = t.alpha * (d.wu_dot.dot(d.wv) + d.wu.dot(d.wv_dot));
-      const double kd = damping_ * k_s_;
-      std::array<Vec3, 3> g;
-      for (int m = 0; m < 3; ++m) g[m] = t.alpha * (t.a[m] * d.wv + t.b[m] * d.wu);
-      for (int m = 0; m < 3; ++m)
-        for (int n = 0; n < 3; ++n) {
-          const double hess = t.alpha * (t.a[m] * t.b[n] + t.a[n] * t.b[m]);  // ∂²C/∂x_m∂x_n = hess I
-          // K_mn = -k (g_m g_nᵀ + C ∂²C)
-          Mat3 Ke = k_s_ * g[m] * g[n].transpose();
-          if (!o.clamp_compression) Ke += (k_s_ * C * hess) * I;
-          if (o.damping_position_terms && kd != 0.0)
-            Ke += kd * (hess * C_dot * I + t.alpha * g[m] * (t.a[n] * d.wv_dot + t.b[n] * d.wu_dot).transpose());
-          kx[3 * m + n] = -Ke;
-          kv[3 * m + n] = -kd * g[m] * g[n].transpose();
-        }
-    }
-  }
-  // Scatter in a fixed order.
-  for (int k = 0; k < nt; ++k) {
+  const bool want_v = dfdv && damping_ != 0.0;
+  auto scatter = [&](int k, const Mat3* kx, const Mat3* kv) {
     const Tri& v = tris_[k].v;
     for (int m = 0; m < 3; ++m)
       for (int n = 0; n < 3; ++n) {
         const int q = 9 * k + 3 * m + n;
-        if (dfdx) scatter_.add(*dfdx, q, v[m], v[n], dx_blocks_[q]);
-        if (dfdv && damping_ != 0.0) scatter_.add(*dfdv, q, v[m], v[n], dv_blocks_[q]);
+        if (dfdx) scatter_.add(*dfdx, q, v[m], v[n], kx[3 * m + n]);
+        if (want_v) scatter_.add(*dfdv, q, v[m], v[n], kv[3 * m + n]);
       }
+  };
+  if (c.threads <= 1) {
+    // One pass, no scratch; the same blocks in the same order as the parallel path (bit-identical).
+    Mat3 kx[9], kv[9];
+    for (int k = 0; k < nt; ++k) {
+      triangle_blocks(k, c, o, kx, kv);
+      scatter(k, kx, kv);
+    }
+    return;
   }
+  dx_blocks_.resize(9 * tris_.size());
+  dv_blocks_.resize(9 * tris_.size());
+#pragma omp parallel for num_threads(c.threads) schedule(static)
+  for (int k = 0; k < nt; ++k) triangle_blocks(k, c, o, &dx_blocks_[9 * k], &dv_blocks_[9 * k]);
+  for (int k = 0; k < nt; ++k) scatter(k, &dx_blocks_[9 * k], &dv_blocks_[9 * k]);
 }
 
 std::unique_ptr<Term> make_bw_stretch_term(const ClothMesh& mesh, const Material& m) {

@@ -112,59 +112,70 @@ void DihedralBendingTerm::add_pattern(std::vector<std::pair<int, int>>& pairs) c
       for (int j = i + 1; j < 4; ++j) pairs.emplace_back(h.v[i], h.v[j]);
 }
 
+void DihedralBendingTerm::hinge_blocks(int k, const EvalContext& c, const JacobianOptions& o, Mat3* kx,
+                                       Mat3* kv) const {
+  const BendHinge& h = hinges_[k];
+  for (int q = 0; q < 16; ++q) kx[q].setZero();
+  if (kv)
+    for (int q = 0; q < 16; ++q) kv[q].setZero();
+  const Vec3 x[4] = {c.x[h.v[0]], c.x[h.v[1]], c.x[h.v[2]], c.x[h.v[3]]};
+  Vec3 g[4];
+  if (!theta_gradient<double>(x[0], x[1], x[2], x[3], g)) return;
+  const double kd = damping_ * 2.0 * h.k;
+  // Gauss-Newton part: K = -2 k_b ∇θ∇θᵀ, D = -k_d ∇θ∇θᵀ.
+  for (int i = 0; i < 4; ++i)
+    for (int j = 0; j < 4; ++j) {
+      const Mat3 gg = g[i] * g[j].transpose();
+      kx[4 * i + j] = -2.0 * h.k * gg;
+      if (kv) kv[4 * i + j] = -kd * gg;
+    }
+  if (o.clamp_compression) return;
+  // Exact: K -= 2 k_b (θ - θ̄) H, and with damping position terms -k_d (H θ̇ + ∇θ (H v)ᵀ).
+  Eigen::Matrix<double, 12, 12> H;
+  if (!theta_hessian(x, H)) return;
+  const double d = wrap(dihedral_angle(x[0], x[1], x[2], x[3]) - h.rest_angle);
+  Eigen::Matrix<double, 12, 1> v12, g12;
+  for (int i = 0; i < 4; ++i) {
+    v12.segment<3>(3 * i) = c.v[h.v[i]];
+    g12.segment<3>(3 * i) = g[i];
+  }
+  Eigen::Matrix<double, 12, 12> extra = -2.0 * h.k * d * H;
+  if (o.damping_position_terms && kd != 0.0) {
+    const double theta_dot = g12.dot(v12);
+    extra -= kd * (theta_dot * H + g12 * (H * v12).transpose());
+  }
+  for (int i = 0; i < 4; ++i)
+    for (int j = 0; j < 4; ++j) kx[4 * i + j] += extra.block<3, 3>(3 * i, 3 * j);
+}
+
 void DihedralBendingTerm::add_jacobians(const EvalContext& c, const JacobianOptions& o, BlockMatrix* dfdx,
                                         BlockMatrix* dfdv) const {
   if (!dfdx && !dfdv) return;
   const int nh = static_cast<int>(hinges_.size());
-  dx_blocks_.resize(16 * hinges_.size());
-  dv_blocks_.resize(16 * hinges_.size());
-#pragma omp parallel for num_threads(c.threads) if (c.threads > 1) schedule(static)
-  for (int k = 0; k < nh; ++k) {
-    const BendHinge& h = hinges_[k];
-    Mat3* kx = &dx_blocks_[16 * k];
-    Mat3* kv = &dv_blocks_[16 * k];
-    for (int q = 0; q < 16; ++q) {
-      kx[q].setZero();
-      kv[q].setZero();
-    }
-    const Vec3 x[4] = {c.x[h.v[0]], c.x[h.v[1]], c.x[h.v[2]], c.x[h.v[3]]};
-    Vec3 g[4];
-    if (!theta_gradient<double>(x[0], x[1], x[2], x[3], g)) continue;
-    const double kd = damping_ * 2.0 * h.k;
-    // Gauss-Newton part: K = -2 k_b ∇θ∇θᵀ, D = -k_d ∇θ∇θᵀ.
-    for (int i = 0; i < 4; ++i)
-      for (int j = 0; j < 4; ++j) {
-        const Mat3 gg = g[i] * g[j].transpose();
-        kx[4 * i + j] = -2.0 * h.k * gg;
-        kv[4 * i + j] = -kd * gg;
-      }
-    if (o.clamp_compression) continue;
-    // Exact: K -= 2 k_b (θ - θ̄) H, and with damping position terms -k_d (H θ̇ + ∇θ (H v)ᵀ).
-    Eigen::Matrix<double, 12, 12> H;
-    if (!theta_hessian(x, H)) continue;
-    const double d = wrap(dihedral_angle(x[0], x[1], x[2], x[3]) - h.rest_angle);
-    Eigen::Matrix<double, 12, 1> v12, g12;
-    for (int i = 0; i < 4; ++i) {
-      v12.segment<3>(3 * i) = c.v[h.v[i]];
-      g12.segment<3>(3 * i) = g[i];
-    }
-    Eigen::Matrix<double, 12, 12> extra = -2.0 * h.k * d * H;
-    if (o.damping_position_terms && kd != 0.0) {
-      const double theta_dot = g12.dot(v12);
-      extra -= kd * (theta_dot * H + g12 * (H * v12).transpose());
-    }
-    for (int i = 0; i < 4; ++i)
-      for (int j = 0; j < 4; ++j) kx[4 * i + j] += extra.block<3, 3>(3 * i, 3 * j);
-  }
-  for (int k = 0; k < nh; ++k) {
+  const bool want_v = dfdv && damping_ != 0.0;
+  auto scatter = [&](int k, const Mat3* kx, const Mat3* kv) {
     const auto& v = hinges_[k].v;
     for (int i = 0; i < 4; ++i)
       for (int j = 0; j < 4; ++j) {
         const int q = 16 * k + 4 * i + j;
-        if (dfdx) scatter_.add(*dfdx, q, v[i], v[j], dx_blocks_[q]);
-        if (dfdv && damping_ != 0.0) scatter_.add(*dfdv, q, v[i], v[j], dv_blocks_[q]);
+        if (dfdx) scatter_.add(*dfdx, q, v[i], v[j], kx[4 * i + j]);
+        if (want_v) scatter_.add(*dfdv, q, v[i], v[j], kv[4 * i + j]);
       }
+  };
+  if (c.threads <= 1) {
+    // One pass, no scratch; the same blocks in the same order as the parallel path (bit-identical).
+    Mat3 kx[16], kv[16];
+    for (int k = 0; k < nh; ++k) {
+      hinge_blocks(k, c, o, kx, want_v ? kv : nullptr);
+      scatter(k, kx, kv);
+    }
+    return;
   }
+  dx_blocks_.resize(16 * hinges_.size());
+  if (want_v) dv_blocks_.resize(16 * hinges_.size());
+#pragma omp parallel for num_threads(c.threads) schedule(static)
+  for (int k = 0; k < nh; ++k) hinge_blocks(k, c, o, &dx_blocks_[16 * k], want_v ? &dv_blocks_[16 * k] : nullptr);
+  for (int k = 0; k < nh; ++k) scatter(k, &dx_blocks_[16 * k], want_v ? &dv_blocks_[16 * k] : nullptr);
 }
 
 std::unique_ptr<Term> make_dihedral_bending_term(const ClothMesh& mesh, const Material& m) {

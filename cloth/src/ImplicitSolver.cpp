@@ -11,6 +11,18 @@ using Clock = std::chrono::steady_clock;
 double ms_since(Clock::time_point t0) { return std::chrono::duration<double, std::milli>(Clock::now() - t0).count(); }
 }  // namespace
 
+std::vector<std::pair<std::string, double>> ImplicitSolver::counters() const {
+  const ImplicitCounters& c = counters_;
+  return {{"substeps", double(c.substeps)},
+          {"rejected_substeps", double(c.rejected)},
+          {"linear_solves", double(c.linear_solves)},
+          {"cg_iterations", double(c.cg_iterations)},
+          {"newton_iterations", double(c.newton_iterations)},
+          {"line_search_halvings", double(c.line_search_halvings)},
+          {"assembly_ms", c.assembly_ms},
+          {"cg_ms", c.cg_ms}};
+}
+
 void ImplicitSolver::prepare(const Cloth& cloth) {
   const int n = cloth.state().size();
   if (&cloth == cloth_ && n == n_) return;

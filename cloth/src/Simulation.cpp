@@ -50,7 +50,17 @@ class SolveStage final : public Stage {
     ++steps_;
   }
   std::vector<std::pair<std::string, double>> counters() const override {
-    return {{"steps", static_cast<double>(steps_)}};
+    std::vector<std::pair<std::string, double>> out = {{"steps", static_cast<double>(steps_)}};
+    // The solvers' own counters (CG iterations, ...), summed over cloths by name.
+    for (const auto& s : solvers_)
+      for (const auto& [name, value] : s->counters()) {
+        auto it = std::find_if(out.begin(), out.end(), [&](const auto& kv) { return kv.first == name; });
+        if (it == out.end())
+          out.emplace_back(name, value);
+        else
+          it->second += value;
+      }
+    return out;
   }
 
  private:

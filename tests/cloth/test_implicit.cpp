@@ -190,13 +190,13 @@ TEST(ImplicitSolvers, AdaptiveStepRejectsAndGrowsBack) {
     s.step(*cloth, k / 60.0, 1.0 / 60.0, 1);
     sizes.push_back(s.substep_size());
   }
-  EXPECT_GT(s.counters().rejected, 0);
-  EXPECT_GT(s.counters().substeps, 60);
+  EXPECT_GT(s.stats().rejected, 0);
+  EXPECT_GT(s.stats().substeps, 60);
   bool grew = false;
   for (size_t k = 1; k < sizes.size(); ++k) grew = grew || sizes[k] > sizes[k - 1];
   EXPECT_TRUE(grew);
   EXPECT_TRUE(cloth->state().is_finite());
-  EXPECT_GT(s.counters().cg_iterations, 0);
+  EXPECT_GT(s.stats().cg_iterations, 0);
 }
 
 double total_energy(const FrameStats& f) { return f.kinetic + f.potential + f.elastic; }

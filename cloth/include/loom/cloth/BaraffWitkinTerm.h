@@ -47,6 +47,9 @@ class BaraffWitkinTerm final : public Term {
   long work_items() const override { return static_cast<long>(tris_.size()); }
 
  private:
+  // The 3x3 df/dx and df/dv blocks of triangle k (row m, column n at 3 m + n).
+  void triangle_blocks(int k, const EvalContext& c, const JacobianOptions& o, Mat3* kx, Mat3* kv) const;
+
   Kind kind_;
   int n_;
   std::vector<BwTriangle> tris_;

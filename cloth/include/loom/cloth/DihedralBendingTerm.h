@@ -51,6 +51,9 @@ class DihedralBendingTerm final : public Term {
   const std::vector<BendHinge>& hinges() const { return hinges_; }
 
  private:
+  // The 4x4 df/dx blocks of hinge k (row i, column j at 4 i + j) and, if kv, its df/dv blocks.
+  void hinge_blocks(int k, const EvalContext& c, const JacobianOptions& o, Mat3* kx, Mat3* kv) const;
+
   int n_;
   std::vector<BendHinge> hinges_;
   double damping_;  // s

@@ -57,7 +57,8 @@ class ImplicitSolver final : public Solver {
   const char* name() const override { return scheme_ == Scheme::kBdf2 ? "bdf2" : "implicit_euler"; }
   void step(Cloth& cloth, double t, double h, int threads) override;
   void reset() override { has_history_ = false; }
-  const ImplicitCounters& counters() const { return counters_; }
+  const ImplicitCounters& stats() const { return counters_; }
+  std::vector<std::pair<std::string, double>> counters() const override;
   const ImplicitParams& params() const { return p_; }
   double substep_size() const { return h_sub_; }  // s, the adaptive substep of the last call
 

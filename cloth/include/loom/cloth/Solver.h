@@ -47,6 +47,8 @@ class Solver {
   virtual void step(Cloth& cloth, double t, double h, int threads) = 0;
   // Forget any history (multistep state); called when the step size or the state changes from outside.
   virtual void reset() {}
+  // Work counters since construction (name, value), e.g. ("cg_iterations", 1234); shown in the profile.
+  virtual std::vector<std::pair<std::string, double>> counters() const { return {}; }
 };
 
 // Throws loom::Error(file, "solver.method", ...) for an unknown method and (file, "solver.<key>", ...) for
