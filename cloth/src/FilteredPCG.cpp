@@ -40,7 +40,7 @@ double FilteredPCG::dot(const Vec3s& a, const Vec3s& b, int threads) {
 }
 
 PcgResult FilteredPCG::solve(const BlockMatrix& A, const Vec3s& b, const std::vector<char>& fixed, Vec3s& dv,
-                             double tol, int max_iterations, int threads) {
+                             double tol, int max_iterations, int threads, bool warm_start) {
   const int n = A.size();
   dv.resize(n);
   pinv_.resize(n);
@@ -52,7 +52,7 @@ PcgResult FilteredPCG::solve(const BlockMatrix& A, const Vec3s& b, const std::ve
     if (fixed[i]) {
       pinv_[i].setZero();
     } else {
-      dv[i].setZero();
+      if (!warm_start || !dv[i].allFinite()) dv[i].setZero();
       const Mat3* d = A.find(i, i);
       Mat3 inv;
       bool ok = false;

@@ -46,6 +46,8 @@ void ImplicitSolver::prepare(const Cloth& cloth) {
   edge_rest_.clear();
   for (const Edge& e : cloth.mesh().edges()) edge_rest_.push_back((X[e.j] - X[e.i]).norm());
   fixed_.assign(n, 0);
+  dv_.assign(n, Vec3::Zero());
+  h_dv_ = 0.0;
   has_history_ = false;
 }
 
@@ -153,13 +155,17 @@ bool ImplicitSolver::substep(Cloth& cloth, double t, double h, int threads) {
     for (int i = 0; i < n; ++i) y_[i] = xb_[i] - s.x[i] + gamma * s.v[i];
     multiply(K_, y_, tmp_, threads);
     rhs_.resize(n);
-    dv_.resize(n);
+    // Warm start: the previous step's Δv (≈ h a), scaled to this step.
+    dv_.resize(n, Vec3::Zero());
+    const double scale = h_dv_ > 0.0 ? h / h_dv_ : 0.0;
+    for (int i = 0; i < n; ++i) dv_[i] *= scale;
     for (int i = 0; i < n; ++i) {
       rhs_[i] = s.mass[i] * (vb_[i] - s.v[i]) + gamma * (f_[i] + tmp_[i]);
       if (fixed_[i]) dv_[i] = pinned_velocity(i) - s.v[i];
     }
     const auto t0 = Clock::now();
-    const PcgResult r = pcg_.solve(A_, rhs_, fixed_, dv_, p_.cg_tolerance, p_.cg_max_iterations, threads);
+    const PcgResult r = pcg_.solve(A_, rhs_, fixed_, dv_, p_.cg_tolerance, p_.cg_max_iterations, threads, true);
+    h_dv_ = h;
     counters_.cg_ms += ms_since(t0);
     ++counters_.linear_solves;
     counters_.cg_iterations += r.iterations;

@@ -23,10 +23,10 @@ struct PcgResult {
 class FilteredPCG {
  public:
   // fixed[i] != 0: vertex i is constrained (S_i = 0). `dv` holds z (prescribed values) on entry for fixed
-  // vertices (free entries are ignored: the iteration starts from Δv = z on fixed, 0 on free) and the
+  // vertices and, with warm_start, the initial guess on free ones (otherwise they start at 0); the
   // solution on exit. Stops when rᵀP⁻¹r <= tol² bᵀP⁻¹b (filtered b) or after max_iterations.
   PcgResult solve(const BlockMatrix& A, const Vec3s& b, const std::vector<char>& fixed, Vec3s& dv, double tol,
-                  int max_iterations, int threads);
+                  int max_iterations, int threads, bool warm_start = false);
 
  private:
   double dot(const Vec3s& a, const Vec3s& b, int threads);

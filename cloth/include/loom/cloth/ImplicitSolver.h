@@ -91,6 +91,7 @@ class ImplicitSolver final : public Solver {
   // Scratch.
   Vec3s f_, fc_, xb_, vb_, rhs_, dv_, y_, tmp_, vk_, xk_, g_, p_dir_, vtry_;
   double gamma_ = 0.0;
+  double h_dv_ = 0.0;  // s, step of the Δv kept in dv_ (the PCG's warm start); 0 = none
 };
 
 }  // namespace loom::cloth
