@@ -15,6 +15,7 @@ packages=(
   libeigen3-dev nlohmann-json3-dev
   libgtest-dev libgmock-dev libbenchmark-dev
   libbullet-dev libfcl-dev libccd-dev
+  gnuplot-nox
   libgmp-dev
   libtinygltf-dev
 )

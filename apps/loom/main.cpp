@@ -7,6 +7,9 @@
 
 #include "CcdEvalCommand.h"
 #include "RunCommand.h"
+#ifdef LOOM_HAVE_BENCH_ACCURACY
+#include "AccuracyBench.h"
+#endif
 #include "loom/cloth/Error.h"
 #include "loom/cloth/Material.h"
 #include "loom/cloth/Solver.h"
@@ -19,6 +22,7 @@ const char* kUsage =
     "Usage:\n"
     "  loom run [SCENE] [options]   run a scene (default: the default scene in scenes/)\n"
     "  loom ccd-eval FILE.csv...    evaluate the continuous collision test on CCD sample queries\n"
+    "  loom bench accuracy [opts]   accuracy-vs-time benchmark, Loom solvers and Bullet (loom bench --help)\n"
     "  loom --help                  this text\n"
     "  loom run --help              the options of `run`\n"
     "\n"
@@ -114,6 +118,9 @@ int main(int argc, char** argv) {
   const std::string cmd = argv[1];
   try {
     if (cmd == "run") return run_main(argc, argv);
+#ifdef LOOM_HAVE_BENCH_ACCURACY
+    if (cmd == "bench") return loom::app::bench_main(argc, argv);
+#endif
     if (cmd == "ccd-eval") return loom::app::ccd_eval_main(argc, argv);
   } catch (const loom::Error& e) {
     std::cerr << "loom: error: " << e.what() << "\n";

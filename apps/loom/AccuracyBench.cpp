@@ -1,0 +1,559 @@
+#include "AccuracyBench.h"
+
+#include <algorithm>
+#include <chrono>
+#include <cmath>
+#include <cstdio>
+#include <cstring>
+#include <filesystem>
+#include <fstream>
+#include <iostream>
+#include <memory>
+#include <optional>
+#include <set>
+#include <sstream>
+
+#include "AccuracyPlot.h"
+#include "AccuracySweep.h"
+#include "loom/bullet/BulletTwin.h"
+#include "loom/cloth/Error.h"
+#include "loom/cloth/Material.h"
+#include "loom/cloth/Simulation.h"
+#include "loom/cloth/SpringSet.h"
+
+namespace loom::app {
+
+namespace {
+
+using namespace loom::cloth;
+using Clock = std::chrono::steady_clock;
+
+constexpr double kFrameDt = 1.0 / 60.0;  // s
+constexpr double kSize = 1.0;            // m, side of the square
+constexpr double kMass = 0.2;            // kg
+// Reference: Verlet at h_bound / (2 kRefFactor), checked against h_bound / kRefFactor (methods.md §2.4
+// proposes h_crit / 20; h_bound is already below h_crit). The finest Verlet of the sweep runs at h_bound, so
+// for a second-order scheme the check ratio is about (3/4) / kRefFactor² = 0.3%.
+constexpr int kRefFactor = 16;
+
+// The hanging-cloth scene (issue 3): 1 m square of the cotton preset, 0.2 kg, horizontal, pinned at the
+// two corners of one edge, damping off (so energy drift is meaningful).
+struct Scene {
+  int n = 0;
+  int frames = 0;
+  ClothSetup cloth;
+  Vec3 gravity{0.0, -9.81, 0.0};
+  std::vector<double> mass;     // kg per vertex
+  std::vector<Spring> springs;  // Loom's springs (damping 0)
+  Vec3s start;                  // m, start positions: the flat grid plus a smooth out-of-plane perturbation
+  int explicit_steps = 1;       // steps per frame at the conservative explicit bound
+  double h_bound = 0.0;         // s
+};
+
+// Conservative explicit stability bound h = 2 / ω_max with ω_max² bounded by Gershgorin's theorem on
+// M^-1/2 K M^-1/2 (row i: Σ_j k_ij / m_i + Σ_j k_ij / sqrt(m_i m_j)); methods.md §2.1.
+double explicit_bound(const Scene& s) {
+  const int nv = static_cast<int>(s.mass.size());
+  std::vector<double> row(nv, 0.0);
+  for (const Spring& sp : s.springs) {
+    const double mi = s.mass[sp.i], mj = s.mass[sp.j];
+    row[sp.i] += sp.k / mi + sp.k / std::sqrt(mi * mj);
+    row[sp.j] += sp.k / mj + sp.k / std::sqrt(mi * mj);
+  }
+  double w2 = 0.0;
+  for (double r : row) w2 = std::max(w2, r);
+  return 2.0 / std::sqrt(w2);
+}
+
+Scene make_scene(int n, double duration, double perturbation) {
+  Scene s;
+  s.n = n;
+  s.frames = std::max(1, static_cast<int>(std::lround(duration / kFrameDt)));
+  GridSpec g;
+  g.size_u = g.size_v = kSize;
+  g.nodes_u = g.nodes_v = n;
+  g.plane = GridPlane::kXZ;
+  g.origin = Vec3(-0.5, 1.5, -0.5);
+  s.cloth.name = "sheet";
+  s.cloth.mesh = ClothMesh::grid(g);
+  s.cloth.material = material_preset("cotton");
+  s.cloth.material.damping = 0.0;
+  s.cloth.material.areal_density = kMass / s.cloth.mesh->total_area();
+  s.cloth.pins = {PinSpec{s.cloth.mesh->grid_index(0, 0), {}, {}, {}},
+                  PinSpec{s.cloth.mesh->grid_index(n - 1, 0), {}, {}, {}}};
+  for (double a : s.cloth.mesh->vertex_areas()) s.mass.push_back(s.cloth.material.areal_density * a);
+  // A perfectly flat sheet buckles in a direction picked by round-off, which differs between step sizes and
+  // solvers; a deterministic bump y += A sin(pi u) sin(pi v / 2) (zero at the pinned edge) picks it instead,
+  // as Bullet's CreatePatch `perturbation` argument does.
+  const double kPi = 3.14159265358979323846;
+  s.start = s.cloth.mesh->rest_positions();
+  for (int iv = 0; iv < n; ++iv)
+    for (int iu = 0; iu < n; ++iu) {
+      const double u = iu / double(n - 1), v = iv / double(n - 1);
+      s.start[s.cloth.mesh->grid_index(iu, iv)].y() += perturbation * std::sin(kPi * u) * std::sin(0.5 * kPi * v);
+    }
+  s.springs = make_springs(*s.cloth.mesh, s.cloth.material);
+  s.h_bound = explicit_bound(s);
+  s.explicit_steps = static_cast<int>(std::ceil(kFrameDt / s.h_bound));
+  return s;
+}
+
+// Mass-weighted RMS distance sqrt(Σ m_i |a_i - b_i|² / Σ m_i), m.
+double rms(const std::vector<double>& m, const Vec3s& a, const Vec3s& b) {
+  double num = 0.0, den = 0.0;
+  for (size_t i = 0; i < m.size(); ++i) {
+    num += m[i] * (a[i] - b[i]).squaredNorm();
+    den += m[i];
+  }
+  return std::sqrt(num / den);
+}
+
+// Median of per-frame wall times (ms): robust against other processes on the shared cores.
+double median(std::vector<double> v) {
+  if (v.empty()) return std::nan("");
+  std::sort(v.begin(), v.end());
+  const size_t k = v.size() / 2;
+  return v.size() % 2 ? v[k] : 0.5 * (v[k - 1] + v[k]);
+}
+
+struct Row {
+  std::string system, method, config;
+  int size = 0, threads = 1;
+  double ms_per_frame = 0.0, rms_error_max = 0.0, rms_error_end = 0.0, max_strain = 0.0, mean_strain = 0.0,
+         energy_drift = 0.0;
+  bool diverged = false;
+};
+
+// Per-frame metrics of one run, the same code for Loom and Bullet positions.
+class Metrics {
+ public:
+  Metrics(const Scene& s, const Vec3s& x0) : s_(s), x0_(x0), energy_term_(static_cast<int>(x0.size()), s.springs) {
+    const Vec3s v0(x0.size(), Vec3::Zero());
+    e0_ = energy(x0, v0);
+    for (double m : s.mass) total_mass_ += m;
+    scale_ = total_mass_ * s.gravity.norm() * kSize;
+  }
+
+  // Returns false once the run has diverged: non-finite state, a node 10 m from its start (the cloth is 1 m),
+  // strain above 1000%, or total energy up by more than 10x m g L.
+  bool add_frame(const Vec3s& x, const Vec3s& v, const Vec3s* ref, bool alive = true) {
+    bool ok = alive;
+    for (size_t i = 0; i < x.size() && ok; ++i)
+      ok = x[i].allFinite() && v[i].allFinite() && (x[i] - x0_[i]).norm() < 10.0;
+    double mx = 0.0, sum = 0.0;
+    const auto& sprs = s_.cloth.mesh->springs();
+    const auto& ids = s_.cloth.mesh->strain_springs();
+    for (int k : ids) {
+      const double strain = (x[sprs[k].j] - x[sprs[k].i]).norm() / sprs[k].rest_length - 1.0;
+      mx = std::max(mx, strain);
+      sum += std::abs(strain);
+    }
+    if (!ok || !(mx < 10.0)) return diverge();
+    const double de = energy(x, v) - e0_;
+    if (!std::isfinite(de) || de > 10.0 * scale_) return diverge();
+    drift_ = std::max(drift_, std::abs(de) / scale_);
+    max_strain_ = std::max(max_strain_, mx);
+    mean_sum_ += sum / std::max<size_t>(1, ids.size());
+    ++frames_;
+    if (ref) {
+      end_error_ = rms(s_.mass, x, *ref);
+      max_error_ = std::max(max_error_, end_error_);
+    }
+    return true;
+  }
+
+  void fill(Row& r) const {
+    r.diverged = diverged_;
+    const double nan = std::nan("");
+    r.rms_error_max = diverged_ ? nan : max_error_;
+    r.rms_error_end = diverged_ ? nan : end_error_;
+    r.max_strain = diverged_ ? nan : max_strain_;
+    r.mean_strain = diverged_ || frames_ == 0 ? nan : mean_sum_ / frames_;
+    r.energy_drift = diverged_ ? nan : drift_;
+  }
+
+ private:
+  bool diverge() {
+    diverged_ = true;
+    return false;
+  }
+  // Kinetic + gravitational (zero at y = 0) + spring energy, J.
+  double energy(const Vec3s& x, const Vec3s& v) const {
+    double e = energy_term_.energy(EvalContext{x, v, 0.0, 1});
+    for (size_t i = 0; i < x.size(); ++i) e += 0.5 * s_.mass[i] * v[i].squaredNorm() - s_.mass[i] * s_.gravity.dot(x[i]);
+    return e;
+  }
+
+  const Scene& s_;
+  Vec3s x0_;
+  SpringTerm energy_term_;
+  double e0_ = 0.0, total_mass_ = 0.0, scale_ = 1.0;
+  double max_error_ = 0.0, end_error_ = 0.0, max_strain_ = 0.0, mean_sum_ = 0.0, drift_ = 0.0;
+  int frames_ = 0;
+  bool diverged_ = false;
+};
+
+SimulationSetup loom_setup(const Scene& s, const std::string& method, const SweepConfig& c, int threads) {
+  SimulationSetup setup;
+  setup.cloths = {s.cloth};
+  setup.gravity = s.gravity;
+  setup.solver.method = method;
+  setup.solver.params = c.params;
+  setup.frame_dt = kFrameDt;
+  setup.substeps = c.substeps;
+  setup.threads = threads;
+  return setup;
+}
+
+// Pipeline time of the frame: top-level stages without the statistics row (ms).
+double step_ms(const Simulation& sim, const FrameStats& st) {
+  const std::vector<std::string> names = sim.stage_names();
+  double ms = 0.0;
+  for (size_t k = 0; k < names.size() && k < st.stage_ms.size(); ++k)
+    if (names[k].find('/') == std::string::npos && names[k] != "stats") ms += st.stage_ms[k];
+  return ms;
+}
+
+// Reference trajectory: positions at frames 1..frames.
+// Moves the simulation's cloth to the scene's start positions (pinned vertices are not moved: the bump is 0
+// there).
+void set_start(Simulation& sim, const Scene& s) {
+  ClothState& st = sim.cloths()[0]->state();
+  for (int i = 0; i < st.size(); ++i)
+    if (st.inv_mass[i] != 0.0) st.x[i] = s.start[i];
+  st.x_prev = st.x;
+}
+
+std::vector<Vec3s> reference(const Scene& s, int substeps, int threads) {
+  SweepConfig c;
+  c.substeps = substeps;
+  Simulation sim(loom_setup(s, "verlet", c, threads));
+  set_start(sim, s);
+  std::vector<Vec3s> out;
+  for (int f = 0; f < s.frames; ++f) {
+    sim.step_frame();
+    out.push_back(sim.cloths()[0]->state().x);
+    if (!sim.cloths()[0]->state().is_finite()) throw Error("", "bench accuracy", "the reference diverged");
+  }
+  return out;
+}
+
+Row run_loom(const Scene& s, const std::string& method, const SweepConfig& c, int threads,
+             const std::vector<Vec3s>& ref) {
+  Simulation sim(loom_setup(s, method, c, threads));
+  set_start(sim, s);
+  ClothState& st = sim.cloths()[0]->state();
+  Metrics m(s, st.x);
+  Row r;
+  std::vector<double> ms;
+  for (int f = 0; f < s.frames; ++f) {
+    const FrameStats fs = sim.step_frame();
+    ms.push_back(step_ms(sim, fs));
+    if (!m.add_frame(st.x, st.v, &ref[f])) break;
+  }
+  r.system = "loom";
+  r.method = method;
+  r.size = s.n;
+  r.config = c.label();
+  r.threads = threads;
+  r.ms_per_frame = median(ms);
+  m.fill(r);
+  return r;
+}
+
+Row run_bullet(const Scene& s, bullet::TwinKind kind, const SweepConfig& c, const std::vector<Vec3s>& ref) {
+  bullet::TwinCloth tc;
+  tc.mesh = s.cloth.mesh;
+  tc.springs = s.springs;
+  tc.masses = s.mass;
+  for (const PinSpec& p : s.cloth.pins) tc.pinned.push_back(p.vertex);
+  tc.gravity = s.gravity;
+  tc.start = s.start;
+  bullet::TwinSettings ts;
+  ts.frame_dt = kFrameDt;
+  ts.substeps = c.substeps;
+  ts.iterations = static_cast<int>(c.params.count("iterations") ? c.params.at("iterations") : ts.iterations);
+  bullet::BulletTwin twin(kind, tc, ts);
+  Vec3s x, v;
+  twin.positions(x);
+  Metrics m(s, x);
+  std::vector<double> ms;
+  for (int f = 0; f < s.frames; ++f) {
+    const auto start = Clock::now();
+    twin.step_frame();
+    ms.push_back(std::chrono::duration<double, std::milli>(Clock::now() - start).count());
+    twin.positions(x);
+    twin.velocities(v);
+    if (!m.add_frame(x, v, &ref[f], twin.simulating())) break;
+  }
+  Row r;
+  r.system = bullet::system_name(kind);
+  r.method = r.system;
+  r.size = s.n;
+  r.config = c.label();
+  r.threads = 1;
+  r.ms_per_frame = median(ms);
+  m.fill(r);
+  return r;
+}
+
+std::string num(double v) {
+  if (std::isnan(v)) return "nan";
+  char b[64];
+  std::snprintf(b, sizeof b, "%.6g", v);
+  return b;
+}
+
+void print_row(const Row& r) {
+  std::printf("  %-17s %-17s N=%-3d thr=%d %-36s %9s ms/frame  err max %-10s end %-10s strain max %-9s mean %-9s drift %-9s%s\n",
+              r.system.c_str(), r.method.c_str(), r.size, r.threads, r.config.c_str(), num(r.ms_per_frame).c_str(),
+              num(r.rms_error_max).c_str(), num(r.rms_error_end).c_str(), num(r.max_strain).c_str(),
+              num(r.mean_strain).c_str(), num(r.energy_drift).c_str(), r.diverged ? "  DIVERGED" : "");
+  std::fflush(stdout);
+}
+
+}  // namespace
+
+int bench_accuracy(const AccuracyOptions& o) {
+  namespace fs = std::filesystem;
+  std::error_code ec;
+  fs::create_directories(o.out, ec);
+  if (ec) {
+    std::cerr << "loom: error: " << o.out << ": cannot create folder: " << ec.message() << "\n";
+    return 1;
+  }
+  const std::vector<std::string> registered = solver_names();
+  std::vector<Row> rows;
+  std::ostringstream refs;
+  refs << "size,ref_substeps,check_substeps,ref_change,smallest_error,ratio,passed\n";
+  for (int n : o.sizes) {
+    const Scene s = make_scene(n, o.duration, o.perturbation);
+    const auto table = loom_sweep_table(s.explicit_steps, o.quick);
+    std::printf("loom bench accuracy: N=%d (%d vertices, %zu springs), %d frames of 1/60 s, explicit bound h=%.3g s "
+                "(%d steps/frame)\n", n, s.cloth.mesh->num_vertices(), s.springs.size(), s.frames, s.h_bound,
+                s.explicit_steps);
+    // Reference and its dt-halving check (methods.md §2.4).
+    int ref_steps = kRefFactor * s.explicit_steps;  // the check; the reference itself runs at twice this
+    const int threads_ref = 1;  // small meshes: OpenMP overhead exceeds the gain; results are identical
+    auto t0 = Clock::now();
+    const std::vector<Vec3s> coarse = reference(s, ref_steps, threads_ref);
+    ref_steps *= 2;
+    const std::vector<Vec3s> ref = reference(s, ref_steps, threads_ref);
+    double change = 0.0;
+    for (int f = 0; f < s.frames; ++f) change = std::max(change, rms(s.mass, coarse[f], ref[f]));
+    std::printf("  reference: verlet, %d steps/frame, check at %d (%.1f s): they differ by %.3g m\n", ref_steps,
+                ref_steps / 2, std::chrono::duration<double>(Clock::now() - t0).count(), change);
+    std::fflush(stdout);
+
+    const size_t first = rows.size();
+    std::vector<std::string> skipped_methods;
+    for (const auto& kv : table)
+      if (std::find(registered.begin(), registered.end(), kv.first) == registered.end())
+        skipped_methods.push_back(kv.first);
+    for (const std::string& method : registered) {
+      if (!o.methods.empty() && !o.methods.count(method)) continue;
+      std::vector<SweepConfig> configs;
+      auto it = table.find(method);
+      if (it != table.end()) {
+        configs = it->second;
+      } else {
+        // A solver this table does not know yet: a default step sweep.
+        for (int st : {1, 4}) configs.push_back(SweepConfig{st, {}});
+        if (o.quick) configs.resize(1);
+        std::printf("  note: no sweep table entry for '%s'; using substeps 1, 4\n", method.c_str());
+      }
+      for (const SweepConfig& c : configs) {
+        std::optional<Row> diverged;
+        for (int threads : o.threads) {
+          if (diverged) {
+            // Results are bit-identical for any thread count (STYLE), so the run diverges again; timing a
+            // state full of NaN means nothing. The row stays, diverged, without a time.
+            Row r = *diverged;  // a copy: rows grows below
+            r.threads = threads;
+            r.ms_per_frame = std::nan("");
+            rows.push_back(r);
+            print_row(rows.back());
+            continue;
+          }
+          try {
+            rows.push_back(run_loom(s, method, c, threads, ref));
+            print_row(rows.back());
+            if (rows.back().diverged) diverged = rows.back();
+          } catch (const loom::Error& e) {
+            std::printf("  skipped %s %s: %s\n", method.c_str(), c.label().c_str(), e.what());
+            break;
+          }
+        }
+      }
+    }
+    for (const auto& kv : bullet_sweep_table(o.quick)) {
+      if (!o.methods.empty() && !o.methods.count(kv.first)) continue;
+      const auto kind = kv.first == "bullet_classic" ? bullet::TwinKind::kClassic : bullet::TwinKind::kDeformable;
+      for (const SweepConfig& c : kv.second) {
+        rows.push_back(run_bullet(s, kind, c, ref));
+        print_row(rows.back());
+      }
+    }
+    if (!skipped_methods.empty()) {
+      std::printf("  skipped (not registered in this build):");
+      for (const auto& m : skipped_methods) std::printf(" %s", m.c_str());
+      std::printf("\n");
+    }
+    // Reference check against the smallest error reported at this size.
+    double smallest = 1e300;
+    for (size_t k = first; k < rows.size(); ++k)
+      for (double e : {rows[k].rms_error_max, rows[k].rms_error_end})
+        if (std::isfinite(e) && e > 0.0) smallest = std::min(smallest, e);
+    const double ratio = change / smallest;
+    const bool passed = ratio < 0.01;
+    std::printf("reference check N=%d: halving the reference step (%d -> %d steps/frame) changes it by %.3g m "
+                "(max over frames, mass-weighted RMS); smallest reported error %.3g m; ratio %.3g%% -> %s\n",
+                n, ref_steps / 2, ref_steps, change, smallest, 100.0 * ratio, passed ? "PASSED (< 1%)" : "FAILED (>= 1%)");
+    refs << n << ',' << ref_steps << ',' << ref_steps / 2 << ',' << num(change) << ',' << num(smallest) << ','
+         << num(ratio) << ',' << (passed ? 1 : 0) << "\n";
+    std::vector<PlotPoint> pts;
+    for (size_t k = first; k < rows.size(); ++k) {
+      const Row& r = rows[k];
+      if (r.threads != 1 || r.diverged || !(r.rms_error_max > 0.0)) continue;
+      pts.push_back({r.system == "loom" ? "loom:" + r.method : r.system, r.ms_per_frame, r.rms_error_max});
+    }
+    const std::string png = (fs::path(o.out) / ("accuracy_" + std::to_string(n) + ".png")).string();
+    const std::string title = "hanging cloth " + std::to_string(n) + "x" + std::to_string(n) +
+                              ", cotton, 1 m, 0.2 kg, " + num(o.duration) + " s, damping off";
+    if (plot_accuracy(pts, title, png) && n == o.sizes.back()) fs::copy_file(png, fs::path(o.out) / "accuracy.png", fs::copy_options::overwrite_existing, ec);
+  }
+  std::ofstream csv(fs::path(o.out) / "accuracy.csv");
+  csv << "system,method,size,config,threads,ms_per_frame,rms_error_max,rms_error_end,max_strain,mean_strain,energy_drift,diverged\n";
+  for (const Row& r : rows)
+    csv << r.system << ',' << r.method << ',' << r.size << ',' << r.config << ',' << r.threads << ','
+        << num(r.ms_per_frame) << ',' << num(r.rms_error_max) << ',' << num(r.rms_error_end) << ','
+        << num(r.max_strain) << ',' << num(r.mean_strain) << ',' << num(r.energy_drift) << ','
+        << (r.diverged ? 1 : 0) << "\n";
+  std::ofstream rf(fs::path(o.out) / "reference_check.csv");
+  rf << refs.str();
+  if (!csv || !rf) {
+    std::cerr << "loom: error: " << o.out << ": cannot write the results\n";
+    return 1;
+  }
+  std::printf("wrote %s/accuracy.csv, %s/reference_check.csv, %s/accuracy.png\n", o.out.c_str(), o.out.c_str(),
+              o.out.c_str());
+  return 0;
+}
+
+namespace {
+
+const char* kBenchUsage =
+    "Usage: loom bench accuracy [--sizes 32,64,128] [--out DIR] [--quick] [--duration S] [--threads 1,2]\n"
+    "                           [--methods LIST]\n"
+    "\n"
+    "The accuracy-vs-time benchmark on the hanging-cloth scene (1 m cotton square, 0.2 kg, two corners pinned,\n"
+    "released horizontally, 60 Hz frames, damping off). Every registered solver runs over its knob sweep, and\n"
+    "both Bullet twins (classic btSoftBody, deformable world) over iterations and substeps, against a reference\n"
+    "(Verlet far below the explicit stability bound, checked by halving its step).\n"
+    "Writes DIR/accuracy.csv (system,method,size,config,threads,ms_per_frame,rms_error_max,rms_error_end,\n"
+    "max_strain,mean_strain,energy_drift,diverged), DIR/reference_check.csv, DIR/accuracy_N.png per size and\n"
+    "DIR/accuracy.png (the last size).\n"
+    "\n"
+    "Options:\n"
+    "  --sizes LIST    nodes per side (default 32,64)\n"
+    "  --out DIR       output folder (default out/bench_accuracy)\n"
+    "  --quick         tiny run for tests: N=8, 0.25 s, one configuration per method\n"
+    "  --duration S    simulated seconds (default 0.5)\n"
+    "  --threads LIST  thread counts for Loom's solvers (default 1,2)\n"
+    "  --perturbation M  amplitude of the start bump that fixes the buckling direction (default 0.001 m)\n"
+    "  --methods LIST  only these solvers / bullet_classic / bullet_deformable (default: all)\n";
+
+bool parse_list(const std::string& s, std::vector<int>& out, int min) {
+  out.clear();
+  std::stringstream ss(s);
+  std::string item;
+  while (std::getline(ss, item, ',')) {
+    char* end = nullptr;
+    const long v = std::strtol(item.c_str(), &end, 10);
+    if (item.empty() || *end || v < min || v > 4096) return false;
+    out.push_back(static_cast<int>(v));
+  }
+  return !out.empty();
+}
+
+}  // namespace
+
+int bench_main(int argc, char** argv) {
+  if (argc < 3 || !std::strcmp(argv[2], "-h") || !std::strcmp(argv[2], "--help")) {
+    std::cout << kBenchUsage;
+    return argc < 3 ? 2 : 0;
+  }
+  if (std::strcmp(argv[2], "accuracy") != 0) {
+    std::fprintf(stderr, "loom: error: unknown benchmark '%s' (see loom bench --help)\n", argv[2]);
+    return 2;
+  }
+  AccuracyOptions o;
+  bool sizes_given = false, duration_given = false;
+  for (int i = 3; i < argc; ++i) {
+    const std::string a = argv[i];
+    auto value = [&]() -> std::string {
+      if (i + 1 >= argc) {
+        std::fprintf(stderr, "loom: error: %s needs a value (see loom bench --help)\n", a.c_str());
+        std::exit(2);
+      }
+      return argv[++i];
+    };
+    if (a == "-h" || a == "--help") {
+      std::cout << kBenchUsage;
+      return 0;
+    } else if (a == "--sizes") {
+      const std::string v = value();
+      if (!parse_list(v, o.sizes, 3)) {
+        std::fprintf(stderr, "loom: error: --sizes expects a comma-separated list of integers >= 3, got '%s'\n", v.c_str());
+        return 2;
+      }
+      sizes_given = true;
+    } else if (a == "--threads") {
+      const std::string v = value();
+      if (!parse_list(v, o.threads, 1)) {
+        std::fprintf(stderr, "loom: error: --threads expects a comma-separated list of integers >= 1, got '%s'\n", v.c_str());
+        return 2;
+      }
+    } else if (a == "--methods") {
+      for (const std::string& m : [](std::string v) {
+             std::vector<std::string> out;
+             std::stringstream ss(v);
+             std::string item;
+             while (std::getline(ss, item, ',')) out.push_back(item);
+             return out;
+           }(value()))
+        o.methods.insert(m);
+    } else if (a == "--out") {
+      o.out = value();
+    } else if (a == "--duration") {
+      const std::string v = value();
+      char* end = nullptr;
+      o.duration = std::strtod(v.c_str(), &end);
+      if (v.empty() || *end || !(o.duration > 0.0) || o.duration > 60.0) {
+        std::fprintf(stderr, "loom: error: --duration expects seconds in (0, 60], got '%s'\n", v.c_str());
+        return 2;
+      }
+      duration_given = true;
+    } else if (a == "--perturbation") {
+      const std::string v = value();
+      char* end = nullptr;
+      o.perturbation = std::strtod(v.c_str(), &end);
+      if (v.empty() || *end || !(o.perturbation >= 0.0) || o.perturbation > 0.1) {
+        std::fprintf(stderr, "loom: error: --perturbation expects metres in [0, 0.1], got '%s'\n", v.c_str());
+        return 2;
+      }
+    } else if (a == "--quick") {
+      o.quick = true;
+    } else {
+      std::fprintf(stderr, "loom: error: unknown option '%s' (see loom bench --help)\n", a.c_str());
+      return 2;
+    }
+  }
+  if (o.quick) {
+    if (!sizes_given) o.sizes = {8};
+    if (!duration_given) o.duration = 0.25;
+  }
+  return bench_accuracy(o);
+}
+
+}  // namespace loom::app

@@ -1,0 +1,84 @@
+#include "AccuracyPlot.h"
+
+#include <algorithm>
+#include <cstdio>
+#include <cstdlib>
+#include <fstream>
+#include <iostream>
+#include <map>
+#include <numeric>
+
+namespace loom::app {
+
+std::vector<size_t> pareto_front(const std::vector<PlotPoint>& points) {
+  std::vector<size_t> order(points.size());
+  std::iota(order.begin(), order.end(), 0);
+  std::sort(order.begin(), order.end(), [&](size_t a, size_t b) {
+    return points[a].ms != points[b].ms ? points[a].ms < points[b].ms : points[a].error < points[b].error;
+  });
+  std::vector<size_t> front;
+  double best = 1e300;
+  for (size_t i : order)
+    if (points[i].error < best) {
+      best = points[i].error;
+      front.push_back(i);
+    }
+  return front;
+}
+
+bool plot_accuracy(const std::vector<PlotPoint>& points, const std::string& title, const std::string& png) {
+  const std::string stem = png.size() > 4 ? png.substr(0, png.size() - 4) : png;
+  const std::string dat = stem + ".dat", gp = stem + ".gp";
+  std::map<std::string, std::vector<size_t>> series;
+  for (size_t i = 0; i < points.size(); ++i) series[points[i].series].push_back(i);
+  std::ofstream d(dat);
+  std::vector<std::string> names;
+  for (const auto& kv : series) {
+    d << "# " << kv.first << "\n";
+    for (size_t i : kv.second) d << points[i].ms << ' ' << points[i].error << "\n";
+    d << "\n\n";
+    names.push_back(kv.first);
+  }
+  d << "# pareto front\n";
+  const std::vector<size_t> front = pareto_front(points);
+  for (size_t i : front) d << points[i].ms << ' ' << points[i].error << "\n";
+  d.close();
+  if (!d) {
+    std::cerr << "loom: error: cannot write " << dat << "\n";
+    return false;
+  }
+  std::ofstream g(gp);
+  g << "set terminal pngcairo size 900,600 font ',10' noenhanced\n"
+    << "set output '" << png << "'\n"
+    << "set title '" << title << "'\n"
+    << "set logscale xy\nset grid\nset format y '%g'\n"
+    << "set xlabel 'wall ms per 60 Hz frame (1 thread)'\n"
+    << "set ylabel 'max over the run of mass-weighted RMS position error (m)'\n"
+    << "set key outside right top\n"
+    << "plot ";
+  const int kTypes[] = {7, 5, 9, 11, 13, 4, 6, 8, 10, 12};
+  for (size_t s = 0; s < names.size(); ++s)
+    g << "'" << dat << "' index " << s << " using 1:2 with points pt " << kTypes[s % 10] << " ps 1.2 title '"
+      << names[s] << "', ";
+  g << "'" << dat << "' index " << names.size()
+    << " using 1:2 with steps lw 2 lc rgb 'black' title 'Pareto front', '" << dat << "' index " << names.size()
+    << " using 1:2 with points pt 6 ps 2.2 lc rgb 'black' notitle\n";
+  g.close();
+  const std::string cmd = "gnuplot '" + gp + "' 2>&1";
+  FILE* p = popen(cmd.c_str(), "r");
+  if (!p) {
+    std::cerr << "loom: warning: cannot run gnuplot; " << png << " not written\n";
+    return false;
+  }
+  char buf[512];
+  std::string out;
+  while (fgets(buf, sizeof buf, p)) out += buf;
+  const int rc = pclose(p);
+  if (rc != 0) {
+    std::cerr << "loom: warning: gnuplot failed (is gnuplot-nox installed?); " << png << " not written\n" << out;
+    return false;
+  }
+  return true;
+}
+
+}  // namespace loom::app

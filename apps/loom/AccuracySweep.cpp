@@ -1,0 +1,87 @@
+#include "AccuracySweep.h"
+
+#include <algorithm>
+#include <cmath>
+#include <sstream>
+
+namespace loom::app {
+
+std::string SweepConfig::label() const {
+  std::ostringstream s;
+  s << "substeps=" << substeps;
+  for (const auto& kv : params) s << ' ' << kv.first << '=' << kv.second;
+  return s.str();
+}
+
+namespace {
+
+std::vector<SweepConfig> grid(const std::vector<int>& substeps, const std::string& key, const std::vector<double>& values,
+                              const std::map<std::string, double>& extra = {}) {
+  std::vector<SweepConfig> out;
+  for (int s : substeps)
+    for (double v : values) {
+      SweepConfig c;
+      c.substeps = s;
+      c.params = extra;
+      if (!key.empty()) c.params[key] = v;
+      out.push_back(c);
+    }
+  return out;
+}
+
+void append(std::vector<SweepConfig>& a, const std::vector<SweepConfig>& b) { a.insert(a.end(), b.begin(), b.end()); }
+
+}  // namespace
+
+std::map<std::string, std::vector<SweepConfig>> loom_sweep_table(int explicit_steps, bool quick) {
+  const int e = std::max(1, explicit_steps);
+  auto times = [&](double f) { return std::max(1, static_cast<int>(std::lround(e * f))); };
+  std::map<std::string, std::vector<SweepConfig>> t;
+  // Explicit schemes (methods.md §1.2, §2.1): around the stability bound; explicit Euler is unstable for
+  // undamped springs at any step, so it is swept only at and below the bound.
+  t["explicit_euler"] = grid({times(1), times(2), times(4)}, "", {0});
+  t["symplectic_euler"] = grid({times(0.5), times(1), times(2), times(4)}, "", {0});
+  t["verlet"] = grid({times(0.5), times(1)}, "", {0});
+  // Implicit schemes (Baraff-Witkin backward Euler, BDF2): step size x CG tolerance; Newton for accuracy.
+  t["implicit_euler"] = grid({1, 2, 4, 8, 16}, "cg_tolerance", {1e-2, 1e-4, 1e-6});
+  append(t["implicit_euler"], grid({1, 4}, "newton_iterations", {3}, {{"cg_tolerance", 1e-6}}));
+  append(t["implicit_euler"], grid({1, 4}, "adaptive", {1}, {{"cg_tolerance", 1e-4}}));
+  t["bdf2"] = grid({1, 2, 4, 8, 16}, "cg_tolerance", {1e-3, 1e-6});
+  t["desbrun"] = grid({1, 2, 4, 8, 16}, "", {0});
+  // Constraint-based (PBD, XPBD, projective dynamics): step size x iterations, and the
+  // substeps-of-one-iteration mode.
+  for (const char* m : {"pbd", "xpbd"}) {
+    t[m] = grid({1, 4, 16}, "iterations", {1, 4, 16});
+    append(t[m], grid({64}, "iterations", {1}));
+  }
+  t["projective"] = grid({1, 4, 16}, "iterations", {4, 16});
+  append(t["projective"], grid({1, 4}, "iterations", {16}, {{"chebyshev", 1}}));
+  // Quasi-static Newton minimisation per frame: not a dynamics integrator; its error is what ignoring
+  // inertia costs.
+  t["static"] = grid({1}, "", {0});
+  if (quick)
+    for (auto& kv : t) {
+      // The first configuration of each method, at a step the explicit schemes survive.
+      SweepConfig c = kv.second.front();
+      if (kv.first == "explicit_euler" || kv.first == "symplectic_euler") c.substeps = times(2);
+      if (kv.first == "verlet") c.substeps = times(1);
+      kv.second = {c};
+    }
+  return t;
+}
+
+std::map<std::string, std::vector<SweepConfig>> bullet_sweep_table(bool quick) {
+  std::map<std::string, std::vector<SweepConfig>> t;
+  // Classic btSoftBody: piterations x substeps (bullet.md §3a: works from piterations 10 at 1/240 s).
+  t["bullet_classic"] = grid({1, 4}, "iterations", {4, 10, 20});
+  // Deformable world: implicit + projection; substeps x Newton iterations (bullet.md §3b: 1/240 s needed).
+  t["bullet_deformable"] = grid({1, 4, 8}, "iterations", {1});
+  append(t["bullet_deformable"], grid({4}, "iterations", {3}));
+  if (quick) {
+    t["bullet_classic"] = grid({4}, "iterations", {10});
+    t["bullet_deformable"] = grid({4}, "iterations", {1});
+  }
+  return t;
+}
+
+}  // namespace loom::app

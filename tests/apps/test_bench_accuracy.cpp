@@ -1,0 +1,119 @@
+// `loom bench accuracy --quick` end to end: the CSV has exactly the columns, every registered Loom
+// solver and both Bullet systems appear, the reference check is reported, bad options exit 2.
+#include <gtest/gtest.h>
+
+#include <cmath>
+#include <cstdlib>
+#include <filesystem>
+#include <fstream>
+#include <map>
+#include <set>
+#include <sstream>
+#include <string>
+#include <vector>
+
+namespace {
+
+namespace fs = std::filesystem;
+
+struct Result {
+  int code = -1;
+  std::string out, err;
+};
+
+std::string slurp(const fs::path& p) {
+  std::ifstream in(p);
+  std::stringstream s;
+  s << in.rdbuf();
+  return s.str();
+}
+
+// Own folder: ctest runs test processes in parallel.
+Result run(const std::string& args, const fs::path& dir) {
+  fs::create_directories(dir);
+  const std::string out = (dir / "stdout.txt").string(), err = (dir / "stderr.txt").string();
+  const int status = std::system((std::string(LOOM_BINARY) + " " + args + " >" + out + " 2>" + err).c_str());
+  return {WIFEXITED(status) ? WEXITSTATUS(status) : -1, slurp(out), slurp(err)};
+}
+
+std::vector<std::string> split(const std::string& s, char sep) {
+  std::vector<std::string> v;
+  std::stringstream ss(s);
+  std::string item;
+  while (std::getline(ss, item, sep)) v.push_back(item);
+  return v;
+}
+
+// The registered solvers, as `loom run --help` lists them ("Solvers: a, b, c").
+std::set<std::string> registered_solvers(const fs::path& dir) {
+  const Result r = run("run --help", dir);
+  const size_t at = r.out.find("Solvers: ");
+  std::set<std::string> names;
+  if (at == std::string::npos) return names;
+  const std::string line = r.out.substr(at + 9, r.out.find('\n', at) - at - 9);
+  for (std::string n : split(line, ',')) {
+    n.erase(0, n.find_first_not_of(' '));
+    if (!n.empty()) names.insert(n);
+  }
+  return names;
+}
+
+}  // namespace
+
+TEST(BenchAccuracy, QuickRunWritesTheCsvWithEveryMethodAndTheReferenceCheck) {
+  const fs::path dir = fs::temp_directory_path() / "loom_bench_accuracy_tests";
+  fs::remove_all(dir);
+  const fs::path out = dir / "out";
+  const Result r = run("bench accuracy --quick --out " + out.string(), dir);
+  ASSERT_EQ(r.code, 0) << r.out << r.err;
+
+  std::ifstream csv(out / "accuracy.csv");
+  std::string line;
+  ASSERT_TRUE(std::getline(csv, line));
+  EXPECT_EQ(line,
+            "system,method,size,config,threads,ms_per_frame,rms_error_max,rms_error_end,max_strain,mean_strain,"
+            "energy_drift,diverged");
+  std::map<std::string, int> rows_per_method;
+  std::set<std::string> systems;
+  while (std::getline(csv, line)) {
+    const auto f = split(line, ',');
+    ASSERT_EQ(f.size(), 12u) << line;
+    systems.insert(f[0]);
+    ++rows_per_method[f[1]];
+    EXPECT_TRUE(f[11] == "0" || f[11] == "1") << line;
+    // Time is measured for every run that did not diverge at 1 thread (thread counts give identical results).
+    const double ms = std::stod(f[5]);
+    EXPECT_TRUE(ms >= 0.0 || (std::isnan(ms) && f[11] == "1")) << line;
+    if (f[11] == "0") {
+      // Finite rows carry finite errors (m) and strains.
+      for (int k : {6, 7, 8, 9, 10}) EXPECT_TRUE(std::isfinite(std::stod(f[k]))) << line;
+      EXPECT_LE(std::stod(f[7]), std::stod(f[6]) + 1e-15) << "end error above the max: " << line;
+    }
+  }
+  EXPECT_EQ(systems, (std::set<std::string>{"loom", "bullet_classic", "bullet_deformable"}));
+  const std::set<std::string> solvers = registered_solvers(dir);
+  ASSERT_FALSE(solvers.empty());
+  for (const std::string& s : solvers) EXPECT_GT(rows_per_method[s], 0) << "solver " << s << " missing";
+  EXPECT_GT(rows_per_method["bullet_classic"], 0);
+  EXPECT_GT(rows_per_method["bullet_deformable"], 0);
+
+  // The reference check: printed, and in reference_check.csv with the ratio to the smallest error.
+  EXPECT_NE(r.out.find("reference check N=8"), std::string::npos) << r.out;
+  const auto ref = split(slurp(out / "reference_check.csv"), '\n');
+  ASSERT_GE(ref.size(), 2u);
+  EXPECT_EQ(ref[0], "size,ref_substeps,check_substeps,ref_change,smallest_error,ratio,passed");
+  const auto f = split(ref[1], ',');
+  ASSERT_EQ(f.size(), 7u);
+  EXPECT_EQ(f[0], "8");
+  EXPECT_GT(std::stod(f[4]), 0.0);
+  EXPECT_NEAR(std::stod(f[5]), std::stod(f[3]) / std::stod(f[4]), 1e-6 * std::stod(f[5]) + 1e-12);
+  EXPECT_EQ(f[6], std::stod(f[5]) < 0.01 ? "1" : "0");
+}
+
+TEST(BenchAccuracy, BadOptionsExitWithTwo) {
+  const fs::path dir = fs::temp_directory_path() / "loom_bench_accuracy_tests_bad";
+  EXPECT_EQ(run("bench accuracy --sizes 2,x", dir).code, 2);
+  EXPECT_EQ(run("bench accuracy --bogus", dir).code, 2);
+  EXPECT_EQ(run("bench nothing", dir).code, 2);
+  EXPECT_EQ(run("bench --help", dir).code, 0);
+}
