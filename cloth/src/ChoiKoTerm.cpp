@@ -205,8 +205,11 @@ void ChoiKoTerm::add_jacobians(const EvalContext& c, const JacobianOptions& o, B
 }
 
 std::unique_ptr<ChoiKoTerm> make_choi_ko_term(const ClothMesh& mesh, const Material& mat) {
-  // Type 1: the tension-only counterparts of the mesh's structural/shear (grid) or edge springs.
-  std::vector<Spring> all = make_springs(mesh, mat), sequential;
+  // Type 1: the tension-only counterparts of the mesh's structural/shear (grid) or edge springs, mapped as
+  // if there were no bend springs (whose in-plane share make_springs would otherwise take out).
+  Material membrane = mat;
+  membrane.bend_weft = membrane.bend_warp = 0.0;
+  std::vector<Spring> all = make_springs(mesh, membrane), sequential;
   for (size_t k = 0; k < all.size(); ++k) {
     const SpringKind kind = mesh.springs()[k].kind;
     if (kind == SpringKind::kStructural || kind == SpringKind::kShear || kind == SpringKind::kEdge) sequential.push_back(all[k]);

@@ -97,6 +97,9 @@ std::shared_ptr<const ClothMesh> ClothMesh::grid(const GridSpec& spec) {
     s.rest_uv_dir = d / s.rest_length;
     s.kind = kind;
     s.area = cell_area;
+    // A spring along a boundary line stands for half a row of cloth.
+    const bool along_u = iv1 == iv0, along_v = iu1 == iu0;
+    if ((along_u && (iv0 == 0 || iv0 == nv - 1)) || (along_v && (iu0 == 0 || iu0 == nu - 1))) s.row_share = 0.5;
     if (kind == SpringKind::kStructural) m.strain_springs_.push_back(static_cast<int>(m.springs_.size()));
     m.springs_.push_back(s);
   };

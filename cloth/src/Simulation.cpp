@@ -116,7 +116,11 @@ Simulation::Simulation(SimulationSetup setup, const std::string& file) : setup_(
     }
     cloth->state().x_prev = cloth->state().x;
     auto solver = make_solver(setup_.solver, file);
-    solver->check(*cloth);
+    try {
+      solver->check(*cloth);
+    } catch (const Error& e) {
+      throw Error(file, "", e.what());  // the solver names the field; the scene file goes in front
+    }
     solvers.push_back(std::move(solver));
     cloths_.push_back(std::move(cloth));
   }

@@ -7,6 +7,7 @@
 #include "loom/cloth/PositionBasedSolvers.h"
 #include "loom/cloth/ProjectiveSolver.h"
 #include "loom/cloth/Solver.h"
+#include "loom/cloth/StaticSolver.h"
 
 namespace loom::cloth {
 
@@ -79,7 +80,17 @@ const std::vector<Entry>& registry() {
          s.chebyshev = p.flag("chebyshev", s.chebyshev);
          s.rho = p.number("rho", s.rho, 0.0, 0.9999);
          s.warmup = p.integer("warmup", s.warmup, 0, 100000);
+         s.strain_limit = p.number("strain_limit", s.strain_limit, 0.0, 0.99);
+         s.strain_stiffness = p.number("strain_stiffness", s.strain_stiffness, 0.0, 1e12);
          return std::make_unique<ProjectiveSolver>(s);
+       }},
+      // Static equilibrium by Newton energy minimisation (StaticSolver.h).
+      {"static",
+       [](SolverParams& p) {
+         StaticSettings s;
+         s.max_iterations = p.integer("iterations", s.max_iterations, 1, 100000);
+         s.tolerance = p.number("tolerance", s.tolerance, 0.0, 1.0);
+         return std::make_unique<StaticSolver>(s);
        }},
       {"desbrun",
        [](SolverParams& p) { return std::make_unique<DesbrunSolver>(p.flag("angular_correction", true)); }},

@@ -83,25 +83,32 @@ TEST(Grid, PlaneAndOriginPlaceTheNodes) {
   EXPECT_TRUE(m->triangle_frames()[0].warp.isApprox(Vec3::UnitY()));
 }
 
-TEST(Springs, StiffnessIsResolutionIndependentOnGrids) {
-  // A 2D modulus maps to the same spring constant at every resolution (methods.md §4.3).
+TEST(Springs, InPlaneModulusIsResolutionIndependentOnGrids) {
+  // A grid's modulus along the weft is C11 = k_s + k_d + 4 k_bend (structural, both diagonals, and the two
+  // bend springs crossing every cut): it must equal the material's modulus at every resolution, and the
+  // shear modulus C33 = k_d (methods.md §4.3).
   Material mat = material_preset("cotton");
-  for (int n : {9, 33}) {
+  for (int n : {9, 33, 129}) {
     GridSpec g;
     g.nodes_u = g.nodes_v = n;
     auto m = ClothMesh::grid(g);
     const auto springs = make_springs(*m, mat);
-    const double kd = std::min(mat.shear, 0.5 * std::min(mat.stretch_weft, mat.stretch_warp));
+    double ks_weft = 0, ks_warp = 0, kd = 0, kb_weft = 0, kb_warp = 0;
     for (size_t k = 0; k < springs.size(); ++k) {
       const SpringDef& d = m->springs()[k];
-      if (d.kind == SpringKind::kStructural && d.rest_uv_dir.x() > 0.5) {
-        EXPECT_NEAR(springs[k].k, mat.stretch_weft - kd, 1e-9);
-      } else if (d.kind == SpringKind::kStructural) {
-        EXPECT_NEAR(springs[k].k, mat.stretch_warp - kd, 1e-9);
-      } else if (d.kind == SpringKind::kShear) {
-        EXPECT_NEAR(springs[k].k, kd, 1e-9);
+      const bool weft = std::abs(d.rest_uv_dir.x()) > 0.5;
+      if (d.row_share != 1.0) {
+        EXPECT_EQ(d.row_share, 0.5);  // boundary rows stand for half a row
+        continue;
       }
+      if (d.kind == SpringKind::kStructural) (weft ? ks_weft : ks_warp) = springs[k].k;
+      if (d.kind == SpringKind::kShear) kd = springs[k].k;
+      if (d.kind == SpringKind::kBend) (weft ? kb_weft : kb_warp) = springs[k].k;
     }
+    EXPECT_NEAR(ks_weft + kd + 4 * kb_weft, mat.stretch_weft, 1e-9) << n;
+    EXPECT_NEAR(ks_warp + kd + 4 * kb_warp, mat.stretch_warp, 1e-9) << n;
+    EXPECT_NEAR(kd, mat.shear, 1e-12) << n;
+    EXPECT_GE(ks_weft, 0.5 * (mat.stretch_weft - kd) - 1e-9) << n;  // the bend-spring cap
   }
 }
 

@@ -19,6 +19,7 @@ struct SpringDef {
   SpringKind kind = SpringKind::kStructural;
   Vec2 rest_uv_dir{1.0, 0.0};  // unit direction in material (warp/weft) space: x = weft (u), y = warp (v)
   double area = 0.0;           // m², the cloth area this spring stands for (for resolution-independent k)
+  double row_share = 1.0;      // grids: 0.5 for structural/bend springs along the boundary (half a row)
 };
 
 // An interior edge (e0, e1) with the two vertices opposite it (o0 in the first triangle, o1 in the second).

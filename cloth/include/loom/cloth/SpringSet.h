@@ -2,8 +2,8 @@
 // From a mesh's spring definitions and a material to per-spring stiffness, resolution-independently
 // (reference/methods.md §4). On grids (Provot topology, spacing du x dv):
 //   shear (diagonals):       k_d = min(G, Y_min / 2)           (a grid with both diagonals has C33 = k_d)
-//   structural along weft:   k = Y_weft - k_d                  (C11 = k_s + k_d), likewise warp
-//   bend (i, i+2):           k = 576 B A_e / L⁴, A_e = du dv   (see below)
+//   bend (i, i+2):           k_b = min(576 B A_e / L⁴, (Y - k_d) / 8), A_e = du dv   (see below)
+//   structural along weft:   k = Y_weft - k_d - 4 k_b          (C11 = k_s + k_d + 4 k_b), likewise warp
 // On arbitrary meshes: edge springs k_e = Y(φ) sum_t A_t / l_e² (Van Gelder 1998), Y(φ) = Y_weft cos²φ +
 // Y_warp sin²φ with φ the edge's angle to the weft; hinge springs like bend springs with A_e = (A1 + A2)/3.
 // Bend and hinge springs: a skip-one spring across a bend of curvature κ shortens by L³κ²/24, so it has no

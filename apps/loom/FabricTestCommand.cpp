@@ -1,0 +1,171 @@
+#include "FabricTestCommand.h"
+
+#include <cstdio>
+#include <cstdlib>
+#include <filesystem>
+#include <fstream>
+#include <iostream>
+#include <nlohmann/json.hpp>
+#include <string>
+
+#include "loom/cloth/Error.h"
+#include "loom/cloth/FabricTests.h"
+#include "loom/cloth/Model.h"
+
+namespace fs = std::filesystem;
+
+namespace loom::app {
+
+namespace {
+
+const char* kFabricUsage =
+    "Usage: loom fabric-test {cantilever,tensile,shear,catenary} [options]\n"
+    "\n"
+    "Runs a standard textile test in simulation and prints measured against theory:\n"
+    "  cantilever  ASTM D1388 / FAST-2: tip chord angle against the exact elastica; bending length and rigidity\n"
+    "  tensile     FAST-3: extension at 5, 20, 100 gf/cm; stretch modulus recovered at 5 gf/cm\n"
+    "  shear       bias extension: shear modulus from the 45° strip's modulus\n"
+    "  catenary    a 1 m strip hung at a span: sag against the analytic catenary\n"
+    "\n"
+    "Options:\n"
+    "  --material NAME       material preset (default: cotton)\n"
+    "  --model M             springs | choi_ko | baraff_witkin ... (default: springs)\n"
+    "  --resolution N        nodes along the strip (default: the test's own)\n"
+    "  --overhang-ratio X    cantilever: overhang l over bending length c (default 2)\n"
+    "  --span D              catenary: span in metres for a 1 m strip (default 0.8)\n"
+    "  --solver S            static (default) or a dynamic solver that settles the strip\n"
+    "  --json                print one JSON object (test, material, model, resolution, measured, theory, error,\n"
+    "                        and the test's own fields) instead of text\n"
+    "  --out DIR             report folder (default: out/fabric-test/<test>): report.md, curve.csv, plot.png\n";
+
+double parse_number(const std::string& flag, const char* v) {
+  char* end = nullptr;
+  const double d = std::strtod(v, &end);
+  if (!*v || *end) throw Error("", flag, std::string("expects a number, got '") + v + "'");
+  return d;
+}
+
+void write_report(const fs::path& dir, const cloth::FabricTestResult& r) {
+  std::error_code ec;
+  fs::create_directories(dir, ec);
+  if (ec) throw Error(dir.string(), "--out", "cannot create report folder: " + ec.message());
+  {
+    std::ofstream csv(dir / "curve.csv");
+    csv << "series,x,y\n";
+    for (const auto& [x, y] : r.curve) csv << "simulated," << x << ',' << y << "\n";
+    for (const auto& [x, y] : r.theory_curve) csv << "theory," << x << ',' << y << "\n";
+    if (!csv) throw Error((dir / "curve.csv").string(), "", "write failed");
+  }
+  std::ofstream md(dir / "report.md");
+  md << "# Fabric test: " << r.test << "\n\n"
+     << "| | |\n|---|---|\n"
+     << "| material | " << r.material << " |\n| model | " << r.model << " |\n| resolution | " << r.resolution << " |\n"
+     << "| " << r.quantity << " measured | " << r.measured << " " << r.unit << " |\n"
+     << "| theory | " << r.theory << " " << r.unit << " |\n| error | " << r.error << " " << r.unit << " |\n";
+  for (const auto& [k, v] : r.fields) md << "| " << k << " | " << v << " |\n";
+  md << "| wall time | " << r.seconds << " s |\n\n";
+  // The plot, through gnuplot when it is installed.
+  const std::string gp = (dir / "plot.gp").string();
+  {
+    std::ofstream g(gp);
+    const bool shape = r.test == "cantilever" || r.test == "catenary";
+    g << "set terminal pngcairo size 640,480 noenhanced\nset output '" << (dir / "plot.png").string() << "'\n"
+      << "set datafile separator ','\nset key bottom left\nset grid\n"
+      << "set title '" << r.test << ": " << r.material << ", " << r.model << "'\n"
+      << (shape ? "set size ratio -1\nset xlabel 'x'\nset ylabel 'y'\n" : "set xlabel 'extension (%)'\nset ylabel 'load (gf/cm)'\n")
+      << "plot '" << (dir / "curve.csv").string() << "' using ($1 eq 'simulated' ? $2 : 1/0):3 with linespoints title 'simulated', \\\n"
+      << "     '' using ($1 eq 'theory' ? $2 : 1/0):3 with lines lw 2 title 'theory'\n";
+  }
+  // Column 1 is a string: compare with strcol.
+  std::string script;
+  {
+    std::ifstream in(gp);
+    script.assign(std::istreambuf_iterator<char>(in), {});
+  }
+  for (size_t p; (p = script.find("$1 eq")) != std::string::npos;) script.replace(p, 5, "strcol(1) eq");
+  std::ofstream(gp) << script;
+  if (std::system("command -v gnuplot >/dev/null 2>&1") == 0 &&
+      std::system(("gnuplot '" + gp + "' >/dev/null 2>&1").c_str()) == 0) {
+    md << "![plot](plot.png)\n";
+  } else {
+    md << "(gnuplot is not installed: no plot; the data is in curve.csv)\n";
+  }
+}
+
+}  // namespace
+
+int fabric_test_main(int argc, char** argv) {
+  cloth::FabricTestOptions o;
+  std::string material = "cotton", out;
+  bool json = false, have_test = false;
+  for (int i = 2; i < argc; ++i) {
+    const std::string a = argv[i];
+    auto value = [&]() -> const char* {
+      if (i + 1 >= argc) throw Error("", a, "needs a value (see loom fabric-test --help)");
+      return argv[++i];
+    };
+    if (a == "-h" || a == "--help") {
+      std::cout << kFabricUsage;
+      return 0;
+    } else if (a == "--material") {
+      material = value();
+    } else if (a == "--model") {
+      o.model = value();
+    } else if (a == "--resolution") {
+      o.resolution = static_cast<int>(parse_number(a, value()));
+    } else if (a == "--overhang-ratio") {
+      o.overhang_ratio = parse_number(a, value());
+    } else if (a == "--span") {
+      o.span = parse_number(a, value());
+    } else if (a == "--solver") {
+      o.solver = value();
+    } else if (a == "--json") {
+      json = true;
+    } else if (a == "--out") {
+      out = value();
+    } else if (!a.empty() && a[0] == '-') {
+      std::fprintf(stderr, "loom: error: unknown option '%s' (see loom fabric-test --help)\n", a.c_str());
+      return 2;
+    } else if (!have_test) {
+      o.test = a;
+      have_test = true;
+    } else {
+      std::fprintf(stderr, "loom: error: more than one test given\n");
+      return 2;
+    }
+  }
+  if (!have_test) {
+    std::cerr << kFabricUsage;
+    return 2;
+  }
+  o.material = cloth::material_preset(material);
+  bool known_model = false;
+  for (const auto& m : cloth::model_names()) known_model = known_model || m == o.model;
+  if (!known_model) throw Error("", "--model", "unknown model '" + o.model + "'");
+  const cloth::FabricTestResult r = cloth::run_fabric_test(o);
+  write_report(out.empty() ? fs::path("out") / "fabric-test" / r.test : fs::path(out), r);
+  if (json) {
+    nlohmann::ordered_json j;
+    j["test"] = r.test;
+    j["material"] = r.material;
+    j["model"] = r.model;
+    j["resolution"] = r.resolution;
+    j["quantity"] = r.quantity;
+    j["unit"] = r.unit;
+    j["measured"] = r.measured;
+    j["theory"] = r.theory;
+    j["error"] = r.error;
+    for (const auto& [k, v] : r.fields) j[k] = v;
+    j["seconds"] = r.seconds;
+    std::cout << j.dump() << "\n";
+  } else {
+    std::printf("%s (%s, %s, resolution %d)\n  %s: measured %.6g %s, theory %.6g %s, error %+.4g %s\n", r.test.c_str(),
+                r.material.c_str(), r.model.c_str(), r.resolution, r.quantity.c_str(), r.measured, r.unit.c_str(),
+                r.theory, r.unit.c_str(), r.error, r.unit.c_str());
+    for (const auto& [k, v] : r.fields) std::printf("  %s = %.6g\n", k.c_str(), v);
+    std::printf("  wall time %.2f s\n", r.seconds);
+  }
+  return 0;
+}
+
+}  // namespace loom::app

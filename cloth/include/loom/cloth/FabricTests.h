@@ -1,0 +1,62 @@
+#pragma once
+// Virtual fabric tests: the standard textile measurements run in simulation and compared with theory
+// (reference/methods.md §3, REFERENCES.md "Physical targets"):
+//  - cantilever (ASTM D1388 / FAST-2): a 25 mm strip clamped at one end and bent by its weight; tip chord angle
+//    against the exact inextensible elastica θ'' = -(l/c)³ (1 - s) cos θ, θ(0) = 0, θ'(1) = 0, with the bending
+//    length c = (B / (ρ_A g))^(1/3); the measured angle, inverted through the elastica, gives c and B.
+//  - tensile (FAST-3): a 20 cm x 5 cm strip pulled along the weft at 5, 20 and 100 gf/cm; extension E5, E20,
+//    E100 (%) and the modulus F / ε at 5 gf/cm against the material's stretch modulus.
+//  - shear (bias extension): the same strip cut at 45° to warp and weft, pulled at 5 gf/cm; with the
+//    orthotropic compliance 1/E45 = (1/E1 + 1/E2 + 1/G) / 4 the shear modulus G = 1 / (4/E45 - 1/E1 - 1/E2).
+//  - catenary: a narrow strip of length S = 1 m hung between two points at span d; sag against
+//    a (cosh(d/2a) - 1) with S = 2a sinh(d/2a).
+// Static measurements use the static (energy-minimisation) solver; each test reports measured, theory,
+// error, and its own fields.
+#include <string>
+#include <utility>
+#include <vector>
+
+#include "loom/cloth/Material.h"
+
+namespace loom::cloth {
+
+struct FabricTestOptions {
+  std::string test = "cantilever";  // cantilever | tensile | shear | catenary
+  Material material;
+  std::string model = "springs";   // a model_names() entry
+  int resolution = 0;              // nodes along the strip; 0 = the test's default
+  double overhang_ratio = 2.0;     // cantilever: l / c
+  double span = 0.8;               // catenary: d (m), with S = 1 m
+  int threads = 1;
+  // "static" (energy minimisation, the default) or any dynamic solver, which then runs `settle_frames`
+  // frames of `settle_dt` seconds with damping so the result can be compared with the static one.
+  std::string solver = "static";
+  int settle_frames = 400;
+  double settle_dt = 0.01;  // s
+};
+
+struct FabricTestResult {
+  std::string test, material, model;
+  int resolution = 0;
+  std::string quantity, unit;       // what measured/theory are, e.g. "tip chord angle", "deg"
+  double measured = 0.0, theory = 0.0, error = 0.0;  // error = measured - theory (same unit)
+  std::vector<std::pair<std::string, double>> fields;  // the test's own numbers
+  // Curves for the report's plot: simulated and theoretical (x, y) points.
+  std::vector<std::pair<double, double>> curve, theory_curve;
+  double seconds = 0.0;            // wall time of the simulation
+};
+
+std::vector<std::string> fabric_test_names();
+// Throws loom::Error for an unknown test or option out of range.
+FabricTestResult run_fabric_test(const FabricTestOptions& options);
+
+// Exact inextensible elastica: tip chord angle (degrees) of a cantilever with overhang ratio l/c, and the
+// ratio that gives a chord angle (inverse).
+double elastica_chord_angle(double overhang_ratio);
+double elastica_overhang_ratio(double chord_angle_deg);
+// Catenary of a chain of length S hung at span d (same height): the parameter a of y = a cosh(x/a), with
+// S = 2a sinh(d/2a), and the sag a (cosh(d/2a) - 1).
+double catenary_parameter(double length, double span);
+double catenary_sag(double length, double span);
+
+}  // namespace loom::cloth

@@ -1,0 +1,351 @@
+#include "loom/cloth/FabricTests.h"
+
+#include <chrono>
+#include <cmath>
+
+#include "loom/cloth/Error.h"
+#include "loom/cloth/LoadTerm.h"
+#include "loom/cloth/Model.h"
+#include "loom/cloth/Simulation.h"
+#include "loom/cloth/StaticSolver.h"
+
+namespace loom::cloth {
+
+namespace {
+
+constexpr double kPi = 3.14159265358979323846;
+constexpr double kG = 9.81;             // m/s²
+constexpr double kGramForcePerCm = 0.980665;  // N/m in 1 gf/cm
+
+// Integrates the cantilever elastica θ'' = -λ³ (1 - s) cos θ on s in [0, 1] from θ(0) = 0, θ'(0) = a
+// (RK4); returns θ'(1) and fills the shape (x, y down) if asked.
+double elastica_shoot(double lambda3, double a, std::vector<std::pair<double, double>>* shape = nullptr) {
+  const int steps = 2000;
+  const double h = 1.0 / steps;
+  double th = 0.0, om = a, x = 0.0, y = 0.0;
+  auto acc = [&](double s, double t) { return -lambda3 * (1.0 - s) * std::cos(t); };
+  if (shape) shape->assign(1, {0.0, 0.0});
+  for (int k = 0; k < steps; ++k) {
+    const double s = k * h;
+    // State (θ, ω, x, y): x' = cos θ, y' = sin θ.
+    const double k1t = om, k1o = acc(s, th), k1x = std::cos(th), k1y = std::sin(th);
+    const double t2 = th + 0.5 * h * k1t, o2 = om + 0.5 * h * k1o;
+    const double k2t = o2, k2o = acc(s + 0.5 * h, t2), k2x = std::cos(t2), k2y = std::sin(t2);
+    const double t3 = th + 0.5 * h * k2t, o3 = om + 0.5 * h * k2o;
+    const double k3t = o3, k3o = acc(s + 0.5 * h, t3), k3x = std::cos(t3), k3y = std::sin(t3);
+    const double t4 = th + h * k3t, o4 = om + h * k3o;
+    const double k4t = o4, k4o = acc(s + h, t4), k4x = std::cos(t4), k4y = std::sin(t4);
+    th += h / 6 * (k1t + 2 * k2t + 2 * k3t + k4t);
+    om += h / 6 * (k1o + 2 * k2o + 2 * k3o + k4o);
+    x += h / 6 * (k1x + 2 * k2x + 2 * k3x + k4x);
+    y += h / 6 * (k1y + 2 * k2y + 2 * k3y + k4y);
+    if (shape && (k + 1) % 20 == 0) shape->emplace_back(x, y);
+  }
+  if (shape) shape->emplace_back(x, y);
+  return om;
+}
+
+// Solves the shooting problem θ'(1) = 0 and returns the shape (x, y down), unit overhang.
+std::vector<std::pair<double, double>> elastica_shape(double ratio) {
+  const double lambda3 = ratio * ratio * ratio;
+  double lo = 0.0, hi = 0.5 * lambda3 + 1e-12;
+  for (int it = 0; it < 60; ++it) {
+    const double mid = 0.5 * (lo + hi);
+    if (elastica_shoot(lambda3, mid) < 0.0) lo = mid; else hi = mid;
+  }
+  std::vector<std::pair<double, double>> shape;
+  elastica_shoot(lambda3, 0.5 * (lo + hi), &shape);
+  return shape;
+}
+
+struct Strip {
+  std::shared_ptr<const ClothMesh> mesh;
+  int nu = 0, nv = 0;
+};
+
+// A strip along x in the horizontal XZ plane: nu x nv nodes with square cells of side d, node (0, 0) at origin.
+Strip grid_strip(int nu, int nv, double d, const Vec3& origin) {
+  GridSpec g;
+  g.nodes_u = nu;
+  g.nodes_v = nv;
+  g.size_u = d * (nu - 1);
+  g.size_v = d * (nv - 1);
+  g.plane = GridPlane::kXZ;
+  g.origin = origin;
+  return {ClothMesh::grid(g), nu, nv};
+}
+
+SimulationSetup static_setup(const Strip& strip, const FabricTestOptions& o, const Vec3& gravity) {
+  SimulationSetup s;
+  ClothSetup c;
+  c.name = o.test;
+  c.mesh = strip.mesh;
+  c.material = o.material;
+  c.model = o.model;
+  s.cloths.push_back(c);
+  s.gravity = gravity;
+  s.solver.method = o.solver;
+  if (o.solver == "static") {
+    s.solver.params["iterations"] = 200;
+    s.frame_dt = 1.0;
+  } else {
+    s.frame_dt = o.settle_dt;
+    s.cloths[0].material.damping = std::max(s.cloths[0].material.damping, 0.05);  // settle quickly
+  }
+  s.substeps = 1;
+  s.threads = o.threads;
+  return s;
+}
+
+void pin_row(SimulationSetup& s, const Strip& strip, int iu) {
+  for (int iv = 0; iv < strip.nv; ++iv) s.cloths[0].pins.push_back(PinSpec{iv * strip.nu + iu, {}, {}, {}});
+}
+
+// Position of the strip's centre line at row iu (the middle node, or the mean of the two middle nodes).
+Vec3 centre(const ClothState& st, const Strip& strip, int iu) {
+  const int a = (strip.nv - 1) / 2, b = strip.nv / 2;
+  return 0.5 * (st.x[a * strip.nu + iu] + st.x[b * strip.nu + iu]);
+}
+
+// Runs frames until the largest vertex move is below tol (m); returns the frames used. A static solver
+// needs one or a few; dynamic solvers run up to settle_frames.
+int settle(Simulation& sim, double tol, const FabricTestOptions& o) {
+  int max_frames = 8;
+  if (o.solver != "static") {
+    tol *= o.settle_dt;  // a per-frame move of tol*dt: velocity below tol
+    max_frames = std::max(o.settle_frames, 1);
+  }
+  for (int f = 1; f <= max_frames; ++f) {
+    const Vec3s before = sim.cloths()[0]->state().x;
+    sim.step_frame();
+    double moved = 0.0;
+    const Vec3s& after = sim.cloths()[0]->state().x;
+    for (size_t i = 0; i < after.size(); ++i) moved = std::max(moved, (after[i] - before[i]).norm());
+    if (!std::isfinite(moved)) throw Error("", "fabric-test", "the simulation became non-finite");
+    if (moved < tol) return f;
+  }
+  return max_frames;
+}
+
+FabricTestResult cantilever(const FabricTestOptions& o) {
+  FabricTestResult r;
+  const Material& m = o.material;
+  const double c = std::cbrt(m.bend_weft / (m.areal_density * kG));  // m, bending length (strip along the weft)
+  const double l = o.overhang_ratio * c;                             // m, overhang
+  const int n = o.resolution > 0 ? o.resolution : 33;                // nodes along the overhang
+  const double d = l / (n - 1);
+  const int nv = std::max(2, static_cast<int>(std::lround(0.025 / d)) + 1);  // 25 mm wide (ASTM D1388)
+  // Rows 0 and 1 are clamped (zero slope at the edge x = 0); the overhang runs from row 1 to row n.
+  const Strip strip = grid_strip(n + 1, nv, d, Vec3(-d, 0.0, -0.5 * d * (nv - 1)));
+  SimulationSetup s = static_setup(strip, o, Vec3(0, -kG, 0));
+  pin_row(s, strip, 0);
+  pin_row(s, strip, 1);
+  Simulation sim(s);
+  const int frames = settle(sim, 1e-9 * l, o);
+  const ClothState& st = sim.cloths()[0]->state();
+  const Vec3 edge = centre(st, strip, 1), tip = centre(st, strip, n);
+  r.quantity = "tip chord angle";
+  r.unit = "deg";
+  r.measured = std::atan2(edge.y() - tip.y(), tip.x() - edge.x()) * 180.0 / kPi;
+  r.theory = elastica_chord_angle(o.overhang_ratio);
+  r.error = r.measured - r.theory;
+  const double c_measured = r.measured > 0.01 ? l / elastica_overhang_ratio(r.measured) : 0.0;
+  r.fields = {{"overhang_ratio", o.overhang_ratio},
+              {"overhang_m", l},
+              {"bending_length_m", c},
+              {"bending_length_measured_m", c_measured},
+              {"rigidity_Nm", m.bend_weft},
+              {"rigidity_measured_Nm", m.areal_density * kG * c_measured * c_measured * c_measured},
+              {"static_frames", frames}};
+  for (int iu = 1; iu <= n; ++iu) {
+    const Vec3 p = centre(st, strip, iu);
+    r.curve.emplace_back((p.x() - edge.x()) / l, (p.y() - edge.y()) / l);
+  }
+  for (const auto& [x, y] : elastica_shape(o.overhang_ratio)) r.theory_curve.emplace_back(x, -y);
+  r.resolution = n;
+  return r;
+}
+
+// Strip of length 20 cm and width 5 cm pulled along x by a line load F (N/m) on its far end; returns the
+// strain of the far end. `corner_uvs` non-empty: the strip's material frame is given per triangle.
+double pulled_strain(const FabricTestOptions& o, double line_load, int n, double angle) {
+  const double length = 0.2, width = 0.05, d = length / (n - 1);
+  const int nv = static_cast<int>(std::lround(width / d)) + 1;
+  Strip strip = grid_strip(n, nv, d, Vec3::Zero());
+  if (angle != 0.0) {
+    // The same geometry as a triangle mesh whose warp/weft frame is rotated by `angle` (bias cut).
+    std::vector<std::array<Vec2, 3>> uvs;
+    const Vec3s& x = strip.mesh->rest_positions();
+    const double ca = std::cos(angle), sa = std::sin(angle);
+    for (const Tri& t : strip.mesh->triangles()) {
+      std::array<Vec2, 3> uv;
+      for (int k = 0; k < 3; ++k) uv[k] = Vec2(ca * x[t[k]].x() + sa * x[t[k]].z(), -sa * x[t[k]].x() + ca * x[t[k]].z());
+      uvs.push_back(uv);
+    }
+    strip.mesh = ClothMesh::from_triangles(x, strip.mesh->triangles(), uvs, "bias strip");
+  }
+  SimulationSetup s = static_setup(strip, o, Vec3::Zero());
+  pin_row(s, strip, 0);
+  Simulation sim(s);
+  // The clamp: the line load split over the end nodes (half weight at the two corners).
+  std::vector<int> verts;
+  Vec3s forces;
+  for (int iv = 0; iv < nv; ++iv) {
+    verts.push_back(iv * n + n - 1);
+    const double share = (iv == 0 || iv == nv - 1) ? 0.5 : 1.0;
+    forces.push_back(Vec3(line_load * width / (nv - 1) * share, 0, 0));
+  }
+  sim.cloths()[0]->add_term(std::make_unique<LoadTerm>(verts, forces));
+  settle(sim, 1e-12, o);
+  const ClothState& st = sim.cloths()[0]->state();
+  double moved = 0.0;
+  for (int v : verts) moved += st.x[v].x() - strip.mesh->rest_positions()[v].x();
+  return moved / verts.size() / length;
+}
+
+FabricTestResult tensile(const FabricTestOptions& o) {
+  FabricTestResult r;
+  const int n = o.resolution > 0 ? o.resolution : 41;
+  const double loads[3] = {5, 20, 100};  // gf/cm (FAST-3)
+  double strain[3];
+  for (int k = 0; k < 3; ++k) {
+    strain[k] = pulled_strain(o, loads[k] * kGramForcePerCm, n, 0.0);
+    r.curve.emplace_back(strain[k] * 100.0, loads[k]);
+    r.theory_curve.emplace_back(loads[k] * kGramForcePerCm / o.material.stretch_weft * 100.0, loads[k]);
+  }
+  r.quantity = "stretch modulus at 5 gf/cm (weft)";
+  r.unit = "N/m";
+  r.measured = 5 * kGramForcePerCm / strain[0];
+  r.theory = o.material.stretch_weft;
+  r.error = r.measured - r.theory;
+  r.fields = {{"E5_percent", strain[0] * 100}, {"E20_percent", strain[1] * 100}, {"E100_percent", strain[2] * 100},
+              {"relative_error", r.measured / r.theory - 1.0}};
+  r.resolution = n;
+  return r;
+}
+
+FabricTestResult shear(const FabricTestOptions& o) {
+  FabricTestResult r;
+  const int n = o.resolution > 0 ? o.resolution : 41;
+  const double strain5 = pulled_strain(o, 5 * kGramForcePerCm, n, 0.25 * kPi);
+  const double e45 = 5 * kGramForcePerCm / strain5;  // N/m
+  const Material& m = o.material;
+  const double inv_g = 4.0 / e45 - 1.0 / m.stretch_weft - 1.0 / m.stretch_warp;
+  r.quantity = "shear modulus (bias extension)";
+  r.unit = "N/m";
+  r.measured = inv_g > 0 ? 1.0 / inv_g : std::numeric_limits<double>::infinity();
+  r.theory = m.shear;
+  r.error = r.measured - r.theory;
+  r.fields = {{"EB5_percent", strain5 * 100}, {"bias_modulus_Nm", e45}, {"fast_shear_rigidity_Nm", 123.0 / (strain5 * 100)}};
+  r.resolution = n;
+  return r;
+}
+
+FabricTestResult catenary(const FabricTestOptions& o) {
+  FabricTestResult r;
+  const double S = 1.0, span = o.span;
+  if (!(span > 0.0 && span < S)) throw Error("", "--span", "must be in (0, 1) m");
+  const int n = o.resolution > 0 ? o.resolution : 41;
+  const double d = S / (n - 1);
+  const Strip strip = grid_strip(n, 3, d, Vec3::Zero());
+  // Start from a V of two straight arms of length S/2 (isometric to the flat strip).
+  const double depth = std::sqrt(0.25 * S * S - 0.25 * span * span);
+  auto v_shape = [&](double s, double z) {
+    const double a = s <= 0.5 * S ? s / (0.5 * S) : (S - s) / (0.5 * S);
+    const double x = s <= 0.5 * S ? -0.5 * span + a * 0.5 * span : 0.5 * span - a * 0.5 * span;
+    return Vec3(x, -a * depth, z);
+  };
+  SimulationSetup s = static_setup(strip, o, Vec3(0, -kG, 0));
+  for (int iv = 0; iv < 3; ++iv)
+    for (int iu : {0, n - 1}) {
+      const int v = iv * n + iu;
+      s.cloths[0].pins.push_back(PinSpec{v, v_shape(iu * d, strip.mesh->rest_positions()[v].z()), {}, {}});
+    }
+  Simulation sim(s);
+  ClothState& st = sim.cloths()[0]->state();
+  for (int v = 0; v < st.size(); ++v)
+    if (st.inv_mass[v] != 0.0) st.x[v] = v_shape(strip.mesh->rest_positions()[v].x(), strip.mesh->rest_positions()[v].z());
+  st.x_prev = st.x;
+  settle(sim, 1e-10, o);
+  double lowest = 0.0;
+  for (int iu = 0; iu < n; ++iu) {
+    const Vec3 p = centre(st, strip, iu);
+    lowest = std::min(lowest, p.y());
+    r.curve.emplace_back(p.x(), p.y());
+  }
+  const double sag = catenary_sag(S, span);
+  // The analytic curve y = a cosh(x/a) - a cosh(d/2a).
+  const double a = catenary_parameter(S, span);
+  for (int k = 0; k <= 100; ++k) {
+    const double x = -0.5 * span + span * k / 100.0;
+    r.theory_curve.emplace_back(x, a * std::cosh(x / a) - a * std::cosh(span / (2 * a)));
+  }
+  r.quantity = "sag";
+  r.unit = "m";
+  r.measured = -lowest;
+  r.theory = sag;
+  r.error = r.measured - r.theory;
+  r.fields = {{"span_m", span}, {"length_m", S}, {"relative_error", r.measured / r.theory - 1.0}};
+  r.resolution = n;
+  return r;
+}
+
+}  // namespace
+
+std::vector<std::string> fabric_test_names() { return {"cantilever", "tensile", "shear", "catenary"}; }
+
+FabricTestResult run_fabric_test(const FabricTestOptions& o) {
+  if (o.resolution != 0 && (o.resolution < 5 || o.resolution > 2000))
+    throw Error("", "--resolution", "must be in [5, 2000]");
+  if (!(o.overhang_ratio > 0.05 && o.overhang_ratio < 10.0)) throw Error("", "--overhang-ratio", "must be in (0.05, 10)");
+  const auto start = std::chrono::steady_clock::now();
+  FabricTestResult r;
+  if (o.test == "cantilever") {
+    r = cantilever(o);
+  } else if (o.test == "tensile") {
+    r = tensile(o);
+  } else if (o.test == "shear") {
+    r = shear(o);
+  } else if (o.test == "catenary") {
+    r = catenary(o);
+  } else {
+    throw Error("", "test", "unknown fabric test '" + o.test + "' (known: cantilever, tensile, shear, catenary)");
+  }
+  r.test = o.test;
+  r.material = o.material.name;
+  r.model = o.model;
+  r.seconds = std::chrono::duration<double>(std::chrono::steady_clock::now() - start).count();
+  return r;
+}
+
+double elastica_chord_angle(double ratio) {
+  const auto shape = elastica_shape(ratio);
+  return std::atan2(shape.back().second, shape.back().first) * 180.0 / kPi;
+}
+
+double elastica_overhang_ratio(double angle) {
+  // The chord angle grows monotonically with l/c: 85° is reached near l/c = 6.
+  double lo = 0.01, hi = 8.0;
+  for (int it = 0; it < 50; ++it) {
+    const double mid = 0.5 * (lo + hi);
+    if (elastica_chord_angle(mid) < angle) lo = mid; else hi = mid;
+  }
+  return 0.5 * (lo + hi);
+}
+
+double catenary_parameter(double length, double span) {
+  // S = 2a sinh(d/2a) decreases in a (towards d): bisection in log space.
+  double lo = 1e-6, hi = 1e6;
+  for (int it = 0; it < 200; ++it) {
+    const double a = std::sqrt(lo * hi);
+    if (2 * a * std::sinh(std::min(span / (2 * a), 700.0)) > length) lo = a; else hi = a;
+  }
+  return std::sqrt(lo * hi);
+}
+
+double catenary_sag(double length, double span) {
+  const double a = catenary_parameter(length, span);
+  return a * (std::cosh(span / (2 * a)) - 1.0);
+}
+
+}  // namespace loom::cloth
