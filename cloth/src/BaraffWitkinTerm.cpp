@@ -23,7 +23,12 @@ std::vector<BwTriangle> make_bw_triangles(const ClothMesh& mesh) {
 
 BaraffWitkinTerm::BaraffWitkinTerm(Kind kind, int num_vertices, std::vector<BwTriangle> triangles, double k_u,
                                    double k_v, double k_shear, double damping)
-    : kind_(kind), n_(num_vertices), tris_(std::move(triangles)), k_u_(k_u), k_v_(k_v), k_s_(k_shear),
+    : kind_(kind),
+      n_(num_vertices),
+      tris_(std::move(triangles)),
+      k_u_(k_u),
+      k_v_(k_v),
+      k_s_(k_shear),
       damping_(damping) {
   std::vector<Tri> tv(tris_.size());
   for (size_t t = 0; t < tris_.size(); ++t) tv[t] = tris_[t].v;
@@ -155,7 +160,8 @@ void BaraffWitkinTerm::triangle_blocks(int k, const EvalContext& c, const Jacobi
         Mat3 Ke = k_s_ * g[m] * g[n].transpose();
         if (!o.clamp_compression) Ke += (k_s_ * C * hess) * I;
         if (o.damping_position_terms && kd != 0.0)
-          Ke += kd * (hess * C_dot * I + t.alpha * g[m] * (t.a[n] * d.wv_dot + t.b[n] * d.wu_dot).transpose());
+          Ke +=
+              kd * (hess * C_dot * I + t.alpha * g[m] * (t.a[n] * d.wv_dot + t.b[n] * d.wu_dot).transpose());
         kx[3 * m + n] = -Ke;
         kv[3 * m + n] = -kd * g[m] * g[n].transpose();
       }

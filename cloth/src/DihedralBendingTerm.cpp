@@ -174,7 +174,8 @@ void DihedralBendingTerm::add_jacobians(const EvalContext& c, const JacobianOpti
   dx_blocks_.resize(16 * hinges_.size());
   if (want_v) dv_blocks_.resize(16 * hinges_.size());
 #pragma omp parallel for num_threads(c.threads) schedule(static)
-  for (int k = 0; k < nh; ++k) hinge_blocks(k, c, o, &dx_blocks_[16 * k], want_v ? &dv_blocks_[16 * k] : nullptr);
+  for (int k = 0; k < nh; ++k)
+    hinge_blocks(k, c, o, &dx_blocks_[16 * k], want_v ? &dv_blocks_[16 * k] : nullptr);
   for (int k = 0; k < nh; ++k) scatter(k, &dx_blocks_[16 * k], want_v ? &dv_blocks_[16 * k] : nullptr);
 }
 
@@ -195,7 +196,8 @@ std::unique_ptr<Term> make_dihedral_bending_term(const ClothMesh& mesh, const Ma
     const Vec3 e = X[hg.e1] - X[hg.e0];
     const double a1 = 0.5 * (X[hg.o0] - X[hg.e0]).cross(X[hg.o0] - X[hg.e1]).norm();
     const double a2 = 0.5 * (X[hg.o1] - X[hg.e0]).cross(X[hg.o1] - X[hg.e1]).norm();
-    const TriangleFrame& fr = mesh.triangle_frames()[edge_triangle.at({std::min(hg.e0, hg.e1), std::max(hg.e0, hg.e1)})];
+    const TriangleFrame& fr =
+        mesh.triangle_frames()[edge_triangle.at({std::min(hg.e0, hg.e1), std::max(hg.e0, hg.e1)})];
     Vec2 eu(e.dot(fr.weft), e.dot(fr.warp));
     eu.normalize();
     // Bending across the edge: direction (-e_v, e_u) in material space.

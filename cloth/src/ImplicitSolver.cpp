@@ -8,7 +8,9 @@ namespace loom::cloth {
 
 namespace {
 using Clock = std::chrono::steady_clock;
-double ms_since(Clock::time_point t0) { return std::chrono::duration<double, std::milli>(Clock::now() - t0).count(); }
+double ms_since(Clock::time_point t0) {
+  return std::chrono::duration<double, std::milli>(Clock::now() - t0).count();
+}
 }  // namespace
 
 std::vector<std::pair<std::string, double>> ImplicitSolver::counters() const {
@@ -65,7 +67,8 @@ void ImplicitSolver::multiply(const BlockMatrix& m, const Vec3s& x, Vec3s& y, in
   }
 }
 
-void ImplicitSolver::assemble(Cloth& cloth, const Vec3s& x, const Vec3s& v, double t, double gamma, int threads) {
+void ImplicitSolver::assemble(Cloth& cloth, const Vec3s& x, const Vec3s& v, double t, double gamma,
+                              int threads) {
   const auto t0 = Clock::now();
   K_.set_zero();
   D_.set_zero();
@@ -144,7 +147,9 @@ bool ImplicitSolver::substep(Cloth& cloth, double t, double h, int threads) {
     vb_[i] = bdf2 ? Vec3(c1 * s.v[i] - c2 * v_hist_[i]) : s.v[i];
   }
   // The velocity in the scheme that puts a kinematic vertex at x + h v.
-  auto pinned_velocity = [&](int i) -> Vec3 { return bdf2 ? Vec3((s.x[i] + h * s.v[i] - xb_[i]) / gamma) : s.v[i]; };
+  auto pinned_velocity = [&](int i) -> Vec3 {
+    return bdf2 ? Vec3((s.x[i] + h * s.v[i] - xb_[i]) / gamma) : s.v[i];
+  };
   Vec3s& vplus = vk_;
   vplus.resize(n);
   if (p_.newton_iterations <= 1) {
@@ -164,7 +169,8 @@ bool ImplicitSolver::substep(Cloth& cloth, double t, double h, int threads) {
       if (fixed_[i]) dv_[i] = pinned_velocity(i) - s.v[i];
     }
     const auto t0 = Clock::now();
-    const PcgResult r = pcg_.solve(A_, rhs_, fixed_, dv_, p_.cg_tolerance, p_.cg_max_iterations, threads, true);
+    const PcgResult r =
+        pcg_.solve(A_, rhs_, fixed_, dv_, p_.cg_tolerance, p_.cg_max_iterations, threads, true);
     h_dv_ = h;
     counters_.cg_ms += ms_since(t0);
     ++counters_.linear_solves;
@@ -202,7 +208,8 @@ bool ImplicitSolver::substep(Cloth& cloth, double t, double h, int threads) {
       for (int i = 0; i < n; ++i) rhs_[i] = -g_[i];
       p_dir_.assign(n, Vec3::Zero());
       const auto t0 = Clock::now();
-      const PcgResult r = pcg_.solve(A_, rhs_, fixed_, p_dir_, p_.cg_tolerance, p_.cg_max_iterations, threads);
+      const PcgResult r =
+          pcg_.solve(A_, rhs_, fixed_, p_dir_, p_.cg_tolerance, p_.cg_max_iterations, threads);
       counters_.cg_ms += ms_since(t0);
       ++counters_.linear_solves;
       counters_.cg_iterations += r.iterations;

@@ -91,7 +91,8 @@ double gradient_error(const Term& term, const Vec3s& x) {
       Vec3s xp = x, xm = x;
       xp[j][d] += eps;
       xm[j][d] -= eps;
-      const double g = (term.energy(EvalContext{xp, v, 0, 1}) - term.energy(EvalContext{xm, v, 0, 1})) / (2 * eps);
+      const double g =
+          (term.energy(EvalContext{xp, v, 0, 1}) - term.energy(EvalContext{xm, v, 0, 1})) / (2 * eps);
       err = std::max(err, std::abs(f[j][d] + g));
       scale = std::max(scale, std::abs(g));
     }
@@ -113,7 +114,8 @@ TEST(BaraffWitkin, ForcesAreMinusEnergyGradient) {
     for (const auto& term : all_terms(*mesh, test_material(0.0)))
       for (int trial = 0; trial < 4; ++trial) {
         const Vec3s x = perturbed(mesh->rest_positions(), 0.03, rng);
-        EXPECT_LT(gradient_error(*term, x), 1e-6) << term->name() << " mesh " << mesh_kind << " trial " << trial;
+        EXPECT_LT(gradient_error(*term, x), 1e-6)
+            << term->name() << " mesh " << mesh_kind << " trial " << trial;
       }
   }
 }
@@ -125,7 +127,8 @@ TEST(BaraffWitkin, ExactJacobiansMatchFiniteDifferences) {
     auto mesh = mesh_kind == 0 ? small_grid() : irregular_mesh(rng);
     for (const auto& term : all_terms(*mesh, test_material(0.01)))
       for (int trial = 0; trial < 4; ++trial) {
-        Config c{perturbed(mesh->rest_positions(), 0.03, rng), perturbed(Vec3s(mesh->num_vertices(), Vec3::Zero()), 1.0, rng)};
+        Config c{perturbed(mesh->rest_positions(), 0.03, rng),
+                 perturbed(Vec3s(mesh->num_vertices(), Vec3::Zero()), 1.0, rng)};
         EXPECT_LT(jacobian_error(*term, c, 0, exact), 1e-6) << term->name() << " df/dx, mesh " << mesh_kind;
         EXPECT_LT(jacobian_error(*term, c, 1, exact), 1e-6) << term->name() << " df/dv, mesh " << mesh_kind;
       }
@@ -142,17 +145,20 @@ TEST(BaraffWitkin, SolverJacobiansAreSymmetricNegativeSemiDefinite) {
   solver_opts.damping_position_terms = false;
   for (const auto& term : all_terms(*mesh, test_material(0.01)))
     for (int trial = 0; trial < 3; ++trial) {
-      Config c{perturbed(mesh->rest_positions(), 0.03, rng), perturbed(Vec3s(mesh->num_vertices(), Vec3::Zero()), 1.0, rng)};
+      Config c{perturbed(mesh->rest_positions(), 0.03, rng),
+               perturbed(Vec3s(mesh->num_vertices(), Vec3::Zero()), 1.0, rng)};
       for (Vec3& p : c.x) p *= 0.85;  // compressed
       for (int wrt = 0; wrt < 2; ++wrt) {
         const Eigen::MatrixXd K = jacobian(*term, c, wrt, solver_opts);
         EXPECT_LT(max_abs(K - K.transpose()), 1e-12 * max_abs(K)) << term->name();
         Eigen::SelfAdjointEigenSolver<Eigen::MatrixXd> eig(K);
-        EXPECT_LT(eig.eigenvalues().maxCoeff(), 1e-9 * eig.eigenvalues().cwiseAbs().maxCoeff()) << term->name();
+        EXPECT_LT(eig.eigenvalues().maxCoeff(), 1e-9 * eig.eigenvalues().cwiseAbs().maxCoeff())
+            << term->name();
       }
       if (std::string(term->name()) != "bw_stretch") {
         Eigen::SelfAdjointEigenSolver<Eigen::MatrixXd> eig(jacobian(*term, c, 0, JacobianOptions{}));
-        EXPECT_GT(eig.eigenvalues().maxCoeff(), 1e-6 * eig.eigenvalues().cwiseAbs().maxCoeff()) << term->name();
+        EXPECT_GT(eig.eigenvalues().maxCoeff(), 1e-6 * eig.eigenvalues().cwiseAbs().maxCoeff())
+            << term->name();
       }
     }
 }
@@ -231,8 +237,8 @@ TEST(BaraffWitkin, ShearingGivesTheShearModulus) {
   Vec3s x = mesh->rest_positions();
   for (Vec3& p : x) p.x() += gamma * p.z();
   const double area = g.size_u * g.size_v;
-  EXPECT_NEAR(shear->energy(EvalContext{x, Vec3s(x.size(), Vec3::Zero()), 0, 1}), 0.5 * m.shear * area * gamma * gamma,
-              1e-12);
+  EXPECT_NEAR(shear->energy(EvalContext{x, Vec3s(x.size(), Vec3::Zero()), 0, 1}),
+              0.5 * m.shear * area * gamma * gamma, 1e-12);
 }
 
 TEST(BaraffWitkin, CylinderBendingEnergyUsesTheDirectionalRigidity) {

@@ -58,7 +58,9 @@ TEST(FilteredPCG, SolvesTheFreeBlockAndKeepsPrescribedValuesExactly) {
   Vec3s Ad;
   A.multiply(dv, Ad);
   for (int i = 0; i < n; ++i)
-    if (!fixed[i]) EXPECT_LT((Ad[i] - b[i]).norm(), 1e-9) << i;
+    if (!fixed[i]) {
+      EXPECT_LT((Ad[i] - b[i]).norm(), 1e-9) << i;
+    }
 }
 
 // A small hanging cloth (5x5, 0.2 m, Baraff-Witkin, soft so that explicit Euler is stable at the test's
@@ -128,8 +130,9 @@ TEST(ImplicitSolvers, ConvergenceOrderAgainstAFineReference) {
   EXPECT_NEAR(p_be_newton, 1.0, 0.2);
   EXPECT_NEAR(p_bdf2, 2.0, 0.25);
   RecordProperty("order_bdf2_linearised", std::to_string(p_bdf2_linear));
-  std::printf("orders: explicit %.3f, implicit_euler %.3f (Newton %.3f), bdf2 Newton %.3f, bdf2 linearised %.3f\n",
-              p_explicit, p_be, p_be_newton, p_bdf2, p_bdf2_linear);
+  std::printf(
+      "orders: explicit %.3f, implicit_euler %.3f (Newton %.3f), bdf2 Newton %.3f, bdf2 linearised %.3f\n",
+      p_explicit, p_be, p_be_newton, p_bdf2, p_bdf2_linear);
 }
 
 // A 9x9 cloth, one corner on a moving path, one fixed.
@@ -250,7 +253,9 @@ TEST(ImplicitHardCases, StiffClothAtThirtyHertz) {
         double e0 = 0.0;
         const double worst = run_bounded(s, 30, &e0);
         std::printf("%s %s %s: max energy / start = %.3f\n", method, model, label, worst / e0);
-        if (std::string(label) != "linearised") EXPECT_LE(worst, 10.0 * std::abs(e0)) << method << " " << model << " " << label;
+        if (std::string(label) != "linearised") {
+          EXPECT_LE(worst, 10.0 * std::abs(e0)) << method << " " << model << " " << label;
+        }
         EXPECT_TRUE(std::isfinite(worst)) << method << " " << model << " " << label;
       }
 }

@@ -2,8 +2,8 @@
 // Baraff & Witkin 1998 triangle stretch and shear as condition functions (reference/methods.md §1.4).
 // Per triangle, with rest (u, v) from TriangleFrame::rest_uv (metres; u = weft, v = warp):
 //   w_u = sum_m a_m x_m, w_v = sum_m b_m x_m  (the deformation gradient's columns; a, b from the rest uv)
-//   stretch: C = α (|w_u| - 1, |w_v| - 1),  E = k_u/2 C_u² + k_v/2 C_v²   (k_u = stretch_weft, k_v = stretch_warp)
-//   shear:   C = α w_u·w_v,                   E = k_s/2 C²                 (k_s = shear)
+//   stretch: C = α (|w_u| - 1, |w_v| - 1),  E = k_u/2 C_u² + k_v/2 C_v²   (k_u = stretch_weft, k_v =
+//   stretch_warp) shear:   C = α w_u·w_v,                   E = k_s/2 C²                 (k_s = shear)
 // α = sqrt(rest area), so E = k/2 A ε²: k is a 2D modulus in N/m and refinement does not change the
 // material (methods.md §1.4, "Area weight"). Damping is stiffness-proportional: d = -k_d (∂C/∂x)ᵀ Ċ with
 // k_d = material.damping * k (methods.md §4.7).
@@ -25,9 +25,9 @@ namespace loom::cloth {
 
 // Precomputed rest data of one triangle.
 struct BwTriangle {
-  Tri v{};                          // vertex indices
-  std::array<double, 3> a{}, b{};   // 1/m, ∂w_u/∂x_m = a_m I, ∂w_v/∂x_m = b_m I
-  double alpha = 0.0;               // m, sqrt(rest uv area)
+  Tri v{};                         // vertex indices
+  std::array<double, 3> a{}, b{};  // 1/m, ∂w_u/∂x_m = a_m I, ∂w_v/∂x_m = b_m I
+  double alpha = 0.0;              // m, sqrt(rest uv area)
 };
 
 std::vector<BwTriangle> make_bw_triangles(const ClothMesh& mesh);
@@ -56,7 +56,7 @@ class BaraffWitkinTerm final : public Term {
   double k_u_, k_v_, k_s_;  // N/m
   double damping_;          // s
   ElementGather gather_;
-  mutable Vec3s corner_force_;          // scratch: 3 per triangle
+  mutable Vec3s corner_force_;                       // scratch: 3 per triangle
   mutable std::vector<Mat3> dx_blocks_, dv_blocks_;  // scratch: 9 per triangle (row m, column n)
   mutable BlockScatter scatter_;
 };

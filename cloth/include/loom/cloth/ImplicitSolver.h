@@ -40,8 +40,8 @@ struct ImplicitParams {
 
 // Work counters since construction.
 struct ImplicitCounters {
-  long substeps = 0;         // accepted substeps
-  long rejected = 0;         // rejected substeps (adaptive)
+  long substeps = 0;  // accepted substeps
+  long rejected = 0;  // rejected substeps (adaptive)
   long linear_solves = 0;
   long cg_iterations = 0;
   long newton_iterations = 0;
