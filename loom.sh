@@ -1,6 +1,6 @@
 #!/usr/bin/env bash
 # Loom's two README commands, set-up included:
-#   ./loom.sh demo   install what is missing, build (Release, -j2), run the default scene, say what it wrote
+#   ./loom.sh demo   install what is missing, build (Release, -j2), run and render the default scene
 #   ./loom.sh test   the same set-up, then the whole test suite (ctest, output on failure)
 # Environment: LOOM_BUILD_DIR (default: build), LOOM_OUT (demo output, default: out/demo).
 set -euo pipefail
@@ -17,7 +17,7 @@ packages=(
   libbullet-dev libfcl-dev libccd-dev
   gnuplot-nox
   libgmp-dev
-  libtinygltf-dev
+  libtinygltf-dev libosmesa6-dev libstb-dev ffmpeg
 )
 
 install_missing() {
@@ -61,12 +61,14 @@ case "$cmd" in
     install_missing
     configure_and_build
     out="${LOOM_OUT:-out/demo}"
-    "$build_dir/apps/loom" run --out "$out" --profile
+    "$build_dir/apps/loom" run --out "$out" --profile --render
     echo
     echo "loom.sh: the default scene's output is in $out/:"
     echo "  $out/frames/frame_NNNNN.obj   one OBJ per frame (open in Blender, MeshLab, ...)"
     echo "  $out/stats.csv                per-frame energies, strain and per-stage milliseconds"
     echo "  $out/summary.json             totals: frames, ms_per_frame, stages, max_strain, finite"
+    echo "  $out/render/frame_NNNNN.png   rendered frames (offscreen, software OpenGL)"
+    echo "  $out/render.mp4, render.gif   the video and a short GIF preview"
     ;;
   test)
     install_missing

@@ -11,11 +11,15 @@
 #include <fstream>
 #include <iomanip>
 #include <iostream>
+#include <memory>
 #include <nlohmann/json.hpp>
 #include <sstream>
 
 #include "loom/cloth/Error.h"
 #include "loom/export/Exporters.h"
+#ifdef LOOM_HAVE_RENDER
+#include "loom/render/RenderRun.h"
+#endif
 #include "loom/scene/Scene.h"
 
 namespace fs = std::filesystem;
@@ -142,11 +146,20 @@ int run_command(const RunOptions& o) {
   // output.formats: "obj" below (with output.frames), "pc2" and "gltf" through loom::export.
   const bool obj = sc.output.frames && std::find(sc.output.formats.begin(), sc.output.formats.end(), "obj") != sc.output.formats.end();
   exporter::Exporters exports(out.string(), sc.output.formats, sim.cloths(), sc.output.every);
+#ifdef LOOM_HAVE_RENDER
+  std::unique_ptr<render::Recording> recording;  // --render: positions kept, rendered after the run
+  if (o.render) recording = std::make_unique<render::Recording>(sim.cloths());
+#else
+  if (o.render) throw Error("", "--render", "this loom was built without the offscreen renderer (Debian: libosmesa6-dev libstb-dev)");
+#endif
 
   cloth::FrameStats s0 = sim.measure();
   write_row(s0);
   if (obj) write_obj(frame_path(0), sim.cloths());
   exports.frame(sim.time(), sim.cloths());
+#ifdef LOOM_HAVE_RENDER
+  if (recording) recording->add(sim.cloths());
+#endif
   double max_strain = s0.max_strain, mean_strain_sum = 0.0, sim_ms = 0.0;
   int done = 0;
   bool finite = s0.finite;
@@ -164,6 +177,9 @@ int run_command(const RunOptions& o) {
     write_row(s);
     if (obj && f % sc.output.every == 0) write_obj(frame_path(f), sim.cloths());
     if (f % sc.output.every == 0) exports.frame(sim.time(), sim.cloths());
+#ifdef LOOM_HAVE_RENDER
+    if (recording && f % sc.output.render.every == 0) recording->add(sim.cloths());
+#endif
     max_strain = std::max(max_strain, s.max_strain);
     mean_strain_sum += s.mean_strain;
     done = f;
@@ -171,6 +187,20 @@ int run_command(const RunOptions& o) {
   }
   bar.finish();
   exports.finish();
+  nlohmann::ordered_json render_summary;
+#ifdef LOOM_HAVE_RENDER
+  if (recording) {
+    render::RenderSettings rs;
+    rs.width = sc.output.render.width;
+    rs.height = sc.output.render.height;
+    if (sc.output.render.camera) rs.camera = render::Camera{sc.output.render.eye, sc.output.render.target, sc.output.render.fov};
+    const render::RenderReport rep =
+        render::render_recording(out.string(), *recording, rs, 1.0 / (sc.setup.frame_dt * sc.output.render.every));
+    render_summary = {{"frames", rep.frames}, {"ms_per_frame", rep.ms_per_frame}, {"width", rs.width}, {"height", rs.height}};
+    std::cout << "loom: rendered " << rep.frames << " frames (" << std::fixed << std::setprecision(1) << rep.ms_per_frame
+              << " ms/frame) -> " << (out / "render").string() << "/, " << rep.mp4 << ", " << rep.gif << "\n";
+  }
+#endif
   csv.close();
   if (!csv) throw Error(stats_partial.string(), "", "write failed");
   fs::rename(stats_partial, out / "stats.csv");
@@ -206,6 +236,7 @@ int run_command(const RunOptions& o) {
   }
   j["vertices"] = vertices;
   j["triangles"] = triangles;
+  if (!render_summary.is_null()) j["render"] = render_summary;
   if (!finite) j["error"] = error;
   write_atomically(out / "summary.json", j.dump(2) + "\n");
 

@@ -11,6 +11,7 @@ struct RunOptions {
   int frames = -1;               // -1: the scene's duration
   int threads = -1;              // -1: the scene's value
   bool profile = false;
+  bool render = false;           // --render: DIR/render/*.png, DIR/render.mp4, DIR/render.gif
   std::vector<std::string> sets;  // --set PATH=VALUE
 };
 

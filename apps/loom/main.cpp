@@ -32,7 +32,7 @@ std::string run_usage() {
   std::string solvers, presets;
   for (const auto& s : loom::cloth::solver_names()) solvers += (solvers.empty() ? "" : ", ") + s;
   for (const auto& p : loom::cloth::material_preset_names()) presets += (presets.empty() ? "" : ", ") + p;
-  return "Usage: loom run [SCENE] [--out DIR] [--frames N] [--threads N] [--profile] [--set PATH=VALUE ...]\n"
+  return "Usage: loom run [SCENE] [--out DIR] [--frames N] [--threads N] [--profile] [--render] [--set PATH=VALUE ...]\n"
          "\n"
          "Runs SCENE (a JSON file; default: " +
          loom::app::default_scene_path() +
@@ -47,6 +47,8 @@ std::string run_usage() {
          "  --frames N         number of frames to simulate (default: the scene's duration x fps)\n"
          "  --threads N        OpenMP threads for the per-element loops (default: the scene's, else 1)\n"
          "  --profile          print a table of pipeline stages: total and per-frame milliseconds, counters\n"
+         "  --render           also render DIR/render/frame_NNNNN.png, DIR/render.mp4 and DIR/render.gif\n"
+         "                     (offscreen, software OpenGL; scene: output.render {width, height, every, camera})\n"
          "  --set PATH=VALUE   override any scene value before it is checked, e.g.\n"
          "                     --set solver.method=verlet  --set cloths[0].material.preset=denim_11oz\n"
          "                     VALUE is read as JSON when it parses (numbers, arrays), else as a string\n"
@@ -91,6 +93,8 @@ int run_main(int argc, char** argv) {
       }
     } else if (a == "--profile") {
       o.profile = true;
+    } else if (a == "--render") {
+      o.render = true;
     } else if (a == "--set") {
       o.sets.push_back(value());
     } else if (a.rfind("--set=", 0) == 0) {

@@ -341,6 +341,26 @@ Scene parse_scene(const nlohmann::json& root, const std::string& file) {
         scene.output.formats.push_back(name);
       }
     }
+    if (o.has("render")) {
+      const JsonReader rr = o.object("render");
+      RenderOutput& ro = scene.output.render;
+      ro.width = rr.integer("width", 640, 16);
+      ro.height = rr.integer("height", 480, 16);
+      if (ro.width > 8192) rr.fail("width", "must be <= 8192");
+      if (ro.height > 8192) rr.fail("height", "must be <= 8192");
+      ro.every = rr.integer("every", 1, 1);
+      if (rr.has("camera")) {
+        const JsonReader c = rr.object("camera");
+        ro.camera = true;
+        ro.eye = c.vec3("eye");
+        ro.target = c.vec3("target");
+        ro.fov = c.number("fov", 40.0, 0.0, true);
+        if (ro.fov >= 170.0) c.fail("fov", "must be < 170 degrees");
+        if ((ro.eye - ro.target).norm() < 1e-9) c.fail("target", "must differ from camera.eye");
+        c.finish();
+      }
+      rr.finish();
+    }
     o.finish();
   }
   r.finish();

@@ -9,12 +9,22 @@
 
 namespace loom::scene {
 
+// output.render: settings of `loom run --render` (apps/render).
+struct RenderOutput {
+  int width = 640, height = 480;                       // px
+  int every = 1;                                       // render every k-th frame
+  bool camera = false;                                 // true: eye/target/fov below, else framed automatically
+  cloth::Vec3 eye{0.0, 1.5, 3.0}, target{0.0, 1.0, 0.0};  // m
+  double fov = 40.0;                                   // degrees, vertical
+};
+
 struct OutputSettings {
   int every = 1;       // write every k-th frame's OBJ
   bool frames = true;  // write OBJ frames at all
   // Geometry formats, each at most once: "obj" (DIR/frames/*.obj), "pc2" (DIR/pc2/<cloth>.pc2 + .obj),
   // "gltf" (DIR/animation.gltf + .bin, morph-target animation). Default: {"obj"}.
   std::vector<std::string> formats{"obj"};
+  RenderOutput render;
 };
 
 struct Scene {

@@ -1,0 +1,43 @@
+#pragma once
+// `loom run --render`: keeps the positions of every rendered frame while the simulation runs, then (so
+// the camera can be framed on the whole motion) renders DIR/render/frame_00000.png ... (numbered by
+// rendered frame), encodes DIR/render.mp4 (H.264, yuv420p) and a short DIR/render.gif preview (first
+// 4 s, 15 fps, 320 px wide) with ffmpeg.
+#include <memory>
+#include <string>
+#include <vector>
+
+#include "loom/cloth/Cloth.h"
+#include "loom/render/Renderer.h"
+
+namespace loom::render {
+
+// Meshes as drawn (warp/weft material coordinates from the cloth's triangle frames); colours cycle.
+std::vector<RenderMesh> render_meshes(const std::vector<std::unique_ptr<cloth::Cloth>>& cloths);
+
+class Recording {
+ public:
+  explicit Recording(const std::vector<std::unique_ptr<cloth::Cloth>>& cloths) : meshes_(render_meshes(cloths)) {}
+  void add(const std::vector<std::unique_ptr<cloth::Cloth>>& cloths);
+  int frames() const { return static_cast<int>(frames_.size()); }
+  const std::vector<RenderMesh>& meshes() const { return meshes_; }
+  const std::vector<std::vector<cloth::Vec3s>>& positions() const { return frames_; }  // [frame][cloth]
+  Bounds bounds() const;
+
+ private:
+  std::vector<RenderMesh> meshes_;
+  std::vector<std::vector<cloth::Vec3s>> frames_;
+};
+
+struct RenderReport {
+  int frames = 0;
+  double ms_per_frame = 0.0;  // wall time of rendering + PNG writing, per frame
+  std::string mp4, gif;       // empty when not written
+};
+
+// Renders `rec` into `out` (see above). `fps`: frames per second of the video (the rendered frames'
+// rate). `video`: also run ffmpeg (throws loom::Error when ffmpeg is missing or fails).
+RenderReport render_recording(const std::string& out, const Recording& rec, const RenderSettings& settings,
+                              double fps, bool video = true);
+
+}  // namespace loom::render

@@ -1,0 +1,99 @@
+#include "loom/render/RenderRun.h"
+
+#include <chrono>
+#include <cstdio>
+#include <cstdlib>
+#include <filesystem>
+
+#include "loom/cloth/Error.h"
+
+namespace loom::render {
+
+namespace fs = std::filesystem;
+
+std::vector<RenderMesh> render_meshes(const std::vector<std::unique_ptr<cloth::Cloth>>& cloths) {
+  static const cloth::Vec3 kColors[] = {{0.80, 0.22, 0.18}, {0.20, 0.42, 0.75}, {0.90, 0.68, 0.20}, {0.30, 0.62, 0.35}};
+  std::vector<RenderMesh> meshes;
+  for (size_t i = 0; i < cloths.size(); ++i) {
+    RenderMesh m;
+    m.triangles = cloths[i]->mesh().triangles();
+    for (const auto& f : cloths[i]->mesh().triangle_frames()) m.corner_uv.push_back(f.rest_uv);
+    m.color = kColors[i % 4];
+    meshes.push_back(std::move(m));
+  }
+  return meshes;
+}
+
+void Recording::add(const std::vector<std::unique_ptr<cloth::Cloth>>& cloths) {
+  frames_.emplace_back();
+  for (const auto& c : cloths) frames_.back().push_back(c->state().x);
+}
+
+Bounds Recording::bounds() const {
+  Bounds b;
+  for (const auto& f : frames_)
+    for (const auto& x : f)
+      for (const cloth::Vec3& p : x) b.add(p);
+  return b;
+}
+
+namespace {
+
+std::string quote(const std::string& s) {
+  std::string q = "'";
+  for (char c : s) q += c == '\'' ? std::string("'\\''") : std::string(1, c);
+  return q + "'";
+}
+
+void run_ffmpeg(const std::string& args, const std::string& target) {
+  const std::string cmd = "ffmpeg -hide_banner -loglevel error -y " + args + " </dev/null";
+  const int status = std::system(cmd.c_str());
+  if (status != 0 || !fs::exists(target)) throw Error(target, "--render", "ffmpeg failed (command: " + cmd + ")");
+}
+
+}  // namespace
+
+RenderReport render_recording(const std::string& out_dir, const Recording& rec, const RenderSettings& settings,
+                              double fps, bool video) {
+  const fs::path out(out_dir), dir = out / "render";
+  std::error_code ec;
+  fs::remove_all(dir, ec);
+  fs::remove(out / "render.mp4", ec);
+  fs::remove(out / "render.gif", ec);
+  fs::create_directories(dir, ec);
+  if (ec) throw Error(dir.string(), "--render", "cannot create folder: " + ec.message());
+
+  const auto start = std::chrono::steady_clock::now();
+  Renderer r(settings, rec.meshes());
+  r.frame(rec.bounds());
+  for (int f = 0; f < rec.frames(); ++f) {
+    std::vector<const cloth::Vec3s*> x;
+    for (const auto& p : rec.positions()[f]) x.push_back(&p);
+    char name[32];
+    std::snprintf(name, sizeof name, "frame_%05d.png", f);
+    write_png((dir / name).string(), r.render(x));
+  }
+  RenderReport rep;
+  rep.frames = rec.frames();
+  rep.ms_per_frame = rec.frames() ? std::chrono::duration<double, std::milli>(std::chrono::steady_clock::now() - start).count() / rec.frames() : 0.0;
+  if (!video || rec.frames() == 0) return rep;
+
+  if (std::system("command -v ffmpeg >/dev/null 2>&1") != 0)
+    throw Error("ffmpeg", "--render", "ffmpeg not found (Debian package: ffmpeg); the PNG frames are in " + dir.string());
+  char rate[32];
+  std::snprintf(rate, sizeof rate, "%.6g", fps);
+  const std::string input = std::string("-framerate ") + rate + " -i " + quote((dir / "frame_%05d.png").string());
+  rep.mp4 = (out / "render.mp4").string();
+  // H.264 needs even sizes: pad by one pixel when the image is odd.
+  run_ffmpeg(input + " -vf 'pad=ceil(iw/2)*2:ceil(ih/2)*2' -c:v libx264 -pix_fmt yuv420p -crf 20 -movflags +faststart " +
+                 quote(rep.mp4),
+             rep.mp4);
+  rep.gif = (out / "render.gif").string();
+  run_ffmpeg(input +
+                 " -t 4 -vf 'fps=15,scale=320:-1:flags=lanczos,split[a][b];[a]palettegen=max_colors=96[p];[b][p]paletteuse=dither=bayer:bayer_scale=4' -loop 0 " +
+                 quote(rep.gif),
+             rep.gif);
+  return rep;
+}
+
+}  // namespace loom::render
