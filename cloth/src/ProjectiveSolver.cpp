@@ -1,5 +1,7 @@
 #include "loom/cloth/ProjectiveSolver.h"
 
+#include <Eigen/SVD>
+#include <algorithm>
 #include <cmath>
 
 #include "loom/cloth/Error.h"
@@ -22,13 +24,47 @@ void ProjectiveSolver::prepare(const Cloth& cloth, double h) {
   if (cloth_ != &cloth) {
     springs_ = collect_springs(cloth);
     gather_ = PairGather(s.size(), springs_);
+    triangles_.clear();
+    tri_g_.clear();
+    tri_weight_.clear();
+    if (settings_.strain_limit > 0.0) {
+      const ClothMesh& mesh = cloth.mesh();
+      const double w = settings_.strain_stiffness > 0.0
+                           ? settings_.strain_stiffness
+                           : 100.0 * std::max(cloth.material().stretch_weft, cloth.material().stretch_warp);
+      for (int t = 0; t < mesh.num_triangles(); ++t) {
+        const auto& uv = mesh.triangle_frames()[t].rest_uv;
+        Eigen::Matrix2d dm;
+        dm.col(0) = uv[1] - uv[0];
+        dm.col(1) = uv[2] - uv[0];
+        const Eigen::Matrix2d b = dm.inverse();  // F = [x1 - x0, x2 - x0] b
+        const Vec2 g1 = b.row(0).transpose(), g2 = b.row(1).transpose();
+        triangles_.push_back(mesh.triangles()[t]);
+        tri_g_.push_back({-(g1 + g2), g1, g2});
+        tri_weight_.push_back(w * mesh.triangle_rest_areas()[t]);
+      }
+    }
   }
   cloth_ = &cloth;
   h_ = h;
   kinematic_ = std::move(kinematic);
   index_ = free_index(s, &num_free_);
   // Liu 2013, global step: M + h² L_k (+ h L_c for the damping term), kinematic DOFs eliminated.
-  llt_.compute(spring_system_matrix(s, index_, num_free_, springs_, h * h, h));
+  Eigen::SparseMatrix<double> a = spring_system_matrix(s, index_, num_free_, springs_, h * h, h);
+  if (!triangles_.empty()) {
+    // h² Σ_t w A (g_m·g_n) over free corners (Bouaziz 2014: Σ w SᵀAᵀAS).
+    std::vector<Eigen::Triplet<double>> trip;
+    for (size_t t = 0; t < triangles_.size(); ++t)
+      for (int m = 0; m < 3; ++m)
+        for (int n = 0; n < 3; ++n) {
+          const int fm = index_[triangles_[t][m]], fn = index_[triangles_[t][n]];
+          if (fm >= 0 && fn >= 0) trip.emplace_back(fm, fn, h * h * tri_weight_[t] * tri_g_[t][m].dot(tri_g_[t][n]));
+        }
+    Eigen::SparseMatrix<double> tri(num_free_, num_free_);
+    tri.setFromTriplets(trip.begin(), trip.end());
+    a += tri;
+  }
+  llt_.compute(a);
   if (llt_.info() != Eigen::Success) throw Error("", "solver", "projective: factorisation of M + h² L failed");
   ++factorizations_;
 }
@@ -87,6 +123,7 @@ void ProjectiveSolver::step(Cloth& cloth, double t, double h, int threads) {
       for (int i = 0; i < n; ++i)
         if (index_[i] >= 0) rhs_.row(index_[i]) = base_rhs_.row(index_[i]) + gather_.sum(i, spring_rhs_).transpose();
     }
+    if (!triangles_.empty()) add_strain_projection(s, h, rhs_);
     // Global step: the prefactorised solve, three right-hand sides at once.
     q_hat_ = llt_.solve(rhs_);
     if (settings_.chebyshev && it >= settings_.warmup) {
@@ -128,11 +165,62 @@ ProjectiveIteration ProjectiveSolver::measure(const ClothState& s, double h, int
     gradient_[sp.i] -= g;
     gradient_[sp.j] += g;
   }
+  if (!triangles_.empty()) {
+    Vec3s g(n, Vec3::Zero());
+    r.objective += h * h * strain_energy(s, &g);
+    for (int i = 0; i < n; ++i) gradient_[i] += h * h * g[i];
+  }
   double sum = 0.0;
   for (int i = 0; i < n; ++i)
     if (index_[i] >= 0) sum += gradient_[i].squaredNorm();
   r.residual = std::sqrt(sum);
   return r;
+}
+
+namespace {
+// Deformation gradient of triangle t (3x2) and its projection onto the strain band (SVD clamp).
+Eigen::Matrix<double, 3, 2> clamp_strain(const Eigen::Matrix<double, 3, 2>& f, double tau) {
+  Eigen::JacobiSVD<Eigen::Matrix<double, 3, 2>> svd(f, Eigen::ComputeThinU | Eigen::ComputeThinV);
+  Vec2 sigma = svd.singularValues();
+  for (int k = 0; k < 2; ++k) sigma[k] = std::clamp(sigma[k], 1.0 - tau, 1.0 + tau);
+  return svd.matrixU() * sigma.asDiagonal() * svd.matrixV().transpose();
+}
+}  // namespace
+
+void ProjectiveSolver::add_strain_projection(const ClothState& s, double h, Eigen::MatrixX3d& rhs) const {
+  // Local step for triangles, then their part of the right-hand side, h² w A T g_m (minus the couplings to
+  // kinematic corners, which sit on the left in the free rows). Sequential: deterministic sums.
+  for (size_t t = 0; t < triangles_.size(); ++t) {
+    const Tri& tri = triangles_[t];
+    const auto& g = tri_g_[t];
+    Eigen::Matrix<double, 3, 2> f = Eigen::Matrix<double, 3, 2>::Zero();
+    for (int m = 0; m < 3; ++m) f += s.x[tri[m]] * g[m].transpose();
+    const Eigen::Matrix<double, 3, 2> target = clamp_strain(f, settings_.strain_limit);
+    const double w = h * h * tri_weight_[t];
+    for (int m = 0; m < 3; ++m) {
+      const int fm = index_[tri[m]];
+      if (fm < 0) continue;
+      Vec3 b = w * (target * g[m]);
+      for (int n = 0; n < 3; ++n)
+        if (index_[tri[n]] < 0) b -= w * g[m].dot(g[n]) * s.x[tri[n]];
+      rhs.row(fm) += b.transpose();
+    }
+  }
+}
+
+double ProjectiveSolver::strain_energy(const ClothState& s, Vec3s* gradient) const {
+  double e = 0.0;
+  for (size_t t = 0; t < triangles_.size(); ++t) {
+    const Tri& tri = triangles_[t];
+    const auto& g = tri_g_[t];
+    Eigen::Matrix<double, 3, 2> f = Eigen::Matrix<double, 3, 2>::Zero();
+    for (int m = 0; m < 3; ++m) f += s.x[tri[m]] * g[m].transpose();
+    const Eigen::Matrix<double, 3, 2> d = f - clamp_strain(f, settings_.strain_limit);
+    e += 0.5 * tri_weight_[t] * d.squaredNorm();
+    if (gradient)
+      for (int m = 0; m < 3; ++m) (*gradient)[tri[m]] += tri_weight_[t] * (d * g[m]);
+  }
+  return e;
 }
 
 }  // namespace loom::cloth

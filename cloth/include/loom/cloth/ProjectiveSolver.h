@@ -16,6 +16,10 @@
 // Chebyshev acceleration (Wang 2015): after `warmup` plain iterations,
 //   q_{k+1} = ω_{k+1} (q̂_{k+1} - q_{k-1}) + q_{k-1},  ω_S = 2/(2 - ρ²),  ω_{k+1} = 4/(4 - ρ² ω_k),
 // with ρ the estimated spectral radius of the plain iteration (err low).
+// Optional triangle strain limiting (Bouaziz et al. 2014, strain constraint): per triangle the energy
+//   (w A / 2) |F - T|², F = deformation gradient (3x2, rest uv frame), T = U clamp(Σ, 1 - τ, 1 + τ) Vᵀ
+// from the SVD of F; zero while both principal stretches are within [1 - τ, 1 + τ], a stiff spring back to
+// the band outside it. It adds w A Σ (g_m·g_n) to the constant matrix, so the factorisation stays valid.
 #include <Eigen/SparseCholesky>
 #include <vector>
 
@@ -30,6 +34,8 @@ struct ProjectiveSettings {
   bool chebyshev = false;  // Wang 2015 acceleration
   double rho = 0.9;        // 1, spectral radius estimate for Chebyshev
   int warmup = 3;          // plain iterations before Chebyshev starts (Wang's S)
+  double strain_limit = 0.0;      // 1, τ of the triangle strain projection; 0 = off
+  double strain_stiffness = 0.0;  // N/m, w of the strain projection; 0 = 100 x the material's larger stretch modulus
 };
 
 // One local/global iteration's measurements (only when recording is on; for tests and studies).
@@ -54,6 +60,8 @@ class ProjectiveSolver final : public Solver {
 
  private:
   void prepare(const Cloth& cloth, double h);
+  void add_strain_projection(const ClothState& s, double h, Eigen::MatrixX3d& rhs) const;
+  double strain_energy(const ClothState& s, Vec3s* gradient) const;  // J; gradient += dE/dx if given
   ProjectiveIteration measure(const ClothState& s, double h, int threads);
 
   ProjectiveSettings settings_;
@@ -65,6 +73,11 @@ class ProjectiveSolver final : public Solver {
   std::vector<Spring> springs_;
   PairGather gather_;                // per-vertex sums of per-spring terms
   std::vector<int> index_;           // free index per vertex, -1 for kinematic
+  // Triangle strain projection (when strain_limit > 0): per triangle the corner weights g_m (1/m, F = Σ x_m g_mᵀ)
+  // and w A (N·m).
+  std::vector<Tri> triangles_;
+  std::vector<std::array<Vec2, 3>> tri_g_;
+  std::vector<double> tri_weight_;
   int num_free_ = 0;
   long factorizations_ = 0;
   // Per-step scratch.
