@@ -75,6 +75,31 @@ Strip grid_strip(int nu, int nv, double d, const Vec3& origin) {
   return {ClothMesh::grid(g), nu, nv};
 }
 
+// A strip of equilateral triangles along x in the XZ plane: rows i at x = origin.x + i h (h = √3/2 d),
+// nv nodes across at z = origin.z + j d, odd rows shifted by d/2. Right-triangle grids make dihedral and
+// hinge bending anisotropic, with soft modes that creases along the cheaper direction exploit
+// (methods.md §4.5); equilateral meshes do not. Nodes are numbered like a grid (index = j nu + i), so
+// centre() and pin_row() work unchanged.
+Strip equilateral_strip(int nu, int nv, double d, const Vec3& origin) {
+  const double h = 0.5 * std::sqrt(3.0) * d;
+  Vec3s x(static_cast<size_t>(nu) * nv);
+  for (int j = 0; j < nv; ++j)
+    for (int i = 0; i < nu; ++i) x[j * nu + i] = origin + Vec3(i * h, 0.0, j * d + (i % 2 ? 0.5 * d : 0.0));
+  std::vector<Tri> tris;
+  for (int i = 0; i + 1 < nu; ++i)
+    for (int j = 0; j + 1 < nv; ++j) {
+      const int a = j * nu + i, b = j * nu + i + 1, c = (j + 1) * nu + i, e = (j + 1) * nu + i + 1;
+      if (i % 2 == 0) {  // row i unshifted, row i+1 shifted up by d/2
+        tris.push_back({a, b, c});
+        tris.push_back({b, e, c});
+      } else {
+        tris.push_back({a, b, e});
+        tris.push_back({a, e, c});
+      }
+    }
+  return {ClothMesh::from_triangles(std::move(x), std::move(tris), {}, "equilateral strip"), nu, nv};
+}
+
 SimulationSetup static_setup(const Strip& strip, const FabricTestOptions& o, const Vec3& gravity) {
   SimulationSetup s;
   ClothSetup c;
@@ -133,17 +158,23 @@ FabricTestResult cantilever(const FabricTestOptions& o) {
   const double c = std::cbrt(m.bend_weft / (m.areal_density * kG));  // m, bending length (strip along the weft)
   const double l = o.overhang_ratio * c;                             // m, overhang
   const int n = o.resolution > 0 ? o.resolution : 33;                // nodes along the overhang
-  const double d = l / (n - 1);
-  const int nv = std::max(2, static_cast<int>(std::lround(0.025 / d)) + 1);  // 25 mm wide (ASTM D1388)
-  // Rows 0 and 1 are clamped (zero slope at the edge x = 0); the overhang runs from row 1 to row n.
-  const Strip strip = grid_strip(n + 1, nv, d, Vec3(-d, 0.0, -0.5 * d * (nv - 1)));
+  // Rows 0 and 1 are clamped. The first bending element sits at row 1 and stands for the cloth between
+  // rows 0.5 and 1.5, so the discrete strip bends from row 0.5 on: the clamp edge x = 0 is put there and
+  // the overhang runs from row 0.5 to row n (l = (n - 0.5) rows).
+  const bool grid = o.model == "springs";  // Provot springs need the grid; the others get equilateral triangles
+  const double row = l / (n - 0.5), d = grid ? row : row / (0.5 * std::sqrt(3.0));
+  // 25 mm wide (ASTM D1388), and at least 16 cells across: the free side edges carry fewer bending elements,
+  // a loss of about one cell's share of the width, which the elastica (per unit width) does not have.
+  const int nv = std::max(17, static_cast<int>(std::lround(0.025 / d)) + 1);
+  const Vec3 origin(-0.5 * row, 0.0, -0.5 * d * (nv - 1));
+  const Strip strip = grid ? grid_strip(n + 1, nv, d, origin) : equilateral_strip(n + 1, nv, d, origin);
   SimulationSetup s = static_setup(strip, o, Vec3(0, -kG, 0));
   pin_row(s, strip, 0);
   pin_row(s, strip, 1);
   Simulation sim(s);
   const int frames = settle(sim, 1e-9 * l, o);
   const ClothState& st = sim.cloths()[0]->state();
-  const Vec3 edge = centre(st, strip, 1), tip = centre(st, strip, n);
+  const Vec3 edge = 0.5 * (centre(st, strip, 0) + centre(st, strip, 1)), tip = centre(st, strip, n);
   r.quantity = "tip chord angle";
   r.unit = "deg";
   r.measured = std::atan2(edge.y() - tip.y(), tip.x() - edge.x()) * 180.0 / kPi;
@@ -157,7 +188,7 @@ FabricTestResult cantilever(const FabricTestOptions& o) {
               {"rigidity_Nm", m.bend_weft},
               {"rigidity_measured_Nm", m.areal_density * kG * c_measured * c_measured * c_measured},
               {"static_frames", frames}};
-  for (int iu = 1; iu <= n; ++iu) {
+  for (int iu = 0; iu <= n; ++iu) {
     const Vec3 p = centre(st, strip, iu);
     r.curve.emplace_back((p.x() - edge.x()) / l, (p.y() - edge.y()) / l);
   }

@@ -46,7 +46,6 @@ TEST(FabricTests, TensileRecoversTheStretchModulusWithinTwoPercent) {
   for (const char* model : {"springs", "choi_ko"}) {
     for (const char* material : {"cotton", "denim_11oz"}) {
       FabricTestOptions o = options("tensile", model);
-      o.resolution = 21;
       o.material = material_preset(material);
       const FabricTestResult r = run_fabric_test(o);
       // The grid's diagonals add a Poisson coupling C12 = k_d, so a free strip's uniaxial modulus is
@@ -73,6 +72,23 @@ TEST(FabricTests, CantileverDeflectsMoreWithLongerOverhang) {
     EXPECT_GT(r.measured, previous) << "l/c = " << ratio;
     EXPECT_LT(r.measured, 90.0);
     previous = r.measured;
+  }
+}
+
+TEST(FabricTests, DihedralCantileverMatchesTheElasticaAndResolution) {
+  // Issue 4 acceptance for the dihedral bending model: tip chord angle within 1.5° of the exact elastica at
+  // l/c = 1 ... 3, changing by < 1° when the strip is refined 2x.
+  for (double ratio : {1.0, 1.5, 2.0, 2.5, 3.0}) {
+    double angle[2];
+    for (int k = 0; k < 2; ++k) {
+      FabricTestOptions o = options("cantilever", "baraff_witkin");
+      o.resolution = k == 0 ? 9 : 17;
+      o.overhang_ratio = ratio;
+      const FabricTestResult r = run_fabric_test(o);
+      EXPECT_LT(std::abs(r.error), 1.5) << "l/c = " << ratio << ", N = " << o.resolution << ": " << r.measured << "° vs " << r.theory << "°";
+      angle[k] = r.measured;
+    }
+    EXPECT_LT(std::abs(angle[1] - angle[0]), 1.0) << "l/c = " << ratio;
   }
 }
 
