@@ -49,9 +49,10 @@ configure_and_build() {
 
 usage() {
   cat <<'USAGE'
-Usage: ./loom.sh demo | test
+Usage: ./loom.sh demo | test | gallery
   demo   install missing Debian packages, build (Release, -j2), run the default scene
   test   install missing Debian packages, build, run the whole test suite (ctest)
+  gallery  render every scene in scenes/ small (GIF + last frame) into docs/gallery/ (README images)
 USAGE
 }
 
@@ -74,6 +75,21 @@ case "$cmd" in
     install_missing
     configure_and_build
     ctest --test-dir "$build_dir" --output-on-failure -j2
+    ;;
+  gallery)
+    # README images: every shipped scene rendered small (320x240), GIF + last frame -> docs/gallery/.
+    install_missing
+    configure_and_build
+    mkdir -p docs/gallery
+    for scene in scenes/*.json; do
+      name="$(basename "$scene" .json)"
+      "$build_dir/apps/loom" run "$scene" --out "out/gallery/$name" --render \
+        --set 'output.formats=[]' --set 'output.render={"width": 320, "height": 240}'
+      cp "out/gallery/$name/render.gif" "docs/gallery/$name.gif"
+      last="$(ls "out/gallery/$name/render/"frame_*.png | tail -n 1)"
+      cp "$last" "docs/gallery/$name.png"
+    done
+    echo "loom.sh: gallery images in docs/gallery/"
     ;;
   -h|--help|help)
     usage
