@@ -18,6 +18,7 @@ packages=(
   gnuplot-nox
   libgmp-dev
   libtinygltf-dev libosmesa6-dev libstb-dev ffmpeg
+  libglfw3-dev libimgui-dev libgl1-mesa-dri xvfb xauth
 )
 
 install_missing() {
@@ -42,7 +43,7 @@ install_missing() {
 
 configure_and_build() {
   if [ ! -f "$build_dir/CMakeCache.txt" ]; then
-    cmake -S . -B "$build_dir" -DCMAKE_BUILD_TYPE=Release
+    cmake -S . -B "$build_dir" -DCMAKE_BUILD_TYPE=Release -DLOOM_WITH_VIEWER=ON
   fi
   cmake --build "$build_dir" -j2
 }

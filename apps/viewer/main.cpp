@@ -1,0 +1,224 @@
+// loom-view [SCENE] [--set PATH=VALUE ...] [--frames N --screenshot FILE.png]
+// Interactive viewer (GLFW + Dear ImGui, OpenGL 2.1): play/pause/step, solver and substeps (applied by
+// restarting), per-stage timings of the last frame, orbit camera (left-drag), zoom (wheel). Drawing is the
+// offscreen renderer's (apps/render/src/gl/Draw.cpp). With --frames N --screenshot FILE it plays N frames,
+// saves the window to FILE and exits (the Xvfb test uses this).
+#include <GLFW/glfw3.h>
+#include <imgui.h>
+#include <backends/imgui_impl_glfw.h>
+#include <backends/imgui_impl_opengl2.h>
+
+#include <stb_image_write.h>
+
+#include <cmath>
+#include <cstdio>
+#include <cstdlib>
+#include <cstring>
+#include <iostream>
+#include <memory>
+#include <string>
+#include <vector>
+
+#include "gl/Draw.h"
+#include "loom/cloth/Error.h"
+#include "loom/cloth/Solver.h"
+#include "loom/scene/Scene.h"
+
+namespace {
+
+using namespace loom;
+using cloth::Vec3;
+
+std::vector<render::RenderMesh> meshes_of(const cloth::Simulation& sim) {
+  static const Vec3 kColors[] = {{0.80, 0.22, 0.18}, {0.20, 0.42, 0.75}, {0.90, 0.68, 0.20}, {0.30, 0.62, 0.35}};
+  std::vector<render::RenderMesh> out;
+  for (size_t i = 0; i < sim.cloths().size(); ++i) {
+    render::RenderMesh m;
+    m.triangles = sim.cloths()[i]->mesh().triangles();
+    for (const auto& f : sim.cloths()[i]->mesh().triangle_frames()) m.corner_uv.push_back(f.rest_uv);
+    m.color = kColors[i % 4];
+    out.push_back(std::move(m));
+  }
+  return out;
+}
+
+struct Options {
+  std::string scene;
+  std::vector<std::string> sets;
+  int frames = -1;
+  std::string screenshot;
+};
+
+int run(const Options& o) {
+  scene::Scene sc = scene::load_scene(o.scene, o.sets);
+  auto sim = std::make_unique<cloth::Simulation>(sc.setup, o.scene);
+
+  if (!glfwInit()) throw Error("", "loom-view", "cannot initialise GLFW (no display? try xvfb-run)");
+  glfwWindowHint(GLFW_CONTEXT_VERSION_MAJOR, 2);
+  glfwWindowHint(GLFW_CONTEXT_VERSION_MINOR, 1);
+  GLFWwindow* win = glfwCreateWindow(960, 720, ("loom-view: " + sc.name).c_str(), nullptr, nullptr);
+  if (!win) throw Error("", "loom-view", "cannot open an OpenGL 2.1 window");
+  glfwMakeContextCurrent(win);
+  glfwSwapInterval(o.frames >= 0 ? 0 : 1);
+  ImGui::CreateContext();
+  ImGui::GetIO().IniFilename = nullptr;
+  ImGui_ImplGlfw_InitForOpenGL(win, true);
+  ImGui_ImplOpenGL2_Init();
+
+  std::vector<render::RenderMesh> meshes = meshes_of(*sim);
+  const render::gl::Textures tex = render::gl::create_textures();
+  // Frame the start state, extended downwards by its size (cloth falls and hangs).
+  render::Bounds b;
+  for (const auto& c : sim->cloths())
+    for (const Vec3& p : c->state().x) b.add(p);
+  const double size = (b.hi - b.lo).norm();
+  b.add(Vec3(b.lo.x(), b.lo.y() - 0.8 * size, b.lo.z()));
+  const double ground = render::ground_height(b);
+  const Vec3 center = 0.5 * (b.lo + b.hi);
+  const render::Camera cam0 = render::auto_camera(b, 960.0 / 720.0);
+  double yaw = std::atan2(cam0.eye.x() - center.x(), cam0.eye.z() - center.z()), pitch = 0.4;
+  double dist = (cam0.eye - center).norm();
+
+  const std::vector<std::string> solvers = cloth::solver_names();
+  int solver = 0;
+  for (size_t i = 0; i < solvers.size(); ++i)
+    if (solvers[i] == sc.setup.solver.method) solver = static_cast<int>(i);
+  int substeps = sc.setup.substeps;
+  bool playing = o.frames >= 0, step = false;
+  cloth::FrameStats last;
+  int played = 0;
+  double last_x = 0, last_y = 0;
+
+  while (!glfwWindowShouldClose(win)) {
+    glfwPollEvents();
+    ImGui_ImplOpenGL2_NewFrame();
+    ImGui_ImplGlfw_NewFrame();
+    ImGui::NewFrame();
+
+    ImGui::SetNextWindowPos(ImVec2(10, 10), ImGuiCond_Once);
+    ImGui::Begin("loom", nullptr, ImGuiWindowFlags_AlwaysAutoResize);
+    ImGui::Text("%s  t = %.3f s  frame %d", sc.name.c_str(), sim->time(), sim->frame());
+    if (ImGui::Button(playing ? "pause" : "play")) playing = !playing;
+    ImGui::SameLine();
+    if (ImGui::Button("step")) step = true;
+    ImGui::SameLine();
+    bool restart = ImGui::Button("restart");
+    std::vector<const char*> names;
+    for (const auto& s : solvers) names.push_back(s.c_str());
+    restart |= ImGui::Combo("solver", &solver, names.data(), static_cast<int>(names.size()));
+    restart |= ImGui::SliderInt("substeps", &substeps, 1, 400);
+    ImGui::Text("time step %.3g ms", 1e3 * sc.setup.frame_dt / substeps);
+    ImGui::Separator();
+    ImGui::Text("last frame: %.3f ms", last.total_ms);
+    const std::vector<std::string> stages = sim->stage_names();
+    for (size_t i = 0; i < stages.size() && i < last.stage_ms.size(); ++i)
+      ImGui::Text("  %-18s %8.3f ms", stages[i].c_str(), last.stage_ms[i]);
+    ImGui::Text("kinetic %.4g J  max strain %.3g", last.kinetic, last.max_strain);
+    ImGui::End();
+    if (restart) {
+      cloth::SimulationSetup setup = sc.setup;
+      setup.solver.method = solvers[solver];
+      setup.substeps = substeps;
+      try {
+        auto fresh = std::make_unique<cloth::Simulation>(setup, o.scene);
+        sim = std::move(fresh);
+        last = cloth::FrameStats{};
+      } catch (const std::exception& e) {
+        std::cerr << "loom-view: " << e.what() << "\n";
+      }
+    }
+
+    // Orbit and zoom with the mouse when ImGui does not want it.
+    double mx, my;
+    glfwGetCursorPos(win, &mx, &my);
+    if (!ImGui::GetIO().WantCaptureMouse) {
+      if (glfwGetMouseButton(win, GLFW_MOUSE_BUTTON_LEFT) == GLFW_PRESS) {
+        yaw -= 0.01 * (mx - last_x);
+        pitch = std::min(1.5, std::max(-0.2, pitch + 0.01 * (my - last_y)));
+      }
+      dist *= std::pow(0.9, ImGui::GetIO().MouseWheel);
+    }
+    last_x = mx;
+    last_y = my;
+
+    if (playing || step) {
+      last = sim->step_frame();
+      ++played;
+      step = false;
+      if (!last.finite) playing = false;
+    }
+
+    int w, h;
+    glfwGetFramebufferSize(win, &w, &h);
+    render::gl::DrawParams p;
+    p.camera.target = center;
+    p.camera.eye = center + dist * Vec3(std::sin(yaw) * std::cos(pitch), std::sin(pitch), std::cos(yaw) * std::cos(pitch));
+    p.camera.fov_deg = cam0.fov_deg;
+    p.aspect = h > 0 ? double(w) / h : 1.0;
+    p.ground = ground;
+    p.extent = size;
+    p.center = center;
+    p.viewport_w = w;
+    p.viewport_h = h;
+    std::vector<const cloth::Vec3s*> x;
+    for (const auto& c : sim->cloths()) x.push_back(&c->state().x);
+    glClear(GL_STENCIL_BUFFER_BIT);
+    render::gl::draw_scene(p, tex, meshes, x);
+    ImGui::Render();
+    ImGui_ImplOpenGL2_RenderDrawData(ImGui::GetDrawData());
+
+    if (o.frames >= 0 && played >= o.frames) {
+      std::vector<unsigned char> rgb(size_t(w) * h * 3);
+      glPixelStorei(GL_PACK_ALIGNMENT, 1);
+      glReadBuffer(GL_BACK);
+      glReadPixels(0, 0, w, h, GL_RGB, GL_UNSIGNED_BYTE, rgb.data());
+      stbi_flip_vertically_on_write(1);
+      if (!stbi_write_png(o.screenshot.c_str(), w, h, 3, rgb.data(), 3 * w)) throw Error(o.screenshot, "", "cannot write PNG");
+      std::printf("loom-view: %d frames, screenshot %s (%dx%d)\n", played, o.screenshot.c_str(), w, h);
+      break;
+    }
+    glfwSwapBuffers(win);
+  }
+  ImGui_ImplOpenGL2_Shutdown();
+  ImGui_ImplGlfw_Shutdown();
+  ImGui::DestroyContext();
+  glfwDestroyWindow(win);
+  glfwTerminate();
+  return 0;
+}
+
+}  // namespace
+
+int main(int argc, char** argv) {
+  Options o;
+  for (int i = 1; i < argc; ++i) {
+    const std::string a = argv[i];
+    if ((a == "--frames" || a == "--screenshot" || a == "--set") && i + 1 >= argc) {
+      std::fprintf(stderr, "loom-view: error: %s needs a value\n", a.c_str());
+      return 2;
+    }
+    if (a == "-h" || a == "--help") {
+      std::printf("Usage: loom-view [SCENE] [--set PATH=VALUE ...] [--frames N --screenshot FILE.png]\n");
+      return 0;
+    } else if (a == "--frames") {
+      o.frames = std::atoi(argv[++i]);
+    } else if (a == "--screenshot") {
+      o.screenshot = argv[++i];
+    } else if (a == "--set") {
+      o.sets.push_back(argv[++i]);
+    } else {
+      o.scene = a;
+    }
+  }
+  if (o.scene.empty()) o.scene = std::string(LOOM_SOURCE_DIR) + "/scenes/hanging_cloth.json";
+  if ((o.frames >= 0) != !o.screenshot.empty()) {
+    std::fprintf(stderr, "loom-view: error: --frames and --screenshot go together\n");
+    return 2;
+  }
+  try {
+    return run(o);
+  } catch (const std::exception& e) {
+    std::cerr << "loom-view: error: " << e.what() << "\n";
+    return 1;
+  }
+}

@@ -1,0 +1,37 @@
+// loom-view under Xvfb (no real display): starts, plays 100 frames, saves a screenshot and exits cleanly;
+// the screenshot has the asked window size and shows the (red) cloth.
+#include <gtest/gtest.h>
+#include <stb_image.h>
+
+#include <cstdlib>
+#include <filesystem>
+#include <string>
+
+namespace {
+
+namespace fs = std::filesystem;
+
+TEST(Viewer, XvfbRunsHundredFramesAndScreenshotShowsCloth) {
+  const fs::path dir = fs::temp_directory_path() / "loom_viewer_tests";
+  fs::create_directories(dir);
+  const fs::path shot = dir / "view.png";
+  fs::remove(shot);
+  const std::string cmd = std::string("xvfb-run -a -s '-screen 0 1024x768x24' ") + LOOM_VIEW_BINARY + " " + LOOM_SOURCE_DIR +
+                          "/scenes/hanging_cloth.json --frames 100 --screenshot " + shot.string() + " > " +
+                          (dir / "log.txt").string() + " 2>&1";
+  ASSERT_EQ(std::system(cmd.c_str()), 0) << cmd;
+  int w = 0, h = 0, n = 0;
+  unsigned char* px = stbi_load(shot.string().c_str(), &w, &h, &n, 3);
+  ASSERT_NE(px, nullptr);
+  EXPECT_EQ(w, 960);
+  EXPECT_EQ(h, 720);
+  int cloth = 0;
+  for (int i = 0; i < w * h; ++i) {
+    const int r = px[3 * i], g = px[3 * i + 1], b = px[3 * i + 2];
+    cloth += r > 30 && r > 1.8 * g && r > 1.8 * b;
+  }
+  stbi_image_free(px);
+  EXPECT_GT(cloth, w * h / 40) << "the screenshot shows too little cloth";
+}
+
+}  // namespace
