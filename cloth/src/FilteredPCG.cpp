@@ -1,11 +1,13 @@
 #include "loom/cloth/FilteredPCG.h"
 
+#include <algorithm>
 #include <cmath>
 
 namespace loom::cloth {
 
 namespace {
 constexpr int kChunk = 256;  // vertices per partial sum (fixed, so sums do not depend on the thread count)
+constexpr int kParallelMin = 2048;  // vertices; smaller systems iterate on one thread
 
 // y = A x, rows in parallel (each row is summed in a fixed order).
 void multiply(const BlockMatrix& A, const Vec3s& x, Vec3s& y, int threads) {
@@ -74,24 +76,55 @@ PcgResult FilteredPCG::solve(const BlockMatrix& A, const Vec3s& b, const std::ve
     return res;
   }
   const double stop = tol * tol * delta0;
+  // Iterations: per-chunk fused loops (3 parallel regions per iteration); below kParallelMin vertices
+  // the fork/join costs more than the work, so small systems run on one thread (same sums either way).
+  const int t = n >= kParallelMin ? threads : 1;
+  const int chunks = (n + kChunk - 1) / kChunk;
+  partial_.assign(chunks, 0.0);
+  auto total = [&] {
+    double sum = 0.0;
+    for (double p : partial_) sum += p;
+    return sum;
+  };
+  const auto& rs = A.row_start();
+  const auto& cols = A.cols();
+  const auto& blocks = A.blocks();
   int it = 0;
   while (delta > stop && it < max_iterations) {
-    multiply(A, c_, q_, threads);
-    for (int i = 0; i < n; ++i)
-      if (fixed[i]) q_[i].setZero();
-    const double cq = dot(c_, q_, threads);
+    // q = filter(A c), cᵀq
+#pragma omp parallel for num_threads(t) if (t > 1) schedule(static)
+    for (int ch = 0; ch < chunks; ++ch) {
+      double acc = 0.0;
+      const int end = std::min(n, (ch + 1) * kChunk);
+      for (int i = ch * kChunk; i < end; ++i) {
+        Vec3 y = Vec3::Zero();
+        if (!fixed[i])
+          for (int k = rs[i]; k < rs[i + 1]; ++k) y += blocks[k] * c_[cols[k]];
+        q_[i] = y;
+        acc += c_[i].dot(y);
+      }
+      partial_[ch] = acc;
+    }
+    const double cq = total();
     if (!(cq > 0.0)) break;  // A not positive definite along c: stop with what we have (methods.md §1.4)
     const double alpha = delta / cq;
-#pragma omp parallel for num_threads(threads) if (threads > 1) schedule(static)
-    for (int i = 0; i < n; ++i) {
-      dv[i] += alpha * c_[i];
-      r_[i] -= alpha * q_[i];
-      s_[i] = pinv_[i] * r_[i];
+    // Δv += α c, r -= α q, s = P⁻¹ r, rᵀs
+#pragma omp parallel for num_threads(t) if (t > 1) schedule(static)
+    for (int ch = 0; ch < chunks; ++ch) {
+      double acc = 0.0;
+      const int end = std::min(n, (ch + 1) * kChunk);
+      for (int i = ch * kChunk; i < end; ++i) {
+        dv[i] += alpha * c_[i];
+        r_[i] -= alpha * q_[i];
+        s_[i] = pinv_[i] * r_[i];
+        acc += r_[i].dot(s_[i]);
+      }
+      partial_[ch] = acc;
     }
     const double delta_old = delta;
-    delta = dot(r_, s_, threads);
+    delta = total();
     const double beta = delta / delta_old;
-#pragma omp parallel for num_threads(threads) if (threads > 1) schedule(static)
+#pragma omp parallel for num_threads(t) if (t > 1) schedule(static)
     for (int i = 0; i < n; ++i) c_[i] = s_[i] + beta * c_[i];
     ++it;
   }

@@ -63,6 +63,39 @@ TEST(FilteredPCG, SolvesTheFreeBlockAndKeepsPrescribedValuesExactly) {
     }
 }
 
+TEST(FilteredPCG, LargeSystemIsBitIdenticalForOneAndTwoThreads) {
+  // 3000 vertices (above the PCG's parallel threshold): a chain of SPD couplings.
+  std::mt19937 rng(22);
+  std::uniform_real_distribution<double> u(-1.0, 1.0);
+  const int n = 3000;
+  std::vector<std::pair<int, int>> pairs;
+  for (int i = 0; i + 1 < n; ++i) pairs.emplace_back(i, i + 1);
+  BlockMatrix A(n, pairs);
+  for (const auto& [i, j] : pairs) {
+    const Vec3 d(u(rng), u(rng), u(rng));
+    const Mat3 c = d * d.transpose() + 0.5 * Mat3::Identity();
+    A.add(i, i, c);
+    A.add(j, j, c);
+    A.add(i, j, -c);
+    A.add(j, i, -c);
+  }
+  for (int i = 0; i < n; ++i) A.add(i, i, 0.01 * Mat3::Identity());
+  Vec3s b(n);
+  for (Vec3& x : b) x = Vec3(u(rng), u(rng), u(rng));
+  std::vector<char> fixed(n, 0);
+  fixed[10] = 1;
+  Vec3s out[2];
+  int iterations[2];
+  for (int th = 1; th <= 2; ++th) {
+    Vec3s dv(n, Vec3::Zero());
+    FilteredPCG pcg;
+    iterations[th - 1] = pcg.solve(A, b, fixed, dv, 1e-8, 50, th).iterations;
+    out[th - 1] = dv;
+  }
+  EXPECT_EQ(iterations[0], iterations[1]);
+  for (int i = 0; i < n; ++i) ASSERT_EQ(out[0][i], out[1][i]) << i;
+}
+
 // A small hanging cloth (5x5, 0.2 m, Baraff-Witkin, soft so that explicit Euler is stable at the test's
 // steps), two corners fixed, released flat.
 std::unique_ptr<Cloth> small_cloth() {
