@@ -6,6 +6,7 @@
 #include <string>
 
 #include "CcdEvalCommand.h"
+#include "FabricTestCommand.h"
 #include "RunCommand.h"
 #ifdef LOOM_HAVE_BENCH_ACCURACY
 #include "AccuracyBench.h"
@@ -22,6 +23,7 @@ const char* kUsage =
     "Usage:\n"
     "  loom run [SCENE] [options]   run a scene (default: the default scene in scenes/)\n"
     "  loom ccd-eval FILE.csv...    evaluate the continuous collision test on CCD sample queries\n"
+    "  loom fabric-test TEST [opts] virtual fabric tests: cantilever, tensile, shear, catenary\n"
     "  loom bench accuracy [opts]   accuracy-vs-time benchmark, Loom solvers and Bullet (loom bench --help)\n"
     "  loom --help                  this text\n"
     "  loom run --help              the options of `run`\n"
@@ -126,6 +128,7 @@ int main(int argc, char** argv) {
     if (cmd == "bench") return loom::app::bench_main(argc, argv);
 #endif
     if (cmd == "ccd-eval") return loom::app::ccd_eval_main(argc, argv);
+    if (cmd == "fabric-test") return loom::app::fabric_test_main(argc, argv);
   } catch (const loom::Error& e) {
     std::cerr << "loom: error: " << e.what() << "\n";
     return 1;
