@@ -101,13 +101,15 @@ TEST(BenchAccuracy, QuickRunWritesTheCsvWithEveryMethodAndTheReferenceCheck) {
   EXPECT_NE(r.out.find("reference check N=8"), std::string::npos) << r.out;
   const auto ref = split(slurp(out / "reference_check.csv"), '\n');
   ASSERT_GE(ref.size(), 2u);
-  EXPECT_EQ(ref[0], "size,ref_substeps,check_substeps,ref_change,smallest_error,ratio,passed");
+  EXPECT_EQ(ref[0], "size,ref_substeps,check_substeps,ref_change,smallest_error,ratio,passed,ref_max_strain");
   const auto f = split(ref[1], ',');
-  ASSERT_EQ(f.size(), 7u);
+  ASSERT_EQ(f.size(), 8u);
   EXPECT_EQ(f[0], "8");
   EXPECT_GT(std::stod(f[4]), 0.0);
   EXPECT_NEAR(std::stod(f[5]), std::stod(f[3]) / std::stod(f[4]), 1e-6 * std::stod(f[5]) + 1e-12);
   EXPECT_EQ(f[6], std::stod(f[5]) < 0.01 ? "1" : "0");
+  EXPECT_GT(std::stod(f[7]), 0.0);  // the hanging cloth stretches
+  EXPECT_LT(std::stod(f[7]), 0.5);
 }
 
 TEST(BenchAccuracy, BadOptionsExitWithTwo) {
