@@ -83,6 +83,9 @@ const Case kCases[] = {
     {"empty_cloths", {"cloths=[]"}, "cloths", "at least one cloth"},
     {"cloth_not_object", {"cloths=[3]"}, "cloths[0]", "expected an object"},
     {"unknown_preset", {"cloths[0].material.preset=silk"}, "cloths[0].material.preset", "unknown material preset 'silk'"},
+    {"clo_and_preset", {"cloths[0].material.clo={\"weight\": 200}"}, "cloths[0].material", "either 'preset' or 'clo'"},
+    {"clo_negative_weight", {"cloths[0].material={\"clo\": {\"weight\": -5}}"}, "cloths[0].material.clo.weight", "must be > 0"},
+    {"clo_unknown_key", {"cloths[0].material={\"clo\": {\"bending\": 5}}"}, "cloths[0].material.clo.bending", "unknown key"},
     {"unknown_model", {"cloths[0].model=fem"}, "cloths[0].model", "unknown value 'fem'"},
     {"mesh_type", {"cloths[0].mesh.type=sphere"}, "cloths[0].mesh.type", "unknown value 'sphere'"},
     {"grid_nodes", {"cloths[0].mesh.nodes=[1, 5]"}, "cloths[0].mesh.nodes", "[2, 4096]"},
@@ -134,6 +137,16 @@ TEST(Scene, ValidSceneAndOverridesApply) {
   EXPECT_EQ(s.setup.cloths[0].pins[1].vertex, 4);
   Scene d = load_scene(path, {"solver={\"dt\": 0.001}"});
   EXPECT_EQ(d.setup.substeps, 17);  // ceil((1/60) / 0.001)
+}
+
+TEST(Scene, CloStyleMaterialMapsToPhysicalUnits) {
+  const std::string path = write_scene("clo.json", kValid);
+  Scene s = load_scene(path, {"cloths[0].material={\"clo\": {\"weight\": 250, \"bending_weft\": 12, \"thickness\": 0.6}}",
+                              "cloths[0].mass=0.25"});
+  const cloth::Material& m = s.setup.cloths[0].material;
+  EXPECT_DOUBLE_EQ(m.bend_weft, 12e-6);
+  EXPECT_DOUBLE_EQ(m.thickness, 0.0006);
+  EXPECT_NEAR(m.areal_density, 0.25, 1e-12);
 }
 
 TEST(Scene, ShippedScenesLoad) {

@@ -101,8 +101,25 @@ cloth::Material parse_material(const JsonReader& cloth_reader, const std::string
   };
   if (raw.is_string()) return preset(raw.get<std::string>(), where);
   const JsonReader r = cloth_reader.object("material");
+  if (r.has("preset") && r.has("clo")) r.fail("", "give either 'preset' or 'clo', not both");
   cloth::Material m = r.has("preset") ? preset(r.string("preset"), r.child("preset")) : cloth::Material();
   if (!r.has("preset")) m.name = "custom";
+  if (r.has("clo")) {
+    // Clo3D-style parameters in physical units (Material.h, CloStyleParameters).
+    const JsonReader c = r.object("clo");
+    cloth::CloStyleParameters p;
+    p.weight = c.number("weight", p.weight, 0.0, true);
+    p.thickness = c.number("thickness", p.thickness, 0.0);
+    p.stretch_weft = c.number("stretch_weft", p.stretch_weft, 0.0, true);
+    p.stretch_warp = c.number("stretch_warp", p.stretch_warp, 0.0, true);
+    p.shear = c.number("shear", p.shear, 0.0);
+    p.bending_weft = c.number("bending_weft", p.bending_weft, 0.0);
+    p.bending_warp = c.number("bending_warp", p.bending_warp, 0.0);
+    p.friction = c.number("friction", p.friction, 0.0);
+    p.internal_damping = c.number("internal_damping", p.internal_damping, 0.0);
+    c.finish();
+    m = cloth::from_clo_style(p);
+  }
   // A value that must be positive (> 0) or non-negative (>= 0).
   auto positive = [&](const char* key, double& field) { field = r.number(key, field, 0.0, true); };
   auto non_negative = [&](const char* key, double& field) { field = r.number(key, field, 0.0, false); };
