@@ -326,6 +326,23 @@ int bench_accuracy(const AccuracyOptions& o) {
   std::vector<Row> rows;
   std::ostringstream refs;
   refs << "size,ref_substeps,check_substeps,ref_change,smallest_error,ratio,passed,ref_max_strain\n";
+  // Rewritten after every size, so a long run keeps what it measured.
+  auto write_results = [&]() {
+    std::ofstream csv(fs::path(o.out) / "accuracy.csv");
+    csv << "system,method,size,config,threads,ms_per_frame,rms_error_max,rms_error_end,max_strain,mean_strain,energy_drift,diverged\n";
+    for (const Row& r : rows)
+      csv << r.system << ',' << r.method << ',' << r.size << ',' << r.config << ',' << r.threads << ','
+          << num(r.ms_per_frame) << ',' << num(r.rms_error_max) << ',' << num(r.rms_error_end) << ','
+          << num(r.max_strain) << ',' << num(r.mean_strain) << ',' << num(r.energy_drift) << ','
+          << (r.diverged ? 1 : 0) << "\n";
+    std::ofstream rf(fs::path(o.out) / "reference_check.csv");
+    rf << refs.str();
+    if (!csv || !rf) {
+      std::cerr << "loom: error: " << o.out << ": cannot write the results\n";
+      return false;
+    }
+    return true;
+  };
   for (int n : o.sizes) {
     const Scene s = make_scene(n, o.duration, o.perturbation);
     const auto table = loom_sweep_table(s.explicit_steps, o.quick);
@@ -428,21 +445,10 @@ int bench_accuracy(const AccuracyOptions& o) {
     const std::string png = (fs::path(o.out) / ("accuracy_" + std::to_string(n) + ".png")).string();
     const std::string title = "hanging cloth " + std::to_string(n) + "x" + std::to_string(n) +
                               ", cotton, 1 m, 0.2 kg, " + num(o.duration) + " s, damping off";
+    if (!write_results()) return 1;
     if (plot_accuracy(pts, title, png) && n == o.sizes.back()) fs::copy_file(png, fs::path(o.out) / "accuracy.png", fs::copy_options::overwrite_existing, ec);
   }
-  std::ofstream csv(fs::path(o.out) / "accuracy.csv");
-  csv << "system,method,size,config,threads,ms_per_frame,rms_error_max,rms_error_end,max_strain,mean_strain,energy_drift,diverged\n";
-  for (const Row& r : rows)
-    csv << r.system << ',' << r.method << ',' << r.size << ',' << r.config << ',' << r.threads << ','
-        << num(r.ms_per_frame) << ',' << num(r.rms_error_max) << ',' << num(r.rms_error_end) << ','
-        << num(r.max_strain) << ',' << num(r.mean_strain) << ',' << num(r.energy_drift) << ','
-        << (r.diverged ? 1 : 0) << "\n";
-  std::ofstream rf(fs::path(o.out) / "reference_check.csv");
-  rf << refs.str();
-  if (!csv || !rf) {
-    std::cerr << "loom: error: " << o.out << ": cannot write the results\n";
-    return 1;
-  }
+  if (!write_results()) return 1;
   std::printf("wrote %s/accuracy.csv, %s/reference_check.csv, %s/accuracy.png\n", o.out.c_str(), o.out.c_str(),
               o.out.c_str());
   return 0;
