@@ -1,6 +1,8 @@
 // `loom ccd-eval`: one output line with the documented fields, exit codes, errors naming the file.
 #include <gtest/gtest.h>
 
+#include "CliRunner.h"
+
 #include <cstdio>
 #include <cstdlib>
 #include <fstream>
@@ -11,26 +13,9 @@
 
 namespace {
 
-struct CcdEvalRun {
-  int code = -1;
-  std::string out, err;
-};
+using CcdEvalRun = loom::test::CliResult;
 
-CcdEvalRun ccd_eval(const std::string& args) {
-  const std::string base = testing::TempDir() + "/ccd_eval_cli";
-  const std::string cmd =
-      std::string(LOOM_BINARY) + " ccd-eval " + args + " >" + base + ".out 2>" + base + ".err";
-  const int status = std::system(cmd.c_str());
-  CcdEvalRun r;
-  r.code = WIFEXITED(status) ? WEXITSTATUS(status) : -1;
-  for (auto* s : {&r.out, &r.err}) {
-    std::ifstream in(base + (s == &r.out ? ".out" : ".err"));
-    std::stringstream ss;
-    ss << in.rdbuf();
-    *s = ss.str();
-  }
-  return r;
-}
+CcdEvalRun ccd_eval(const std::string& args) { return loom::test::run_loom("ccd-eval " + args); }
 
 const std::string kData = std::string(LOOM_TEST_DATA) + "/ccd-sample-queries/unit-tests/";
 

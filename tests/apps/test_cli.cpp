@@ -2,6 +2,8 @@
 // texts, and bad input that exits non-zero without leaving a summary behind.
 #include <gtest/gtest.h>
 
+#include "CliRunner.h"
+
 #include <cstdlib>
 #include <filesystem>
 #include <fstream>
@@ -13,33 +15,13 @@ namespace {
 
 namespace fs = std::filesystem;
 
-struct Result {
-  int code = -1;
-  std::string out, err;
-};
+using loom::test::slurp;
+using Result = loom::test::CliResult;
 
-std::string slurp(const fs::path& p) {
-  std::ifstream in(p);
-  std::stringstream s;
-  s << in.rdbuf();
-  return s.str();
-}
-
-Result run(const std::string& args) {
-  const fs::path dir = fs::temp_directory_path() / "loom_cli_tests";
-  fs::create_directories(dir);
-  const std::string out = (dir / "stdout.txt").string(), err = (dir / "stderr.txt").string();
-  const std::string cmd = std::string(LOOM_BINARY) + " " + args + " >" + out + " 2>" + err;
-  const int status = std::system(cmd.c_str());
-  Result r;
-  r.code = WIFEXITED(status) ? WEXITSTATUS(status) : -1;
-  r.out = slurp(out);
-  r.err = slurp(err);
-  return r;
-}
+Result run(const std::string& args) { return loom::test::run_loom(args); }
 
 fs::path fresh_dir(const std::string& name) {
-  const fs::path d = fs::temp_directory_path() / "loom_cli_tests" / name;
+  const fs::path d = loom::test::test_dir() / name;
   fs::remove_all(d);
   return d;
 }
@@ -125,7 +107,7 @@ TEST(Cli, HelpTextsExplainEveryOption) {
 
 TEST(Cli, BadInputExitsNonZeroWithAClearMessageAndNoOutput) {
   const fs::path out = fresh_dir("bad");
-  const fs::path bad = fs::temp_directory_path() / "loom_cli_tests" / "bad.json";
+  const fs::path bad = loom::test::test_dir() / "bad.json";
   std::ofstream(bad) << "{\"duration\": 1, \"cloths\": [{\"mesh\": {\"type\": \"grid\", \"size\": [1, 1], \"nodes\": [5, 5]}, \"mass\": -1}]}";
   Result r = run("run " + bad.string() + " --out " + out.string());
   EXPECT_EQ(r.code, 1);

@@ -1,6 +1,8 @@
 // `loom fabric-test` end to end: the --json contract, the report files, and errors.
 #include <gtest/gtest.h>
 
+#include "CliRunner.h"
+
 #include <cstdlib>
 #include <filesystem>
 #include <fstream>
@@ -11,29 +13,14 @@ namespace {
 
 namespace fs = std::filesystem;
 
-struct Result {
-  int code = -1;
-  std::string out, err;
-};
+using Result = loom::test::CliResult;
 
-Result loom(const std::string& args) {
-  const fs::path dir = fs::temp_directory_path() / "loom_fabric_cli";
-  fs::create_directories(dir);
-  const std::string cmd = std::string(LOOM_BINARY) + " " + args + " >" + (dir / "o").string() + " 2>" + (dir / "e").string();
-  const int status = std::system(cmd.c_str());
-  auto slurp = [](const fs::path& p) {
-    std::ifstream in(p);
-    std::stringstream s;
-    s << in.rdbuf();
-    return s.str();
-  };
-  return {WIFEXITED(status) ? WEXITSTATUS(status) : -1, slurp(dir / "o"), slurp(dir / "e")};
-}
+Result run(const std::string& args) { return loom::test::run_loom(args); }
 
 TEST(FabricTestCli, JsonObjectAndReport) {
-  const fs::path out = fs::temp_directory_path() / "loom_fabric_cli" / "catenary";
+  const fs::path out = loom::test::test_dir() / "catenary";
   fs::remove_all(out);
-  const Result r = loom("fabric-test catenary --span 0.8 --json --out " + out.string());
+  const Result r = run("fabric-test catenary --span 0.8 --json --out " + out.string());
   ASSERT_EQ(r.code, 0) << r.err;
   const auto j = nlohmann::json::parse(r.out);
   for (const char* key : {"test", "material", "model", "resolution", "measured", "theory", "error", "span_m"})
@@ -46,21 +33,21 @@ TEST(FabricTestCli, JsonObjectAndReport) {
 }
 
 TEST(FabricTestCli, TextOutputAndErrors) {
-  Result r = loom("fabric-test tensile --model choi_ko --out " + (fs::temp_directory_path() / "loom_fabric_cli" / "t").string());
+  Result r = run("fabric-test tensile --model choi_ko --out " + (loom::test::test_dir() / "t").string());
   ASSERT_EQ(r.code, 0) << r.err;
   EXPECT_NE(r.out.find("measured"), std::string::npos);
   EXPECT_NE(r.out.find("E100_percent"), std::string::npos);
-  r = loom("fabric-test tensile --model fem");
+  r = run("fabric-test tensile --model fem");
   EXPECT_EQ(r.code, 1);
   EXPECT_NE(r.err.find("--model"), std::string::npos) << r.err;
-  r = loom("fabric-test drape-everything");
+  r = run("fabric-test drape-everything");
   EXPECT_EQ(r.code, 1);
   EXPECT_NE(r.err.find("unknown fabric test"), std::string::npos) << r.err;
-  r = loom("fabric-test cantilever --overhang-ratio abc");
+  r = run("fabric-test cantilever --overhang-ratio abc");
   EXPECT_EQ(r.code, 1);
-  r = loom("fabric-test cantilever --bogus");
+  r = run("fabric-test cantilever --bogus");
   EXPECT_EQ(r.code, 2);
-  r = loom("fabric-test --help");
+  r = run("fabric-test --help");
   EXPECT_EQ(r.code, 0);
   EXPECT_NE(r.out.find("--overhang-ratio"), std::string::npos);
 }

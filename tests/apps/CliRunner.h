@@ -1,0 +1,45 @@
+#pragma once
+// Runs the `loom` binary for end-to-end tests. Output goes through files in a folder of the calling test's
+// own (suite, name, pid): ctest runs every test as its own process, in parallel.
+#include <gtest/gtest.h>
+#include <sys/wait.h>
+
+#include <cstdlib>
+#include <filesystem>
+#include <fstream>
+#include <sstream>
+#include <string>
+
+namespace loom::test {
+
+struct CliResult {
+  int code = -1;  // exit code, -1 if the process did not exit normally
+  std::string out, err;
+};
+
+inline std::string slurp(const std::filesystem::path& p) {
+  std::ifstream in(p);
+  std::stringstream s;
+  s << in.rdbuf();
+  return s.str();
+}
+
+// A scratch folder for the current test (created, not emptied).
+inline std::filesystem::path test_dir() {
+  const auto* info = ::testing::UnitTest::GetInstance()->current_test_info();
+  std::string name = std::string(info->test_suite_name()) + "." + info->name() + "." + std::to_string(getpid());
+  for (char& c : name)
+    if (c == '/') c = '_';
+  const auto dir = std::filesystem::temp_directory_path() / "loom_tests" / name;
+  std::filesystem::create_directories(dir);
+  return dir;
+}
+
+inline CliResult run_loom(const std::string& args) {
+  const auto dir = test_dir();
+  const std::string out = (dir / "stdout.txt").string(), err = (dir / "stderr.txt").string();
+  const int status = std::system((std::string(LOOM_BINARY) + " " + args + " >" + out + " 2>" + err).c_str());
+  return {WIFEXITED(status) ? WEXITSTATUS(status) : -1, slurp(out), slurp(err)};
+}
+
+}  // namespace loom::test
