@@ -21,7 +21,7 @@ double settled_sag(int n) {
   s.cloths.push_back(c);
   s.drag = DragSettings{1.0, 0.0, Vec3::Zero(), 0.0, 0.0};  // settles it; per area, so resolution-free
   s.substeps = n <= 17 ? 50 : 100;
-  s.threads = 2;
+  s.threads = 1;
   Simulation sim(s);
   for (int f = 0; f < 360; ++f) sim.step_frame();
   const ClothState& st = sim.cloths()[0]->state();
