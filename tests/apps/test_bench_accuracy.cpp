@@ -2,6 +2,8 @@
 // solver and both Bullet systems appear, the reference check is reported, bad options exit 2.
 #include <gtest/gtest.h>
 
+#include "CliRunner.h"
+
 #include <cmath>
 #include <cstdlib>
 #include <filesystem>
@@ -16,25 +18,11 @@ namespace {
 
 namespace fs = std::filesystem;
 
-struct Result {
-  int code = -1;
-  std::string out, err;
-};
+using loom::test::slurp;
+using Result = loom::test::CliResult;
 
-std::string slurp(const fs::path& p) {
-  std::ifstream in(p);
-  std::stringstream s;
-  s << in.rdbuf();
-  return s.str();
-}
-
-// Own folder: ctest runs test processes in parallel.
-Result run(const std::string& args, const fs::path& dir) {
-  fs::create_directories(dir);
-  const std::string out = (dir / "stdout.txt").string(), err = (dir / "stderr.txt").string();
-  const int status = std::system((std::string(LOOM_BINARY) + " " + args + " >" + out + " 2>" + err).c_str());
-  return {WIFEXITED(status) ? WEXITSTATUS(status) : -1, slurp(out), slurp(err)};
-}
+// The runner already gives every test its own folder; `dir` is where the test keeps its outputs.
+Result run(const std::string& args, const fs::path&) { return loom::test::run_loom(args); }
 
 std::vector<std::string> split(const std::string& s, char sep) {
   std::vector<std::string> v;
