@@ -17,18 +17,11 @@ namespace {
 
 using test::perturbed;
 
-struct Config {
-  Vec3s x, v;
-};
-
-std::shared_ptr<const ClothMesh> small_grid() {
-  GridSpec g;
-  g.size_u = 0.3;
-  g.size_v = 0.2;
-  g.nodes_u = 4;
-  g.nodes_v = 3;
-  return ClothMesh::grid(g);
-}
+using Config = test::TermConfig;
+using test::gradient_error;
+using test::jacobian_error;
+using test::max_abs;
+using test::small_grid;
 
 // An irregular, non-flat mesh: a grid with jittered rest positions (PCA frames, non-zero rest angles).
 std::shared_ptr<const ClothMesh> irregular_mesh(std::mt19937& rng) {
@@ -45,58 +38,6 @@ Material test_material(double damping) {
   m.bend_warp = 5e-5;
   m.damping = damping;
   return m;
-}
-
-Vec3s forces(const Term& term, const Vec3s& x, const Vec3s& v) {
-  Vec3s f(x.size(), Vec3::Zero());
-  term.add_forces(EvalContext{x, v, 0.0, 1}, f);
-  return f;
-}
-
-double max_abs(const Eigen::MatrixXd& m) { return m.cwiseAbs().maxCoeff(); }
-
-Eigen::MatrixXd jacobian(const Term& term, const Config& c, int wrt, const JacobianOptions& o) {
-  const int n = static_cast<int>(c.x.size());
-  std::vector<std::pair<int, int>> pairs;
-  term.add_pattern(pairs);
-  BlockMatrix J(n, pairs);
-  term.add_jacobians(EvalContext{c.x, c.v, 0.0, 1}, o, wrt == 0 ? &J : nullptr, wrt == 1 ? &J : nullptr);
-  return J.to_dense();
-}
-
-double jacobian_error(const Term& term, const Config& c, int wrt, const JacobianOptions& o = {}) {
-  const int n = static_cast<int>(c.x.size());
-  const Eigen::MatrixXd analytic = jacobian(term, c, wrt, o);
-  Eigen::MatrixXd fd(3 * n, 3 * n);
-  const double eps = 1e-6;
-  for (int j = 0; j < n; ++j)
-    for (int d = 0; d < 3; ++d) {
-      Config plus = c, minus = c;
-      (wrt == 0 ? plus.x : plus.v)[j][d] += eps;
-      (wrt == 0 ? minus.x : minus.v)[j][d] -= eps;
-      const Vec3s fp = forces(term, plus.x, plus.v), fm = forces(term, minus.x, minus.v);
-      for (int i = 0; i < n; ++i) fd.block<3, 1>(3 * i, 3 * j + d) = (fp[i] - fm[i]) / (2 * eps);
-    }
-  return max_abs(analytic - fd) / std::max(max_abs(fd), 1e-300);
-}
-
-double gradient_error(const Term& term, const Vec3s& x) {
-  const int n = static_cast<int>(x.size());
-  const Vec3s v(n, Vec3::Zero());
-  const Vec3s f = forces(term, x, v);
-  double err = 0.0, scale = 0.0;
-  const double eps = 1e-6;
-  for (int j = 0; j < n; ++j)
-    for (int d = 0; d < 3; ++d) {
-      Vec3s xp = x, xm = x;
-      xp[j][d] += eps;
-      xm[j][d] -= eps;
-      const double g =
-          (term.energy(EvalContext{xp, v, 0, 1}) - term.energy(EvalContext{xm, v, 0, 1})) / (2 * eps);
-      err = std::max(err, std::abs(f[j][d] + g));
-      scale = std::max(scale, std::abs(g));
-    }
-  return err / scale;
 }
 
 std::vector<std::unique_ptr<Term>> all_terms(const ClothMesh& mesh, const Material& m) {
@@ -149,14 +90,14 @@ TEST(BaraffWitkin, SolverJacobiansAreSymmetricNegativeSemiDefinite) {
                perturbed(Vec3s(mesh->num_vertices(), Vec3::Zero()), 1.0, rng)};
       for (Vec3& p : c.x) p *= 0.85;  // compressed
       for (int wrt = 0; wrt < 2; ++wrt) {
-        const Eigen::MatrixXd K = jacobian(*term, c, wrt, solver_opts);
+        const Eigen::MatrixXd K = test::term_jacobian(*term, c, wrt, solver_opts);
         EXPECT_LT(max_abs(K - K.transpose()), 1e-12 * max_abs(K)) << term->name();
         Eigen::SelfAdjointEigenSolver<Eigen::MatrixXd> eig(K);
         EXPECT_LT(eig.eigenvalues().maxCoeff(), 1e-9 * eig.eigenvalues().cwiseAbs().maxCoeff())
             << term->name();
       }
       if (std::string(term->name()) != "bw_stretch") {
-        Eigen::SelfAdjointEigenSolver<Eigen::MatrixXd> eig(jacobian(*term, c, 0, JacobianOptions{}));
+        Eigen::SelfAdjointEigenSolver<Eigen::MatrixXd> eig(test::term_jacobian(*term, c, 0, JacobianOptions{}));
         EXPECT_GT(eig.eigenvalues().maxCoeff(), 1e-6 * eig.eigenvalues().cwiseAbs().maxCoeff())
             << term->name();
       }
@@ -170,7 +111,7 @@ TEST(BaraffWitkin, GaussNewtonBendingJacobianIsExactAtRest) {
   Config c{mesh->rest_positions(), Vec3s(mesh->num_vertices(), Vec3::Zero())};
   JacobianOptions gn;
   gn.clamp_compression = true;
-  EXPECT_LT(max_abs(jacobian(*bend, c, 0, gn) - jacobian(*bend, c, 0, JacobianOptions{})), 1e-12);
+  EXPECT_LT(max_abs(test::term_jacobian(*bend, c, 0, gn) - test::term_jacobian(*bend, c, 0, JacobianOptions{})), 1e-12);
   EXPECT_LT(jacobian_error(*bend, c, 0, gn), 1e-6);
 }
 
@@ -186,7 +127,7 @@ TEST(BaraffWitkin, RigidMotionsGiveZeroForceAndEnergy) {
     v[i] = Vec3(0.3, 0.2, -0.1) + omega.cross(x[i]);  // rigid velocity: no strain rate, no damping force
   }
   for (const auto& term : all_terms(*mesh, m)) {
-    const Vec3s f = forces(*term, x, v);
+    const Vec3s f = test::term_forces(*term, x, v);
     double fmax = 0.0;
     for (const Vec3& fi : f) fmax = std::max(fmax, fi.norm());
     EXPECT_LT(fmax, 1e-9) << term->name();
@@ -215,7 +156,7 @@ TEST(BaraffWitkin, UniformStretchGivesTheModulus) {
     EXPECT_NEAR(stretch->energy(EvalContext{x, v, 0, 1}), 0.5 * k * area * eps * eps, 1e-12);
     EXPECT_NEAR(shear->energy(EvalContext{x, v, 0, 1}), 0.0, 1e-15);
     // Traction: the nodes of the far edge are pulled back with k ε per metre of edge.
-    const Vec3s f = forces(*stretch, x, v);
+    const Vec3s f = test::term_forces(*stretch, x, v);
     double pull = 0.0;
     for (int iv = 0; iv < g.nodes_v; ++iv)
       for (int iu = 0; iu < g.nodes_u; ++iu)

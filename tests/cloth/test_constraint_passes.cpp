@@ -4,6 +4,7 @@
 #include <algorithm>
 #include <random>
 
+#include "TestUtil.h"
 #include "loom/cloth/Simulation.h"
 #include "loom/cloth/StrainLimitStage.h"
 #include "loom/cloth/TetherStage.h"
@@ -13,19 +14,11 @@ namespace {
 
 // A soft sheet (so it stretches a lot under gravity) hanging from two corners.
 SimulationSetup soft_sheet(int n, double stretch) {
-  SimulationSetup s;
-  ClothSetup c;
-  GridSpec g;
-  g.nodes_u = g.nodes_v = n;
-  g.origin = Vec3(-0.5, 1.0, -0.5);
-  c.mesh = ClothMesh::grid(g);
-  c.material = material_preset("cotton");
-  c.material.stretch_weft = c.material.stretch_warp = stretch;
-  c.material.shear = 0.5 * stretch;
-  c.material.areal_density = 0.2;
-  c.material.damping = 0.01;
-  c.pins = {PinSpec{c.mesh->grid_index(0, 0), {}, {}, {}}, PinSpec{c.mesh->grid_index(n - 1, 0), {}, {}, {}}};
-  s.cloths.push_back(c);
+  SimulationSetup s = test::hanging_sheet(n);
+  Material& m = s.cloths[0].material;
+  m.stretch_weft = m.stretch_warp = stretch;
+  m.shear = 0.5 * stretch;
+  m.damping = 0.01;
   s.solver.method = "symplectic_euler";
   s.substeps = 20;
   return s;

@@ -17,66 +17,11 @@ namespace {
 
 using test::perturbed;
 
-struct Config {
-  Vec3s x, v;
-};
-
-std::shared_ptr<const ClothMesh> small_grid() {
-  GridSpec g;
-  g.size_u = 0.3;
-  g.size_v = 0.2;
-  g.nodes_u = 4;
-  g.nodes_v = 3;
-  return ClothMesh::grid(g);
-}
-
-Vec3s forces(const Term& term, const Vec3s& x, const Vec3s& v, double t) {
-  Vec3s f(x.size(), Vec3::Zero());
-  term.add_forces(EvalContext{x, v, t, 1}, f);
-  return f;
-}
-
-double max_abs(const Eigen::MatrixXd& m) { return m.cwiseAbs().maxCoeff(); }
-
-// Compares the term's df/dx (wrt = 0) or df/dv (wrt = 1) with central differences of its forces.
-double jacobian_error(const Term& term, const Config& c, int wrt, double t, const JacobianOptions& o = {}) {
-  const int n = static_cast<int>(c.x.size());
-  std::vector<std::pair<int, int>> pairs;
-  term.add_pattern(pairs);
-  BlockMatrix J(n, pairs);
-  term.add_jacobians(EvalContext{c.x, c.v, t, 1}, o, wrt == 0 ? &J : nullptr, wrt == 1 ? &J : nullptr);
-  const Eigen::MatrixXd analytic = J.to_dense();
-  Eigen::MatrixXd fd(3 * n, 3 * n);
-  const double eps = 1e-6;
-  for (int j = 0; j < n; ++j)
-    for (int d = 0; d < 3; ++d) {
-      Config plus = c, minus = c;
-      (wrt == 0 ? plus.x : plus.v)[j][d] += eps;
-      (wrt == 0 ? minus.x : minus.v)[j][d] -= eps;
-      const Vec3s fp = forces(term, plus.x, plus.v, t), fm = forces(term, minus.x, minus.v, t);
-      for (int i = 0; i < n; ++i) fd.block<3, 1>(3 * i, 3 * j + d) = (fp[i] - fm[i]) / (2 * eps);
-    }
-  const double scale = std::max(max_abs(fd), 1e-300);
-  return max_abs(analytic - fd) / scale;
-}
-
-// Compares the force with -dE/dx.
-double gradient_error(const Term& term, const Config& c) {
-  const int n = static_cast<int>(c.x.size());
-  const Vec3s f = forces(term, c.x, c.v, 0.0);
-  double err = 0.0, scale = 0.0;
-  const double eps = 1e-6;
-  for (int j = 0; j < n; ++j)
-    for (int d = 0; d < 3; ++d) {
-      Vec3s xp = c.x, xm = c.x;
-      xp[j][d] += eps;
-      xm[j][d] -= eps;
-      const double g = (term.energy(EvalContext{xp, c.v, 0, 1}) - term.energy(EvalContext{xm, c.v, 0, 1})) / (2 * eps);
-      err = std::max(err, std::abs(f[j][d] + g));
-      scale = std::max(scale, std::abs(g));
-    }
-  return err / scale;
-}
+using Config = test::TermConfig;
+using test::gradient_error;
+using test::jacobian_error;
+using test::max_abs;
+using test::small_grid;
 
 Config random_config(const ClothMesh& mesh, double amount, std::mt19937& rng) {
   Config c;
@@ -93,7 +38,7 @@ TEST(Jacobians, SpringForceIsMinusEnergyGradient) {
   for (int trial = 0; trial < 5; ++trial) {
     Config c = random_config(*mesh, 0.02, rng);
     c.v.assign(c.v.size(), Vec3::Zero());  // the conservative part only
-    EXPECT_LT(gradient_error(springs, c), 1e-6) << "trial " << trial;
+    EXPECT_LT(gradient_error(springs, c.x), 1e-6) << "trial " << trial;
   }
 }
 
@@ -105,8 +50,8 @@ TEST(Jacobians, SpringJacobiansMatchFiniteDifferences) {
   SpringTerm springs(mesh->num_vertices(), make_springs(*mesh, m));
   for (int trial = 0; trial < 5; ++trial) {
     const Config c = random_config(*mesh, 0.03, rng);  // mixes stretched and compressed springs
-    EXPECT_LT(jacobian_error(springs, c, 0, 0.0), 1e-6) << "df/dx, trial " << trial;
-    EXPECT_LT(jacobian_error(springs, c, 1, 0.0), 1e-6) << "df/dv, trial " << trial;
+    EXPECT_LT(jacobian_error(springs, c, 0), 1e-6) << "df/dx, trial " << trial;
+    EXPECT_LT(jacobian_error(springs, c, 1), 1e-6) << "df/dv, trial " << trial;
   }
 }
 
@@ -123,7 +68,7 @@ TEST(Jacobians, ClampedSpringJacobianIsExactInTensionAndSemiDefiniteAlways) {
   SpringTerm springs(mesh->num_vertices(), s);
   JacobianOptions clamped;
   clamped.clamp_compression = true;
-  EXPECT_LT(jacobian_error(springs, c, 0, 0.0, clamped), 1e-6);
+  EXPECT_LT(jacobian_error(springs, c, 0, clamped), 1e-6);
   // Under compression the clamped K stays negative semi-definite (so M - h²K is positive definite).
   Config squeezed = random_config(*mesh, 0.0, rng);
   for (Vec3& p : squeezed.x) p *= 0.8;
@@ -147,7 +92,7 @@ TEST(Jacobians, GravityForceIsMinusEnergyGradientAndJacobianIsZero) {
   for (size_t i = 0; i < mass.size(); ++i) mass[i] = 0.01 + 0.001 * i;
   GravityTerm g(mass, Vec3(0.3, -9.81, 0.1));
   const Config c = random_config(*mesh, 0.05, rng);
-  EXPECT_LT(gradient_error(g, c), 1e-6);
+  EXPECT_LT(gradient_error(g, c.x), 1e-6);
   std::vector<std::pair<int, int>> pairs;
   BlockMatrix J(mesh->num_vertices(), pairs);
   g.add_jacobians(EvalContext{c.x, c.v, 0, 1}, {}, &J, &J);
@@ -167,8 +112,8 @@ TEST(Jacobians, AirDragJacobiansMatchFiniteDifferences) {
   for (int trial = 0; trial < 5; ++trial) {
     const Config c = random_config(*mesh, 0.05, rng);
     const double t = 0.37 * trial;
-    EXPECT_LT(jacobian_error(drag, c, 0, t), 1e-6) << "df/dx, trial " << trial;
-    EXPECT_LT(jacobian_error(drag, c, 1, t), 1e-6) << "df/dv, trial " << trial;
+    EXPECT_LT(jacobian_error(drag, c, 0, {}, t), 1e-6) << "df/dx, trial " << trial;
+    EXPECT_LT(jacobian_error(drag, c, 1, {}, t), 1e-6) << "df/dv, trial " << trial;
   }
 }
 
@@ -179,7 +124,7 @@ TEST(Jacobians, AirDragOpposesRelativeMotion) {
   d.normal = 2.0;
   AirDragTerm drag(d, mesh->triangles(), mesh->vertex_areas());
   Vec3s v(mesh->num_vertices(), Vec3(0.2, -1.0, 0.3));
-  const Vec3s f = forces(drag, mesh->rest_positions(), v, 0.0);
+  const Vec3s f = test::term_forces(drag, mesh->rest_positions(), v);
   double power = 0.0;
   for (size_t i = 0; i < f.size(); ++i) power += f[i].dot(v[i]);
   EXPECT_LT(power, 0.0);  // drag only dissipates

@@ -4,6 +4,7 @@
 
 #include <algorithm>
 
+#include "TestUtil.h"
 #include "loom/cloth/Error.h"
 #include "loom/cloth/Simulation.h"
 
@@ -11,16 +12,8 @@ namespace loom::cloth {
 namespace {
 
 SimulationSetup hanging(int n, bool pins, bool drag) {
-  SimulationSetup s;
-  ClothSetup c;
-  GridSpec g;
-  g.nodes_u = g.nodes_v = n;
-  g.origin = Vec3(-0.5, 1.0, -0.5);
-  c.mesh = ClothMesh::grid(g);
-  c.material = material_preset("cotton");
-  c.material.areal_density = 0.2;
-  if (pins) c.pins = {PinSpec{c.mesh->grid_index(0, 0), {}, {}, {}}, PinSpec{c.mesh->grid_index(n - 1, 0), {}, {}, {}}};
-  s.cloths.push_back(c);
+  SimulationSetup s = test::hanging_sheet(n);
+  if (!pins) s.cloths[0].pins.clear();
   if (drag) s.drag = DragSettings{0.1, 0.5, Vec3(1, 0, 0), 0.0, 0.0};
   s.substeps = 40;
   return s;

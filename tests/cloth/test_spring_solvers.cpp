@@ -5,6 +5,7 @@
 #include <cmath>
 #include <random>
 
+#include "TestUtil.h"
 #include "loom/cloth/DesbrunSolver.h"
 #include "loom/cloth/Error.h"
 #include "loom/cloth/ProjectiveSolver.h"
@@ -17,17 +18,8 @@ namespace {
 // A small cotton sheet, flat, two corners pinned, no damping (so the backward Euler equations of the
 // spring energy are exactly what projective dynamics solves).
 SimulationSetup sheet(int n, const std::string& method, std::map<std::string, double> params = {}) {
-  SimulationSetup s;
-  ClothSetup c;
-  GridSpec g;
-  g.nodes_u = g.nodes_v = n;
-  g.origin = Vec3(-0.5, 1.0, -0.5);
-  c.mesh = ClothMesh::grid(g);
-  c.material = material_preset("cotton");
-  c.material.areal_density = 0.2;
-  c.material.damping = 0.0;
-  c.pins = {PinSpec{c.mesh->grid_index(0, 0), {}, {}, {}}, PinSpec{c.mesh->grid_index(n - 1, 0), {}, {}, {}}};
-  s.cloths.push_back(c);
+  SimulationSetup s = test::hanging_sheet(n);
+  s.cloths[0].material.damping = 0.0;
   s.solver.method = method;
   s.solver.params = std::move(params);
   s.substeps = 4;
