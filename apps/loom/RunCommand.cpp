@@ -20,6 +20,7 @@
 #ifdef LOOM_HAVE_RENDER
 #include "loom/render/RenderRun.h"
 #endif
+#include "loom/scene/Build.h"
 #include "loom/scene/Scene.h"
 
 namespace fs = std::filesystem;
@@ -104,7 +105,8 @@ int run_command(const RunOptions& o) {
   scene::Scene sc = scene::load_scene(scene_path, o.sets);
   if (o.threads > 0) sc.setup.threads = o.threads;
   const int frames = o.frames >= 0 ? o.frames : sc.frames;
-  cloth::Simulation sim(sc.setup, scene_path);  // validates everything before any output exists
+  const std::unique_ptr<cloth::Simulation> sim_ptr = scene::build_simulation(sc);  // validates before any output
+  cloth::Simulation& sim = *sim_ptr;
 
   // Output folder: our files from an earlier run are removed first, so nothing stale passes for new.
   const fs::path out = o.out.empty() ? fs::path("out") / sc.name : fs::path(o.out);

@@ -133,9 +133,14 @@ Simulation::Simulation(SimulationSetup setup, const std::string& file) : setup_(
   stage_total_ms_.assign(stages_.size(), 0.0);
 }
 
-void Simulation::add_stage(std::unique_ptr<Stage> stage) {
-  stages_.push_back(std::move(stage));
-  stage_total_ms_.push_back(0.0);
+void Simulation::add_stage(std::unique_ptr<Stage> stage, Slot slot) {
+  size_t at = stages_.size();
+  if (slot == Slot::before_solve) {
+    at = 0;
+    while (at < stages_.size() && std::string(stages_[at]->name()) != "solve") ++at;
+  }
+  stages_.insert(stages_.begin() + static_cast<std::ptrdiff_t>(at), std::move(stage));
+  stage_total_ms_.insert(stage_total_ms_.begin() + static_cast<std::ptrdiff_t>(at), 0.0);
 }
 
 std::vector<std::string> Simulation::stage_names() const {

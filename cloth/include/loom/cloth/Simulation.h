@@ -71,8 +71,12 @@ class Simulation {
  public:
   explicit Simulation(SimulationSetup setup, const std::string& file = "");
 
-  // Inserts a stage before "stats" (collision and constraint stages of later issues plug in here).
-  void add_stage(std::unique_ptr<Stage> stage);
+  // Where a stage added from outside goes (DESIGN.md, "One step"):
+  //   before_solve: after pins, before the solver (attachments to bones/bodies set their targets' velocities,
+  //                 colliders read their poses for t and t+h);
+  //   after_solve:  after the constraint passes, in the order added (collision stages), before "stats".
+  enum class Slot { before_solve, after_solve };
+  void add_stage(std::unique_ptr<Stage> stage, Slot slot = Slot::after_solve);
 
   // Runs `substeps` pipeline steps and returns the frame's statistics.
   FrameStats step_frame();
