@@ -4,6 +4,7 @@
 #include <chrono>
 #include <cmath>
 
+#include "GuardInternal.h"
 #include "loom/cloth/Error.h"
 #include "loom/cloth/GravityTerm.h"
 #include "loom/cloth/Model.h"
@@ -43,7 +44,10 @@ class PinStage final : public Stage {
 // Advances every cloth with its own instance of the scene's solver.
 class SolveStage final : public Stage {
  public:
-  SolveStage(std::vector<std::unique_ptr<Solver>> solvers) : solvers_(std::move(solvers)) {}
+  SolveStage(std::vector<std::unique_ptr<Solver>> solvers, const std::vector<std::unique_ptr<Cloth>>& cloths)
+      : solvers_(std::move(solvers)) {
+    for (const auto& c : cloths) cloths_.push_back(c.get());
+  }
   const char* name() const override { return "solve"; }
   void run(StageContext& ctx) override {
     for (size_t k = 0; k < ctx.cloths.size(); ++k) solvers_[k]->step(*ctx.cloths[k], ctx.t, ctx.h, ctx.threads);
@@ -62,9 +66,17 @@ class SolveStage final : public Stage {
       }
     return out;
   }
+  // Each cloth's solver history (Solver.h; issue 8).
+  void save_state(StateWriter& out) const override {
+    for (const auto& s : solvers_) s->save_state(out);
+  }
+  void load_state(StateReader& in) override {
+    for (size_t k = 0; k < solvers_.size(); ++k) solvers_[k]->load_state(in, *cloths_[k]);
+  }
 
  private:
   std::vector<std::unique_ptr<Solver>> solvers_;
+  std::vector<const Cloth*> cloths_;  // solver k steps cloth k
   long steps_ = 0;
 };
 
@@ -127,10 +139,11 @@ Simulation::Simulation(SimulationSetup setup, const std::string& file) : setup_(
   bool any_pins = false;
   for (const auto& c : cloths_) any_pins = any_pins || !c->pins().empty();
   if (any_pins) stages_.push_back(std::make_unique<PinStage>());
-  stages_.push_back(std::make_unique<SolveStage>(std::move(solvers)));
+  stages_.push_back(std::make_unique<SolveStage>(std::move(solvers), cloths_));
   if (setup_.strain_limit) stages_.push_back(std::make_unique<StrainLimitStage>(*setup_.strain_limit));
   if (setup_.tethers) stages_.push_back(std::make_unique<TetherStage>(*setup_.tethers));
   stage_total_ms_.assign(stages_.size(), 0.0);
+  energy_scale_ = guard_energy_scale(setup_, cloths_);
 }
 
 void Simulation::add_stage(std::unique_ptr<Stage> stage, Slot slot) {
@@ -152,6 +165,7 @@ std::vector<std::string> Simulation::stage_names() const {
       if (std::find(names.begin(), names.end(), row) == names.end()) names.push_back(row);
     }
   names.push_back("stats");
+  if (setup_.guard.enabled) names.push_back("guard");
   return names;
 }
 
@@ -173,13 +187,16 @@ std::vector<StageProfile> Simulation::profile() const {
     rows.push_back(p);
   }
   rows.push_back({"stats", stats_total_ms_, {}});
+  if (setup_.guard.enabled)
+    rows.push_back({"guard", guard_ms_,
+                    {{"rollbacks", double(rollbacks_)}, {"retried_frames", double(retried_frames_)},
+                     {"failed_frames", double(failed_frames_)}}});
   return rows;
 }
 
-FrameStats Simulation::step_frame() {
-  const std::vector<StageProfile> before = profile();
-  const double h = step_size();
-  for (int s = 0; s < setup_.substeps; ++s) {
+void Simulation::run_substeps(int n) {
+  const double h = setup_.frame_dt / n;
+  for (int s = 0; s < n; ++s) {
     StageContext ctx{cloths_, t_, h, setup_.threads};
     for (size_t k = 0; k < stages_.size(); ++k) {
       const auto start = Clock::now();
@@ -187,14 +204,61 @@ FrameStats Simulation::step_frame() {
       stage_total_ms_[k] += ms_since(start);
     }
     // Time advanced by counting steps, not by summing h, so it does not drift.
-    t_ = (frame_ + static_cast<double>(s + 1) / setup_.substeps) * setup_.frame_dt;
+    t_ = (frame_ + static_cast<double>(s + 1) / n) * setup_.frame_dt;
   }
   ++frame_;
   t_ = frame_ * setup_.frame_dt;
-  const auto start = Clock::now();
+}
+
+FrameStats Simulation::step_frame() {
+  const std::vector<StageProfile> before = profile();
   FrameStats stats;
-  fill_stats(stats);
-  stats_total_ms_ += ms_since(start);
+  if (!setup_.guard.enabled) {
+    run_substeps(setup_.substeps);
+    const auto start = Clock::now();
+    fill_stats(stats);
+    stats_total_ms_ += ms_since(start);
+  } else {
+    // Guard.h: snapshot, run, check; a rejected frame is rolled back and retried with twice the substeps.
+    auto start = Clock::now();
+    if (!start_sample_) {
+      FrameStats s0;
+      fill_stats(s0);
+      start_sample_ = guard_sample(s0);
+    }
+    snapshot_.clear();
+    save_state(snapshot_);
+    guard_ms_ += ms_since(start);
+    failure_.clear();
+    for (int attempt = 0;; ++attempt) {
+      run_substeps(setup_.substeps << attempt);
+      start = Clock::now();
+      stats = FrameStats();
+      fill_stats(stats);
+      stats_total_ms_ += ms_since(start);
+      const std::string why = guard_violation(setup_.guard, *start_sample_, guard_sample(stats), energy_scale_);
+      if (why.empty()) {
+        start_sample_ = guard_sample(stats);
+        if (attempt > 0) ++retried_frames_;
+        break;
+      }
+      start = Clock::now();
+      StateReader in(snapshot_.data(), "(frame snapshot)");
+      const GuardSample kept = *start_sample_;
+      load_state(in);  // back to the frame start: the last good state
+      start_sample_ = kept;
+      guard_ms_ += ms_since(start);
+      if (attempt >= setup_.guard.max_halvings || (setup_.substeps << (attempt + 1)) > (1 << 24)) {
+        ++failed_frames_;
+        failure_ = why + " in frame " + std::to_string(frame_ + 1) + " (t = " + std::to_string(t_) + " to " +
+                   std::to_string((frame_ + 1) * setup_.frame_dt) + " s), also with " +
+                   std::to_string(setup_.substeps << attempt) + " substeps";
+        stats.finite = false;  // the frame failed; the simulation holds the last good frame
+        break;
+      }
+      ++rollbacks_;
+    }
+  }
   const std::vector<StageProfile> after = profile();
   stats.stage_ms.resize(after.size());
   for (size_t k = 0; k < after.size(); ++k) {

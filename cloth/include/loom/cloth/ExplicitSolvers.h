@@ -30,6 +30,8 @@ class Verlet final : public Solver {
   const char* name() const override { return "verlet"; }
   void step(Cloth& cloth, double t, double h, int threads) override;
   void reset() override { h_prev_ = 0.0; }
+  void save_state(StateWriter& out) const override { out.f64(h_prev_); }
+  void load_state(StateReader& in, const Cloth&) override { h_prev_ = in.f64(); }
 
  private:
   Vec3s f_;

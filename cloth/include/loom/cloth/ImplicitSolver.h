@@ -57,6 +57,9 @@ class ImplicitSolver final : public Solver {
   const char* name() const override { return scheme_ == Scheme::kBdf2 ? "bdf2" : "implicit_euler"; }
   void step(Cloth& cloth, double t, double h, int threads) override;
   void reset() override { has_history_ = false; }
+  // BDF2 history, adaptive substep and the PCG warm start (ImplicitSolverState.cpp, issue 8).
+  void save_state(StateWriter& out) const override;
+  void load_state(StateReader& in, const Cloth& cloth) override;
   const ImplicitCounters& stats() const { return counters_; }
   std::vector<std::pair<std::string, double>> counters() const override;
   const ImplicitParams& params() const { return p_; }

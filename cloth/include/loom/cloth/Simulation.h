@@ -11,6 +11,7 @@
 
 #include "loom/cloth/AirDragTerm.h"
 #include "loom/cloth/Cloth.h"
+#include "loom/cloth/Guard.h"
 #include "loom/cloth/Solver.h"
 #include "loom/cloth/Stage.h"
 #include "loom/cloth/StrainLimitStage.h"
@@ -45,6 +46,7 @@ struct SimulationSetup {
   double frame_dt = 1.0 / 60.0;  // s
   int substeps = 1;              // solver steps per frame
   int threads = 1;
+  GuardSettings guard;  // non-finite / explosion guard: roll back and retry with smaller steps (Guard.h)
 };
 
 // Per-frame measurements (stats.csv).
@@ -86,6 +88,16 @@ class Simulation {
   double time() const { return t_; }
   int frame() const { return frame_; }
   double step_size() const { return setup_.frame_dt / setup_.substeps; }
+  // Changes the step mid-run (solvers adapt to a new h themselves: Verlet, BDF2, cached factorisations).
+  void set_substeps(int substeps);
+
+  // Issue 8. The whole changing state: time, frame, every cloth's x, v, x_prev, every stage's and solver's
+  // history. load_state restores it bit-identically (checkpoints; the guard's per-frame snapshot).
+  void save_state(StateWriter& out) const;
+  void load_state(StateReader& in);
+  // Guard (Guard.h): the cause of the last failed frame ("" if none) and the frames rolled back so far.
+  const std::string& failure() const { return failure_; }
+  long rollbacks() const { return rollbacks_; }
   const SimulationSetup& setup() const { return setup_; }
   std::vector<std::unique_ptr<Cloth>>& cloths() { return cloths_; }
   const std::vector<std::unique_ptr<Cloth>>& cloths() const { return cloths_; }
@@ -96,6 +108,7 @@ class Simulation {
 
  private:
   void fill_stats(FrameStats& s) const;
+  void run_substeps(int n);  // n pipeline steps of frame_dt / n from frame_ (time by counting steps)
 
   SimulationSetup setup_;
   std::vector<std::unique_ptr<Cloth>> cloths_;
@@ -105,6 +118,13 @@ class Simulation {
   std::vector<double> last_term_ms_;  // term totals at the previous frame, to report per-frame deltas
   double t_ = 0.0;
   int frame_ = 0;
+  // Guard (SimulationState.cpp): frame-start snapshot, the frame-start sample, counters.
+  StateWriter snapshot_;
+  std::optional<GuardSample> start_sample_;
+  double energy_scale_ = 0.0;  // J, E_ref of Guard.h
+  std::string failure_;
+  long rollbacks_ = 0, retried_frames_ = 0, failed_frames_ = 0;
+  double guard_ms_ = 0.0;
 };
 
 }  // namespace loom::cloth

@@ -11,6 +11,7 @@
 #include <vector>
 
 #include "loom/cloth/Cloth.h"
+#include "loom/cloth/StateArchive.h"
 
 namespace loom::cloth {
 
@@ -47,6 +48,11 @@ class Solver {
   virtual void step(Cloth& cloth, double t, double h, int threads) = 0;
   // Forget any history (multistep state); called when the step size or the state changes from outside.
   virtual void reset() {}
+  // History kept between steps (multistep state, step sizes, warm starts), saved at each frame start by the
+  // non-finite guard and in checkpoints, so a restored solver continues bit-identically (issue 8). Solvers
+  // whose step depends only on the cloth state keep the defaults.
+  virtual void save_state(StateWriter& out) const { (void)out; }
+  virtual void load_state(StateReader& in, const Cloth& cloth) { (void)in, (void)cloth; }
   // Work counters since construction (name, value), e.g. ("cg_iterations", 1234); shown in the profile.
   virtual std::vector<std::pair<std::string, double>> counters() const { return {}; }
 };

@@ -7,6 +7,7 @@
 #include <vector>
 
 #include "loom/cloth/Cloth.h"
+#include "loom/cloth/StateArchive.h"
 
 namespace loom::cloth {
 
@@ -24,6 +25,11 @@ class Stage {
   virtual void run(StageContext& ctx) = 0;
   // Work counters since the start (name, value), e.g. ("pinned_vertices", 2).
   virtual std::vector<std::pair<std::string, double>> counters() const { return {}; }
+  // State kept across steps (contact caches, collider poses, rig state), saved at each frame start by the
+  // non-finite guard (restored when a frame is rolled back and retried with smaller steps) and written into
+  // checkpoints (`loom run --checkpoint-every`). Stateless stages keep the defaults (issue 8).
+  virtual void save_state(StateWriter& out) const { (void)out; }
+  virtual void load_state(StateReader& in) { (void)in; }
 };
 
 }  // namespace loom::cloth

@@ -1,0 +1,36 @@
+#pragma once
+// The non-finite / explosion guard (issue 8). Simulation saves the whole changing state at the start of every
+// frame (StateArchive.h: every cloth's x, v, x_prev, solver and stage history). A frame whose end state is
+// non-finite or exploding is rolled back to that snapshot and run again with twice the substeps, up to
+// `max_halvings` times; if the last try fails too, the state stays at the last good frame and the frame is
+// reported as failed with its cause (Simulation::failure()). A run that never rolls back is bit-identical
+// to a run without the guard (the snapshot only reads the state).
+//
+// "Exploding" at the end of a frame, with E_kin, E_el the kinetic and elastic energies (J), ΔE_pot the drop
+// of gravitational energy over the frame and E_ref = Σ m (|g| L + ½ v_ref²) an energy scale of the scene
+// (L: each cloth's rest bounding-box diagonal, m; v_ref = 10 m/s + the fastest of wind with gusts, initial
+// velocity and pin paths):
+//   E_kin(end) > energy_growth · (E_kin(start) + E_el(start) + max(0, ΔE_pot) + E_ref)
+// (no stored or supplied energy source can pay for that much motion in one frame), or a strain
+// max(l/L - 1) above `max_strain`.
+#include <string>
+
+namespace loom::cloth {
+
+struct GuardSettings {
+  bool enabled = true;
+  int max_halvings = 5;          // retries of a failed frame, each with twice the substeps of the one before
+  double max_strain = 10.0;      // 1, largest accepted l/L - 1 of a strain edge at a frame end
+  double energy_growth = 100.0;  // 1, factor of the kinetic-energy bound above
+};
+
+// The guard's view of a frame end (energies in J, strain in 1).
+struct GuardSample {
+  bool finite = true;
+  double kinetic = 0.0, potential = 0.0, elastic = 0.0, max_strain = 0.0;
+};
+
+// Why the frame from `start` to `end` is rejected, or "" if it is accepted. `energy_scale`: E_ref (J).
+std::string guard_violation(const GuardSettings& g, const GuardSample& start, const GuardSample& end, double energy_scale);
+
+}  // namespace loom::cloth

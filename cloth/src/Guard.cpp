@@ -1,0 +1,31 @@
+#include "loom/cloth/Guard.h"
+
+#include <algorithm>
+#include <cmath>
+#include <sstream>
+
+namespace loom::cloth {
+
+std::string guard_violation(const GuardSettings& g, const GuardSample& start, const GuardSample& end, double energy_scale) {
+  std::ostringstream why;
+  if (!end.finite || !std::isfinite(end.kinetic) || !std::isfinite(end.elastic) || !std::isfinite(end.potential) ||
+      !std::isfinite(end.max_strain)) {
+    why << "the state became non-finite (NaN or infinite positions, velocities or energies)";
+    return why.str();
+  }
+  // Guard.h: no energy source of the scene can pay for this much kinetic energy in one frame.
+  const double budget = std::max(0.0, start.kinetic) + std::max(0.0, start.elastic) +
+                        std::max(0.0, start.potential - end.potential) + energy_scale;
+  if (end.kinetic > g.energy_growth * budget) {
+    why << "the kinetic energy exploded (" << end.kinetic << " J at the frame end, from " << start.kinetic
+        << " J; bound " << g.energy_growth * budget << " J)";
+    return why.str();
+  }
+  if (end.max_strain > g.max_strain) {
+    why << "the strain exploded (max l/L - 1 = " << end.max_strain << ", limit " << g.max_strain << ")";
+    return why.str();
+  }
+  return "";
+}
+
+}  // namespace loom::cloth

@@ -1,0 +1,11 @@
+#pragma once
+// Helpers of the guard shared by Simulation.cpp and SimulationState.cpp (issue 8); not installed.
+#include "loom/cloth/Simulation.h"
+
+namespace loom::cloth {
+
+GuardSample guard_sample(const FrameStats& s);
+// E_ref of Guard.h (J).
+double guard_energy_scale(const SimulationSetup& setup, const std::vector<std::unique_ptr<Cloth>>& cloths);
+
+}  // namespace loom::cloth

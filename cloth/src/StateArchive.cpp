@@ -1,0 +1,91 @@
+#include "loom/cloth/StateArchive.h"
+
+#include <cstring>
+
+#include "loom/cloth/Error.h"
+
+namespace loom::cloth {
+
+namespace {
+template <class T>
+void append(std::string& s, const T& v) {
+  s.append(reinterpret_cast<const char*>(&v), sizeof(T));
+}
+}  // namespace
+
+void StateWriter::tag(const std::string& name) { bytes(name); }
+void StateWriter::f64(double v) { append(data_, v); }
+void StateWriter::i64(std::int64_t v) { append(data_, v); }
+
+void StateWriter::vec3s(const Vec3s& v) {
+  i64(static_cast<std::int64_t>(v.size()));
+  for (const Vec3& p : v)
+    for (int k = 0; k < 3; ++k) f64(p[k]);
+}
+
+void StateWriter::doubles(const std::vector<double>& v) {
+  i64(static_cast<std::int64_t>(v.size()));
+  for (double d : v) f64(d);
+}
+
+void StateWriter::bytes(const std::string& b) {
+  i64(static_cast<std::int64_t>(b.size()));
+  data_ += b;
+}
+
+void StateReader::take(void* out, size_t n, const char* what) {
+  if (n > data_.size() - pos_)
+    throw Error(source_, "after '" + last_tag_ + "'", std::string("state archive is cut short (reading ") + what + ")");
+  std::memcpy(out, data_.data() + pos_, n);
+  pos_ += n;
+}
+
+void StateReader::tag(const std::string& name) {
+  const std::string got = bytes();
+  if (got != name)
+    throw Error(source_, "after '" + last_tag_ + "'", "state archive does not match this simulation (expected '" + name +
+                                                          "', found '" + got.substr(0, 64) + "')");
+  last_tag_ = name;
+}
+
+double StateReader::f64() {
+  double v;
+  take(&v, sizeof v, "a number");
+  return v;
+}
+
+std::int64_t StateReader::i64() {
+  std::int64_t v;
+  take(&v, sizeof v, "an integer");
+  return v;
+}
+
+Vec3s StateReader::vec3s() {
+  const std::int64_t n = i64();
+  if (n < 0 || static_cast<std::uint64_t>(n) > (data_.size() - pos_) / 24)
+    throw Error(source_, "after '" + last_tag_ + "'", "state archive holds a bad array length");
+  Vec3s v(static_cast<size_t>(n));
+  for (Vec3& p : v)
+    for (int k = 0; k < 3; ++k) p[k] = f64();
+  return v;
+}
+
+std::vector<double> StateReader::doubles() {
+  const std::int64_t n = i64();
+  if (n < 0 || static_cast<std::uint64_t>(n) > (data_.size() - pos_) / 8)
+    throw Error(source_, "after '" + last_tag_ + "'", "state archive holds a bad array length");
+  std::vector<double> v(static_cast<size_t>(n));
+  for (double& d : v) d = f64();
+  return v;
+}
+
+std::string StateReader::bytes() {
+  const std::int64_t n = i64();
+  if (n < 0 || static_cast<std::uint64_t>(n) > data_.size() - pos_)
+    throw Error(source_, "after '" + last_tag_ + "'", "state archive holds a bad string length");
+  std::string s = data_.substr(pos_, static_cast<size_t>(n));
+  pos_ += static_cast<size_t>(n);
+  return s;
+}
+
+}  // namespace loom::cloth
