@@ -29,6 +29,8 @@ using loom::cloth::Tri;
 using loom::cloth::Vec3;
 using Transform = Eigen::Isometry3d;
 
+struct ColliderGeometry;  // ColliderGeometry.h: hull planes / FCL models for convex and mesh shapes
+
 enum class ShapeType { plane, sphere, capsule, box, cylinder, convex, mesh };
 const char* shape_type_name(ShapeType type);
 
@@ -54,6 +56,10 @@ struct Collider {
   // impulses given to the cloth (N s), and their moment about curr's origin (N m s).
   Vec3 reaction_impulse = Vec3::Zero();
   Vec3 reaction_angular_impulse = Vec3::Zero();
+  double thickness = 0.0;  // m; contact offset for this collider (0: the body-collision stage's default)
+  // Convex hull (planes, FCL Convex) or mesh BVH (FCL OBBRSS), built once by prepare_collider
+  // (ColliderGeometry.h); null for the analytic shapes. Shared by copies of the collider.
+  std::shared_ptr<const ColliderGeometry> geometry;
 };
 
 // The colliders of a simulation, shared by the stages that read them (body collision) and the owners that

@@ -1,0 +1,266 @@
+#include "loom/collision/BodyCollisionStage.h"
+
+#include <algorithm>
+#include <cmath>
+
+#include "loom/collision/ColliderDistance.h"
+#include "loom/collision/ColliderGeometry.h"
+#include "loom/collision/SweptCollider.h"
+
+namespace loom::collision {
+
+using cloth::ClothState;
+
+namespace {
+
+constexpr int kChunk = 128;  // vertices per broad-phase query
+
+Aabb swept_box(const Vec3& a, const Vec3& b, double margin) {
+  Aabb box;
+  box.grow(a);
+  box.grow(b);
+  box.lo -= Vec3::Constant(margin);
+  box.hi += Vec3::Constant(margin);
+  return box;
+}
+
+// What one collider is to one cloth this step.
+struct Pair {
+  double thickness;   // m
+  double mu_s, mu_k;  // 1
+};
+
+}  // namespace
+
+BodyCollisionStage::BodyCollisionStage(ColliderSetPtr colliders, BodyCollisionSettings settings)
+    : colliders_(std::move(colliders)), settings_(settings) {
+  if (!colliders_) colliders_ = std::make_shared<ColliderSet>();
+  settings_.max_passes = std::max(1, settings_.max_passes);
+}
+
+double BodyCollisionStage::thickness(int k, double material_thickness) const {
+  const double own = (*colliders_)[k].thickness;
+  if (own > 0.0) return own;
+  return settings_.thickness > 0.0 ? settings_.thickness : material_thickness;
+}
+
+void BodyCollisionStage::run(cloth::StageContext& ctx) {
+  ColliderSet& set = *colliders_;
+  for (Collider& c : set) {
+    if (c.motion) c.prev = c.motion(ctx.t), c.curr = c.motion(ctx.t + ctx.h);
+    prepare_collider(c);
+  }
+  std::vector<double> margins(set.size(), 0.0);
+  for (size_t k = 0; k < set.size(); ++k)
+    for (const auto& cl : ctx.cloths) margins[k] = std::max(margins[k], thickness(static_cast<int>(k), cl->material().thickness));
+  broad_phase_.update(set, margins);
+  max_deficit_ = -HUGE_VAL;
+  for (auto& cl : ctx.cloths) run_cloth(*cl, ctx.h, ctx.threads);
+}
+
+void BodyCollisionStage::run_cloth(cloth::Cloth& cloth, double h, int threads) {
+  ColliderSet& set = *colliders_;
+  ClothState& s = cloth.state();
+  const int n = s.size();
+  std::vector<Pair> pairs(set.size());
+  for (size_t k = 0; k < set.size(); ++k) {
+    pairs[k].thickness = thickness(static_cast<int>(k), cloth.material().thickness);
+    pairs[k].mu_k = settings_.friction.value_or(set[k].friction);
+    pairs[k].mu_s = std::max(pairs[k].mu_k, settings_.static_friction.value_or(set[k].static_friction));
+  }
+  double max_th = 0.0;
+  for (const Pair& p : pairs) max_th = std::max(max_th, p.thickness);
+
+  const int chunks = (n + kChunk - 1) / kChunk;
+  std::vector<std::vector<Record>> records(chunks);
+  struct ChunkCounts {
+    long candidates = 0, contacts = 0, ccd_hits = 0;
+    int passes = 0;
+    double deficit = -HUGE_VAL;
+  };
+  std::vector<ChunkCounts> counts(chunks);
+  const double ccd_ratio = settings_.ccd_separation;
+  const int max_passes = settings_.max_passes;
+
+#pragma omp parallel for schedule(dynamic, 1) num_threads(threads) if (threads > 1)
+  for (int ch = 0; ch < chunks; ++ch) {
+    const int begin = ch * kChunk, end = std::min(n, begin + kChunk);
+    Aabb chunk_box;
+    for (int i = begin; i < end; ++i) chunk_box.grow(s.x_prev[i]), chunk_box.grow(s.x[i]);
+    chunk_box.lo -= Vec3::Constant(max_th), chunk_box.hi += Vec3::Constant(max_th);
+    const std::vector<int> cands = broad_phase_.query(chunk_box);
+    ChunkCounts& cc = counts[ch];
+    std::vector<Record>& out = records[ch];
+    if (cands.empty()) continue;
+    for (int i = begin; i < end; ++i) {
+      if (s.inv_mass[i] == 0.0) continue;  // kinematic vertices follow their pins
+      const Vec3 x0 = s.x_prev[i];
+      Vec3 x = s.x[i], v = s.v[i];
+      const double m = s.mass[i];
+      std::vector<int> mine;
+      for (int k : cands)
+        if (swept_box(x0, x, pairs[k].thickness).overlaps(broad_phase_.box(k))) mine.push_back(k);
+      if (mine.empty()) continue;
+      cc.candidates += static_cast<long>(mine.size());
+      int pass = 0;
+      for (; pass < max_passes; ++pass) {
+        bool changed = false;
+        for (int k : mine) {
+          const Collider& c = set[k];
+          const Pair& pr = pairs[k];
+          // Continuous: the vertex path against the moving collider.
+          const SweptHit hit = swept_point(c, x0, x, ccd_ratio * pr.thickness);
+          if (hit.hit) {
+            x = c.curr * hit.local;  // carried with the body from the contact to the end of the step
+            ++cc.ccd_hits;
+          }
+          Vec3 nrm;
+          const double d = signed_distance(c, c.curr, x, &nrm);
+          const double limit = pass == 0 && !hit.hit ? pr.thickness : pr.thickness * (1.0 - 1e-6);
+          if (!hit.hit && d >= limit) continue;
+          if (d < pr.thickness) x += (pr.thickness - d) * nrm;  // projection to surface + thickness
+          // Velocity: relative to the body's surface (translation and rotation over the step).
+          const Vec3 vs = surface_velocity(c.prev, c.curr, h, x);
+          const Vec3 vr = v - vs;
+          const double vn = vr.dot(nrm);
+          const double dvn = std::max(0.0, -vn);
+          const Vec3 vt = vr - vn * nrm;
+          const double vt_len = vt.norm();
+          // Coulomb friction (Bridson et al. 2002, Sec. 7.2).
+          Vec3 vt_new = Vec3::Zero();
+          if (vt_len > pr.mu_s * dvn) vt_new = vt * std::max(0.0, 1.0 - pr.mu_k * dvn / vt_len);
+          const Vec3 v_new = vs + std::max(vn, 0.0) * nrm + vt_new;
+          // The tangential change acts over the whole step (x = x_prev + h v), unless the vertex was already
+          // placed by the swept test.
+          if (!hit.hit) {
+            x += h * (vt_new - vt);
+            Vec3 n2;
+            const double d2 = signed_distance(c, c.curr, x, &n2);
+            if (d2 < pr.thickness) x += (pr.thickness - d2) * n2;
+          }
+          out.push_back({k, m * (v_new - v), x});
+          v = v_new;
+          ++cc.contacts;
+          changed = true;
+        }
+        if (!changed) break;
+      }
+      cc.passes = std::max(cc.passes, pass + (pass < max_passes ? 1 : 0));
+      s.x[i] = x;
+      s.v[i] = v;
+      for (int k : mine) cc.deficit = std::max(cc.deficit, pairs[k].thickness - signed_distance(set[k], set[k].curr, x, nullptr));
+    }
+  }
+
+  std::vector<Record> all;
+  int step_passes = 0;
+  for (int ch = 0; ch < chunks; ++ch) {
+    all.insert(all.end(), records[ch].begin(), records[ch].end());
+    candidates_ += counts[ch].candidates;
+    contacts_ += counts[ch].contacts;
+    ccd_hits_ += counts[ch].ccd_hits;
+    step_passes = std::max(step_passes, counts[ch].passes);
+    max_deficit_ = std::max(max_deficit_, counts[ch].deficit);
+  }
+  passes_ += step_passes;
+  if (settings_.edges) run_edges(cloth, h, threads, all);
+  for (const Record& r : all) {
+    Collider& c = set[r.collider];
+    c.reaction_impulse -= r.impulse;
+    c.reaction_angular_impulse += (r.point - c.curr.translation()).cross(-r.impulse);
+  }
+}
+
+void BodyCollisionStage::run_edges(cloth::Cloth& cloth, double h, int threads, std::vector<Record>& records) {
+  ColliderSet& set = *colliders_;
+  std::vector<int> edge_colliders;
+  for (int k = 0; k < static_cast<int>(set.size()); ++k)
+    if (set[k].shape.type == ShapeType::capsule || set[k].shape.type == ShapeType::box) edge_colliders.push_back(k);
+  if (edge_colliders.empty()) return;
+  ClothState& s = cloth.state();
+  const auto& edges = cloth.mesh().edges();
+  const int ne = static_cast<int>(edges.size());
+  struct Correction {
+    int collider = -1;
+    Vec3 dxa = Vec3::Zero(), dxb = Vec3::Zero(), dva = Vec3::Zero(), dvb = Vec3::Zero();
+    Vec3 point = Vec3::Zero();
+  };
+  std::vector<Correction> corr(ne);
+  for (int pass = 0; pass < settings_.max_passes; ++pass) {
+    long found = 0;
+#pragma omp parallel for schedule(static) num_threads(threads) if (threads > 1) reduction(+ : found)
+    for (int e = 0; e < ne; ++e) {
+      Correction& cr = corr[e];
+      cr = Correction();
+      const int a = edges[e].i, b = edges[e].j;
+      const double wa = s.inv_mass[a], wb = s.inv_mass[b];
+      if (wa + wb == 0.0) continue;
+      for (int k : edge_colliders) {
+        const Collider& c = set[k];
+        const double th = thickness(k, cloth.material().thickness);
+        Aabb box = swept_box(s.x_prev[a], s.x[a], th);
+        box.grow(s.x_prev[b]), box.grow(s.x[b]);
+        box.lo -= Vec3::Constant(th), box.hi += Vec3::Constant(th);
+        if (!box.overlaps(broad_phase_.box(k))) continue;
+        double sp = 0.0, deficit = 0.0;
+        Vec3 nrm;
+        if (c.shape.type == ShapeType::capsule) {
+          const SweptSegmentHit hit =
+              swept_segment_capsule(c, s.x_prev[a], s.x_prev[b], s.x[a], s.x[b], settings_.ccd_separation * th);
+          if (hit.hit) {
+            // Keep the side the edge touched from: along the contact normal carried to curr.
+            sp = hit.s;
+            nrm = c.curr.linear() * hit.normal_local;
+            const Vec3 pe = (1.0 - sp) * s.x[a] + sp * s.x[b];
+            deficit = c.shape.radius + th - (pe - c.curr * hit.axis_local).dot(nrm);
+          } else {
+            deficit = th - segment_capsule_distance(c, c.curr, s.x[a], s.x[b], &sp, &nrm);
+          }
+        } else {
+          deficit = th - segment_box_edges_distance(c, c.curr, s.x[a], s.x[b], &sp, &nrm);
+        }
+        // Endpoint contacts belong to the vertex phase.
+        if (deficit <= 1e-9 * th || sp <= 1e-6 || sp >= 1.0 - 1e-6) continue;
+        // Move the edge point (1-s) a + s b by `deficit` along n, split by inverse mass (Bridson et al. 2002,
+        // Sec. 7.1): lambda = deficit / (wa (1-s)^2 + wb s^2).
+        const double wsum = wa * (1.0 - sp) * (1.0 - sp) + wb * sp * sp;
+        const double lambda = deficit / wsum;
+        cr.dxa = wa * (1.0 - sp) * lambda * nrm;
+        cr.dxb = wb * sp * lambda * nrm;
+        const Vec3 pe = (1.0 - sp) * s.x[a] + sp * s.x[b];
+        const Vec3 vs = surface_velocity(c.prev, c.curr, h, pe);
+        const double vn = ((1.0 - sp) * s.v[a] + sp * s.v[b] - vs).dot(nrm);
+        if (vn < 0.0) {
+          const double mu = -vn / wsum;
+          cr.dva = wa * (1.0 - sp) * mu * nrm;
+          cr.dvb = wb * sp * mu * nrm;
+        }
+        cr.collider = k;
+        cr.point = pe;
+        ++found;
+        break;  // one collider per edge per pass
+      }
+    }
+    if (found == 0) break;
+    // Gather in edge order (deterministic for any thread count).
+    for (int e = 0; e < ne; ++e) {
+      const Correction& cr = corr[e];
+      if (cr.collider < 0) continue;
+      const int a = edges[e].i, b = edges[e].j;
+      s.x[a] += cr.dxa, s.x[b] += cr.dxb;
+      s.v[a] += cr.dva, s.v[b] += cr.dvb;
+      records.push_back({cr.collider, s.mass[a] * cr.dva + s.mass[b] * cr.dvb, cr.point});
+      ++edge_contacts_;
+    }
+  }
+}
+
+std::vector<std::pair<std::string, double>> BodyCollisionStage::counters() const {
+  return {{"candidate_vertices", static_cast<double>(candidates_)},
+          {"contacts", static_cast<double>(contacts_)},
+          {"ccd_hits", static_cast<double>(ccd_hits_)},
+          {"edge_contacts", static_cast<double>(edge_contacts_)},
+          {"passes", static_cast<double>(passes_)}};
+}
+
+}  // namespace loom::collision

@@ -1,0 +1,215 @@
+#include "loom/collision/ColliderDistance.h"
+
+#include <algorithm>
+#include <cmath>
+
+#include "FclShape.h"
+#include "loom/collision/Distance.h"
+
+namespace loom::collision {
+
+namespace {
+
+// Any unit vector perpendicular to... nothing: the fallback normal when the point sits exactly on a centre.
+const Vec3 kUp(0.0, 1.0, 0.0);
+
+double sphere_sd(double r, const Vec3& q, Vec3* n) {
+  const double len = q.norm();
+  if (n) *n = len > 0.0 ? Vec3(q / len) : kUp;
+  return len - r;
+}
+
+// Box |x_i| <= e_i: outside, the distance to the clamped point; inside, minus the distance to the nearest face.
+double box_sd(const Vec3& e, const Vec3& q, Vec3* n) {
+  const Vec3 w = q.cwiseAbs() - e;
+  const Vec3 sgn(q.x() < 0 ? -1.0 : 1.0, q.y() < 0 ? -1.0 : 1.0, q.z() < 0 ? -1.0 : 1.0);
+  if ((w.array() > 0.0).any()) {
+    const Vec3 out = w.cwiseMax(0.0);
+    const double d = out.norm();
+    if (n) *n = out.cwiseProduct(sgn) / d;
+    return d;
+  }
+  int k = 0;
+  w.maxCoeff(&k);
+  if (n) *n = Vec3::Unit(k) * sgn[k];
+  return w[k];
+}
+
+// Cylinder about y: radial excess and axial excess combined like a 2D box.
+double cylinder_sd(double r, double hh, const Vec3& q, Vec3* n) {
+  const double rho = std::hypot(q.x(), q.z());
+  const Vec3 radial = rho > 0.0 ? Vec3(q.x() / rho, 0.0, q.z() / rho) : Vec3(1.0, 0.0, 0.0);
+  const Vec3 axial(0.0, q.y() < 0 ? -1.0 : 1.0, 0.0);
+  const double wr = rho - r, wy = std::abs(q.y()) - hh;
+  if (wr > 0.0 || wy > 0.0) {
+    const double a = std::max(wr, 0.0), b = std::max(wy, 0.0);
+    const double d = std::hypot(a, b);
+    if (n) *n = (a * radial + b * axial) / d;
+    return d;
+  }
+  if (wr > wy) {
+    if (n) *n = radial;
+    return wr;
+  }
+  if (n) *n = axial;
+  return wy;
+}
+
+double convex_sd(const ColliderGeometry& g, const Vec3& q, Vec3* n) {
+  // Inside (or on) the hull: the largest plane distance, attained on that face.
+  double best = -HUGE_VAL;
+  int face = 0;
+  for (size_t k = 0; k < g.hull_planes.size(); ++k) {
+    const Eigen::Vector4d& pl = g.hull_planes[k];
+    const double s = pl.head<3>().dot(q) - pl[3];
+    if (s > best) best = s, face = static_cast<int>(k);
+  }
+  if (best <= 0.0) {
+    if (n) *n = g.hull_planes[face].head<3>();
+    return best;
+  }
+  // Outside: GJK (libccd through FCL) between the hull and the point (a sphere of radius 0).
+  static const auto point = std::make_shared<fcl::Sphered>(0.0);
+  fcl::DistanceRequestd request(true);
+  fcl::DistanceResultd result;
+  fcl::Transform3d tq = fcl::Transform3d::Identity();
+  tq.translation() = q;
+  fcl::distance(g.fcl->geometry.get(), fcl::Transform3d::Identity(), point.get(), tq, request, result);
+  double d = result.min_distance;
+  Vec3 dir = q - result.nearest_points[0];
+  const double len = dir.norm();
+  if (!(d >= 0.0) || !(len > 0.0)) {
+    // GJK did not converge to a separated answer: exact closest point over the hull's triangles.
+    d = HUGE_VAL;
+    for (const Tri& t : g.hull_triangles) {
+      const auto c = point_triangle_closest(q, g.hull_vertices[t[0]], g.hull_vertices[t[1]], g.hull_vertices[t[2]]);
+      if (c.distance_squared < d * d) {
+        d = std::sqrt(c.distance_squared);
+        dir = q - (c.weights[0] * g.hull_vertices[t[0]] + c.weights[1] * g.hull_vertices[t[1]] +
+                   c.weights[2] * g.hull_vertices[t[2]]);
+      }
+    }
+    if (n) *n = dir.norm() > 0.0 ? Vec3(dir.normalized()) : Vec3(g.hull_planes[face].head<3>());
+    return d;
+  }
+  if (n) *n = dir / len;
+  return len;  // |q - nearest| is the exact distance to the point GJK found (never below the true distance)
+}
+
+double mesh_sd(const Shape& s, const ColliderGeometry& g, const Vec3& q, Vec3* n) {
+  static const auto point = std::make_shared<fcl::Sphered>(0.0);
+  fcl::DistanceRequestd request(true);
+  fcl::DistanceResultd result;
+  fcl::Transform3d tq = fcl::Transform3d::Identity();
+  tq.translation() = q;
+  fcl::distance(g.fcl->geometry.get(), fcl::Transform3d::Identity(), point.get(), tq, request, result);
+  const int tri = result.b1;
+  Vec3 dir = q - result.nearest_points[0];
+  double d = dir.norm();
+  if (tri >= 0 && tri < static_cast<int>(s.triangles.size())) {
+    // Exact closest point on the triangle FCL found (FCL's own point is accurate to GJK's tolerance).
+    const Tri& t = s.triangles[tri];
+    const Vec3 &a = s.vertices[t[0]], &b = s.vertices[t[1]], &c = s.vertices[t[2]];
+    const auto cl = point_triangle_closest(q, a, b, c);
+    d = std::sqrt(cl.distance_squared);
+    dir = q - (cl.weights[0] * a + cl.weights[1] * b + cl.weights[2] * c);
+    if (!(d > 0.0)) {
+      dir = (b - a).cross(c - a);
+      d = 0.0;
+    }
+  }
+  if (n) *n = dir.norm() > 0.0 ? Vec3(dir.normalized()) : kUp;
+  return d;
+}
+
+}  // namespace
+
+double local_signed_distance(const Shape& s, const ColliderGeometry* g, const Vec3& q, Vec3* n) {
+  switch (s.type) {
+    case ShapeType::plane:
+      if (n) *n = kUp;
+      return q.y();
+    case ShapeType::sphere:
+      return sphere_sd(s.radius, q, n);
+    case ShapeType::capsule:
+      return sphere_sd(s.radius, q - Vec3(0.0, std::clamp(q.y(), -s.half_height, s.half_height), 0.0), n);
+    case ShapeType::box:
+      return box_sd(s.half_extents, q, n);
+    case ShapeType::cylinder:
+      return cylinder_sd(s.radius, s.half_height, q, n);
+    case ShapeType::convex:
+    case ShapeType::mesh: {
+      std::shared_ptr<const ColliderGeometry> owned;
+      if (!g) owned = build_collider_geometry(s), g = owned.get();
+      return s.type == ShapeType::convex ? convex_sd(*g, q, n) : mesh_sd(s, *g, q, n);
+    }
+  }
+  return HUGE_VAL;
+}
+
+double signed_distance(const Collider& c, const Transform& pose, const Vec3& p, Vec3* normal) {
+  const Vec3 q = pose.inverse(Eigen::Isometry) * p;
+  Vec3 nl;
+  const double d = local_signed_distance(c.shape, c.geometry.get(), q, normal ? &nl : nullptr);
+  if (normal) *normal = pose.linear() * nl;
+  return d;
+}
+
+double segment_capsule_distance(const Collider& c, const Transform& pose, const Vec3& a, const Vec3& b, double* s,
+                                Vec3* normal) {
+  const Vec3 p0 = pose * Vec3(0.0, -c.shape.half_height, 0.0), p1 = pose * Vec3(0.0, c.shape.half_height, 0.0);
+  const SegmentSegmentClosest cl = segment_segment_closest(a, b, p0, p1);
+  const Vec3 on_edge = a + cl.s * (b - a), on_axis = p0 + cl.t * (p1 - p0);
+  const Vec3 dir = on_edge - on_axis;
+  const double len = dir.norm();
+  if (s) *s = cl.s;
+  if (normal) {
+    if (len > 0.0) {
+      *normal = dir / len;
+    } else {
+      // The edge crosses the axis: any direction perpendicular to both.
+      Vec3 perp = (b - a).cross(p1 - p0);
+      if (!(perp.norm() > 0.0)) perp = pose.linear() * Vec3(1.0, 0.0, 0.0);
+      *normal = perp.normalized();
+    }
+  }
+  return len - c.shape.radius;
+}
+
+double segment_box_edges_distance(const Collider& c, const Transform& pose, const Vec3& a, const Vec3& b, double* s,
+                                  Vec3* normal) {
+  const Vec3& e = c.shape.half_extents;
+  double best = HUGE_VAL;
+  for (int axis = 0; axis < 3; ++axis) {
+    const int u = (axis + 1) % 3, v = (axis + 2) % 3;
+    for (int corner = 0; corner < 4; ++corner) {
+      Vec3 lo = Vec3::Zero();
+      lo[u] = (corner & 1) ? e[u] : -e[u];
+      lo[v] = (corner & 2) ? e[v] : -e[v];
+      Vec3 hi = lo;
+      lo[axis] = -e[axis];
+      hi[axis] = e[axis];
+      const Vec3 q0 = pose * lo, q1 = pose * hi;
+      const SegmentSegmentClosest cl = segment_segment_closest(a, b, q0, q1);
+      const double d = std::sqrt(cl.distance_squared);
+      if (d < best) {
+        best = d;
+        const Vec3 on_edge = a + cl.s * (b - a), on_box = q0 + cl.t * (q1 - q0);
+        // Outward bisector of the two faces meeting at this box edge.
+        Vec3 bis = Vec3::Zero();
+        bis[u] = lo[u] > 0 ? 1.0 : -1.0;
+        bis[v] = lo[v] > 0 ? 1.0 : -1.0;
+        const Vec3 out = pose.linear() * bis.normalized();
+        Vec3 dir = on_edge - on_box;
+        if (s) *s = cl.s;
+        if (normal) *normal = d > 0.0 && dir.dot(out) > 0.0 ? Vec3(dir / d) : out;
+        // Signed: negative when the segment's closest point is on the inner side of the edge.
+        if (d > 0.0 && dir.dot(out) <= 0.0) best = -d;
+        if (best < 0.0) return best;
+      }
+    }
+  }
+  return best;
+}
+
+}  // namespace loom::collision
