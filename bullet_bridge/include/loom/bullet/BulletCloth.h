@@ -1,0 +1,134 @@
+#pragma once
+// BulletCloth: a Loom cloth living in a Bullet world, coupled both ways (issue 9; DESIGN.md, "Bullet";
+// reference/bullet.md §1). Add it to any btDynamicsWorld (btDiscreteDynamicsWorld, btSoftRigidDynamicsWorld,
+// btDeformableMultiBodyDynamicsWorld) with add_to(world). Each Bullet substep (updateAction, after
+// integrateTransforms) it
+//   1. queries the broad phase for rigid bodies overlapping its AABB (inflated by query_margin),
+//   2. maps each body's shape to Loom colliders (map_shape) with prev = pose at the substep's start and
+//      curr = pose at its end (kinematic bodies: interpolated across the substeps of one stepSimulation call,
+//      which Bullet itself does not do),
+//   3. steps the cloth (cloth_substeps pipeline steps of fixed_dt / cloth_substeps) with body collision and
+//      attachments, then
+//   4. applies the summed reaction impulse of each dynamic body (applyCentralImpulse + applyTorqueImpulse of
+//      the moment about its centre of mass) and activate()s it.
+// The cloth is also a collision object of the world (CO_USER_TYPE, AABB kept current, no contact response,
+// collision mask 0 so it makes no pairs) so broad-phase queries see it; ray_test picks it.
+// This is the one bridge header that names Bullet types: include it only from code linking loom::bullet.
+#include <BulletDynamics/Dynamics/btActionInterface.h>
+
+#include <functional>
+#include <map>
+#include <memory>
+#include <string>
+#include <vector>
+
+#include "loom/bullet/ClothRay.h"
+#include "loom/cloth/Simulation.h"
+#include "loom/collision/Collider.h"
+
+class btCollisionObject;
+class btCollisionShape;
+class btDynamicsWorld;
+class btRigidBody;
+class btCollisionWorld;
+class btIDebugDraw;
+
+namespace loom::bullet {
+
+class ContactStage;
+
+struct BulletClothSettings {
+  double fixed_dt = 1.0 / 240.0;  // s, the world's fixedTimeStep; updateAction checks it
+  int cloth_substeps = 1;         // cloth pipeline steps per Bullet substep
+  double thickness = 0.005;       // m, contact offset from collider surfaces (at least the material's)
+  double query_margin = 0.1;      // m, inflation of the cloth AABB for the broad-phase query
+  double friction = 0.3;          // 1, Coulomb coefficient cloth vs bodies
+};
+
+// Colliders for one Bullet shape placed at `pose` (world frame of the shape: body transform times compound
+// child transforms). Supported: sphere, capsule X/Y/Z, box, cylinder X/Y/Z, cone X/Y/Z (as convex),
+// static plane, convex hull, compound (recursive, one collider per leaf child), btBvhTriangleMeshShape
+// (as mesh). Any other shape appends its getName() to `unsupported` and adds no collider. Collider names are
+// `name` (plus "/<child index>" per compound level).
+void map_shape(const btCollisionShape* shape, const collision::Transform& pose, const std::string& name,
+               std::vector<collision::Collider>& out, std::vector<std::string>& unsupported);
+
+class BulletCloth : public btActionInterface {
+ public:
+  // setup.frame_dt and setup.substeps are replaced by settings.fixed_dt and settings.cloth_substeps.
+  // Throws loom::Error for bad settings.
+  BulletCloth(cloth::SimulationSetup setup, const BulletClothSettings& settings);
+  ~BulletCloth() override;
+  BulletCloth(const BulletCloth&) = delete;
+  BulletCloth& operator=(const BulletCloth&) = delete;
+
+  // addAction + addCollisionObject (and the reverse). The cloth must be removed before the world dies.
+  void add_to(btDynamicsWorld* world);
+  void remove_from(btDynamicsWorld* world);
+
+  // Attaches vertex `vertex` of cloth `cloth` to `body` at its current position (stored as a body-local
+  // offset): the vertex follows the body (kinematic in the cloth) and the force the cloth exerts on it is
+  // applied to the body (dynamic bodies only). Throws loom::Error for an out-of-range vertex.
+  void attach(int cloth, int vertex, btRigidBody* body);
+
+  // btActionInterface
+  void updateAction(btCollisionWorld* world, btScalar dt) override;
+  void debugDraw(btIDebugDraw* drawer) override;
+
+  // The nearest cloth triangle hit by the segment from -> to (ClothRay.h); exact, BVH accelerated.
+  RayHit ray_test(const Vec3& from, const Vec3& to) const;
+
+  cloth::Simulation& simulation() { return *sim_; }
+  const cloth::Simulation& simulation() const { return *sim_; }
+  btCollisionObject* collision_object() { return object_.get(); }
+  // Colliders of the last substep (world frame) and the body each came from (nullptr: none).
+  const collision::ColliderSet& colliders() const { return *colliders_; }
+  // Unsupported shape names, each once, in the order met; the callback (if set) is called once per name.
+  const std::vector<std::string>& warnings() const { return warnings_; }
+  void set_warning_callback(std::function<void(const std::string&)> cb) { warn_ = std::move(cb); }
+  // Summed impulse (N s) the cloth applied to `body` since construction (contacts + attachments).
+  Vec3 applied_impulse(const btRigidBody* body) const;
+  // Largest penetration (m) of a cloth vertex into a collider seen (before push-out) in the last substep.
+  double last_penetration() const { return last_penetration_; }
+  long substeps() const { return substeps_; }  // Bullet substeps run
+  // Pose of `body` that the cloth used at the end of the last substep (interpolated for kinematic bodies).
+  collision::Transform body_pose(const btRigidBody* body) const;
+
+  struct Attachment {
+    int cloth = 0, vertex = 0;
+    btRigidBody* body = nullptr;
+    Vec3 offset = Vec3::Zero();  // m, body-local
+  };
+  const std::vector<Attachment>& attachments() const { return attachments_; }
+
+ private:
+  struct BodyTrack;
+  class PoseStage;
+  class AttachStage;
+  class ReactionStage;
+  void update_aabb();
+  void cloth_aabb(Vec3& lo, Vec3& hi) const;
+  double contacts_thickness() const;
+  void warn(const std::string& shape_name);
+  BodyTrack& track(btRigidBody* body);
+
+  BulletClothSettings settings_;
+  std::unique_ptr<cloth::Simulation> sim_;
+  collision::ColliderSetPtr colliders_;
+  std::vector<btRigidBody*> collider_body_;          // per collider
+  std::vector<collision::Transform> collider_local_;  // per collider: shape pose in the body frame
+  std::vector<Attachment> attachments_;
+  std::map<const btRigidBody*, std::unique_ptr<BodyTrack>> tracks_;
+  std::unique_ptr<btCollisionShape> aabb_shape_;
+  std::unique_ptr<btCollisionObject> object_;
+  btDynamicsWorld* world_ = nullptr;
+  std::vector<std::string> warnings_;
+  std::function<void(const std::string&)> warn_;
+  ContactStage* contacts_ = nullptr;       // owned by sim_
+  double substep_t0_ = 0.0;                  // s, cloth time at the current Bullet substep's start
+  double last_penetration_ = 0.0;
+  long substeps_ = 0;
+  mutable std::vector<std::unique_ptr<ClothRayCaster>> casters_;  // per cloth, for ray_test
+};
+
+}  // namespace loom::bullet

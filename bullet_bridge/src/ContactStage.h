@@ -1,0 +1,41 @@
+#pragma once
+// The bridge's own cloth-vs-collider contact response (private). It stands in for the collision library's
+// body-collision stage until that one lands (issue 5); same contract: reads the ColliderSet's prev/curr
+// poses, pushes cloth vertices out to `thickness` from each collider at curr, removes the approaching
+// relative normal velocity (inelastic), applies Coulomb friction to the tangential part, and sums minus the
+// impulse given to the cloth into each collider's reaction_impulse / reaction_angular_impulse (moment about
+// curr's origin), so the sum over cloth and colliders is exactly conserved.
+// Vertex-only: edges of a collider can still pass between cloth vertices.
+#include <map>
+#include <string>
+
+#include "ShapeDistance.h"
+#include "loom/cloth/Stage.h"
+#include "loom/collision/Collider.h"
+
+namespace loom::bullet {
+
+class ContactStage final : public cloth::Stage {
+ public:
+  ContactStage(collision::ColliderSetPtr colliders, double thickness)
+      : colliders_(std::move(colliders)), thickness_(thickness) {}
+  const char* name() const override { return "bullet_contacts"; }
+  void run(cloth::StageContext& ctx) override;
+  std::vector<std::pair<std::string, double>> counters() const override {
+    return {{"contacts", static_cast<double>(contacts_)}};
+  }
+  double thickness() const { return thickness_; }  // m
+  // Deepest penetration (m, >= 0) below the surface seen before the push-out in the last run.
+  double last_penetration() const { return last_penetration_; }
+
+ private:
+  const HullPlanes* hull_for(const collision::Collider& c);
+
+  collision::ColliderSetPtr colliders_;
+  double thickness_;  // m
+  std::map<std::string, HullPlanes> hulls_;  // convex colliders' planes by name
+  long contacts_ = 0;
+  double last_penetration_ = 0.0;
+};
+
+}  // namespace loom::bullet
