@@ -68,32 +68,36 @@ double convex_sd(const ColliderGeometry& g, const Vec3& q, Vec3* n) {
     if (n) *n = g.hull_planes[face].head<3>();
     return best;
   }
-  // Outside: GJK (libccd through FCL) between the hull and the point (a sphere of radius 0).
-  static const auto point = std::make_shared<fcl::Sphered>(0.0);
-  fcl::DistanceRequestd request(true);
-  fcl::DistanceResultd result;
-  fcl::Transform3d tq = fcl::Transform3d::Identity();
-  tq.translation() = q;
-  fcl::distance(g.fcl->geometry.get(), fcl::Transform3d::Identity(), point.get(), tq, request, result);
-  double d = result.min_distance;
-  Vec3 dir = q - result.nearest_points[0];
-  const double len = dir.norm();
-  if (!(d >= 0.0) || !(len > 0.0)) {
-    // GJK did not converge to a separated answer: exact closest point over the hull's triangles.
-    d = HUGE_VAL;
-    for (const Tri& t : g.hull_triangles) {
-      const auto c = point_triangle_closest(q, g.hull_vertices[t[0]], g.hull_vertices[t[1]], g.hull_vertices[t[2]]);
-      if (c.distance_squared < d * d) {
-        d = std::sqrt(c.distance_squared);
-        dir = q - (c.weights[0] * g.hull_vertices[t[0]] + c.weights[1] * g.hull_vertices[t[1]] +
-                   c.weights[2] * g.hull_vertices[t[2]]);
-      }
+  // Outside. Near the hull (within 1% of its size) the exact closest point over the hull's triangles:
+  // there FCL's GJK meets degenerate simplices and its Debian build asserts (libccd_extension::doSimplex2).
+  // Farther away GJK through FCL/libccd (Gilbert, Johnson, Keerthi 1988).
+  const double size = (g.local_hi - g.local_lo).norm();
+  if (best > 0.01 * size) {
+    static const auto point = std::make_shared<fcl::Sphered>(0.0);
+    fcl::DistanceRequestd request(true);
+    fcl::DistanceResultd result;
+    fcl::Transform3d tq = fcl::Transform3d::Identity();
+    tq.translation() = q;
+    fcl::distance(g.fcl->geometry.get(), fcl::Transform3d::Identity(), point.get(), tq, request, result);
+    const Vec3 dir = q - result.nearest_points[0];
+    const double len = dir.norm();
+    if (result.min_distance >= 0.0 && len > 0.0) {
+      if (n) *n = dir / len;
+      return len;  // |q - nearest| for the hull point GJK found
     }
-    if (n) *n = dir.norm() > 0.0 ? Vec3(dir.normalized()) : Vec3(g.hull_planes[face].head<3>());
-    return d;
   }
-  if (n) *n = dir / len;
-  return len;  // |q - nearest| is the exact distance to the point GJK found (never below the true distance)
+  double d2 = HUGE_VAL;
+  Vec3 dir = g.hull_planes[face].head<3>();
+  for (const Tri& t : g.hull_triangles) {
+    const Vec3 &a = g.hull_vertices[t[0]], &b = g.hull_vertices[t[1]], &c = g.hull_vertices[t[2]];
+    const auto cl = point_triangle_closest(q, a, b, c);
+    if (cl.distance_squared < d2) {
+      d2 = cl.distance_squared;
+      dir = q - (cl.weights[0] * a + cl.weights[1] * b + cl.weights[2] * c);
+    }
+  }
+  if (n) *n = dir.norm() > 0.0 ? Vec3(dir.normalized()) : Vec3(g.hull_planes[face].head<3>());
+  return std::sqrt(d2);
 }
 
 double mesh_sd(const Shape& s, const ColliderGeometry& g, const Vec3& q, Vec3* n) {
