@@ -2,9 +2,13 @@
 
 namespace loom::scene {
 
-std::unique_ptr<cloth::Simulation> build_simulation(const Scene& scene) {
+std::unique_ptr<cloth::Simulation> build_simulation(const Scene& scene, collision::ColliderSetPtr* colliders_out) {
   auto sim = std::make_unique<cloth::Simulation>(scene.setup, scene.file);
+  // The one collider set of this simulation: the scene's colliders and a character rig's capsules go in
+  // here; the stages that read or move them share it, and the caller (renderer, viewer) draws it.
+  const auto colliders = std::make_shared<collision::ColliderSet>();
   // Effects from other modules add their stages here, each only when the scene names it.
+  if (colliders_out) *colliders_out = colliders;
   return sim;
 }
 

@@ -6,10 +6,13 @@
 #include <memory>
 
 #include "loom/cloth/Simulation.h"
+#include "loom/collision/Collider.h"
 #include "loom/scene/Scene.h"
 
 namespace loom::scene {
 
-std::unique_ptr<cloth::Simulation> build_simulation(const Scene& scene);
+// `colliders` (optional): receives the collider set the simulation's stages share, whose `curr` poses are
+// the colliders' poses at the current time after every step (the renderer and the viewer draw them).
+std::unique_ptr<cloth::Simulation> build_simulation(const Scene& scene, collision::ColliderSetPtr* colliders = nullptr);
 
 }  // namespace loom::scene
