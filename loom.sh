@@ -17,6 +17,7 @@ packages=(
   libbullet-dev libfcl-dev libccd-dev
   gnuplot-nox
   libgmp-dev libqhull-dev
+  libassimp-dev assimp-testmodels
   libtinygltf-dev libosmesa6-dev libstb-dev ffmpeg
   libglfw3-dev libimgui-dev libgl1-mesa-dri xvfb xauth
   clang-14 libfuzzer-14-dev

@@ -53,6 +53,11 @@ if(TARGET loom_collision)
   endif()
 endif()
 
+set(LOOM_PACKAGE_NEEDS_ASSIMP OFF)
+if(TARGET loom_characters)  # loom::characters links assimp (Debian libassimp-dev)
+  set(LOOM_PACKAGE_NEEDS_ASSIMP ON)
+endif()
+
 set(_loom_cmake_dir ${CMAKE_INSTALL_LIBDIR}/cmake/loom)
 install(EXPORT loomTargets NAMESPACE loom:: DESTINATION ${_loom_cmake_dir})
 configure_package_config_file(${PROJECT_SOURCE_DIR}/cmake/loomConfig.cmake.in

@@ -1,5 +1,9 @@
 #include "loom/scene/Build.h"
 
+#ifdef LOOM_HAVE_CHARACTERS
+#include "loom/characters/Character.h"
+#endif
+
 namespace loom::scene {
 
 std::unique_ptr<cloth::Simulation> build_simulation(const Scene& scene, collision::ColliderSetPtr* colliders_out) {
@@ -7,6 +11,10 @@ std::unique_ptr<cloth::Simulation> build_simulation(const Scene& scene, collisio
   // The one collider set of this simulation: the scene's colliders and a character rig's capsules go in
   // here; the stages that read or move them share it, and the caller (renderer, viewer) draws it.
   const auto colliders = std::make_shared<collision::ColliderSet>();
+#ifdef LOOM_HAVE_CHARACTERS
+  // Character (issue 6): its capsules join the set, its stage moves them and the attached garment vertices.
+  if (scene.character) characters::add_character(*sim, scene.character, colliders);
+#endif
   // Effects from other modules add their stages here, each only when the scene names it.
   if (colliders_out) *colliders_out = colliders;
   return sim;

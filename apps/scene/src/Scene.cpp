@@ -9,6 +9,7 @@
 #include "loom/cloth/Error.h"
 #include "loom/cloth/Model.h"
 #include "loom/scene/JsonReader.h"
+#include "loom/scene/SceneCharacter.h"
 
 namespace loom::scene {
 
@@ -86,8 +87,7 @@ void apply_override(nlohmann::json& root, const std::string& assignment, const s
   *node = v;
 }
 
-namespace {
-
+// Shared with SceneCharacter.cpp (garment materials).
 cloth::Material parse_material(const JsonReader& cloth_reader, const std::string& file) {
   if (!cloth_reader.has("material")) return cloth::material_preset("cotton");
   const nlohmann::json& raw = cloth_reader.raw("material");
@@ -137,6 +137,8 @@ cloth::Material parse_material(const JsonReader& cloth_reader, const std::string
   r.finish();
   return m;
 }
+
+namespace {
 
 std::shared_ptr<const cloth::ClothMesh> parse_mesh(const JsonReader& r, const std::string& file) {
   const std::string type = r.string("type", std::nullopt, {"grid", "obj"});
@@ -324,8 +326,9 @@ Scene parse_scene(const nlohmann::json& root, const std::string& file) {
     k.finish();
   }
 
-  const auto cloths = r.objects("cloths");
-  if (cloths.empty()) r.fail("cloths", "a scene needs at least one cloth");
+  parse_character(r, scene);  // issue 6: mocap character; its garments are the first cloths (SceneCharacter.cpp)
+  const auto cloths = r.has("cloths") || scene.setup.cloths.empty() ? r.objects("cloths") : std::vector<JsonReader>{};
+  if (cloths.empty() && scene.setup.cloths.empty()) r.fail("cloths", "a scene needs at least one cloth");
   for (const JsonReader& c : cloths) {
     cloth::ClothSetup cs;
     cs.name = c.string("name", "cloth" + std::to_string(scene.setup.cloths.size()));

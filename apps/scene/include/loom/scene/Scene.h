@@ -1,11 +1,16 @@
 #pragma once
 // A scene: one JSON file naming cloths, solver, effects, duration and outputs (DESIGN.md, "Scenes").
 // The format is documented in README.md ("Scene format").
+#include <memory>
 #include <nlohmann/json.hpp>
 #include <string>
 #include <vector>
 
 #include "loom/cloth/Simulation.h"
+
+namespace loom::characters {
+struct Character;  // loom/characters/Character.h (issue 6)
+}
 
 namespace loom::scene {
 
@@ -34,6 +39,7 @@ struct Scene {
   double duration = 1.0;  // s
   int frames = 60;        // frames to simulate (duration * fps, rounded)
   OutputSettings output;
+  std::shared_ptr<characters::Character> character;  // `character` (SceneCharacter.cpp); null without one
 };
 
 // Reads a JSON file; syntax errors name the file, line and column.

@@ -1,0 +1,106 @@
+#include "loom/scene/SceneCharacter.h"
+
+#include <filesystem>
+#include <map>
+
+#include "loom/cloth/Error.h"
+#include "loom/cloth/Model.h"
+
+#ifdef LOOM_HAVE_CHARACTERS
+#include "loom/characters/Character.h"
+#endif
+
+namespace loom::scene {
+
+namespace {
+
+std::string resolve(const std::string& path, const std::string& scene_file) {
+  std::filesystem::path p(path);
+  if (p.is_relative()) p = std::filesystem::path(scene_file).parent_path() / p;
+  return p.string();
+}
+
+}  // namespace
+
+void parse_character(const JsonReader& root, Scene& scene) {
+  if (!root.has("character")) return;
+  const std::string& file = scene.file;
+#ifndef LOOM_HAVE_CHARACTERS
+  root.fail("character", "this build has no loom::characters (configure with LOOM_WITH_CHARACTERS=ON)");
+#else
+  namespace ch = loom::characters;
+  const JsonReader c = root.object("character");
+  ch::MotionSettings ms;
+  const std::string motion_path = resolve(c.string("bvh"), file);
+  if (c.has("scale")) {
+    const nlohmann::json& s = c.raw("scale");
+    if (s.is_string() && s.get<std::string>() == "auto") {
+      ms.scale = 0.0;
+    } else if (s.is_number() && s.get<double>() > 0.0) {
+      ms.scale = s.get<double>();
+    } else {
+      c.fail("scale", "expected \"auto\" or metres per file unit (> 0)");
+    }
+  }
+  ms.height = c.number("height", ms.height, 0.0, true);
+  ms.root_motion = c.boolean("root_motion", ms.root_motion);
+  ms.loop = c.boolean("loop", ms.loop);
+  ms.speed = c.number("speed", ms.speed, 0.0, true);
+  ms.start = c.number("start", ms.start, 0.0);
+  auto character = std::make_shared<ch::Character>();
+  try {
+    character->motion = ch::Motion::load(motion_path, ms);
+  } catch (const Error& e) {
+    throw Error(file, c.child("bvh"), e.what());
+  }
+  std::map<std::string, double> radii;
+  if (c.has("radii")) {
+    const nlohmann::json& rj = c.raw("radii");
+    if (!rj.is_object()) c.fail("radii", "expected an object {\"BoneName\": radius in m}");
+    const JsonReader rr = c.object("radii");
+    for (auto it = rj.begin(); it != rj.end(); ++it) radii[it.key()] = rr.number(it.key(), std::nullopt, 0.0);
+    rr.finish();
+  }
+  try {
+    character->rig = ch::CapsuleRig::build(character->motion, radii);
+  } catch (const Error& e) {
+    throw Error(file, c.child("radii"), e.what());
+  }
+  character->friction = c.number("friction", character->friction, 0.0);
+  character->thickness = c.number("thickness", character->thickness, 0.0);
+  if (c.has("garments")) {
+    const auto garments = c.objects("garments");
+    for (size_t k = 0; k < garments.size(); ++k) {
+      const JsonReader& g = garments[k];
+      ch::GarmentSpec spec;
+      spec.type = g.string("type", std::nullopt, {"cape", "skirt", "shirt", "obj"});
+      const std::string name = g.string("name", spec.type);
+      spec.resolution = g.number("resolution", spec.resolution, 0.0, true);
+      spec.clearance = g.number("clearance", spec.clearance, 0.0);
+      spec.length = g.number("length", spec.length, 0.0);
+      if (spec.type == "cape") spec.width = g.number("width", spec.width, 0.0);
+      if (spec.type == "skirt") spec.flare = g.number("flare", spec.flare, 0.0, true);
+      if (spec.type == "obj") {
+        spec.path = resolve(g.string("path"), file);
+        spec.scale = g.number("scale", 1.0, 0.0, true);
+        spec.translate = g.vec3("translate", cloth::Vec3::Zero());
+        const nlohmann::json& aj = g.raw("attach");
+        if (!aj.is_object() || aj.empty()) g.fail("attach", "expected {\"obj group\": \"bone name\" or \"nearest\", ...}");
+        const JsonReader ar = g.object("attach");
+        for (auto it = aj.begin(); it != aj.end(); ++it) spec.attach[it.key()] = ar.string(it.key());
+        ar.finish();
+      }
+      cloth::Material material = parse_material(g, file);
+      const std::string model = g.string("model", "springs", cloth::model_names());
+      const ch::Garment garment = ch::make_garment(spec, character->motion, character->rig, file, g.path());
+      if (g.has("mass")) material.areal_density = g.number("mass", std::nullopt, 0.0, true) / garment.mesh->total_area();
+      g.finish();
+      character->add_garment(scene.setup, garment, name, material, model);
+    }
+  }
+  c.finish();
+  scene.character = character;
+#endif
+}
+
+}  // namespace loom::scene

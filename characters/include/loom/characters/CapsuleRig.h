@@ -1,0 +1,55 @@
+#pragma once
+// CapsuleRig: one capsule per bone of a Motion's skeleton (issue 6). A bone runs from a joint to one of its
+// children; its capsule's segment joins the two joints' positions (Collider.h: local y axis, from
+// -half_height to +half_height) and its radius comes from a body-proportion table keyed by common bone
+// names (canonical names below; other naming conventions are mapped onto them), scaled with the figure's
+// height, and overridable per bone. Bones of zero length, duplicates (several children at one offset) and
+// bones whose radius is 0 (fingers) get no capsule.
+#include <map>
+#include <string>
+#include <vector>
+
+#include "loom/characters/Motion.h"
+#include "loom/collision/Collider.h"
+
+namespace loom::characters {
+
+// Canonical names (CMU / Mixamo style): Hips, LowerBack, Spine, Spine1, Chest, Neck, Neck1, Head,
+// LHipJoint/RHipJoint (pelvis to hip), LeftUpLeg, LeftLeg, LeftFoot, LeftToeBase, LeftShoulder (clavicle),
+// LeftArm, LeftForeArm, LeftHand, and the Right* twins. Biovision names (LeftCollar, LeftShoulder = upper
+// arm, LeftElbow, LeftWrist, LeftHip, LeftKnee, LeftAnkle, LeftToes, Ab) are recognised when the skeleton
+// has a *Collar joint; "mixamorig:" and similar prefixes are dropped.
+std::vector<std::string> canonical_joint_names(const Motion& motion);
+
+// Default radii (m) for a 1.7 m figure, keyed by canonical bone name; unknown names get "default".
+const std::map<std::string, double>& default_bone_radii();
+
+struct Bone {
+  std::string name;       // the start joint's name in the file
+  std::string canonical;  // canonical name used for the radius and for garment fitting
+  int joint = 0;          // start joint (the capsule moves with its frame)
+  int child = 0;          // end joint
+  double radius = 0.0;    // m
+  double half_length = 0.0;  // m, half the rest distance between the joints
+};
+
+class CapsuleRig {
+ public:
+  // `radii`: overrides by file name or canonical name (m). Unknown override names throw loom::Error
+  // (file = the motion's source, where = "radii.<name>").
+  static CapsuleRig build(const Motion& motion, const std::map<std::string, double>& radii = {});
+
+  const std::vector<Bone>& bones() const { return bones_; }
+  // Capsule pose of each bone for the given global joint transforms: centre at the joints' midpoint, local
+  // y along the bone (start joint at -y), twist from the start joint's frame.
+  void capsule_poses(const std::vector<Transform>& global, std::vector<Transform>& poses) const;
+  // One Collider per bone (shape capsule), named "character/<bone>", with the poses at `global`.
+  std::vector<collision::Collider> make_colliders(const std::vector<Transform>& global) const;
+  // Index of the first bone whose canonical name is `canonical` (-1 if none).
+  int find(const std::string& canonical) const;
+
+ private:
+  std::vector<Bone> bones_;
+};
+
+}  // namespace loom::characters

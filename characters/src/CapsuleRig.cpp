@@ -1,0 +1,175 @@
+#include "loom/characters/CapsuleRig.h"
+
+#include <algorithm>
+#include <set>
+
+#include "loom/cloth/Error.h"
+
+namespace loom::characters {
+
+namespace {
+
+std::string strip_prefix(std::string name) {
+  const size_t colon = name.find_last_of(':');
+  if (colon != std::string::npos) name = name.substr(colon + 1);
+  return name;
+}
+
+// Biovision / CMU-Acclaim aliases -> canonical names (used when the skeleton has *Collar joints).
+const std::map<std::string, std::string>& collar_aliases() {
+  static const std::map<std::string, std::string> m = {
+      {"Ab", "Spine"},           {"LeftCollar", "LeftShoulder"}, {"RightCollar", "RightShoulder"},
+      {"LeftShoulder", "LeftArm"}, {"RightShoulder", "RightArm"}, {"LeftElbow", "LeftForeArm"},
+      {"RightElbow", "RightForeArm"}, {"LeftWrist", "LeftHand"},   {"RightWrist", "RightHand"},
+      {"LeftHip", "LeftUpLeg"},  {"RightHip", "RightUpLeg"},     {"LeftKnee", "LeftLeg"},
+      {"RightKnee", "RightLeg"}, {"LeftAnkle", "LeftFoot"},      {"RightAnkle", "RightFoot"},
+      {"LeftToes", "LeftToeBase"}, {"RightToes", "RightToeBase"}};
+  return m;
+}
+
+// Common other spellings -> canonical names.
+const std::map<std::string, std::string>& generic_aliases() {
+  static const std::map<std::string, std::string> m = {
+      {"Pelvis", "Hips"},         {"Hip", "Hips"},            {"Abdomen", "Spine"},
+      {"Spine2", "Chest"},        {"UpperChest", "Chest"},    {"LeftUpperArm", "LeftArm"},
+      {"RightUpperArm", "RightArm"}, {"LeftLowerArm", "LeftForeArm"}, {"RightLowerArm", "RightForeArm"},
+      {"LeftUpperLeg", "LeftUpLeg"}, {"RightUpperLeg", "RightUpLeg"}, {"LeftLowerLeg", "LeftLeg"},
+      {"RightLowerLeg", "RightLeg"}, {"LeftThigh", "LeftUpLeg"}, {"RightThigh", "RightUpLeg"},
+      {"LeftShin", "LeftLeg"},    {"RightShin", "RightLeg"},  {"LeftToe", "LeftToeBase"},
+      {"RightToe", "RightToeBase"}};
+  return m;
+}
+
+}  // namespace
+
+std::vector<std::string> canonical_joint_names(const Motion& motion) {
+  bool collar = false;
+  for (const Joint& j : motion.joints()) collar = collar || strip_prefix(j.name).find("Collar") != std::string::npos;
+  std::vector<std::string> out;
+  for (const Joint& j : motion.joints()) {
+    std::string n = strip_prefix(j.name);
+    if (collar) {
+      auto it = collar_aliases().find(n);
+      if (it != collar_aliases().end()) n = it->second;
+    }
+    auto it = generic_aliases().find(n);
+    if (it != generic_aliases().end()) n = it->second;
+    out.push_back(n);
+  }
+  return out;
+}
+
+const std::map<std::string, double>& default_bone_radii() {
+  // m, for a 1.7 m adult; loosely after anthropometric limb circumferences (Winter, "Biomechanics and motor
+  // control of human movement", segment tables), rounded to cm-level capsules.
+  static const std::map<std::string, double> m = {
+      {"Hips", 0.11},         {"LowerBack", 0.11},    {"Spine", 0.115},      {"Spine1", 0.12},
+      {"Chest", 0.12},        {"Neck", 0.07},         {"Neck1", 0.055},      {"Head", 0.095},
+      {"LHipJoint", 0.08},    {"RHipJoint", 0.08},    {"LeftUpLeg", 0.075},  {"RightUpLeg", 0.075},
+      {"LeftLeg", 0.055},     {"RightLeg", 0.055},    {"LeftFoot", 0.045},   {"RightFoot", 0.045},
+      {"LeftToeBase", 0.03},  {"RightToeBase", 0.03}, {"LeftShoulder", 0.055}, {"RightShoulder", 0.055},
+      {"LeftArm", 0.048},     {"RightArm", 0.048},    {"LeftForeArm", 0.04}, {"RightForeArm", 0.04},
+      {"LeftHand", 0.035},    {"RightHand", 0.035},   {"LeftFingerBase", 0.03}, {"RightFingerBase", 0.03},
+      {"LFingers", 0.0},      {"RFingers", 0.0},      {"LThumb", 0.0},       {"RThumb", 0.0},
+      {"default", 0.04}};
+  return m;
+}
+
+CapsuleRig CapsuleRig::build(const Motion& motion, const std::map<std::string, double>& radii) {
+  const std::vector<std::string> canon = canonical_joint_names(motion);
+  const auto& joints = motion.joints();
+  const double size = motion.rest_height() > 0.0 ? motion.rest_height() / 1.7 : 1.0;  // figure / table height
+  std::set<std::string> used;
+  for (const auto& [name, r] : radii)
+    if (!(r >= 0.0)) throw Error(motion.source(), "radii." + name, "must be >= 0");
+  // A bone belongs to the skeleton when its start joint is animated or below an animated joint.
+  std::vector<bool> skeletal(joints.size(), false);
+  for (size_t k = 0; k < joints.size(); ++k)
+    skeletal[k] = joints[k].animated || (joints[k].parent >= 0 && skeletal[joints[k].parent]);
+  CapsuleRig rig;
+  const double min_length = 1e-6 * std::max(motion.rest_height(), 1e-3);
+  for (size_t c = 0; c < joints.size(); ++c) {
+    const int j = joints[c].parent;
+    if (j < 0 || !skeletal[j]) continue;
+    const Vec3 offset = joints[c].rest.translation();
+    if (offset.norm() < min_length) continue;
+    bool duplicate = false;
+    for (const Bone& b : rig.bones_)
+      duplicate = duplicate || (b.joint == j && (joints[b.child].rest.translation() - offset).norm() < min_length);
+    if (duplicate) continue;
+    Bone b;
+    b.name = joints[j].name;
+    b.canonical = canon[j];
+    // The pelvis side of a hip (CMU LHipJoint; Biovision Hips -> LeftHip) has its own canonical bone.
+    if (canon[c] == "LeftUpLeg" && canon[j] != "LHipJoint") b.canonical = "LHipJoint";
+    if (canon[c] == "RightUpLeg" && canon[j] != "RHipJoint") b.canonical = "RHipJoint";
+    b.joint = j;
+    b.child = static_cast<int>(c);
+    b.half_length = 0.5 * offset.norm();
+    auto pick = [&](const std::string& key) -> const double* {
+      auto it = radii.find(key);
+      if (it == radii.end()) return nullptr;
+      used.insert(key);
+      return &it->second;
+    };
+    if (const double* r = pick(b.name)) {
+      b.radius = *r;
+    } else if (const double* r2 = pick(b.canonical)) {
+      b.radius = *r2;
+    } else {
+      auto it = default_bone_radii().find(b.canonical);
+      b.radius = size * (it != default_bone_radii().end() ? it->second : default_bone_radii().at("default"));
+    }
+    if (b.radius > 0.0) rig.bones_.push_back(b);
+  }
+  for (const auto& [name, r] : radii) {
+    (void)r;
+    if (!used.count(name)) {
+      bool known = false;
+      for (size_t k = 0; k < joints.size(); ++k) known = known || joints[k].name == name || canon[k] == name;
+      if (!known && name != "LHipJoint" && name != "RHipJoint")
+        throw Error(motion.source(), "radii." + name, "no bone of this skeleton has that name");
+    }
+  }
+  return rig;
+}
+
+void CapsuleRig::capsule_poses(const std::vector<Transform>& global, std::vector<Transform>& poses) const {
+  poses.resize(bones_.size());
+  for (size_t k = 0; k < bones_.size(); ++k) {
+    const Bone& b = bones_[k];
+    const Transform& g = global[b.joint];
+    const Vec3 a = g.translation(), e = global[b.child].translation();
+    // Rotation: the start joint's frame turned by the smallest rotation taking y onto the bone direction.
+    const Vec3 d_local = g.linear().transpose() * (e - a);
+    const Quat turn = Quat::FromTwoVectors(Vec3::UnitY(), d_local);
+    Transform p = Transform::Identity();
+    p.linear() = g.linear() * turn.toRotationMatrix();
+    p.translation() = 0.5 * (a + e);
+    poses[k] = p;
+  }
+}
+
+std::vector<collision::Collider> CapsuleRig::make_colliders(const std::vector<Transform>& global) const {
+  std::vector<Transform> poses;
+  capsule_poses(global, poses);
+  std::vector<collision::Collider> out;
+  for (size_t k = 0; k < bones_.size(); ++k) {
+    collision::Collider c;
+    c.name = "character/" + bones_[k].name;
+    c.shape.type = collision::ShapeType::capsule;
+    c.shape.radius = bones_[k].radius;
+    c.shape.half_height = bones_[k].half_length;
+    c.prev = c.curr = poses[k];
+    out.push_back(std::move(c));
+  }
+  return out;
+}
+
+int CapsuleRig::find(const std::string& canonical) const {
+  for (size_t k = 0; k < bones_.size(); ++k)
+    if (bones_[k].canonical == canonical) return static_cast<int>(k);
+  return -1;
+}
+
+}  // namespace loom::characters

@@ -1,0 +1,284 @@
+#include "loom/characters/Garments.h"
+
+#include <algorithm>
+#include <cmath>
+#include <fstream>
+#include <limits>
+#include <set>
+#include <sstream>
+
+#include "loom/cloth/Error.h"
+
+namespace loom::characters {
+
+namespace {
+
+constexpr double kPi = 3.14159265358979323846;
+
+struct Segment {
+  Vec3 a, b;
+  double r = 0.0;
+  int bone = 0;
+};
+
+double segment_distance(const Vec3& p, const Vec3& a, const Vec3& b) {
+  const Vec3 d = b - a;
+  const double l2 = d.squaredNorm();
+  const double s = l2 > 0.0 ? std::clamp((p - a).dot(d) / l2, 0.0, 1.0) : 0.0;
+  return (p - (a + s * d)).norm();
+}
+
+// The rig's capsules at t = 0 as world segments.
+std::vector<Segment> segments_at_start(const Motion& motion, const CapsuleRig& rig, std::vector<Transform>& pose) {
+  motion.pose(0.0, pose);
+  std::vector<Segment> out;
+  for (size_t k = 0; k < rig.bones().size(); ++k) {
+    const Bone& b = rig.bones()[k];
+    out.push_back({pose[b.joint].translation(), pose[b.child].translation(), b.radius, static_cast<int>(k)});
+  }
+  return out;
+}
+
+// Smallest gap from p to the capsule surfaces (negative inside).
+double clearance_of(const Vec3& p, const std::vector<Segment>& caps) {
+  double g = std::numeric_limits<double>::infinity();
+  for (const Segment& s : caps) g = std::min(g, segment_distance(p, s.a, s.b) - s.r);
+  return g;
+}
+
+// Moves p along `dir` (unit) in 2 mm steps until it is `clearance` outside every capsule.
+Vec3 push_out(Vec3 p, const Vec3& dir, const std::vector<Segment>& caps, double clearance) {
+  for (int k = 0; k < 2000 && clearance_of(p, caps) < clearance; ++k) p += 0.002 * dir;
+  return p;
+}
+
+// A grid of nu x nv vertices (row iv = 0 first); `wrap`: a tube closed along u. Corner uvs in metres
+// (u: arc length along the row, v: down the garment), so warp runs down and weft around.
+std::shared_ptr<const cloth::ClothMesh> grid_mesh(const cloth::Vec3s& x, int nu, int nv, bool wrap,
+                                                  const std::string& source) {
+  std::vector<cloth::Tri> tris;
+  std::vector<std::array<cloth::Vec2, 3>> uvs;
+  const int cols = wrap ? nu : nu - 1;
+  // Rest uv of a vertex, arc length measured along the first row and down the first column.
+  std::vector<double> u(nu + 1, 0.0), v(nv, 0.0);
+  for (int i = 1; i <= nu; ++i) u[i] = u[i - 1] + (x[i % nu] - x[i - 1]).norm();
+  for (int j = 1; j < nv; ++j) v[j] = v[j - 1] + (x[j * nu] - x[(j - 1) * nu]).norm();
+  for (int j = 0; j + 1 < nv; ++j)
+    for (int i = 0; i < cols; ++i) {
+      const int i1 = (i + 1) % nu;
+      const int a = j * nu + i, b = j * nu + i1, c = (j + 1) * nu + i, d = (j + 1) * nu + i1;
+      const cloth::Vec2 ua(u[i], -v[j]), ub(u[i + 1], -v[j]), uc(u[i], -v[j + 1]), ud(u[i + 1], -v[j + 1]);
+      if ((i + j) % 2 == 0) {
+        tris.push_back({a, c, d});
+        uvs.push_back({ua, uc, ud});
+        tris.push_back({a, d, b});
+        uvs.push_back({ua, ud, ub});
+      } else {
+        tris.push_back({a, c, b});
+        uvs.push_back({ua, uc, ub});
+        tris.push_back({b, c, d});
+        uvs.push_back({ub, uc, ud});
+      }
+    }
+  return cloth::ClothMesh::from_triangles(x, tris, uvs, source);
+}
+
+int joint_of(const CapsuleRig& rig, const std::string& canonical) {
+  const int b = rig.find(canonical);
+  return b < 0 ? -1 : rig.bones()[b].joint;
+}
+
+// The start joint of the bone nearest to p among bones whose canonical name is in `names` (all if empty).
+int nearest_joint(const Vec3& p, const std::vector<Segment>& caps, const CapsuleRig& rig,
+                  const std::set<std::string>& names) {
+  double best = std::numeric_limits<double>::infinity();
+  int joint = -1;
+  for (const Segment& s : caps) {
+    if (!names.empty() && !names.count(rig.bones()[s.bone].canonical)) continue;
+    const double d = segment_distance(p, s.a, s.b) - s.r;
+    if (d < best) {
+      best = d;
+      joint = rig.bones()[s.bone].joint;
+    }
+  }
+  return joint;
+}
+
+const std::set<std::string> kUpperTorso = {"Spine1", "Chest", "Neck", "Neck1", "LeftShoulder", "RightShoulder"};
+
+}  // namespace
+
+std::map<std::string, std::vector<int>> read_obj_groups(const std::string& path) {
+  std::ifstream in(path);
+  if (!in) throw Error(path, "", "cannot open OBJ file");
+  std::map<std::string, std::set<int>> groups;
+  std::vector<std::string> current = {"default"};
+  int vertices = 0, line_no = 0;
+  std::string line;
+  while (std::getline(in, line)) {
+    ++line_no;
+    std::istringstream ls(line);
+    std::string tag;
+    if (!(ls >> tag)) continue;
+    if (tag == "v") {
+      ++vertices;
+    } else if (tag == "g") {
+      current.clear();
+      std::string name;
+      while (ls >> name) current.push_back(name);
+      if (current.empty()) current.push_back("default");
+    } else if (tag == "f") {
+      std::string corner;
+      while (ls >> corner) {
+        const long idx = std::strtol(corner.substr(0, corner.find('/')).c_str(), nullptr, 10);
+        const long v = idx > 0 ? idx - 1 : vertices + idx;
+        if (idx == 0 || v < 0 || v >= vertices) throw Error(path, "line " + std::to_string(line_no), "bad vertex index '" + corner + "'");
+        for (const std::string& g : current) groups[g].insert(static_cast<int>(v));
+      }
+    }
+  }
+  std::map<std::string, std::vector<int>> out;
+  for (const auto& [name, set] : groups) out[name] = std::vector<int>(set.begin(), set.end());
+  return out;
+}
+
+Garment make_garment(const GarmentSpec& spec, const Motion& motion, const CapsuleRig& rig, const std::string& source,
+                     const std::string& where) {
+  if (!(spec.resolution > 0.0)) throw Error(source, where + ".resolution", "must be > 0");
+  if (!(spec.clearance >= 0.0)) throw Error(source, where + ".clearance", "must be >= 0");
+  std::vector<Transform> pose;
+  const std::vector<Segment> caps = segments_at_start(motion, rig, pose);
+  auto need = [&](const std::string& canonical) {
+    const int j = joint_of(rig, canonical);
+    if (j < 0) throw Error(source, where, "a " + spec.type + " needs a '" + canonical + "' bone in " + motion.source());
+    return j;
+  };
+  auto bone_radius = [&](const std::string& canonical) { return rig.bones()[rig.find(canonical)].radius; };
+  const Vec3 up = Vec3::UnitY();
+  Garment g;
+  auto mesh_of = [&](const cloth::Vec3s& x, int nu, int nv, bool wrap) {
+    try {
+      return grid_mesh(x, nu, nv, wrap, spec.type);
+    } catch (const Error& e) {
+      throw Error(source, where, e.what());
+    }
+  };
+
+  if (spec.type == "cape") {
+    const Vec3 ls = pose[need("LeftArm")].translation(), rs = pose[need("RightArm")].translation();
+    const Vec3 knee = pose[need("LeftLeg")].translation();
+    Vec3 right = rs - ls;
+    right.y() = 0.0;
+    if (right.norm() < 1e-9) throw Error(source, where, "the shoulders coincide at t = 0");
+    right.normalize();
+    const Vec3 forward = up.cross(right);
+    const double top = std::max(ls.y(), rs.y());
+    Vec3 centre = 0.5 * (ls + rs);
+    centre.y() = top;
+    const double width = spec.width > 0.0 ? spec.width : (rs - ls).norm() + 0.2;
+    const double length = spec.length > 0.0 ? spec.length : top - knee.y();
+    if (!(length > 0.0)) throw Error(source, where + ".length", "the knees are above the shoulders at t = 0");
+    const int nu = std::max(3, static_cast<int>(std::ceil(width / spec.resolution)) + 1);
+    const int nv = std::max(3, static_cast<int>(std::ceil(length / spec.resolution)) + 1);
+    cloth::Vec3s x(nu * nv);
+    // One vertical plane behind the back, as close as the capsules allow.
+    for (double depth = 0.0;; depth += 0.002) {
+      bool clear = true;
+      for (int j = 0; j < nv && clear; ++j)
+        for (int i = 0; i < nu && clear; ++i) {
+          x[j * nu + i] = centre + (-0.5 * width + width * i / (nu - 1)) * right - (length * j / (nv - 1)) * up - depth * forward;
+          clear = clearance_of(x[j * nu + i], caps) >= spec.clearance;
+        }
+      if (clear || depth > 2.0) break;
+    }
+    g.mesh = mesh_of(x, nu, nv, false);
+    for (int i = 0; i < nu; ++i) {
+      g.attached_vertices.push_back(i);
+      g.attached_joints.push_back(nearest_joint(x[i], caps, rig, kUpperTorso));
+    }
+  } else if (spec.type == "skirt" || spec.type == "shirt") {
+    const bool skirt = spec.type == "skirt";
+    const int root = motion.root();
+    const Vec3 hips = pose[root].translation();
+    double top, bottom, a, b;  // m: heights of the top and bottom rings; semi-axes of the top ring
+    Vec3 centre, right;
+    if (skirt) {
+      const Vec3 knee = pose[need("LeftLeg")].translation();
+      top = hips.y();
+      bottom = spec.length > 0.0 ? top - spec.length : knee.y();
+      centre = hips;
+      a = b = 0.1;
+      right = Vec3::UnitX();
+    } else {
+      const Vec3 ls = pose[need("LeftArm")].translation(), rs = pose[need("RightArm")].translation();
+      right = rs - ls;
+      right.y() = 0.0;
+      if (right.norm() < 1e-9) throw Error(source, where, "the shoulders coincide at t = 0");
+      right.normalize();
+      top = std::max(ls.y(), rs.y());
+      bottom = spec.length > 0.0 ? top - spec.length : hips.y();
+      centre = 0.5 * (ls + rs);
+      a = 0.5 * (rs - ls).norm() + bone_radius("LeftArm") + spec.clearance;
+      b = 0.12;
+    }
+    if (!(top - bottom > 0.0)) throw Error(source, where + ".length", "the garment has no length at t = 0");
+    const Vec3 forward = up.cross(right);
+    const double perimeter = kPi * (3.0 * (a + b) - std::sqrt((3.0 * a + b) * (a + 3.0 * b)));  // Ramanujan
+    const int nu = std::max(8, static_cast<int>(std::ceil(perimeter / spec.resolution)));
+    const int nv = std::max(3, static_cast<int>(std::ceil((top - bottom) / spec.resolution)) + 1);
+    cloth::Vec3s x(nu * nv);
+    std::vector<double> radius0(nu, 1.0), previous(nu, 0.0);
+    for (int j = 0; j < nv; ++j) {
+      const double s = static_cast<double>(j) / (nv - 1);
+      const double y = top - s * (top - bottom);
+      for (int i = 0; i < nu; ++i) {
+        const double th = 2.0 * kPi * i / nu;
+        const Vec3 dir = std::cos(th) * right + std::sin(th) * forward;
+        const Vec3 axis(centre.x(), y, centre.z());
+        // Ring: the top ellipse, widened towards the hem by `flare` (skirt), then pushed out of the body.
+        const double grow = skirt ? 1.0 + (spec.flare - 1.0) * s : 1.0;
+        const double r0 = j == 0 ? std::hypot(a * std::cos(th), b * std::sin(th)) : radius0[i] * grow;
+        const Vec3 p = push_out(axis + std::max(r0, previous[i]) * dir, dir, caps, spec.clearance);
+        const double r = (p - axis).norm();
+        if (j == 0) radius0[i] = r;
+        previous[i] = r;
+        x[j * nu + i] = p;
+      }
+    }
+    g.mesh = mesh_of(x, nu, nv, true);
+    for (int i = 0; i < nu; ++i) {
+      g.attached_vertices.push_back(i);
+      g.attached_joints.push_back(skirt ? root : nearest_joint(x[i], caps, rig, kUpperTorso));
+    }
+  } else if (spec.type == "obj") {
+    try {
+      g.mesh = cloth::ClothMesh::from_obj(spec.path, spec.scale, spec.translate);
+    } catch (const Error& e) {
+      throw Error(source, where, e.what());
+    }
+    const auto groups = read_obj_groups(spec.path);
+    const std::vector<std::string> canon = canonical_joint_names(motion);
+    for (const auto& [group, bone] : spec.attach) {
+      auto it = groups.find(group);
+      if (it == groups.end()) throw Error(source, where + ".attach." + group, "no group '" + group + "' in " + spec.path);
+      int joint = -1;
+      if (bone != "nearest") {
+        for (int k = 0; k < motion.num_joints() && joint < 0; ++k)
+          if (motion.joints()[k].name == bone || canon[k] == bone) joint = k;
+        if (joint < 0) throw Error(source, where + ".attach." + group, "no bone '" + bone + "' in " + motion.source());
+      }
+      for (int v : it->second) {
+        if (std::find(g.attached_vertices.begin(), g.attached_vertices.end(), v) != g.attached_vertices.end()) continue;
+        g.attached_vertices.push_back(v);
+        g.attached_joints.push_back(joint >= 0 ? joint : nearest_joint(g.mesh->rest_positions()[v], caps, rig, {}));
+      }
+    }
+  } else {
+    throw Error(source, where + ".type", "unknown garment '" + spec.type + "' (known: cape, skirt, shirt, obj)");
+  }
+  for (int j : g.attached_joints)
+    if (j < 0) throw Error(source, where, "no bone to attach the " + spec.type + " to");
+  return g;
+}
+
+}  // namespace loom::characters

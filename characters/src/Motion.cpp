@@ -1,0 +1,198 @@
+#include "loom/characters/Motion.h"
+
+#include <assimp/postprocess.h>
+#include <assimp/scene.h>
+
+#include <algorithm>
+#include <assimp/Importer.hpp>
+#include <cmath>
+#include <functional>
+#include <limits>
+#include <map>
+
+#include "loom/cloth/Error.h"
+
+namespace loom::characters {
+
+namespace {
+
+Transform to_transform(const aiMatrix4x4& m) {
+  Transform t = Transform::Identity();
+  for (int r = 0; r < 3; ++r)
+    for (int c = 0; c < 4; ++c) t.matrix()(r, c) = static_cast<double>(m[r][c]);
+  // Remove any scaling from the rotation part (mocap rest transforms are rigid; this keeps Isometry valid).
+  Eigen::Matrix3d a = t.linear();
+  Eigen::JacobiSVD<Eigen::Matrix3d> svd(a, Eigen::ComputeFullU | Eigen::ComputeFullV);
+  t.linear() = svd.matrixU() * svd.matrixV().transpose();
+  return t;
+}
+
+// Index k of the last key with times[k] <= tau and the blend weight towards key k+1 (0 at and past the ends).
+std::pair<size_t, double> bracket(const std::vector<double>& times, double tau) {
+  if (times.size() < 2 || tau <= times.front()) return {0, 0.0};
+  if (tau >= times.back()) return {times.size() - 1, 0.0};
+  const size_t k = static_cast<size_t>(std::upper_bound(times.begin(), times.end(), tau) - times.begin()) - 1;
+  return {k, (tau - times[k]) / (times[k + 1] - times[k])};
+}
+
+}  // namespace
+
+Motion Motion::load(const std::string& path, const MotionSettings& settings) {
+  if (!(settings.speed > 0.0) || !std::isfinite(settings.speed)) throw Error(path, "speed", "must be > 0");
+  if (!(settings.scale >= 0.0) || !std::isfinite(settings.scale)) throw Error(path, "scale", "must be >= 0");
+  if (!(settings.height > 0.0)) throw Error(path, "height", "must be > 0");
+  Assimp::Importer importer;
+  const aiScene* scene = importer.ReadFile(path, 0);
+  if (!scene || !scene->mRootNode) throw Error(path, "", std::string("cannot read motion: ") + importer.GetErrorString());
+
+  Motion m;
+  m.source_ = path;
+  m.settings_ = settings;
+  const aiAnimation* anim = scene->mNumAnimations > 0 ? scene->mAnimations[0] : nullptr;
+  std::map<std::string, const aiNodeAnim*> channels;
+  if (anim)
+    for (unsigned c = 0; c < anim->mNumChannels; ++c) channels[anim->mChannels[c]->mNodeName.C_Str()] = anim->mChannels[c];
+  const double tps = anim && anim->mTicksPerSecond > 0.0 ? anim->mTicksPerSecond : 25.0;  // assimp's default
+
+  // Depth-first: parents before children.
+  std::function<void(const aiNode*, int)> walk = [&](const aiNode* node, int parent) {
+    Joint j;
+    j.name = node->mName.C_Str();
+    j.parent = parent;
+    j.rest = to_transform(node->mTransformation);
+    JointTrack track;
+    auto it = channels.find(j.name);
+    if (it != channels.end()) {
+      const aiNodeAnim* ch = it->second;
+      j.animated = true;
+      for (unsigned k = 0; k < ch->mNumPositionKeys; ++k) {
+        const aiVectorKey& key = ch->mPositionKeys[k];
+        track.position_times.push_back(key.mTime / tps);
+        track.positions.emplace_back(key.mValue.x, key.mValue.y, key.mValue.z);
+      }
+      for (unsigned k = 0; k < ch->mNumRotationKeys; ++k) {
+        const aiQuatKey& key = ch->mRotationKeys[k];
+        track.rotation_times.push_back(key.mTime / tps);
+        track.rotations.push_back(Quat(key.mValue.w, key.mValue.x, key.mValue.y, key.mValue.z).normalized());
+      }
+      if (!track.position_times.empty()) m.duration_ = std::max(m.duration_, track.position_times.back());
+      if (!track.rotation_times.empty()) m.duration_ = std::max(m.duration_, track.rotation_times.back());
+    }
+    const int index = static_cast<int>(m.joints_.size());
+    m.joints_.push_back(j);
+    m.tracks_.push_back(std::move(track));
+    for (unsigned c = 0; c < node->mNumChildren; ++c) walk(node->mChildren[c], index);
+  };
+  walk(scene->mRootNode, -1);
+  m.root_ = 0;
+  for (int k = 0; k < m.num_joints(); ++k)
+    if (m.joints_[k].animated) {
+      m.root_ = k;
+      break;
+    }
+
+  // Units: the rest pose's height (y extent of every joint at or below the root) becomes settings.height.
+  std::vector<Transform> g(m.joints_.size());
+  double ymin = std::numeric_limits<double>::infinity(), ymax = -ymin;
+  for (int k = 0; k < m.num_joints(); ++k) {
+    const int p = m.joints_[k].parent;
+    g[k] = p < 0 ? m.joints_[k].rest : g[p] * m.joints_[k].rest;
+    ymin = std::min(ymin, g[k].translation().y());
+    ymax = std::max(ymax, g[k].translation().y());
+  }
+  if (settings.scale > 0.0) {
+    m.scale_ = settings.scale;
+  } else {
+    if (!(ymax - ymin > 0.0)) throw Error(path, "scale", "the rest pose has no height; give 'scale' explicitly");
+    m.scale_ = settings.height / (ymax - ymin);
+  }
+  m.rest_height_ = (ymax - ymin) * m.scale_;
+  for (Joint& j : m.joints_) j.rest.translation() *= m.scale_;
+  for (JointTrack& t : m.tracks_)
+    for (Vec3& p : t.positions) p *= m.scale_;
+
+  // Root motion bookkeeping (clip values, before placement).
+  if (m.duration_ > 0.0 && settings.loop) {
+    const Vec3 a = m.local(m.root_, 0.0).translation(), b = m.local(m.root_, m.duration_).translation();
+    m.cycle_shift_ = Vec3(b.x() - a.x(), 0.0, b.z() - a.z());
+  }
+  const double tau0 = settings.loop && m.duration_ > 0.0
+                          ? settings.start - std::floor(settings.start / m.duration_) * m.duration_
+                          : std::clamp(settings.start, 0.0, m.duration_);
+  m.root_start_ = m.local(m.root_, tau0).translation();
+  if (settings.place) {
+    m.placement_ = Vec3::Zero();
+    std::vector<Transform> pose0;
+    m.pose(0.0, pose0);
+    double low = std::numeric_limits<double>::infinity();
+    for (const Transform& t : pose0) low = std::min(low, t.translation().y());
+    const Vec3 root = pose0[m.root_].translation();
+    m.placement_ = Vec3(-root.x(), -low, -root.z());
+  }
+  return m;
+}
+
+int Motion::find(const std::string& name) const {
+  for (int k = 0; k < num_joints(); ++k)
+    if (joints_[k].name == name) return k;
+  return -1;
+}
+
+Transform Motion::local(int joint, double tau) const {
+  const Joint& j = joints_[joint];
+  if (!j.animated) return j.rest;
+  const JointTrack& t = tracks_[joint];
+  Transform out = Transform::Identity();
+  if (t.positions.empty()) {
+    out.translation() = j.rest.translation();
+  } else {
+    const auto [k, a] = bracket(t.position_times, tau);
+    out.translation() = a == 0.0 ? t.positions[k] : ((1.0 - a) * t.positions[k] + a * t.positions[k + 1]).eval();
+  }
+  if (t.rotations.empty()) {
+    out.linear() = j.rest.linear();
+  } else {
+    const auto [k, a] = bracket(t.rotation_times, tau);
+    // Shortest-arc spherical interpolation (Shoemake 1985, "Animating rotation with quaternion curves").
+    const Quat q = a == 0.0 ? t.rotations[k] : t.rotations[k].slerp(a, t.rotations[k + 1]);
+    out.linear() = q.toRotationMatrix();
+  }
+  return out;
+}
+
+void Motion::clip_pose(double tau, std::vector<Transform>& global) const {
+  global.resize(joints_.size());
+  for (int k = 0; k < num_joints(); ++k) {
+    const int p = joints_[k].parent;
+    global[k] = p < 0 ? local(k, tau) : global[p] * local(k, tau);
+  }
+}
+
+void Motion::pose(double t, std::vector<Transform>& global) const {
+  double tau = clip_time(t);
+  Vec3 shift = Vec3::Zero();
+  if (settings_.loop && duration_ > 0.0) {
+    const double cycles = std::floor(tau / duration_);
+    tau -= cycles * duration_;
+    shift = cycles * cycle_shift_;
+  } else {
+    tau = std::clamp(tau, 0.0, duration_);
+  }
+  global.resize(joints_.size());
+  for (int k = 0; k < num_joints(); ++k) {
+    const int p = joints_[k].parent;
+    Transform l = local(k, tau);
+    if (k == root_) {
+      if (settings_.root_motion) {
+        l.translation() += shift;
+      } else {
+        l.translation().x() = root_start_.x();
+        l.translation().z() = root_start_.z();
+      }
+    }
+    global[k] = p < 0 ? l : global[p] * l;
+  }
+  for (Transform& g : global) g.translation() += placement_;
+}
+
+}  // namespace loom::characters

@@ -1,0 +1,222 @@
+// Skeleton and animation loading (issue 6): sampling against assimp's own data, evaluated independently.
+#include <assimp/scene.h>
+#include <gtest/gtest.h>
+
+#include <assimp/Importer.hpp>
+#include <cmath>
+#include <fstream>
+#include <functional>
+#include <map>
+#include <sstream>
+
+#include "CharacterTestUtil.h"
+#include "loom/characters/Motion.h"
+#include "loom/cloth/Error.h"
+
+namespace {
+
+using loom::characters::Motion;
+using loom::characters::MotionSettings;
+using loom::characters::Transform;
+using Vec3 = Eigen::Vector3d;
+using Mat4 = Eigen::Matrix4d;
+
+// Rotation matrix of a unit quaternion, written out (not Eigen's conversion): the reference path.
+Mat4 quat_matrix(double w, double x, double y, double z) {
+  const double n = std::sqrt(w * w + x * x + y * y + z * z);
+  w /= n, x /= n, y /= n, z /= n;
+  Mat4 m = Mat4::Identity();
+  m(0, 0) = 1 - 2 * (y * y + z * z), m(0, 1) = 2 * (x * y - w * z), m(0, 2) = 2 * (x * z + w * y);
+  m(1, 0) = 2 * (x * y + w * z), m(1, 1) = 1 - 2 * (x * x + z * z), m(1, 2) = 2 * (y * z - w * x);
+  m(2, 0) = 2 * (x * z - w * y), m(2, 1) = 2 * (y * z + w * x), m(2, 2) = 1 - 2 * (x * x + y * y);
+  return m;
+}
+
+// Joint positions (file units) at key k: assimp's node tree with each channel's k-th keys, in double.
+// Also the same product in assimp's own float matrices (aiMatrix4x4, aiQuaternion::GetMatrix).
+void reference_positions(const aiScene* scene, unsigned k, std::map<std::string, Vec3>& exact,
+                         std::map<std::string, Vec3>& assimp_float) {
+  std::map<std::string, const aiNodeAnim*> ch;
+  const aiAnimation* a = scene->mAnimations[0];
+  for (unsigned c = 0; c < a->mNumChannels; ++c) ch[a->mChannels[c]->mNodeName.C_Str()] = a->mChannels[c];
+  std::function<void(const aiNode*, const Mat4&, const aiMatrix4x4&)> walk = [&](const aiNode* n, const Mat4& parent,
+                                                                                  const aiMatrix4x4& parent_f) {
+    Mat4 local = Mat4::Identity();
+    aiMatrix4x4 local_f = n->mTransformation;
+    auto it = ch.find(n->mName.C_Str());
+    if (it != ch.end()) {
+      const aiNodeAnim* c = it->second;
+      const aiVectorKey& p = c->mPositionKeys[std::min(k, c->mNumPositionKeys - 1)];
+      const aiQuatKey& q = c->mRotationKeys[std::min(k, c->mNumRotationKeys - 1)];
+      local = quat_matrix(q.mValue.w, q.mValue.x, q.mValue.y, q.mValue.z);
+      local(0, 3) = p.mValue.x, local(1, 3) = p.mValue.y, local(2, 3) = p.mValue.z;
+      local_f = aiMatrix4x4(q.mValue.GetMatrix());
+      local_f.a4 = p.mValue.x, local_f.b4 = p.mValue.y, local_f.c4 = p.mValue.z;
+    } else {
+      for (int r = 0; r < 4; ++r)
+        for (int cc = 0; cc < 4; ++cc) local(r, cc) = n->mTransformation[r][cc];
+    }
+    const Mat4 g = parent * local;
+    const aiMatrix4x4 gf = parent_f * local_f;
+    exact[n->mName.C_Str()] = g.block<3, 1>(0, 3);
+    assimp_float[n->mName.C_Str()] = Vec3(gf.a4, gf.b4, gf.c4);
+    for (unsigned i = 0; i < n->mNumChildren; ++i) walk(n->mChildren[i], g, gf);
+  };
+  walk(scene->mRootNode, Mat4::Identity(), aiMatrix4x4());
+}
+
+void expect_matches_assimp(const std::string& file) {
+  Assimp::Importer importer;
+  const aiScene* scene = importer.ReadFile(file, 0);
+  ASSERT_TRUE(scene && scene->mNumAnimations == 1);
+  MotionSettings ms;
+  ms.place = false;  // the clip's own coordinates, scaled
+  const Motion m = Motion::load(file, ms);
+  const double tps = scene->mAnimations[0]->mTicksPerSecond;
+  const unsigned keys = scene->mAnimations[0]->mChannels[0]->mNumRotationKeys;
+  ASSERT_GT(keys, 1000u);
+  EXPECT_NEAR(m.duration(), (keys - 1) / tps, 1e-12);
+  std::vector<Transform> pose;
+  double worst = 0.0, worst_float = 0.0;
+  for (unsigned k : {0u, 1u, 2u, 100u, keys / 3, keys / 2, keys - 2, keys - 1}) {
+    std::map<std::string, Vec3> exact, fl;
+    reference_positions(scene, k, exact, fl);
+    m.clip_pose(scene->mAnimations[0]->mChannels[0]->mRotationKeys[k].mTime / tps, pose);
+    for (int j = 0; j < m.num_joints(); ++j) {
+      const Vec3 ref = exact.at(m.joints()[j].name) * m.scale();
+      worst = std::max(worst, (pose[j].translation() - ref).norm());
+      worst_float = std::max(worst_float, (pose[j].translation() - fl.at(m.joints()[j].name) * m.scale()).norm());
+    }
+  }
+  const double height = m.rest_height();
+  EXPECT_LE(worst, 1e-9 * height) << file;          // independent double evaluation of assimp's keys
+  EXPECT_LE(worst_float, 1e-5 * height) << file;    // assimp's own float matrices (float rounding)
+}
+
+TEST(Motion, SamplingAtKeysReproducesAssimpJointPositions_01_01) { expect_matches_assimp(loom::test::mocap("01_01.bvh")); }
+TEST(Motion, SamplingAtKeysReproducesAssimpJointPositions_Boxing) {
+  expect_matches_assimp(loom::test::mocap("Boxing_Toes.bvh"));
+}
+
+// The root's first frame as written in the BVH text (its first three channels), scaled to metres.
+TEST(Motion, RootPositionMatchesTheBvhText) {
+  const std::string file = loom::test::mocap("01_01.bvh");
+  std::ifstream in(file);
+  std::string line;
+  while (std::getline(in, line) && line.rfind("Frame Time", 0) != 0) {
+  }
+  std::getline(in, line);
+  std::istringstream ls(line);
+  Vec3 first;
+  ls >> first.x() >> first.y() >> first.z();
+  MotionSettings ms;
+  ms.place = false;
+  const Motion m = Motion::load(file, ms);
+  std::vector<Transform> pose;
+  m.clip_pose(0.0, pose);
+  EXPECT_LE((pose[m.find("Hips")].translation() - first * m.scale()).norm(), 1e-6 * m.rest_height());
+}
+
+// Between keys: positions lerp, rotations slerp; at the midpoint the slerp is the normalised quaternion sum.
+TEST(Motion, InterpolatesBetweenKeys) {
+  MotionSettings ms;
+  ms.place = false;
+  const Motion m = Motion::load(loom::test::mocap("01_01.bvh"), ms);
+  const int arm = m.find("LeftForeArm"), hips = m.find("Hips");
+  const auto& tr = m.track(arm);
+  const size_t k = 700;
+  const double tm = 0.5 * (tr.rotation_times[k] + tr.rotation_times[k + 1]);
+  Eigen::Quaterniond q0 = tr.rotations[k], q1 = tr.rotations[k + 1];
+  if (q0.dot(q1) < 0.0) q1.coeffs() = -q1.coeffs();
+  const Eigen::Quaterniond mid(Eigen::Vector4d((q0.coeffs() + q1.coeffs()).normalized()));
+  EXPECT_LE((m.local(arm, tm).linear() - mid.toRotationMatrix()).norm(), 1e-12);
+  const auto& ht = m.track(hips);
+  const Vec3 p_mid = 0.5 * (ht.positions[k] + ht.positions[k + 1]);
+  EXPECT_LE((m.local(hips, 0.5 * (ht.position_times[k] + ht.position_times[k + 1])).translation() - p_mid).norm(), 1e-12);
+}
+
+// Units: the CMU clip (inch-like units) and the Biovision clip (cm) both become ~1.7 m figures.
+TEST(Motion, AutomaticScaleGivesHumanHeight) {
+  const Motion cmu = Motion::load(loom::test::mocap("01_01.bvh"));
+  const Motion box = Motion::load(loom::test::mocap("Boxing_Toes.bvh"));
+  EXPECT_NEAR(box.scale(), 0.01, 0.001);  // the file is in centimetres
+  EXPECT_GT(cmu.scale(), 0.04);
+  EXPECT_LT(cmu.scale(), 0.09);
+  for (const Motion* m : {&cmu, &box}) {
+    std::vector<Transform> pose;
+    m->pose(0.0, pose);
+    double lo = 1e9, hi = -1e9;
+    for (const Transform& t : pose) lo = std::min(lo, t.translation().y()), hi = std::max(hi, t.translation().y());
+    EXPECT_NEAR(lo, 0.0, 1e-12);  // placed on the floor
+    EXPECT_GT(hi - lo, 1.4);
+    EXPECT_LT(hi - lo, 1.8);
+    EXPECT_NEAR(pose[m->root()].translation().x(), 0.0, 1e-12);
+    EXPECT_NEAR(pose[m->root()].translation().z(), 0.0, 1e-12);
+  }
+  MotionSettings fixed;
+  fixed.scale = 0.02;
+  EXPECT_DOUBLE_EQ(Motion::load(loom::test::mocap("Boxing_Toes.bvh"), fixed).scale(), 0.02);
+}
+
+TEST(Motion, RootMotionOffKeepsTheRootInPlace) {
+  MotionSettings off;
+  off.root_motion = false;
+  const Motion m = Motion::load(loom::test::mocap("Boxing_Toes.bvh"), off);
+  const Motion on = Motion::load(loom::test::mocap("Boxing_Toes.bvh"));
+  std::vector<Transform> pose, pose_on;
+  double travelled = 0.0;
+  for (double t = 0.0; t < 20.0; t += 0.5) {
+    m.pose(t, pose);
+    on.pose(t, pose_on);
+    EXPECT_NEAR(pose[m.root()].translation().x(), 0.0, 1e-12);
+    EXPECT_NEAR(pose[m.root()].translation().z(), 0.0, 1e-12);
+    EXPECT_NEAR(pose[m.root()].translation().y(), pose_on[on.root()].translation().y(), 1e-12);
+    const Vec3 d = pose_on[on.root()].translation();
+    travelled = std::max(travelled, std::hypot(d.x(), d.z()));
+  }
+  EXPECT_GT(travelled, 0.2);  // the clip itself does move (footwork)
+}
+
+TEST(Motion, SpeedLoopAndStart) {
+  const std::string file = loom::test::mocap("01_01.bvh");
+  MotionSettings base;
+  base.place = false;
+  MotionSettings fast = base;
+  fast.speed = 2.0;
+  MotionSettings looped = base;
+  looped.loop = true;
+  MotionSettings late = base;
+  late.start = 3.0;
+  const Motion m = Motion::load(file, base), mf = Motion::load(file, fast), ml = Motion::load(file, looped),
+               ms = Motion::load(file, late);
+  std::vector<Transform> a, b;
+  m.pose(2.5, a);
+  mf.pose(1.25, b);
+  for (size_t j = 0; j < a.size(); ++j) EXPECT_LE((a[j].translation() - b[j].translation()).norm(), 1e-12);
+  m.pose(4.0, a);
+  ms.pose(1.0, b);
+  for (size_t j = 0; j < a.size(); ++j) EXPECT_LE((a[j].translation() - b[j].translation()).norm(), 1e-12);
+  // Past the end: held (no loop) or wrapped with the cycle's root displacement added (loop).
+  m.pose(m.duration() + 5.0, a);
+  m.pose(m.duration(), b);
+  for (size_t j = 0; j < a.size(); ++j) EXPECT_LE((a[j].translation() - b[j].translation()).norm(), 1e-12);
+  ml.pose(1.0, a);
+  ml.pose(1.0 + m.duration(), b);
+  Vec3 shift = (m.local(m.root(), m.duration()).translation() - m.local(m.root(), 0.0).translation());
+  shift.y() = 0.0;
+  for (size_t j = 0; j < a.size(); ++j) EXPECT_LE((b[j].translation() - a[j].translation() - shift).norm(), 1e-9);
+}
+
+TEST(Motion, ErrorsNameTheFile) {
+  try {
+    Motion::load("/nonexistent/clip.bvh");
+    FAIL();
+  } catch (const loom::Error& e) {
+    EXPECT_NE(std::string(e.what()).find("/nonexistent/clip.bvh"), std::string::npos);
+  }
+  MotionSettings bad;
+  bad.speed = 0.0;
+  EXPECT_THROW(Motion::load(loom::test::mocap("01_01.bvh"), bad), loom::Error);
+}
+
+}  // namespace
