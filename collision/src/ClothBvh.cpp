@@ -171,6 +171,30 @@ std::vector<int> ClothBvh::query(const Aabb& box) const {
   return out;
 }
 
+void ClothBvh::two_tree_recurse(int a, const ClothBvh& other, int b, std::vector<TrianglePair>& out) const {
+  const Node& na = nodes_[a];
+  const Node& nb = other.nodes_[b];
+  if (!na.box.overlaps(nb.box)) return;
+  if (na.left < 0 && nb.left < 0) {
+    out.emplace_back(na.triangle, nb.triangle);
+    return;
+  }
+  if (nb.left < 0 || (na.left >= 0 && na.box.surface_area() >= nb.box.surface_area())) {
+    two_tree_recurse(na.left, other, b, out);
+    two_tree_recurse(na.right, other, b, out);
+  } else {
+    two_tree_recurse(a, other, nb.left, out);
+    two_tree_recurse(a, other, nb.right, out);
+  }
+}
+
+std::vector<TrianglePair> ClothBvh::cross_pairs(const ClothBvh& other) const {
+  std::vector<TrianglePair> out;
+  if (!nodes_.empty() && !other.nodes_.empty()) two_tree_recurse(0, other, 0, out);
+  std::sort(out.begin(), out.end());
+  return out;
+}
+
 std::vector<TrianglePair> brute_force_pairs(const loom::cloth::ClothMesh& mesh, const Vec3s& x0, const Vec3s& x1,
                                             double thickness, bool skip_adjacent) {
   const auto& tris = mesh.triangles();

@@ -16,6 +16,10 @@ std::unique_ptr<cloth::Simulation> build_simulation(const Scene& scene, collisio
   if (scene.character) characters::add_character(*sim, scene.character, colliders);
 #endif
   // Effects from other modules add their stages here, each only when the scene names it.
+  // Self- and cloth-cloth collision (issue 5), after body collision: only with a `collision` object that asks
+  // for self-collision or has more than one cloth to collide.
+  if (scene.collision && (scene.collision->self || scene.setup.cloths.size() > 1))
+    sim->add_stage(std::make_unique<collision::SelfCollisionStage>(*scene.collision));
   if (colliders_out) *colliders_out = colliders;
   return sim;
 }

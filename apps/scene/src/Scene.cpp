@@ -10,6 +10,7 @@
 #include "loom/cloth/Model.h"
 #include "loom/scene/JsonReader.h"
 #include "loom/scene/SceneCharacter.h"
+#include "loom/scene/SceneCollision.h"
 
 namespace loom::scene {
 
@@ -341,6 +342,7 @@ Scene parse_scene(const nlohmann::json& root, const std::string& file) {
     c.finish();
     scene.setup.cloths.push_back(std::move(cs));
   }
+  parse_collision(r, scene);  // issue 5: self- and cloth-cloth collision (SceneCollision.cpp)
 
   if (r.has("output")) {
     const JsonReader o = r.object("output");

@@ -51,6 +51,8 @@ class ClothBvh {
   std::vector<TrianglePair> self_pairs(bool skip_adjacent) const;
   // Triangles whose leaf box overlaps `box`, sorted.
   std::vector<int> query(const Aabb& box) const;
+  // Pairs (i in this tree, j in `other`) whose leaf boxes overlap, sorted: cloth-cloth candidates.
+  std::vector<TrianglePair> cross_pairs(const ClothBvh& other) const;
 
   double surface_area_sum() const;  // m^2, over the internal nodes
   int num_nodes() const { return static_cast<int>(nodes_.size()); }
@@ -67,6 +69,7 @@ class ClothBvh {
   void self_recurse(int n, bool skip_adjacent, std::vector<TrianglePair>& out) const;
   void cross_recurse(int a, int b, bool skip_adjacent, std::vector<TrianglePair>& out) const;
   bool adjacent(int i, int j) const;
+  void two_tree_recurse(int a, const ClothBvh& other, int b, std::vector<TrianglePair>& out) const;
 
   std::shared_ptr<const loom::cloth::ClothMesh> mesh_;
   ClothBvhSettings settings_;

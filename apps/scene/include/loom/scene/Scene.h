@@ -3,10 +3,12 @@
 // The format is documented in README.md ("Scene format").
 #include <memory>
 #include <nlohmann/json.hpp>
+#include <optional>
 #include <string>
 #include <vector>
 
 #include "loom/cloth/Simulation.h"
+#include "loom/collision/SelfCollisionStage.h"
 
 namespace loom::characters {
 struct Character;  // loom/characters/Character.h (issue 6)
@@ -39,6 +41,7 @@ struct Scene {
   double duration = 1.0;  // s
   int frames = 60;        // frames to simulate (duration * fps, rounded)
   OutputSettings output;
+  std::optional<collision::SelfCollisionSettings> collision;  // `collision` (SceneCollision.cpp); absent: none
   std::shared_ptr<characters::Character> character;  // `character` (SceneCharacter.cpp); null without one
 };
 

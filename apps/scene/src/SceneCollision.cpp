@@ -1,0 +1,43 @@
+// Scene key `collision` (SceneCollision.h).
+#include "loom/scene/SceneCollision.h"
+
+#include <string>
+
+namespace loom::scene {
+
+void parse_collision(const JsonReader& root, Scene& scene) {
+  if (!root.has("collision")) return;
+  const JsonReader c = root.object("collision");
+  collision::SelfCollisionSettings s;
+  s.self = c.boolean("self", true);
+  const int n = static_cast<int>(scene.setup.cloths.size());
+  const double all = c.number("thickness", 0.0, 0.0);  // 0: each cloth's material thickness
+  s.thickness.assign(n, 0.0);
+  for (int i = 0; i < n; ++i) s.thickness[i] = all > 0.0 ? all : scene.setup.cloths[i].material.thickness;
+  if (c.has("layers")) {
+    const std::vector<double> layers = c.numbers("layers");
+    if (static_cast<int>(layers.size()) != n)
+      c.fail("layers", "expected one thickness per cloth (" + std::to_string(n) + "), got " + std::to_string(layers.size()));
+    for (int i = 0; i < n; ++i) {
+      if (!(layers[i] > 0.0)) c.fail("layers", "entry " + std::to_string(i) + " must be > 0 (m)");
+      s.thickness[i] = layers[i];
+    }
+  }
+  for (int i = 0; i < n; ++i)
+    if (!(s.thickness[i] > 0.0)) c.fail("thickness", "cloth " + std::to_string(i) + " has no thickness > 0");
+  if (c.has("friction")) s.friction = c.number("friction", std::nullopt, 0.0);
+  if (c.has("static_friction")) s.static_friction = c.number("static_friction", std::nullopt, 0.0);
+  if (s.static_friction >= 0.0 && s.friction >= 0.0 && s.static_friction < s.friction)
+    c.fail("static_friction", "must be >= friction");
+  s.passes = c.integer("passes", s.passes, 0);
+  if (s.passes > 1000) c.fail("passes", "must be <= 1000");
+  s.separation = c.number("separation", s.separation, 0.0);
+  if (s.separation >= 1.0) c.fail("separation", "must be < 1 (a fraction of the thickness)");
+  s.repulsion = c.number("repulsion", s.repulsion, 0.0);
+  if (s.repulsion > 1.0) c.fail("repulsion", "must be <= 1");
+  s.normal_cones = c.boolean("normal_cones", s.normal_cones);
+  c.finish();
+  scene.collision = s;
+}
+
+}  // namespace loom::scene

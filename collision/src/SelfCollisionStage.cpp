@@ -1,0 +1,574 @@
+// Self- and cloth-cloth collision stage (SelfCollisionStage.h).
+#include "loom/collision/SelfCollisionStage.h"
+
+#include <Eigen/Dense>
+#include <algorithm>
+#include <cmath>
+#include <map>
+
+#include "loom/collision/Ccd.h"
+#include "loom/collision/Distance.h"
+
+namespace loom::collision {
+
+using loom::cloth::Mat3;
+using loom::cloth::Tri;
+using loom::cloth::Vec3s;
+
+namespace {
+
+int find_root(std::vector<int>& parent, int v) {
+  while (parent[v] != v) {
+    parent[v] = parent[parent[v]];
+    v = parent[v];
+  }
+  return v;
+}
+
+// Unit vector along `d`, or along `fallback` oriented like `side` when d is (nearly) zero.
+bool contact_normal(const Vec3& d, const Vec3& fallback, const Vec3& side, Vec3& n) {
+  const double len = d.norm();
+  if (len > 1e-12 * std::max(1.0, fallback.norm())) {
+    n = d / len;
+    return true;
+  }
+  const double fl = fallback.norm();
+  if (!(fl > 0.0)) return false;
+  n = fallback / fl;
+  if (n.dot(side) < 0.0) n = -n;
+  return true;
+}
+
+}  // namespace
+
+std::vector<std::pair<std::string, double>> SelfCollisionStage::counters() const {
+  return {{"candidate_pairs", static_cast<double>(candidate_pairs_)},
+          {"culled_nodes", static_cast<double>(culled_nodes_)},
+          {"contacts", static_cast<double>(contacts_)},
+          {"passes", static_cast<double>(passes_)},
+          {"impact_zones", static_cast<double>(impact_zones_)},
+          {"zone_iterations", static_cast<double>(zone_iterations_)},
+          {"bvh_rebuilds", static_cast<double>(bvh_rebuilds_)},
+          {"ccd_tests", static_cast<double>(ccd_tests_)},
+          {"ccd_boxes", static_cast<double>(ccd_boxes_)},
+          {"unresolved", static_cast<double>(unresolved_)}};
+}
+
+void SelfCollisionStage::setup(loom::cloth::StageContext& ctx) {
+  num_cloths_ = static_cast<int>(ctx.cloths.size());
+  vertex_offset_.assign(num_cloths_ + 1, 0);
+  tri_offset_.assign(num_cloths_ + 1, 0);
+  vertex_cloth_.clear(), tri_cloth_.clear(), edge_cloth_.clear();
+  tris_.clear(), edges_.clear(), tri_edges_.clear();
+  cloth_thickness_.assign(num_cloths_, 0.0);
+  cloth_friction_.assign(num_cloths_, 0.0);
+  bvhs_.clear();
+  for (int c = 0; c < num_cloths_; ++c) {
+    const loom::cloth::Cloth& cloth = *ctx.cloths[c];
+    const loom::cloth::ClothMesh& mesh = cloth.mesh();
+    const int vo = vertex_offset_[c];
+    vertex_offset_[c + 1] = vo + mesh.num_vertices();
+    tri_offset_[c + 1] = tri_offset_[c] + mesh.num_triangles();
+    vertex_cloth_.insert(vertex_cloth_.end(), mesh.num_vertices(), c);
+    const double given = c < static_cast<int>(settings_.thickness.size()) ? settings_.thickness[c] : 0.0;
+    cloth_thickness_[c] = given > 0.0 ? given : cloth.material().thickness;
+    cloth_friction_[c] = cloth.material().friction;
+    const int eo = static_cast<int>(edges_.size());
+    std::map<std::pair<int, int>, int> edge_id;
+    for (size_t e = 0; e < mesh.edges().size(); ++e) {
+      const auto& ed = mesh.edges()[e];
+      edge_id[{std::min(ed.i, ed.j), std::max(ed.i, ed.j)}] = eo + static_cast<int>(e);
+      edges_.push_back({vo + ed.i, vo + ed.j});
+      edge_cloth_.push_back(c);
+    }
+    for (const Tri& t : mesh.triangles()) {
+      tris_.push_back({vo + t[0], vo + t[1], vo + t[2]});
+      tri_cloth_.push_back(c);
+      std::array<int, 3> te{};
+      for (int k = 0; k < 3; ++k) {
+        const int i = t[k], j = t[(k + 1) % 3];
+        te[k] = edge_id.at({std::min(i, j), std::max(i, j)});
+      }
+      tri_edges_.push_back(te);
+    }
+    bvhs_.push_back(std::make_unique<ClothBvh>(cloth.mesh_ptr()));
+  }
+  const int nv = vertex_offset_[num_cloths_];
+  vtx_tri_start_.assign(nv + 1, 0);
+  for (const Tri& t : tris_)
+    for (int k = 0; k < 3; ++k) ++vtx_tri_start_[t[k] + 1];
+  for (int v = 0; v < nv; ++v) vtx_tri_start_[v + 1] += vtx_tri_start_[v];
+  vtx_tri_.assign(vtx_tri_start_[nv], 0);
+  std::vector<int> fill(vtx_tri_start_.begin(), vtx_tri_start_.end() - 1);
+  for (int t = 0; t < static_cast<int>(tris_.size()); ++t)
+    for (int k = 0; k < 3; ++k) vtx_tri_[fill[tris_[t][k]]++] = t;
+}
+
+void SelfCollisionStage::update_bvhs(int threads, bool full_update) {
+  for (int c = 0; c < num_cloths_; ++c) {
+    const int vo = vertex_offset_[c], n = vertex_offset_[c + 1] - vo;
+    const Vec3s a(x0_.begin() + vo, x0_.begin() + vo + n), b(x1_.begin() + vo, x1_.begin() + vo + n);
+    const double half = 0.5 * cloth_thickness_[c];
+    if (full_update) {
+      bvh_rebuilds_ += bvhs_[c]->update(a, b, half, threads);
+    } else {
+      bvhs_[c]->refit(a, b, half, threads);
+    }
+  }
+}
+
+std::vector<TrianglePair> SelfCollisionStage::all_triangle_pairs() {
+  std::vector<TrianglePair> out;
+  for (int c = 0; c < num_cloths_; ++c) {
+    if (settings_.self) {
+      for (const TrianglePair& p : bvhs_[c]->self_pairs(false)) out.emplace_back(tri_offset_[c] + p.first, tri_offset_[c] + p.second);
+    }
+    for (int d = c + 1; d < num_cloths_; ++d)
+      for (const TrianglePair& p : bvhs_[c]->cross_pairs(*bvhs_[d])) out.emplace_back(tri_offset_[c] + p.first, tri_offset_[d] + p.second);
+  }
+  candidate_pairs_ += static_cast<long>(out.size());
+  return out;
+}
+
+// I-Cloth's Td x (Td u Ts): triangles with a dirty vertex, queried against every cloth's refitted tree.
+std::vector<TrianglePair> SelfCollisionStage::triangle_pairs_touching(const std::vector<char>& dirty) {
+  std::vector<char> td(tris_.size(), 0);
+  for (int v = 0; v < static_cast<int>(dirty.size()); ++v)
+    if (dirty[v])
+      for (int k = vtx_tri_start_[v]; k < vtx_tri_start_[v + 1]; ++k) td[vtx_tri_[k]] = 1;
+  std::vector<TrianglePair> out;
+  for (int t = 0; t < static_cast<int>(tris_.size()); ++t) {
+    if (!td[t]) continue;
+    const int c = tri_cloth_[t];
+    Aabb box;
+    for (int k = 0; k < 3; ++k) box.grow(x0_[tris_[t][k]]), box.grow(x1_[tris_[t][k]]);
+    box.lo.array() -= 0.5 * cloth_thickness_[c];
+    box.hi.array() += 0.5 * cloth_thickness_[c];
+    for (int d = 0; d < num_cloths_; ++d) {
+      if (d == c && !settings_.self) continue;
+      for (int j : bvhs_[d]->query(box)) {
+        const int g = tri_offset_[d] + j;
+        if (g != t) out.emplace_back(std::min(g, t), std::max(g, t));
+      }
+    }
+  }
+  candidate_pairs_ += static_cast<long>(out.size());
+  return out;
+}
+
+std::vector<SelfCollisionStage::Feature> SelfCollisionStage::features(const std::vector<TrianglePair>& pairs,
+                                                                     const std::vector<char>* dirty) const {
+  std::vector<Feature> out;
+  out.reserve(pairs.size() * 4);
+  auto is_dirty = [&](int v) { return !dirty || (*dirty)[v]; };
+  // Feature-level filter: swept boxes of the two features, inflated by the pair thickness, must overlap
+  // (covers the proximity distance at x0 and the continuous test's separation, which is smaller).
+  auto swept = [&](std::initializer_list<int> vs) {
+    Aabb b;
+    for (int v : vs) b.grow(x0_[v]), b.grow(x1_[v]);
+    return b;
+  };
+  auto near = [&](Aabb a, const Aabb& b, int ca, int cb) {
+    const double hp = 0.5 * (cloth_thickness_[ca] + cloth_thickness_[cb]);
+    a.lo.array() -= hp, a.hi.array() += hp;
+    return a.overlaps(b);
+  };
+  for (const TrianglePair& p : pairs) {
+    const Tri& ta = tris_[p.first];
+    const Tri& tb = tris_[p.second];
+    for (int side = 0; side < 2; ++side) {
+      const Tri& tv = side ? tb : ta;
+      const Tri& tf = side ? ta : tb;
+      const int f = side ? p.first : p.second;
+      const bool face_dirty = is_dirty(tf[0]) || is_dirty(tf[1]) || is_dirty(tf[2]);
+      const Aabb fb = swept({tf[0], tf[1], tf[2]});
+      for (int k = 0; k < 3; ++k) {
+        const int v = tv[k];
+        if (v == tf[0] || v == tf[1] || v == tf[2]) continue;
+        if (!(face_dirty || is_dirty(v))) continue;
+        if (near(swept({v}), fb, vertex_cloth_[v], tri_cloth_[f])) out.push_back({0, v, f});
+      }
+    }
+    for (int i = 0; i < 3; ++i) {
+      const int ea = tri_edges_[p.first][i];
+      for (int j = 0; j < 3; ++j) {
+        const int eb = tri_edges_[p.second][j];
+        const auto& a = edges_[ea];
+        const auto& b = edges_[eb];
+        if (a[0] == b[0] || a[0] == b[1] || a[1] == b[0] || a[1] == b[1]) continue;
+        if (!(is_dirty(a[0]) || is_dirty(a[1]) || is_dirty(b[0]) || is_dirty(b[1]))) continue;
+        if (!near(swept({a[0], a[1]}), swept({b[0], b[1]}), edge_cloth_[ea], edge_cloth_[eb])) continue;
+        out.push_back({1, std::min(ea, eb), std::max(ea, eb)});
+      }
+    }
+  }
+  std::sort(out.begin(), out.end());
+  out.erase(std::unique(out.begin(), out.end()), out.end());
+  return out;
+}
+
+SelfCollisionStage::Contact SelfCollisionStage::contact_of(const Feature& f) const {
+  Contact c;
+  if (f.type == 0) {
+    const Tri& t = tris_[f.b];
+    c.v[0] = f.a, c.v[1] = t[0], c.v[2] = t[1], c.v[3] = t[2];
+    c.cloth_a = vertex_cloth_[f.a], c.cloth_b = tri_cloth_[f.b];
+  } else {
+    c.v[0] = edges_[f.a][0], c.v[1] = edges_[f.a][1], c.v[2] = edges_[f.b][0], c.v[3] = edges_[f.b][1];
+    c.cloth_a = edge_cloth_[f.a], c.cloth_b = edge_cloth_[f.b];
+  }
+  return c;
+}
+
+double SelfCollisionStage::pair_thickness(const Contact& c) const {
+  return 0.5 * (cloth_thickness_[c.cloth_a] + cloth_thickness_[c.cloth_b]);
+}
+
+// Per-contact velocity changes dv[4] (m/s) are applied per vertex: averaged over the vertex's contacts, in the
+// contacts' (sorted) order, so the result does not depend on the thread count.
+namespace {
+
+struct Impulse {
+  bool active = false;
+  Vec3 dv[4];
+};
+
+void apply_impulses(const std::vector<int>& verts4, const std::vector<Impulse>& imp, double h, Vec3s& x1,
+                    std::vector<char>* moved) {
+  std::vector<int> touched;
+  static thread_local std::vector<Vec3> sum;
+  static thread_local std::vector<int> count;
+  if (sum.size() < x1.size()) sum.assign(x1.size(), Vec3::Zero()), count.assign(x1.size(), 0);
+  for (size_t i = 0; i < imp.size(); ++i) {
+    if (!imp[i].active) continue;
+    for (int k = 0; k < 4; ++k) {
+      const int v = verts4[4 * i + k];
+      if (imp[i].dv[k].isZero(0.0)) continue;
+      if (count[v] == 0) touched.push_back(v);
+      sum[v] += imp[i].dv[k];
+      ++count[v];
+    }
+  }
+  for (int v : touched) {
+    x1[v] += h * (sum[v] / count[v]);
+    if (moved) (*moved)[v] = 1;
+    sum[v].setZero();
+    count[v] = 0;
+  }
+}
+
+}  // namespace
+
+// Bridson et al. 2002, Sec. 7.2: pairs closer than the thickness at the step's start get an impulse that
+// removes `repulsion` of the overlap per step along the normal; Sec. 7.3: Coulomb friction clamps the
+// tangential relative velocity by mu * (normal velocity change) (static: stop it entirely).
+void SelfCollisionStage::proximity(int threads) {
+  const std::vector<Feature> fs = features(all_triangle_pairs(), nullptr);
+  const long n = static_cast<long>(fs.size());
+  std::vector<Impulse> imp(n);
+  std::vector<int> verts(4 * n);
+  const double mu_k_fixed = settings_.friction, mu_s_fixed = settings_.static_friction;
+#pragma omp parallel for num_threads(threads) if (threads > 1) schedule(dynamic, 256)
+  for (long i = 0; i < n; ++i) {
+    const Contact c = contact_of(fs[i]);
+    for (int k = 0; k < 4; ++k) verts[4 * i + k] = c.v[k];
+    const double hp = pair_thickness(c);
+    const Vec3& p0 = x0_[c.v[0]];
+    const Vec3& p1 = x0_[c.v[1]];
+    const Vec3& p2 = x0_[c.v[2]];
+    const Vec3& p3 = x0_[c.v[3]];
+    double w[4];
+    double d2;
+    Vec3 fallback;
+    if (fs[i].type == 0) {
+      const PointTriangleClosest r = point_triangle_closest(p0, p1, p2, p3);
+      d2 = r.distance_squared;
+      w[0] = 1.0, w[1] = -r.weights[0], w[2] = -r.weights[1], w[3] = -r.weights[2];
+      fallback = (p2 - p1).cross(p3 - p1);
+    } else {
+      const SegmentSegmentClosest r = segment_segment_closest(p0, p1, p2, p3);
+      d2 = r.distance_squared;
+      w[0] = 1.0 - r.s, w[1] = r.s, w[2] = -(1.0 - r.t), w[3] = -r.t;
+      fallback = (p1 - p0).cross(p3 - p2);
+    }
+    if (!(d2 < hp * hp)) continue;
+    const double d = std::sqrt(d2);
+    Vec3 diff = Vec3::Zero(), vrel = Vec3::Zero();
+    double denom = 0.0;
+    for (int k = 0; k < 4; ++k) {
+      diff += w[k] * x0_[c.v[k]];
+      vrel += w[k] * (x1_[c.v[k]] - x0_[c.v[k]]) / h_;
+      denom += w[k] * w[k] * w_[c.v[k]];
+    }
+    if (!(denom > 0.0)) continue;
+    Vec3 nrm;
+    if (!contact_normal(diff, fallback, vrel, nrm)) continue;
+    const double vn = vrel.dot(nrm);
+    const double target = settings_.repulsion * (hp - d) / h_;  // m/s
+    if (!(vn < target)) continue;
+    const double dvn = target - vn;
+    const double mu_k = mu_k_fixed >= 0.0 ? mu_k_fixed : 0.5 * (cloth_friction_[c.cloth_a] + cloth_friction_[c.cloth_b]);
+    const double mu_s = mu_s_fixed >= 0.0 ? mu_s_fixed : mu_k;
+    const Vec3 vt = vrel - vn * nrm;
+    const double vtn = vt.norm();
+    Vec3 dv = dvn * nrm;
+    if (vtn <= mu_s * dvn) {
+      dv -= vt;  // static friction: the tangential relative motion stops
+    } else if (vtn > 0.0) {
+      dv -= (mu_k * dvn / vtn) * vt;  // kinetic: reduced by mu * dvn, never reversed (vtn > mu_s dvn >= ...)
+    }
+    imp[i].active = true;
+    for (int k = 0; k < 4; ++k) imp[i].dv[k] = (w[k] * w_[c.v[k]] / denom) * dv;
+  }
+  for (long i = 0; i < n; ++i) contacts_ += imp[i].active;
+  apply_impulses(verts, imp, h_, x1_, nullptr);
+}
+
+// Continuous test of every feature on x0 -> x1 with minimum separation; hits approaching along the contact
+// normal at the time of impact get the inelastic impulse that cancels the approach (Bridson 2002, Sec. 7.4).
+bool SelfCollisionStage::ccd_pass(const std::vector<Feature>& fs, int threads, std::vector<char>& dirty) {
+  const long n = static_cast<long>(fs.size());
+  std::vector<Impulse> imp(n);
+  std::vector<int> verts(4 * n);
+  std::vector<char> hit(n, 0);
+  long tests = 0, boxes = 0;
+#pragma omp parallel for num_threads(threads) if (threads > 1) schedule(dynamic, 256) reduction(+ : tests, boxes)
+  for (long i = 0; i < n; ++i) {
+    const Contact c = contact_of(fs[i]);
+    for (int k = 0; k < 4; ++k) verts[4 * i + k] = c.v[k];
+    const Vec3 *a0[4], *a1[4];
+    for (int k = 0; k < 4; ++k) a0[k] = &x0_[c.v[k]], a1[k] = &x1_[c.v[k]];
+    // Cheap rejection: swept boxes farther apart than the separation on some axis.
+    const double sep = settings_.separation * pair_thickness(c);
+    Aabb ba, bb;
+    const int split = fs[i].type == 0 ? 1 : 2;
+    for (int k = 0; k < 4; ++k) (k < split ? ba : bb).grow(*a0[k]), (k < split ? ba : bb).grow(*a1[k]);
+    ba.lo.array() -= sep, ba.hi.array() += sep;
+    if (!ba.overlaps(bb)) continue;
+    CcdOptions opt;
+    opt.min_separation = sep;
+    opt.tolerance = 1e-4;     // of the query's extent: a few micrometres at cloth scale, well below sep
+    opt.toi_tolerance = 1e-2;  // the time of impact only places the contact normal
+    opt.toi_max_boxes = 64;
+    const CcdResult r = fs[i].type == 0
+                            ? vertex_face_ccd(*a0[0], *a0[1], *a0[2], *a0[3], *a1[0], *a1[1], *a1[2], *a1[3], opt)
+                            : edge_edge_ccd(*a0[0], *a0[1], *a0[2], *a0[3], *a1[0], *a1[1], *a1[2], *a1[3], opt);
+    ++tests;
+    boxes += r.boxes;
+    if (!r.hit) continue;
+    hit[i] = 1;
+    Vec3 q[4];
+    for (int k = 0; k < 4; ++k) q[k] = *a0[k] + r.toi * (*a1[k] - *a0[k]);
+    double w[4];
+    Vec3 fallback;
+    if (fs[i].type == 0) {
+      const PointTriangleClosest cl = point_triangle_closest(q[0], q[1], q[2], q[3]);
+      w[0] = 1.0, w[1] = -cl.weights[0], w[2] = -cl.weights[1], w[3] = -cl.weights[2];
+      fallback = (q[2] - q[1]).cross(q[3] - q[1]);
+    } else {
+      const SegmentSegmentClosest cl = segment_segment_closest(q[0], q[1], q[2], q[3]);
+      w[0] = 1.0 - cl.s, w[1] = cl.s, w[2] = -(1.0 - cl.t), w[3] = -cl.t;
+      fallback = (q[1] - q[0]).cross(q[3] - q[2]);
+    }
+    Vec3 diff = Vec3::Zero(), side = Vec3::Zero(), vrel = Vec3::Zero();
+    double denom = 0.0;
+    for (int k = 0; k < 4; ++k) {
+      diff += w[k] * q[k];
+      side += w[k] * *a0[k];
+      vrel += w[k] * (*a1[k] - *a0[k]) / h_;
+      denom += w[k] * w[k] * w_[c.v[k]];
+    }
+    if (!(denom > 0.0)) continue;
+    Vec3 nrm;
+    if (!contact_normal(diff, fallback, side, nrm)) continue;
+    const double vn = vrel.dot(nrm);
+    if (!(vn < 0.0)) continue;
+    imp[i].active = true;
+    const Vec3 dv = -vn * nrm;
+    for (int k = 0; k < 4; ++k) imp[i].dv[k] = (w[k] * w_[c.v[k]] / denom) * dv;
+  }
+  ccd_tests_ += tests;
+  ccd_boxes_ += boxes;
+  std::fill(dirty.begin(), dirty.end(), 0);
+  bool any = false;
+  for (long i = 0; i < n; ++i) {
+    if (!hit[i]) continue;
+    any = true;
+    contacts_ += imp[i].active;
+    for (int k = 0; k < 4; ++k) dirty[verts[4 * i + k]] = 1;  // retested next pass even if not moved
+  }
+  apply_impulses(verts, imp, h_, x1_, &dirty);
+  return any;
+}
+
+// Provot 1997 rigid impact zone: velocities (x1 - x0) / h of the zone's vertices replaced by the rigid motion
+// with the same linear and angular momentum about the centre of mass at x0 (linearised rotation).
+// With kinematic vertices: the best-fit rotation and translation of those (Kabsch 1976), applied to all.
+void SelfCollisionStage::apply_rigid_zone(const std::vector<int>& verts) {
+  std::vector<int> pinned;
+  for (int v : verts)
+    if (w_[v] == 0.0) pinned.push_back(v);
+  if (pinned.empty()) {
+    double mass = 0.0;
+    Vec3 xc = Vec3::Zero(), vc = Vec3::Zero();
+    for (int v : verts) {
+      mass += m_[v];
+      xc += m_[v] * x0_[v];
+      vc += m_[v] * (x1_[v] - x0_[v]) / h_;
+    }
+    if (!(mass > 0.0)) return;
+    xc /= mass, vc /= mass;
+    Vec3 L = Vec3::Zero();
+    Mat3 I = Mat3::Zero();
+    for (int v : verts) {
+      const Vec3 r = x0_[v] - xc;
+      L += m_[v] * r.cross((x1_[v] - x0_[v]) / h_ - vc);
+      I += m_[v] * (r.squaredNorm() * Mat3::Identity() - r * r.transpose());
+    }
+    const Vec3 omega = I.completeOrthogonalDecomposition().solve(L);
+    for (int v : verts) x1_[v] = x0_[v] + h_ * (vc + omega.cross(x0_[v] - xc));
+    return;
+  }
+  Vec3 c0 = Vec3::Zero(), c1 = Vec3::Zero();
+  for (int v : pinned) c0 += x0_[v], c1 += x1_[v];
+  c0 /= static_cast<double>(pinned.size()), c1 /= static_cast<double>(pinned.size());
+  Mat3 H = Mat3::Zero();
+  for (int v : pinned) H += (x0_[v] - c0) * (x1_[v] - c1).transpose();
+  Eigen::JacobiSVD<Mat3> svd(H, Eigen::ComputeFullU | Eigen::ComputeFullV);
+  Mat3 D = Mat3::Identity();
+  if ((svd.matrixV() * svd.matrixU().transpose()).determinant() < 0.0) D(2, 2) = -1.0;
+  const Mat3 R = svd.matrixV() * D * svd.matrixU().transpose();
+  for (int v : verts)
+    if (w_[v] != 0.0) x1_[v] = c1 + R * (x0_[v] - c0);
+}
+
+// Impact-zone fail-safe: test pairs touching `dirty` vertices (continuous, separation 0); vertices of hits not
+// inside one zone are merged into zones; changed zones move rigidly; repeat until no hit. Returns false if
+// the iteration cap forced one global zone.
+bool SelfCollisionStage::impact_zones(std::vector<char> dirty, int threads) {
+  const int nv = static_cast<int>(x0_.size());
+  zone_parent_.assign(nv, -1);
+  for (int it = 0; it < settings_.max_zone_iterations; ++it) {
+    if (std::none_of(dirty.begin(), dirty.end(), [](char d) { return d != 0; })) return true;
+    update_bvhs(threads, false);
+    const std::vector<Feature> fs = features(triangle_pairs_touching(dirty), &dirty);
+    const long n = static_cast<long>(fs.size());
+    std::vector<char> hit(n, 0);
+#pragma omp parallel for num_threads(threads) if (threads > 1) schedule(dynamic, 256)
+    for (long i = 0; i < n; ++i) {
+      const Contact c = contact_of(fs[i]);
+      // Pairs inside one zone move affinely with it and stay apart.
+      if (zone_parent_[c.v[0]] >= 0) {
+        bool same = true;
+        for (int k = 1; k < 4 && same; ++k) {
+          int a = c.v[0], b = c.v[k];
+          while (zone_parent_[a] != a) a = zone_parent_[a];
+          if (zone_parent_[b] < 0) {
+            same = false;
+            break;
+          }
+          while (zone_parent_[b] != b) b = zone_parent_[b];
+          same = a == b;
+        }
+        if (same) continue;
+      }
+      const Vec3 *a0[4], *a1[4];
+      for (int k = 0; k < 4; ++k) a0[k] = &x0_[c.v[k]], a1[k] = &x1_[c.v[k]];
+      Aabb ba, bb;
+      const int split = fs[i].type == 0 ? 1 : 2;
+      for (int k = 0; k < 4; ++k) (k < split ? ba : bb).grow(*a0[k]), (k < split ? ba : bb).grow(*a1[k]);
+      if (!ba.overlaps(bb)) continue;
+      CcdOptions opt;
+      opt.toi_max_boxes = 0;  // only whether they touch matters here
+      const CcdResult r = fs[i].type == 0 ? vertex_face_ccd(*a0[0], *a0[1], *a0[2], *a0[3], *a1[0], *a1[1], *a1[2], *a1[3], opt)
+                                          : edge_edge_ccd(*a0[0], *a0[1], *a0[2], *a0[3], *a1[0], *a1[1], *a1[2], *a1[3], opt);
+      hit[i] = r.hit;
+    }
+    // Merge (serial, in feature order).
+    std::vector<int> roots_changed;
+    bool any = false;
+    for (long i = 0; i < n; ++i) {
+      if (!hit[i]) continue;
+      any = true;
+      const Contact c = contact_of(fs[i]);
+      for (int k = 0; k < 4; ++k)
+        if (zone_parent_[c.v[k]] < 0) zone_parent_[c.v[k]] = c.v[k], ++impact_zones_;
+      for (int k = 1; k < 4; ++k) {
+        const int a = find_root(zone_parent_, c.v[0]), b = find_root(zone_parent_, c.v[k]);
+        if (a != b) zone_parent_[std::max(a, b)] = std::min(a, b), --impact_zones_;
+      }
+      roots_changed.push_back(c.v[0]);
+    }
+    std::fill(dirty.begin(), dirty.end(), 0);
+    if (!any) return true;
+    ++zone_iterations_;
+    std::vector<char> root_mark(nv, 0);
+    for (int v : roots_changed) root_mark[find_root(zone_parent_, v)] = 1;
+    std::vector<std::vector<int>> zones;
+    std::vector<int> zone_index(nv, -1);
+    for (int v = 0; v < nv; ++v) {
+      if (zone_parent_[v] < 0) continue;
+      const int r = find_root(zone_parent_, v);
+      if (!root_mark[r]) continue;
+      if (zone_index[r] < 0) zone_index[r] = static_cast<int>(zones.size()), zones.emplace_back();
+      zones[zone_index[r]].push_back(v);
+    }
+    for (const auto& z : zones) {
+      apply_rigid_zone(z);
+      for (int v : z) dirty[v] = 1;
+    }
+  }
+  // Last resort: everything moves as one rigid zone (Provot 1997: from an intersection-free start, the
+  // linearised rigid motion is an invertible affine map at every t).
+  std::vector<int> all(nv);
+  for (int v = 0; v < nv; ++v) all[v] = v;
+  apply_rigid_zone(all);
+  ++unresolved_;
+  return false;
+}
+
+void SelfCollisionStage::run(loom::cloth::StageContext& ctx) {
+  if (num_cloths_ != static_cast<int>(ctx.cloths.size())) setup(ctx);
+  h_ = ctx.h;
+  const int threads = ctx.threads;
+  const int nv = vertex_offset_[num_cloths_];
+  x0_.resize(nv), x1_.resize(nv), w_.resize(nv), m_.resize(nv);
+  for (int c = 0; c < num_cloths_; ++c) {
+    const loom::cloth::ClothState& s = ctx.cloths[c]->state();
+    const int vo = vertex_offset_[c];
+    for (int i = 0; i < s.size(); ++i) {
+      x0_[vo + i] = s.x_prev[i];
+      x1_[vo + i] = s.x[i];
+      w_[vo + i] = s.inv_mass[i];
+      m_[vo + i] = s.mass[i];
+    }
+  }
+  x1_solver_ = x1_;
+
+  update_bvhs(threads, true);
+  proximity(threads);
+
+  std::vector<char> dirty(nv, 1);
+  bool hits = true;
+  for (int pass = 0; pass < settings_.passes && hits; ++pass) {
+    update_bvhs(threads, false);
+    const std::vector<Feature> fs =
+        pass == 0 ? features(all_triangle_pairs(), nullptr) : features(triangle_pairs_touching(dirty), &dirty);
+    hits = ccd_pass(fs, threads, dirty);
+    ++passes_;
+  }
+  if (hits) impact_zones(dirty, threads);
+
+  for (int c = 0; c < num_cloths_; ++c) {
+    loom::cloth::ClothState& s = ctx.cloths[c]->state();
+    const int vo = vertex_offset_[c];
+    for (int i = 0; i < s.size(); ++i) {
+      const Vec3 dx = x1_[vo + i] - x1_solver_[vo + i];
+      if (dx.isZero(0.0)) continue;
+      s.x[i] = x1_[vo + i];
+      s.v[i] += dx / h_;
+    }
+  }
+}
+
+}  // namespace loom::collision
