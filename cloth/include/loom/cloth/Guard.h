@@ -10,8 +10,8 @@
 // of gravitational energy over the frame and E_ref = Σ m (|g| L + ½ v_ref²) an energy scale of the scene
 // (L: each cloth's rest bounding-box diagonal, m; v_ref = 10 m/s + the fastest of wind with gusts, initial
 // velocity and pin paths):
-//   E_kin(end) > energy_growth · (E_kin(start) + E_el(start) + max(0, ΔE_pot) + E_ref)
-// (no stored or supplied energy source can pay for that much motion in one frame), or a strain
+//   E_kin(end) + E_el(end) > energy_growth · (E_kin(start) + E_el(start) + max(0, ΔE_pot) + E_ref)
+// (no stored or supplied energy source can pay for that much motion and stretch in one frame), or a strain
 // max(l/L - 1) above `max_strain`.
 #include <string>
 
