@@ -4,6 +4,7 @@
 
 #include <algorithm>
 #include <chrono>
+#include <csignal>
 #include <cmath>
 #include <cstdio>
 #include <cstdlib>
@@ -13,8 +14,10 @@
 #include <iostream>
 #include <memory>
 #include <nlohmann/json.hpp>
+#include <optional>
 #include <sstream>
 
+#include "Checkpoint.h"
 #include "loom/cloth/Error.h"
 #include "loom/export/Exporters.h"
 #ifdef LOOM_HAVE_RENDER
@@ -32,6 +35,10 @@ namespace {
 constexpr const char* kDefaultScene = "hanging_cloth.json";
 
 void write_obj(const fs::path& path, const std::vector<std::unique_ptr<cloth::Cloth>>& cloths) {
+// Ctrl-C (SIGINT): the run stops at the next frame boundary, writes a checkpoint and valid outputs (issue 8).
+volatile std::sig_atomic_t g_interrupted = 0;
+extern "C" void on_sigint(int) { g_interrupted = 1; }
+
   std::ofstream out(path);
   if (!out) throw Error(path.string(), "", "cannot write frame");
   out << std::setprecision(9);
@@ -99,9 +106,23 @@ std::string default_scene_path() {
   return (fs::path(LOOM_SOURCE_DIR) / "scenes" / kDefaultScene).string();
 }
 
-int run_command(const RunOptions& o) {
+int run_command(const RunOptions& options) {
   const auto wall_start = std::chrono::steady_clock::now();
   const std::string scene_path = o.scene.empty() ? default_scene_path() : o.scene;
+  RunOptions o = options;
+  std::optional<Checkpoint> resume;  // --resume DIR: the run's options and state come from DIR/checkpoint
+  if (!o.resume.empty()) {
+    resume = read_checkpoint(o.resume);
+    o.scene = resume->scene;
+    o.sets = resume->sets;
+    o.out = o.resume;
+    o.render = resume->render;
+    if (o.frames < 0) o.frames = resume->frames_total;
+    if (o.threads < 0) o.threads = resume->threads;
+    if (o.checkpoint_every <= 0) o.checkpoint_every = resume->checkpoint_every;
+    if (read_text_file(o.scene) != resume->scene_text)
+      throw Error(o.scene, "--resume", "the scene file changed since the checkpoint was written");
+  }
   scene::Scene sc = scene::load_scene(scene_path, o.sets);
   if (o.threads > 0) sc.setup.threads = o.threads;
   const int frames = o.frames >= 0 ? o.frames : sc.frames;
@@ -123,7 +144,10 @@ int run_command(const RunOptions& o) {
   fs::remove(out / "summary.json");
   fs::remove(out / "stats.csv");
   for (const auto& entry : fs::directory_iterator(out / "frames"))
-    if (entry.path().extension() == ".obj" && entry.path().filename().string().rfind("frame_", 0) == 0) fs::remove(entry.path());
+    if (entry.path().extension() == ".obj" && entry.path().filename().string().rfind("frame_", 0) == 0 &&
+        (!resume || std::atoi(entry.path().filename().string().c_str() + 6) > first))
+      fs::remove(entry.path());
+  if (!resume) fs::remove_all(out / "checkpoint");
 
   const std::vector<std::string> stage_names = sim.stage_names();
   const fs::path stats_partial = out / "stats.csv.partial";
@@ -134,6 +158,9 @@ int run_command(const RunOptions& o) {
   for (const auto& n : stage_names) csv << ",ms_" << n;
   csv << "\n";
   auto write_row = [&](const cloth::FrameStats& s) {
+  // On --resume, the stats rows and OBJ frames up to the checkpoint's frame are kept, later ones dropped.
+  const int first = resume ? resume->frame : 0;
+  std::string kept_rows = resume ? kept_stats_rows(out, first) : "";
     csv << s.frame << ',' << s.time << ',' << s.kinetic << ',' << s.potential << ',' << s.elastic << ','
         << s.max_strain << ',' << s.mean_strain << ',' << s.total_ms;
     for (double ms : s.stage_ms) csv << ',' << ms;
@@ -146,6 +173,7 @@ int run_command(const RunOptions& o) {
   };
 
   // output.formats: "obj" below (with output.frames), "pc2" and "gltf" through loom::export.
+  csv << kept_rows;
   const bool obj = sc.output.frames && std::find(sc.output.formats.begin(), sc.output.formats.end(), "obj") != sc.output.formats.end();
   exporter::Exporters exports(out.string(), sc.output.formats, sim.cloths(), sc.output.every);
 #ifdef LOOM_HAVE_RENDER
@@ -155,43 +183,103 @@ int run_command(const RunOptions& o) {
   if (o.render) throw Error("", "--render", "this loom was built without the offscreen renderer (Debian: libosmesa6-dev libstb-dev)");
 #endif
 
-  cloth::FrameStats s0 = sim.measure();
-  write_row(s0);
-  if (obj) write_obj(frame_path(0), sim.cloths());
-  exports.frame(sim.time(), sim.cloths());
+  // Geometry kept in memory by pc2/gltf/--render is logged for --resume (Checkpoint.h; Ctrl-C can come any time).
+  bool in_memory = o.render;
+  for (const std::string& f : sc.output.formats) in_memory = in_memory || f == "pc2" || f == "gltf";
+  std::unique_ptr<FrameLog> log;
+  if (in_memory) log = std::make_unique<FrameLog>(out, resume ? resume->logged_frames : 0, sim.cloths());
+  auto keep_frame = [&](bool exported, bool rendered) {
+    if (exported) exports.frame(sim.time(), sim.cloths());
 #ifdef LOOM_HAVE_RENDER
-  if (recording) recording->add(sim.cloths());
+    if (recording && rendered) recording->add(sim.cloths());
 #endif
-  double max_strain = s0.max_strain, mean_strain_sum = 0.0, sim_ms = 0.0;
-  int done = 0;
-  bool finite = s0.finite;
+    if (log && (exported || rendered)) log->append(sim.time(), (exported ? 1 : 0) | (rendered ? 2 : 0), sim.cloths());
+  };
+  double max_strain = 0.0, mean_strain_sum = 0.0, sim_ms = 0.0;
+  bool finite = true;
+  if (resume) {
+    cloth::StateReader in(resume->state, (out / "checkpoint" / "checkpoint.bin").string());
+    sim.load_state(in);
+    max_strain = resume->max_strain;
+    mean_strain_sum = resume->mean_strain_sum;
+    sim_ms = resume->sim_ms;
+    if (log)  // the frames pc2/gltf/--render hold in memory, back from the log
+      log->replay(sim.cloths(), [&](double time, int flags) {
+        if (flags & 1) exports.frame(time, sim.cloths());
+#ifdef LOOM_HAVE_RENDER
+        if (recording && (flags & 2)) recording->add(sim.cloths());
+#endif
+      });
+  } else {
+    cloth::FrameStats s0 = sim.measure();
+    finite = s0.finite;
+    if (finite) {  // NaN is never written (issue 8)
+      write_row(s0);
+      if (obj) write_obj(frame_path(0), sim.cloths());
+      keep_frame(true, true);
+    }
+    max_strain = finite ? s0.max_strain : 0.0;
+  }
+  int done = first;
   std::string error;
   ProgressBar bar(frames);
-  for (int f = 1; f <= frames && finite; ++f) {
+  auto save_checkpoint = [&]() {
+    csv.flush();
+    if (log) log->flush();
+    Checkpoint c;
+    c.scene = scene_path;
+    c.scene_text = read_text_file(scene_path);
+    c.sets = o.sets;
+    c.frames_total = frames;
+    c.threads = sc.setup.threads;
+    c.checkpoint_every = o.checkpoint_every;
+    c.render = o.render;
+    c.frame = done;
+    c.max_strain = max_strain;
+    c.mean_strain_sum = mean_strain_sum;
+    c.sim_ms = sim_ms;
+    c.logged_frames = log ? log->entries() : 0;
+    cloth::StateWriter w;
+    sim.save_state(w);
+    c.state = w.data();
+    write_checkpoint(out, c);
+  };
+  g_interrupted = 0;
+  auto old_handler = std::signal(SIGINT, on_sigint);
+  bool interrupted = false;
+  for (int f = first + 1; f <= frames && finite; ++f) {
+    if (g_interrupted) {
+      interrupted = true;
+      break;
+    }
     cloth::FrameStats s = sim.step_frame();
     sim_ms += s.total_ms;
     if (!s.finite) {
       finite = false;
-      error = "state became non-finite during frame " + std::to_string(f) + " (t = " + std::to_string(s.time) +
-              " s); stopped, frames up to " + std::to_string(f - 1) + " are valid";
+      const std::string cause = sim.failure().empty() ? "the state became non-finite in frame " + std::to_string(f) +
+                                                            " (t = " + std::to_string(s.time) + " s)"
+                                                      : sim.failure();
+      error = cause + "; stopped, frames up to " + std::to_string(f - 1) + " are valid";
       break;
     }
     write_row(s);
     if (obj && f % sc.output.every == 0) write_obj(frame_path(f), sim.cloths());
-    if (f % sc.output.every == 0) exports.frame(sim.time(), sim.cloths());
-#ifdef LOOM_HAVE_RENDER
-    if (recording && f % sc.output.render.every == 0) recording->add(sim.cloths());
-#endif
     max_strain = std::max(max_strain, s.max_strain);
     mean_strain_sum += s.mean_strain;
     done = f;
-    bar.update(done, sim_ms / done);
+    bool rendered = false;
+#ifdef LOOM_HAVE_RENDER
+    rendered = f % sc.output.render.every == 0;
+#endif
+    keep_frame(f % sc.output.every == 0, rendered);
+    if (o.checkpoint_every > 0 && f % o.checkpoint_every == 0 && f < frames) save_checkpoint();
+    bar.update(done - first, sim_ms / std::max(1, done - first));
   }
   bar.finish();
   exports.finish();
   nlohmann::ordered_json render_summary;
 #ifdef LOOM_HAVE_RENDER
-  if (recording) {
+  if (recording && !interrupted) {  // an interrupted run renders when it is resumed and ends
     render::RenderSettings rs;
     rs.width = sc.output.render.width;
     rs.height = sc.output.render.height;
@@ -202,6 +290,9 @@ int run_command(const RunOptions& o) {
     std::cout << "loom: rendered " << rep.frames << " frames (" << std::fixed << std::setprecision(1) << rep.ms_per_frame
               << " ms/frame) -> " << (out / "render").string() << "/, " << rep.mp4 << ", " << rep.gif << "\n";
   }
+  if (g_interrupted) interrupted = done < frames;
+  std::signal(SIGINT, old_handler);
+  if (interrupted) save_checkpoint();
 #endif
   csv.close();
   if (!csv) throw Error(stats_partial.string(), "", "write failed");
@@ -225,7 +316,7 @@ int run_command(const RunOptions& o) {
   j["stages_ms_per_frame"] = per_frame;
   j["counters"] = counters;
   j["max_strain"] = max_strain;
-  j["mean_strain"] = done ? mean_strain_sum / done : s0.mean_strain;
+  j["mean_strain"] = done ? mean_strain_sum / done : 0.0;
   j["finite"] = finite;
   j["solver"] = sc.setup.solver.method;
   j["substeps"] = sc.setup.substeps;
@@ -242,6 +333,11 @@ int run_command(const RunOptions& o) {
   if (!finite) j["error"] = error;
   write_atomically(out / "summary.json", j.dump(2) + "\n");
 
+  // Issue 8: completed = every frame asked for was simulated; interrupted = stopped by Ctrl-C (resumable).
+  j["completed"] = finite && !interrupted && done == frames;
+  if (interrupted) j["interrupted"] = true;
+  if (resume) j["resumed_from_frame"] = first;
+  j["rollbacks"] = sim.rollbacks();
   if (o.profile) print_profile(sim, done);
   if (!finite) {
     std::cerr << "loom: error: " << scene_path << ": " << error << "\n";
@@ -253,3 +349,8 @@ int run_command(const RunOptions& o) {
 }
 
 }  // namespace loom::app
+  if (interrupted) {
+    std::cerr << "loom: interrupted after frame " << done << " of " << frames << "; outputs so far are valid; continue with: loom run --resume "
+              << out.string() << "\n";
+    return 130;
+  }

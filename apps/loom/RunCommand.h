@@ -13,9 +13,12 @@ struct RunOptions {
   bool profile = false;
   bool render = false;           // --render: DIR/render/*.png, DIR/render.mp4, DIR/render.gif
   std::vector<std::string> sets;  // --set PATH=VALUE
+  int checkpoint_every = 0;       // --checkpoint-every N: DIR/checkpoint/checkpoint.bin every N frames (0: off)
+  std::string resume;             // --resume DIR: continue the run whose checkpoint is in DIR
 };
 
-// Returns the process exit code: 0 ok, 1 bad input or I/O error, 3 the simulation diverged.
+// Returns the process exit code: 0 ok, 1 bad input or I/O error, 3 the simulation diverged, 130 interrupted
+// by Ctrl-C (outputs valid, a checkpoint written).
 int run_command(const RunOptions& options);
 std::string default_scene_path();
 

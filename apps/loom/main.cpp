@@ -28,13 +28,15 @@ const char* kUsage =
     "  loom --help                  this text\n"
     "  loom run --help              the options of `run`\n"
     "\n"
-    "Exit codes: 0 success, 1 bad input or I/O error, 2 bad command line, 3 simulation diverged.\n";
+    "Exit codes: 0 success, 1 bad input or I/O error, 2 bad command line, 3 simulation diverged,\n"
+    "130 interrupted by Ctrl-C (resume with loom run --resume DIR).\n";
 
 std::string run_usage() {
   std::string solvers, presets;
   for (const auto& s : loom::cloth::solver_names()) solvers += (solvers.empty() ? "" : ", ") + s;
   for (const auto& p : loom::cloth::material_preset_names()) presets += (presets.empty() ? "" : ", ") + p;
   return "Usage: loom run [SCENE] [--out DIR] [--frames N] [--threads N] [--profile] [--render] [--set PATH=VALUE ...]\n"
+         "                [--checkpoint-every N] [--resume DIR]\n"
          "\n"
          "Runs SCENE (a JSON file; default: " +
          loom::app::default_scene_path() +
@@ -51,6 +53,9 @@ std::string run_usage() {
          "  --profile          print a table of pipeline stages: total and per-frame milliseconds, counters\n"
          "  --render           also render DIR/render/frame_NNNNN.png, DIR/render.mp4 and DIR/render.gif\n"
          "                     (offscreen, software OpenGL; scene: output.render {width, height, every, camera})\n"
+         "  --checkpoint-every N  write DIR/checkpoint/checkpoint.bin every N frames (atomically; Ctrl-C also\n"
+         "                     writes one, then stops at the frame boundary with valid outputs, exit 130)\n"
+         "  --resume DIR       continue the run whose checkpoint is in DIR (bit-identical to not stopping)\n"
          "  --set PATH=VALUE   override any scene value before it is checked, e.g.\n"
          "                     --set solver.method=verlet  --set cloths[0].material.preset=denim_11oz\n"
          "                     VALUE is read as JSON when it parses (numbers, arrays), else as a string\n"
@@ -96,6 +101,10 @@ int run_main(int argc, char** argv) {
     } else if (a == "--profile") {
       o.profile = true;
     } else if (a == "--render") {
+    } else if (a == "--checkpoint-every") {
+      o.checkpoint_every = parse_int("--checkpoint-every", value());
+    } else if (a == "--resume") {
+      o.resume = value();
       o.render = true;
     } else if (a == "--set") {
       o.sets.push_back(value());
@@ -116,6 +125,10 @@ int run_main(int argc, char** argv) {
 
 }  // namespace
 
+  if (!o.resume.empty() && !o.scene.empty()) {
+    std::fprintf(stderr, "loom: error: --resume takes the scene from the checkpoint; do not also give one ('%s')\n", o.scene.c_str());
+    return 2;
+  }
 int main(int argc, char** argv) {
   if (argc < 2 || !std::strcmp(argv[1], "-h") || !std::strcmp(argv[1], "--help")) {
     std::cout << kUsage;

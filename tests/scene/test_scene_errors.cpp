@@ -103,6 +103,14 @@ const Case kCases[] = {
     {"output_every", {"output={\"every\": 0}"}, "output.every", "must be >= 1"},
     {"set_bad_index", {"cloths[3].mass=1"}, "--set cloths[3].mass=1", "not an index"},
     {"set_no_equals", {"duration"}, "--set duration", "PATH=VALUE"},
+    // The guard (issue 8).
+    {"guard_not_object", {"guard=3"}, "guard", "expected an object"},
+    {"guard_unknown_key", {"guard={\"retries\": 2}"}, "guard.retries", "unknown key"},
+    {"guard_halvings", {"guard={\"max_halvings\": 21}"}, "guard.max_halvings", "must be <= 20"},
+    {"guard_negative_halvings", {"guard={\"max_halvings\": -1}"}, "guard.max_halvings", "must be >= 0"},
+    {"guard_zero_strain", {"guard={\"max_strain\": 0}"}, "guard.max_strain", "must be > 0"},
+    {"guard_growth_below_one", {"guard={\"energy_growth\": 0.5}"}, "guard.energy_growth", "must be >= 1"},
+    {"guard_enabled_type", {"guard={\"enabled\": \"yes\"}"}, "guard.enabled", "expected"},
 };
 
 INSTANTIATE_TEST_SUITE_P(AllCases, SceneErrors, ::testing::ValuesIn(kCases),

@@ -12,6 +12,7 @@
 #include "loom/scene/SceneCharacter.h"
 #include "loom/scene/SceneCollision.h"
 
+#include "loom/scene/SceneGuard.h"
 namespace loom::scene {
 
 using cloth::Vec3;
@@ -261,6 +262,7 @@ Scene parse_scene(const nlohmann::json& root, const std::string& file) {
   scene.setup.gravity = r.vec3("gravity", Vec3(0.0, -9.81, 0.0));
   scene.setup.threads = r.integer("threads", 1, 1);
 
+  parse_guard(r, scene.setup.guard);  // issue 8: non-finite / explosion guard (SceneGuard.cpp)
   if (r.has("solver")) {
     const JsonReader s = r.object("solver");
     const nlohmann::json& s_json = root.at("solver");

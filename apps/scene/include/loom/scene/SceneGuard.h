@@ -1,0 +1,12 @@
+#pragma once
+// Scene key `guard` (issue 8): the non-finite / explosion guard's settings (cloth/Guard.h).
+//   "guard": {"enabled": true, "max_halvings": 5, "max_strain": 10, "energy_growth": 100}
+#include "loom/cloth/Guard.h"
+#include "loom/scene/JsonReader.h"
+
+namespace loom::scene {
+
+// Reads `guard` from the top-level reader when present (defaults otherwise).
+void parse_guard(const JsonReader& root, cloth::GuardSettings& guard);
+
+}  // namespace loom::scene

@@ -1,0 +1,166 @@
+// Bad input through `loom run` end to end (issue 8): a table of malformed inputs — JSON syntax errors, wrong
+// types, unknown keys, out-of-range values, missing files, OBJ files with bad indices or lines, non-manifold
+// and degenerate meshes, unwritable output folders, broken checkpoints. Every case asserts
+//   - a non-zero exit (1: bad input or I/O error),
+//   - a message naming the file, the field (JSON path) or line, and the problem,
+//   - no output passed off as complete: no summary.json (or one marked "completed": false) and no stats.csv.
+// The parser-level table of the same kind is tests/scene/test_scene_errors.cpp (it also covers the messages of
+// cases not repeated here). BVH files cut short: the BVH loader of loom::characters does not exist yet.
+#include <gtest/gtest.h>
+
+#include "CliRunner.h"
+
+#include <filesystem>
+#include <fstream>
+#include <algorithm>
+#include <nlohmann/json.hpp>
+#include <string>
+#include <vector>
+
+namespace {
+
+namespace fs = std::filesystem;
+
+const char* kValid = R"({
+  "duration": 0.05, "fps": 60,
+  "solver": {"method": "symplectic_euler", "substeps": 20},
+  "cloths": [{"name": "sheet",
+              "mesh": {"type": "grid", "size": [1, 1], "nodes": [5, 5]},
+              "material": {"preset": "cotton"},
+              "mass": 0.2,
+              "pins": [{"grid": [0, 0]}, {"grid": [-1, 0]}]}]
+})";
+
+
+struct BadInput {
+  const char* name;
+  const char* scene;               // scene text; nullptr: kValid
+  std::vector<const char*> args;   // extra `loom run` arguments (--set ...); "@OBJ" = path of the case's OBJ
+  const char* obj;                 // text of DIR/mesh.obj when the case needs one, else nullptr
+  const char* file;                // whose name the message must hold: "scene", "obj", "out", or a literal
+  const char* where;               // field, JSON path or line named in the message
+  const char* problem;             // words of the problem
+};
+
+const BadInput kCases[] = {
+    // JSON syntax: line and column.
+    {"trailing_comma", "{\n  \"duration\": 1,\n}\n", {}, nullptr, "scene", "line 3, column", "invalid JSON"},
+    {"unclosed_object", "{\n  \"duration\": 1,\n  \"cloths\": [\n", {}, nullptr, "scene", "line 4", "invalid JSON"},
+    {"single_quotes", "{'duration': 1}", {}, nullptr, "scene", "line 1, column", "invalid JSON"},
+    {"empty_file", "", {}, nullptr, "scene", "line 1", "invalid JSON"},
+    {"comment", "// a scene\n{\"duration\": 1}", {}, nullptr, "scene", "line 1", "invalid JSON"},
+    {"top_level_array", "[1, 2]", {}, nullptr, "scene", "(top level)", "expected an object"},
+    // Wrong types.
+    {"duration_string", nullptr, {"--set", "duration=\"long\""}, nullptr, "scene", "duration", "expected a number, got a string"},
+    {"fps_array", nullptr, {"--set", "fps=[60]"}, nullptr, "scene", "fps", "expected a number"},
+    {"cloths_object", nullptr, {"--set", "cloths={\"a\":1}"}, nullptr, "scene", "cloths", "expected an array"},
+    {"nodes_fractional", nullptr, {"--set", "cloths[0].mesh.nodes=[5.5,5]"}, nullptr, "scene", "cloths[0].mesh.nodes", "two integers"},
+    {"pin_vertex_string", nullptr, {"--set", "cloths[0].pins=[{\"vertex\":\"one\"}]"}, nullptr, "scene", "cloths[0].pins[0].vertex", "expected an integer"},
+    {"method_number", nullptr, {"--set", "solver.method=3"}, nullptr, "scene", "solver.method", "expected a string"},
+    {"formats_string", nullptr, {"--set", "output={\"formats\":\"obj\"}"}, nullptr, "scene", "output.formats", "expected an array"},
+    {"gravity_words", nullptr, {"--set", "gravity=[0,\"down\",0]"}, nullptr, "scene", "gravity[1]", "expected a number, got a string"},
+    // Unknown keys.
+    {"unknown_top_key", nullptr, {"--set", "colour=1"}, nullptr, "scene", "colour", "unknown key"},
+    {"unknown_solver_param", nullptr, {"--set", "solver.method=pbd", "--set", "solver.stiffnes=1"}, nullptr, "scene", "solver.stiffnes", "unknown parameter for method 'pbd'"},
+    {"unknown_drag_key", nullptr, {"--set", "effects={\"drag\":{\"windd\":[1,0,0]}}"}, nullptr, "scene", "effects.drag.windd", "unknown key"},
+    {"unknown_constraint", nullptr, {"--set", "constraints={\"strain_limt\":{}}"}, nullptr, "scene", "constraints.strain_limt", "unknown key"},
+    {"unknown_guard_key", nullptr, {"--set", "guard={\"halvings\":3}"}, nullptr, "scene", "guard.halvings", "unknown key"},
+    // Out-of-range values.
+    {"fps_too_high", nullptr, {"--set", "fps=1e6"}, nullptr, "scene", "fps", "must be <= 100000"},
+    {"substeps_too_many", nullptr, {"--set", "solver.substeps=2000000"}, nullptr, "scene", "solver.substeps", "must be <= 1000000"},
+    {"grid_too_big", nullptr, {"--set", "cloths[0].mesh.nodes=[5000,5]"}, nullptr, "scene", "cloths[0].mesh.nodes", "[2, 4096]"},
+    {"zero_stretch", nullptr, {"--set", "cloths[0].material={\"stretch\":0}"}, nullptr, "scene", "cloths[0].material.stretch", "must be > 0"},
+    {"pbd_stiffness", nullptr, {"--set", "solver.method=pbd", "--set", "solver.stiffness=2"}, nullptr, "scene", "solver.stiffness", "must be in [0"},
+    {"guard_halvings", nullptr, {"--set", "guard={\"max_halvings\":50}"}, nullptr, "scene", "guard.max_halvings", "must be <= 20"},
+    {"render_width", nullptr, {"--set", "output={\"render\":{\"width\":4}}"}, nullptr, "scene", "output.render.width", "must be >= 16"},
+    {"pin_off_grid", nullptr, {"--set", "cloths[0].pins=[{\"grid\":[9,0]}]"}, nullptr, "scene", "cloths[0].pins[0].grid", "outside the 5x5 grid"},
+    {"negative_mass", nullptr, {"--set", "cloths[0].mass=-1"}, nullptr, "scene", "cloths[0].mass", "must be > 0"},
+    // Missing files.
+    {"missing_obj", nullptr, {"--set", "cloths[0].mesh={\"type\":\"obj\",\"path\":\"nowhere.obj\"}"}, nullptr, "nowhere.obj", "cloths[0].mesh", "cannot open OBJ file"},
+    // OBJ files: bad indices, bad lines, non-manifold and degenerate meshes.
+    {"obj_index_past_end", nullptr, {"@OBJ"}, "v 0 0 0\nv 1 0 0\nv 0 1 0\nf 1 2 9\n", "obj", "line 4", "out of range"},
+    {"obj_index_zero", nullptr, {"@OBJ"}, "v 0 0 0\nv 1 0 0\nv 0 1 0\nf 0 1 2\n", "obj", "line 4", "index"},
+    {"obj_negative_past_start", nullptr, {"@OBJ"}, "v 0 0 0\nv 1 0 0\nv 0 1 0\nf -1 -2 -7\n", "obj", "line 4", "out of range"},
+    {"obj_index_word", nullptr, {"@OBJ"}, "v 0 0 0\nv 1 0 0\nv 0 1 0\nf 1 two 3\n", "obj", "line 4", "bad vertex index 'two'"},
+    {"obj_vertex_short", nullptr, {"@OBJ"}, "v 0 0 0\nv 1 0\nv 0 1 0\nf 1 2 3\n", "obj", "line 2", "'v' needs three numbers"},
+    {"obj_vertex_nan", nullptr, {"@OBJ"}, "v 0 0 0\nv nan 0 0\nv 0 1 0\nf 1 2 3\n", "obj", "line 2", "not finite"},
+    {"obj_two_vertex_face", nullptr, {"@OBJ"}, "v 0 0 0\nv 1 0 0\nf 1 2\n", "obj", "line 3", "at least 3 vertices"},
+    {"obj_unknown_directive", nullptr, {"@OBJ"}, "v 0 0 0\nv 1 0 0\nv 0 1 0\nq 1 2 3\nf 1 2 3\n", "obj", "line 4", "unknown OBJ directive 'q'"},
+    {"obj_non_manifold", nullptr, {"@OBJ"}, "v 0 0 0\nv 1 0 0\nv 0 1 0\nv 0 -1 0\nv 0 0 1\nf 1 2 3\nf 2 1 4\nf 1 2 5\n", "obj",
+     "edge (0, 1)", "non-manifold edge"},
+    {"obj_zero_area", nullptr, {"@OBJ"}, "v 0 0 0\nv 1 0 0\nv 2 0 0\nf 1 2 3\n", "obj", "triangle 0", "zero area"},
+    {"obj_repeated_vertex", nullptr, {"@OBJ"}, "v 0 0 0\nv 1 0 0\nv 0 1 0\nf 1 2 2\n", "obj", "triangle 0", "repeats a vertex"},
+    {"obj_unused_vertex", nullptr, {"@OBJ"}, "v 0 0 0\nv 1 0 0\nv 0 1 0\nv 5 5 5\nf 1 2 3\n", "obj", "vertex 3", "not used by any triangle"},
+    {"obj_no_faces", nullptr, {"@OBJ"}, "v 0 0 0\nv 1 0 0\nv 0 1 0\n", "obj", "cloths[0].mesh", "no triangles"},
+    // Output folder and checkpoints.
+    {"out_under_proc", nullptr, {"--out", "/proc/loom_cannot_write_here"}, nullptr, "/proc/loom_cannot_write_here", "--out", "cannot create output folder"},
+    {"out_is_a_file", nullptr, {"--out", "@FILE"}, nullptr, "out", "--out", "cannot create output folder"},
+    {"resume_without_checkpoint", nullptr, {"--resume", "@EMPTY"}, nullptr, "checkpoint.bin", "--resume", "no checkpoint here"},
+    {"resume_broken_checkpoint", nullptr, {"--resume", "@BROKEN"}, nullptr, "checkpoint.bin", "checkpoint.bin", "not a valid checkpoint"},
+};
+
+class BadInputCli : public ::testing::TestWithParam<BadInput> {};
+
+TEST_P(BadInputCli, NonZeroExitNamedMessageNoCompleteOutput) {
+  const BadInput& c = GetParam();
+  const fs::path dir = loom::test::test_dir();
+  const fs::path scene = dir / "scene.json", obj = dir / "mesh.obj", out = dir / "out";
+  fs::remove_all(out);
+  std::ofstream(scene) << (c.scene ? c.scene : kValid);
+  if (c.obj) std::ofstream(obj) << c.obj;
+  std::vector<std::string> argv = {"run"};
+  fs::path out_used = out;
+  bool resume = false, has_out = false;
+  for (size_t i = 0; i < c.args.size(); ++i) {
+    const std::string a = c.args[i];
+    if (a == "@OBJ") {
+      argv.insert(argv.end(), {"--set", "cloths[0].mesh={\"type\":\"obj\",\"path\":\"mesh.obj\"}", "--set", "cloths[0].pins=[]"});
+    } else if (a == "@FILE") {
+      out_used = dir / "a_file";
+      std::ofstream(out_used) << "not a folder";
+      argv.push_back(out_used.string());
+    } else if (a == "@EMPTY" || a == "@BROKEN") {
+      out_used = dir / "resume";
+      fs::remove_all(out_used);
+      fs::create_directories(out_used / "checkpoint");
+      if (a == "@BROKEN") std::ofstream(out_used / "checkpoint" / "checkpoint.bin") << "LOOMCKPT1\n\x05";
+      argv.push_back(out_used.string());
+      resume = true;
+    } else {
+      if (a == "--out") {
+        has_out = true;
+        out_used = c.args[i + 1];
+      }
+      argv.push_back(a);
+    }
+  }
+  if (!resume) argv.push_back(scene.string());
+  if (!has_out && !resume) argv.insert(argv.end(), {"--out", out.string()});
+  std::string args;
+  for (const std::string& a : argv) args += "'" + a + "' ";  // no case has a single quote
+  const loom::test::CliResult r = loom::test::run_loom(args);
+  EXPECT_EQ(r.code, 1) << args << "\n" << r.err;
+  std::string file = c.file;
+  if (file == "scene") file = scene.string();
+  if (file == "obj") file = obj.string();
+  if (file == "out") file = out_used.string();
+  EXPECT_NE(r.err.find(file), std::string::npos) << "file '" << file << "' not named in: " << r.err;
+  EXPECT_NE(r.err.find(c.where), std::string::npos) << "'" << c.where << "' not named in: " << r.err;
+  EXPECT_NE(r.err.find(c.problem), std::string::npos) << "'" << c.problem << "' not named in: " << r.err;
+  // Nothing passes for a finished run.
+  for (const fs::path& o : {out, out_used}) {
+    if (o.empty() || !fs::is_directory(o)) continue;
+    if (fs::exists(o / "summary.json")) {
+      const auto j = nlohmann::json::parse(loom::test::slurp(o / "summary.json"));
+      EXPECT_FALSE(j.value("completed", true)) << o;
+    }
+    EXPECT_FALSE(fs::exists(o / "stats.csv")) << o;
+  }
+}
+
+INSTANTIATE_TEST_SUITE_P(Table, BadInputCli, ::testing::ValuesIn(kCases),
+                         [](const ::testing::TestParamInfo<BadInput>& info) { return std::string(info.param.name); });
+
+TEST(BadInputCli, TableHasAtLeastThirtyCases) { EXPECT_GE(sizeof(kCases) / sizeof(kCases[0]), 30u); }
+
+}  // namespace
