@@ -1,5 +1,7 @@
 #include "loom/scene/Build.h"
 
+#include "loom/collision/BodyCollisionStage.h"
+
 #ifdef LOOM_HAVE_CHARACTERS
 #include "loom/characters/Character.h"
 #endif
@@ -10,12 +12,15 @@ std::unique_ptr<cloth::Simulation> build_simulation(const Scene& scene, collisio
   auto sim = std::make_unique<cloth::Simulation>(scene.setup, scene.file);
   // The one collider set of this simulation: the scene's colliders and a character rig's capsules go in
   // here; the stages that read or move them share it, and the caller (renderer, viewer) draws it.
-  const auto colliders = std::make_shared<collision::ColliderSet>();
+  const auto colliders = std::make_shared<collision::ColliderSet>(scene.colliders);
 #ifdef LOOM_HAVE_CHARACTERS
   // Character (issue 6): its capsules join the set, its stage moves them and the attached garment vertices.
   if (scene.character) characters::add_character(*sim, scene.character, colliders);
 #endif
   // Effects from other modules add their stages here, each only when the scene names it.
+  // Body collision (issue 5): only when there is something to collide with (scene colliders, rig capsules).
+  if (!colliders->empty())
+    sim->add_stage(std::make_unique<collision::BodyCollisionStage>(colliders), cloth::Simulation::Slot::after_solve);
   // Self- and cloth-cloth collision (issue 5), after body collision: only with a `collision` object that asks
   // for self-collision or has more than one cloth to collide.
   if (scene.collision && (scene.collision->self || scene.setup.cloths.size() > 1))

@@ -9,6 +9,7 @@
 
 #include "loom/cloth/Simulation.h"
 #include "loom/collision/SelfCollisionStage.h"
+#include "loom/collision/Collider.h"
 
 namespace loom::characters {
 struct Character;  // loom/characters/Character.h (issue 6)
@@ -42,6 +43,7 @@ struct Scene {
   int frames = 60;        // frames to simulate (duration * fps, rounded)
   OutputSettings output;
   std::optional<collision::SelfCollisionSettings> collision;  // `collision` (SceneCollision.cpp); absent: none
+  std::vector<collision::Collider> colliders;  // `colliders` (SceneColliders.cpp): rigid shapes, kinematic motion
   std::shared_ptr<characters::Character> character;  // `character` (SceneCharacter.cpp); null without one
 };
 

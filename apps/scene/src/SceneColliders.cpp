@@ -1,0 +1,220 @@
+#include "loom/scene/SceneColliders.h"
+
+#include <algorithm>
+#include <cmath>
+#include <filesystem>
+#include <fstream>
+#include <sstream>
+
+#include "loom/cloth/Error.h"
+#include "loom/collision/ColliderGeometry.h"
+
+namespace loom::scene {
+
+namespace {
+
+using cloth::Vec3;
+using collision::Collider;
+using collision::ShapeType;
+using collision::Transform;
+
+constexpr double kDeg = 3.14159265358979323846 / 180.0;
+
+// `rotation`: {"axis": [x, y, z], "degrees": a} (right-handed about the axis).
+Eigen::Matrix3d parse_rotation(const JsonReader& r, const std::string& key) {
+  if (!r.has(key)) return Eigen::Matrix3d::Identity();
+  const JsonReader o = r.object(key);
+  const Vec3 axis = o.vec3("axis");
+  if (!(axis.norm() > 0.0)) o.fail("axis", "must not be zero");
+  const double degrees = o.number("degrees");
+  o.finish();
+  return Eigen::AngleAxisd(degrees * kDeg, axis.normalized()).toRotationMatrix();
+}
+
+Transform parse_pose(const JsonReader& r) {
+  Transform t = Transform::Identity();
+  t.linear() = parse_rotation(r, "rotation");
+  t.translation() = r.vec3("position", Vec3::Zero());
+  return t;
+}
+
+std::vector<Vec3> parse_points(const JsonReader& r, const std::string& key) {
+  const nlohmann::json& v = r.raw(key);
+  if (!v.is_array() || v.empty()) r.fail(key, "expected an array of [x, y, z] points");
+  std::vector<Vec3> out;
+  for (size_t i = 0; i < v.size(); ++i) {
+    const auto& p = v[i];
+    if (!p.is_array() || p.size() != 3 || !p[0].is_number() || !p[1].is_number() || !p[2].is_number())
+      r.fail(key + "[" + std::to_string(i) + "]", "expected [x, y, z]");
+    out.emplace_back(p[0].get<double>(), p[1].get<double>(), p[2].get<double>());
+    if (!out.back().allFinite()) r.fail(key + "[" + std::to_string(i) + "]", "must be finite");
+  }
+  return out;
+}
+
+// A minimal OBJ reader for collider geometry: `v x y z` and `f a b c ...` (1-based, v/vt/vn allowed,
+// polygons fan-split); other lines are ignored. Errors name the OBJ file and line.
+void read_obj(const std::string& path, double scale, std::vector<Vec3>& vertices, std::vector<cloth::Tri>& tris) {
+  std::ifstream in(path);
+  if (!in) throw Error(path, "", "cannot open OBJ file");
+  std::string line;
+  int number = 0;
+  while (std::getline(in, line)) {
+    ++number;
+    std::istringstream ss(line);
+    std::string tag;
+    ss >> tag;
+    if (tag == "v") {
+      Vec3 p;
+      if (!(ss >> p.x() >> p.y() >> p.z()) || !p.allFinite()) throw Error(path, "line " + std::to_string(number), "bad vertex");
+      vertices.push_back(scale * p);
+    } else if (tag == "f") {
+      std::vector<int> idx;
+      std::string tok;
+      while (ss >> tok) {
+        int k = 0;
+        try {
+          k = std::stoi(tok.substr(0, tok.find('/')));
+        } catch (...) {
+          throw Error(path, "line " + std::to_string(number), "bad face index '" + tok + "'");
+        }
+        k = k < 0 ? static_cast<int>(vertices.size()) + k : k - 1;
+        if (k < 0 || k >= static_cast<int>(vertices.size()))
+          throw Error(path, "line " + std::to_string(number), "face index '" + tok + "' is out of range");
+        idx.push_back(k);
+      }
+      if (idx.size() < 3) throw Error(path, "line " + std::to_string(number), "a face needs at least 3 vertices");
+      for (size_t j = 1; j + 1 < idx.size(); ++j) tris.push_back({idx[0], idx[j], idx[j + 1]});
+    }
+  }
+  if (vertices.empty()) throw Error(path, "", "no vertices");
+}
+
+// Kinematic motion: `keyframes` (piecewise linear position, slerp rotation, held before the first and
+// after the last), or `velocity` (m/s) and/or `spin` {axis, rate (rad/s), centre (m, default: position)}:
+// pose(t) = translate(velocity t) * rotate_about(centre, axis, rate t) * pose(0).
+std::function<Transform(double)> parse_motion(const JsonReader& m, const Transform& start) {
+  if (m.has("keyframes")) {
+    if (m.has("velocity") || m.has("spin")) m.fail("keyframes", "give either 'keyframes' or 'velocity'/'spin', not both");
+    std::vector<double> times;
+    std::vector<Transform> poses;
+    for (const JsonReader& k : m.objects("keyframes")) {
+      times.push_back(k.number("t"));
+      Transform p = Transform::Identity();
+      p.linear() = k.has("rotation") ? parse_rotation(k, "rotation") : Eigen::Matrix3d(start.linear());
+      p.translation() = k.vec3("position", start.translation());
+      k.finish();
+      if (times.size() > 1 && !(times.back() > times[times.size() - 2])) k.fail("t", "keyframe times must increase strictly");
+      poses.push_back(p);
+    }
+    if (times.empty()) m.fail("keyframes", "needs at least one keyframe");
+    m.finish();
+    return [times, poses](double t) {
+      if (t <= times.front()) return poses.front();
+      if (t >= times.back()) return poses.back();
+      const size_t k = std::upper_bound(times.begin(), times.end(), t) - times.begin();
+      const double a = (t - times[k - 1]) / (times[k] - times[k - 1]);
+      Transform out = Transform::Identity();
+      out.linear() = Eigen::Quaterniond(poses[k - 1].linear()).slerp(a, Eigen::Quaterniond(poses[k].linear())).toRotationMatrix();
+      out.translation() = (1.0 - a) * poses[k - 1].translation() + a * poses[k].translation();
+      return out;
+    };
+  }
+  const Vec3 velocity = m.vec3("velocity", Vec3::Zero());
+  Vec3 axis = Vec3::UnitY(), centre = start.translation();
+  double rate = 0.0;
+  if (m.has("spin")) {
+    const JsonReader s = m.object("spin");
+    axis = s.vec3("axis");
+    if (!(axis.norm() > 0.0)) s.fail("axis", "must not be zero");
+    axis.normalize();
+    rate = s.number("rate");
+    centre = s.vec3("centre", centre);
+    s.finish();
+  }
+  m.finish();
+  return [start, velocity, axis, rate, centre](double t) {
+    Transform spin = Transform::Identity();
+    spin.linear() = Eigen::AngleAxisd(rate * t, axis).toRotationMatrix();
+    spin.translation() = centre - spin.linear() * centre;
+    Transform out = spin * start;
+    out.translation() += velocity * t;
+    return out;
+  };
+}
+
+}  // namespace
+
+void parse_colliders(const JsonReader& root, Scene& scene) {
+  if (!root.has("colliders")) return;
+  const std::vector<JsonReader> list = root.objects("colliders");
+  for (size_t i = 0; i < list.size(); ++i) {
+    const JsonReader& r = list[i];
+    Collider c;
+    c.name = r.string("name", "collider" + std::to_string(i));
+    const std::string shape =
+        r.string("shape", std::nullopt, {"plane", "sphere", "capsule", "box", "cylinder", "convex", "mesh"});
+    collision::Shape& s = c.shape;
+    if (shape == "plane") {
+      s.type = ShapeType::plane;
+    } else if (shape == "sphere") {
+      s.type = ShapeType::sphere;
+      s.radius = r.number("radius", std::nullopt, 0.0, true);
+    } else if (shape == "capsule" || shape == "cylinder") {
+      s.type = shape == "capsule" ? ShapeType::capsule : ShapeType::cylinder;
+      s.radius = r.number("radius", std::nullopt, 0.0, true);
+      s.half_height = r.number("half_height", std::nullopt, 0.0, shape == "cylinder");
+    } else if (shape == "box") {
+      s.type = ShapeType::box;
+      s.half_extents = r.vec3("half_extents");
+      if (!(s.half_extents.minCoeff() > 0.0)) r.fail("half_extents", "all three must be > 0");
+    } else {
+      s.type = shape == "convex" ? ShapeType::convex : ShapeType::mesh;
+      if (r.has("vertices") == r.has("obj")) r.fail("", "give either 'vertices' or 'obj'");
+      if (r.has("obj")) {
+        std::filesystem::path p(r.string("obj"));
+        if (p.is_relative()) p = std::filesystem::path(scene.file).parent_path() / p;
+        const double scale = r.number("scale", 1.0, 0.0, true);
+        try {
+          read_obj(p.string(), scale, s.vertices, s.triangles);
+        } catch (const Error& e) {
+          throw Error(scene.file, r.child("obj"), e.what());
+        }
+      } else {
+        s.vertices = parse_points(r, "vertices");
+        if (s.type == ShapeType::mesh) {
+          const nlohmann::json& t = r.raw("triangles");
+          if (!t.is_array() || t.empty()) r.fail("triangles", "expected an array of [i, j, k] vertex indices");
+          for (size_t k = 0; k < t.size(); ++k) {
+            const auto& e = t[k];
+            const std::string where = "triangles[" + std::to_string(k) + "]";
+            if (!e.is_array() || e.size() != 3 || !e[0].is_number_integer() || !e[1].is_number_integer() || !e[2].is_number_integer())
+              r.fail(where, "expected [i, j, k]");
+            s.triangles.push_back({e[0].get<int>(), e[1].get<int>(), e[2].get<int>()});
+          }
+        }
+      }
+      if (s.type == ShapeType::mesh && s.triangles.empty()) r.fail(r.has("obj") ? "obj" : "triangles", "a mesh collider needs triangles");
+      s.triangles = s.type == ShapeType::convex ? std::vector<cloth::Tri>{} : s.triangles;
+      try {
+        c.geometry = collision::build_collider_geometry(s, "");
+      } catch (const Error& e) {
+        throw Error(scene.file, r.path(), e.what());
+      }
+    }
+    const Transform start = parse_pose(r);
+    c.prev = c.curr = start;
+    c.thickness = r.number("thickness", 0.0, 0.0);
+    c.friction = r.number("friction", c.friction, 0.0);
+    c.static_friction = r.number("static_friction", std::max(c.static_friction, c.friction), 0.0);
+    if (c.static_friction < c.friction) r.fail("static_friction", "must be >= friction");
+    if (r.has("motion")) {
+      c.motion = parse_motion(r.object("motion"), start);
+      c.prev = c.curr = c.motion(0.0);
+    }
+    r.finish();
+    scene.colliders.push_back(std::move(c));
+  }
+}
+
+}  // namespace loom::scene
