@@ -46,12 +46,6 @@ double clearance_of(const Vec3& p, const std::vector<Segment>& caps) {
   return g;
 }
 
-// Moves p along `dir` (unit) in 2 mm steps until it is `clearance` outside every capsule.
-Vec3 push_out(Vec3 p, const Vec3& dir, const std::vector<Segment>& caps, double clearance) {
-  for (int k = 0; k < 2000 && clearance_of(p, caps) < clearance; ++k) p += 0.002 * dir;
-  return p;
-}
-
 // A grid of nu x nv vertices (row iv = 0 first); `wrap`: a tube closed along u. Corner uvs in metres
 // (u: arc length along the row, v: down the garment), so warp runs down and weft around.
 std::shared_ptr<const cloth::ClothMesh> grid_mesh(const cloth::Vec3s& x, int nu, int nv, bool wrap,
@@ -104,6 +98,12 @@ int nearest_joint(const Vec3& p, const std::vector<Segment>& caps, const Capsule
   return joint;
 }
 
+// Bones a skirt / a shirt goes around (arms and hands outside a skirt, hands outside a shirt).
+const std::set<std::string> kSkirtBody = {"Hips", "LowerBack", "Spine", "LHipJoint", "RHipJoint",
+                                          "LeftUpLeg", "RightUpLeg", "LeftLeg", "RightLeg"};
+const std::set<std::string> kShirtBody = {"Hips", "LowerBack", "Spine", "Spine1", "Chest", "Neck", "Neck1",
+                                          "LHipJoint", "RHipJoint", "LeftShoulder", "RightShoulder",
+                                          "LeftArm", "RightArm", "LeftForeArm", "RightForeArm"};
 const std::set<std::string> kUpperTorso = {"Spine1", "Chest", "Neck", "Neck1", "LeftShoulder", "RightShoulder"};
 
 }  // namespace
@@ -208,7 +208,9 @@ Garment make_garment(const GarmentSpec& spec, const Motion& motion, const Capsul
       bottom = spec.length > 0.0 ? top - spec.length : knee.y();
       centre = hips;
       a = b = 0.1;
-      right = Vec3::UnitX();
+      right = pose[need("RightUpLeg")].translation() - pose[need("LeftUpLeg")].translation();
+      right.y() = 0.0;
+      right = right.norm() > 1e-9 ? right.normalized() : Vec3::UnitX();
     } else {
       const Vec3 ls = pose[need("LeftArm")].translation(), rs = pose[need("RightArm")].translation();
       right = rs - ls;
@@ -223,26 +225,43 @@ Garment make_garment(const GarmentSpec& spec, const Motion& motion, const Capsul
     }
     if (!(top - bottom > 0.0)) throw Error(source, where + ".length", "the garment has no length at t = 0");
     const Vec3 forward = up.cross(right);
-    const double perimeter = kPi * (3.0 * (a + b) - std::sqrt((3.0 * a + b) * (a + 3.0 * b)));  // Ramanujan
-    const int nu = std::max(8, static_cast<int>(std::ceil(perimeter / spec.resolution)));
+    const std::set<std::string>& set = skirt ? kSkirtBody : kShirtBody;
     const int nv = std::max(3, static_cast<int>(std::ceil((top - bottom) / spec.resolution)) + 1);
-    cloth::Vec3s x(nu * nv);
-    std::vector<double> radius0(nu, 1.0), previous(nu, 0.0);
+    // Each ring is the top ellipse scaled about the axis: by `flare` towards the hem (skirt), and at least so
+    // far that every ray from the axis has left the body's capsules (the garment's set) `clearance` before
+    // the ring; a ring is never smaller than the one above it. Smooth rings, so edges do not cut capsules.
+    // ... plus any other capsule with an end inside the garment's height (hanging hands, a boxer's forearms).
+    std::vector<Segment> body;
+    auto within = [&](const Vec3& p) { return p.y() > bottom && p.y() < top - 0.05; };
+    for (const Segment& c : caps)
+      if (set.count(rig.bones()[c.bone].canonical) || within(c.a) || within(c.b)) body.push_back(c);
+    const int trial = 96;
+    std::vector<double> scale(nv, 1.0);
     for (int j = 0; j < nv; ++j) {
       const double s = static_cast<double>(j) / (nv - 1);
-      const double y = top - s * (top - bottom);
+      const Vec3 axis(centre.x(), top - s * (top - bottom), centre.z());
+      double need = skirt ? 1.0 + (spec.flare - 1.0) * s : 1.0;
+      for (int i = 0; i < trial; ++i) {
+        const double th = 2.0 * kPi * i / trial;
+        const Vec3 dir = std::cos(th) * right + std::sin(th) * forward;
+        const double base = std::hypot(a * std::cos(th), b * std::sin(th));
+        double last = 0.0;  // m, farthest point of the ray still within clearance of the body
+        for (double r = 0.0; r < 1.5; r += 0.002)
+          if (clearance_of(axis + r * dir, body) < spec.clearance + 0.005) last = r;  // 5 mm for the chords
+        need = std::max(need, (last + 0.002) / base);
+      }
+      scale[j] = j == 0 ? need : std::max(need, scale[j - 1]);
+    }
+    // Points around from the longest ring, so edges are about `resolution` long.
+    const double amax = a * scale[nv - 1], bmax = b * scale[nv - 1];
+    const double perimeter = kPi * (3.0 * (amax + bmax) - std::sqrt((3.0 * amax + bmax) * (amax + 3.0 * bmax)));  // Ramanujan
+    const int nu = std::max(8, static_cast<int>(std::ceil(perimeter / spec.resolution)));
+    cloth::Vec3s x(nu * nv);
+    for (int j = 0; j < nv; ++j) {
+      const double y = top - (static_cast<double>(j) / (nv - 1)) * (top - bottom);
       for (int i = 0; i < nu; ++i) {
         const double th = 2.0 * kPi * i / nu;
-        const Vec3 dir = std::cos(th) * right + std::sin(th) * forward;
-        const Vec3 axis(centre.x(), y, centre.z());
-        // Ring: the top ellipse, widened towards the hem by `flare` (skirt), then pushed out of the body.
-        const double grow = skirt ? 1.0 + (spec.flare - 1.0) * s : 1.0;
-        const double r0 = j == 0 ? std::hypot(a * std::cos(th), b * std::sin(th)) : radius0[i] * grow;
-        const Vec3 p = push_out(axis + std::max(r0, previous[i]) * dir, dir, caps, spec.clearance);
-        const double r = (p - axis).norm();
-        if (j == 0) radius0[i] = r;
-        previous[i] = r;
-        x[j * nu + i] = p;
+        x[j * nu + i] = Vec3(centre.x(), y, centre.z()) + scale[j] * (a * std::cos(th) * right + b * std::sin(th) * forward);
       }
     }
     g.mesh = mesh_of(x, nu, nv, true);
