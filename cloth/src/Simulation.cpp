@@ -57,7 +57,9 @@ class SolveStage final : public Stage {
     std::vector<std::pair<std::string, double>> out = {{"steps", static_cast<double>(steps_)}};
     // The solvers' own counters (CG iterations, ...), summed over cloths by name.
     for (const auto& s : solvers_)
-      for (const auto& [name, value] : s->counters()) {
+      for (const auto& counter : s->counters()) {
+        const std::string& name = counter.first;  // no structured binding: C++17 lambdas cannot capture one (clang)
+        const double value = counter.second;
         auto it = std::find_if(out.begin(), out.end(), [&](const auto& kv) { return kv.first == name; });
         if (it == out.end())
           out.emplace_back(name, value);
