@@ -1,10 +1,12 @@
 #include "loom/render/RenderRun.h"
 
+#include <algorithm>
 #include <chrono>
 #include <cstdio>
 #include <cstdlib>
 #include <filesystem>
 
+#include "gl/ColliderShapes.h"
 #include "loom/cloth/Error.h"
 
 namespace loom::render {
@@ -27,6 +29,18 @@ std::vector<RenderMesh> render_meshes(const std::vector<std::unique_ptr<cloth::C
 void Recording::add(const std::vector<std::unique_ptr<cloth::Cloth>>& cloths) {
   frames_.emplace_back();
   for (const auto& c : cloths) frames_.back().push_back(c->state().x);
+  poses_.emplace_back();
+  if (colliders_)
+    for (const collision::Collider& c : *colliders_) poses_.back().push_back(c.curr);
+}
+
+collision::ColliderSet Recording::colliders(int f) const {
+  collision::ColliderSet set;
+  if (!colliders_) return set;
+  set = *colliders_;
+  for (size_t k = 0; k < set.size() && k < poses_[f].size(); ++k) set[k].curr = poses_[f][k];
+  set.resize(std::min(set.size(), poses_[f].size()));
+  return set;
 }
 
 Bounds Recording::bounds() const {
@@ -34,6 +48,7 @@ Bounds Recording::bounds() const {
   for (const auto& f : frames_)
     for (const auto& x : f)
       for (const cloth::Vec3& p : x) b.add(p);
+  for (int f = 0; f < frames(); ++f) gl::add_collider_bounds(b, colliders(f));
   return b;
 }
 
@@ -65,13 +80,15 @@ RenderReport render_recording(const std::string& out_dir, const Recording& rec, 
 
   const auto start = std::chrono::steady_clock::now();
   Renderer r(settings, rec.meshes());
-  r.frame(rec.bounds());
+  const collision::ColliderSet first = rec.frames() ? rec.colliders(0) : collision::ColliderSet{};
+  r.frame(rec.bounds(), &first);
   for (int f = 0; f < rec.frames(); ++f) {
     std::vector<const cloth::Vec3s*> x;
     for (const auto& p : rec.positions()[f]) x.push_back(&p);
     char name[32];
     std::snprintf(name, sizeof name, "frame_%05d.png", f);
-    write_png((dir / name).string(), r.render(x));
+    const collision::ColliderSet colliders = rec.colliders(f);
+    write_png((dir / name).string(), r.render(x, &colliders));
   }
   RenderReport rep;
   rep.frames = rec.frames();

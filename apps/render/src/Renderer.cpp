@@ -4,7 +4,9 @@
 
 #include <algorithm>
 #include <cmath>
+#include <optional>
 
+#include "gl/ColliderShapes.h"
 #include "gl/Draw.h"
 #include "loom/cloth/Error.h"
 
@@ -27,6 +29,7 @@ struct Renderer::Gl {
   std::vector<uint8_t> buffer;  // RGBA, bottom row first
   int w = 0, h = 0;
   gl::Textures textures;
+  gl::ColliderShapes colliders;
 };
 
 Renderer::Renderer(RenderSettings settings, std::vector<RenderMesh> meshes)
@@ -49,9 +52,11 @@ Renderer::~Renderer() {
   if (gl_ && gl_->ctx) OSMesaDestroyContext(gl_->ctx);
 }
 
-void Renderer::frame(const Bounds& b) {
+void Renderer::frame(const Bounds& b, const collision::ColliderSet* colliders) {
   if (b.empty()) return;
   ground_ = ground_height(b);
+  if (colliders)
+    if (const std::optional<double> g = gl::ground_plane(*colliders)) ground_ = *g;
   Bounds seen = b;
   // Where the shadow of the cloth's centre falls belongs in the picture (the whole footprint would push the
   // camera far back for cloth hanging high above the ground).
@@ -71,7 +76,7 @@ cloth::Vec2 Renderer::project(const Vec3& p) const {
   return Vec2((0.5 * c.x() / c.w() + 0.5) * settings_.width, (0.5 - 0.5 * c.y() / c.w()) * settings_.height);
 }
 
-Image Renderer::render(const std::vector<const cloth::Vec3s*>& positions) {
+Image Renderer::render(const std::vector<const cloth::Vec3s*>& positions, const collision::ColliderSet* colliders) {
   if (positions.size() != meshes_.size()) throw Error("", "render", "one position array per mesh expected");
   OSMesaMakeCurrent(gl_->ctx, gl_->buffer.data(), GL_UNSIGNED_BYTE, gl_->w, gl_->h);
   gl::DrawParams p;
@@ -83,7 +88,12 @@ Image Renderer::render(const std::vector<const cloth::Vec3s*>& positions) {
   p.check_size = settings_.check_size;
   p.viewport_w = gl_->w;
   p.viewport_h = gl_->h;
-  gl::draw_scene(p, gl_->textures, meshes_, positions);
+  std::vector<collision::ColliderMesh> posed;
+  if (colliders) {
+    gl_->colliders.update(*colliders, 6.0 * extent_);
+    posed = gl_->colliders.posed(*colliders);
+  }
+  gl::draw_scene(p, gl_->textures, meshes_, positions, posed);
   glFinish();
 
   // Box-filter down by the supersampling factor; OSMesa's rows run bottom-up.

@@ -104,7 +104,7 @@ Textures create_textures() {
 }
 
 void draw_scene(const DrawParams& p, const Textures& t, const std::vector<RenderMesh>& meshes,
-                const std::vector<const cloth::Vec3s*>& positions) {
+                const std::vector<const cloth::Vec3s*>& positions, const std::vector<collision::ColliderMesh>& colliders) {
   glViewport(0, 0, p.viewport_w, p.viewport_h);
   glClearColor(kHorizon[0], kHorizon[1], kHorizon[2], 1.0f);
   glClearStencil(0);
@@ -206,6 +206,25 @@ void draw_scene(const DrawParams& p, const Textures& t, const std::vector<Render
       }
     }
   }
+  // Colliders: per-corner positions and colours, lit like the cloth with the shape's own normals (flipped
+  // on faces seen from behind: open meshes and tilted planes are two-sided).
+  std::vector<float> CP, CC;
+  const Vec3 collider_color(kColliderColor[0], kColliderColor[1], kColliderColor[2]);
+  for (const collision::ColliderMesh& m : colliders)
+    for (const cloth::Tri& t : m.triangles) {
+      const Vec3 fn = (m.vertices[t[1]] - m.vertices[t[0]]).cross(m.vertices[t[2]] - m.vertices[t[0]]);
+      const bool front = fn.dot(p.camera.eye - m.vertices[t[0]]) >= 0.0;
+      for (int k = 0; k < 3; ++k) {
+        const Vec3& x = m.vertices[t[k]];
+        const Vec3 n = front ? m.normals[t[k]] : Vec3(-m.normals[t[k]]);
+        const Vec3 to_eye = (p.camera.eye - x).normalized();
+        const double light = 0.30 + 0.75 * std::max(0.0, n.dot(kToLight)) + 0.30 * std::max(0.0, n.dot(to_eye));
+        for (int c = 0; c < 3; ++c) {
+          CP.push_back(static_cast<float>(x[c]));
+          CC.push_back(static_cast<float>(std::min(1.0, collider_color[c] * light)));
+        }
+      }
+    }
   glEnableClientState(GL_VERTEX_ARRAY);
 
   // Shadow: the cloth flattened onto the ground along the light, drawn once per ground pixel.
@@ -223,16 +242,27 @@ void draw_scene(const DrawParams& p, const Textures& t, const std::vector<Render
     glVertexPointer(3, GL_FLOAT, 0, P[m].data());
     glDrawArrays(GL_TRIANGLES, 0, static_cast<GLsizei>(P[m].size() / 3));
   }
+  if (!CP.empty()) {
+    glVertexPointer(3, GL_FLOAT, 0, CP.data());
+    glDrawArrays(GL_TRIANGLES, 0, static_cast<GLsizei>(CP.size() / 3));
+  }
   glPopMatrix();
   glDisable(GL_BLEND);
   glDisable(GL_STENCIL_TEST);
   glEnable(GL_DEPTH_TEST);
   glEnable(GL_FOG);
 
+  // Colliders: Gouraud, untextured.
+  glEnableClientState(GL_COLOR_ARRAY);
+  if (!CP.empty()) {
+    glVertexPointer(3, GL_FLOAT, 0, CP.data());
+    glColorPointer(3, GL_FLOAT, 0, CC.data());
+    glDrawArrays(GL_TRIANGLES, 0, static_cast<GLsizei>(CP.size() / 3));
+  }
+
   // Cloth: the colours lit above (Gouraud), modulated by the warp/weft check texture.
   glEnable(GL_TEXTURE_2D);
   glBindTexture(GL_TEXTURE_2D, t.check);
-  glEnableClientState(GL_COLOR_ARRAY);
   glEnableClientState(GL_TEXTURE_COORD_ARRAY);
   for (size_t m = 0; m < meshes.size(); ++m) {
     glVertexPointer(3, GL_FLOAT, 0, P[m].data());

@@ -6,6 +6,7 @@
 
 #include <vector>
 
+#include "loom/collision/ColliderMesh.h"
 #include "loom/render/Renderer.h"
 
 namespace loom::render::gl {
@@ -37,7 +38,11 @@ struct DrawParams {
   int viewport_w = 640, viewport_h = 480;  // px
 };
 
+// Colliders (world meshes, ColliderShapes.h) are drawn in one untextured slate-teal, lit like the cloth,
+// and cast shadows too.
+constexpr float kColliderColor[3] = {0.32f, 0.60f, 0.58f};
 void draw_scene(const DrawParams& p, const Textures& t, const std::vector<RenderMesh>& meshes,
-                const std::vector<const cloth::Vec3s*>& positions);
+                const std::vector<const cloth::Vec3s*>& positions,
+                const std::vector<collision::ColliderMesh>& colliders = {});
 
 }  // namespace loom::render::gl

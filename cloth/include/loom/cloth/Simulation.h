@@ -90,6 +90,12 @@ class Simulation {
   double step_size() const { return setup_.frame_dt / setup_.substeps; }
   // Changes the step mid-run (solvers adapt to a new h themselves: Verlet, BDF2, cached factorisations).
   void set_substeps(int substeps);
+  // Sets the clock (time = frame * frame_dt), state untouched: a simulation rebuilt with other settings
+  // (loom-view's effect toggles, material sliders) continues where the old one stopped.
+  void set_frame(int frame) {
+    frame_ = frame;
+    t_ = frame * setup_.frame_dt;
+  }
 
   // Issue 8. The whole changing state: time, frame, every cloth's x, v, x_prev, every stage's and solver's
   // history. load_state restores it bit-identically (checkpoints; the guard's per-frame snapshot).

@@ -15,18 +15,25 @@ namespace loom::render {
 // Meshes as drawn (warp/weft material coordinates from the cloth's triangle frames); colours cycle.
 std::vector<RenderMesh> render_meshes(const std::vector<std::unique_ptr<cloth::Cloth>>& cloths);
 
+// Colliders: the simulation's collider set (scene::build_simulation); each added frame keeps their `curr`
+// poses, so every image shows them where they were at that frame.
 class Recording {
  public:
-  explicit Recording(const std::vector<std::unique_ptr<cloth::Cloth>>& cloths) : meshes_(render_meshes(cloths)) {}
+  explicit Recording(const std::vector<std::unique_ptr<cloth::Cloth>>& cloths, collision::ColliderSetPtr colliders = nullptr)
+      : meshes_(render_meshes(cloths)), colliders_(std::move(colliders)) {}
   void add(const std::vector<std::unique_ptr<cloth::Cloth>>& cloths);
   int frames() const { return static_cast<int>(frames_.size()); }
   const std::vector<RenderMesh>& meshes() const { return meshes_; }
   const std::vector<std::vector<cloth::Vec3s>>& positions() const { return frames_; }  // [frame][cloth]
+  // The colliders at frame f's poses (empty set without colliders).
+  collision::ColliderSet colliders(int f) const;
   Bounds bounds() const;
 
  private:
   std::vector<RenderMesh> meshes_;
   std::vector<std::vector<cloth::Vec3s>> frames_;
+  collision::ColliderSetPtr colliders_;
+  std::vector<std::vector<collision::Transform>> poses_;  // [frame][collider]
 };
 
 struct RenderReport {

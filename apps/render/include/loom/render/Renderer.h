@@ -3,7 +3,7 @@
 // two-sided cloth (Lambert per vertex on the side facing the camera: ambient + key light + dim headlight,
 // front and back colours) modulated by a warp/weft check texture laid out in the
 // cloth's material coordinates (TriangleFrame::rest_uv, so checks follow the weave), a checkered ground
-// plane, a planar projected shadow (stencilled, so overlapping cloth does not darken twice) and a sky
+// plane, colliders (slate-teal, untextured; a horizontal plane collider is the ground), a planar projected shadow (stencilled, so overlapping cloth does not darken twice) and a sky
 // gradient. Images are rendered at `supersample` x the size and box-filtered down.
 #include <array>
 #include <cstdint>
@@ -13,6 +13,7 @@
 #include <vector>
 
 #include "loom/cloth/Types.h"
+#include "loom/collision/Collider.h"
 
 namespace loom::render {
 
@@ -68,10 +69,12 @@ class Renderer {
   Renderer(const Renderer&) = delete;
   Renderer& operator=(const Renderer&) = delete;
 
-  // Fixes camera (unless the settings name one) and ground from the bounds of the whole animation.
-  void frame(const Bounds& b);
-  // One image of the meshes at these positions (one pointer per mesh).
-  Image render(const std::vector<const cloth::Vec3s*>& positions);
+  // Fixes camera (unless the settings name one) and ground from the bounds of the whole animation; a
+  // horizontal plane collider in `colliders` puts the ground at its height.
+  void frame(const Bounds& b, const collision::ColliderSet* colliders = nullptr);
+  // One image of the meshes at these positions (one pointer per mesh), with the colliders at their `curr`
+  // poses (the set's shapes are tessellated on first use and whenever they change).
+  Image render(const std::vector<const cloth::Vec3s*>& positions, const collision::ColliderSet* colliders = nullptr);
   const Camera& camera() const { return camera_; }
   // Pixel (x right, y down, of the written image) where the world point `p` appears.
   cloth::Vec2 project(const cloth::Vec3& p) const;
