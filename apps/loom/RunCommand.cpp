@@ -126,7 +126,8 @@ int run_command(const RunOptions& options) {
   scene::Scene sc = scene::load_scene(scene_path, o.sets);
   if (o.threads > 0) sc.setup.threads = o.threads;
   const int frames = o.frames >= 0 ? o.frames : sc.frames;
-  const std::unique_ptr<cloth::Simulation> sim_ptr = scene::build_simulation(sc);  // validates before any output
+  collision::ColliderSetPtr census_colliders;  // --census: the simulation's colliders, for max_penetration
+  const std::unique_ptr<cloth::Simulation> sim_ptr = scene::build_simulation(sc, &census_colliders);  // validates before any output
   cloth::Simulation& sim = *sim_ptr;
 
   // Output folder: our files from an earlier run are removed first, so nothing stale passes for new.
@@ -178,7 +179,7 @@ int run_command(const RunOptions& options) {
   exporter::Exporters exports(out.string(), sc.output.formats, sim.cloths(), sc.output.every);
 #ifdef LOOM_HAVE_RENDER
   std::unique_ptr<render::Recording> recording;  // --render: positions kept, rendered after the run
-  if (o.render) recording = std::make_unique<render::Recording>(sim.cloths());
+  if (o.render) recording = std::make_unique<render::Recording>(sim.cloths(), census_colliders);
 #else
   if (o.render) throw Error("", "--render", "this loom was built without the offscreen renderer (Debian: libosmesa6-dev libstb-dev)");
 #endif
