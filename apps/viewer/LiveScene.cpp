@@ -1,0 +1,117 @@
+#include "LiveScene.h"
+
+#include "loom/collision/RayCast.h"
+#include "loom/scene/Build.h"
+
+namespace loom::viewer {
+
+LiveScene::LiveScene(scene::Scene scene) : scene_(std::move(scene)) {
+  available_.drag = scene_.setup.drag.has_value();
+  available_.strain_limit = scene_.setup.strain_limit.has_value();
+  available_.tethers = scene_.setup.tethers.has_value();
+  available_.colliders = !scene_.colliders.empty();
+  available_.self_collision = scene_.collision.has_value();
+  available_.character = scene_.character != nullptr;
+  enabled_ = available_;
+  for (const cloth::ClothSetup& c : scene_.setup.cloths) materials_.push_back(c.material);
+  solver_ = scene_.setup.solver.method;
+  substeps_ = scene_.setup.substeps;
+  build(false);
+}
+
+scene::Scene LiveScene::edited() const {
+  scene::Scene s = scene_;
+  if (!enabled_.drag) s.setup.drag.reset();
+  if (!enabled_.strain_limit) s.setup.strain_limit.reset();
+  if (!enabled_.tethers) s.setup.tethers.reset();
+  if (!enabled_.colliders) s.colliders.clear();
+  if (!enabled_.self_collision) s.collision.reset();
+  if (!enabled_.character) s.character.reset();
+  for (size_t c = 0; c < s.setup.cloths.size(); ++c) s.setup.cloths[c].material = materials_[c];
+  s.setup.solver.method = solver_;
+  s.setup.substeps = substeps_;
+  return s;
+}
+
+void LiveScene::build(bool keep_state) {
+  collision::ColliderSetPtr colliders;
+  std::unique_ptr<cloth::Simulation> fresh = scene::build_simulation(edited(), &colliders);  // throws: old run kept
+  if (keep_state && sim_) {
+    for (size_t c = 0; c < fresh->cloths().size(); ++c) {
+      const cloth::ClothState& from = sim_->cloths()[c]->state();
+      cloth::ClothState& to = fresh->cloths()[c]->state();
+      to.x = from.x;
+      to.v = from.v;
+      to.x_prev = from.x_prev;
+    }
+    fresh->set_frame(sim_->frame());
+    // Colliders continue from their current poses (scene motion resamples them each step anyway).
+    if (colliders_ && colliders)
+      for (size_t k = 0; k < colliders->size() && k < colliders_->size(); ++k)
+        if ((*colliders)[k].name == (*colliders_)[k].name) {
+          (*colliders)[k].prev = (*colliders_)[k].prev;
+          (*colliders)[k].curr = (*colliders_)[k].curr;
+        }
+  }
+  sim_ = std::move(fresh);
+  colliders_ = colliders ? colliders : std::make_shared<collision::ColliderSet>();
+  if (grab_) {  // the new cloth has its own inverse masses: keep the grabbed vertex kinematic
+    cloth::ClothState& s = sim_->cloths()[grab_->cloth]->state();
+    grab_inv_mass_ = s.inv_mass[grab_->vertex];
+    s.inv_mass[grab_->vertex] = 0.0;
+  }
+}
+
+void LiveScene::rebuild() { build(true); }
+
+void LiveScene::restart() {
+  grab_.reset();
+  build(false);
+}
+
+cloth::FrameStats LiveScene::step_frame() {
+  if (grab_) {
+    // Kinematic for this frame (Solver.h contract): every substep moves it by h v, so it ends at the target.
+    cloth::ClothState& s = sim_->cloths()[grab_->cloth]->state();
+    s.v[grab_->vertex] = (target_ - s.x[grab_->vertex]) / sim_->setup().frame_dt;
+  }
+  cloth::FrameStats stats = sim_->step_frame();
+  if (grab_) sim_->cloths()[grab_->cloth]->state().v[grab_->vertex].setZero();
+  return stats;
+}
+
+bool LiveScene::grab(const cloth::Vec3& origin, const cloth::Vec3& dir) {
+  release();
+  std::optional<collision::RayHit> best;
+  int best_cloth = -1;
+  for (size_t c = 0; c < sim_->cloths().size(); ++c) {
+    const cloth::Cloth& cl = *sim_->cloths()[c];
+    const auto hit = collision::ray_cast(origin, dir, cl.state().x, cl.mesh().triangles());
+    if (hit && (!best || hit->distance < best->distance)) {
+      best = hit;
+      best_cloth = static_cast<int>(c);
+    }
+  }
+  if (!best) return false;
+  const cloth::Cloth& cl = *sim_->cloths()[best_cloth];
+  Grab g;
+  g.cloth = best_cloth;
+  g.vertex = collision::nearest_corner(*best, cl.mesh().triangles());
+  g.distance = best->distance;
+  cloth::ClothState& s = sim_->cloths()[best_cloth]->state();
+  // A pinned vertex stays as it is (its pin owns it).
+  if (s.inv_mass[g.vertex] == 0.0) return false;
+  grab_ = g;
+  grab_inv_mass_ = s.inv_mass[g.vertex];
+  s.inv_mass[g.vertex] = 0.0;
+  target_ = s.x[g.vertex];
+  return true;
+}
+
+void LiveScene::release() {
+  if (!grab_) return;
+  sim_->cloths()[grab_->cloth]->state().inv_mass[grab_->vertex] = grab_inv_mass_;
+  grab_.reset();
+}
+
+}  // namespace loom::viewer

@@ -1,0 +1,132 @@
+// loom-view's simulation logic without a display (apps/viewer/LiveScene.h): effect toggles remove and
+// restore their stages and terms, material edits rebuild the cloth (mass follows the areal density), both
+// keep the clock and the cloth's state, an invalid edit keeps the old run, and a vertex picked with a ray
+// is the one under the cursor and follows the mouse target exactly as a temporary kinematic pin.
+#include <gtest/gtest.h>
+
+#include <algorithm>
+#include <string>
+#include <vector>
+
+#include "LiveScene.h"
+#include "loom/scene/Scene.h"
+
+namespace loom::viewer {
+namespace {
+
+using cloth::Vec3;
+
+scene::Scene small_scene() {
+  return scene::load_scene(std::string(LOOM_SOURCE_DIR) + "/scenes/hanging_cloth.json",
+                           {"cloths.0.mesh.nodes=[9, 9]", "solver.substeps=20",
+                            "effects={\"drag\": {\"isotropic\": 0.5}}",
+                            "constraints={\"strain_limit\": {\"max_stretch\": 0.1}, \"tethers\": {\"slack\": 0.0}}"});
+}
+
+bool has(const std::vector<std::string>& names, const std::string& n) {
+  return std::find(names.begin(), names.end(), n) != names.end();
+}
+
+double total_mass(const cloth::Simulation& sim) {
+  double m = 0.0;
+  for (double mi : sim.cloths()[0]->state().mass) m += mi;
+  return m;
+}
+
+TEST(LiveScene, TogglesRemoveAndRestoreEffectsKeepingClockAndState) {
+  LiveScene live(small_scene());
+  EXPECT_TRUE(live.available().drag);
+  EXPECT_TRUE(live.available().strain_limit);
+  EXPECT_TRUE(live.available().tethers);
+  EXPECT_FALSE(live.available().colliders);
+  for (int f = 0; f < 5; ++f) live.step_frame();
+  const cloth::Vec3s x = live.sim().cloths()[0]->state().x, v = live.sim().cloths()[0]->state().v;
+  const double t = live.sim().time();
+  std::vector<std::string> names = live.sim().stage_names();
+  ASSERT_TRUE(has(names, "strain_limit") && has(names, "tethers") && has(names, "solve/drag"));
+
+  live.enabled().strain_limit = live.enabled().tethers = live.enabled().drag = false;
+  live.rebuild();
+  names = live.sim().stage_names();
+  EXPECT_FALSE(has(names, "strain_limit"));
+  EXPECT_FALSE(has(names, "tethers"));
+  EXPECT_FALSE(has(names, "solve/drag"));
+  EXPECT_EQ(live.sim().frame(), 5);
+  EXPECT_DOUBLE_EQ(live.sim().time(), t);
+  EXPECT_EQ(live.sim().cloths()[0]->state().x, x);
+  EXPECT_EQ(live.sim().cloths()[0]->state().v, v);
+  live.step_frame();
+  EXPECT_EQ(live.sim().frame(), 6);
+
+  live.enabled().tethers = true;
+  live.rebuild();
+  names = live.sim().stage_names();
+  EXPECT_TRUE(has(names, "tethers"));
+  EXPECT_FALSE(has(names, "strain_limit"));
+  live.restart();
+  EXPECT_EQ(live.sim().frame(), 0);
+}
+
+TEST(LiveScene, MaterialEditsRebuildTheClothAndBadEditsKeepTheRun) {
+  LiveScene live(small_scene());
+  for (int f = 0; f < 3; ++f) live.step_frame();
+  const cloth::Vec3s x = live.sim().cloths()[0]->state().x;
+  const double m0 = total_mass(live.sim());
+  cloth::Material& mat = live.materials()[0];
+  mat.areal_density *= 2.0;
+  mat.stretch_warp *= 3.0;
+  mat.bend_weft *= 10.0;
+  live.rebuild();
+  EXPECT_NEAR(total_mass(live.sim()), 2.0 * m0, 1e-12 * m0);
+  EXPECT_EQ(live.sim().cloths()[0]->material().stretch_warp, mat.stretch_warp);
+  EXPECT_EQ(live.sim().cloths()[0]->material().bend_weft, mat.bend_weft);
+  EXPECT_EQ(live.sim().cloths()[0]->state().x, x);
+  EXPECT_EQ(live.sim().frame(), 3);
+
+  const double density = mat.areal_density;
+  mat.areal_density = -1.0;
+  EXPECT_THROW(live.rebuild(), std::exception);
+  EXPECT_EQ(live.sim().cloths()[0]->material().areal_density, density);  // the old run goes on
+  EXPECT_EQ(live.sim().frame(), 3);
+  live.step_frame();
+  EXPECT_EQ(live.sim().frame(), 4);
+}
+
+TEST(LiveScene, PickedVertexIsTheOneUnderTheRayAndFollowsTheTarget) {
+  LiveScene live(small_scene());
+  const cloth::ClothState& s0 = live.sim().cloths()[0]->state();
+  // The free corner far from the pinned edge: the vertex with the largest x + z among free vertices.
+  int corner = -1;
+  for (int i = 0; i < static_cast<int>(s0.x.size()); ++i)
+    if (s0.inv_mass[i] > 0 && (corner < 0 || s0.x[i].x() + s0.x[i].z() > s0.x[corner].x() + s0.x[corner].z())) corner = i;
+  const double inv_mass = s0.inv_mass[corner];
+  const Vec3 p = s0.x[corner];
+  // A ray from above, slanted, hitting the sheet a little inside the corner.
+  const Vec3 hit = p + Vec3(-0.02, 0.0, -0.03), origin = hit + Vec3(0.3, 2.0, 0.1);
+  EXPECT_FALSE(live.grab(origin + Vec3(5, 0, 0), hit - origin));  // misses the sheet
+  ASSERT_TRUE(live.grab(origin, hit - origin));
+  ASSERT_TRUE(live.grabbed());
+  EXPECT_EQ(live.grabbed()->vertex, corner);
+  EXPECT_NEAR(live.grabbed()->distance, (hit - origin).norm(), 1e-9);
+  EXPECT_EQ(live.sim().cloths()[0]->state().inv_mass[corner], 0.0);
+
+  // Pulled up and sideways over two frames: exactly at the target after each frame.
+  for (const Vec3& target : {Vec3(p + Vec3(0.1, 0.3, 0.0)), Vec3(p + Vec3(0.15, 0.5, 0.05))}) {
+    live.drag_to(target);
+    live.step_frame();
+    EXPECT_LT((live.sim().cloths()[0]->state().x[corner] - target).norm(), 1e-12);
+  }
+  live.release();
+  EXPECT_FALSE(live.grabbed());
+  EXPECT_EQ(live.sim().cloths()[0]->state().inv_mass[corner], inv_mass);
+  // Pinned vertices are not grabbed: the pins own them.
+  int pinned = -1;
+  for (int i = 0; i < static_cast<int>(s0.x.size()); ++i)
+    if (live.sim().cloths()[0]->state().inv_mass[i] == 0.0) pinned = i;
+  ASSERT_GE(pinned, 0);
+  const Vec3 q = live.sim().cloths()[0]->state().x[pinned];
+  EXPECT_FALSE(live.grab(q + Vec3(0.001, 1.0, 0.001), Vec3(0, -1, 0)));
+}
+
+}  // namespace
+}  // namespace loom::viewer
