@@ -10,6 +10,7 @@
 #include "RunCommand.h"
 #ifdef LOOM_HAVE_BENCH_ACCURACY
 #include "AccuracyBench.h"
+#include "CompareCommand.h"
 #endif
 #include "loom/cloth/Error.h"
 #include "loom/cloth/Material.h"
@@ -25,6 +26,7 @@ const char* kUsage =
     "  loom ccd-eval FILE.csv...    evaluate the continuous collision test on CCD sample queries\n"
     "  loom fabric-test TEST [opts] virtual fabric tests: cantilever, tensile, shear, catenary\n"
     "  loom bench accuracy [opts]   accuracy-vs-time benchmark, Loom solvers and Bullet (loom bench --help)\n"
+    "  loom compare SCENE [--out D] a scene in Loom, Bullet classic and deformable side by side\n"
     "  loom --help                  this text\n"
     "  loom run --help              the options of `run`\n"
     "\n"
@@ -144,6 +146,7 @@ int main(int argc, char** argv) {
     if (cmd == "fabric-test") return loom::app::fabric_test_main(argc, argv);
   } catch (const loom::Error& e) {
     std::cerr << "loom: error: " << e.what() << "\n";
+    if (cmd == "compare") return loom::app::compare_main(argc, argv);
     return 1;
   } catch (const std::exception& e) {
     std::cerr << "loom: error: " << e.what() << "\n";

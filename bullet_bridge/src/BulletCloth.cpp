@@ -7,6 +7,7 @@
 
 #include "BulletConvert.h"
 #include "ContactStage.h"
+#include "loom/collision/BodyCollisionStage.h"
 #include "loom/cloth/Error.h"
 
 namespace loom::bullet {
@@ -144,9 +145,21 @@ BulletCloth::BulletCloth(cloth::SimulationSetup setup, const BulletClothSettings
   AttachStage* attach_ptr = attach.get();
   sim_->add_stage(std::make_unique<PoseStage>(*this), cloth::Simulation::Slot::before_solve);
   sim_->add_stage(std::move(attach), cloth::Simulation::Slot::before_solve);
-  auto contacts = std::make_unique<ContactStage>(colliders_, thickness);
-  contacts_ = contacts.get();
-  sim_->add_stage(std::move(contacts), cloth::Simulation::Slot::after_solve);
+  if (settings.contacts == BulletClothSettings::Contacts::body_collision) {
+    // The collision library's stage (CCD, proximity, friction, edges, reaction impulses).
+    collision::BodyCollisionSettings bs;
+    bs.thickness = thickness;
+    bs.friction = settings.friction;
+    bs.static_friction = std::max(settings.friction, settings.static_friction);
+    auto body = std::make_unique<collision::BodyCollisionStage>(colliders_, bs);
+    body_ = body.get();
+    sim_->add_stage(std::move(body), cloth::Simulation::Slot::after_solve);
+  } else {
+    auto contacts = std::make_unique<ContactStage>(colliders_, thickness);
+    contacts_ = contacts.get();
+    sim_->add_stage(std::move(contacts), cloth::Simulation::Slot::after_solve);
+  }
+  thickness_ = thickness;
   sim_->add_stage(std::make_unique<ReactionStage>(*this, *attach_ptr), cloth::Simulation::Slot::after_solve);
 
   auto box = std::make_unique<btBoxShape>(btVector3(0.5, 0.5, 0.5));
@@ -201,7 +214,12 @@ void BulletCloth::attach(int cloth, int vertex, btRigidBody* body) {
   s.v[vertex] = Vec3::Zero();
   attachments_.push_back(a);
   BodyTrack& tr = track(body);
-  if (!tr.initialised) tr.start = tr.end = pose;
+  if (!tr.initialised) {
+    // Known from now on: the next pose Bullet reports is interpolated from this one.
+    tr.start = tr.end = tr.from = tr.target = pose;
+    tr.initialised = true;
+    tr.seen = substeps_ - 1;
+  }
 }
 
 void BulletCloth::warn(const std::string& shape_name) {
@@ -324,7 +342,7 @@ void BulletCloth::updateAction(btCollisionWorld* world, btScalar dt_bt) {
   substep_t0_ = sim_->time();
   double pen = 0.0;
   sim_->step_frame();
-  pen = contacts_->last_penetration();
+  pen = contacts_ ? contacts_->last_penetration() : std::max(0.0, body_->max_deficit() - thickness_);
   last_penetration_ = pen;
   ++substeps_;
 
@@ -347,7 +365,7 @@ void BulletCloth::updateAction(btCollisionWorld* world, btScalar dt_bt) {
   update_aabb();
 }
 
-double BulletCloth::contacts_thickness() const { return contacts_ ? contacts_->thickness() : settings_.thickness; }
+double BulletCloth::contacts_thickness() const { return thickness_ > 0.0 ? thickness_ : settings_.thickness; }
 
 void BulletCloth::cloth_aabb(Vec3& lo, Vec3& hi) const {
   lo = Vec3::Constant(HUGE_VAL);

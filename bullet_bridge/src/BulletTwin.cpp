@@ -15,6 +15,7 @@
 
 #include "loom/cloth/Error.h"
 #include "loom/cloth/SpringSet.h"
+#include "TwinAccess.h"
 
 namespace loom::bullet {
 
@@ -263,6 +264,15 @@ double BulletTwin::node_mass(int i) const { return impl_->body->getMass(i); }
 bool BulletTwin::is_pinned(int i) const { return impl_->body->m_nodes[i].m_im == 0; }
 bool BulletTwin::simulating() const {
   return impl_->body->getActivationState() != DISABLE_SIMULATION;
+}
+
+btDiscreteDynamicsWorld* TwinAccess::world(BulletTwin& t) {
+  return t.impl_->classic_world ? static_cast<btDiscreteDynamicsWorld*>(t.impl_->classic_world.get())
+                                : static_cast<btDiscreteDynamicsWorld*>(t.impl_->deformable_world.get());
+}
+btSoftBody* TwinAccess::body(BulletTwin& t) { return t.impl_->body.get(); }
+btSoftBodyWorldInfo* TwinAccess::info(BulletTwin& t) {
+  return t.impl_->classic_world ? &t.impl_->classic_world->getWorldInfo() : &t.impl_->deformable_world->getWorldInfo();
 }
 
 }  // namespace loom::bullet

@@ -2,6 +2,7 @@
 #include <gtest/gtest.h>
 
 #include <cmath>
+#include <functional>
 
 #include "BulletTestWorld.h"
 
@@ -74,6 +75,140 @@ TEST(BulletCloth, FastSphereDoesNotPassPinnedSheet) {
   EXPECT_LT(lowest, -0.05);  // it did hit and stretch the sheet
   EXPECT_GT(ball->getLinearVelocity().y(), -10.0);
   std::printf("sphere: lowest centre %.3f m, deepest vertex penetration before push-out %.4f m\n", lowest, worst_pen);
+}
+
+
+// A box resting in a hammock (a sheet whose two opposite edges are attached to static posts): the cloth
+// holds it up, so the vertical impulse per second it gets from the cloth is m g, and it does not sink.
+TEST(BulletCloth, HammockHoldsBox) {
+  TestWorld w;
+  const int n = 21;
+  cloth::SimulationSetup s = sheet(n, 1.0, Vec3(-0.5, 0.0, -0.5));
+  // Stiff, well damped fabric on the implicit solver (unconditionally stable at the Bullet step).
+  s.solver.method = "implicit_euler";
+  s.cloths[0].material.stretch_weft = s.cloths[0].material.stretch_warp = 2000.0;
+  s.cloths[0].material.shear = 200.0;
+  s.cloths[0].material.damping = 0.02;
+  btRigidBody* post_a = w.add_body(new btBoxShape(btVector3(0.05, 0.5, 0.6)), 0.0, Vec3(-0.55, -0.5, 0.0));
+  btRigidBody* post_b = w.add_body(new btBoxShape(btVector3(0.05, 0.5, 0.6)), 0.0, Vec3(0.55, -0.5, 0.0));
+  const double m = 1.0;
+  btRigidBody* box = w.add_body(new btBoxShape(btVector3(0.1, 0.1, 0.1)), m, Vec3(0.0, 0.106, 0.0));
+  box->setDamping(0.0, 0.0);
+  box->setAngularFactor(0.0);  // statics: the box stays level (vertex contacts cannot stop a tilted corner)
+  bullet::BulletCloth* c = w.add_cloth(s, settings(1));
+  const auto& mesh = c->simulation().cloths()[0]->mesh();
+  for (int iv = 0; iv < n; ++iv) {
+    c->attach(0, mesh.grid_index(0, iv), post_a);
+    c->attach(0, mesh.grid_index(n - 1, iv), post_b);
+  }
+  for (int f = 0; f < 240; ++f) {
+    w.frame();  // 4 s to settle
+  }
+  const Vec3 j0 = c->applied_impulse(box);
+  const double y0 = box->getCenterOfMassPosition().y();
+  double y_min = y0, y_max = y0;
+  for (int f = 0; f < 60; ++f) {
+    w.frame();
+    y_min = std::min<double>(y_min, box->getCenterOfMassPosition().y());
+    y_max = std::max<double>(y_max, box->getCenterOfMassPosition().y());
+  }
+  const double per_second = (c->applied_impulse(box) - j0).y() / 1.0;
+  const double mg = m * 9.81;
+  std::printf("hammock: vertical impulse/s %.5f N vs m g %.5f N (%.3f%%), box y %.4f..%.4f m\n", per_second, mg,
+              100.0 * (per_second / mg - 1.0), y_min, y_max);
+  EXPECT_NEAR(per_second / mg, 1.0, 0.01);
+  EXPECT_LT(y_max - y_min, 2e-3);  // at rest, not sinking
+  // No cloth vertex inside the box.
+  const auto& st = c->simulation().cloths()[0]->state();
+  const btTransform tf = box->getWorldTransform();
+  for (int i = 0; i < st.size(); ++i) {
+    const btVector3 q = tf.invXform(bt(st.x[i]));
+    const double inside = std::min({0.1 - std::abs(q.x()), 0.1 - std::abs(q.y()), 0.1 - std::abs(q.z())});
+    EXPECT_LT(inside, 1e-3) << "vertex " << i;
+  }
+}
+
+// A sheet dropped on a rigid box resting on the ground does not pass through it.
+TEST(BulletCloth, SheetDroppedOnRestingBox) {
+  TestWorld w;
+  w.add_body(new btStaticPlaneShape(btVector3(0, 1, 0), 0), 0.0, Vec3::Zero());
+  btRigidBody* box = w.add_body(new btBoxShape(btVector3(0.2, 0.2, 0.2)), 2.0, Vec3(0.0, 0.2, 0.0));
+  bullet::BulletCloth* c = w.add_cloth(sheet(21, 1.0, Vec3(-0.5, 0.6, -0.5)), settings(10));
+  for (int f = 0; f < 60; ++f) {
+    w.frame();
+    const auto& st = c->simulation().cloths()[0]->state();
+    const btTransform tf = box->getWorldTransform();
+    for (int i = 0; i < st.size(); ++i) {
+      const btVector3 q = tf.invXform(bt(st.x[i]));
+      const double inside = std::min({0.2 - std::abs(q.x()), 0.2 - std::abs(q.y()), 0.2 - std::abs(q.z())});
+      ASSERT_LT(inside, 1e-3) << "vertex " << i << " frame " << f;
+      ASSERT_GT(st.x[i].y(), -1e-3) << "vertex " << i << " below the ground, frame " << f;
+    }
+  }
+  // Draped: the vertices over the box's top face rest on it.
+  const auto& st = c->simulation().cloths()[0]->state();
+  const int centre = c->simulation().cloths()[0]->mesh().grid_index(10, 10);
+  EXPECT_NEAR(st.x[centre].y(), 0.4 + 0.005, 0.01);
+  EXPECT_NEAR(box->getCenterOfMassPosition().y(), 0.2, 0.01);  // the box stayed put
+}
+
+// A flag attached to a kinematic pole driven at frame rate: the attached vertices follow the pole's true
+// (analytic) motion within 1 mm at every Bullet substep, although Bullet holds the kinematic pose constant
+// over the substeps of each frame.
+TEST(BulletCloth, FlagFollowsKinematicPole) {
+  TestWorld w;
+  btRigidBody* pole = w.add_body(new btCapsuleShape(0.02, 1.0), 0.0, Vec3(0.0, 1.0, 0.0), true);
+  cloth::SimulationSetup s = sheet(9, 0.4, Vec3(0.02, 1.0, 0.0));
+  cloth::GridSpec g;
+  g.nodes_u = g.nodes_v = 9;
+  g.size_u = g.size_v = 0.4;
+  g.plane = cloth::GridPlane::kXY;
+  g.origin = Vec3(0.02, 1.0, 0.0);
+  s.cloths[0].mesh = cloth::ClothMesh::grid(g);
+  bullet::BulletCloth* c = w.add_cloth(s, settings(8));
+  std::vector<int> attached;
+  for (int iv = 0; iv < 9; ++iv) attached.push_back(c->simulation().cloths()[0]->mesh().grid_index(0, iv));
+  for (int v : attached) c->attach(0, v, pole);
+  const auto pose = [](double t) {
+    btTransform tf;
+    tf.setIdentity();
+    tf.setOrigin(btVector3(btScalar(0.3 * std::sin(2 * M_PI * t)), 1.0, btScalar(0.1 * std::sin(M_PI * t))));
+    tf.setRotation(btQuaternion(btVector3(0, 1, 0), btScalar(0.3 * std::sin(2 * M_PI * t))));
+    return tf;
+  };
+  // A checker action after the cloth: every substep, attached vertices vs the pole's analytic pose.
+  struct Checker : btActionInterface {
+    bullet::BulletCloth* cloth;
+    std::vector<int> vertices;
+    std::vector<Vec3> offsets;
+    std::function<btTransform(double)> pose;
+    btRigidBody* pole;
+    double t = 0.0, max_err = 0.0, max_raw = 0.0;
+    void updateAction(btCollisionWorld*, btScalar dt) override {
+      t += dt;
+      const auto& st = cloth->simulation().cloths()[0]->state();
+      for (size_t k = 0; k < vertices.size(); ++k) {
+        max_err = std::max(max_err, (st.x[vertices[k]] - eig(pose(t) * bt(offsets[k]))).norm());
+        max_raw = std::max(max_raw, (eig(pole->getWorldTransform() * bt(offsets[k])) - eig(pose(t) * bt(offsets[k]))).norm());
+      }
+    }
+    void debugDraw(btIDebugDraw*) override {}
+  } check;
+  check.cloth = c;
+  check.vertices = attached;
+  for (const auto& a : c->attachments()) check.offsets.push_back(a.offset);
+  check.pose = pose;
+  check.pole = pole;
+  w.world.addAction(&check);
+  for (int f = 1; f <= 90; ++f) {
+    pole->getMotionState()->setWorldTransform(pose(f / 60.0));
+    w.frame();
+  }
+  w.world.removeAction(&check);
+  std::printf("pole: attachment error max %.3g m (Bullet's raw kinematic pose: %.3g m)\n", check.max_err, check.max_raw);
+  EXPECT_LT(check.max_err, 1e-3);
+  EXPECT_GT(check.max_raw, 5e-3);  // without interpolation the pole jumps once per frame
+  EXPECT_NEAR(check.t, 1.5, 1e-6);
 }
 
 }  // namespace

@@ -9,6 +9,7 @@
 #include "loom/cloth/Error.h"
 #include "loom/cloth/Model.h"
 #include "loom/scene/JsonReader.h"
+#include "loom/scene/SceneBodies.h"
 #include "loom/scene/SceneColliders.h"
 #include "loom/scene/SceneCharacter.h"
 #include "loom/scene/SceneCollision.h"
@@ -347,6 +348,7 @@ Scene parse_scene(const nlohmann::json& root, const std::string& file) {
   }
   parse_collision(r, scene);  // issue 5: self- and cloth-cloth collision (SceneCollision.cpp)
 
+  parse_bodies(r, scene);  // issue 9: Bullet rigid bodies (SceneBodies.cpp)
   parse_colliders(r, scene);  // issue 5: rigid colliders and their motion (SceneColliders.cpp)
 
   if (r.has("output")) {

@@ -74,6 +74,7 @@ class BulletTwin {
   bool simulating() const;
 
  private:
+  friend struct TwinAccess;  // the bridge's own code (src/TwinAccess.h): world and body, for rigid bodies
   struct Impl;
   TwinKind kind_;
   std::unique_ptr<Impl> impl_;

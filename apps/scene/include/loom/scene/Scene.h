@@ -10,6 +10,7 @@
 #include "loom/cloth/Simulation.h"
 #include "loom/collision/SelfCollisionStage.h"
 #include "loom/collision/Collider.h"
+#include "loom/collision/RigidBodySpec.h"
 
 namespace loom::characters {
 struct Character;  // loom/characters/Character.h (issue 6)
@@ -43,6 +44,7 @@ struct Scene {
   int frames = 60;        // frames to simulate (duration * fps, rounded)
   OutputSettings output;
   std::optional<collision::SelfCollisionSettings> collision;  // `collision` (SceneCollision.cpp); absent: none
+  std::vector<collision::RigidBodySpec> bodies;  // `bodies` (SceneBodies.cpp): Bullet rigid bodies (issue 9)
   std::vector<collision::Collider> colliders;  // `colliders` (SceneColliders.cpp): rigid shapes, kinematic motion
   std::shared_ptr<characters::Character> character;  // `character` (SceneCharacter.cpp); null without one
 };

@@ -1,0 +1,129 @@
+#include "CompareCommand.h"
+
+#include <cstdio>
+#include <cstring>
+#include <filesystem>
+#include <fstream>
+#include <iostream>
+#include <nlohmann/json.hpp>
+#include <string>
+#include <vector>
+
+#include "loom/bullet/Compare.h"
+#include "loom/cloth/Error.h"
+#include "loom/scene/Scene.h"
+
+namespace loom::app {
+
+namespace {
+
+const char* kCompareUsage =
+    "Usage: loom compare SCENE [--out DIR] [--set path=value]... [--frames N]\n"
+    "  Runs SCENE's first cloth (and its `bodies`) in Loom (BulletCloth in a Bullet world), in Bullet's\n"
+    "  classic soft body and, without rigid bodies, in Bullet's deformable world. Writes DIR/compare.csv and\n"
+    "  DIR/compare.json (default DIR: out/compare). Metrics: ms_per_frame, max_strain, mean_strain,\n"
+    "  max_penetration, diverged. Everything but ms_per_frame is deterministic run to run.\n";
+
+nlohmann::json to_json(const bullet::SystemMetrics& m) {
+  nlohmann::json j;
+  j["available"] = m.available;
+  if (!m.note.empty()) j["note"] = m.note;
+  if (m.available) {
+    j["ms_per_frame"] = m.ms_per_frame;
+    j["max_strain"] = m.max_strain;
+    j["mean_strain"] = m.mean_strain;
+    j["max_penetration"] = m.max_penetration;
+    j["diverged"] = m.diverged;
+  } else {
+    for (const char* k : {"ms_per_frame", "max_strain", "mean_strain", "max_penetration", "diverged"}) j[k] = nullptr;
+  }
+  return j;
+}
+
+}  // namespace
+
+int compare_main(int argc, char** argv) {
+  std::string scene_path, out = "out/compare";
+  std::vector<std::string> sets;
+  int frames = -1;
+  for (int i = 2; i < argc; ++i) {
+    const std::string a = argv[i];
+    auto value = [&](const char* name) -> std::string {
+      if (i + 1 >= argc) throw Error("", name, "needs a value");
+      return argv[++i];
+    };
+    if (a == "-h" || a == "--help") {
+      std::cout << kCompareUsage;
+      return 0;
+    } else if (a == "--out") {
+      out = value("--out");
+    } else if (a == "--set") {
+      sets.push_back(value("--set"));
+    } else if (a == "--frames") {
+      const std::string v = value("--frames");
+      try {
+        frames = std::stoi(v);
+      } catch (...) {
+        frames = 0;
+      }
+      if (frames < 1) throw Error("", "--frames", "must be an integer >= 1 (got '" + v + "')");
+    } else if (!a.empty() && a[0] == '-') {
+      std::fprintf(stderr, "loom compare: error: unknown option '%s'\n%s", a.c_str(), kCompareUsage);
+      return 2;
+    } else if (scene_path.empty()) {
+      scene_path = a;
+    } else {
+      std::fprintf(stderr, "loom compare: error: one scene only\n");
+      return 2;
+    }
+  }
+  if (scene_path.empty()) {
+    std::fprintf(stderr, "loom compare: error: no scene given\n%s", kCompareUsage);
+    return 2;
+  }
+  const scene::Scene sc = scene::load_scene(scene_path, sets);
+  bullet::CompareInput in;
+  in.setup = sc.setup;
+  in.bodies = sc.bodies;
+  in.frames = frames > 0 ? frames : sc.frames;
+  std::vector<bullet::SystemMetrics> results;
+  results.push_back(bullet::run_loom_in_bullet(in));
+  results.push_back(bullet::run_bullet_twin(in, bullet::TwinKind::kClassic));
+  results.push_back(bullet::run_bullet_twin(in, bullet::TwinKind::kDeformable));
+
+  std::filesystem::create_directories(out);
+  nlohmann::json j;
+  j["scene"] = sc.name;
+  j["frames"] = in.frames;
+  j["frame_dt"] = sc.setup.frame_dt;
+  j["bullet_substeps"] = in.bullet_substeps;
+  j["bodies"] = sc.bodies.size();
+  for (const auto& m : results) j[m.system] = to_json(m);
+  std::ofstream(out + "/compare.json") << j.dump(2) << "\n";
+  std::ofstream csv(out + "/compare.csv");
+  csv << "system,available,ms_per_frame,max_strain,mean_strain,max_penetration,diverged\n";
+  char line[512];
+  for (const auto& m : results) {
+    if (m.available) {
+      std::snprintf(line, sizeof line, "%s,1,%.6g,%.9g,%.9g,%.9g,%d\n", m.system.c_str(), m.ms_per_frame, m.max_strain,
+                    m.mean_strain, m.max_penetration, m.diverged ? 1 : 0);
+    } else {
+      std::snprintf(line, sizeof line, "%s,0,,,,,\n", m.system.c_str());
+    }
+    csv << line;
+  }
+  std::printf("%-18s %12s %12s %12s %16s %9s\n", "system", "ms/frame", "max_strain", "mean_strain", "max_penetration",
+              "diverged");
+  for (const auto& m : results) {
+    if (!m.available) {
+      std::printf("%-18s not run: %s\n", m.system.c_str(), m.note.c_str());
+      continue;
+    }
+    std::printf("%-18s %12.3f %12.5f %12.6f %16.6f %9s\n", m.system.c_str(), m.ms_per_frame, m.max_strain, m.mean_strain,
+                m.max_penetration, m.diverged ? "yes" : "no");
+  }
+  std::printf("wrote %s/compare.csv and %s/compare.json\n", out.c_str(), out.c_str());
+  return 0;
+}
+
+}  // namespace loom::app

@@ -1,0 +1,154 @@
+#include "loom/scene/SceneBodies.h"
+
+#include <algorithm>
+#include <cmath>
+
+namespace loom::scene {
+
+using collision::RigidBodySpec;
+using collision::ShapeType;
+using collision::Transform;
+using cloth::Vec3;
+
+namespace {
+
+Transform parse_body_pose(const JsonReader& r) {
+  Transform t = Transform::Identity();
+  if (r.has("rotation")) {
+    const JsonReader o = r.object("rotation");
+    const Vec3 axis = o.vec3("axis");
+    if (!(axis.norm() > 0.0)) o.fail("axis", "must not be zero");
+    t.linear() = Eigen::AngleAxisd(o.number("degrees") * M_PI / 180.0, axis.normalized()).toRotationMatrix();
+    o.finish();
+  }
+  t.translation() = r.vec3("position", Vec3::Zero());
+  return t;
+}
+
+// Kinematic motion: {"oscillate": {"amplitude": [m, m, m], "frequency": Hz, "twist": rad about y}} or
+// {"keyframes": [{"t": s, "position": [..]}, ...]} (linear in between, held past the ends).
+std::function<Transform(double)> parse_body_motion(const JsonReader& m, const Transform& start) {
+  if (m.has("oscillate") == m.has("keyframes")) m.fail("", "give either 'oscillate' or 'keyframes'");
+  if (m.has("oscillate")) {
+    const JsonReader o = m.object("oscillate");
+    const Vec3 amp = o.vec3("amplitude", Vec3::Zero());
+    const double f = o.number("frequency", std::nullopt, 0.0, true);
+    const double twist = o.number("twist", 0.0);
+    o.finish();
+    m.finish();
+    return [start, amp, f, twist](double t) {
+      const double s = std::sin(2.0 * M_PI * f * t);
+      Transform out = start;
+      out.translation() += amp * s;
+      out.linear() = Eigen::AngleAxisd(twist * s, Vec3::UnitY()).toRotationMatrix() * start.linear();
+      return out;
+    };
+  }
+  std::vector<double> times;
+  std::vector<Vec3> positions;
+  for (const JsonReader& k : m.objects("keyframes")) {
+    times.push_back(k.number("t"));
+    positions.push_back(k.vec3("position"));
+    k.finish();
+    if (times.size() > 1 && !(times.back() > times[times.size() - 2])) k.fail("t", "keyframe times must increase strictly");
+  }
+  if (times.empty()) m.fail("keyframes", "needs at least one keyframe");
+  m.finish();
+  return [start, times, positions](double t) {
+    Transform out = start;
+    if (t <= times.front()) {
+      out.translation() = positions.front();
+    } else if (t >= times.back()) {
+      out.translation() = positions.back();
+    } else {
+      const size_t k = std::upper_bound(times.begin(), times.end(), t) - times.begin();
+      const double a = (t - times[k - 1]) / (times[k] - times[k - 1]);
+      out.translation() = (1.0 - a) * positions[k - 1] + a * positions[k];
+    }
+    return out;
+  };
+}
+
+}  // namespace
+
+void parse_bodies(const JsonReader& root, Scene& scene) {
+  if (!root.has("bodies")) return;
+  const auto bodies = root.objects("bodies");
+  for (size_t i = 0; i < bodies.size(); ++i) {
+    const JsonReader& r = bodies[i];
+    RigidBodySpec b;
+    b.name = r.string("name", "body" + std::to_string(i));
+    const std::string shape = r.string("shape", std::nullopt, {"plane", "sphere", "capsule", "box", "cylinder"});
+    if (shape == "plane") {
+      b.shape.type = ShapeType::plane;
+    } else if (shape == "sphere") {
+      b.shape.type = ShapeType::sphere;
+      b.shape.radius = r.number("radius", std::nullopt, 0.0, true);
+    } else if (shape == "capsule" || shape == "cylinder") {
+      b.shape.type = shape == "capsule" ? ShapeType::capsule : ShapeType::cylinder;
+      b.shape.radius = r.number("radius", std::nullopt, 0.0, true);
+      b.shape.half_height = r.number("half_height", std::nullopt, 0.0, true);
+    } else {
+      b.shape.type = ShapeType::box;
+      b.shape.half_extents = r.vec3("half_extents");
+      if (!(b.shape.half_extents.minCoeff() > 0.0)) r.fail("half_extents", "must be > 0");
+    }
+    b.pose = parse_body_pose(r);
+    b.mass = r.number("mass", 0.0, 0.0);
+    if (b.mass > 0.0 && shape == "plane") r.fail("mass", "a plane is static (mass 0)");
+    b.velocity = r.vec3("velocity", Vec3::Zero());
+    b.angular_velocity = r.vec3("angular_velocity", Vec3::Zero());
+    b.friction = r.number("friction", b.friction, 0.0);
+    b.restitution = r.number("restitution", b.restitution, 0.0);
+    if (r.has("motion")) {
+      if (b.mass > 0.0) r.fail("motion", "a kinematic body has mass 0");
+      b.motion = parse_body_motion(r.object("motion"), b.pose);
+    }
+    if (r.has("attach")) {
+      const auto att = r.objects("attach");
+      for (size_t k = 0; k < att.size(); ++k) {
+        const JsonReader& a = att[k];
+        collision::BodyAttachment ba;
+        ba.cloth = a.integer("cloth", 0, 0);
+        if (ba.cloth >= static_cast<int>(scene.setup.cloths.size())) a.fail("cloth", "no cloth with this index");
+        const cloth::ClothMesh& mesh = *scene.setup.cloths[ba.cloth].mesh;
+        if (a.has("vertex") == a.has("grid")) a.fail("", "give either 'vertex' or 'grid'");
+        if (a.has("vertex")) {
+          ba.vertex = a.integer("vertex", std::nullopt, 0);
+          if (ba.vertex >= mesh.num_vertices()) a.fail("vertex", "out of range");
+          b.attachments.push_back(ba);
+        } else {
+          // "grid": [iu, iv] (negative counts from the end) or [iu, "all"] / ["all", iv] for a whole row.
+          const nlohmann::json& g = a.raw("grid");
+          if (!g.is_array() || g.size() != 2) a.fail("grid", "expected [iu, iv]");
+          const int nu = mesh.grid_nodes_u(), nv = mesh.grid_nodes_v();
+          if (nu <= 0) a.fail("grid", "the cloth is not a grid");
+          auto range = [&](const nlohmann::json& v, int n, const char* what) {
+            std::vector<int> out;
+            if (v.is_string() && v.get<std::string>() == "all") {
+              for (int k2 = 0; k2 < n; ++k2) out.push_back(k2);
+            } else if (v.is_number_integer()) {
+              int k2 = v.get<int>();
+              if (k2 < 0) k2 += n;
+              if (k2 < 0 || k2 >= n) a.fail("grid", std::string(what) + " out of range");
+              out.push_back(k2);
+            } else {
+              a.fail("grid", "expected an integer or \"all\"");
+            }
+            return out;
+          };
+          for (int iv : range(g[1], nv, "iv"))
+            for (int iu : range(g[0], nu, "iu")) {
+              ba.vertex = mesh.grid_index(iu, iv);
+              b.attachments.push_back(ba);
+            }
+        }
+        a.finish();
+      }
+    }
+    r.finish();
+    scene.bodies.push_back(std::move(b));
+  }
+}
+
+}  // namespace loom::scene

@@ -1,0 +1,37 @@
+#pragma once
+// Side-by-side runs for `loom compare` (issue 9): one scene's cloth (and rigid bodies) run as a Loom cloth in
+// a Bullet world (BulletCloth, two-way coupled), as Bullet's classic btSoftBody (BulletTwin, tuned as in
+// reference/bullet.md §3: piterations 10, 1/240 s steps, margin = cloth thickness, kKHR 1, SDF voxel 0.05 m)
+// and, when the scene has no rigid bodies, as a deformable-world body. Bullet-free header.
+#include <string>
+#include <vector>
+
+#include "loom/bullet/BulletTwin.h"
+#include "loom/cloth/Simulation.h"
+#include "loom/collision/RigidBodySpec.h"
+
+namespace loom::bullet {
+
+struct CompareInput {
+  cloth::SimulationSetup setup;                 // cloth 0 is compared; frame_dt = the scene's frame
+  std::vector<collision::RigidBodySpec> bodies;
+  int frames = 60;
+  int bullet_substeps = 4;  // Bullet fixed steps per frame (frame_dt / 4 = 1/240 s at 60 fps)
+};
+
+struct SystemMetrics {
+  std::string system;            // "loom", "bullet_classic", "bullet_deformable"
+  bool available = true;         // false: not run (see note)
+  std::string note;
+  double ms_per_frame = 0.0;     // ms, wall time per frame (cloth + world)
+  double max_strain = 0.0;       // 1, largest stretch l/L - 1 over structural springs, over all frames
+  double mean_strain = 0.0;      // 1, mean over frames of the mean |l/L - 1| over structural springs
+  double max_penetration = 0.0;  // m, deepest cloth vertex inside a rigid body, over all frames
+  bool diverged = false;         // non-finite positions, max strain > 10, or Bullet switched the body off
+  std::vector<double> final_positions;  // m, cloth 0's vertex coordinates at the end (x0 y0 z0 x1 ...)
+};
+
+SystemMetrics run_loom_in_bullet(const CompareInput& in);
+SystemMetrics run_bullet_twin(const CompareInput& in, TwinKind kind);
+
+}  // namespace loom::bullet
