@@ -137,7 +137,9 @@ TEST(ColliderDistance, ConvexHullMatchesBoxAndBruteForce) {
     Vec3 nh, nb;
     const double dh = signed_distance(hull, p, q, &nh), db = signed_distance(box, p, q, &nb);
     EXPECT_NEAR(dh, db, 1e-6) << q.transpose();
-    if (std::abs(db) > 1e-3) EXPECT_NEAR(nh.dot(nb), 1.0, 1e-3) << q.transpose();
+    if (std::abs(db) > 1e-3) {
+      EXPECT_NEAR(nh.dot(nb), 1.0, 1e-3) << q.transpose();
+    }
   }
   // A random hull: outside distances = brute force over the hull's triangles.
   Collider blob = make(ShapeType::convex);
