@@ -71,6 +71,11 @@ void BodyCollisionStage::run_cloth(cloth::Cloth& cloth, double h, int threads) {
   double max_th = 0.0;
   for (const Pair& p : pairs) max_th = std::max(max_th, p.thickness);
 
+  // Edges first, so the vertex phase (continuous test + projection) has the last word: no vertex ends the
+  // step inside a collider because an edge correction pushed it there.
+  std::vector<Record> edge_records;
+  if (settings_.edges) run_edges(cloth, h, threads, edge_records);
+
   const int chunks = (n + kChunk - 1) / kChunk;
   std::vector<std::vector<Record>> records(chunks);
   struct ChunkCounts {
@@ -152,7 +157,7 @@ void BodyCollisionStage::run_cloth(cloth::Cloth& cloth, double h, int threads) {
     }
   }
 
-  std::vector<Record> all;
+  std::vector<Record> all = std::move(edge_records);
   int step_passes = 0;
   for (int ch = 0; ch < chunks; ++ch) {
     all.insert(all.end(), records[ch].begin(), records[ch].end());
@@ -163,7 +168,6 @@ void BodyCollisionStage::run_cloth(cloth::Cloth& cloth, double h, int threads) {
     max_deficit_ = std::max(max_deficit_, counts[ch].deficit);
   }
   passes_ += step_passes;
-  if (settings_.edges) run_edges(cloth, h, threads, all);
   for (const Record& r : all) {
     Collider& c = set[r.collider];
     c.reaction_impulse -= r.impulse;

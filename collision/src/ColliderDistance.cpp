@@ -204,11 +204,13 @@ double segment_box_edges_distance(const Collider& c, const Transform& pose, cons
         bis[u] = lo[u] > 0 ? 1.0 : -1.0;
         bis[v] = lo[v] > 0 ? 1.0 : -1.0;
         const Vec3 out = pose.linear() * bis.normalized();
-        Vec3 dir = on_edge - on_box;
+        const Vec3 dir = on_edge - on_box;
+        // Inside the box (the segment's closest point has negative box distance): negative, pushed out along
+        // the bisector; outside: the distance to the edge, away from it.
+        const bool inside = local_signed_distance(c.shape, nullptr, pose.inverse(Eigen::Isometry) * on_edge, nullptr) < 0.0;
         if (s) *s = cl.s;
-        if (normal) *normal = d > 0.0 && dir.dot(out) > 0.0 ? Vec3(dir / d) : out;
-        // Signed: negative when the segment's closest point is on the inner side of the edge.
-        if (d > 0.0 && dir.dot(out) <= 0.0) best = -d;
+        if (normal) *normal = !inside && d > 0.0 ? Vec3(dir / d) : out;
+        if (inside) best = -d;
         if (best < 0.0) return best;
       }
     }

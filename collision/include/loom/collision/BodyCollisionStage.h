@@ -5,7 +5,10 @@
 //      owner: a character rig, the Bullet bridge);
 //   2. broad phase: FCL's dynamic AABB tree of swept collider boxes (ColliderBroadPhase) against chunks of
 //      cloth vertices, then each vertex's swept box (x_prev -> x, inflated by the thickness);
-//   3. per vertex, up to `max_passes` passes over its candidate colliders:
+//   3. cloth edges against capsule axes (discrete and continuous) and box edges (discrete), so coarse cloth
+//      cannot slip between capsules or fold over a box edge; corrections split by inverse mass along the edge
+//      (Bridson et al. 2002, Sec. 7.1);
+//   4. per vertex, up to `max_passes` passes over its candidate colliders:
 //      - continuous: the path x_prev -> x against the moving collider (swept_point, conservative
 //        advancement: nothing tunnels); on a hit the vertex is carried with the body from the contact point
 //        to the end of the step,
@@ -14,9 +17,7 @@
 //        removed, and Coulomb friction acts on the tangential relative velocity with a static and a kinetic
 //        coefficient (Bridson, Fedkiw, Anderson 2002, "Robust treatment of collisions, contact and friction
 //        for cloth animation", Sec. 7.2: stick if |v_t| <= mu_s dv_n, else v_t *= 1 - mu_k dv_n / |v_t|);
-//   4. cloth edges against capsule axes (discrete and continuous) and box edges (discrete), so coarse cloth
-//      cannot slip between capsules or fold over a box edge; corrections split by inverse mass along the edge
-//      (Bridson et al. 2002, Sec. 7.1);
+//      The vertex phase runs last, so its postcondition (no vertex closer than the thickness) holds at the end;
 //   5. the reaction -m dv of every velocity change, and its moment about curr's origin, is added to the
 //      collider's reaction_impulse / reaction_angular_impulse.
 // Vertices are independent (colliders do not move during the stage), so the vertex phase is a parallel loop;
