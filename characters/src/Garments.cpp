@@ -88,7 +88,7 @@ int nearest_joint(const Vec3& p, const std::vector<Segment>& caps, const Capsule
   double best = std::numeric_limits<double>::infinity();
   int joint = -1;
   for (const Segment& s : caps) {
-    if (!names.empty() && !names.count(rig.bones()[s.bone].canonical)) continue;
+    if (s.bone < 0 || (!names.empty() && !names.count(rig.bones()[s.bone].canonical))) continue;
     const double d = segment_distance(p, s.a, s.b) - s.r;
     if (d < best) {
       best = d;
@@ -143,11 +143,12 @@ std::map<std::string, std::vector<int>> read_obj_groups(const std::string& path)
 }
 
 Garment make_garment(const GarmentSpec& spec, const Motion& motion, const CapsuleRig& rig, const std::string& source,
-                     const std::string& where) {
+                     const std::string& where, const cloth::Vec3s& outside) {
   if (!(spec.resolution > 0.0)) throw Error(source, where + ".resolution", "must be > 0");
   if (!(spec.clearance >= 0.0)) throw Error(source, where + ".clearance", "must be >= 0");
   std::vector<Transform> pose;
-  const std::vector<Segment> caps = segments_at_start(motion, rig, pose);
+  std::vector<Segment> caps = segments_at_start(motion, rig, pose);
+  for (const Vec3& p : outside) caps.push_back({p, p, 0.0, -1});  // earlier layers: points to clear
   auto need = [&](const std::string& canonical) {
     const int j = joint_of(rig, canonical);
     if (j < 0) throw Error(source, where, "a " + spec.type + " needs a '" + canonical + "' bone in " + motion.source());
@@ -234,7 +235,7 @@ Garment make_garment(const GarmentSpec& spec, const Motion& motion, const Capsul
     std::vector<Segment> body;
     auto within = [&](const Vec3& p) { return p.y() > bottom && p.y() < top - 0.05; };
     for (const Segment& c : caps)
-      if (set.count(rig.bones()[c.bone].canonical) || within(c.a) || within(c.b)) body.push_back(c);
+      if (c.bone < 0 || set.count(rig.bones()[c.bone].canonical) || within(c.a) || within(c.b)) body.push_back(c);
     const int trial = 96;
     std::vector<double> scale(nv, 1.0);
     for (int j = 0; j < nv; ++j) {

@@ -6,6 +6,7 @@
 #include <cmath>
 #include <fstream>
 #include <functional>
+#include <iostream>
 #include <map>
 #include <sstream>
 
@@ -139,6 +140,7 @@ TEST(Motion, InterpolatesBetweenKeys) {
 TEST(Motion, AutomaticScaleGivesHumanHeight) {
   const Motion cmu = Motion::load(loom::test::mocap("01_01.bvh"));
   const Motion box = Motion::load(loom::test::mocap("Boxing_Toes.bvh"));
+  std::cout << "scale: 01_01 " << cmu.scale() << " m/unit, Boxing_Toes " << box.scale() << " m/unit\n";
   EXPECT_NEAR(box.scale(), 0.01, 0.001);  // the file is in centimetres
   EXPECT_GT(cmu.scale(), 0.04);
   EXPECT_LT(cmu.scale(), 0.09);

@@ -70,6 +70,7 @@ void parse_character(const JsonReader& root, Scene& scene) {
   character->thickness = c.number("thickness", character->thickness, 0.0);
   if (c.has("garments")) {
     const auto garments = c.objects("garments");
+    cloth::Vec3s layers;  // m, vertices of the garments made so far
     for (size_t k = 0; k < garments.size(); ++k) {
       const JsonReader& g = garments[k];
       ch::GarmentSpec spec;
@@ -92,7 +93,9 @@ void parse_character(const JsonReader& root, Scene& scene) {
       }
       cloth::Material material = parse_material(g, file);
       const std::string model = g.string("model", "springs", cloth::model_names());
-      const ch::Garment garment = ch::make_garment(spec, character->motion, character->rig, file, g.path());
+      // Later garments are fitted outside the earlier ones (layers).
+      const ch::Garment garment = ch::make_garment(spec, character->motion, character->rig, file, g.path(), layers);
+      layers.insert(layers.end(), garment.mesh->rest_positions().begin(), garment.mesh->rest_positions().end());
       if (g.has("mass")) material.areal_density = g.number("mass", std::nullopt, 0.0, true) / garment.mesh->total_area();
       g.finish();
       character->add_garment(scene.setup, garment, name, material, model);

@@ -42,8 +42,9 @@ struct Garment {
 
 // Throws loom::Error (file = `source`, where = `where`) when the skeleton lacks a bone the garment needs,
 // an OBJ group is missing, or the mesh is invalid.
+// `outside`: points the garment must also clear (the vertices of garments made before it: layers).
 Garment make_garment(const GarmentSpec& spec, const Motion& motion, const CapsuleRig& rig,
-                     const std::string& source = "", const std::string& where = "");
+                     const std::string& source = "", const std::string& where = "", const cloth::Vec3s& outside = {});
 
 // Vertices of each `g` group's faces in an OBJ file (0-based, in file order of `v`).
 std::map<std::string, std::vector<int>> read_obj_groups(const std::string& path);
