@@ -1,5 +1,6 @@
 #include "FabricTestCommand.h"
 
+#include <cmath>
 #include <cstdio>
 #include <cstdlib>
 #include <filesystem>
@@ -19,13 +20,15 @@ namespace loom::app {
 namespace {
 
 const char* kFabricUsage =
-    "Usage: loom fabric-test {cantilever,tensile,shear,catenary} [options]\n"
+    "Usage: loom fabric-test {cantilever,tensile,shear,catenary,drape} [options]\n"
     "\n"
     "Runs a standard textile test in simulation and prints measured against theory:\n"
     "  cantilever  ASTM D1388 / FAST-2: tip chord angle against the exact elastica; bending length and rigidity\n"
     "  tensile     FAST-3: extension at 5, 20, 100 gf/cm; stretch modulus recovered at 5 gf/cm\n"
     "  shear       bias extension: shear modulus from the 45° strip's modulus\n"
     "  catenary    a 1 m strip hung at a span: sag against the analytic catenary\n"
+    "  drape       Cusick: a 30 cm disc on an 18 cm support; drape coefficient (%) and node count (no published\n"
+    "              value for these fabrics: theory and error are null; --resolution = rings, default 20)\n"
     "\n"
     "Options:\n"
     "  --material NAME       material preset (default: cotton)\n"
@@ -68,7 +71,7 @@ void write_report(const fs::path& dir, const cloth::FabricTestResult& r) {
   const std::string gp = (dir / "plot.gp").string();
   {
     std::ofstream g(gp);
-    const bool shape = r.test == "cantilever" || r.test == "catenary";
+    const bool shape = r.test == "cantilever" || r.test == "catenary" || r.test == "drape";
     g << "set terminal pngcairo size 640,480 noenhanced\nset output '" << (dir / "plot.png").string() << "'\n"
       << "set datafile separator ','\nset key bottom left\nset grid\n"
       << "set title '" << r.test << ": " << r.material << ", " << r.model << "'\n"
@@ -159,9 +162,13 @@ int fabric_test_main(int argc, char** argv) {
     j["seconds"] = r.seconds;
     std::cout << j.dump() << "\n";
   } else {
-    std::printf("%s (%s, %s, resolution %d)\n  %s: measured %.6g %s, theory %.6g %s, error %+.4g %s\n", r.test.c_str(),
-                r.material.c_str(), r.model.c_str(), r.resolution, r.quantity.c_str(), r.measured, r.unit.c_str(),
-                r.theory, r.unit.c_str(), r.error, r.unit.c_str());
+    if (std::isfinite(r.theory))
+      std::printf("%s (%s, %s, resolution %d)\n  %s: measured %.6g %s, theory %.6g %s, error %+.4g %s\n", r.test.c_str(),
+                  r.material.c_str(), r.model.c_str(), r.resolution, r.quantity.c_str(), r.measured, r.unit.c_str(),
+                  r.theory, r.unit.c_str(), r.error, r.unit.c_str());
+    else
+      std::printf("%s (%s, %s, resolution %d)\n  %s: measured %.6g %s (no theory value)\n", r.test.c_str(),
+                  r.material.c_str(), r.model.c_str(), r.resolution, r.quantity.c_str(), r.measured, r.unit.c_str());
     for (const auto& [k, v] : r.fields) std::printf("  %s = %.6g\n", k.c_str(), v);
     std::printf("  wall time %.2f s\n", r.seconds);
   }

@@ -1,7 +1,9 @@
 #include "loom/cloth/FabricTests.h"
 
 #include <chrono>
+#include <algorithm>
 #include <cmath>
+#include <limits>
 
 #include "loom/cloth/Error.h"
 #include "loom/cloth/LoadTerm.h"
@@ -321,9 +323,171 @@ FabricTestResult catenary(const FabricTestOptions& o) {
   return r;
 }
 
+// A disc of radius R in the XZ plane at y = 0, centre at the origin: a centre node and `rings` rings, ring k
+// with 6k nodes at radius kR/rings, triangulated between neighbouring rings by angle (nearly equilateral
+// triangles, no preferred direction beyond the 6-fold ring start).
+std::shared_ptr<const ClothMesh> disc_mesh(double radius, int rings) {
+  Vec3s x{Vec3::Zero()};
+  std::vector<int> first{0};  // index of each ring's first node
+  for (int k = 1; k <= rings; ++k) {
+    first.push_back(static_cast<int>(x.size()));
+    const double r = radius * k / rings;
+    for (int m = 0; m < 6 * k; ++m) {
+      const double a = 2.0 * kPi * m / (6 * k);
+      x.push_back(Vec3(r * std::cos(a), 0.0, r * std::sin(a)));
+    }
+  }
+  std::vector<Tri> tris;
+  for (int k = 1; k <= rings; ++k) {
+    const int n0 = k == 1 ? 1 : 6 * (k - 1), n1 = 6 * k;
+    auto inner = [&](int q) { return first[k - 1] + q % n0; };
+    auto outer = [&](int q) { return first[k] + q % n1; };
+    int a = 0, b = 0;
+    while (a < n0 || b < n1) {
+      // Advance the ring whose next node comes first by angle (fractions of a turn, compared exactly).
+      const bool step_outer = b < n1 && (a >= n0 || static_cast<long>(b + 1) * n0 <= static_cast<long>(a + 1) * n1);
+      if (step_outer) {
+        tris.push_back({inner(a), outer(b), outer(b + 1)});
+        ++b;
+      } else {
+        tris.push_back({inner(a), outer(b), inner(a + 1)});
+        ++a;
+      }
+      if (n0 == 1 && b >= n1) break;
+    }
+  }
+  return ClothMesh::from_triangles(std::move(x), std::move(tris), {}, "drape disc");
+}
+
+// Area (m²) of the union of the triangles projected on the XZ plane, by point sampling on a `cell` grid.
+double shadow_area(const Vec3s& x, const std::vector<Tri>& tris, double half_extent, double cell) {
+  const int n = static_cast<int>(std::ceil(2.0 * half_extent / cell));
+  std::vector<char> covered(static_cast<size_t>(n) * n, 0);
+  for (const Tri& t : tris) {
+    const Vec2 p[3] = {Vec2(x[t[0]].x(), x[t[0]].z()), Vec2(x[t[1]].x(), x[t[1]].z()), Vec2(x[t[2]].x(), x[t[2]].z())};
+    const double area2 = (p[1] - p[0]).x() * (p[2] - p[0]).y() - (p[1] - p[0]).y() * (p[2] - p[0]).x();
+    if (area2 == 0.0) continue;
+    const double lo_x = std::min({p[0].x(), p[1].x(), p[2].x()}), hi_x = std::max({p[0].x(), p[1].x(), p[2].x()});
+    const double lo_z = std::min({p[0].y(), p[1].y(), p[2].y()}), hi_z = std::max({p[0].y(), p[1].y(), p[2].y()});
+    const int i0 = std::max(0, static_cast<int>(std::floor((lo_x + half_extent) / cell)));
+    const int i1 = std::min(n - 1, static_cast<int>(std::floor((hi_x + half_extent) / cell)));
+    const int j0 = std::max(0, static_cast<int>(std::floor((lo_z + half_extent) / cell)));
+    const int j1 = std::min(n - 1, static_cast<int>(std::floor((hi_z + half_extent) / cell)));
+    for (int j = j0; j <= j1; ++j)
+      for (int i = i0; i <= i1; ++i) {
+        const Vec2 q(-half_extent + (i + 0.5) * cell, -half_extent + (j + 0.5) * cell);
+        double w[3];
+        for (int e = 0; e < 3; ++e) {
+          const Vec2 a = p[(e + 1) % 3] - q, b = p[(e + 2) % 3] - q;
+          w[e] = (a.x() * b.y() - a.y() * b.x()) / area2;
+        }
+        if (w[0] >= 0 && w[1] >= 0 && w[2] >= 0) covered[static_cast<size_t>(j) * n + i] = 1;
+      }
+  }
+  long count = 0;
+  for (char c : covered) count += c;
+  return count * cell * cell;
+}
+
+FabricTestResult drape(const FabricTestOptions& o) {
+  FabricTestResult r;
+  const double R = 0.15, r_support = 0.09;  // m: 30 cm specimen on an 18 cm support (Cusick, BS 5058)
+  const int rings = o.resolution > 0 ? o.resolution : 20;
+  auto mesh = disc_mesh(R, rings);
+  SimulationSetup s;
+  ClothSetup c;
+  c.name = "drape";
+  c.mesh = mesh;
+  c.material = o.material;
+  c.model = o.model;
+  // The support: every node on the 18 cm disc is held (the specimen is clamped between two discs).
+  const Vec3s& rest = mesh->rest_positions();
+  for (int v = 0; v < mesh->num_vertices(); ++v)
+    if (rest[v].norm() <= r_support * (1.0 + 1e-9)) c.pins.push_back(PinSpec{v, {}, {}, {}});
+  s.cloths.push_back(c);
+  s.gravity = Vec3(0, -kG, 0);
+  s.solver.method = o.solver;
+  s.substeps = 1;
+  s.threads = o.threads;
+  if (o.solver == "static") {
+    s.solver.params["iterations"] = 200;
+    s.frame_dt = 1.0;
+  } else {
+    s.frame_dt = o.settle_dt;
+    s.cloths[0].material.damping = std::max(s.cloths[0].material.damping, 0.05);
+  }
+  Simulation sim(s);
+  // Start: the skirt bent down around the support edge (a cone of 60°), with a small deterministic
+  // waviness (amplitude 1 mm at the rim, 7 waves plus 3: no preferred node count) so folds can form.
+  ClothState& st = sim.cloths()[0]->state();
+  for (int v = 0; v < st.size(); ++v) {
+    const double rr = rest[v].norm();
+    if (rr <= r_support * (1.0 + 1e-9)) continue;
+    const double a = std::atan2(rest[v].z(), rest[v].x()), t = rr - r_support;
+    const double slope = kPi / 3.0, wave = 1e-3 * (t / (R - r_support)) * (std::sin(7 * a) + 0.5 * std::sin(3 * a + 1.0));
+    const double rad = r_support + t * std::cos(slope);
+    st.x[v] = Vec3(rad * std::cos(a), -t * std::sin(slope) + wave, rad * std::sin(a));
+  }
+  st.x_prev = st.x;
+  const int frames = settle(sim, 1e-7, o);
+  // Shadow area, the disc's own (flat) area and the support area, all on the same sampling grid.
+  const double cell = 0.5e-3;
+  const double As = shadow_area(st.x, mesh->triangles(), R * 1.05, cell);
+  const double AD = shadow_area(rest, mesh->triangles(), R * 1.05, cell);
+  const double Ad = kPi * r_support * r_support;
+  // Nodes: local maxima of the rim's projected radius against angle (outermost ring), at least 3 mm above
+  // the neighbouring minima.
+  const int rim0 = 1 + 3 * (rings - 1) * rings, rim_n = 6 * rings;
+  std::vector<double> rim(rim_n);
+  for (int m = 0; m < rim_n; ++m) rim[m] = Vec2(st.x[rim0 + m].x(), st.x[rim0 + m].z()).norm();
+  int nodes = 0;
+  for (int m = 0; m < rim_n; ++m) {
+    const double here = rim[m];
+    if (!(here > rim[(m - 1 + rim_n) % rim_n] && here >= rim[(m + 1) % rim_n])) continue;
+    // Prominence: the lowest rim radius on each side before the rim rises above this peak again.
+    double drop[2] = {0.0, 0.0};
+    for (int side = 0; side < 2; ++side)
+      for (int q = 1; q < rim_n; ++q) {
+        const double other = rim[((side ? m + q : m - q) % rim_n + rim_n) % rim_n];
+        if (other > here) break;
+        drop[side] = std::max(drop[side], here - other);
+      }
+    if (std::min(drop[0], drop[1]) >= 3e-3) ++nodes;
+  }
+  double rim_min = 1e9, rim_max = 0.0, lowest = 0.0;
+  for (double v : rim) {
+    rim_min = std::min(rim_min, v);
+    rim_max = std::max(rim_max, v);
+  }
+  for (const Vec3& p : st.x) lowest = std::min(lowest, p.y());
+  for (int m = 0; m <= rim_n; ++m) {
+    const Vec3& p = st.x[rim0 + m % rim_n];
+    r.curve.emplace_back(p.x(), p.z());
+    const double a = 2.0 * kPi * m / rim_n;
+    r.theory_curve.emplace_back(R * std::cos(a), R * std::sin(a));  // the flat specimen's outline
+  }
+  r.quantity = "drape coefficient";
+  r.unit = "%";
+  r.measured = (As - Ad) / (AD - Ad) * 100.0;
+  r.theory = std::numeric_limits<double>::quiet_NaN();  // no published DC for these fabrics (REFERENCES §3.3)
+  r.error = std::numeric_limits<double>::quiet_NaN();
+  r.fields = {{"nodes", nodes},
+              {"shadow_area_m2", As},
+              {"specimen_area_m2", AD},
+              {"support_area_m2", Ad},
+              {"rim_radius_min_m", rim_min},
+              {"rim_radius_max_m", rim_max},
+              {"lowest_point_m", lowest},
+              {"bending_length_m", std::cbrt(0.5 * (o.material.bend_weft + o.material.bend_warp) / (o.material.areal_density * kG))},
+              {"frames", frames},
+              {"vertices", mesh->num_vertices()}};
+  r.resolution = rings;
+  return r;
+}
+
 }  // namespace
 
-std::vector<std::string> fabric_test_names() { return {"cantilever", "tensile", "shear", "catenary"}; }
+std::vector<std::string> fabric_test_names() { return {"cantilever", "tensile", "shear", "catenary", "drape"}; }
 
 FabricTestResult run_fabric_test(const FabricTestOptions& o) {
   if (o.resolution != 0 && (o.resolution < 5 || o.resolution > 2000))
@@ -339,8 +503,10 @@ FabricTestResult run_fabric_test(const FabricTestOptions& o) {
     r = shear(o);
   } else if (o.test == "catenary") {
     r = catenary(o);
+  } else if (o.test == "drape") {
+    r = drape(o);
   } else {
-    throw Error("", "test", "unknown fabric test '" + o.test + "' (known: cantilever, tensile, shear, catenary)");
+    throw Error("", "test", "unknown fabric test '" + o.test + "' (known: cantilever, tensile, shear, catenary, drape)");
   }
   r.test = o.test;
   r.material = o.material.name;

@@ -14,12 +14,21 @@
 //    curve at every resolution, and the energy the linear branch leaves out is the fraction (κ0/κ)²/2
 //    whatever L is. (A fixed ε*, as in Blender, makes fine meshes fall back to the linear branch: the
 //    compression of an ordinary fold, κ²L²/24, shrinks with L² — methods.md §1.6.)
+// Stretch compensation [derived]: the arc model needs the chord l and the arc length; Choi-Ko takes the
+// arc length as the rest length L. A membrane stretched by z (tension from gravity, a pull) lengthens the
+// chord by (1 + z) and so hides compressions below z: because f_b(L⁻) = -12 k_b/L² is finite, a strip in
+// bending then stretches its sequential springs by ~B/(Y L²) instead of compressing its interlaced ones
+// (fine meshes lose the bending response). So the interlaced spring sees the effective length
+// l_eff = l / (1 + φ(P/P0 - 1)), P the current path length through the middle cloth, with φ(z) = z for
+// z >= z0, 0 for z <= 0 and 2z²/z0 - z³/z0² between (C¹, φ(z) <= z). Compression (z < 0) is not
+// compensated: in-plane compression stays resisted by the buckling force, as in Choi-Ko.
 // Tension T(l) = dE/dl; the force on end i is T x̂. Jacobian: (dT/dl) x̂x̂ᵀ + (T/l)(I - x̂x̂ᵀ); with
 // JacobianOptions::clamp_compression the transverse part of compressed springs is dropped (Choi-Ko), which
 // keeps M - h²K positive definite since dT/dl >= 0 everywhere.
 #include <memory>
 
 #include "loom/cloth/ClothMesh.h"
+#include "loom/cloth/ElementGather.h"
 #include "loom/cloth/Material.h"
 #include "loom/cloth/PairGather.h"
 #include "loom/cloth/SpringTerm.h"
@@ -42,6 +51,11 @@ struct BucklingSpring {
   int i = 0, j = 0;
   double rest_length = 0.0;  // m
   double kb = 0.0;           // N·m, bending stiffness of the arc (energy k_b/2 ∫κ² ds)
+  // The cloth between i and j: the middle node on grids (a = b), the hinge edge's ends on meshes; -1: none.
+  // Stretch compensation: the chord is compared with the rest length scaled by the stretch of the path
+  // i -> a -> j, i -> b -> j (see ChoiKoTerm), so that a stretched membrane does not hide a bend.
+  int a = -1, b = -1;
+  double path_rest = 0.0;    // m, rest length of that path, ½ (|ia| + |aj| + |ib| + |bj|)
   // Filled by ChoiKoTerm from the crossover curvature:
   double cb = 0.0;           // N/m, slope of the linear branch
   double l_star = 0.0;       // m, where the linear branch meets the curve
@@ -53,7 +67,8 @@ class ChoiKoTerm final : public Term {
   // `crossover_curvature` κ0 (1/m): bends gentler than this use the linear branch (see above). Larger κ0
   // softens the linear branch (c_b ∝ 1/(κ0² L⁵)) at the price of more energy left out of gentle bends.
   ChoiKoTerm(int num_vertices, std::vector<Spring> sequential, std::vector<BucklingSpring> interlaced,
-             double crossover_curvature = 4.0);
+             double crossover_curvature = 4.0, double compensation_strain = 1e-5,
+             std::vector<double> sequential_kb = {});
   const char* name() const override { return "choi_ko"; }
   double energy(const EvalContext& c) const override;
   void add_forces(const EvalContext& c, Vec3s& f) const override;
@@ -64,7 +79,7 @@ class ChoiKoTerm final : public Term {
 
   const std::vector<Spring>& sequential() const { return sequential_; }
   const std::vector<BucklingSpring>& interlaced() const { return interlaced_; }
-  // Tension T(l) (N) and dT/dl (N/m) of interlaced spring s at length l.
+  // Tension T(l) (N) and dT/dl (N/m) of interlaced spring s at (effective) length l.
   double interlaced_tension(const BucklingSpring& s, double l) const;
   double interlaced_stiffness(const BucklingSpring& s, double l) const;
   double interlaced_energy(const BucklingSpring& s, double l) const;
@@ -72,8 +87,17 @@ class ChoiKoTerm final : public Term {
  private:
   std::vector<Spring> sequential_;
   std::vector<BucklingSpring> interlaced_;
-  PairGather gather_seq_, gather_int_;
-  mutable Vec3s seq_force_, int_force_;
+  double z0_ = 1e-5;  // φ's transition strain
+  // Compression of sequential springs (empty: tension only): the same buckled-arc response as the
+  // interlaced springs, with k_b for the spring's own length (see make_choi_ko_term).
+  std::vector<BucklingSpring> seq_buckle_;
+  void set_crossover(std::vector<BucklingSpring>& springs, double crossover_curvature) const;
+  double sequential_tension(int k, double l) const;
+  // Effective length l_eff of interlaced spring s and its gradient w.r.t. (x_i, x_j, x_a, x_b).
+  double effective_length(const BucklingSpring& s, const Vec3s& x, Vec3* grad) const;
+  PairGather gather_seq_;
+  ElementGather gather_int_;
+  mutable Vec3s seq_force_, int_force_;  // int_force_: 4 corners per interlaced spring
 };
 
 // The Choi-Ko model of a mesh and material: sequential springs from the mesh's structural/shear (grid) or
@@ -81,6 +105,12 @@ class ChoiKoTerm final : public Term {
 // rigidity so that the bending response does not depend on resolution:
 //   grid (warp, weft, both diagonals at every node): k_b = (2/3) B(φ) du dv / L
 //   mesh (hinge pairs, three directions per vertex): k_b = (8/3) B(φ) A_e / L, A_e = (A1 + A2) / 3
+// Sequential springs under compression [deviation from the tension-only type 1 of methods.md §1.6]: a
+// compressed sequential spring acts as a buckled arc of its own length (the circular-arc force with
+// k_b = B(φ) A_e / L, A_e its area share), i.e. it yields at the sub-grid Euler load instead of carrying
+// linear compression. Purely tension-only springs leave the middle node of every interlaced pair free to
+// slide along the line under compression (a zero-energy mode): measured on a 41-node strip shortened by
+// 5%, single sequential springs collapsed by 44-70%.
 // Both follow from matching Σ ½ k_b L κ_n² (κ_n = κ cos²θ, Euler) to ½ B κ² per area for every bend direction.
 std::unique_ptr<ChoiKoTerm> make_choi_ko_term(const ClothMesh& mesh, const Material& material);
 
