@@ -60,8 +60,8 @@ std::vector<std::string> canonical_joint_names(const Motion& motion) {
 }
 
 const std::map<std::string, double>& default_bone_radii() {
-  // m, for a 1.7 m adult; loosely after anthropometric limb circumferences (Winter, "Biomechanics and motor
-  // control of human movement", segment tables), rounded to cm-level capsules.
+  // m, for a 1.7 m adult: hand-chosen round values (not fitted to an anthropometric data set); override
+  // them per bone with the scene's `character.radii`.
   static const std::map<std::string, double> m = {
       {"Hips", 0.11},         {"LowerBack", 0.11},    {"Spine", 0.115},      {"Spine1", 0.12},
       {"Chest", 0.12},        {"Neck", 0.07},         {"Neck1", 0.055},      {"Head", 0.095},
