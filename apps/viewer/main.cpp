@@ -1,8 +1,10 @@
 // loom-view [SCENE] [--set PATH=VALUE ...] [--frames N --screenshot FILE.png]
 // Interactive viewer (GLFW + Dear ImGui, OpenGL 2.1): play/pause/step, solver and substeps (applied by
-// restarting), per-stage timings of the last frame, orbit camera (left-drag), zoom (wheel). Drawing is the
-// offscreen renderer's (apps/render/src/gl/Draw.cpp). With --frames N --screenshot FILE it plays N frames,
-// saves the window to FILE and exits (the Xvfb test uses this).
+// restarting), on/off toggles for the scene's effects and sliders for each cloth's material (applied live
+// by rebuilding, LiveScene.h), per-stage timings of the last frame, colliders at their current poses,
+// orbit camera (left-drag), zoom (wheel), drag a cloth vertex (right-drag). Drawing is the offscreen
+// renderer's (apps/render/src/gl/Draw.cpp). With --frames N --screenshot FILE it plays N frames, saves
+// the window to FILE and exits (the Xvfb test uses this).
 #include <GLFW/glfw3.h>
 #include <imgui.h>
 #include <backends/imgui_impl_glfw.h>
@@ -19,6 +21,8 @@
 #include <string>
 #include <vector>
 
+#include "LiveScene.h"
+#include "gl/ColliderShapes.h"
 #include "gl/Draw.h"
 #include "loom/cloth/Error.h"
 #include "loom/cloth/Solver.h"
@@ -28,6 +32,24 @@ namespace {
 
 using namespace loom;
 using cloth::Vec3;
+
+// The ray from the camera through window point (mx, my) (screen coordinates, y down): unit direction.
+Vec3 pick_ray(const render::Camera& cam, double aspect, double mx, double my, int win_w, int win_h) {
+  const Vec3 f = (cam.target - cam.eye).normalized();
+  const Vec3 s = f.cross(Vec3(0, 1, 0)).normalized(), u = s.cross(f);
+  const double tan_y = std::tan(0.5 * cam.fov_deg * render::gl::kPi / 180.0);
+  const double nx = 2.0 * mx / win_w - 1.0, ny = 1.0 - 2.0 * my / win_h;
+  return (f + nx * tan_y * aspect * s + ny * tan_y * u).normalized();
+}
+
+// One slider on a log scale for a positive material value; true when changed.
+bool log_slider(const char* label, double& value, double lo, double hi) {
+  float v = static_cast<float>(value);
+  if (!ImGui::SliderFloat(label, &v, static_cast<float>(lo), static_cast<float>(hi), "%.3g", ImGuiSliderFlags_Logarithmic))
+    return false;
+  value = v;
+  return true;
+}
 
 std::vector<render::RenderMesh> meshes_of(const cloth::Simulation& sim) {
   static const Vec3 kColors[] = {{0.80, 0.22, 0.18}, {0.20, 0.42, 0.75}, {0.90, 0.68, 0.20}, {0.30, 0.62, 0.35}};
@@ -51,7 +73,7 @@ struct Options {
 
 int run(const Options& o) {
   scene::Scene sc = scene::load_scene(o.scene, o.sets);
-  auto sim = std::make_unique<cloth::Simulation>(sc.setup, o.scene);
+  viewer::LiveScene live(sc);
 
   if (!glfwInit()) throw Error("", "loom-view", "cannot initialise GLFW (no display? try xvfb-run)");
   glfwWindowHint(GLFW_CONTEXT_VERSION_MAJOR, 2);
@@ -65,15 +87,17 @@ int run(const Options& o) {
   ImGui_ImplGlfw_InitForOpenGL(win, true);
   ImGui_ImplOpenGL2_Init();
 
-  std::vector<render::RenderMesh> meshes = meshes_of(*sim);
+  std::vector<render::RenderMesh> meshes = meshes_of(live.sim());
   const render::gl::Textures tex = render::gl::create_textures();
   // Frame the start state, extended downwards by its size (cloth falls and hangs).
   render::Bounds b;
-  for (const auto& c : sim->cloths())
+  for (const auto& c : live.sim().cloths())
     for (const Vec3& p : c->state().x) b.add(p);
   const double size = (b.hi - b.lo).norm();
   b.add(Vec3(b.lo.x(), b.lo.y() - 0.8 * size, b.lo.z()));
-  const double ground = render::ground_height(b);
+  render::gl::add_collider_bounds(b, live.colliders());
+  const double ground = render::gl::ground_plane(live.colliders()).value_or(render::ground_height(b));
+  render::gl::ColliderShapes collider_shapes;
   const Vec3 center = 0.5 * (b.lo + b.hi);
   const render::Camera cam0 = render::auto_camera(b, 960.0 / 720.0);
   double yaw = std::atan2(cam0.eye.x() - center.x(), cam0.eye.z() - center.z()), pitch = 0.4;
@@ -84,10 +108,12 @@ int run(const Options& o) {
   for (size_t i = 0; i < solvers.size(); ++i)
     if (solvers[i] == sc.setup.solver.method) solver = static_cast<int>(i);
   int substeps = sc.setup.substeps;
+  std::string error;  // the last rejected edit, shown until the next one
   bool playing = o.frames >= 0, step = false;
   cloth::FrameStats last;
   int played = 0;
   double last_x = 0, last_y = 0;
+  bool right_was_down = false;
 
   while (!glfwWindowShouldClose(win)) {
     glfwPollEvents();
@@ -97,6 +123,7 @@ int run(const Options& o) {
 
     ImGui::SetNextWindowPos(ImVec2(10, 10), ImGuiCond_Once);
     ImGui::Begin("loom", nullptr, ImGuiWindowFlags_AlwaysAutoResize);
+    cloth::Simulation* sim = &live.sim();
     ImGui::Text("%s  t = %.3f s  frame %d", sc.name.c_str(), sim->time(), sim->frame());
     if (ImGui::Button(playing ? "pause" : "play")) playing = !playing;
     ImGui::SameLine();
@@ -108,6 +135,40 @@ int run(const Options& o) {
     restart |= ImGui::Combo("solver", &solver, names.data(), static_cast<int>(names.size()));
     restart |= ImGui::SliderInt("substeps", &substeps, 1, 400);
     ImGui::Text("time step %.3g ms", 1e3 * sc.setup.frame_dt / substeps);
+    // Effects the scene names, on/off; materials per cloth. Both rebuild the run in place.
+    bool rebuild = false;
+    viewer::Effects& on = live.enabled();
+    const viewer::Effects& has = live.available();
+    if (has.drag || has.strain_limit || has.tethers || has.colliders || has.self_collision || has.character) {
+      ImGui::Separator();
+      ImGui::Text("effects");
+      if (has.drag) rebuild |= ImGui::Checkbox("drag / wind", &on.drag);
+      if (has.strain_limit) rebuild |= ImGui::Checkbox("strain limit", &on.strain_limit);
+      if (has.tethers) rebuild |= ImGui::Checkbox("tethers", &on.tethers);
+      if (has.colliders) rebuild |= ImGui::Checkbox("colliders (body collision)", &on.colliders);
+      if (has.self_collision) rebuild |= ImGui::Checkbox("self collision", &on.self_collision);
+      if (has.character) rebuild |= ImGui::Checkbox("character", &on.character);
+    }
+    for (size_t c = 0; c < live.materials().size(); ++c) {
+      cloth::Material& m = live.materials()[c];
+      ImGui::PushID(static_cast<int>(c));
+      if (ImGui::CollapsingHeader(("material: " + sim->cloths()[c]->name()).c_str())) {
+        double stretch = 0.5 * (m.stretch_weft + m.stretch_warp), bend = 0.5 * (m.bend_weft + m.bend_warp);
+        if (log_slider("stretch N/m", stretch, 10.0, 1e6)) {  // keeps the weft/warp ratio
+          const double k = stretch / (0.5 * (m.stretch_weft + m.stretch_warp));
+          m.stretch_weft *= k, m.stretch_warp *= k, rebuild = true;
+        }
+        rebuild |= log_slider("shear N/m", m.shear, 1.0, 1e5);
+        if (log_slider("bend N m", bend, 1e-8, 1e-2)) {
+          const double k = bend / (0.5 * (m.bend_weft + m.bend_warp));
+          m.bend_weft *= k, m.bend_warp *= k, rebuild = true;
+        }
+        rebuild |= log_slider("damping s", m.damping, 1e-7, 1e-2);
+        rebuild |= log_slider("density kg/m2", m.areal_density, 0.01, 2.0);
+      }
+      ImGui::PopID();
+    }
+    if (!error.empty()) ImGui::TextColored(ImVec4(1, 0.4f, 0.3f, 1), "%s", error.c_str());
     ImGui::Separator();
     ImGui::Text("last frame: %.3f ms", last.total_ms);
     const std::vector<std::string> stages = sim->stage_names();
@@ -115,22 +176,40 @@ int run(const Options& o) {
       ImGui::Text("  %-18s %8.3f ms", stages[i].c_str(), last.stage_ms[i]);
     ImGui::Text("kinetic %.4g J  max strain %.3g", last.kinetic, last.max_strain);
     ImGui::End();
-    if (restart) {
-      cloth::SimulationSetup setup = sc.setup;
-      setup.solver.method = solvers[solver];
-      setup.substeps = substeps;
+    if (restart || rebuild) {
+      live.solver() = solvers[solver];
+      live.substeps() = substeps;
       try {
-        auto fresh = std::make_unique<cloth::Simulation>(setup, o.scene);
-        sim = std::move(fresh);
-        last = cloth::FrameStats{};
+        restart ? live.restart() : live.rebuild();
+        if (restart) last = cloth::FrameStats{};
+        error.clear();
       } catch (const std::exception& e) {
+        error = e.what();
         std::cerr << "loom-view: " << e.what() << "\n";
       }
     }
 
-    // Orbit and zoom with the mouse when ImGui does not want it.
+    int w, h, ww, wh;
+    glfwGetFramebufferSize(win, &w, &h);
+    glfwGetWindowSize(win, &ww, &wh);
+    render::Camera cam;
+    cam.target = center;
+    cam.eye = center + dist * Vec3(std::sin(yaw) * std::cos(pitch), std::sin(pitch), std::cos(yaw) * std::cos(pitch));
+    cam.fov_deg = cam0.fov_deg;
+    const double aspect = h > 0 ? double(w) / h : 1.0;
+
+    // Orbit and zoom with the mouse when ImGui does not want it; right button: drag a cloth vertex, held at
+    // its picked depth along the mouse ray.
     double mx, my;
     glfwGetCursorPos(win, &mx, &my);
+    const bool right = glfwGetMouseButton(win, GLFW_MOUSE_BUTTON_RIGHT) == GLFW_PRESS;
+    if (!right && live.grabbed()) live.release();
+    if (right && ww > 0 && wh > 0) {
+      const Vec3 ray = pick_ray(cam, aspect, mx, my, ww, wh);
+      if (!live.grabbed() && !ImGui::GetIO().WantCaptureMouse && !right_was_down) live.grab(cam.eye, ray);
+      if (live.grabbed()) live.drag_to(cam.eye + live.grabbed()->distance * ray);
+    }
+    right_was_down = right;
     if (!ImGui::GetIO().WantCaptureMouse) {
       if (glfwGetMouseButton(win, GLFW_MOUSE_BUTTON_LEFT) == GLFW_PRESS) {
         yaw -= 0.01 * (mx - last_x);
@@ -142,28 +221,25 @@ int run(const Options& o) {
     last_y = my;
 
     if (playing || step) {
-      last = sim->step_frame();
+      last = live.step_frame();
       ++played;
       step = false;
       if (!last.finite) playing = false;
     }
 
-    int w, h;
-    glfwGetFramebufferSize(win, &w, &h);
     render::gl::DrawParams p;
-    p.camera.target = center;
-    p.camera.eye = center + dist * Vec3(std::sin(yaw) * std::cos(pitch), std::sin(pitch), std::cos(yaw) * std::cos(pitch));
-    p.camera.fov_deg = cam0.fov_deg;
-    p.aspect = h > 0 ? double(w) / h : 1.0;
+    p.camera = cam;
+    p.aspect = aspect;
     p.ground = ground;
     p.extent = size;
     p.center = center;
     p.viewport_w = w;
     p.viewport_h = h;
     std::vector<const cloth::Vec3s*> x;
-    for (const auto& c : sim->cloths()) x.push_back(&c->state().x);
+    for (const auto& c : live.sim().cloths()) x.push_back(&c->state().x);
+    collider_shapes.update(live.colliders(), 6.0 * size);
     glClear(GL_STENCIL_BUFFER_BIT);
-    render::gl::draw_scene(p, tex, meshes, x);
+    render::gl::draw_scene(p, tex, meshes, x, collider_shapes.posed(live.colliders()));
     ImGui::Render();
     ImGui_ImplOpenGL2_RenderDrawData(ImGui::GetDrawData());
 

@@ -3,6 +3,10 @@
 // front of it hides it, and a horizontal plane collider becomes the ground.
 #include <gtest/gtest.h>
 
+#include <stb_image.h>
+
+#include <cstdlib>
+#include <filesystem>
 #include <memory>
 
 #include "loom/cloth/ClothMesh.h"
@@ -107,6 +111,24 @@ TEST(RenderColliders, ClothInFrontHidesTheColliderAndAGroundPlaneMovesTheGround)
   // The ground plane collider itself is not drawn as a collider: below the ball, the ground's grey.
   const Vec2 floor = sc.r->project(Vec3(0.8, 0.3, 0.8));
   EXPECT_FALSE(is_collider(img.at(int(floor.x()), int(floor.y()))));
+}
+
+// End to end: `loom run --render` on a scene with a sphere collider shows it in the frames.
+TEST(RenderColliders, LoomRunRenderShowsTheScenesColliders) {
+  namespace fs = std::filesystem;
+  const fs::path out = fs::temp_directory_path() / "loom_render_tests" / "colliders";
+  fs::remove_all(out);
+  const std::string cmd = std::string(LOOM_BINARY) + " run " + LOOM_SOURCE_DIR +
+                          "/scenes/sphere_spin.json --frames 2 --render --out " + out.string() +
+                          " --set cloths.0.mesh.nodes=[9,9] --set 'output={\"formats\": [], \"render\": {\"width\": 160, \"height\": 120}}' >/dev/null 2>&1";
+  ASSERT_EQ(std::system(cmd.c_str()), 0) << cmd;
+  int w = 0, h = 0, n = 0;
+  unsigned char* data = stbi_load((out / "render" / "frame_00002.png").string().c_str(), &w, &h, &n, 3);
+  ASSERT_NE(data, nullptr);
+  int collider = 0;
+  for (int i = 0; i < w * h; ++i) collider += is_collider({data[3 * i], data[3 * i + 1], data[3 * i + 2]});
+  stbi_image_free(data);
+  EXPECT_GT(collider, w * h / 100);
 }
 
 }  // namespace

@@ -16,9 +16,9 @@ namespace {
 
 using cloth::Vec3;
 
-scene::Scene small_scene() {
+scene::Scene small_scene(const std::string& solver = "symplectic_euler", int substeps = 20) {
   return scene::load_scene(std::string(LOOM_SOURCE_DIR) + "/scenes/hanging_cloth.json",
-                           {"cloths.0.mesh.nodes=[9, 9]", "solver.substeps=20",
+                           {"cloths.0.mesh.nodes=[9, 9]", "solver.method=" + solver, "solver.substeps=" + std::to_string(substeps),
                             "effects={\"drag\": {\"isotropic\": 0.5}}",
                             "constraints={\"strain_limit\": {\"max_stretch\": 0.1}, \"tethers\": {\"slack\": 0.0}}"});
 }
@@ -92,8 +92,11 @@ TEST(LiveScene, MaterialEditsRebuildTheClothAndBadEditsKeepTheRun) {
   EXPECT_EQ(live.sim().frame(), 4);
 }
 
-TEST(LiveScene, PickedVertexIsTheOneUnderTheRayAndFollowsTheTarget) {
-  LiveScene live(small_scene());
+class LiveSceneDrag : public ::testing::TestWithParam<const char*> {};
+
+// Explicit and implicit integrators both honour the kinematic contract for the grabbed vertex.
+TEST_P(LiveSceneDrag, PickedVertexIsTheOneUnderTheRayAndFollowsTheTarget) {
+  LiveScene live(small_scene(GetParam(), std::string(GetParam()) == "symplectic_euler" ? 20 : 2));
   const cloth::ClothState& s0 = live.sim().cloths()[0]->state();
   // The free corner far from the pinned edge: the vertex with the largest x + z among free vertices.
   int corner = -1;
@@ -127,6 +130,8 @@ TEST(LiveScene, PickedVertexIsTheOneUnderTheRayAndFollowsTheTarget) {
   const Vec3 q = live.sim().cloths()[0]->state().x[pinned];
   EXPECT_FALSE(live.grab(q + Vec3(0.001, 1.0, 0.001), Vec3(0, -1, 0)));
 }
+
+INSTANTIATE_TEST_SUITE_P(Solvers, LiveSceneDrag, ::testing::Values("symplectic_euler", "implicit_euler"));
 
 }  // namespace
 }  // namespace loom::viewer

@@ -34,4 +34,26 @@ TEST(Viewer, XvfbRunsHundredFramesAndScreenshotShowsCloth) {
   EXPECT_GT(cloth, w * h / 40) << "the screenshot shows too little cloth";
 }
 
+// A scene with colliders: the screenshot shows the sphere collider (slate-teal) under the draped cloth.
+TEST(Viewer, XvfbScreenshotShowsColliders) {
+  const fs::path dir = fs::temp_directory_path() / "loom_viewer_tests";
+  fs::create_directories(dir);
+  const fs::path shot = dir / "colliders.png";
+  fs::remove(shot);
+  const std::string cmd = std::string("xvfb-run -a -s '-screen 0 1024x768x24' ") + LOOM_VIEW_BINARY + " " + LOOM_SOURCE_DIR +
+                          "/scenes/sphere_spin.json --set cloths.0.mesh.nodes=[17,17] --frames 20 --screenshot " +
+                          shot.string() + " > " + (dir / "log_colliders.txt").string() + " 2>&1";
+  ASSERT_EQ(std::system(cmd.c_str()), 0) << cmd;
+  int w = 0, h = 0, n = 0;
+  unsigned char* px = stbi_load(shot.string().c_str(), &w, &h, &n, 3);
+  ASSERT_NE(px, nullptr);
+  int collider = 0;
+  for (int i = 0; i < w * h; ++i) {
+    const int r = px[3 * i], g = px[3 * i + 1], b = px[3 * i + 2];
+    collider += g > 1.4 * r && b > 1.3 * r && std::abs(g - b) < 30;
+  }
+  stbi_image_free(px);
+  EXPECT_GT(collider, w * h / 200) << "the screenshot shows too little of the sphere collider";
+}
+
 }  // namespace
