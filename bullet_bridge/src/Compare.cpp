@@ -169,7 +169,7 @@ SystemMetrics run_bullet_twin(const CompareInput& in, TwinKind kind) {
   m.system = system_name(kind);
   if (kind == TwinKind::kDeformable && !in.bodies.empty()) {
     m.available = false;
-    m.note = "not run: the deformable twin is not coupled to rigid bodies here (reference/bullet.md §3: it produced "
+    m.note = "the deformable twin is not coupled to rigid bodies here (reference/bullet.md §3: it produced "
              "NaN nodes against a rigid sphere)";
     return m;
   }
