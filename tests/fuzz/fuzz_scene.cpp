@@ -1,6 +1,6 @@
 // libFuzzer target: the scene parser (JSON text -> loom::scene::parse_scene), issue 8. Any input must either
 // parse or throw loom::Error; any other exception, crash or sanitizer report is a bug.
-// The harness keeps the run bounded: mesh "path" values are replaced by a missing file (the OBJ loader has its
+// The harness keeps the run bounded: mesh "path" and character "bvh" values are replaced by a missing file (the OBJ loader has its
 // own target) and grids above 64x64 nodes are skipped (a valid large grid is slow, not wrong).
 #include <cstddef>
 #include <cstdint>
@@ -16,7 +16,8 @@ namespace {
 bool tame(nlohmann::json& j) {
   if (j.is_object()) {
     for (auto it = j.begin(); it != j.end(); ++it) {
-      if (it.key() == "path" && it.value().is_string()) it.value() = "/nonexistent/loom_fuzz.obj";
+      // Files named by the scene (meshes, motion clips) could be anything on this machine: never opened.
+      if ((it.key() == "path" || it.key() == "bvh") && it.value().is_string()) it.value() = "/nonexistent/loom_fuzz.obj";
       if (it.key() == "nodes" && it.value().is_array())
         for (const auto& n : it.value())
           if (n.is_number() && n.get<double>() > 64) return false;
