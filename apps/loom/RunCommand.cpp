@@ -23,6 +23,7 @@
 #ifdef LOOM_HAVE_RENDER
 #include "loom/render/RenderRun.h"
 #endif
+#include "loom/collision/MultiClothCensus.h"
 #include "loom/scene/Build.h"
 #include "loom/scene/Scene.h"
 
@@ -34,11 +35,11 @@ namespace {
 
 constexpr const char* kDefaultScene = "hanging_cloth.json";
 
-void write_obj(const fs::path& path, const std::vector<std::unique_ptr<cloth::Cloth>>& cloths) {
 // Ctrl-C (SIGINT): the run stops at the next frame boundary, writes a checkpoint and valid outputs (issue 8).
 volatile std::sig_atomic_t g_interrupted = 0;
 extern "C" void on_sigint(int) { g_interrupted = 1; }
 
+void write_obj(const fs::path& path, const std::vector<std::unique_ptr<cloth::Cloth>>& cloths) {
   std::ofstream out(path);
   if (!out) throw Error(path.string(), "", "cannot write frame");
   out << std::setprecision(9);
@@ -108,7 +109,6 @@ std::string default_scene_path() {
 
 int run_command(const RunOptions& options) {
   const auto wall_start = std::chrono::steady_clock::now();
-  const std::string scene_path = o.scene.empty() ? default_scene_path() : o.scene;
   RunOptions o = options;
   std::optional<Checkpoint> resume;  // --resume DIR: the run's options and state come from DIR/checkpoint
   if (!o.resume.empty()) {
@@ -123,12 +123,24 @@ int run_command(const RunOptions& options) {
     if (read_text_file(o.scene) != resume->scene_text)
       throw Error(o.scene, "--resume", "the scene file changed since the checkpoint was written");
   }
+  const std::string scene_path = o.scene.empty() ? default_scene_path() : o.scene;
   scene::Scene sc = scene::load_scene(scene_path, o.sets);
   if (o.threads > 0) sc.setup.threads = o.threads;
   const int frames = o.frames >= 0 ? o.frames : sc.frames;
   collision::ColliderSetPtr census_colliders;  // --census: the simulation's colliders, for max_penetration
   const std::unique_ptr<cloth::Simulation> sim_ptr = scene::build_simulation(sc, &census_colliders);  // validates before any output
   cloth::Simulation& sim = *sim_ptr;
+  // --census (issue 5): exact count of intersecting triangle pairs (self, non-adjacent, and between cloths)
+  // and the deepest vertex inside a collider, after every frame; summary.json gets the largest of each.
+  long census_intersections = 0;
+  double census_penetration = 0.0;
+  auto run_census = [&] {
+    if (!o.census) return;
+    std::vector<collision::CensusInput> in;
+    for (const auto& c : sim.cloths()) in.push_back({&c->mesh(), &c->state().x});
+    census_intersections = std::max(census_intersections, collision::count_all_intersections(in, sc.setup.threads));
+    if (census_colliders) census_penetration = std::max(census_penetration, collision::max_penetration(in, *census_colliders));
+  };
 
   // Output folder: our files from an earlier run are removed first, so nothing stale passes for new.
   const fs::path out = o.out.empty() ? fs::path("out") / sc.name : fs::path(o.out);
@@ -143,6 +155,9 @@ int run_command(const RunOptions& options) {
     fs::remove(probe);
   }
   fs::remove(out / "summary.json");
+  // On --resume, the stats rows and OBJ frames up to the checkpoint's frame are kept, later ones dropped.
+  const int first = resume ? resume->frame : 0;
+  std::string kept_rows = resume ? kept_stats_rows(out, first) : "";
   fs::remove(out / "stats.csv");
   for (const auto& entry : fs::directory_iterator(out / "frames"))
     if (entry.path().extension() == ".obj" && entry.path().filename().string().rfind("frame_", 0) == 0 &&
@@ -158,10 +173,8 @@ int run_command(const RunOptions& options) {
   csv << "frame,time,kinetic_energy,potential_energy,elastic_energy,max_strain,mean_strain,ms_total";
   for (const auto& n : stage_names) csv << ",ms_" << n;
   csv << "\n";
+  csv << kept_rows;
   auto write_row = [&](const cloth::FrameStats& s) {
-  // On --resume, the stats rows and OBJ frames up to the checkpoint's frame are kept, later ones dropped.
-  const int first = resume ? resume->frame : 0;
-  std::string kept_rows = resume ? kept_stats_rows(out, first) : "";
     csv << s.frame << ',' << s.time << ',' << s.kinetic << ',' << s.potential << ',' << s.elastic << ','
         << s.max_strain << ',' << s.mean_strain << ',' << s.total_ms;
     for (double ms : s.stage_ms) csv << ',' << ms;
@@ -174,7 +187,6 @@ int run_command(const RunOptions& options) {
   };
 
   // output.formats: "obj" below (with output.frames), "pc2" and "gltf" through loom::export.
-  csv << kept_rows;
   const bool obj = sc.output.frames && std::find(sc.output.formats.begin(), sc.output.formats.end(), "obj") != sc.output.formats.end();
   exporter::Exporters exports(out.string(), sc.output.formats, sim.cloths(), sc.output.every);
 #ifdef LOOM_HAVE_RENDER
@@ -216,6 +228,7 @@ int run_command(const RunOptions& options) {
     finite = s0.finite;
     if (finite) {  // NaN is never written (issue 8)
       write_row(s0);
+      run_census();
       if (obj) write_obj(frame_path(0), sim.cloths());
       keep_frame(true, true);
     }
@@ -264,6 +277,7 @@ int run_command(const RunOptions& options) {
       break;
     }
     write_row(s);
+    run_census();
     if (obj && f % sc.output.every == 0) write_obj(frame_path(f), sim.cloths());
     max_strain = std::max(max_strain, s.max_strain);
     mean_strain_sum += s.mean_strain;
@@ -276,6 +290,9 @@ int run_command(const RunOptions& options) {
     if (o.checkpoint_every > 0 && f % o.checkpoint_every == 0 && f < frames) save_checkpoint();
     bar.update(done - first, sim_ms / std::max(1, done - first));
   }
+  if (g_interrupted) interrupted = done < frames;
+  std::signal(SIGINT, old_handler);
+  if (interrupted) save_checkpoint();
   bar.finish();
   exports.finish();
   nlohmann::ordered_json render_summary;
@@ -291,9 +308,6 @@ int run_command(const RunOptions& options) {
     std::cout << "loom: rendered " << rep.frames << " frames (" << std::fixed << std::setprecision(1) << rep.ms_per_frame
               << " ms/frame) -> " << (out / "render").string() << "/, " << rep.mp4 << ", " << rep.gif << "\n";
   }
-  if (g_interrupted) interrupted = done < frames;
-  std::signal(SIGINT, old_handler);
-  if (interrupted) save_checkpoint();
 #endif
   csv.close();
   if (!csv) throw Error(stats_partial.string(), "", "write failed");
@@ -319,6 +333,15 @@ int run_command(const RunOptions& options) {
   j["max_strain"] = max_strain;
   j["mean_strain"] = done ? mean_strain_sum / done : 0.0;
   j["finite"] = finite;
+  if (o.census) {
+    j["intersections"] = census_intersections;
+    j["max_penetration"] = census_penetration;
+  }
+  // Issue 8: completed = every frame asked for was simulated; interrupted = stopped by Ctrl-C (resumable).
+  j["completed"] = finite && !interrupted && done == frames;
+  if (interrupted) j["interrupted"] = true;
+  if (resume) j["resumed_from_frame"] = first;
+  j["rollbacks"] = sim.rollbacks();
   j["solver"] = sc.setup.solver.method;
   j["substeps"] = sc.setup.substeps;
   j["dt"] = sim.step_size();
@@ -334,15 +357,15 @@ int run_command(const RunOptions& options) {
   if (!finite) j["error"] = error;
   write_atomically(out / "summary.json", j.dump(2) + "\n");
 
-  // Issue 8: completed = every frame asked for was simulated; interrupted = stopped by Ctrl-C (resumable).
-  j["completed"] = finite && !interrupted && done == frames;
-  if (interrupted) j["interrupted"] = true;
-  if (resume) j["resumed_from_frame"] = first;
-  j["rollbacks"] = sim.rollbacks();
   if (o.profile) print_profile(sim, done);
   if (!finite) {
     std::cerr << "loom: error: " << scene_path << ": " << error << "\n";
     return 3;
+  }
+  if (interrupted) {
+    std::cerr << "loom: interrupted after frame " << done << " of " << frames << "; outputs so far are valid; continue with: loom run --resume "
+              << out.string() << "\n";
+    return 130;
   }
   std::cout << "loom: " << done << " frames of " << sc.name << " in " << std::fixed << std::setprecision(2)
             << (done ? sim_ms / done : 0.0) << " ms/frame -> " << out.string() << "\n";
@@ -350,8 +373,3 @@ int run_command(const RunOptions& options) {
 }
 
 }  // namespace loom::app
-  if (interrupted) {
-    std::cerr << "loom: interrupted after frame " << done << " of " << frames << "; outputs so far are valid; continue with: loom run --resume "
-              << out.string() << "\n";
-    return 130;
-  }

@@ -58,6 +58,9 @@ std::string run_usage() {
          "  --checkpoint-every N  write DIR/checkpoint/checkpoint.bin every N frames (atomically; Ctrl-C also\n"
          "                     writes one, then stops at the frame boundary with valid outputs, exit 130)\n"
          "  --resume DIR       continue the run whose checkpoint is in DIR (bit-identical to not stopping)\n"
+         "  --census           after every frame count intersecting triangle pairs exactly (self pairs sharing no\n"
+         "                     vertex, and pairs between cloths) and the deepest vertex inside a collider;\n"
+         "                     summary.json gets intersections (largest count) and max_penetration (m)\n"
          "  --set PATH=VALUE   override any scene value before it is checked, e.g.\n"
          "                     --set solver.method=verlet  --set cloths[0].material.preset=denim_11oz\n"
          "                     VALUE is read as JSON when it parses (numbers, arrays), else as a string\n"
@@ -100,14 +103,16 @@ int run_main(int argc, char** argv) {
         std::fprintf(stderr, "loom: error: --threads must be >= 1\n");
         return 2;
       }
-    } else if (a == "--profile") {
-      o.profile = true;
-    } else if (a == "--render") {
     } else if (a == "--checkpoint-every") {
       o.checkpoint_every = parse_int("--checkpoint-every", value());
     } else if (a == "--resume") {
       o.resume = value();
+    } else if (a == "--profile") {
+      o.profile = true;
+    } else if (a == "--render") {
       o.render = true;
+    } else if (a == "--census") {
+      o.census = true;
     } else if (a == "--set") {
       o.sets.push_back(value());
     } else if (a.rfind("--set=", 0) == 0) {
@@ -122,15 +127,15 @@ int run_main(int argc, char** argv) {
       return 2;
     }
   }
+  if (!o.resume.empty() && !o.scene.empty()) {
+    std::fprintf(stderr, "loom: error: --resume takes the scene from the checkpoint; do not also give one ('%s')\n", o.scene.c_str());
+    return 2;
+  }
   return loom::app::run_command(o);
 }
 
 }  // namespace
 
-  if (!o.resume.empty() && !o.scene.empty()) {
-    std::fprintf(stderr, "loom: error: --resume takes the scene from the checkpoint; do not also give one ('%s')\n", o.scene.c_str());
-    return 2;
-  }
 int main(int argc, char** argv) {
   if (argc < 2 || !std::strcmp(argv[1], "-h") || !std::strcmp(argv[1], "--help")) {
     std::cout << kUsage;
@@ -141,12 +146,12 @@ int main(int argc, char** argv) {
     if (cmd == "run") return run_main(argc, argv);
 #ifdef LOOM_HAVE_BENCH_ACCURACY
     if (cmd == "bench") return loom::app::bench_main(argc, argv);
+    if (cmd == "compare") return loom::app::compare_main(argc, argv);
 #endif
     if (cmd == "ccd-eval") return loom::app::ccd_eval_main(argc, argv);
     if (cmd == "fabric-test") return loom::app::fabric_test_main(argc, argv);
   } catch (const loom::Error& e) {
     std::cerr << "loom: error: " << e.what() << "\n";
-    if (cmd == "compare") return loom::app::compare_main(argc, argv);
     return 1;
   } catch (const std::exception& e) {
     std::cerr << "loom: error: " << e.what() << "\n";

@@ -1,9 +1,11 @@
 // Exact intersection census over several cloths (MultiClothCensus.h).
 #include "loom/collision/MultiClothCensus.h"
 
+#include <algorithm>
 #include <memory>
 
 #include "loom/collision/ClothBvh.h"
+#include "loom/collision/ColliderDistance.h"
 #include "loom/collision/ExactPredicates.h"
 #include "loom/collision/IntersectionCensus.h"
 
@@ -43,6 +45,14 @@ long count_all_intersections(const std::vector<CensusInput>& cloths, int threads
     for (size_t j = i + 1; j < cloths.size(); ++j) count += count_intersecting_pairs_between(cloths[i], cloths[j], threads);
   }
   return count;
+}
+
+double max_penetration(const std::vector<CensusInput>& cloths, const ColliderSet& colliders) {
+  double depth = 0.0;
+  for (const Collider& c : colliders)
+    for (const CensusInput& in : cloths)
+      for (const Vec3& p : *in.x) depth = std::max(depth, -signed_distance(c, c.curr, p, nullptr));
+  return depth;
 }
 
 }  // namespace loom::collision

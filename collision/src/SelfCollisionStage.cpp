@@ -93,6 +93,9 @@ void SelfCollisionStage::setup(loom::cloth::StageContext& ctx) {
     }
     bvhs_.push_back(std::make_unique<ClothBvh>(cloth.mesh_ptr()));
   }
+  edge_owner_.assign(edges_.size(), -1);
+  for (int t = static_cast<int>(tris_.size()) - 1; t >= 0; --t)
+    for (int k = 0; k < 3; ++k) edge_owner_[tri_edges_[t][k]] = t;
   const int nv = vertex_offset_[num_cloths_];
   vtx_tri_start_.assign(nv + 1, 0);
   for (const Tri& t : tris_)
@@ -152,14 +155,19 @@ std::vector<TrianglePair> SelfCollisionStage::triangle_pairs_touching(const std:
       }
     }
   }
+  std::sort(out.begin(), out.end());
+  out.erase(std::unique(out.begin(), out.end()), out.end());
   candidate_pairs_ += static_cast<long>(out.size());
   return out;
 }
 
+// Features of the candidate triangle pairs, each exactly once: a vertex-face pair (v, f) comes only from the
+// pair (owner(v), f) and an edge-edge pair only from (owner(ea), owner(eb)), owner = the lowest-numbered
+// triangle holding the vertex or edge. That pair is always a candidate when the feature can be: the feature's
+// swept box lies inside its owner's leaf box. Chunks of pairs are done in parallel and joined in order.
 std::vector<SelfCollisionStage::Feature> SelfCollisionStage::features(const std::vector<TrianglePair>& pairs,
-                                                                     const std::vector<char>* dirty) const {
-  std::vector<Feature> out;
-  out.reserve(pairs.size() * 4);
+                                                                     const std::vector<char>* dirty,
+                                                                     int threads) const {
   auto is_dirty = [&](int v) { return !dirty || (*dirty)[v]; };
   // Feature-level filter: swept boxes of the two features, inflated by the pair thickness, must overlap
   // (covers the proximity distance at x0 and the continuous test's separation, which is smaller).
@@ -173,37 +181,54 @@ std::vector<SelfCollisionStage::Feature> SelfCollisionStage::features(const std:
     a.lo.array() -= hp, a.hi.array() += hp;
     return a.overlaps(b);
   };
-  for (const TrianglePair& p : pairs) {
-    const Tri& ta = tris_[p.first];
-    const Tri& tb = tris_[p.second];
-    for (int side = 0; side < 2; ++side) {
-      const Tri& tv = side ? tb : ta;
-      const Tri& tf = side ? ta : tb;
-      const int f = side ? p.first : p.second;
-      const bool face_dirty = is_dirty(tf[0]) || is_dirty(tf[1]) || is_dirty(tf[2]);
-      const Aabb fb = swept({tf[0], tf[1], tf[2]});
-      for (int k = 0; k < 3; ++k) {
-        const int v = tv[k];
-        if (v == tf[0] || v == tf[1] || v == tf[2]) continue;
-        if (!(face_dirty || is_dirty(v))) continue;
-        if (near(swept({v}), fb, vertex_cloth_[v], tri_cloth_[f])) out.push_back({0, v, f});
+  const long n = static_cast<long>(pairs.size());
+  const int chunks = std::max(1, threads) * 4;
+  std::vector<std::vector<Feature>> parts(chunks);
+#pragma omp parallel for num_threads(threads) if (threads > 1) schedule(dynamic, 1)
+  for (int ch = 0; ch < chunks; ++ch) {
+    std::vector<Feature>& out = parts[ch];
+    for (long i = n * ch / chunks; i < n * (ch + 1) / chunks; ++i) {
+      const TrianglePair& p = pairs[i];
+      const Tri& ta = tris_[p.first];
+      const Tri& tb = tris_[p.second];
+      for (int side = 0; side < 2; ++side) {
+        const Tri& tv = side ? tb : ta;
+        const Tri& tf = side ? ta : tb;
+        const int t = side ? p.second : p.first;
+        const int f = side ? p.first : p.second;
+        const bool face_dirty = is_dirty(tf[0]) || is_dirty(tf[1]) || is_dirty(tf[2]);
+        bool have_box = false;
+        Aabb fb;
+        for (int k = 0; k < 3; ++k) {
+          const int v = tv[k];
+          if (vtx_tri_[vtx_tri_start_[v]] != t) continue;  // not the owner
+          if (v == tf[0] || v == tf[1] || v == tf[2]) continue;
+          if (!(face_dirty || is_dirty(v))) continue;
+          if (!have_box) fb = swept({tf[0], tf[1], tf[2]}), have_box = true;
+          if (near(swept({v}), fb, vertex_cloth_[v], tri_cloth_[f])) out.push_back({0, v, f});
+        }
       }
-    }
-    for (int i = 0; i < 3; ++i) {
-      const int ea = tri_edges_[p.first][i];
-      for (int j = 0; j < 3; ++j) {
-        const int eb = tri_edges_[p.second][j];
-        const auto& a = edges_[ea];
-        const auto& b = edges_[eb];
-        if (a[0] == b[0] || a[0] == b[1] || a[1] == b[0] || a[1] == b[1]) continue;
-        if (!(is_dirty(a[0]) || is_dirty(a[1]) || is_dirty(b[0]) || is_dirty(b[1]))) continue;
-        if (!near(swept({a[0], a[1]}), swept({b[0], b[1]}), edge_cloth_[ea], edge_cloth_[eb])) continue;
-        out.push_back({1, std::min(ea, eb), std::max(ea, eb)});
+      for (int i2 = 0; i2 < 3; ++i2) {
+        const int ea = tri_edges_[p.first][i2];
+        if (edge_owner_[ea] != p.first) continue;
+        for (int j = 0; j < 3; ++j) {
+          const int eb = tri_edges_[p.second][j];
+          if (edge_owner_[eb] != p.second) continue;
+          const auto& a = edges_[ea];
+          const auto& b = edges_[eb];
+          if (a[0] == b[0] || a[0] == b[1] || a[1] == b[0] || a[1] == b[1]) continue;
+          if (!(is_dirty(a[0]) || is_dirty(a[1]) || is_dirty(b[0]) || is_dirty(b[1]))) continue;
+          if (!near(swept({a[0], a[1]}), swept({b[0], b[1]}), edge_cloth_[ea], edge_cloth_[eb])) continue;
+          out.push_back({1, std::min(ea, eb), std::max(ea, eb)});
+        }
       }
     }
   }
-  std::sort(out.begin(), out.end());
-  out.erase(std::unique(out.begin(), out.end()), out.end());
+  std::vector<Feature> out;
+  size_t total = 0;
+  for (const auto& part : parts) total += part.size();
+  out.reserve(total);
+  for (const auto& part : parts) out.insert(out.end(), part.begin(), part.end());
   return out;
 }
 
@@ -263,7 +288,7 @@ void apply_impulses(const std::vector<int>& verts4, const std::vector<Impulse>& 
 // removes `repulsion` of the overlap per step along the normal; Sec. 7.3: Coulomb friction clamps the
 // tangential relative velocity by mu * (normal velocity change) (static: stop it entirely).
 void SelfCollisionStage::proximity(int threads) {
-  const std::vector<Feature> fs = features(all_triangle_pairs(), nullptr);
+  const std::vector<Feature> fs = features(all_triangle_pairs(), nullptr, threads);
   const long n = static_cast<long>(fs.size());
   std::vector<Impulse> imp(n);
   std::vector<int> verts(4 * n);
@@ -451,7 +476,7 @@ bool SelfCollisionStage::impact_zones(std::vector<char> dirty, int threads) {
   for (int it = 0; it < settings_.max_zone_iterations; ++it) {
     if (std::none_of(dirty.begin(), dirty.end(), [](char d) { return d != 0; })) return true;
     update_bvhs(threads, false);
-    const std::vector<Feature> fs = features(triangle_pairs_touching(dirty), &dirty);
+    const std::vector<Feature> fs = features(triangle_pairs_touching(dirty), &dirty, threads);
     const long n = static_cast<long>(fs.size());
     std::vector<char> hit(n, 0);
 #pragma omp parallel for num_threads(threads) if (threads > 1) schedule(dynamic, 256)
@@ -553,7 +578,7 @@ void SelfCollisionStage::run(loom::cloth::StageContext& ctx) {
   for (int pass = 0; pass < settings_.passes && hits; ++pass) {
     update_bvhs(threads, false);
     const std::vector<Feature> fs =
-        pass == 0 ? features(all_triangle_pairs(), nullptr) : features(triangle_pairs_touching(dirty), &dirty);
+        pass == 0 ? features(all_triangle_pairs(), nullptr, threads) : features(triangle_pairs_touching(dirty), &dirty, threads);
     hits = ccd_pass(fs, threads, dirty);
     ++passes_;
   }

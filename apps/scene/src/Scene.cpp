@@ -13,8 +13,8 @@
 #include "loom/scene/SceneColliders.h"
 #include "loom/scene/SceneCharacter.h"
 #include "loom/scene/SceneCollision.h"
-
 #include "loom/scene/SceneGuard.h"
+
 namespace loom::scene {
 
 using cloth::Vec3;
@@ -263,8 +263,8 @@ Scene parse_scene(const nlohmann::json& root, const std::string& file) {
   scene.frames = std::max(1, static_cast<int>(std::lround(scene.duration * fps)));
   scene.setup.gravity = r.vec3("gravity", Vec3(0.0, -9.81, 0.0));
   scene.setup.threads = r.integer("threads", 1, 1);
-
   parse_guard(r, scene.setup.guard);  // issue 8: non-finite / explosion guard (SceneGuard.cpp)
+
   if (r.has("solver")) {
     const JsonReader s = r.object("solver");
     const nlohmann::json& s_json = root.at("solver");

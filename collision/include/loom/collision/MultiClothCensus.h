@@ -6,6 +6,7 @@
 #include <vector>
 
 #include "loom/cloth/ClothMesh.h"
+#include "loom/collision/Collider.h"
 
 namespace loom::collision {
 
@@ -18,5 +19,8 @@ struct CensusInput {
 long count_intersecting_pairs_between(const CensusInput& a, const CensusInput& b, int threads = 1);
 // Self census of every cloth plus every cloth pair.
 long count_all_intersections(const std::vector<CensusInput>& cloths, int threads = 1);
+// Largest depth (m) of any cloth vertex inside any collider at its current pose (`curr`), by the collider's
+// signed distance (ColliderDistance.h); 0 when no vertex is inside. Meshes have no inside (always 0).
+double max_penetration(const std::vector<CensusInput>& cloths, const ColliderSet& colliders);
 
 }  // namespace loom::collision

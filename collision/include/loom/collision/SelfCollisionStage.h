@@ -71,7 +71,7 @@ class SelfCollisionStage final : public loom::cloth::Stage {
   void update_bvhs(int threads, bool full_update);
   std::vector<TrianglePair> all_triangle_pairs();
   std::vector<TrianglePair> triangle_pairs_touching(const std::vector<char>& dirty);
-  std::vector<Feature> features(const std::vector<TrianglePair>& pairs, const std::vector<char>* dirty) const;
+  std::vector<Feature> features(const std::vector<TrianglePair>& pairs, const std::vector<char>* dirty, int threads) const;
   Contact contact_of(const Feature& f) const;
   double pair_thickness(const Contact& c) const;
   void proximity(int threads);
@@ -90,7 +90,8 @@ class SelfCollisionStage final : public loom::cloth::Stage {
   std::vector<loom::cloth::Tri> tris_;                 // global vertex indices
   std::vector<std::array<int, 2>> edges_;              // global vertex indices
   std::vector<std::array<int, 3>> tri_edges_;          // global edge indices
-  std::vector<int> vtx_tri_start_, vtx_tri_;           // vertex -> triangles (CSR)
+  std::vector<int> vtx_tri_start_, vtx_tri_;           // vertex -> triangles (CSR, ascending)
+  std::vector<int> edge_owner_;                        // edge -> lowest-numbered triangle holding it
   std::vector<double> cloth_thickness_, cloth_friction_;
   std::vector<std::unique_ptr<ClothBvh>> bvhs_;
   // Per step.
