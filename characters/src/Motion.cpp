@@ -59,21 +59,39 @@ Motion Motion::load(const std::string& path, const MotionSettings& settings) {
     Joint j;
     j.name = node->mName.C_Str();
     j.parent = parent;
+    for (int r = 0; r < 4; ++r)
+      for (int c = 0; c < 4; ++c)
+        if (!std::isfinite(node->mTransformation[r][c]))
+          throw Error(path, "joint '" + j.name + "'", "the rest transform (OFFSET) is not finite");
     j.rest = to_transform(node->mTransformation);
     JointTrack track;
     auto it = channels.find(j.name);
     if (it != channels.end()) {
       const aiNodeAnim* ch = it->second;
       j.animated = true;
+      // Keys must be finite with times that never go back (bracket() searches them); a file that says
+      // otherwise (a corrupt or cut number, 1e999) is refused here, before any pose can turn non-finite.
+      auto bad_key = [&](const char* kind, unsigned k, const std::vector<double>& times) {
+        const double t = times.back();
+        if (!std::isfinite(t) || (times.size() > 1 && t < times[times.size() - 2]))
+          throw Error(path, "joint '" + j.name + "'", std::string(kind) + " key " + std::to_string(k) + ": time not finite or going back");
+      };
       for (unsigned k = 0; k < ch->mNumPositionKeys; ++k) {
         const aiVectorKey& key = ch->mPositionKeys[k];
         track.position_times.push_back(key.mTime / tps);
         track.positions.emplace_back(key.mValue.x, key.mValue.y, key.mValue.z);
+        bad_key("position", k, track.position_times);
+        if (!track.positions.back().allFinite())
+          throw Error(path, "joint '" + j.name + "'", "position key " + std::to_string(k) + " is not finite");
       }
       for (unsigned k = 0; k < ch->mNumRotationKeys; ++k) {
         const aiQuatKey& key = ch->mRotationKeys[k];
         track.rotation_times.push_back(key.mTime / tps);
-        track.rotations.push_back(Quat(key.mValue.w, key.mValue.x, key.mValue.y, key.mValue.z).normalized());
+        const Quat q(key.mValue.w, key.mValue.x, key.mValue.y, key.mValue.z);
+        bad_key("rotation", k, track.rotation_times);
+        if (!q.coeffs().allFinite() || !(q.norm() > 0.0))
+          throw Error(path, "joint '" + j.name + "'", "rotation key " + std::to_string(k) + " is not a finite rotation");
+        track.rotations.push_back(q.normalized());
       }
       if (!track.position_times.empty()) m.duration_ = std::max(m.duration_, track.position_times.back());
       if (!track.rotation_times.empty()) m.duration_ = std::max(m.duration_, track.rotation_times.back());
@@ -104,6 +122,7 @@ Motion Motion::load(const std::string& path, const MotionSettings& settings) {
     m.scale_ = settings.scale;
   } else {
     if (!(ymax - ymin > 0.0)) throw Error(path, "scale", "the rest pose has no height; give 'scale' explicitly");
+    if (!std::isfinite(ymax - ymin)) throw Error(path, "scale", "the rest pose's height is not finite");
     m.scale_ = settings.height / (ymax - ymin);
   }
   m.rest_height_ = (ymax - ymin) * m.scale_;
