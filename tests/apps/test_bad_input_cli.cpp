@@ -36,7 +36,7 @@ struct BadInput {
   const char* name;
   const char* scene;               // scene text; nullptr: kValid
   std::vector<const char*> args;   // extra `loom run` arguments (--set ...); "@OBJ" = path of the case's OBJ
-  const char* obj;                 // text of DIR/mesh.obj when the case needs one, else nullptr
+  const char* obj;                 // text of DIR/mesh.obj (of DIR/motion.bvh with @BVHTEXT) or nullptr
   const char* file;                // whose name the message must hold: "scene", "obj", "out", or a literal
   const char* where;               // field, JSON path or line named in the message
   const char* problem;             // words of the problem
@@ -97,6 +97,12 @@ const BadInput kCases[] = {
     {"bvh_cut_in_frames", nullptr, {"@BVH:190"}, nullptr, "motion.bvh", "character.bvh", "Unexpected end of file"},
     {"bvh_cut_after_motion", nullptr, {"@BVH:187"}, nullptr, "motion.bvh", "character.bvh", "Unexpected end of file"},
     {"bvh_missing", nullptr, {"@BVH:0"}, nullptr, "motion.bvh", "character.bvh", "cannot read motion"},
+    // A BVH that reads but holds a number past double range (a corrupt digit string): the joint is named.
+    {"bvh_infinite_key", nullptr, {"@BVHTEXT"},
+     "HIERARCHY\nROOT Hips\n{\n OFFSET 0 0 0\n CHANNELS 6 Xposition Yposition Zposition Zrotation Xrotation Yrotation\n"
+     " JOINT Spine\n {\n  OFFSET 0 10 0\n  CHANNELS 3 Zrotation Xrotation Yrotation\n  End Site\n  {\n   OFFSET 0 5 0\n  }\n }\n}\n"
+     "MOTION\nFrames: 2\nFrame Time: 0.0333333\n0 90 0 0 0 0 0 0 0\n1e999 90 0 0 0 0 0 0 0\n",
+     "motion.bvh", "joint 'Hips'", "position key 1 is not finite"},
     // Output folder and checkpoints.
     {"out_under_proc", nullptr, {"--out", "/proc/loom_cannot_write_here"}, nullptr, "/proc/loom_cannot_write_here", "--out", "cannot create output folder"},
     {"out_is_a_file", nullptr, {"--out", "@FILE"}, nullptr, "out", "--out", "cannot create output folder"},
@@ -112,7 +118,7 @@ TEST_P(BadInputCli, NonZeroExitNamedMessageNoCompleteOutput) {
   const fs::path scene = dir / "scene.json", obj = dir / "mesh.obj", out = dir / "out";
   fs::remove_all(out);
   std::ofstream(scene) << (c.scene ? c.scene : kValid);
-  if (c.obj) std::ofstream(obj) << c.obj;
+  if (c.obj && (c.args.empty() || c.args[0] != std::string("@BVHTEXT"))) std::ofstream(obj) << c.obj;
   std::vector<std::string> argv = {"run"};
   fs::path out_used = out;
   bool resume = false, has_out = false;
@@ -130,6 +136,9 @@ TEST_P(BadInputCli, NonZeroExitNamedMessageNoCompleteOutput) {
         std::string line;
         for (int k = 0; k < n && std::getline(in, line); ++k) cut << line << "\n";
       }
+      argv.insert(argv.end(), {"--set", "character={\"bvh\":\"motion.bvh\"}"});
+    } else if (a == "@BVHTEXT") {  // the case's `obj` text as the motion file
+      std::ofstream(dir / "motion.bvh") << c.obj;
       argv.insert(argv.end(), {"--set", "character={\"bvh\":\"motion.bvh\"}"});
     } else if (a == "@FILE") {
       out_used = dir / "a_file";
