@@ -127,7 +127,9 @@ struct Row {
 // Per-frame metrics of one run, the same code for Loom and Bullet positions.
 class Metrics {
  public:
-  Metrics(const Scene& s, const Vec3s& x0) : s_(s), x0_(x0), energy_term_(static_cast<int>(x0.size()), s.springs) {
+  // `own`: a Loom cloth whose model is not the scene's springs; its own elastic energy is used (issue 10).
+  Metrics(const Scene& s, const Vec3s& x0, const Cloth* own = nullptr)
+      : s_(s), x0_(x0), energy_term_(static_cast<int>(x0.size()), s.springs), own_(own) {
     const Vec3s v0(x0.size(), Vec3::Zero());
     e0_ = energy(x0, v0);
     for (double m : s.mass) total_mass_ += m;
@@ -179,7 +181,7 @@ class Metrics {
   }
   // Kinetic + gravitational (zero at y = 0) + spring energy, J.
   double energy(const Vec3s& x, const Vec3s& v) const {
-    double e = energy_term_.energy(EvalContext{x, v, 0.0, 1});
+    double e = own_ ? own_->elastic_energy(1) : energy_term_.energy(EvalContext{x, v, 0.0, 1});
     for (size_t i = 0; i < x.size(); ++i) e += 0.5 * s_.mass[i] * v[i].squaredNorm() - s_.mass[i] * s_.gravity.dot(x[i]);
     return e;
   }
@@ -187,6 +189,7 @@ class Metrics {
   const Scene& s_;
   Vec3s x0_;
   SpringTerm energy_term_;
+  const Cloth* own_ = nullptr;
   double e0_ = 0.0, total_mass_ = 0.0, scale_ = 1.0;
   double max_error_ = 0.0, end_error_ = 0.0, max_strain_ = 0.0, mean_sum_ = 0.0, drift_ = 0.0;
   int frames_ = 0;
@@ -197,6 +200,7 @@ SimulationSetup loom_setup(const Scene& s, const std::string& method, const Swee
   SimulationSetup setup;
   setup.cloths = {s.cloth};
   setup.gravity = s.gravity;
+  if (!c.model.empty()) setup.cloths[0].model = c.model;
   setup.solver.method = method;
   setup.solver.params = c.params;
   setup.frame_dt = kFrameDt;
@@ -243,7 +247,7 @@ Row run_loom(const Scene& s, const std::string& method, const SweepConfig& c, in
   Simulation sim(loom_setup(s, method, c, threads));
   set_start(sim, s);
   ClothState& st = sim.cloths()[0]->state();
-  Metrics m(s, st.x);
+  Metrics m(s, st.x, c.model.empty() || c.model == "springs" ? nullptr : sim.cloths()[0].get());
   Row r;
   std::vector<double> ms;
   for (int f = 0; f < s.frames; ++f) {
@@ -312,6 +316,81 @@ void print_row(const Row& r) {
   std::fflush(stdout);
 }
 
+// Static scenes (issue 10): the catenary strip (methods.md §3.2; S = 1 m, spans 0.5, 0.8, 0.9 m; B ≈ 0) for the
+// solvers that give a shape rather than a motion: weil (geometric drape) and static (energy minimisation).
+// Row: size = nodes along the strip, config "scene=catenary span=D", ms_per_frame = wall time to the shape,
+// rms_error_max = rms_error_end = |sag - analytic sag| (m), strains of the shape, energy_drift 0.
+void run_static_scenes(const AccuracyOptions& o, const std::vector<std::string>& registered, std::vector<Row>& rows) {
+  const std::vector<std::pair<double, double>> spans =
+      o.quick ? std::vector<std::pair<double, double>>{{0.8, 0.26544}}
+              : std::vector<std::pair<double, double>>{{0.5, 0.39819}, {0.8, 0.26544}, {0.9, 0.19071}};
+  const int nodes = o.quick ? 26 : 101;
+  bool header = false;
+  for (const char* method : {"weil", "static"}) {
+    if (std::find(registered.begin(), registered.end(), method) == registered.end()) continue;
+    if (!o.methods.empty() && !o.methods.count(method)) continue;
+    if (!header) {
+      std::printf("loom bench accuracy: static scenes, catenary strip S = 1 m (%d x 2 nodes, 1 cm wide, cotton with "
+                  "B ~ 0), error = |sag - analytic sag|\n", nodes);
+      header = true;
+    }
+    for (const auto& [d, sag_ref] : spans) {
+      SimulationSetup setup;
+      ClothSetup c;
+      GridSpec g;
+      g.size_u = 1.0;
+      g.size_v = 0.01;
+      g.nodes_u = nodes;
+      g.nodes_v = 2;
+      g.origin = Vec3(-0.5, 1.0, 0.0);
+      c.mesh = ClothMesh::grid(g);
+      c.material = material_preset("cotton");
+      c.material.bend_weft = c.material.bend_warp = 1e-10;  // N·m: the catenary has no bending
+      c.material.damping = 0.0;
+      for (int iv = 0; iv < 2; ++iv) {
+        c.pins.push_back(PinSpec{c.mesh->grid_index(0, iv), Vec3(-0.5 * d, 1.0, 0.01 * iv), {}, {}});
+        c.pins.push_back(PinSpec{c.mesh->grid_index(nodes - 1, iv), Vec3(0.5 * d, 1.0, 0.01 * iv), {}, {}});
+      }
+      setup.cloths = {c};
+      setup.solver.method = method;
+      setup.frame_dt = kFrameDt;
+      Row r;
+      r.system = "loom";
+      r.method = method;
+      r.size = nodes;
+      r.config = "scene=catenary span=" + num(d);
+      r.threads = 1;
+      try {
+        Simulation sim(setup);
+        const auto start = Clock::now();
+        sim.step_frame();
+        r.ms_per_frame = std::chrono::duration<double, std::milli>(Clock::now() - start).count();
+        const ClothState& st = sim.cloths()[0]->state();
+        double lowest = 1e300;
+        for (const Vec3& p : st.x) lowest = std::min(lowest, p.y());
+        const double err = std::abs((1.0 - lowest) - sag_ref);
+        r.diverged = !st.is_finite() || !std::isfinite(err);
+        r.rms_error_max = r.rms_error_end = err;
+        double mx = 0.0, sum = 0.0;
+        const auto& sprs = c.mesh->springs();
+        for (int k : c.mesh->strain_springs()) {
+          const double strain = (st.x[sprs[k].j] - st.x[sprs[k].i]).norm() / sprs[k].rest_length - 1.0;
+          mx = std::max(mx, strain);
+          sum += std::abs(strain);
+        }
+        r.max_strain = mx;
+        r.mean_strain = sum / std::max<size_t>(1, c.mesh->strain_springs().size());
+        r.energy_drift = 0.0;
+      } catch (const loom::Error& e) {
+        std::printf("  skipped %s %s: %s\n", method, r.config.c_str(), e.what());
+        continue;
+      }
+      rows.push_back(r);
+      print_row(rows.back());
+    }
+  }
+}
+
 }  // namespace
 
 int bench_accuracy(const AccuracyOptions& o) {
@@ -376,13 +455,14 @@ int bench_accuracy(const AccuracyOptions& o) {
         skipped_methods.push_back(kv.first);
     for (const std::string& method : registered) {
       if (!o.methods.empty() && !o.methods.count(method)) continue;
+      if (static_only(method)) continue;  // static scenes only (the catenary table below)
       std::vector<SweepConfig> configs;
       auto it = table.find(method);
       if (it != table.end()) {
         configs = it->second;
       } else {
         // A solver this table does not know yet: a default step sweep.
-        for (int st : {1, 4}) configs.push_back(SweepConfig{st, {}});
+        for (int st : {1, 4}) configs.push_back(SweepConfig{st, {}, ""});
         if (o.quick) configs.resize(1);
         std::printf("  note: no sweep table entry for '%s'; using substeps 1, 4\n", method.c_str());
       }
@@ -440,7 +520,10 @@ int bench_accuracy(const AccuracyOptions& o) {
     for (size_t k = first; k < rows.size(); ++k) {
       const Row& r = rows[k];
       if (r.threads != 1 || r.diverged || !(r.rms_error_max > 0.0)) continue;
-      pts.push_back({r.system == "loom" ? "loom:" + r.method : r.system, r.ms_per_frame, r.rms_error_max});
+      std::string label = r.system == "loom" ? "loom:" + r.method : r.system;
+      const size_t model_at = r.config.find(" model=");
+      if (model_at != std::string::npos) label += "+" + r.config.substr(model_at + 7);  // e.g. +corotated_fem
+      pts.push_back({label, r.ms_per_frame, r.rms_error_max});
     }
     const std::string png = (fs::path(o.out) / ("accuracy_" + std::to_string(n) + ".png")).string();
     const std::string title = "hanging cloth " + std::to_string(n) + "x" + std::to_string(n) +
@@ -448,6 +531,7 @@ int bench_accuracy(const AccuracyOptions& o) {
     if (!write_results()) return 1;
     if (plot_accuracy(pts, title, png) && n == o.sizes.back()) fs::copy_file(png, fs::path(o.out) / "accuracy.png", fs::copy_options::overwrite_existing, ec);
   }
+  run_static_scenes(o, registered, rows);
   if (!write_results()) return 1;
   std::printf("wrote %s/accuracy.csv, %s/reference_check.csv, %s/accuracy.png\n", o.out.c_str(), o.out.c_str(),
               o.out.c_str());

@@ -90,6 +90,9 @@ TEST(Imex, ConvergesFirstOrderToAFineReference) {
   const auto ref = run("verlet", 4000);
   std::vector<double> err;
   for (int steps : {16, 32, 64, 128}) err.push_back(rms(run("imex", steps)->cloths()[0]->state(), ref->cloths()[0]->state()));
+  std::printf("imex vs Verlet reference (9 x 9 springs, 0.25 s): RMS error %.3g, %.3g, %.3g, %.3g m at 16, 32, 64, "
+              "128 steps per frame (ratios %.2f, %.2f, %.2f)\n", err[0], err[1], err[2], err[3], err[0] / err[1],
+              err[1] / err[2], err[2] / err[3]);
   for (size_t k = 0; k + 1 < err.size(); ++k) {
     const double ratio = err[k] / err[k + 1];
     EXPECT_GT(ratio, 1.7) << "halving h from step " << k;
