@@ -18,6 +18,7 @@
 #include "loom/bullet/BulletTwin.h"
 #include "loom/cloth/Error.h"
 #include "loom/cloth/Material.h"
+#include "loom/cloth/CurvedFaces.h"
 #include "loom/cloth/Simulation.h"
 #include "loom/cloth/SpringSet.h"
 
@@ -265,6 +266,63 @@ Row run_loom(const Scene& s, const std::string& method, const SweepConfig& c, in
   return r;
 }
 
+// Hybrid detail (issue 10, Oshita & Makinouchi 2001): the same scene simulated on a coarse grid of
+// (N - 1)/4 + 1 nodes per side with `c`, shown as its curved-face surface refined twice (CurvedFaces.h), and
+// compared with the N x N reference at the reference's nodes (the shown surface bilinearly interpolated on its
+// fine grid at each node's material point). Time: coarse step + surface rebuild.
+Row run_hybrid(const Scene& s, const std::string& method, SweepConfig c, const std::vector<Vec3s>& ref, double duration,
+               double perturbation) {
+  const int nc = (s.n - 1) / 4 + 1;
+  const Scene coarse = make_scene(nc, duration, perturbation);
+  Simulation sim(loom_setup(coarse, method, c, 1));
+  set_start(sim, coarse);
+  const CurvedFaces faces(sim.cloths()[0]->mesh(), 2);
+  // The shown surface's vertices on its (4 (nc - 1) + 1)² grid, from their flat rest positions.
+  const int m = 4 * (nc - 1) + 1;
+  const Vec3s& rest = faces.fine_mesh()->rest_positions();
+  std::vector<int> at(static_cast<size_t>(m) * m, -1);
+  for (int i = 0; i < static_cast<int>(rest.size()); ++i) {
+    const int p = static_cast<int>(std::lround((rest[i].x() + 0.5) / kSize * (m - 1)));
+    const int q = static_cast<int>(std::lround((rest[i].z() + 0.5) / kSize * (m - 1)));
+    at[static_cast<size_t>(q) * m + p] = i;
+  }
+  Vec3s shown, x(s.mass.size()), x_prev, v(s.mass.size(), Vec3::Zero());
+  auto sample = [&]() {
+    faces.evaluate(sim.cloths()[0]->state().x, shown);
+    for (int iv = 0; iv < s.n; ++iv)
+      for (int iu = 0; iu < s.n; ++iu) {
+        const double fu = iu / double(s.n - 1) * (m - 1), fv = iv / double(s.n - 1) * (m - 1);
+        const int p = std::min(static_cast<int>(fu), m - 2), q = std::min(static_cast<int>(fv), m - 2);
+        const double a = fu - p, b = fv - q;
+        auto P = [&](int dp, int dq) { return shown[at[static_cast<size_t>(q + dq) * m + p + dp]]; };
+        x[s.cloth.mesh->grid_index(iu, iv)] =
+            (1 - a) * (1 - b) * P(0, 0) + a * (1 - b) * P(1, 0) + (1 - a) * b * P(0, 1) + a * b * P(1, 1);
+      }
+  };
+  sample();
+  Metrics metrics(s, x);
+  std::vector<double> ms;
+  for (int f = 0; f < s.frames; ++f) {
+    const FrameStats fs = sim.step_frame();
+    const auto t0 = Clock::now();
+    x_prev = x;
+    sample();
+    ms.push_back(step_ms(sim, fs) + std::chrono::duration<double, std::milli>(Clock::now() - t0).count());
+    for (size_t i = 0; i < x.size(); ++i) v[i] = (x[i] - x_prev[i]) / kFrameDt;
+    if (!metrics.add_frame(x, v, &ref[f], sim.cloths()[0]->state().is_finite())) break;
+  }
+  Row r;
+  r.system = "loom";
+  r.method = method;
+  r.size = s.n;
+  c.model.clear();
+  r.config = c.label() + " detail=curved_faces levels=2 coarse=" + std::to_string(nc);
+  r.threads = 1;
+  r.ms_per_frame = median(ms);
+  metrics.fill(r);
+  return r;
+}
+
 Row run_bullet(const Scene& s, bullet::TwinKind kind, const SweepConfig& c, const std::vector<Vec3s>& ref) {
   bullet::TwinCloth tc;
   tc.mesh = s.cloth.mesh;
@@ -490,6 +548,19 @@ int bench_accuracy(const AccuracyOptions& o) {
         }
       }
     }
+    // Issue 10: the hybrid (coarse simulation + curved-face detail) with backward Euler and IMEX.
+    if ((s.n - 1) / 4 + 1 >= 3)
+      for (const char* method : {"implicit_euler", "imex"}) {
+        if (!o.methods.empty() && !o.methods.count(method) && !o.methods.count("hybrid")) continue;
+        if (std::find(registered.begin(), registered.end(), method) == registered.end()) continue;
+        for (int st : o.quick ? std::vector<int>{1} : std::vector<int>{1, 4}) {
+          SweepConfig c;
+          c.substeps = st;
+          c.params["cg_tolerance"] = 1e-4;
+          rows.push_back(run_hybrid(s, method, c, ref, o.duration, o.perturbation));
+          print_row(rows.back());
+        }
+      }
     for (const auto& kv : bullet_sweep_table(o.quick)) {
       if (!o.methods.empty() && !o.methods.count(kv.first)) continue;
       const auto kind = kv.first == "bullet_classic" ? bullet::TwinKind::kClassic : bullet::TwinKind::kDeformable;
@@ -523,6 +594,7 @@ int bench_accuracy(const AccuracyOptions& o) {
       std::string label = r.system == "loom" ? "loom:" + r.method : r.system;
       const size_t model_at = r.config.find(" model=");
       if (model_at != std::string::npos) label += "+" + r.config.substr(model_at + 7);  // e.g. +corotated_fem
+      if (r.config.find(" detail=") != std::string::npos) label += "+detail";
       pts.push_back({label, r.ms_per_frame, r.rms_error_max});
     }
     const std::string png = (fs::path(o.out) / ("accuracy_" + std::to_string(n) + ".png")).string();
