@@ -18,6 +18,7 @@
 #include "loom/bullet/BulletTwin.h"
 #include "loom/cloth/Error.h"
 #include "loom/cloth/Material.h"
+#include "loom/cloth/CurvedFaces.h"
 #include "loom/cloth/Simulation.h"
 #include "loom/cloth/SpringSet.h"
 
@@ -127,7 +128,9 @@ struct Row {
 // Per-frame metrics of one run, the same code for Loom and Bullet positions.
 class Metrics {
  public:
-  Metrics(const Scene& s, const Vec3s& x0) : s_(s), x0_(x0), energy_term_(static_cast<int>(x0.size()), s.springs) {
+  // `own`: a Loom cloth whose model is not the scene's springs; its own elastic energy is used (issue 10).
+  Metrics(const Scene& s, const Vec3s& x0, const Cloth* own = nullptr)
+      : s_(s), x0_(x0), energy_term_(static_cast<int>(x0.size()), s.springs), own_(own) {
     const Vec3s v0(x0.size(), Vec3::Zero());
     e0_ = energy(x0, v0);
     for (double m : s.mass) total_mass_ += m;
@@ -179,7 +182,7 @@ class Metrics {
   }
   // Kinetic + gravitational (zero at y = 0) + spring energy, J.
   double energy(const Vec3s& x, const Vec3s& v) const {
-    double e = energy_term_.energy(EvalContext{x, v, 0.0, 1});
+    double e = own_ ? own_->elastic_energy(1) : energy_term_.energy(EvalContext{x, v, 0.0, 1});
     for (size_t i = 0; i < x.size(); ++i) e += 0.5 * s_.mass[i] * v[i].squaredNorm() - s_.mass[i] * s_.gravity.dot(x[i]);
     return e;
   }
@@ -187,6 +190,7 @@ class Metrics {
   const Scene& s_;
   Vec3s x0_;
   SpringTerm energy_term_;
+  const Cloth* own_ = nullptr;
   double e0_ = 0.0, total_mass_ = 0.0, scale_ = 1.0;
   double max_error_ = 0.0, end_error_ = 0.0, max_strain_ = 0.0, mean_sum_ = 0.0, drift_ = 0.0;
   int frames_ = 0;
@@ -197,6 +201,7 @@ SimulationSetup loom_setup(const Scene& s, const std::string& method, const Swee
   SimulationSetup setup;
   setup.cloths = {s.cloth};
   setup.gravity = s.gravity;
+  if (!c.model.empty()) setup.cloths[0].model = c.model;
   setup.solver.method = method;
   setup.solver.params = c.params;
   setup.frame_dt = kFrameDt;
@@ -243,7 +248,7 @@ Row run_loom(const Scene& s, const std::string& method, const SweepConfig& c, in
   Simulation sim(loom_setup(s, method, c, threads));
   set_start(sim, s);
   ClothState& st = sim.cloths()[0]->state();
-  Metrics m(s, st.x);
+  Metrics m(s, st.x, c.model.empty() || c.model == "springs" ? nullptr : sim.cloths()[0].get());
   Row r;
   std::vector<double> ms;
   for (int f = 0; f < s.frames; ++f) {
@@ -258,6 +263,63 @@ Row run_loom(const Scene& s, const std::string& method, const SweepConfig& c, in
   r.threads = threads;
   r.ms_per_frame = median(ms);
   m.fill(r);
+  return r;
+}
+
+// Hybrid detail (issue 10, Oshita & Makinouchi 2001): the same scene simulated on a coarse grid of
+// (N - 1)/4 + 1 nodes per side with `c`, shown as its curved-face surface refined twice (CurvedFaces.h), and
+// compared with the N x N reference at the reference's nodes (the shown surface bilinearly interpolated on its
+// fine grid at each node's material point). Time: coarse step + surface rebuild.
+Row run_hybrid(const Scene& s, const std::string& method, SweepConfig c, const std::vector<Vec3s>& ref, double duration,
+               double perturbation) {
+  const int nc = (s.n - 1) / 4 + 1;
+  const Scene coarse = make_scene(nc, duration, perturbation);
+  Simulation sim(loom_setup(coarse, method, c, 1));
+  set_start(sim, coarse);
+  const CurvedFaces faces(sim.cloths()[0]->mesh(), 2);
+  // The shown surface's vertices on its (4 (nc - 1) + 1)² grid, from their flat rest positions.
+  const int m = 4 * (nc - 1) + 1;
+  const Vec3s& rest = faces.fine_mesh()->rest_positions();
+  std::vector<int> at(static_cast<size_t>(m) * m, -1);
+  for (int i = 0; i < static_cast<int>(rest.size()); ++i) {
+    const int p = static_cast<int>(std::lround((rest[i].x() + 0.5) / kSize * (m - 1)));
+    const int q = static_cast<int>(std::lround((rest[i].z() + 0.5) / kSize * (m - 1)));
+    at[static_cast<size_t>(q) * m + p] = i;
+  }
+  Vec3s shown, x(s.mass.size()), x_prev, v(s.mass.size(), Vec3::Zero());
+  auto sample = [&]() {
+    faces.evaluate(sim.cloths()[0]->state().x, shown);
+    for (int iv = 0; iv < s.n; ++iv)
+      for (int iu = 0; iu < s.n; ++iu) {
+        const double fu = iu / double(s.n - 1) * (m - 1), fv = iv / double(s.n - 1) * (m - 1);
+        const int p = std::min(static_cast<int>(fu), m - 2), q = std::min(static_cast<int>(fv), m - 2);
+        const double a = fu - p, b = fv - q;
+        auto P = [&](int dp, int dq) { return shown[at[static_cast<size_t>(q + dq) * m + p + dp]]; };
+        x[s.cloth.mesh->grid_index(iu, iv)] =
+            (1 - a) * (1 - b) * P(0, 0) + a * (1 - b) * P(1, 0) + (1 - a) * b * P(0, 1) + a * b * P(1, 1);
+      }
+  };
+  sample();
+  Metrics metrics(s, x);
+  std::vector<double> ms;
+  for (int f = 0; f < s.frames; ++f) {
+    const FrameStats fs = sim.step_frame();
+    const auto t0 = Clock::now();
+    x_prev = x;
+    sample();
+    ms.push_back(step_ms(sim, fs) + std::chrono::duration<double, std::milli>(Clock::now() - t0).count());
+    for (size_t i = 0; i < x.size(); ++i) v[i] = (x[i] - x_prev[i]) / kFrameDt;
+    if (!metrics.add_frame(x, v, &ref[f], sim.cloths()[0]->state().is_finite())) break;
+  }
+  Row r;
+  r.system = "loom";
+  r.method = method;
+  r.size = s.n;
+  c.model.clear();
+  r.config = c.label() + " detail=curved_faces levels=2 coarse=" + std::to_string(nc);
+  r.threads = 1;
+  r.ms_per_frame = median(ms);
+  metrics.fill(r);
   return r;
 }
 
@@ -310,6 +372,81 @@ void print_row(const Row& r) {
               num(r.rms_error_max).c_str(), num(r.rms_error_end).c_str(), num(r.max_strain).c_str(),
               num(r.mean_strain).c_str(), num(r.energy_drift).c_str(), r.diverged ? "  DIVERGED" : "");
   std::fflush(stdout);
+}
+
+// Static scenes (issue 10): the catenary strip (methods.md §3.2; S = 1 m, spans 0.5, 0.8, 0.9 m; B ≈ 0) for the
+// solvers that give a shape rather than a motion: weil (geometric drape) and static (energy minimisation).
+// Row: size = nodes along the strip, config "scene=catenary span=D", ms_per_frame = wall time to the shape,
+// rms_error_max = rms_error_end = |sag - analytic sag| (m), strains of the shape, energy_drift 0.
+void run_static_scenes(const AccuracyOptions& o, const std::vector<std::string>& registered, std::vector<Row>& rows) {
+  const std::vector<std::pair<double, double>> spans =
+      o.quick ? std::vector<std::pair<double, double>>{{0.8, 0.26544}}
+              : std::vector<std::pair<double, double>>{{0.5, 0.39819}, {0.8, 0.26544}, {0.9, 0.19071}};
+  const int nodes = o.quick ? 26 : 101;
+  bool header = false;
+  for (const char* method : {"weil", "static"}) {
+    if (std::find(registered.begin(), registered.end(), method) == registered.end()) continue;
+    if (!o.methods.empty() && !o.methods.count(method)) continue;
+    if (!header) {
+      std::printf("loom bench accuracy: static scenes, catenary strip S = 1 m (%d x 2 nodes, 1 cm wide, cotton with "
+                  "B ~ 0), error = |sag - analytic sag|\n", nodes);
+      header = true;
+    }
+    for (const auto& [d, sag_ref] : spans) {
+      SimulationSetup setup;
+      ClothSetup c;
+      GridSpec g;
+      g.size_u = 1.0;
+      g.size_v = 0.01;
+      g.nodes_u = nodes;
+      g.nodes_v = 2;
+      g.origin = Vec3(-0.5, 1.0, 0.0);
+      c.mesh = ClothMesh::grid(g);
+      c.material = material_preset("cotton");
+      c.material.bend_weft = c.material.bend_warp = 1e-10;  // N·m: the catenary has no bending
+      c.material.damping = 0.0;
+      for (int iv = 0; iv < 2; ++iv) {
+        c.pins.push_back(PinSpec{c.mesh->grid_index(0, iv), Vec3(-0.5 * d, 1.0, 0.01 * iv), {}, {}});
+        c.pins.push_back(PinSpec{c.mesh->grid_index(nodes - 1, iv), Vec3(0.5 * d, 1.0, 0.01 * iv), {}, {}});
+      }
+      setup.cloths = {c};
+      setup.solver.method = method;
+      setup.frame_dt = kFrameDt;
+      Row r;
+      r.system = "loom";
+      r.method = method;
+      r.size = nodes;
+      r.config = "scene=catenary span=" + num(d);
+      r.threads = 1;
+      try {
+        Simulation sim(setup);
+        const auto start = Clock::now();
+        sim.step_frame();
+        r.ms_per_frame = std::chrono::duration<double, std::milli>(Clock::now() - start).count();
+        const ClothState& st = sim.cloths()[0]->state();
+        double lowest = 1e300;
+        for (const Vec3& p : st.x) lowest = std::min(lowest, p.y());
+        const double err = std::abs((1.0 - lowest) - sag_ref);
+        r.diverged = !st.is_finite() || !std::isfinite(err);
+        r.rms_error_max = r.rms_error_end = err;
+        double mx = 0.0, sum = 0.0;
+        const auto& sprs = c.mesh->springs();
+        for (int k : c.mesh->strain_springs()) {
+          const double strain = (st.x[sprs[k].j] - st.x[sprs[k].i]).norm() / sprs[k].rest_length - 1.0;
+          mx = std::max(mx, strain);
+          sum += std::abs(strain);
+        }
+        r.max_strain = mx;
+        r.mean_strain = sum / std::max<size_t>(1, c.mesh->strain_springs().size());
+        r.energy_drift = 0.0;
+      } catch (const loom::Error& e) {
+        std::printf("  skipped %s %s: %s\n", method, r.config.c_str(), e.what());
+        continue;
+      }
+      rows.push_back(r);
+      print_row(rows.back());
+    }
+  }
 }
 
 }  // namespace
@@ -376,13 +513,14 @@ int bench_accuracy(const AccuracyOptions& o) {
         skipped_methods.push_back(kv.first);
     for (const std::string& method : registered) {
       if (!o.methods.empty() && !o.methods.count(method)) continue;
+      if (static_only(method)) continue;  // static scenes only (the catenary table below)
       std::vector<SweepConfig> configs;
       auto it = table.find(method);
       if (it != table.end()) {
         configs = it->second;
       } else {
         // A solver this table does not know yet: a default step sweep.
-        for (int st : {1, 4}) configs.push_back(SweepConfig{st, {}});
+        for (int st : {1, 4}) configs.push_back(SweepConfig{st, {}, ""});
         if (o.quick) configs.resize(1);
         std::printf("  note: no sweep table entry for '%s'; using substeps 1, 4\n", method.c_str());
       }
@@ -410,6 +548,19 @@ int bench_accuracy(const AccuracyOptions& o) {
         }
       }
     }
+    // Issue 10: the hybrid (coarse simulation + curved-face detail) with backward Euler and IMEX.
+    if ((s.n - 1) / 4 + 1 >= 3)
+      for (const char* method : {"implicit_euler", "imex"}) {
+        if (!o.methods.empty() && !o.methods.count(method) && !o.methods.count("hybrid")) continue;
+        if (std::find(registered.begin(), registered.end(), method) == registered.end()) continue;
+        for (int st : o.quick ? std::vector<int>{1} : std::vector<int>{1, 4}) {
+          SweepConfig c;
+          c.substeps = st;
+          c.params["cg_tolerance"] = 1e-4;
+          rows.push_back(run_hybrid(s, method, c, ref, o.duration, o.perturbation));
+          print_row(rows.back());
+        }
+      }
     for (const auto& kv : bullet_sweep_table(o.quick)) {
       if (!o.methods.empty() && !o.methods.count(kv.first)) continue;
       const auto kind = kv.first == "bullet_classic" ? bullet::TwinKind::kClassic : bullet::TwinKind::kDeformable;
@@ -440,7 +591,11 @@ int bench_accuracy(const AccuracyOptions& o) {
     for (size_t k = first; k < rows.size(); ++k) {
       const Row& r = rows[k];
       if (r.threads != 1 || r.diverged || !(r.rms_error_max > 0.0)) continue;
-      pts.push_back({r.system == "loom" ? "loom:" + r.method : r.system, r.ms_per_frame, r.rms_error_max});
+      std::string label = r.system == "loom" ? "loom:" + r.method : r.system;
+      const size_t model_at = r.config.find(" model=");
+      if (model_at != std::string::npos) label += "+" + r.config.substr(model_at + 7);  // e.g. +corotated_fem
+      if (r.config.find(" detail=") != std::string::npos) label += "+detail";
+      pts.push_back({label, r.ms_per_frame, r.rms_error_max});
     }
     const std::string png = (fs::path(o.out) / ("accuracy_" + std::to_string(n) + ".png")).string();
     const std::string title = "hanging cloth " + std::to_string(n) + "x" + std::to_string(n) +
@@ -448,6 +603,7 @@ int bench_accuracy(const AccuracyOptions& o) {
     if (!write_results()) return 1;
     if (plot_accuracy(pts, title, png) && n == o.sizes.back()) fs::copy_file(png, fs::path(o.out) / "accuracy.png", fs::copy_options::overwrite_existing, ec);
   }
+  run_static_scenes(o, registered, rows);
   if (!write_results()) return 1;
   std::printf("wrote %s/accuracy.csv, %s/reference_check.csv, %s/accuracy.png\n", o.out.c_str(), o.out.c_str(),
               o.out.c_str());

@@ -1,5 +1,7 @@
 #include "RunCommand.h"
 
+#include "DetailView.h"
+
 #include <unistd.h>
 
 #include <algorithm>
@@ -186,12 +188,14 @@ int run_command(const RunOptions& options) {
     return out / "frames" / name;
   };
 
+  // Hybrid detail (issue 10): cloths with `detail` are written and rendered as their curved-face surface.
+  DetailView shown(sc, sim);
   // output.formats: "obj" below (with output.frames), "pc2" and "gltf" through loom::export.
   const bool obj = sc.output.frames && std::find(sc.output.formats.begin(), sc.output.formats.end(), "obj") != sc.output.formats.end();
-  exporter::Exporters exports(out.string(), sc.output.formats, sim.cloths(), sc.output.every);
+  exporter::Exporters exports(out.string(), sc.output.formats, shown.cloths(), sc.output.every);
 #ifdef LOOM_HAVE_RENDER
   std::unique_ptr<render::Recording> recording;  // --render: positions kept, rendered after the run
-  if (o.render) recording = std::make_unique<render::Recording>(sim.cloths(), census_colliders);
+  if (o.render) recording = std::make_unique<render::Recording>(shown.cloths(), census_colliders);
 #else
   if (o.render) throw Error("", "--render", "this loom was built without the offscreen renderer (Debian: libosmesa6-dev libstb-dev)");
 #endif
@@ -200,13 +204,13 @@ int run_command(const RunOptions& options) {
   bool in_memory = o.render;
   for (const std::string& f : sc.output.formats) in_memory = in_memory || f == "pc2" || f == "gltf";
   std::unique_ptr<FrameLog> log;
-  if (in_memory) log = std::make_unique<FrameLog>(out, resume ? resume->logged_frames : 0, sim.cloths());
+  if (in_memory) log = std::make_unique<FrameLog>(out, resume ? resume->logged_frames : 0, shown.cloths());
   auto keep_frame = [&](bool exported, bool rendered) {
-    if (exported) exports.frame(sim.time(), sim.cloths());
+    if (exported) exports.frame(sim.time(), shown.cloths());
 #ifdef LOOM_HAVE_RENDER
-    if (recording && rendered) recording->add(sim.cloths());
+    if (recording && rendered) recording->add(shown.cloths());
 #endif
-    if (log && (exported || rendered)) log->append(sim.time(), (exported ? 1 : 0) | (rendered ? 2 : 0), sim.cloths());
+    if (log && (exported || rendered)) log->append(sim.time(), (exported ? 1 : 0) | (rendered ? 2 : 0), shown.cloths());
   };
   double max_strain = 0.0, mean_strain_sum = 0.0, sim_ms = 0.0;
   bool finite = true;
@@ -217,19 +221,20 @@ int run_command(const RunOptions& options) {
     mean_strain_sum = resume->mean_strain_sum;
     sim_ms = resume->sim_ms;
     if (log)  // the frames pc2/gltf/--render hold in memory, back from the log
-      log->replay(sim.cloths(), [&](double time, int flags) {
-        if (flags & 1) exports.frame(time, sim.cloths());
+      log->replay(shown.cloths(), [&](double time, int flags) {
+        if (flags & 1) exports.frame(time, shown.cloths());
 #ifdef LOOM_HAVE_RENDER
-        if (recording && (flags & 2)) recording->add(sim.cloths());
+        if (recording && (flags & 2)) recording->add(shown.cloths());
 #endif
       });
+    shown.update();  // the replayed frames left their positions in the shown cloths
   } else {
     cloth::FrameStats s0 = sim.measure();
     finite = s0.finite;
     if (finite) {  // NaN is never written (issue 8)
       write_row(s0);
       run_census();
-      if (obj) write_obj(frame_path(0), sim.cloths());
+      if (obj) write_obj(frame_path(0), shown.cloths());
       keep_frame(true, true);
     }
     max_strain = finite ? s0.max_strain : 0.0;
@@ -278,7 +283,8 @@ int run_command(const RunOptions& options) {
     }
     write_row(s);
     run_census();
-    if (obj && f % sc.output.every == 0) write_obj(frame_path(f), sim.cloths());
+    shown.update();
+    if (obj && f % sc.output.every == 0) write_obj(frame_path(f), shown.cloths());
     max_strain = std::max(max_strain, s.max_strain);
     mean_strain_sum += s.mean_strain;
     done = f;

@@ -3,6 +3,9 @@
 #include <algorithm>
 #include <chrono>
 #include <cmath>
+#include <cstring>
+
+#include "loom/cloth/SpringTerm.h"
 
 namespace loom::cloth {
 
@@ -30,8 +33,33 @@ void ImplicitSolver::prepare(const Cloth& cloth) {
   if (&cloth == cloth_ && n == n_) return;
   cloth_ = &cloth;
   n_ = n;
+  jac_terms_.clear();
+  owned_terms_.clear();
+  for (const auto& t : cloth.terms()) {
+    if (scheme_ != Scheme::kImex) {
+      jac_terms_.push_back(t.get());
+      continue;
+    }
+    // IMEX: the stiff in-plane terms only (header).
+    const char* nm = t->name();
+    for (const char* stiff : {"bw_stretch", "bw_shear", "corotated_fem", "choi_ko"})
+      if (!std::strcmp(nm, stiff)) jac_terms_.push_back(t.get());
+    const auto* springs = dynamic_cast<const SpringTerm*>(t.get());
+    const auto& defs = cloth.mesh().springs();
+    if (springs && !std::strcmp(nm, "springs")) {
+      if (springs->springs().size() != defs.size()) {
+        jac_terms_.push_back(t.get());  // not the mesh's spring set: keep it whole
+        continue;
+      }
+      std::vector<Spring> stiff;
+      for (size_t k = 0; k < defs.size(); ++k)
+        if (defs[k].kind != SpringKind::kBend && defs[k].kind != SpringKind::kHinge) stiff.push_back(springs->springs()[k]);
+      owned_terms_.push_back(std::make_unique<SpringTerm>(n, std::move(stiff), "springs_in_plane"));
+      jac_terms_.push_back(owned_terms_.back().get());
+    }
+  }
   std::vector<std::pair<int, int>> pairs;
-  for (const auto& t : cloth.terms()) t->add_pattern(pairs);
+  for (const Term* t : jac_terms_) t->add_pattern(pairs);
   for (auto& p : pairs)
     if (p.first > p.second) std::swap(p.first, p.second);
   std::sort(pairs.begin(), pairs.end());
@@ -76,7 +104,7 @@ void ImplicitSolver::assemble(Cloth& cloth, const Vec3s& x, const Vec3s& v, doub
   o.clamp_compression = true;
   o.damping_position_terms = false;
   const EvalContext ctx{x, v, t, threads};
-  for (const auto& term : cloth.terms()) {
+  for (const Term* term : jac_terms_) {
     // Non-conservative terms (drag): only df/dv goes into A; their position dependence stays explicit.
     term->add_jacobians(ctx, o, term->conservative() ? &K_ : nullptr, &D_);
   }

@@ -4,6 +4,7 @@
 
 #include "loom/cloth/ChoiKoTerm.h"
 #include "loom/cloth/BaraffWitkinTerm.h"
+#include "loom/cloth/CorotatedFemTerm.h"
 #include "loom/cloth/DihedralBendingTerm.h"
 #include "loom/cloth/Error.h"
 #include "loom/cloth/SpringSet.h"
@@ -32,6 +33,12 @@ const std::vector<Entry>& registry() {
        [](Cloth& c) {
          c.add_term(make_bw_stretch_term(c.mesh(), c.material()));
          c.add_term(make_bw_shear_term(c.mesh(), c.material()));
+         c.add_term(make_dihedral_bending_term(c.mesh(), c.material()));
+       }},
+      // Co-rotated linear FEM membrane (orthotropic, warp/weft), dihedral-angle bending (CorotatedFemTerm.h).
+      {"corotated_fem",
+       [](Cloth& c) {
+         c.add_term(make_corotated_fem_term(c.mesh(), c.material()));
          c.add_term(make_dihedral_bending_term(c.mesh(), c.material()));
        }},
   };

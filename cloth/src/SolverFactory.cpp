@@ -8,6 +8,7 @@
 #include "loom/cloth/ProjectiveSolver.h"
 #include "loom/cloth/Solver.h"
 #include "loom/cloth/StaticSolver.h"
+#include "loom/cloth/WeilSolver.h"
 
 namespace loom::cloth {
 
@@ -42,7 +43,8 @@ std::unique_ptr<Solver> make_implicit_solver(ImplicitSolver::Scheme scheme, Solv
   ImplicitParams ip;
   ip.cg_tolerance = p.number("cg_tolerance", ip.cg_tolerance, 1e-14, 1.0);
   ip.cg_max_iterations = p.integer("cg_max_iterations", ip.cg_max_iterations, 1, 1000000);
-  ip.newton_iterations = p.integer("newton_iterations", ip.newton_iterations, 1, 1000);
+  if (scheme != ImplicitSolver::Scheme::kImex)  // imex is linearised only
+    ip.newton_iterations = p.integer("newton_iterations", ip.newton_iterations, 1, 1000);
   ip.adaptive = p.flag("adaptive", ip.adaptive);
   ip.max_strain_change = p.number("max_strain_change", ip.max_strain_change, 1e-9, 1e9);
   return std::make_unique<ImplicitSolver>(scheme, ip);
@@ -62,6 +64,8 @@ const std::vector<Entry>& registry() {
       // Baraff & Witkin 1998 backward Euler and Choi & Ko 2002 BDF2 (ImplicitSolver.h).
       {"implicit_euler", [](SolverParams& p) { return make_implicit_solver(ImplicitSolver::Scheme::kBackwardEuler, p); }},
       {"bdf2", [](SolverParams& p) { return make_implicit_solver(ImplicitSolver::Scheme::kBdf2, p); }},
+      // Implicit-explicit split: stiff in-plane terms implicit, bending and the rest explicit (ImplicitSolver.h).
+      {"imex", [](SolverParams& p) { return make_implicit_solver(ImplicitSolver::Scheme::kImex, p); }},
       // Position-based and projective solvers on the springs (PositionBasedSolvers.h, ProjectiveSolver.h).
       {"pbd",
        [](SolverParams& p) {
@@ -92,6 +96,8 @@ const std::vector<Entry>& registry() {
          s.tolerance = p.number("tolerance", s.tolerance, 0.0, 1.0);
          return std::make_unique<StaticSolver>(s);
        }},
+      // Weil 1986 geometric drape from catenaries, static scenes only (WeilSolver.h).
+      {"weil", [](SolverParams&) { return std::make_unique<WeilSolver>(); }},
       {"desbrun",
        [](SolverParams& p) { return std::make_unique<DesbrunSolver>(p.flag("angular_correction", true)); }},
   };

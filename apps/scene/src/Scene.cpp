@@ -343,6 +343,15 @@ Scene parse_scene(const nlohmann::json& root, const std::string& file) {
     if (c.has("mass")) cs.material.areal_density = c.number("mass", std::nullopt, 0.0, true) / cs.mesh->total_area();
     cs.initial_velocity = c.vec3("velocity", Vec3::Zero());
     cs.pins = parse_pins(c, *cs.mesh);
+    if (c.has("detail")) {  // issue 10: hybrid detail (CurvedFaces.h)
+      const JsonReader d = c.object("detail");
+      cloth::DetailSettings ds;
+      ds.method = d.string("method", "curved_faces", {"curved_faces"});
+      ds.levels = d.integer("levels", 2, 0);
+      if (ds.levels > 5) d.fail("levels", "must be <= 5 (each level multiplies the triangles by 4)");
+      d.finish();
+      scene.detail[static_cast<int>(scene.setup.cloths.size())] = ds;
+    }
     c.finish();
     scene.setup.cloths.push_back(std::move(cs));
   }
@@ -393,6 +402,19 @@ Scene parse_scene(const nlohmann::json& root, const std::string& file) {
     o.finish();
   }
   r.finish();
+  if (scene.setup.solver.method == "weil") {
+    // Weil's drape is one static shape from catenaries (WeilSolver.h): no motion, no contact.
+    auto refuse = [&](const std::string& field, const std::string& what) {
+      throw Error(file, field, "the weil drape (solver.method \"weil\") is a static geometric shape without " + what +
+                                   ": use a dynamic solver or the static solver");
+    };
+    if (!scene.colliders.empty()) refuse("colliders", "collision");
+    if (!scene.bodies.empty()) refuse("bodies", "collision or rigid bodies");
+    if (scene.character) refuse("character", "motion (a character moves)");
+    if (scene.collision) refuse("collision", "collision");
+    if (scene.frames > 1)
+      refuse("duration", "dynamics: it gives one frame (set duration to 1/fps; got " + std::to_string(scene.frames) + " frames)");
+  }
   return scene;
 }
 

@@ -1,12 +1,14 @@
 #pragma once
 // A scene: one JSON file naming cloths, solver, effects, duration and outputs (DESIGN.md, "Scenes").
 // The format is documented in README.md ("Scene format").
+#include <map>
 #include <memory>
 #include <nlohmann/json.hpp>
 #include <optional>
 #include <string>
 #include <vector>
 
+#include "loom/cloth/CurvedFaces.h"
 #include "loom/cloth/Simulation.h"
 #include "loom/collision/SelfCollisionStage.h"
 #include "loom/collision/Collider.h"
@@ -47,6 +49,9 @@ struct Scene {
   std::vector<collision::RigidBodySpec> bodies;  // `bodies` (SceneBodies.cpp): Bullet rigid bodies (issue 9)
   std::vector<collision::Collider> colliders;  // `colliders` (SceneColliders.cpp): rigid shapes, kinematic motion
   std::shared_ptr<characters::Character> character;  // `character` (SceneCharacter.cpp); null without one
+  // `cloths[i].detail` (issue 10, hybrid detail): cloth index -> its curved-face surface settings; the cloths
+  // listed are shown (OBJ frames, exports, renders) as their refined surface instead of the simulated mesh.
+  std::map<int, cloth::DetailSettings> detail;
 };
 
 // Reads a JSON file; syntax errors name the file, line and column.
