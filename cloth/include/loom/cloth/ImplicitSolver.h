@@ -26,7 +26,12 @@
 // non-conservative terms can feed in, and safeguard_tolerance times the energy exchanged in the step
 // (energy_gain_excessive()) makes the step be redone by safeguard_newton_iterations Newton iterations with
 // line search (below), from the linearised result or the start, whichever has the lower Φ. Steps that
-// balance cost two energy evaluations (counter safeguard_ms).
+// balance cost two energy evaluations (counter safeguard_ms). The default tolerance 0.2 separates the two
+// regimes measured: the failing stiff case gains more than half the exchanged energy in every step, benign
+// linearisation and CG-truncation gains on the accuracy bench reach 8.5 % (N=64, cg_tolerance 0.01, 2nd
+// step). A correction there (tolerance 0.01) replaced that step by a more dissipative, better-converged
+// backward Euler step and raised the row's error from 1.9 to 2.7 cm: the check is a guard against blow-up,
+// not an accuracy control.
 // Matrix: A = M - γD - γ²K with M on the left, symmetric: K and D from JacobianOptions{clamp_compression,
 // no damping position terms} (springs: clamped transverse term; Baraff-Witkin: clamped stretch, Gauss-Newton
 // shear and bending). Non-conservative terms (drag) contribute only their velocity Jacobian D (their
@@ -48,7 +53,7 @@ struct ImplicitParams {
   bool adaptive = false;           // reject-and-halve substeps
   double max_strain_change = 0.1;  // 1, largest |Δ(l/L)| of an edge in one accepted substep (adaptive)
   bool safeguard = true;           // linearised step: energy balance check, Newton correction if violated
-  double safeguard_tolerance = 1e-2;   // 1, allowed gain relative to the energy exchanged in the step
+  double safeguard_tolerance = 0.2;    // 1, allowed gain relative to the energy exchanged in the step
   int safeguard_newton_iterations = 4; // Newton iterations of a correction
 };
 
