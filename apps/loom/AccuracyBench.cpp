@@ -32,9 +32,10 @@ using Clock = std::chrono::steady_clock;
 constexpr double kFrameDt = 1.0 / 60.0;  // s
 constexpr double kSize = 1.0;            // m, side of the square
 constexpr double kMass = 0.2;            // kg
-// Reference: Verlet at h_bound / (2 kRefFactor), checked against h_bound / kRefFactor (methods.md §2.4
-// proposes h_crit / 20; h_bound is already below h_crit). The finest Verlet of the sweep runs at h_bound, so
-// for a second-order scheme the check ratio is about (3/4) / kRefFactor² = 0.3%.
+// Reference: Verlet (velocity form, reference()) at h_bound / (2 kRefFactor), checked against
+// h_bound / kRefFactor (methods.md §2.4 proposes h_crit / 20; h_bound is already below h_crit). The finest
+// Verlet of the sweep runs at h_bound, so for a second-order scheme the check ratio is about
+// (3/4) / kRefFactor² = 0.3%.
 constexpr int kRefFactor = 16;
 
 // The hanging-cloth scene (issue 3): 1 m square of the cotton preset, 0.2 kg, horizontal, pinned at the
@@ -207,6 +208,9 @@ SimulationSetup loom_setup(const Scene& s, const std::string& method, const Swee
   setup.frame_dt = kFrameDt;
   setup.substeps = c.substeps;
   setup.threads = threads;
+  // The explosion guard (Guard.h) would roll a diverging frame back and rerun it with twice the substeps, so
+  // a configuration would be measured as another one: off, a run that blows up is reported as diverged.
+  setup.guard.enabled = false;
   return setup;
 }
 
@@ -229,16 +233,41 @@ void set_start(Simulation& sim, const Scene& s) {
   st.x_prev = st.x;
 }
 
+// Reference trajectory: positions at frames 1..frames. Verlet in its velocity (kick-drift-kick) form on the
+// scene's own cloth (Loom's terms: the same springs and gravity every run uses):
+//   v += h/2 M⁻¹ f(x),  x += h v,  v += h/2 M⁻¹ f(x).
+// Its positions are those of position Verlet x+ = 2x - x- + h² M⁻¹ f (the `verlet` solver, same start) in
+// exact arithmetic, but it keeps v explicitly: position Verlet stores the velocity as x - x-, a difference of
+// two nearly equal positions whose rounding error, ulp(x) / h in velocity, grows as h shrinks. Measured on
+// this scene (reference_check.csv, README): at h_bound/16 vs /32 position Verlet changed by 2.4e-8 m (N=32)
+// and 1.1e-5 m (N=64: the buckling sheet amplifies it), i.e. did not converge; the velocity form changes by
+// 4.9e-9 m and 5.5e-9 m, a quarter of the previous halving's change (second order).
 std::vector<Vec3s> reference(const Scene& s, int substeps, int threads) {
   SweepConfig c;
   c.substeps = substeps;
-  Simulation sim(loom_setup(s, "verlet", c, threads));
+  Simulation sim(loom_setup(s, "verlet", c, threads));  // builds the cloth: model, masses, pins
   set_start(sim, s);
+  Cloth& cloth = *sim.cloths()[0];
+  ClothState& st = cloth.state();
+  const int nv = st.size();
+  const double h = kFrameDt / substeps;
+  Vec3s f;
+  cloth.compute_forces(st.x, st.v, 0.0, threads, f);
   std::vector<Vec3s> out;
-  for (int f = 0; f < s.frames; ++f) {
-    sim.step_frame();
-    out.push_back(sim.cloths()[0]->state().x);
-    if (!sim.cloths()[0]->state().is_finite()) throw Error("", "bench accuracy", "the reference diverged");
+  for (int fr = 0; fr < s.frames; ++fr) {
+    for (int k = 0; k < substeps; ++k) {
+      const double t1 = (static_cast<double>(fr) * substeps + k + 1) * h;
+      for (int i = 0; i < nv; ++i)
+        if (st.inv_mass[i] != 0.0) {  // the scene's pins are fixed
+          st.v[i] += 0.5 * h * st.inv_mass[i] * f[i];
+          st.x[i] += h * st.v[i];
+        }
+      cloth.compute_forces(st.x, st.v, t1, threads, f);
+      for (int i = 0; i < nv; ++i)
+        if (st.inv_mass[i] != 0.0) st.v[i] += 0.5 * h * st.inv_mass[i] * f[i];
+    }
+    out.push_back(st.x);
+    if (!st.is_finite()) throw Error("", "bench accuracy", "the reference diverged");
   }
   return out;
 }
@@ -502,7 +531,7 @@ int bench_accuracy(const AccuracyOptions& o) {
         const SpringDef& d = s.cloth.mesh->springs()[k];
         ref_max_strain = std::max(ref_max_strain, (x[d.j] - x[d.i]).norm() / d.rest_length - 1.0);
       }
-    std::printf("  reference: verlet, %d steps/frame, check at %d (%.1f s): they differ by %.3g m\n", ref_steps,
+    std::printf("  reference: velocity verlet, %d steps/frame, check at %d (%.1f s): they differ by %.3g m\n", ref_steps,
                 ref_steps / 2, std::chrono::duration<double>(Clock::now() - t0).count(), change);
     std::fflush(stdout);
 

@@ -24,6 +24,8 @@ std::vector<std::pair<std::string, double>> ImplicitSolver::counters() const {
           {"cg_iterations", double(c.cg_iterations)},
           {"newton_iterations", double(c.newton_iterations)},
           {"line_search_halvings", double(c.line_search_halvings)},
+          {"safeguard_corrections", double(c.safeguard_corrections)},
+          {"safeguard_ms", c.safeguard_ms},
           {"assembly_ms", c.assembly_ms},
           {"cg_ms", c.cg_ms}};
 }
@@ -204,71 +206,25 @@ bool ImplicitSolver::substep(Cloth& cloth, double t, double h, int threads) {
     ++counters_.linear_solves;
     counters_.cg_iterations += r.iterations;
     for (int i = 0; i < n; ++i) vplus[i] = s.v[i] + dv_[i];
+    const auto t_check = Clock::now();
+    const bool excessive = p_.safeguard && energy_gain_excessive(cloth, t, h, threads);
+    counters_.safeguard_ms += ms_since(t_check);
+    if (excessive) {
+      // The linearised step created energy that no external work explains (large rotations of stiff
+      // cloth, methods.md §2.2): correct this step by Newton with line search, from the better of the
+      // linearised result and the start.
+      ++counters_.safeguard_corrections;
+      vtry_.resize(n);
+      for (int i = 0; i < n; ++i) vtry_[i] = fixed_[i] ? vplus[i] : s.v[i];
+      if (incremental_potential(cloth, vtry_, t + h, threads) < incremental_potential(cloth, vplus, t + h, threads))
+        vplus.swap(vtry_);
+      newton(cloth, t, h, threads, p_.safeguard_newton_iterations);
+      for (int i = 0; i < n; ++i) dv_[i] = vplus[i] - s.v[i];  // the next step's warm start
+    }
   } else {
     // Newton on the incremental potential with a backtracking line search.
     for (int i = 0; i < n; ++i) vplus[i] = fixed_[i] ? pinned_velocity(i) : s.v[i];
-    const Vec3s zero(n, Vec3::Zero());
-    g_.resize(n);
-    double g0 = 0.0;
-    Vec3s xk(n);
-    for (int it = 0; it < p_.newton_iterations; ++it) {
-      for (int i = 0; i < n; ++i) xk[i] = xb_[i] + gamma * vplus[i];
-      cloth.compute_forces(xk, vplus, t + h, threads, f_);
-      double gnorm = 0.0;
-      for (int i = 0; i < n; ++i) {
-        g_[i] = fixed_[i] ? Vec3::Zero() : Vec3(s.mass[i] * (vplus[i] - vb_[i]) - gamma * f_[i]);
-        if (!fixed_[i]) gnorm += g_[i].squaredNorm() / s.mass[i];
-      }
-      gnorm = std::sqrt(gnorm);
-      if (it == 0) g0 = gnorm;
-      if (!std::isfinite(gnorm)) break;
-      if (gnorm == 0.0 || (it > 0 && gnorm <= p_.cg_tolerance * g0)) break;
-      ++counters_.newton_iterations;
-      // Conservative forces alone (at zero velocity): the rest is f_nc, the dissipative part.
-      fc_.assign(n, Vec3::Zero());
-      {
-        const EvalContext ctx{xk, zero, t + h, threads};
-        for (const auto& term : cloth.terms())
-          if (term->conservative()) term->add_forces(ctx, fc_);
-      }
-      assemble(cloth, xk, vplus, t + h, gamma, threads);
-      rhs_.resize(n);
-      for (int i = 0; i < n; ++i) rhs_[i] = -g_[i];
-      p_dir_.assign(n, Vec3::Zero());
-      const auto t0 = Clock::now();
-      const PcgResult r =
-          pcg_.solve(A_, rhs_, fixed_, p_dir_, p_.cg_tolerance, p_.cg_max_iterations, threads);
-      counters_.cg_ms += ms_since(t0);
-      ++counters_.linear_solves;
-      counters_.cg_iterations += r.iterations;
-      double slope = 0.0, fnc_p = 0.0;
-      for (int i = 0; i < n; ++i) {
-        slope += g_[i].dot(p_dir_[i]);
-        fnc_p += (f_[i] - fc_[i]).dot(p_dir_[i]);
-      }
-      if (!(slope < 0.0)) break;  // no descent direction (truncated CG on an indefinite model)
-      multiply(D_, p_dir_, tmp_, threads);
-      double pDp = 0.0;
-      for (int i = 0; i < n; ++i) pDp += p_dir_[i].dot(tmp_[i]);
-      const double phi0 = incremental_potential(cloth, vplus, t + h, threads);
-      double step = 1.0;
-      vtry_.resize(n);
-      bool accepted = false;
-      for (int ls = 0; ls < 20; ++ls) {
-        for (int i = 0; i < n; ++i) vtry_[i] = vplus[i] + step * p_dir_[i];
-        // Ψ = -f_ncᵀ δ - 1/2 δᵀ D δ with δ = step p.
-        const double phi = incremental_potential(cloth, vtry_, t + h, threads) +
-                           gamma * (-step * fnc_p - 0.5 * step * step * pDp);
-        if (std::isfinite(phi) && phi <= phi0 + 1e-4 * step * slope) {
-          accepted = true;
-          break;
-        }
-        step *= 0.5;
-        ++counters_.line_search_halvings;
-      }
-      if (!accepted) break;
-      vplus.swap(vtry_);
-    }
+    newton(cloth, t, h, threads, p_.newton_iterations);
   }
   // Commit: free vertices x+ = x_b + γ v+; kinematic vertices x+ = x + h v exactly.
   y_.resize(n);
@@ -289,6 +245,127 @@ bool ImplicitSolver::substep(Cloth& cloth, double t, double h, int threads) {
   h_hist_ = h;
   has_history_ = true;
   return s.is_finite();
+}
+
+double ImplicitSolver::mechanical_energy(const Cloth& cloth, const Vec3s& x, const Vec3s& v, double t,
+                                         int threads, std::vector<double>& per_term) const {
+  const ClothState& s = cloth.state();
+  double kinetic = 0.0;
+  for (int i = 0; i < n_; ++i)
+    if (!fixed_[i]) kinetic += 0.5 * s.mass[i] * v[i].squaredNorm();
+  per_term.clear();
+  const EvalContext ctx{x, v, t, threads};
+  for (const auto& term : cloth.terms())
+    if (term->conservative()) per_term.push_back(term->energy(ctx));
+  return kinetic;
+}
+
+bool ImplicitSolver::energy_gain_excessive(Cloth& cloth, double t, double h, int threads) {
+  // Energy balance of the step just solved (start: s.x, s.v; end: x+ = x_b + γ v+, v+ in vk_):
+  //   ΔE = ΔK + Σ ΔE_term  must not exceed  W_pins + W_in + tol (K_0 + K_1 + Σ |ΔE_term| + |W_pins| + W_in)
+  // with K the kinetic energy of the free vertices, E_term the conservative terms (gravity included),
+  // W_pins = -Σ_kinematic f_i·Δx_i the work of the kinematic vertices (forces at the start of the step) and
+  // W_in = h Σ_free max(0, f_nc,i·v+_i) an upper bound of what non-conservative terms (drag in wind) can
+  // feed in. Damping only dissipates. An exactly solved backward Euler step of a conservative system
+  // dissipates; the linearised step can gain energy only through the linearisation (methods.md §2.2).
+  const ClothState& s = cloth.state();
+  const int n = n_;
+  const Vec3s& vplus = vk_;
+  xk_.resize(n);
+  for (int i = 0; i < n; ++i) xk_[i] = xb_[i] + gamma_ * vplus[i];
+  const double k0 = mechanical_energy(cloth, s.x, s.v, t, threads, e_start_);
+  const double k1 = mechanical_energy(cloth, xk_, vplus, t + h, threads, e_end_);
+  double gain = k1 - k0, exchanged = k0 + k1;
+  for (size_t k = 0; k < e_start_.size(); ++k) {
+    gain += e_end_[k] - e_start_[k];
+    exchanged += std::abs(e_end_[k] - e_start_[k]);
+  }
+  double w_pins = 0.0;
+  for (int i = 0; i < n; ++i)
+    if (fixed_[i]) w_pins -= f_[i].dot(xk_[i] - s.x[i]);
+  double w_in = 0.0;
+  bool any_nc = false;
+  for (const auto& term : cloth.terms()) any_nc = any_nc || !term->conservative();
+  if (any_nc) {
+    tmp_.assign(n, Vec3::Zero());
+    const EvalContext ctx{xk_, vplus, t + h, threads};
+    for (const auto& term : cloth.terms())
+      if (!term->conservative()) term->add_forces(ctx, tmp_);
+    for (int i = 0; i < n; ++i)
+      if (!fixed_[i]) w_in += h * std::max(0.0, tmp_[i].dot(vplus[i]));
+  }
+  const double allowed = w_pins + w_in + p_.safeguard_tolerance * (exchanged + std::abs(w_pins) + w_in);
+  return !(gain <= allowed);  // a non-finite balance counts as excessive
+}
+
+void ImplicitSolver::newton(Cloth& cloth, double t, double h, int threads, int iterations) {
+  // Newton on the incremental potential Φ from the iterate in vk_, with a backtracking line search.
+  ClothState& s = cloth.state();
+  const int n = n_;
+  const double gamma = gamma_;
+  Vec3s& vplus = vk_;
+  const Vec3s zero(n, Vec3::Zero());
+  g_.resize(n);
+  double g0 = 0.0;
+  Vec3s xk(n);
+  for (int it = 0; it < iterations; ++it) {
+    for (int i = 0; i < n; ++i) xk[i] = xb_[i] + gamma * vplus[i];
+    cloth.compute_forces(xk, vplus, t + h, threads, f_);
+    double gnorm = 0.0;
+    for (int i = 0; i < n; ++i) {
+      g_[i] = fixed_[i] ? Vec3::Zero() : Vec3(s.mass[i] * (vplus[i] - vb_[i]) - gamma * f_[i]);
+      if (!fixed_[i]) gnorm += g_[i].squaredNorm() / s.mass[i];
+    }
+    gnorm = std::sqrt(gnorm);
+    if (it == 0) g0 = gnorm;
+    if (!std::isfinite(gnorm)) break;
+    if (gnorm == 0.0 || (it > 0 && gnorm <= p_.cg_tolerance * g0)) break;
+    ++counters_.newton_iterations;
+    // Conservative forces alone (at zero velocity): the rest is f_nc, the dissipative part.
+    fc_.assign(n, Vec3::Zero());
+    {
+      const EvalContext ctx{xk, zero, t + h, threads};
+      for (const auto& term : cloth.terms())
+        if (term->conservative()) term->add_forces(ctx, fc_);
+    }
+    assemble(cloth, xk, vplus, t + h, gamma, threads);
+    rhs_.resize(n);
+    for (int i = 0; i < n; ++i) rhs_[i] = -g_[i];
+    p_dir_.assign(n, Vec3::Zero());
+    const auto t0 = Clock::now();
+    const PcgResult r =
+        pcg_.solve(A_, rhs_, fixed_, p_dir_, p_.cg_tolerance, p_.cg_max_iterations, threads);
+    counters_.cg_ms += ms_since(t0);
+    ++counters_.linear_solves;
+    counters_.cg_iterations += r.iterations;
+    double slope = 0.0, fnc_p = 0.0;
+    for (int i = 0; i < n; ++i) {
+      slope += g_[i].dot(p_dir_[i]);
+      fnc_p += (f_[i] - fc_[i]).dot(p_dir_[i]);
+    }
+    if (!(slope < 0.0)) break;  // no descent direction (truncated CG on an indefinite model)
+    multiply(D_, p_dir_, tmp_, threads);
+    double pDp = 0.0;
+    for (int i = 0; i < n; ++i) pDp += p_dir_[i].dot(tmp_[i]);
+    const double phi0 = incremental_potential(cloth, vplus, t + h, threads);
+    double step = 1.0;
+    vtry_.resize(n);
+    bool accepted = false;
+    for (int ls = 0; ls < 20; ++ls) {
+      for (int i = 0; i < n; ++i) vtry_[i] = vplus[i] + step * p_dir_[i];
+      // Ψ = -f_ncᵀ δ - 1/2 δᵀ D δ with δ = step p.
+      const double phi = incremental_potential(cloth, vtry_, t + h, threads) +
+                         gamma * (-step * fnc_p - 0.5 * step * step * pDp);
+      if (std::isfinite(phi) && phi <= phi0 + 1e-4 * step * slope) {
+        accepted = true;
+        break;
+      }
+      step *= 0.5;
+      ++counters_.line_search_halvings;
+    }
+    if (!accepted) break;
+    vplus.swap(vtry_);
+  }
 }
 
 void ImplicitSolver::step(Cloth& cloth, double t, double h, int threads) {

@@ -47,6 +47,10 @@ std::unique_ptr<Solver> make_implicit_solver(ImplicitSolver::Scheme scheme, Solv
     ip.newton_iterations = p.integer("newton_iterations", ip.newton_iterations, 1, 1000);
   ip.adaptive = p.flag("adaptive", ip.adaptive);
   ip.max_strain_change = p.number("max_strain_change", ip.max_strain_change, 1e-9, 1e9);
+  ip.safeguard = p.flag("safeguard", ip.safeguard);
+  ip.safeguard_tolerance = p.number("safeguard_tolerance", ip.safeguard_tolerance, 0.0, 1e9);
+  ip.safeguard_newton_iterations =
+      p.integer("safeguard_newton_iterations", ip.safeguard_newton_iterations, 1, 1000);
   return std::make_unique<ImplicitSolver>(scheme, ip);
 }
 
