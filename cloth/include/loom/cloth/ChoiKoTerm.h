@@ -83,6 +83,8 @@ class ChoiKoTerm final : public Term {
   double interlaced_tension(const BucklingSpring& s, double l) const;
   double interlaced_stiffness(const BucklingSpring& s, double l) const;
   double interlaced_energy(const BucklingSpring& s, double l) const;
+  // The interlaced springs' bending part alone (the arc energy of r = l / l_u; see the header comment), J.
+  double interlaced_bending_energy(const Vec3s& x) const;
 
  private:
   std::vector<Spring> sequential_;
@@ -93,8 +95,24 @@ class ChoiKoTerm final : public Term {
   std::vector<BucklingSpring> seq_buckle_;
   void set_crossover(std::vector<BucklingSpring>& springs, double crossover_curvature) const;
   double sequential_tension(int k, double l) const;
-  // Effective length l_eff of interlaced spring s and its gradient w.r.t. (x_i, x_j, x_a, x_b).
-  double effective_length(const BucklingSpring& s, const Vec3s& x, Vec3* grad) const;
+  using Vec12 = Eigen::Matrix<double, 12, 1>;
+  using Mat12 = Eigen::Matrix<double, 12, 12>;
+  // Chord l and unfolded chord l_u of an interlaced spring with their gradients (and Hessians) over the
+  // corners (i, j, a, b).
+  struct SpringGeometry {
+    double l = 0.0, lu = 0.0;  // m
+    Vec12 gl, glu;
+    Mat12 Hl, Hlu;
+  };
+  static bool has_path(const BucklingSpring& s);
+  void geometry(const BucklingSpring& s, const Vec3s& x, bool hessian, SpringGeometry& g) const;
+  // Bending ratio r = l / l_u and membrane ratio m(l_u) with dm/dl_u, d²m/dl_u² (see the header comment).
+  void ratios(const BucklingSpring& s, const SpringGeometry& g, double& r, double& m, double& dm, double& ddm) const;
+  double bending_tension(const BucklingSpring& s, double r) const;
+  double bending_stiffness(const BucklingSpring& s, double r) const;
+  double bending_energy(const BucklingSpring& s, double r) const;
+  double spring_energy(const BucklingSpring& s, const Vec3s& x) const;
+  void spring_derivatives(const BucklingSpring& s, const Vec3s& x, Vec12* grad, Mat12* hess, bool project) const;
   PairGather gather_seq_;
   ElementGather gather_int_;
   mutable Vec3s seq_force_, int_force_;  // int_force_: 4 corners per interlaced spring
