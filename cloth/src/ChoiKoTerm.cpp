@@ -474,13 +474,10 @@ std::unique_ptr<ChoiKoTerm> make_choi_ko_term(const ClothMesh& mesh, const Mater
   Material membrane = mat;
   membrane.bend_weft = membrane.bend_warp = 0.0;
   std::vector<Spring> all = make_springs(mesh, membrane), sequential;
-  std::vector<double> sequential_kb;
   for (size_t k = 0; k < all.size(); ++k) {
     const SpringDef& d = mesh.springs()[k];
     if (d.kind == SpringKind::kStructural || d.kind == SpringKind::kShear || d.kind == SpringKind::kEdge) {
       sequential.push_back(all[k]);
-      const Vec2 dir = d.rest_uv_dir;
-      sequential_kb.push_back((mat.bend_weft * dir.x() * dir.x() + mat.bend_warp * dir.y() * dir.y()) * d.area / d.rest_length);
     }
   }
   // Type 2: interlaced pairs.
@@ -535,8 +532,7 @@ std::unique_ptr<ChoiKoTerm> make_choi_ko_term(const ClothMesh& mesh, const Mater
         interlaced.push_back(s);
       }
   }
-  return std::make_unique<ChoiKoTerm>(mesh.num_vertices(), std::move(sequential), std::move(interlaced), 4.0, 1e-5,
-                                      std::move(sequential_kb));
+  return std::make_unique<ChoiKoTerm>(mesh.num_vertices(), std::move(sequential), std::move(interlaced), 4.0, 1e-5);
 }
 
 }  // namespace loom::cloth

@@ -110,7 +110,9 @@ TEST(FabricTests, ChoiKoCantileverMatchesTheElasticaAndResolution) {
       EXPECT_LT(std::abs(r.error), 1.5) << "l/c = " << ratio << ", N = " << o.resolution << ": " << r.measured << "° vs " << r.theory << "°";
       angle[k] = r.measured;
     }
-    if (refine) EXPECT_LT(std::abs(angle[1] - angle[0]), 1.0) << "l/c = " << ratio;
+    if (refine) {
+      EXPECT_LT(std::abs(angle[1] - angle[0]), 1.0) << "l/c = " << ratio;
+    }
   }
 }
 
