@@ -5,6 +5,9 @@
 #include <cmath>
 #include <map>
 
+#include <Eigen/Eigenvalues>
+#include <unsupported/Eigen/AutoDiff>
+
 #include "loom/cloth/SpringSet.h"
 
 namespace loom::cloth {
@@ -155,38 +158,201 @@ double ChoiKoTerm::sequential_tension(int k, double l) const {
   return seq_buckle_.empty() ? 0.0 : interlaced_tension(seq_buckle_[k], l);
 }
 
-double ChoiKoTerm::effective_length(const BucklingSpring& s, const Vec3s& x, Vec3* grad) const {
+namespace {
+using Mat12 = Eigen::Matrix<double, 12, 12>;
+using Vec12 = Eigen::Matrix<double, 12, 1>;
+using Ad1 = Eigen::AutoDiffScalar<Eigen::Matrix<double, 5, 1>>;
+using Ad2 = Eigen::AutoDiffScalar<Eigen::Matrix<Ad1, 5, 1>>;
+
+// Adds the Hessian of |x_q - x_p| (corners p, q), times w, to H.
+void add_length_hessian(Mat12& H, int p, int q, const Vec3& d, double w) {
+  const double len = d.norm();
+  const Vec3 u = d / len;
+  const Mat3 A = w * (Mat3::Identity() - u * u.transpose()) / len;
+  H.block<3, 3>(3 * p, 3 * p) += A;
+  H.block<3, 3>(3 * q, 3 * q) += A;
+  H.block<3, 3>(3 * p, 3 * q) -= A;
+  H.block<3, 3>(3 * q, 3 * p) -= A;
+}
+
+// The unfolded chord of a hinge: the distance between the opposite vertices i, j of the triangles (i, e0, e1)
+// and (j, e0, e1) when the two are laid flat, from the five edge lengths a_i = |i e0|, b_i = |i e1|,
+// a_j = |j e0|, b_j = |j e1|, e = |e0 e1|: the foot of i on the edge is t_i = (a_i² + e² - b_i²) / 2e from
+// e0, its height h_i = √(a_i² - t_i²), and l_u = √((t_i - t_j)² + (h_i + h_j)²).
+template <class T>
+T unfolded_chord(const T& ai, const T& bi, const T& aj, const T& bj, const T& e) {
+  using std::sqrt;
+  const T ti = (ai * ai + e * e - bi * bi) / (2.0 * e), tj = (aj * aj + e * e - bj * bj) / (2.0 * e);
+  T hi2 = ai * ai - ti * ti, hj2 = aj * aj - tj * tj;
+  if (hi2 < 1e-30) hi2 = T(1e-30);
+  if (hj2 < 1e-30) hj2 = T(1e-30);
+  const T dt = ti - tj, hs = sqrt(hi2) + sqrt(hj2);
+  return sqrt(dt * dt + hs * hs);
+}
+
+// Corner pairs of the lengths that l_u depends on: the path i-a-j, i-b-j (grids: a = b, the middle node),
+// or the hinge's five edges (meshes).
+constexpr int kPathPairs[4][2] = {{0, 2}, {2, 1}, {0, 3}, {3, 1}};
+constexpr int kHingePairs[5][2] = {{0, 2}, {0, 3}, {1, 2}, {1, 3}, {2, 3}};
+}  // namespace
+
+bool ChoiKoTerm::has_path(const BucklingSpring& s) { return s.a >= 0 && s.path_rest > 0.0; }
+
+void ChoiKoTerm::geometry(const BucklingSpring& s, const Vec3s& x, bool hessian, SpringGeometry& g) const {
+  const auto v = corners(s);
   const Vec3 d = x[s.j] - x[s.i];
-  const double l = d.norm();
-  const Vec3 u = d / l;
-  if (s.a < 0 || s.path_rest <= 0.0) {
-    if (grad) {
-      grad[0] = -u;
-      grad[1] = u;
-      grad[2] = grad[3] = Vec3::Zero();
-    }
-    return l;
+  g.l = d.norm();
+  const Vec3 u = d / g.l;
+  g.gl.setZero();
+  g.gl.segment<3>(0) = -u;
+  g.gl.segment<3>(3) = u;
+  if (hessian) {
+    g.Hl.setZero();
+    add_length_hessian(g.Hl, 0, 1, d, 1.0);
   }
-  const Vec3 ia = x[s.a] - x[s.i], aj = x[s.j] - x[s.a], ib = x[s.b] - x[s.i], bj = x[s.j] - x[s.b];
-  const double P = 0.5 * (ia.norm() + aj.norm() + ib.norm() + bj.norm());
+  if (!has_path(s)) return;
+  // l_u = F(lengths): ∇l_u = Σ F_k ∇len_k, ∇²l_u = Σ F_km ∇len_k ∇len_mᵀ + Σ F_k ∇²len_k.
+  const bool path = s.a == s.b;
+  const int np = path ? 4 : 5;
+  const int(*pairs)[2] = path ? kPathPairs : kHingePairs;
+  double len[5];
+  Vec3 dir[5];
+  for (int k = 0; k < np; ++k) {
+    const Vec3 e = x[v[pairs[k][1]]] - x[v[pairs[k][0]]];
+    len[k] = e.norm();
+    dir[k] = e;
+  }
+  Eigen::Matrix<double, 5, 1> F = Eigen::Matrix<double, 5, 1>::Zero();
+  Eigen::Matrix<double, 5, 5> FF = Eigen::Matrix<double, 5, 5>::Zero();
+  if (path) {
+    g.lu = 0.5 * (len[0] + len[1] + len[2] + len[3]);
+    F.head<4>().setConstant(0.5);
+  } else if (!hessian) {
+    Ad1 a[5];
+    for (int k = 0; k < 5; ++k) a[k] = Ad1(len[k], 5, k);
+    const Ad1 r = unfolded_chord(a[0], a[1], a[2], a[3], a[4]);
+    g.lu = r.value();
+    F = r.derivatives();
+  } else {
+    Ad2 a[5];
+    for (int k = 0; k < 5; ++k) {
+      a[k].value() = Ad1(len[k], 5, k);
+      a[k].derivatives().resize(5);
+      for (int m = 0; m < 5; ++m) a[k].derivatives()[m] = Ad1(m == k ? 1.0 : 0.0, Eigen::Matrix<double, 5, 1>::Zero());
+    }
+    const Ad2 r = unfolded_chord(a[0], a[1], a[2], a[3], a[4]);
+    g.lu = r.value().value();
+    F = r.value().derivatives();
+    for (int k = 0; k < 5; ++k) FF.row(k) = r.derivatives()[k].derivatives().transpose();
+  }
+  g.glu.setZero();
+  Vec12 G[5];
+  for (int k = 0; k < np; ++k) {
+    const Vec3 w = dir[k] / len[k];
+    G[k].setZero();
+    G[k].segment<3>(3 * pairs[k][0]) -= w;
+    G[k].segment<3>(3 * pairs[k][1]) += w;
+    g.glu += F[k] * G[k];
+  }
+  if (!hessian) return;
+  g.Hlu.setZero();
+  for (int k = 0; k < np; ++k) {
+    add_length_hessian(g.Hlu, pairs[k][0], pairs[k][1], dir[k], F[k]);
+    if (!path)
+      for (int m = 0; m < np; ++m) g.Hlu += FF(k, m) * G[k] * G[m].transpose();
+  }
+}
+
+void ChoiKoTerm::ratios(const BucklingSpring& s, const SpringGeometry& g, double& r, double& m, double& dm,
+                        double& ddm) const {
+  if (!has_path(s)) {
+    r = 1.0;
+    m = g.l / s.rest_length;
+    dm = ddm = 0.0;  // unused: m follows l directly
+    return;
+  }
+  r = g.l / g.lu;
+  // m = w / (1 + φ(w - 1)), w = l_u / l_u0: the membrane's compression along the spring (1 when stretched).
+  const double P0 = s.path_rest, w = g.lu / P0;
   double p, dp, ddp;
-  phi(P / s.path_rest - 1.0, z0_, p, dp, ddp);
-  const double sc = 1.0 + p;
-  if (grad) {
-    grad[0] = -u / sc;
-    grad[1] = u / sc;
-    grad[2] = grad[3] = Vec3::Zero();
-    if (dp != 0.0) {
-      // ∇l_eff = ∇l / s - l / s² ∇s, ∇s = φ' ∇P / P0.
-      const double w = -l / (sc * sc) * dp / s.path_rest * 0.5;
-      const Vec3 wia = ia.normalized(), waj = aj.normalized(), wib = ib.normalized(), wbj = bj.normalized();
-      grad[0] += w * (-wia - wib);
-      grad[1] += w * (waj + wbj);
-      grad[2] += w * (wia - waj);
-      grad[3] += w * (wib - wbj);
-    }
+  phi(w - 1.0, z0_, p, dp, ddp);
+  const double D = 1.0 + p;
+  m = w / D;
+  dm = (1.0 / D - w * dp / (D * D)) / P0;
+  ddm = (-2.0 * dp / (D * D) - w * ddp / (D * D) + 2.0 * w * dp * dp / (D * D * D)) / (P0 * P0);
+}
+
+double ChoiKoTerm::bending_tension(const BucklingSpring& s, double r) const {
+  const double L = s.rest_length;
+  return r >= 1.0 ? -12.0 * s.kb / (L * L) : choi_ko::buckling_force(r * L, L, s.kb);
+}
+double ChoiKoTerm::bending_stiffness(const BucklingSpring& s, double r) const {
+  const double L = s.rest_length;
+  return r >= 1.0 ? 7.2 * s.kb / (L * L * L) : choi_ko::buckling_force_derivative(r * L, L, s.kb);
+}
+double ChoiKoTerm::bending_energy(const BucklingSpring& s, double r) const {
+  const double L = s.rest_length;
+  return r >= 1.0 ? -12.0 * s.kb / L * (r - 1.0) : choi_ko::buckling_energy(r * L, L, s.kb);
+}
+
+double ChoiKoTerm::interlaced_bending_energy(const Vec3s& x) const {
+  double e = 0.0;
+  for (const BucklingSpring& s : interlaced_) {
+    if (!has_path(s)) continue;
+    SpringGeometry g;
+    geometry(s, x, false, g);
+    e += bending_energy(s, g.l / g.lu);
   }
-  return l / sc;
+  return e;
+}
+
+double ChoiKoTerm::spring_energy(const BucklingSpring& s, const Vec3s& x) const {
+  SpringGeometry g;
+  geometry(s, x, false, g);
+  double r, m, dm, ddm;
+  ratios(s, g, r, m, dm, ddm);
+  double e = interlaced_energy(s, m * s.rest_length);
+  if (has_path(s)) e += bending_energy(s, r);
+  return e;
+}
+
+// Gradient (and Hessian) of the spring's energy over its 4 corners. `project`: the Choi-Ko clamp, i.e. the
+// membrane part's geometric term dropped and the bending part projected onto its positive eigenvalues.
+void ChoiKoTerm::spring_derivatives(const BucklingSpring& s, const Vec3s& x, Vec12* grad, Mat12* hess,
+                                    bool project) const {
+  SpringGeometry g;
+  geometry(s, x, hess != nullptr, g);
+  double r, m, dm, ddm;
+  ratios(s, g, r, m, dm, ddm);
+  const double L = s.rest_length;
+  const double Tm = interlaced_tension(s, m * L);
+  Vec12 gm, gr = Vec12::Zero();
+  if (has_path(s)) {
+    gm = L * dm * g.glu;
+    gr = L * (g.gl / g.lu - g.l / (g.lu * g.lu) * g.glu);
+  } else {
+    gm = g.gl;
+  }
+  const double Tb = has_path(s) ? bending_tension(s, r) : 0.0;
+  if (grad) *grad = Tm * gm + Tb * gr;
+  if (!hess) return;
+  Mat12& H = *hess;
+  H = interlaced_stiffness(s, m * L) * gm * gm.transpose();
+  if (!project && Tm != 0.0) {
+    if (has_path(s)) H += Tm * L * (ddm * g.glu * g.glu.transpose() + dm * g.Hlu);
+    else H += Tm * g.Hl;
+  }
+  if (!has_path(s)) return;
+  const double lu = g.lu;
+  const Mat12 Hr = L * (g.Hl / lu - (g.gl * g.glu.transpose() + g.glu * g.gl.transpose()) / (lu * lu) +
+                        2.0 * g.l / (lu * lu * lu) * g.glu * g.glu.transpose() - g.l / (lu * lu) * g.Hlu);
+  Mat12 Hb = bending_stiffness(s, r) * gr * gr.transpose() + Tb * Hr;
+  if (project) {
+    Eigen::SelfAdjointEigenSolver<Mat12> eig(0.5 * (Hb + Hb.transpose()));
+    const Vec12 ev = eig.eigenvalues().cwiseMax(0.0);
+    Hb = eig.eigenvectors() * ev.asDiagonal() * eig.eigenvectors().transpose();
+  }
+  H += Hb;
 }
 
 double ChoiKoTerm::interlaced_tension(const BucklingSpring& s, double l) const {
@@ -215,7 +381,7 @@ double ChoiKoTerm::energy(const EvalContext& c) const {
     if (stretch > 0.0) e += 0.5 * s.k * stretch * stretch;
     else if (!seq_buckle_.empty()) e += interlaced_energy(seq_buckle_[k], l);
   }
-  for (const BucklingSpring& s : interlaced_) e += interlaced_energy(s, effective_length(s, c.x, nullptr));
+  for (const BucklingSpring& s : interlaced_) e += spring_energy(s, c.x);
   return e;
 }
 
@@ -235,9 +401,9 @@ void ChoiKoTerm::add_forces(const EvalContext& c, Vec3s& f) const {
 #pragma omp for schedule(static)
     for (int k = 0; k < nb; ++k) {
       const BucklingSpring& s = interlaced_[k];
-      Vec3 g[4];
-      const double T = interlaced_tension(s, effective_length(s, c.x, g));
-      for (int q = 0; q < 4; ++q) int_force_[4 * k + q] = -T * g[q];
+      Vec12 g;
+      spring_derivatives(s, c.x, &g, nullptr, false);
+      for (int q = 0; q < 4; ++q) int_force_[4 * k + q] = -g.segment<3>(3 * q);
     }
 #pragma omp for schedule(static)
     for (int i = 0; i < n; ++i) f[i] += gather_seq_.sum(i, seq_force_) + gather_int_.sum(i, int_force_);
@@ -260,18 +426,6 @@ void add_pair_block(BlockMatrix& m, int i, int j, const Mat3& K) {
   m.add(i, j, K);
   m.add(j, i, K);
   m.add(j, j, -K);
-}
-using Mat12 = Eigen::Matrix<double, 12, 12>;
-using Vec12 = Eigen::Matrix<double, 12, 1>;
-// Adds the Hessian of |x_q - x_p| (corners p, q), times w, to H.
-void add_length_hessian(Mat12& H, int p, int q, const Vec3& d, double w) {
-  const double len = d.norm();
-  const Vec3 u = d / len;
-  const Mat3 A = w * (Mat3::Identity() - u * u.transpose()) / len;
-  H.block<3, 3>(3 * p, 3 * p) += A;
-  H.block<3, 3>(3 * q, 3 * q) += A;
-  H.block<3, 3>(3 * p, 3 * q) -= A;
-  H.block<3, 3>(3 * q, 3 * p) -= A;
 }
 }  // namespace
 
@@ -301,52 +455,14 @@ void ChoiKoTerm::add_jacobians(const EvalContext& c, const JacobianOptions& o, B
   }
   if (!dfdx) return;
   for (const BucklingSpring& s : interlaced_) {
-    Vec3 g[4];
-    const double le = effective_length(s, c.x, g);
-    if (le >= s.rest_length) continue;
-    const double T = interlaced_tension(s, le), dT = interlaced_stiffness(s, le);
+    Mat12 H;
+    spring_derivatives(s, c.x, nullptr, &H, o.clamp_compression);
+    if (H.isZero(0.0)) continue;
     const auto v = corners(s);
-    Vec12 G;
-    for (int q = 0; q < 4; ++q) G.segment<3>(3 * q) = g[q];
-    // Hessian of E(l_eff): T' ∇l_eff ∇l_effᵀ + T ∇²l_eff; the second part is indefinite for T < 0 and
-    // is dropped with clamp_compression (Choi-Ko), which keeps -K positive semi-definite.
-    Mat12 H = dT * G * G.transpose();
-    if (!o.clamp_compression) {
-      const Vec3 d = c.x[s.j] - c.x[s.i];
-      const double l = d.norm();
-      Mat12 Hl = Mat12::Zero();
-      add_length_hessian(Hl, 0, 1, d, 1.0);
-      double p = 0.0, dp = 0.0, ddp = 0.0;
-      Vec12 Gp = Vec12::Zero();
-      Mat12 HP = Mat12::Zero();
-      if (s.a >= 0 && s.path_rest > 0.0) {
-        const Vec3 ia = c.x[s.a] - c.x[s.i], aj = c.x[s.j] - c.x[s.a], ib = c.x[s.b] - c.x[s.i], bj = c.x[s.j] - c.x[s.b];
-        const double P = 0.5 * (ia.norm() + aj.norm() + ib.norm() + bj.norm());
-        phi(P / s.path_rest - 1.0, z0_, p, dp, ddp);
-        const Vec3 wia = ia.normalized(), waj = aj.normalized(), wib = ib.normalized(), wbj = bj.normalized();
-        Gp.segment<3>(0) = 0.5 * (-wia - wib);
-        Gp.segment<3>(3) = 0.5 * (waj + wbj);
-        Gp.segment<3>(6) += 0.5 * (wia - waj);
-        Gp.segment<3>(9) += 0.5 * (wib - wbj);
-        add_length_hessian(HP, 0, 2, ia, 0.5);
-        add_length_hessian(HP, 2, 1, aj, 0.5);
-        add_length_hessian(HP, 0, 3, ib, 0.5);
-        add_length_hessian(HP, 3, 1, bj, 0.5);
-      }
-      const double sc = 1.0 + p, P0 = s.path_rest > 0.0 ? s.path_rest : 1.0;
-      Vec12 Gl = Vec12::Zero();
-      Gl.segment<3>(0) = -d / l;
-      Gl.segment<3>(3) = d / l;
-      const Vec12 Gs = dp / P0 * Gp;
-      const Mat12 Hs = ddp / (P0 * P0) * Gp * Gp.transpose() + dp / P0 * HP;
-      const Mat12 Hle = Hl / sc - (Gl * Gs.transpose() + Gs * Gl.transpose()) / (sc * sc) - l / (sc * sc) * Hs +
-                        2.0 * l / (sc * sc * sc) * Gs * Gs.transpose();
-      H += T * Hle;
-    }
     // dfdx = -H, scattered over the corners (a corner may repeat: grids have a = b).
     for (int p = 0; p < 4; ++p)
       for (int q = 0; q < 4; ++q) {
-        if ((p >= 2 || q >= 2) && (s.a < 0 || s.path_rest <= 0.0)) continue;
+        if ((p >= 2 || q >= 2) && !has_path(s)) continue;
         dfdx->add(v[p], v[q], -H.block<3, 3>(3 * p, 3 * q));
       }
   }
@@ -358,13 +474,10 @@ std::unique_ptr<ChoiKoTerm> make_choi_ko_term(const ClothMesh& mesh, const Mater
   Material membrane = mat;
   membrane.bend_weft = membrane.bend_warp = 0.0;
   std::vector<Spring> all = make_springs(mesh, membrane), sequential;
-  std::vector<double> sequential_kb;
   for (size_t k = 0; k < all.size(); ++k) {
     const SpringDef& d = mesh.springs()[k];
     if (d.kind == SpringKind::kStructural || d.kind == SpringKind::kShear || d.kind == SpringKind::kEdge) {
       sequential.push_back(all[k]);
-      const Vec2 dir = d.rest_uv_dir;
-      sequential_kb.push_back((mat.bend_weft * dir.x() * dir.x() + mat.bend_warp * dir.y() * dir.y()) * d.area / d.rest_length);
     }
   }
   // Type 2: interlaced pairs.
@@ -385,7 +498,7 @@ std::unique_ptr<ChoiKoTerm> make_choi_ko_term(const ClothMesh& mesh, const Mater
       s.i = mesh.grid_index(iu, iv);
       s.j = mesh.grid_index(ju, jv);
       s.rest_length = L;
-      s.kb = 2.0 / 3.0 * directional_bend(d / L) * du * dv / L;
+      s.kb = 8.0 / 9.0 * directional_bend(d / L) * du * dv / L;
       s.a = s.b = mesh.grid_index((iu + ju) / 2, (iv + jv) / 2);
       s.path_rest = L;
       interlaced.push_back(s);
@@ -406,16 +519,20 @@ std::unique_ptr<ChoiKoTerm> make_choi_ko_term(const ClothMesh& mesh, const Mater
         s.i = d.i;
         s.j = d.j;
         s.rest_length = d.rest_length;
-        s.kb = 8.0 / 3.0 * directional_bend(d.rest_uv_dir) * d.area / d.rest_length;
+        // The dihedral hinge's energy (B/2) |e|²/(A1 + A2) θ² (methods.md §4.5) matched to the spring's arc
+        // energy: a fold θ across the edge shortens the chord by h_i h_j θ² / (2 l_u).
+        const Vec3 e = x[h.e1] - x[h.e0];
+        const double elen = e.norm(), hi = e.cross(x[d.i] - x[h.e0]).norm() / elen,
+                     hj = e.cross(x[d.j] - x[h.e0]).norm() / elen, L3 = d.rest_length * d.rest_length * d.rest_length;
+        s.kb = directional_bend(d.rest_uv_dir) * elen * L3 / (6.0 * hi * hj * (hi + hj));
         s.a = h.e0;
         s.b = h.e1;
-        s.path_rest = 0.5 * ((x[h.e0] - x[d.i]).norm() + (x[d.j] - x[h.e0]).norm() + (x[h.e1] - x[d.i]).norm() +
-                             (x[d.j] - x[h.e1]).norm());
+        s.path_rest = unfolded_chord((x[h.e0] - x[d.i]).norm(), (x[h.e1] - x[d.i]).norm(), (x[h.e0] - x[d.j]).norm(),
+                                     (x[h.e1] - x[d.j]).norm(), (x[h.e1] - x[h.e0]).norm());
         interlaced.push_back(s);
       }
   }
-  return std::make_unique<ChoiKoTerm>(mesh.num_vertices(), std::move(sequential), std::move(interlaced), 4.0, 1e-5,
-                                      std::move(sequential_kb));
+  return std::make_unique<ChoiKoTerm>(mesh.num_vertices(), std::move(sequential), std::move(interlaced), 4.0, 1e-5);
 }
 
 }  // namespace loom::cloth

@@ -1,7 +1,8 @@
 // Cusick drape test (issue 4): a 30 cm disc on an 18 cm support. No published drape coefficients exist for
 // the measured presets (REFERENCES §3.3), so the test checks what the physics fixes: the coefficient lies in
 // (0, 100), grows with the bending length, folds form on a soft fabric, and the value changes by < 2 points
-// between two resolutions (the issue's acceptance), measured here for the stiff cotton.
+// between two resolutions (the issue's acceptance), measured here for the soft knit, whose folds make it the
+// hardest case (the support edge is at the same radius at every resolution: FabricTests.cpp, disc_mesh).
 #include <gtest/gtest.h>
 
 #include <cmath>
@@ -33,9 +34,9 @@ double field(const FabricTestResult& r, const std::string& key) {
 }
 
 TEST(FabricDrape, CoefficientOrdersFabricsByStiffnessAndConvergesWithResolution) {
-  const FabricTestResult soft = drape("gray_interlock", 12), mid = drape("denim_11oz", 12);
-  const FabricTestResult stiff = drape("cotton", 12), stiff_fine = drape("cotton", 16);
-  for (const FabricTestResult* r : {&soft, &mid, &stiff, &stiff_fine}) {
+  const FabricTestResult soft = drape("gray_interlock", 12), soft_fine = drape("gray_interlock", 16);
+  const FabricTestResult mid = drape("denim_11oz", 12), stiff = drape("cotton", 12);
+  for (const FabricTestResult* r : {&soft, &soft_fine, &mid, &stiff}) {
     EXPECT_GT(r->measured, 0.0);
     EXPECT_LT(r->measured, 100.0);
     EXPECT_TRUE(std::isnan(r->theory));
@@ -46,7 +47,7 @@ TEST(FabricDrape, CoefficientOrdersFabricsByStiffnessAndConvergesWithResolution)
   // The soft knit forms folds (nodes) around the support.
   EXPECT_GE(field(soft, "nodes"), 3.0);
   // Resolution: 12 and 16 rings within 2 points.
-  EXPECT_LT(std::abs(stiff.measured - stiff_fine.measured), 2.0);
+  EXPECT_LT(std::abs(soft.measured - soft_fine.measured), 2.0);
 }
 
 }  // namespace

@@ -7,24 +7,25 @@
 //    opposite each interior edge on meshes): act only under compression, with the buckling force of the
 //    circular-arc model evaluated exactly (no polynomial fit):
 //        l / L = sinc(y),  κ = 2y / L,  f_b = k_b κ² / (cos y - sinc y),  E_arc = 2 k_b y² / L,
-//    limits f_b -> -12 k_b/L² (l -> L) and -4π² k_b/L² (l -> 0). Near l = L a linear branch
-//    f* = max(f_b, c_b (l - L)), c_b = 12 k_b / (ε* L³), removes the force jump (Blender's fbstar).
-//    The crossover strain is set per spring from a physical crossover curvature κ0 (1/m):
-//    ε* = (κ0 L)² / 24, the compression of a spring bent to κ0. Bends sharper than κ0 follow the exact
-//    curve at every resolution, and the energy the linear branch leaves out is the fraction (κ0/κ)²/2
-//    whatever L is. (A fixed ε*, as in Blender, makes fine meshes fall back to the linear branch: the
-//    compression of an ordinary fold, κ²L²/24, shrinks with L² — methods.md §1.6.)
-// Stretch compensation [derived]: the arc model needs the chord l and the arc length; Choi-Ko takes the
-// arc length as the rest length L. A membrane stretched by z (tension from gravity, a pull) lengthens the
-// chord by (1 + z) and so hides compressions below z: because f_b(L⁻) = -12 k_b/L² is finite, a strip in
-// bending then stretches its sequential springs by ~B/(Y L²) instead of compressing its interlaced ones
-// (fine meshes lose the bending response). So the interlaced spring sees the effective length
-// l_eff = l / (1 + φ(P/P0 - 1)), P the current path length through the middle cloth, with φ(z) = z for
-// z >= z0, 0 for z <= 0 and 2z²/z0 - z³/z0² between (C¹, φ(z) <= z). Compression (z < 0) is not
-// compensated: in-plane compression stays resisted by the buckling force, as in Choi-Ko.
-// Tension T(l) = dE/dl; the force on end i is T x̂. Jacobian: (dT/dl) x̂x̂ᵀ + (T/l)(I - x̂x̂ᵀ); with
-// JacobianOptions::clamp_compression the transverse part of compressed springs is dropped (Choi-Ko), which
-// keeps M - h²K positive definite since dT/dl >= 0 everywhere.
+//    limits f_b -> -12 k_b/L² (l -> L) and -4π² k_b/L² (l -> 0).
+// Bending and membrane compression are measured apart [derived; measured in issue 4]. Let l_u be the
+// unfolded chord: the length of the path i -> middle -> j on grids, the distance of i and j with the two
+// hinge triangles laid flat on meshes (from the five edge lengths). Then
+//  - bending ratio r = l / l_u <= 1 (= 1 exactly when flat, whatever the in-plane strain): the spring stores
+//    the exact arc energy E_arc(r L), with no linear branch. Its gradient vanishes when flat, so there is
+//    no force jump, and gentle bends get the full ½ B κ² (the chord-based measure with a linear branch
+//    below a crossover curvature left them with E ∝ κ⁴, and a membrane stretched by the finite
+//    f_b(L⁻) hid the bend: the Choi-Ko cantilever was 4.5-10° too soft);
+//  - membrane ratio m = w / (1 + φ(w - 1)), w = l_u / l_u0 (φ(z) = z for z >= z0, 0 for z <= 0, C¹ between):
+//    in-plane compression (m < 1) is resisted by the Choi-Ko force on the length m L, with the linear branch
+//    f* = max(f_b, c_b (l - L)), c_b = 12 k_b / (ε* L³) (Blender's fbstar) that removes the jump at l = L.
+//    The crossover strain ε* = (κ0 L)² / 24 is set per spring from a crossover curvature κ0 (1/m).
+// E = E_arc(r L) + E*(m L). Jacobian: exact; with JacobianOptions::clamp_compression (Choi-Ko) the membrane
+// part keeps only (dT/dl) ∇(mL)∇(mL)ᵀ and the bending part's 12x12 Hessian is projected onto its
+// non-negative eigenvalues, so M - h²K stays positive definite and keeps the bending stiffness.
+// Type-1 springs are tension only, as in Choi-Ko: the earlier deviation (compressed sequential springs as
+// buckled arcs, against a sliding mode of the middle nodes) is not needed with this split; a strip shortened
+// by 5% then stores no compression (tests/cloth/test_buckling.cpp).
 #include <memory>
 
 #include "loom/cloth/ClothMesh.h"
@@ -52,10 +53,9 @@ struct BucklingSpring {
   double rest_length = 0.0;  // m
   double kb = 0.0;           // N·m, bending stiffness of the arc (energy k_b/2 ∫κ² ds)
   // The cloth between i and j: the middle node on grids (a = b), the hinge edge's ends on meshes; -1: none.
-  // Stretch compensation: the chord is compared with the rest length scaled by the stretch of the path
-  // i -> a -> j, i -> b -> j (see ChoiKoTerm), so that a stretched membrane does not hide a bend.
+  // They define the unfolded chord l_u (see above); without them (a = -1) the spring sees its chord only.
   int a = -1, b = -1;
-  double path_rest = 0.0;    // m, rest length of that path, ½ (|ia| + |aj| + |ib| + |bj|)
+  double path_rest = 0.0;    // m, l_u at rest (= L for a flat rest state)
   // Filled by ChoiKoTerm from the crossover curvature:
   double cb = 0.0;           // N/m, slope of the linear branch
   double l_star = 0.0;       // m, where the linear branch meets the curve
@@ -64,8 +64,9 @@ struct BucklingSpring {
 
 class ChoiKoTerm final : public Term {
  public:
-  // `crossover_curvature` κ0 (1/m): bends gentler than this use the linear branch (see above). Larger κ0
-  // softens the linear branch (c_b ∝ 1/(κ0² L⁵)) at the price of more energy left out of gentle bends.
+  // `crossover_curvature` κ0 (1/m): sets the membrane part's linear branch, c_b ∝ 1/(κ0² L⁵) (see above).
+  // `sequential_kb` (optional, not used by make_choi_ko_term): gives compressed sequential springs the
+  // buckled-arc response with these k_b (N·m) instead of none.
   ChoiKoTerm(int num_vertices, std::vector<Spring> sequential, std::vector<BucklingSpring> interlaced,
              double crossover_curvature = 4.0, double compensation_strain = 1e-5,
              std::vector<double> sequential_kb = {});
@@ -83,6 +84,8 @@ class ChoiKoTerm final : public Term {
   double interlaced_tension(const BucklingSpring& s, double l) const;
   double interlaced_stiffness(const BucklingSpring& s, double l) const;
   double interlaced_energy(const BucklingSpring& s, double l) const;
+  // The interlaced springs' bending part alone (the arc energy of r = l / l_u; see the header comment), J.
+  double interlaced_bending_energy(const Vec3s& x) const;
 
  private:
   std::vector<Spring> sequential_;
@@ -93,25 +96,38 @@ class ChoiKoTerm final : public Term {
   std::vector<BucklingSpring> seq_buckle_;
   void set_crossover(std::vector<BucklingSpring>& springs, double crossover_curvature) const;
   double sequential_tension(int k, double l) const;
-  // Effective length l_eff of interlaced spring s and its gradient w.r.t. (x_i, x_j, x_a, x_b).
-  double effective_length(const BucklingSpring& s, const Vec3s& x, Vec3* grad) const;
+  using Vec12 = Eigen::Matrix<double, 12, 1>;
+  using Mat12 = Eigen::Matrix<double, 12, 12>;
+  // Chord l and unfolded chord l_u of an interlaced spring with their gradients (and Hessians) over the
+  // corners (i, j, a, b).
+  struct SpringGeometry {
+    double l = 0.0, lu = 0.0;  // m
+    Vec12 gl, glu;
+    Mat12 Hl, Hlu;
+  };
+  static bool has_path(const BucklingSpring& s);
+  void geometry(const BucklingSpring& s, const Vec3s& x, bool hessian, SpringGeometry& g) const;
+  // Bending ratio r = l / l_u and membrane ratio m(l_u) with dm/dl_u, d²m/dl_u² (see the header comment).
+  void ratios(const BucklingSpring& s, const SpringGeometry& g, double& r, double& m, double& dm, double& ddm) const;
+  double bending_tension(const BucklingSpring& s, double r) const;
+  double bending_stiffness(const BucklingSpring& s, double r) const;
+  double bending_energy(const BucklingSpring& s, double r) const;
+  double spring_energy(const BucklingSpring& s, const Vec3s& x) const;
+  void spring_derivatives(const BucklingSpring& s, const Vec3s& x, Vec12* grad, Mat12* hess, bool project) const;
   PairGather gather_seq_;
   ElementGather gather_int_;
   mutable Vec3s seq_force_, int_force_;  // int_force_: 4 corners per interlaced spring
 };
 
-// The Choi-Ko model of a mesh and material: sequential springs from the mesh's structural/shear (grid) or
-// edge springs with the stiffness mapping of SpringSet.h, interlaced springs with k_b from the bending
-// rigidity so that the bending response does not depend on resolution:
-//   grid (warp, weft, both diagonals at every node): k_b = (2/3) B(φ) du dv / L
-//   mesh (hinge pairs, three directions per vertex): k_b = (8/3) B(φ) A_e / L, A_e = (A1 + A2) / 3
-// Sequential springs under compression [deviation from the tension-only type 1 of methods.md §1.6]: a
-// compressed sequential spring acts as a buckled arc of its own length (the circular-arc force with
-// k_b = B(φ) A_e / L, A_e its area share), i.e. it yields at the sub-grid Euler load instead of carrying
-// linear compression. Purely tension-only springs leave the middle node of every interlaced pair free to
-// slide along the line under compression (a zero-energy mode): measured on a 41-node strip shortened by
-// 5%, single sequential springs collapsed by 44-70%.
-// Both follow from matching Σ ½ k_b L κ_n² (κ_n = κ cos²θ, Euler) to ½ B κ² per area for every bend direction.
+// The Choi-Ko model of a mesh and material: tension-only sequential springs from the mesh's structural/shear
+// (grid) or edge springs with the stiffness mapping of SpringSet.h, interlaced springs with k_b from the
+// bending rigidity so that the bending response does not depend on resolution or direction:
+//   grid (warp, weft, both diagonals at every node): k_b = (8/9) B(φ) du dv / L. A taut strip is a polyline
+//     kinked by α = κ du at every node, whose interlaced chord is shorter than l_u by L α²/8, not the smooth
+//     arc's L (κL)²/24 (3/4 of it): hence 8/9 = 4/3 x the arc mapping's 2/3;
+//   mesh (hinge pairs): a fold θ across the edge e shortens the chord by h_i h_j θ² / (2 l_u) (h: the heights
+//     of i and j over e), and k_b = B(φ) |e| L³ / (6 h_i h_j (h_i + h_j)) makes the spring's energy the
+//     dihedral hinge's (B/2) |e|²/(A1 + A2) θ² (methods.md §4.5), exact in every direction on equilateral meshes.
 std::unique_ptr<ChoiKoTerm> make_choi_ko_term(const ClothMesh& mesh, const Material& material);
 
 }  // namespace loom::cloth

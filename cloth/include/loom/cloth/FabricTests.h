@@ -10,8 +10,8 @@
 //    orthotropic compliance 1/E45 = (1/E1 + 1/E2 + 1/G) / 4 the shear modulus G = 1 / (4/E45 - 1/E1 - 1/E2).
 //  - catenary: a narrow strip of length S = 1 m hung between two points at span d; sag against
 //    a (cosh(d/2a) - 1) with S = 2a sinh(d/2a).
-//  - drape (Cusick, BS 5058): a 30 cm disc (concentric-ring mesh, `resolution` rings) held on an 18 cm
-//    support; drape coefficient DC = (A_s - A_d)/(A_D - A_d) x 100 from the projected shadow area (point
+//  - drape (Cusick, BS 5058): a 30 cm disc (concentric-ring mesh, `resolution` rings, the support edge half a
+//    ring spacing inside the last held ring) held on an 18 cm support; drape coefficient DC = (A_s - A_d)/(A_D - A_d) x 100 from the projected shadow area (point
 //    sampled at 0.5 mm) and the number of nodes (rim radius peaks >= 3 mm prominent). No published DC
 //    exists for the presets (REFERENCES §3.3): theory and error are NaN (null in --json).
 // Static measurements use the static (energy-minimisation) solver; each test reports measured, theory,
