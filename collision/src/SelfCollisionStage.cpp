@@ -458,11 +458,12 @@ bool SelfCollisionStage::ccd_pass(const std::vector<Feature>& fs, int threads, s
 
 // Provot 1997 rigid impact zone: velocities (x1 - x0) / h of the zone's vertices replaced by the rigid motion
 // with the same linear and angular momentum about the centre of mass at x0 (linearised rotation).
-// With kinematic vertices: the best-fit rotation and translation of those (Kabsch 1976), applied to all.
+// With kinematic vertices (pinned, or left near a collider by the body stage, whose end positions are safe):
+// those keep their end positions, the others follow their best-fit rotation and translation (Kabsch 1976).
 void SelfCollisionStage::apply_rigid_zone(const std::vector<int>& verts) {
   std::vector<int> pinned;
   for (int v : verts)
-    if (w_[v] == 0.0) pinned.push_back(v);
+    if (w_[v] == 0.0 || near_[v]) pinned.push_back(v);
   if (pinned.empty()) {
     double mass = 0.0;
     Vec3 xc = Vec3::Zero(), vc = Vec3::Zero();
@@ -492,9 +493,12 @@ void SelfCollisionStage::apply_rigid_zone(const std::vector<int>& verts) {
   Eigen::JacobiSVD<Mat3> svd(H, Eigen::ComputeFullU | Eigen::ComputeFullV);
   Mat3 D = Mat3::Identity();
   if ((svd.matrixV() * svd.matrixU().transpose()).determinant() < 0.0) D(2, 2) = -1.0;
-  const Mat3 R = svd.matrixV() * D * svd.matrixU().transpose();
+  // Fewer than three pinned vertices, or all on a line: the rotation is not determined; translate only.
+  const Eigen::Vector3d sv = svd.singularValues();
+  const bool determined = pinned.size() >= 3 && sv[1] > 1e-9 * sv[0];
+  const Mat3 R = determined ? Mat3(svd.matrixV() * D * svd.matrixU().transpose()) : Mat3::Identity();
   for (int v : verts)
-    if (w_[v] != 0.0) x1_[v] = c1 + R * (x0_[v] - c0);
+    if (w_[v] != 0.0 && !near_[v]) x1_[v] = c1 + R * (x0_[v] - c0);
 }
 
 // Harmon, Vouga, Tamstorf, Grinspun 2008, "Robust treatment of simultaneous collisions", Sec. 4 (inelastic
@@ -503,8 +507,10 @@ void SelfCollisionStage::apply_rigid_zone(const std::vector<int>& verts) {
 // (the relative position along the contact normal at the end of the step at least a small gap past the one at
 // the time of impact), which cancels the approach along the normals but keeps tangential (sliding) motion.
 // Solved by projected Gauss-Seidel on the multipliers (lambda_c >= 0) in constraint order, so the result does
-// not depend on the thread count. Kinematic vertices (inverse mass 0) do not move.
-void SelfCollisionStage::project_zone(const std::vector<int>& constraints) {
+// not depend on the thread count. Kinematic vertices (inverse mass 0) do not move. Returns false if it did not
+// converge (the constraints can be infeasible, e.g. a layer squeezed between two others); the caller then
+// restores the zone and moves it rigidly.
+bool SelfCollisionStage::project_zone(const std::vector<int>& constraints) {
   const int nc = static_cast<int>(constraints.size());
   std::vector<double> lambda(nc, 0.0), denom(nc, 0.0);
   for (int k = 0; k < nc; ++k) {
@@ -524,8 +530,9 @@ void SelfCollisionStage::project_zone(const std::vector<int>& constraints) {
       for (int i = 0; i < 4; ++i) x1_[c.v[i]] += (dl * c.w[i] * w_[c.v[i]]) * c.n;
       worst = std::max(worst, std::abs(dl) * denom[k]);
     }
-    if (worst < 1e-14) break;
+    if (worst < 1e-10) return true;  // m: every constraint met to 0.1 nm
   }
+  return false;
 }
 
 // Impact-zone fail-safe: test pairs touching `dirty` vertices (continuous, separation 0); vertices of hits are
@@ -642,10 +649,18 @@ bool SelfCollisionStage::impact_zones(std::vector<char> dirty, int threads) {
     }
     for (size_t z = 0; z < zones.size(); ++z) {
       int& rounds = zone_rounds[find_root(zone_parent_, zones[z][0])];
+      bool done = false;
       if (rounds < kProjections) {
-        project_zone(constraints[z]);
+        std::vector<Vec3> saved(zones[z].size());
+        for (size_t k = 0; k < zones[z].size(); ++k) saved[k] = x1_[zones[z][k]];
         ++projections_;
-      } else {
+        done = project_zone(constraints[z]);
+        if (!done) {
+          for (size_t k = 0; k < zones[z].size(); ++k) x1_[zones[z][k]] = saved[k];
+          rounds = kProjections;  // not solvable by projection: rigid now
+        }
+      }
+      if (!done) {
         if (rounds == kProjections) ++rigid_zones_;
         apply_rigid_zone(zones[z]);
       }
@@ -667,7 +682,7 @@ void SelfCollisionStage::run(loom::cloth::StageContext& ctx) {
   h_ = ctx.h;
   const int threads = ctx.threads;
   const int nv = vertex_offset_[num_cloths_];
-  x0_.resize(nv), x1_.resize(nv), w_.resize(nv), m_.resize(nv);
+  x0_.resize(nv), x1_.resize(nv), w_.resize(nv), m_.resize(nv), near_.resize(nv);
   for (int c = 0; c < num_cloths_; ++c) {
     const loom::cloth::ClothState& s = ctx.cloths[c]->state();
     const int vo = vertex_offset_[c];
@@ -676,7 +691,8 @@ void SelfCollisionStage::run(loom::cloth::StageContext& ctx) {
     for (int i = 0; i < s.size(); ++i) {
       x0_[vo + i] = s.x_prev[i];
       x1_[vo + i] = s.x[i];
-      const double f = near && (*near)[i] ? settings_.near_body_mass : 1.0;
+      near_[vo + i] = near && (*near)[i];
+      const double f = near_[vo + i] ? settings_.near_body_mass : 1.0;
       w_[vo + i] = s.inv_mass[i] / f;
       m_[vo + i] = s.mass[i] * f;
     }

@@ -110,7 +110,7 @@ TEST(CollisionScenes, TwistingCloth) { expect_clean(run_scene("twisting_cloth", 
 TEST(CollisionScenes, Funnel) {
   expect_clean(run_scene("funnel", {"cloths[0].mesh.nodes=[11,11]", "duration=0.6"}), 144, 6.0);
 }
-TEST(CollisionScenes, LayerStack) { expect_clean(run_scene("layer_stack", {"duration=0.4"}), 48, 5.0); }
+TEST(CollisionScenes, LayerStack) { expect_clean(run_scene("layer_stack", {"duration=0.3"}), 36, 5.0); }
 // The capsule does work on a pinned sheet (stretching it while dragging it along): the bound is 5x its speed.
 TEST(CollisionScenes, CapsuleShot) {
   expect_clean(run_scene("capsule_shot", {"cloths[0].mesh.nodes=[13,13]", "duration=0.1"}), 24, 150.0);

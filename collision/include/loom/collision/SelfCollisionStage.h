@@ -97,7 +97,7 @@ class SelfCollisionStage final : public loom::cloth::Stage {
     Vec3 n = Vec3::Zero();
     double b = 0.0;  // m
   };
-  void project_zone(const std::vector<int>& constraints);
+  bool project_zone(const std::vector<int>& constraints);
   void apply_rigid_zone(const std::vector<int>& verts);
 
   SelfCollisionSettings settings_;
@@ -119,6 +119,7 @@ class SelfCollisionStage final : public loom::cloth::Stage {
   // Per step.
   loom::cloth::Vec3s x0_, x1_, x1_solver_;  // m: start, current end, end as the solver left it
   std::vector<double> w_, m_;               // 1/kg inverse masses, kg masses
+  std::vector<char> near_;                  // 1: the body stage left the vertex near a collider
   std::vector<int> zone_parent_;            // union-find over vertices for impact zones (-1: no zone)
   std::vector<ZoneConstraint> zone_constraints_;  // the contacts found by the fail-safe this step
   // Counters.
