@@ -55,18 +55,26 @@ void BodyCollisionStage::run(cloth::StageContext& ctx) {
     for (const auto& cl : ctx.cloths) margins[k] = std::max(margins[k], thickness(static_cast<int>(k), cl->material().thickness));
   broad_phase_.update(set, margins);
   max_deficit_ = -HUGE_VAL;
-  for (auto& cl : ctx.cloths) run_cloth(*cl, ctx.h, ctx.threads);
+  near_.resize(ctx.cloths.size());
+  for (size_t c = 0; c < ctx.cloths.size(); ++c) run_cloth(*ctx.cloths[c], static_cast<int>(c), ctx.h, ctx.threads);
 }
 
-void BodyCollisionStage::run_cloth(cloth::Cloth& cloth, double h, int threads) {
+void BodyCollisionStage::run_cloth(cloth::Cloth& cloth, int cloth_index, double h, int threads) {
   ColliderSet& set = *colliders_;
   ClothState& s = cloth.state();
   const int n = s.size();
+  std::vector<char>& near = near_[cloth_index];
+  near.assign(n, 0);
   std::vector<Pair> pairs(set.size());
   for (size_t k = 0; k < set.size(); ++k) {
     pairs[k].thickness = thickness(static_cast<int>(k), cloth.material().thickness);
     pairs[k].mu_k = settings_.friction.value_or(set[k].friction);
     pairs[k].mu_s = std::max(pairs[k].mu_k, settings_.static_friction.value_or(set[k].static_friction));
+  }
+  for (const FrictionPair& fp : settings_.friction_pairs) {
+    if (fp.cloth != cloth_index || fp.collider < 0 || fp.collider >= static_cast<int>(set.size())) continue;
+    pairs[fp.collider].mu_k = fp.friction;
+    pairs[fp.collider].mu_s = std::max(fp.friction, fp.static_friction);
   }
   double max_th = 0.0;
   for (const Pair& p : pairs) max_th = std::max(max_th, p.thickness);
@@ -153,7 +161,11 @@ void BodyCollisionStage::run_cloth(cloth::Cloth& cloth, double h, int threads) {
       cc.passes = std::max(cc.passes, pass + (pass < max_passes ? 1 : 0));
       s.x[i] = x;
       s.v[i] = v;
-      for (int k : mine) cc.deficit = std::max(cc.deficit, pairs[k].thickness - signed_distance(set[k], set[k].curr, x, nullptr));
+      for (int k : mine) {
+        const double d = signed_distance(set[k], set[k].curr, x, nullptr);
+        cc.deficit = std::max(cc.deficit, pairs[k].thickness - d);
+        if (d < 2.0 * pairs[k].thickness) near[i] = 1;
+      }
     }
   }
 

@@ -4,6 +4,8 @@
 #include <algorithm>
 #include <numeric>
 
+#include "loom/collision/Distance.h"
+
 namespace loom::collision {
 namespace {
 
@@ -13,6 +15,55 @@ Aabb leaf_box(const loom::cloth::Tri& t, const Vec3s& x0, const Vec3s& x1, doubl
   b.lo.array() -= thickness;
   b.hi.array() += thickness;
   return b;
+}
+
+constexpr int kConeMin = 8;  // triangles; smaller nodes are not worth a contour test
+
+// Normal cone of a triangle over the step: with edges e1(t), e2(t) linear in t, n(t) = e1 x e2 =
+// (1-t)^2 b0 + 2t(1-t) b1 + t^2 b2 (Bernstein form), a non-negative combination of b0, b1, b2, so a cone
+// holding their directions holds n(t) for every t in [0, 1] (Tang et al. 2009, continuous normal cones).
+void leaf_cone(const loom::cloth::Tri& t, const Vec3s& x0, const Vec3s& x1, Vec3& axis, double& angle) {
+  const Vec3 p = x0[t[1]] - x0[t[0]], r = x0[t[2]] - x0[t[0]];
+  const Vec3 q = x1[t[1]] - x1[t[0]], s = x1[t[2]] - x1[t[0]];
+  const Vec3 b[3] = {p.cross(r), 0.5 * (p.cross(s) + q.cross(r)), q.cross(s)};
+  angle = M_PI;
+  const double l0 = b[0].norm(), l2 = b[2].norm();
+  if (!(l0 > 0.0) || !(l2 > 0.0)) return;
+  const Vec3 sum = b[0] / l0 + b[2] / l2;
+  const double ls = sum.norm();
+  if (!(ls > 1e-12)) return;
+  axis = sum / ls;
+  double cmin = 1.0;
+  for (const Vec3& bi : b) {
+    const double l = bi.norm();
+    if (l > 0.0) cmin = std::min(cmin, axis.dot(bi) / l);
+  }
+  angle = std::acos(std::max(-1.0, std::min(1.0, cmin)));
+}
+
+// Smallest cone holding cones (a, alpha) and (b, beta).
+void merge_cones(const Vec3& a, double alpha, const Vec3& b, double beta, Vec3& axis, double& angle) {
+  if (alpha >= M_PI || beta >= M_PI) {
+    axis = a, angle = M_PI;
+    return;
+  }
+  const double theta = std::acos(std::max(-1.0, std::min(1.0, a.dot(b))));
+  if (theta + beta <= alpha) {
+    axis = a, angle = alpha;
+    return;
+  }
+  if (theta + alpha <= beta) {
+    axis = b, angle = beta;
+    return;
+  }
+  const double gamma = 0.5 * (alpha + theta + beta);
+  if (gamma >= 0.5 * M_PI) {  // useless for culling; keep it cheap (a valid, wider cone)
+    axis = a, angle = std::min(M_PI, theta + beta);
+    return;
+  }
+  const double st = std::sin(theta), turn = gamma - alpha;  // rotate a towards b by `turn`
+  axis = ((std::sin(theta - turn) / st) * a + (std::sin(turn) / st) * b).normalized();
+  angle = gamma * (1.0 + 1e-12) + 1e-15;  // rounding: never tighter than the exact cone
 }
 
 bool share_vertex(const loom::cloth::Tri& a, const loom::cloth::Tri& b) {
@@ -46,6 +97,7 @@ void ClothBvh::build(const Vec3s& points) {
   nodes_.reserve(std::max(1, 2 * n - 1));
   leaf_of_.assign(n, -1);
   if (n > 0) build_range(order, centroids, 0, n);
+  build_topology();
   rebuilt_pending_ = true;
   steps_since_build_ = 0;
 }
@@ -72,21 +124,84 @@ int ClothBvh::build_range(std::vector<int>& tris, const std::vector<Vec3>& centr
   const int right = build_range(tris, centroids, mid, end);
   nodes_[id].left = left;
   nodes_[id].right = right;
+  nodes_[id].count = end - begin;
   return id;
+}
+
+// Contours (boundary edges) bottom-up: a node's contour is the symmetric difference of its children's (edges
+// in both are inside the patch); the patch is edge-connected if both children are and they share an edge.
+// Kept only for nodes of >= kConeMin triangles.
+void ClothBvh::build_topology() {
+  const auto& tris = mesh_->triangles();
+  const int nn = static_cast<int>(nodes_.size());
+  contour_.assign(nn, {});
+  for (int id = nn - 1; id >= 0; --id) {
+    Node& nd = nodes_[id];
+    std::vector<EdgeKey>& c = contour_[id];
+    if (nd.left < 0) {
+      const loom::cloth::Tri& t = tris[nd.triangle];
+      for (int k = 0; k < 3; ++k) c.emplace_back(std::min(t[k], t[(k + 1) % 3]), std::max(t[k], t[(k + 1) % 3]));
+      std::sort(c.begin(), c.end());
+      nd.connected = true;
+      continue;
+    }
+    const auto& a = contour_[nd.left];
+    const auto& b = contour_[nd.right];
+    std::set_symmetric_difference(a.begin(), a.end(), b.begin(), b.end(), std::back_inserter(c));
+    nd.connected = nodes_[nd.left].connected && nodes_[nd.right].connected && c.size() < a.size() + b.size();
+    if (nodes_[nd.left].count < kConeMin) std::vector<EdgeKey>().swap(contour_[nd.left]);
+    if (nodes_[nd.right].count < kConeMin) std::vector<EdgeKey>().swap(contour_[nd.right]);
+  }
+}
+
+void ClothBvh::refit_internal(int id) {
+  Node& nd = nodes_[id];
+  if (nd.left < 0) return;
+  const Node& l = nodes_[nd.left];
+  const Node& r = nodes_[nd.right];
+  nd.box = l.box;
+  nd.box.grow(r.box);
+  merge_cones(l.axis, l.angle, r.axis, r.angle, nd.axis, nd.angle);
 }
 
 void ClothBvh::refit(const Vec3s& x0, const Vec3s& x1, double thickness, int threads) {
   const auto& tris = mesh_->triangles();
   const int n = static_cast<int>(tris.size());
 #pragma omp parallel for num_threads(threads) if (threads > 1) schedule(static)
-  for (int i = 0; i < n; ++i) nodes_[leaf_of_[i]].box = leaf_box(tris[i], x0, x1, thickness);
-  // Children come after their parent, so a reverse sweep sees both children first.
-  for (int id = static_cast<int>(nodes_.size()) - 1; id >= 0; --id) {
-    Node& nd = nodes_[id];
-    if (nd.left < 0) continue;
-    nd.box = nodes_[nd.left].box;
-    nd.box.grow(nodes_[nd.right].box);
+  for (int i = 0; i < n; ++i) {
+    Node& leaf = nodes_[leaf_of_[i]];
+    leaf.box = leaf_box(tris[i], x0, x1, thickness);
+    leaf_cone(tris[i], x0, x1, leaf.axis, leaf.angle);
   }
+  // Internal nodes: children come after their parent (pre-order), so a reverse sweep sees both children
+  // first. In parallel: the subtrees below a frontier of >= 4 x threads nodes (each a contiguous index range)
+  // as tasks, then the nodes above the frontier.
+  std::vector<int> frontier, top;
+  if (!nodes_.empty()) frontier.push_back(0);
+  if (threads > 1) {
+    while (static_cast<int>(frontier.size()) < 4 * threads) {
+      std::vector<int> next;
+      for (int id : frontier) {
+        if (nodes_[id].left < 0) {
+          next.push_back(id);
+        } else {
+          top.push_back(id);
+          next.push_back(nodes_[id].left);
+          next.push_back(nodes_[id].right);
+        }
+      }
+      if (next.size() == frontier.size()) break;
+      frontier.swap(next);
+    }
+  }
+  const int nf = static_cast<int>(frontier.size());
+#pragma omp parallel for num_threads(threads) if (threads > 1) schedule(dynamic, 1)
+  for (int f = 0; f < nf; ++f) {
+    const int root = frontier[f];
+    for (int id = root + 2 * nodes_[root].count - 2; id >= root; --id) refit_internal(id);
+  }
+  std::sort(top.begin(), top.end());
+  for (auto it = top.rbegin(); it != top.rend(); ++it) refit_internal(*it);
   if (rebuilt_pending_) {
     area_after_build_ = surface_area_sum();
     rebuilt_pending_ = false;
@@ -150,6 +265,117 @@ std::vector<TrianglePair> ClothBvh::self_pairs(bool skip_adjacent) const {
   std::vector<TrianglePair> out;
   if (!nodes_.empty()) self_recurse(0, skip_adjacent, out);
   std::sort(out.begin(), out.end());
+  return out;
+}
+
+// The node's patch cannot touch itself over the step (see ClothBvh.h): edge-connected, cone half-angle below
+// 90 degrees, contour simple in projection along the axis at every t. For the contour, two edges i, j sharing
+// no vertex must be farther apart at t = 0 than their largest projected endpoint displacements d_i + d_j plus
+// the margin: a point of a linearly moving segment moves at most as far as its farthest endpoint, so their
+// distance can shrink by at most d_i + d_j during the step.
+bool ClothBvh::cullable(int n, const Vec3s& x0, const Vec3s& x1, double margin) const {
+  const Node& nd = nodes_[n];
+  if (nd.count < kConeMin || !nd.connected || !(nd.angle < 0.5 * M_PI * (1.0 - 1e-9))) return false;
+  const std::vector<EdgeKey>& c = contour_[n];
+  const Vec3 d = nd.axis;
+  const Vec3 u = (std::abs(d.x()) < 0.7 ? Vec3::UnitX() : Vec3::UnitY()).cross(d).normalized();
+  const Vec3 w = d.cross(u);
+  auto proj = [&](const Vec3& p) { return Vec3(p.dot(u), p.dot(w), 0.0); };
+  struct Seg {
+    Vec3 a, b;        // projected at t = 0
+    double reach;     // m, displacement bound + half the margin
+    double lo, hi;    // box along u
+    double wlo, whi;  // box along w
+    int i, j;         // vertices
+  };
+  std::vector<Seg> segs(c.size());
+  for (size_t k = 0; k < c.size(); ++k) {
+    Seg& sg = segs[k];
+    sg.i = c[k].first, sg.j = c[k].second;
+    sg.a = proj(x0[sg.i]), sg.b = proj(x0[sg.j]);
+    const double disp = std::max(proj(x1[sg.i] - x0[sg.i]).norm(), proj(x1[sg.j] - x0[sg.j]).norm());
+    sg.reach = disp + 0.5 * margin;
+    sg.lo = std::min(sg.a.x(), sg.b.x()) - sg.reach, sg.hi = std::max(sg.a.x(), sg.b.x()) + sg.reach;
+    sg.wlo = std::min(sg.a.y(), sg.b.y()) - sg.reach, sg.whi = std::max(sg.a.y(), sg.b.y()) + sg.reach;
+  }
+  std::sort(segs.begin(), segs.end(), [](const Seg& p, const Seg& q) { return p.lo < q.lo; });
+  for (size_t k = 0; k < segs.size(); ++k) {
+    const Seg& p = segs[k];
+    for (size_t m = k + 1; m < segs.size() && segs[m].lo <= p.hi; ++m) {
+      const Seg& q = segs[m];
+      if (q.whi < p.wlo || p.whi < q.wlo) continue;
+      if (p.i == q.i || p.i == q.j || p.j == q.i || p.j == q.j) continue;  // adjacent contour edges
+      const double reach = p.reach + q.reach;
+      if (segment_segment_closest(p.a, p.b, q.a, q.b).distance_squared <= reach * reach) return false;
+    }
+  }
+  return true;
+}
+
+void ClothBvh::self_recurse_culled(int n, bool skip_adjacent, const Vec3s& x0, const Vec3s& x1, double margin,
+                                   std::vector<TrianglePair>& out, long& culled) const {
+  const Node& nd = nodes_[n];
+  if (nd.left < 0) return;
+  if (cullable(n, x0, x1, margin)) {
+    ++culled;
+    return;
+  }
+  self_recurse_culled(nd.left, skip_adjacent, x0, x1, margin, out, culled);
+  self_recurse_culled(nd.right, skip_adjacent, x0, x1, margin, out, culled);
+  cross_recurse(nd.left, nd.right, skip_adjacent, out);
+}
+
+std::vector<TrianglePair> ClothBvh::self_pairs_culled(const Vec3s& x0, const Vec3s& x1, double margin,
+                                                      bool skip_adjacent, int threads, long* culled) const {
+  std::vector<TrianglePair> out;
+  long n_culled = 0;
+  if (nodes_.empty()) {
+    if (culled) *culled = 0;
+    return out;
+  }
+  // Tasks: {a, a} = self pairs below node a, {a, b} = pairs between subtrees a and b. The self tasks of the
+  // top levels are split (after their own cull test) until there are enough tasks for the threads.
+  std::vector<std::pair<int, int>> tasks{{0, 0}}, done;
+  const size_t want = threads > 1 ? static_cast<size_t>(16 * threads) : 1;
+  while (tasks.size() + done.size() < want) {
+    std::vector<std::pair<int, int>> next;
+    bool split = false;
+    for (const auto& t : tasks) {
+      const Node& nd = nodes_[t.first];
+      if (t.first != t.second || nd.left < 0) {
+        done.push_back(t);
+        continue;
+      }
+      if (cullable(t.first, x0, x1, margin)) {
+        ++n_culled;
+        continue;
+      }
+      next.push_back({nd.left, nd.left});
+      next.push_back({nd.right, nd.right});
+      done.push_back({nd.left, nd.right});
+      split = true;
+    }
+    tasks.swap(next);
+    if (!split) break;
+  }
+  done.insert(done.end(), tasks.begin(), tasks.end());
+  const int nt = static_cast<int>(done.size());
+  std::vector<std::vector<TrianglePair>> parts(nt);
+#pragma omp parallel for num_threads(threads) if (threads > 1) schedule(dynamic, 1) reduction(+ : n_culled)
+  for (int k = 0; k < nt; ++k) {
+    const auto [a, b] = done[k];
+    if (a == b) {
+      self_recurse_culled(a, skip_adjacent, x0, x1, margin, parts[k], n_culled);
+    } else {
+      cross_recurse(a, b, skip_adjacent, parts[k]);
+    }
+  }
+  size_t total = 0;
+  for (const auto& p : parts) total += p.size();
+  out.reserve(total);
+  for (const auto& p : parts) out.insert(out.end(), p.begin(), p.end());
+  std::sort(out.begin(), out.end());
+  if (culled) *culled = n_culled;
   return out;
 }
 

@@ -6,6 +6,7 @@
 #include <cmath>
 #include <map>
 
+#include "loom/collision/BodyCollisionStage.h"
 #include "loom/collision/Ccd.h"
 #include "loom/collision/Distance.h"
 
@@ -48,6 +49,8 @@ std::vector<std::pair<std::string, double>> SelfCollisionStage::counters() const
           {"passes", static_cast<double>(passes_)},
           {"impact_zones", static_cast<double>(impact_zones_)},
           {"zone_iterations", static_cast<double>(zone_iterations_)},
+          {"projections", static_cast<double>(projections_)},
+          {"rigid_zones", static_cast<double>(rigid_zones_)},
           {"bvh_rebuilds", static_cast<double>(bvh_rebuilds_)},
           {"ccd_tests", static_cast<double>(ccd_tests_)},
           {"ccd_boxes", static_cast<double>(ccd_boxes_)},
@@ -93,6 +96,23 @@ void SelfCollisionStage::setup(loom::cloth::StageContext& ctx) {
     }
     bvhs_.push_back(std::make_unique<ClothBvh>(cloth.mesh_ptr()));
   }
+  // Friction per cloth pair: the scene's pair table, else the global coefficients, else the mean of the two
+  // materials' coefficient (static = kinetic).
+  pair_mu_k_.assign(num_cloths_ * num_cloths_, 0.0);
+  pair_mu_s_.assign(num_cloths_ * num_cloths_, 0.0);
+  for (int a = 0; a < num_cloths_; ++a)
+    for (int b = 0; b < num_cloths_; ++b) {
+      const double k = settings_.friction >= 0.0 ? settings_.friction : 0.5 * (cloth_friction_[a] + cloth_friction_[b]);
+      pair_mu_k_[a * num_cloths_ + b] = k;
+      pair_mu_s_[a * num_cloths_ + b] = std::max(k, settings_.static_friction >= 0.0 ? settings_.static_friction : k);
+    }
+  for (const FrictionPair& fp : settings_.friction_pairs) {
+    if (fp.other_cloth < 0 || fp.cloth >= num_cloths_ || fp.other_cloth >= num_cloths_) continue;
+    for (const int ab : {fp.cloth * num_cloths_ + fp.other_cloth, fp.other_cloth * num_cloths_ + fp.cloth}) {
+      pair_mu_k_[ab] = fp.friction;
+      pair_mu_s_[ab] = std::max(fp.friction, fp.static_friction);
+    }
+  }
   edge_owner_.assign(edges_.size(), -1);
   for (int t = static_cast<int>(tris_.size()) - 1; t >= 0; --t)
     for (int k = 0; k < 3; ++k) edge_owner_[tri_edges_[t][k]] = t;
@@ -102,6 +122,7 @@ void SelfCollisionStage::setup(loom::cloth::StageContext& ctx) {
     for (int k = 0; k < 3; ++k) ++vtx_tri_start_[t[k] + 1];
   for (int v = 0; v < nv; ++v) vtx_tri_start_[v + 1] += vtx_tri_start_[v];
   vtx_tri_.assign(vtx_tri_start_[nv], 0);
+  cx0_.assign(num_cloths_, {}), cx1_.assign(num_cloths_, {});
   std::vector<int> fill(vtx_tri_start_.begin(), vtx_tri_start_.end() - 1);
   for (int t = 0; t < static_cast<int>(tris_.size()); ++t)
     for (int k = 0; k < 3; ++k) vtx_tri_[fill[tris_[t][k]]++] = t;
@@ -110,7 +131,10 @@ void SelfCollisionStage::setup(loom::cloth::StageContext& ctx) {
 void SelfCollisionStage::update_bvhs(int threads, bool full_update) {
   for (int c = 0; c < num_cloths_; ++c) {
     const int vo = vertex_offset_[c], n = vertex_offset_[c + 1] - vo;
-    const Vec3s a(x0_.begin() + vo, x0_.begin() + vo + n), b(x1_.begin() + vo, x1_.begin() + vo + n);
+    Vec3s& a = cx0_[c];
+    Vec3s& b = cx1_[c];
+    a.assign(x0_.begin() + vo, x0_.begin() + vo + n);
+    b.assign(x1_.begin() + vo, x1_.begin() + vo + n);
     const double half = 0.5 * cloth_thickness_[c];
     if (full_update) {
       bvh_rebuilds_ += bvhs_[c]->update(a, b, half, threads);
@@ -120,11 +144,18 @@ void SelfCollisionStage::update_bvhs(int threads, bool full_update) {
   }
 }
 
-std::vector<TrianglePair> SelfCollisionStage::all_triangle_pairs() {
+// Self pairs of each cloth (normal-cone culled when enabled) and pairs between every two cloths (never culled:
+// layers lie on each other, flat, and must always be tested).
+std::vector<TrianglePair> SelfCollisionStage::all_triangle_pairs(int threads) {
   std::vector<TrianglePair> out;
   for (int c = 0; c < num_cloths_; ++c) {
     if (settings_.self) {
-      for (const TrianglePair& p : bvhs_[c]->self_pairs(false)) out.emplace_back(tri_offset_[c] + p.first, tri_offset_[c] + p.second);
+      long culled = 0;
+      const std::vector<TrianglePair> self =
+          settings_.normal_cones ? bvhs_[c]->self_pairs_culled(cx0_[c], cx1_[c], cloth_thickness_[c], false, threads, &culled)
+                                 : bvhs_[c]->self_pairs(false);
+      culled_nodes_ += culled;
+      for (const TrianglePair& p : self) out.emplace_back(tri_offset_[c] + p.first, tri_offset_[c] + p.second);
     }
     for (int d = c + 1; d < num_cloths_; ++d)
       for (const TrianglePair& p : bvhs_[c]->cross_pairs(*bvhs_[d])) out.emplace_back(tri_offset_[c] + p.first, tri_offset_[d] + p.second);
@@ -288,11 +319,10 @@ void apply_impulses(const std::vector<int>& verts4, const std::vector<Impulse>& 
 // removes `repulsion` of the overlap per step along the normal; Sec. 7.3: Coulomb friction clamps the
 // tangential relative velocity by mu * (normal velocity change) (static: stop it entirely).
 void SelfCollisionStage::proximity(int threads) {
-  const std::vector<Feature> fs = features(all_triangle_pairs(), nullptr, threads);
+  const std::vector<Feature> fs = features(all_triangle_pairs(threads), nullptr, threads);
   const long n = static_cast<long>(fs.size());
   std::vector<Impulse> imp(n);
   std::vector<int> verts(4 * n);
-  const double mu_k_fixed = settings_.friction, mu_s_fixed = settings_.static_friction;
 #pragma omp parallel for num_threads(threads) if (threads > 1) schedule(dynamic, 256)
   for (long i = 0; i < n; ++i) {
     const Contact c = contact_of(fs[i]);
@@ -332,8 +362,8 @@ void SelfCollisionStage::proximity(int threads) {
     const double target = settings_.repulsion * (hp - d) / h_;  // m/s
     if (!(vn < target)) continue;
     const double dvn = target - vn;
-    const double mu_k = mu_k_fixed >= 0.0 ? mu_k_fixed : 0.5 * (cloth_friction_[c.cloth_a] + cloth_friction_[c.cloth_b]);
-    const double mu_s = mu_s_fixed >= 0.0 ? mu_s_fixed : mu_k;
+    const double mu_k = pair_mu_k_[c.cloth_a * num_cloths_ + c.cloth_b];
+    const double mu_s = pair_mu_s_[c.cloth_a * num_cloths_ + c.cloth_b];
     const Vec3 vt = vrel - vn * nrm;
     const double vtn = vt.norm();
     Vec3 dv = dvn * nrm;
@@ -428,11 +458,12 @@ bool SelfCollisionStage::ccd_pass(const std::vector<Feature>& fs, int threads, s
 
 // Provot 1997 rigid impact zone: velocities (x1 - x0) / h of the zone's vertices replaced by the rigid motion
 // with the same linear and angular momentum about the centre of mass at x0 (linearised rotation).
-// With kinematic vertices: the best-fit rotation and translation of those (Kabsch 1976), applied to all.
+// With kinematic vertices (pinned, or left near a collider by the body stage, whose end positions are safe):
+// those keep their end positions, the others follow their best-fit rotation and translation (Kabsch 1976).
 void SelfCollisionStage::apply_rigid_zone(const std::vector<int>& verts) {
   std::vector<int> pinned;
   for (int v : verts)
-    if (w_[v] == 0.0) pinned.push_back(v);
+    if (w_[v] == 0.0 || near_[v]) pinned.push_back(v);
   if (pinned.empty()) {
     double mass = 0.0;
     Vec3 xc = Vec3::Zero(), vc = Vec3::Zero();
@@ -462,39 +493,79 @@ void SelfCollisionStage::apply_rigid_zone(const std::vector<int>& verts) {
   Eigen::JacobiSVD<Mat3> svd(H, Eigen::ComputeFullU | Eigen::ComputeFullV);
   Mat3 D = Mat3::Identity();
   if ((svd.matrixV() * svd.matrixU().transpose()).determinant() < 0.0) D(2, 2) = -1.0;
-  const Mat3 R = svd.matrixV() * D * svd.matrixU().transpose();
+  // Fewer than three pinned vertices, or all on a line: the rotation is not determined; translate only.
+  const Eigen::Vector3d sv = svd.singularValues();
+  const bool determined = pinned.size() >= 3 && sv[1] > 1e-9 * sv[0];
+  const Mat3 R = determined ? Mat3(svd.matrixV() * D * svd.matrixU().transpose()) : Mat3::Identity();
   for (int v : verts)
-    if (w_[v] != 0.0) x1_[v] = c1 + R * (x0_[v] - c0);
+    if (w_[v] != 0.0 && !near_[v]) x1_[v] = c1 + R * (x0_[v] - c0);
 }
 
-// Impact-zone fail-safe: test pairs touching `dirty` vertices (continuous, separation 0); vertices of hits not
-// inside one zone are merged into zones; changed zones move rigidly; repeat until no hit. Returns false if
-// the iteration cap forced one global zone.
+// Harmon, Vouga, Tamstorf, Grinspun 2008, "Robust treatment of simultaneous collisions", Sec. 4 (inelastic
+// projection): the zone's end positions x1 are changed as little as possible in the mass metric,
+//   min sum_k m_k |x1'_k - x1_k|^2  s.t.  n_c . sum_i w_ci x1'_ci >= b_c  for every contact c of the zone,
+// (the relative position along the contact normal at the end of the step at least a small gap past the one at
+// the time of impact), which cancels the approach along the normals but keeps tangential (sliding) motion.
+// Solved by projected Gauss-Seidel on the multipliers (lambda_c >= 0) in constraint order, so the result does
+// not depend on the thread count. Kinematic vertices (inverse mass 0) do not move. Returns false if it did not
+// converge (the constraints can be infeasible, e.g. a layer squeezed between two others); the caller then
+// restores the zone and moves it rigidly.
+bool SelfCollisionStage::project_zone(const std::vector<int>& constraints) {
+  const int nc = static_cast<int>(constraints.size());
+  std::vector<double> lambda(nc, 0.0), denom(nc, 0.0);
+  for (int k = 0; k < nc; ++k) {
+    const ZoneConstraint& c = zone_constraints_[constraints[k]];
+    for (int i = 0; i < 4; ++i) denom[k] += c.w[i] * c.w[i] * w_[c.v[i]];
+  }
+  for (int it = 0; it < 200; ++it) {
+    double worst = 0.0;
+    for (int k = 0; k < nc; ++k) {
+      if (!(denom[k] > 0.0)) continue;
+      const ZoneConstraint& c = zone_constraints_[constraints[k]];
+      double g = -c.b;
+      for (int i = 0; i < 4; ++i) g += c.w[i] * c.n.dot(x1_[c.v[i]]);
+      const double dl = std::max(-lambda[k], -g / denom[k]);
+      if (dl == 0.0) continue;
+      lambda[k] += dl;
+      for (int i = 0; i < 4; ++i) x1_[c.v[i]] += (dl * c.w[i] * w_[c.v[i]]) * c.n;
+      worst = std::max(worst, std::abs(dl) * denom[k]);
+    }
+    if (worst < 1e-10) return true;  // m: every constraint met to 0.1 nm
+  }
+  return false;
+}
+
+// Impact-zone fail-safe: test pairs touching `dirty` vertices (continuous, separation 0); vertices of hits are
+// merged into zones (union-find); every changed zone is first handled by inelastic projection over all the
+// contacts it has collected this step (project_zone); a zone that still collides after `kProjections`
+// projections, or that merges with a rigid one, moves rigidly from then on (Provot's rigid impact zone, the
+// last resort, apply_rigid_zone). Repeat until no hit. Pairs inside one rigid zone are skipped (it moves
+// affinely from its intersection-free start). Returns false if the iteration cap forced one global zone.
 bool SelfCollisionStage::impact_zones(std::vector<char> dirty, int threads) {
+  constexpr int kProjections = 4;
   const int nv = static_cast<int>(x0_.size());
   zone_parent_.assign(nv, -1);
+  zone_constraints_.clear();
+  std::vector<int> zone_rounds(nv, 0);  // per root: rounds done (> kProjections: moved rigidly)
+  auto root_of = [&](int v) {
+    while (zone_parent_[v] != v) v = zone_parent_[v];
+    return v;
+  };
   for (int it = 0; it < settings_.max_zone_iterations; ++it) {
     if (std::none_of(dirty.begin(), dirty.end(), [](char d) { return d != 0; })) return true;
     update_bvhs(threads, false);
     const std::vector<Feature> fs = features(triangle_pairs_touching(dirty), &dirty, threads);
     const long n = static_cast<long>(fs.size());
     std::vector<char> hit(n, 0);
+    std::vector<ZoneConstraint> found(n);
 #pragma omp parallel for num_threads(threads) if (threads > 1) schedule(dynamic, 256)
     for (long i = 0; i < n; ++i) {
       const Contact c = contact_of(fs[i]);
-      // Pairs inside one zone move affinely with it and stay apart.
+      // Pairs inside one rigid zone move affinely with it and stay apart.
       if (zone_parent_[c.v[0]] >= 0) {
-        bool same = true;
-        for (int k = 1; k < 4 && same; ++k) {
-          int a = c.v[0], b = c.v[k];
-          while (zone_parent_[a] != a) a = zone_parent_[a];
-          if (zone_parent_[b] < 0) {
-            same = false;
-            break;
-          }
-          while (zone_parent_[b] != b) b = zone_parent_[b];
-          same = a == b;
-        }
+        const int r = root_of(c.v[0]);
+        bool same = zone_rounds[r] > kProjections;
+        for (int k = 1; k < 4 && same; ++k) same = zone_parent_[c.v[k]] >= 0 && root_of(c.v[k]) == r;
         if (same) continue;
       }
       const Vec3 *a0[4], *a1[4];
@@ -504,10 +575,35 @@ bool SelfCollisionStage::impact_zones(std::vector<char> dirty, int threads) {
       for (int k = 0; k < 4; ++k) (k < split ? ba : bb).grow(*a0[k]), (k < split ? ba : bb).grow(*a1[k]);
       if (!ba.overlaps(bb)) continue;
       CcdOptions opt;
-      opt.toi_max_boxes = 0;  // only whether they touch matters here
+      opt.toi_tolerance = 1e-2;
+      opt.toi_max_boxes = 32;
       const CcdResult r = fs[i].type == 0 ? vertex_face_ccd(*a0[0], *a0[1], *a0[2], *a0[3], *a1[0], *a1[1], *a1[2], *a1[3], opt)
                                           : edge_edge_ccd(*a0[0], *a0[1], *a0[2], *a0[3], *a1[0], *a1[1], *a1[2], *a1[3], opt);
-      hit[i] = r.hit;
+      if (!r.hit) continue;
+      hit[i] = 1;
+      // The constraint of this contact: normal and weights at the time of impact; the gap to keep at the end
+      // of the step is a tenth of the pair thickness past the relative position at the time of impact.
+      Vec3 q[4];
+      for (int k = 0; k < 4; ++k) q[k] = *a0[k] + r.toi * (*a1[k] - *a0[k]);
+      ZoneConstraint& zc = found[i];
+      Vec3 fallback;
+      if (fs[i].type == 0) {
+        const PointTriangleClosest cl = point_triangle_closest(q[0], q[1], q[2], q[3]);
+        zc.w[0] = 1.0, zc.w[1] = -cl.weights[0], zc.w[2] = -cl.weights[1], zc.w[3] = -cl.weights[2];
+        fallback = (q[2] - q[1]).cross(q[3] - q[1]);
+      } else {
+        const SegmentSegmentClosest cl = segment_segment_closest(q[0], q[1], q[2], q[3]);
+        zc.w[0] = 1.0 - cl.s, zc.w[1] = cl.s, zc.w[2] = -(1.0 - cl.t), zc.w[3] = -cl.t;
+        fallback = (q[1] - q[0]).cross(q[3] - q[2]);
+      }
+      Vec3 diff = Vec3::Zero(), side = Vec3::Zero();
+      for (int k = 0; k < 4; ++k) diff += zc.w[k] * q[k], side += zc.w[k] * *a0[k];
+      for (int k = 0; k < 4; ++k) zc.v[k] = c.v[k];
+      if (!contact_normal(diff, fallback, side, zc.n)) {
+        zc.n = Vec3::Zero();  // no usable normal: the zone will have to go rigid
+        continue;
+      }
+      zc.b = zc.n.dot(diff) + 0.1 * pair_thickness(c);
     }
     // Merge (serial, in feature order).
     std::vector<int> roots_changed;
@@ -520,7 +616,16 @@ bool SelfCollisionStage::impact_zones(std::vector<char> dirty, int threads) {
         if (zone_parent_[c.v[k]] < 0) zone_parent_[c.v[k]] = c.v[k], ++impact_zones_;
       for (int k = 1; k < 4; ++k) {
         const int a = find_root(zone_parent_, c.v[0]), b = find_root(zone_parent_, c.v[k]);
-        if (a != b) zone_parent_[std::max(a, b)] = std::min(a, b), --impact_zones_;
+        if (a != b) {
+          const int lo = std::min(a, b), hi = std::max(a, b);
+          zone_parent_[hi] = lo, --impact_zones_;
+          zone_rounds[lo] = std::max(zone_rounds[lo], zone_rounds[hi]);
+        }
+      }
+      if (found[i].n.isZero(0.0)) {
+        zone_rounds[find_root(zone_parent_, c.v[0])] = kProjections;
+      } else {
+        zone_constraints_.push_back(found[i]);
       }
       roots_changed.push_back(c.v[0]);
     }
@@ -529,18 +634,38 @@ bool SelfCollisionStage::impact_zones(std::vector<char> dirty, int threads) {
     ++zone_iterations_;
     std::vector<char> root_mark(nv, 0);
     for (int v : roots_changed) root_mark[find_root(zone_parent_, v)] = 1;
-    std::vector<std::vector<int>> zones;
+    std::vector<std::vector<int>> zones, constraints;
     std::vector<int> zone_index(nv, -1);
     for (int v = 0; v < nv; ++v) {
       if (zone_parent_[v] < 0) continue;
       const int r = find_root(zone_parent_, v);
       if (!root_mark[r]) continue;
-      if (zone_index[r] < 0) zone_index[r] = static_cast<int>(zones.size()), zones.emplace_back();
+      if (zone_index[r] < 0) zone_index[r] = static_cast<int>(zones.size()), zones.emplace_back(), constraints.emplace_back();
       zones[zone_index[r]].push_back(v);
     }
-    for (const auto& z : zones) {
-      apply_rigid_zone(z);
-      for (int v : z) dirty[v] = 1;
+    for (int k = 0; k < static_cast<int>(zone_constraints_.size()); ++k) {
+      const int z = zone_index[find_root(zone_parent_, zone_constraints_[k].v[0])];
+      if (z >= 0) constraints[z].push_back(k);
+    }
+    for (size_t z = 0; z < zones.size(); ++z) {
+      int& rounds = zone_rounds[find_root(zone_parent_, zones[z][0])];
+      bool done = false;
+      if (rounds < kProjections) {
+        std::vector<Vec3> saved(zones[z].size());
+        for (size_t k = 0; k < zones[z].size(); ++k) saved[k] = x1_[zones[z][k]];
+        ++projections_;
+        done = project_zone(constraints[z]);
+        if (!done) {
+          for (size_t k = 0; k < zones[z].size(); ++k) x1_[zones[z][k]] = saved[k];
+          rounds = kProjections;  // not solvable by projection: rigid now
+        }
+      }
+      if (!done) {
+        if (rounds == kProjections) ++rigid_zones_;
+        apply_rigid_zone(zones[z]);
+      }
+      ++rounds;
+      for (int v : zones[z]) dirty[v] = 1;
     }
   }
   // Last resort: everything moves as one rigid zone (Provot 1997: from an intersection-free start, the
@@ -557,15 +682,19 @@ void SelfCollisionStage::run(loom::cloth::StageContext& ctx) {
   h_ = ctx.h;
   const int threads = ctx.threads;
   const int nv = vertex_offset_[num_cloths_];
-  x0_.resize(nv), x1_.resize(nv), w_.resize(nv), m_.resize(nv);
+  x0_.resize(nv), x1_.resize(nv), w_.resize(nv), m_.resize(nv), near_.resize(nv);
   for (int c = 0; c < num_cloths_; ++c) {
     const loom::cloth::ClothState& s = ctx.cloths[c]->state();
     const int vo = vertex_offset_[c];
+    const std::vector<char>* near = body_ ? body_->near_collider(c) : nullptr;
+    if (near && static_cast<int>(near->size()) != s.size()) near = nullptr;
     for (int i = 0; i < s.size(); ++i) {
       x0_[vo + i] = s.x_prev[i];
       x1_[vo + i] = s.x[i];
-      w_[vo + i] = s.inv_mass[i];
-      m_[vo + i] = s.mass[i];
+      near_[vo + i] = near && (*near)[i];
+      const double f = near_[vo + i] ? settings_.near_body_mass : 1.0;
+      w_[vo + i] = s.inv_mass[i] / f;
+      m_[vo + i] = s.mass[i] * f;
     }
   }
   x1_solver_ = x1_;
@@ -578,7 +707,7 @@ void SelfCollisionStage::run(loom::cloth::StageContext& ctx) {
   for (int pass = 0; pass < settings_.passes && hits; ++pass) {
     update_bvhs(threads, false);
     const std::vector<Feature> fs =
-        pass == 0 ? features(all_triangle_pairs(), nullptr, threads) : features(triangle_pairs_touching(dirty), &dirty, threads);
+        pass == 0 ? features(all_triangle_pairs(threads), nullptr, threads) : features(triangle_pairs_touching(dirty), &dirty, threads);
     hits = ccd_pass(fs, threads, dirty);
     ++passes_;
   }

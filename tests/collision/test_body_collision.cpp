@@ -67,8 +67,9 @@ double worst_gap(const cloth::ClothState& s, const ColliderSet& set, double thic
   return worst;
 }
 
-// A small sheet resting on the plane y = 0 under gravity tilted by theta (same as an incline).
-double incline_slide(double theta, double seconds) {
+// A small sheet resting on the plane y = 0 under gravity tilted by theta (same as an incline). With `pair`, the
+// collider's own coefficients are 0.05 and the (cloth, plane) material pair gives 0.4 / 0.5.
+double incline_slide(double theta, double seconds, bool pair = false) {
   SimulationSetup s;
   s.cloths.push_back(sheet(3, 0.1, cloth::GridPlane::kXZ, Vec3(0, 0.002, 0)));
   s.gravity = 9.81 * Vec3(std::sin(theta), -std::cos(theta), 0.0);
@@ -78,7 +79,14 @@ double incline_slide(double theta, double seconds) {
   (*set)[0].friction = 0.4;
   (*set)[0].static_friction = 0.5;
   (*set)[0].thickness = 0.002;
-  sim.add_stage(std::make_unique<BodyCollisionStage>(set));
+  BodyCollisionSettings bs;
+  if (pair) {
+    (*set)[0].friction = (*set)[0].static_friction = 0.05;
+    FrictionPair fp;
+    fp.cloth = 0, fp.collider = 0, fp.friction = 0.4, fp.static_friction = 0.5;
+    bs.friction_pairs.push_back(fp);
+  }
+  sim.add_stage(std::make_unique<BodyCollisionStage>(set, bs));
   const Vec3 x0 = sim.cloths()[0]->state().x[4];
   for (int f = 0; f < std::lround(seconds * 60); ++f) sim.step_frame();
   const auto& st = sim.cloths()[0]->state();
@@ -94,6 +102,14 @@ TEST(BodyCollision, FrictionSticksBelowStaticLimitAndSlidesAbove) {
   const double a = 9.81 * (std::sin(theta) - 0.4 * std::cos(theta));
   const double d = incline_slide(theta, 0.5);
   EXPECT_NEAR(d, 0.5 * a * 0.25, 0.03 * 0.5 * a * 0.25);
+}
+
+// The same through a per-material-pair entry: it wins over the collider's coefficients (0.05, which would slide).
+TEST(BodyCollision, FrictionPairWinsOverTheCollidersCoefficients) {
+  EXPECT_LT(std::abs(incline_slide(std::atan(0.45), 0.5, true)), 1e-9);
+  const double theta = std::atan(0.6);
+  const double a = 9.81 * (std::sin(theta) - 0.4 * std::cos(theta));
+  EXPECT_NEAR(incline_slide(theta, 0.5, true), 0.5 * a * 0.25, 0.03 * 0.5 * a * 0.25);
 }
 
 TEST(BodyCollision, ReactionImpulseIsMinusTheClothMomentumChange) {

@@ -19,12 +19,22 @@ std::unique_ptr<cloth::Simulation> build_simulation(const Scene& scene, collisio
 #endif
   // Effects from other modules add their stages here, each only when the scene names it.
   // Body collision (issue 5): only when there is something to collide with (scene colliders, rig capsules).
-  if (!colliders->empty())
-    sim->add_stage(std::make_unique<collision::BodyCollisionStage>(colliders), cloth::Simulation::Slot::after_solve);
+  const collision::BodyCollisionStage* body_stage = nullptr;
+  if (!colliders->empty()) {
+    collision::BodyCollisionSettings body;
+    if (scene.collision) body.friction_pairs = scene.collision->friction_pairs;  // the (cloth, collider) entries
+    auto stage = std::make_unique<collision::BodyCollisionStage>(colliders, body);
+    body_stage = stage.get();
+    sim->add_stage(std::move(stage), cloth::Simulation::Slot::after_solve);
+  }
   // Self- and cloth-cloth collision (issue 5), after body collision: only with a `collision` object that asks
-  // for self-collision or has more than one cloth to collide.
-  if (scene.collision && (scene.collision->self || scene.setup.cloths.size() > 1))
-    sim->add_stage(std::make_unique<collision::SelfCollisionStage>(*scene.collision));
+  // for self-collision or has more than one cloth to collide. It sees which vertices the body stage left near
+  // a collider (those count heavier in cloth-cloth responses).
+  if (scene.collision && (scene.collision->self || scene.setup.cloths.size() > 1)) {
+    auto stage = std::make_unique<collision::SelfCollisionStage>(*scene.collision);
+    stage->set_body_stage(body_stage);
+    sim->add_stage(std::move(stage));
+  }
   if (colliders_out) *colliders_out = colliders;
   return sim;
 }

@@ -355,10 +355,9 @@ Scene parse_scene(const nlohmann::json& root, const std::string& file) {
     c.finish();
     scene.setup.cloths.push_back(std::move(cs));
   }
-  parse_collision(r, scene);  // issue 5: self- and cloth-cloth collision (SceneCollision.cpp)
-
   parse_bodies(r, scene);  // issue 9: Bullet rigid bodies (SceneBodies.cpp)
   parse_colliders(r, scene);  // issue 5: rigid colliders and their motion (SceneColliders.cpp)
+  parse_collision(r, scene);  // issue 5: self- and cloth-cloth collision, friction pairs (SceneCollision.cpp)
 
   if (r.has("output")) {
     const JsonReader o = r.object("output");

@@ -36,6 +36,32 @@ void parse_collision(const JsonReader& root, Scene& scene) {
   s.repulsion = c.number("repulsion", s.repulsion, 0.0);
   if (s.repulsion > 1.0) c.fail("repulsion", "must be <= 1");
   s.normal_cones = c.boolean("normal_cones", s.normal_cones);
+  if (c.has("friction_pairs")) {
+    const std::vector<JsonReader> fps = c.objects("friction_pairs");
+    for (const JsonReader& f : fps) {
+      // Names: "a" a cloth; "b" a cloth (the same one: self-contact) or a collider.
+      auto cloth_index = [&](const std::string& name) {
+        for (int i = 0; i < n; ++i)
+          if (scene.setup.cloths[i].name == name) return i;
+        return -1;
+      };
+      collision::FrictionPair fp;
+      const std::string a = f.string("a"), b = f.string("b");
+      fp.cloth = cloth_index(a);
+      if (fp.cloth < 0) f.fail("a", "no cloth named '" + a + "'");
+      fp.other_cloth = cloth_index(b);
+      if (fp.other_cloth < 0) {
+        for (size_t k = 0; k < scene.colliders.size(); ++k)
+          if (scene.colliders[k].name == b) fp.collider = static_cast<int>(k);
+        if (fp.collider < 0) f.fail("b", "no cloth or collider named '" + b + "'");
+      }
+      fp.friction = f.number("friction", std::nullopt, 0.0);
+      fp.static_friction = f.number("static_friction", fp.friction, 0.0);
+      if (fp.static_friction < fp.friction) f.fail("static_friction", "must be >= friction");
+      f.finish();
+      s.friction_pairs.push_back(fp);
+    }
+  }
   c.finish();
   scene.collision = s;
 }

@@ -28,6 +28,7 @@
 #include "loom/cloth/Stage.h"
 #include "loom/collision/Collider.h"
 #include "loom/collision/ColliderBroadPhase.h"
+#include "loom/collision/FrictionPair.h"
 
 namespace loom::collision {
 
@@ -38,6 +39,8 @@ struct BodyCollisionSettings {
   int max_passes = 4;                     // passes per vertex (and of the edge phase) per step
   double ccd_separation = 0.5;            // 1; the swept test's separation, as a fraction of the thickness
   bool edges = true;                      // cloth edges vs capsule axes and box edges
+  std::vector<FrictionPair> friction_pairs;  // per (cloth, collider) pair (entries with collider >= 0): win
+                                             // over the collider's and the two above
 };
 
 class BodyCollisionStage final : public cloth::Stage {
@@ -56,6 +59,12 @@ class BodyCollisionStage final : public cloth::Stage {
   // After the last step: the largest (thickness - signed distance) over free candidate vertices, m (<= 0:
   // every vertex at least one thickness away from every collider).
   double max_deficit() const { return max_deficit_; }
+  // After the last step: per vertex of cloth `c`, 1 if it ended within two thicknesses of a collider (the
+  // self-collision stage makes these vertices heavy, so that cloth-cloth impulses push the other layer away
+  // instead of pushing them into the body); null before the first step.
+  const std::vector<char>* near_collider(int c) const {
+    return c < static_cast<int>(near_.size()) ? &near_[c] : nullptr;
+  }
 
  private:
   struct Record {
@@ -63,13 +72,14 @@ class BodyCollisionStage final : public cloth::Stage {
     Vec3 impulse;  // N s, given to the cloth
     Vec3 point;    // m, where
   };
-  void run_cloth(cloth::Cloth& cloth, double h, int threads);
+  void run_cloth(cloth::Cloth& cloth, int cloth_index, double h, int threads);
   void run_edges(cloth::Cloth& cloth, double h, int threads, std::vector<Record>& records);
 
   ColliderSetPtr colliders_;
   BodyCollisionSettings settings_;
   ColliderBroadPhase broad_phase_;
   double max_deficit_ = 0.0;
+  std::vector<std::vector<char>> near_;  // per cloth, per vertex: near a collider after the last step
   long candidates_ = 0, contacts_ = 0, ccd_hits_ = 0, edge_contacts_ = 0, passes_ = 0;
 };
 

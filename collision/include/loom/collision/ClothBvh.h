@@ -5,6 +5,13 @@
 // x_t and x_t+1 inflated by the thickness; refit every step (leaves in parallel, then parents bottom-up);
 // rebuilt from the current positions when its summed node surface area grows past `rebuild_ratio` times the
 // value after the last (re)build (Lauterbach et al. 2006), or after `rebuild_every` steps.
+// Normal cones (Volino & Magnenat-Thalmann 1994; Provot 1997; continuous form as in Tang et al. 2009): every
+// node keeps a cone that holds the normal of each of its triangles at every t of the step (the normal of a
+// linearly moving triangle is a quadratic in t whose Bernstein coefficients the leaf cone contains).
+// self_pairs_culled() skips a node's internal pairs when its patch cannot touch itself during the step: the
+// patch is edge-connected, its cone's half-angle is below 90 degrees (so at every t it is a height field over
+// the cone axis) and its contour, projected along the axis, stays simple over the whole step (no two contour
+// edges sharing no vertex come closer than `margin` in projection, bounded through their motion).
 #include <cmath>
 #include <memory>
 #include <utility>
@@ -47,23 +54,40 @@ class ClothBvh {
   bool update(const Vec3s& x0, const Vec3s& x1, double thickness, int threads = 1);
 
   // Pairs of distinct triangles whose leaf boxes overlap, sorted; with skip_adjacent, pairs that share a
-  // vertex are left out.
+  // vertex are left out. No culling: the reference (census, tests).
   std::vector<TrianglePair> self_pairs(bool skip_adjacent) const;
+  // The same pairs minus those inside nodes culled by their normal cone and contour (see above); x0, x1 must
+  // be the positions of the last refit, margin (m) the contour clearance. In parallel (top-level subtrees and
+  // pairs of subtrees as tasks), sorted. `culled` (optional) receives the number of culled nodes.
+  std::vector<TrianglePair> self_pairs_culled(const Vec3s& x0, const Vec3s& x1, double margin, bool skip_adjacent,
+                                              int threads = 1, long* culled = nullptr) const;
   // Triangles whose leaf box overlaps `box`, sorted.
   std::vector<int> query(const Aabb& box) const;
   // Pairs (i in this tree, j in `other`) whose leaf boxes overlap, sorted: cloth-cloth candidates.
   std::vector<TrianglePair> cross_pairs(const ClothBvh& other) const;
 
   double surface_area_sum() const;  // m^2, over the internal nodes
+  // Normal cone of a node (root = 0): unit axis and half-angle (rad, pi when none exists).
+  std::pair<Vec3, double> cone(int node) const { return {nodes_[node].axis, nodes_[node].angle}; }
   int num_nodes() const { return static_cast<int>(nodes_.size()); }
   int rebuilds() const { return rebuilds_; }  // rebuilds since construction (the first build not counted)
 
  private:
   struct Node {
     Aabb box;
+    Vec3 axis = Vec3::UnitZ();  // normal cone axis (unit)
+    double angle = M_PI;        // rad, normal cone half-angle
     int left = -1, right = -1;  // children (index > this node's), -1 for a leaf
     int triangle = -1;          // leaf: the triangle
+    int count = 1;              // triangles below; the subtree is [id, id + 2 count - 1)
+    bool connected = true;      // the triangles form one edge-connected patch
   };
+  using EdgeKey = std::pair<int, int>;  // vertex pair, first < second
+  void build_topology();
+  void refit_internal(int id);
+  bool cullable(int n, const Vec3s& x0, const Vec3s& x1, double margin) const;
+  void self_recurse_culled(int n, bool skip_adjacent, const Vec3s& x0, const Vec3s& x1, double margin,
+                           std::vector<TrianglePair>& out, long& culled) const;
   void build(const Vec3s& points);
   int build_range(std::vector<int>& tris, const std::vector<Vec3>& centroids, int begin, int end);
   void self_recurse(int n, bool skip_adjacent, std::vector<TrianglePair>& out) const;
@@ -75,6 +99,7 @@ class ClothBvh {
   ClothBvhSettings settings_;
   std::vector<Node> nodes_;      // root = 0; children after parents (pre-order)
   std::vector<int> leaf_of_;     // triangle -> leaf node
+  std::vector<std::vector<EdgeKey>> contour_;  // node -> its patch's boundary edges (nodes of >= kConeMin tris)
   double area_after_build_ = 0;  // m^2; surface_area_sum() right after the last (re)build and refit
   int steps_since_build_ = 0;
   int rebuilds_ = 0;

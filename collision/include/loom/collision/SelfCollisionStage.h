@@ -13,8 +13,10 @@
 //   3. Up to `passes` passes of continuous tests (Ccd.h, conservative, minimum separation) on x_prev -> x
 //      with inelastic impulses; every pass after the first tests only pairs touching vertices that moved or
 //      hit in the previous pass (I-Cloth, Tang et al. 2018, incremental sets).
-//   4. Fail-safe: rigid impact zones (Provot 1997; Bridson et al. 2002 Sec. 7.4): vertices of remaining
-//      contacts are merged into zones, each zone's velocities replaced by its rigid-body motion (momentum and
+//   4. Fail-safe: impact zones. Vertices of remaining contacts are merged into zones; a zone is first resolved
+//      by inelastic projection over its contacts (Harmon et al. 2008: normal approach cancelled, sliding kept);
+//      a zone still colliding after 4 projections becomes a rigid impact zone (Provot 1997; Bridson et al. 2002
+//      Sec. 7.4): its velocities replaced by its rigid-body motion (momentum and
 //      angular momentum kept), repeated until no contact is left between zones. A zone moved by the linearised
 //      rigid motion is an invertible affine image of its intersection-free start at every t, so it cannot
 //      self-intersect; merging ends, at worst, with one zone. Zones with kinematic (pinned) vertices follow
@@ -29,6 +31,7 @@
 
 #include "loom/cloth/Stage.h"
 #include "loom/collision/ClothBvh.h"
+#include "loom/collision/FrictionPair.h"
 
 namespace loom::collision {
 
@@ -37,21 +40,31 @@ struct SelfCollisionSettings {
   std::vector<double> thickness;   // m, per cloth (layer); empty or <= 0 entries: the cloth's material thickness
   double friction = -1.0;          // 1, kinetic Coulomb coefficient; < 0: mean of the two cloths' materials
   double static_friction = -1.0;   // 1, static coefficient; < 0: equal to the kinetic one
+  // Per cloth pair (entries with other_cloth >= 0; the collider entries are the body stage's): win over the
+  // two above for that pair.
+  std::vector<FrictionPair> friction_pairs;
   int passes = 4;                  // continuous-test passes with impulses before the impact-zone fail-safe
   double separation = 0.25;        // 1, CCD minimum separation in the passes, as a fraction of the pair thickness
   double repulsion = 0.1;          // 1, share of the thickness overlap removed per step by repulsion (Bridson 2002)
   bool normal_cones = true;        // cull self pairs of flat patches (never pairs between cloths)
   int max_zone_iterations = 200;   // fail-safe rounds before every vertex goes into one zone
+  double near_body_mass = 1e3;     // 1, mass factor of vertices the body stage left near a collider
 };
+
+class BodyCollisionStage;
 
 class SelfCollisionStage final : public loom::cloth::Stage {
  public:
   explicit SelfCollisionStage(SelfCollisionSettings settings) : settings_(std::move(settings)) {}
+  // The body-collision stage that runs before this one (optional): vertices it left near a collider count
+  // `near_body_mass` times heavier here, so cloth-cloth responses move the other cloth, not these into the
+  // body (layers stacked on a body, a tablecloth under objects).
+  void set_body_stage(const BodyCollisionStage* body) { body_ = body; }
   const char* name() const override { return "self_collision"; }
   void run(loom::cloth::StageContext& ctx) override;
   // candidate_pairs (triangle pairs from the BVHs), culled_nodes (normal-cone culls), contacts (proximity +
   // continuous contacts given impulses), passes (continuous-test passes), impact_zones (zones formed),
-  // zone_iterations, bvh_rebuilds, ccd_tests and ccd_boxes (continuous tests in the passes, inclusion boxes), unresolved (steps that ended with a forced global zone); all since the start.
+  // zone_iterations, projections (inelastic projections of a zone), rigid_zones (zones that went rigid), bvh_rebuilds, ccd_tests and ccd_boxes (continuous tests in the passes, inclusion boxes), unresolved (steps that ended with a forced global zone); all since the start.
   std::vector<std::pair<std::string, double>> counters() const override;
 
  private:
@@ -69,7 +82,7 @@ class SelfCollisionStage final : public loom::cloth::Stage {
 
   void setup(loom::cloth::StageContext& ctx);
   void update_bvhs(int threads, bool full_update);
-  std::vector<TrianglePair> all_triangle_pairs();
+  std::vector<TrianglePair> all_triangle_pairs(int threads);
   std::vector<TrianglePair> triangle_pairs_touching(const std::vector<char>& dirty);
   std::vector<Feature> features(const std::vector<TrianglePair>& pairs, const std::vector<char>* dirty, int threads) const;
   Contact contact_of(const Feature& f) const;
@@ -78,10 +91,17 @@ class SelfCollisionStage final : public loom::cloth::Stage {
   // One continuous pass over `fs`; returns whether any pair hit, marks moved/hit vertices in `dirty`.
   bool ccd_pass(const std::vector<Feature>& fs, int threads, std::vector<char>& dirty);
   bool impact_zones(std::vector<char> dirty, int threads);
+  struct ZoneConstraint {  // n . sum_i w_i x1_{v_i} >= b (inelastic projection, Harmon et al. 2008)
+    int v[4] = {0, 0, 0, 0};
+    double w[4] = {0, 0, 0, 0};
+    Vec3 n = Vec3::Zero();
+    double b = 0.0;  // m
+  };
+  bool project_zone(const std::vector<int>& constraints);
   void apply_rigid_zone(const std::vector<int>& verts);
-  void cull_nodes_update();
 
   SelfCollisionSettings settings_;
+  const BodyCollisionStage* body_ = nullptr;
   double h_ = 0.0;
   // Global numbering over all cloths, set up on the first run.
   int num_cloths_ = 0;
@@ -93,14 +113,19 @@ class SelfCollisionStage final : public loom::cloth::Stage {
   std::vector<int> vtx_tri_start_, vtx_tri_;           // vertex -> triangles (CSR, ascending)
   std::vector<int> edge_owner_;                        // edge -> lowest-numbered triangle holding it
   std::vector<double> cloth_thickness_, cloth_friction_;
+  std::vector<double> pair_mu_k_, pair_mu_s_;  // 1, per cloth pair (num_cloths_^2, symmetric)
   std::vector<std::unique_ptr<ClothBvh>> bvhs_;
+  std::vector<loom::cloth::Vec3s> cx0_, cx1_;  // m, per cloth: the positions of the last BVH refit
   // Per step.
   loom::cloth::Vec3s x0_, x1_, x1_solver_;  // m: start, current end, end as the solver left it
   std::vector<double> w_, m_;               // 1/kg inverse masses, kg masses
+  std::vector<char> near_;                  // 1: the body stage left the vertex near a collider
   std::vector<int> zone_parent_;            // union-find over vertices for impact zones (-1: no zone)
+  std::vector<ZoneConstraint> zone_constraints_;  // the contacts found by the fail-safe this step
   // Counters.
   long candidate_pairs_ = 0, contacts_ = 0, passes_ = 0, impact_zones_ = 0, zone_iterations_ = 0;
   long bvh_rebuilds_ = 0, unresolved_ = 0, culled_nodes_ = 0, ccd_tests_ = 0, ccd_boxes_ = 0;
+  long projections_ = 0, rigid_zones_ = 0;
 };
 
 }  // namespace loom::collision
