@@ -25,7 +25,11 @@
 #ifdef LOOM_HAVE_RENDER
 #include "loom/render/RenderRun.h"
 #endif
+#ifdef LOOM_HAVE_BULLET
+#include "loom/bullet/BulletScene.h"
+#endif
 #include "loom/collision/MultiClothCensus.h"
+#include "loom/collision/SelfCollisionStage.h"
 #include "loom/scene/Build.h"
 #include "loom/scene/Scene.h"
 
@@ -130,8 +134,36 @@ int run_command(const RunOptions& options) {
   if (o.threads > 0) sc.setup.threads = o.threads;
   const int frames = o.frames >= 0 ? o.frames : sc.frames;
   collision::ColliderSetPtr census_colliders;  // --census: the simulation's colliders, for max_penetration
-  const std::unique_ptr<cloth::Simulation> sim_ptr = scene::build_simulation(sc, &census_colliders);  // validates before any output
+  // A scene with rigid `bodies` (issue 9) runs in a Bullet world, its cloths as one BulletCloth; the
+  // colliders drawn and censused are then the bodies at their poses.
+  std::unique_ptr<cloth::Simulation> sim_ptr;
+#ifdef LOOM_HAVE_BULLET
+  std::unique_ptr<bullet::BulletScene> bodies_world;
+#endif
+  if (!sc.bodies.empty()) {
+#ifdef LOOM_HAVE_BULLET
+    if (!sc.colliders.empty())
+      throw Error(scene_path, "colliders", "cannot be combined with 'bodies' yet: give static shapes as bodies (mass 0)");
+    if (sc.character) throw Error(scene_path, "character", "cannot be combined with 'bodies' yet");
+    if (resume || o.checkpoint_every > 0)
+      throw Error(scene_path, "bodies", "--checkpoint-every / --resume do not save the Bullet world: not available for scenes with rigid bodies");
+    bodies_world = std::make_unique<bullet::BulletScene>(sc.setup, sc.bodies);
+    if (sc.collision && (sc.collision->self || sc.setup.cloths.size() > 1))
+      bodies_world->simulation().add_stage(std::make_unique<collision::SelfCollisionStage>(*sc.collision));
+    census_colliders = bodies_world->body_colliders();
+#else
+    throw Error(scene_path, "bodies", "rigid bodies need the Bullet bridge, and this loom was built without it (Debian: libbullet-dev)");
+#endif
+  } else {
+    sim_ptr = scene::build_simulation(sc, &census_colliders);  // validates before any output
+  }
+#ifdef LOOM_HAVE_BULLET
+  cloth::Simulation& sim = bodies_world ? bodies_world->simulation() : *sim_ptr;
+  auto step_frame = [&]() { return bodies_world ? bodies_world->step_frame() : sim.step_frame(); };
+#else
   cloth::Simulation& sim = *sim_ptr;
+  auto step_frame = [&]() { return sim.step_frame(); };
+#endif
   // --census (issue 5): exact count of intersecting triangle pairs (self, non-adjacent, and between cloths)
   // and the deepest vertex inside a collider, after every frame; summary.json gets the largest of each.
   long census_intersections = 0;
@@ -182,6 +214,26 @@ int run_command(const RunOptions& options) {
     for (double ms : s.stage_ms) csv << ',' << ms;
     csv << "\n";
   };
+  // Scenes with bodies: DIR/bodies.csv, one row per body per frame (centre of mass, velocity).
+  std::ofstream bodies_csv;
+  auto write_bodies = [&](int f) {
+#ifdef LOOM_HAVE_BULLET
+    if (!bodies_world) return;
+    if (!bodies_csv.is_open()) {
+      bodies_csv.open(out / "bodies.csv");
+      if (!bodies_csv) throw Error((out / "bodies.csv").string(), "", "cannot write");
+      bodies_csv << std::setprecision(10) << "frame,time,body,x,y,z,vx,vy,vz\n";
+    }
+    for (size_t k = 0; k < bodies_world->num_bodies(); ++k) {
+      const cloth::Vec3 p = bodies_world->body_position(k), v = bodies_world->body_velocity(k);
+      bodies_csv << f << ',' << f * sc.setup.frame_dt << ',' << sc.bodies[k].name << ',' << p.x() << ',' << p.y() << ','
+                 << p.z() << ',' << v.x() << ',' << v.y() << ',' << v.z() << "\n";
+    }
+#else
+    (void)f;
+#endif
+  };
+  fs::remove(out / "bodies.csv");
   auto frame_path = [&](int f) {
     char name[32];
     std::snprintf(name, sizeof name, "frame_%05d.obj", f);
@@ -233,6 +285,7 @@ int run_command(const RunOptions& options) {
     finite = s0.finite;
     if (finite) {  // NaN is never written (issue 8)
       write_row(s0);
+      write_bodies(0);
       run_census();
       if (obj) write_obj(frame_path(0), shown.cloths());
       keep_frame(true, true);
@@ -271,7 +324,7 @@ int run_command(const RunOptions& options) {
       interrupted = true;
       break;
     }
-    cloth::FrameStats s = sim.step_frame();
+    cloth::FrameStats s = step_frame();
     sim_ms += s.total_ms;
     if (!s.finite) {
       finite = false;
@@ -282,6 +335,7 @@ int run_command(const RunOptions& options) {
       break;
     }
     write_row(s);
+    write_bodies(f);
     run_census();
     shown.update();
     if (obj && f % sc.output.every == 0) write_obj(frame_path(f), shown.cloths());
@@ -298,7 +352,11 @@ int run_command(const RunOptions& options) {
   }
   if (g_interrupted) interrupted = done < frames;
   std::signal(SIGINT, old_handler);
-  if (interrupted) save_checkpoint();
+  bool resumable = true;
+#ifdef LOOM_HAVE_BULLET
+  resumable = !bodies_world;
+#endif
+  if (interrupted && resumable) save_checkpoint();
   bar.finish();
   exports.finish();
   nlohmann::ordered_json render_summary;
@@ -360,6 +418,20 @@ int run_command(const RunOptions& options) {
   j["vertices"] = vertices;
   j["triangles"] = triangles;
   if (!render_summary.is_null()) j["render"] = render_summary;
+#ifdef LOOM_HAVE_BULLET
+  if (bodies_world) {  // issue 9: the rigid bodies' end state; the trajectories are in bodies.csv
+    nlohmann::ordered_json bj = nlohmann::ordered_json::array();
+    for (size_t k = 0; k < bodies_world->num_bodies(); ++k) {
+      const cloth::Vec3 p = bodies_world->body_position(k), v = bodies_world->body_velocity(k);
+      bj.push_back({{"name", sc.bodies[k].name}, {"position", {p.x(), p.y(), p.z()}}, {"velocity", {v.x(), v.y(), v.z()}}});
+    }
+    j["bodies"] = bj;
+    j["bodies_file"] = "bodies.csv";
+    j["bullet_substeps"] = bodies_world->bullet_substeps();
+    j["cloth_steps"] = bodies_world->cloth_steps();
+    if (!bodies_world->warnings().empty()) j["unsupported_shapes"] = bodies_world->warnings();
+  }
+#endif
   if (!finite) j["error"] = error;
   write_atomically(out / "summary.json", j.dump(2) + "\n");
 
@@ -369,6 +441,11 @@ int run_command(const RunOptions& options) {
     return 3;
   }
   if (interrupted) {
+    if (!resumable) {
+      std::cerr << "loom: interrupted after frame " << done << " of " << frames
+                << "; outputs so far are valid (a scene with rigid bodies cannot be resumed)\n";
+      return 130;
+    }
     std::cerr << "loom: interrupted after frame " << done << " of " << frames << "; outputs so far are valid; continue with: loom run --resume "
               << out.string() << "\n";
     return 130;

@@ -26,6 +26,25 @@ class ClothObject final : public btCollisionObject {
   }
 };
 
+// Radius (m) of a ball around the body origin holding the collider (0 for planes: static or moving flat).
+double reach_from_origin(const Collider& c) {
+  using collision::ShapeType;
+  const collision::Shape& s = c.shape;
+  double r = 0.0;
+  switch (s.type) {
+    case ShapeType::plane: return 0.0;
+    case ShapeType::sphere: r = s.radius; break;
+    case ShapeType::capsule: r = s.radius + s.half_height; break;
+    case ShapeType::box: r = s.half_extents.norm(); break;
+    case ShapeType::cylinder: r = std::hypot(s.radius, s.half_height); break;
+    case ShapeType::convex:
+    case ShapeType::mesh:
+      for (const Vec3& v : s.vertices) r = std::max(r, v.norm());
+      break;
+  }
+  return r + c.curr.translation().norm();
+}
+
 Transform slerp(const Transform& a, const Transform& b, double f) {
   Transform out = Transform::Identity();
   const Eigen::Quaterniond qa(a.linear()), qb(b.linear());
@@ -135,6 +154,7 @@ BulletCloth::BulletCloth(cloth::SimulationSetup setup, const BulletClothSettings
     : settings_(settings), colliders_(std::make_shared<collision::ColliderSet>()) {
   if (!(settings.fixed_dt > 0.0)) throw Error("", "bullet.fixed_dt", "must be > 0");
   if (settings.cloth_substeps < 1) throw Error("", "bullet.cloth_substeps", "must be >= 1");
+  if (settings.max_cloth_substeps > 4096) throw Error("", "bullet.max_cloth_substeps", "must be <= 4096");
   if (!(settings.thickness >= 0.0)) throw Error("", "bullet.thickness", "must be >= 0");
   double thickness = settings.thickness;
   for (const cloth::ClothSetup& c : setup.cloths) thickness = std::max(thickness, c.material.thickness);
@@ -338,10 +358,29 @@ void BulletCloth::updateAction(btCollisionWorld* world, btScalar dt_bt) {
     }
   }
 
-  // 3. Step the cloth over [t0, t0 + dt].
+  // 3. Step the cloth over [t0, t0 + dt], in as many steps as the relative motion needs (settings).
+  int steps = settings_.cloth_substeps;
+  if (settings_.max_cloth_substeps > steps && !colliders_->empty()) {
+    double motion = 0.0;  // m
+    for (btRigidBody* rb : bodies) {
+      const BodyTrack& tr = *tracks_.at(rb);
+      double reach = 0.0;
+      for (const Collider& c : tr.local) reach = std::max(reach, reach_from_origin(c));
+      const double angle = Eigen::AngleAxisd(tr.end.linear() * tr.start.linear().transpose()).angle();
+      motion = std::max(motion, (tr.end.translation() - tr.start.translation()).norm() + angle * reach);
+    }
+    double v_cloth = 0.0;  // m/s
+    for (const auto& c : sim_->cloths())
+      for (const Vec3& v : c->state().v) v_cloth = std::max(v_cloth, v.squaredNorm());
+    motion += std::sqrt(v_cloth) * dt;
+    const double need = std::ceil(motion / (0.5 * contacts_thickness()));
+    if (need > steps) steps = static_cast<int>(std::min<double>(need, settings_.max_cloth_substeps));
+  }
+  if (steps != sim_->setup().substeps) sim_->set_substeps(steps);
+  cloth_steps_ += steps;
   substep_t0_ = sim_->time();
   double pen = 0.0;
-  sim_->step_frame();
+  last_stats_ = sim_->step_frame();
   pen = contacts_ ? contacts_->last_penetration() : std::max(0.0, body_->max_deficit() - thickness_);
   last_penetration_ = pen;
   ++substeps_;

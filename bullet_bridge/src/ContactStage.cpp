@@ -75,7 +75,91 @@ void ContactStage::run(cloth::StageContext& ctx) {
         col.reaction_impulse -= impulse;
         col.reaction_angular_impulse -= (x - centre).cross(impulse);
       }
+      if (col.shape.type != collision::ShapeType::mesh) edge_contacts(col, hull, reach, back, ctx.h, s, cl->mesh());
     }
+  }
+}
+
+// Edge pass (convex shapes): a collider's edge or corner can slice between two cloth vertices that are
+// both outside it (a box's bottom edge through the cloth under it). The signed distance of a convex shape
+// is a convex function, so along a cloth edge x(t) = (1 - t) x_i + t x_j it has one minimum, found by a
+// golden-section search. If that deepest point is inside the contact offset at an interior t, the edge is
+// pushed out and its approach velocity removed there, the correction shared by the two ends with weights
+// (1 - t) w_i and t w_j (w: inverse masses; the point x(t) moves by the full amount), and minus the impulse
+// goes to the collider as for vertices.
+void ContactStage::edge_contacts(collision::Collider& col, const HullPlanes* hull, double reach, const Transform& back,
+                                 double h, cloth::ClothState& s, const cloth::ClothMesh& mesh) {
+  const Vec3 centre = col.curr.translation();
+  const double mu = col.friction;
+  const double reach2 = reach * reach;
+  auto phi_at = [&](const Vec3& p, Vec3* n) { return shape_signed_distance(col.shape, hull, col.curr, p, n); };
+  for (const cloth::Edge& e : mesh.edges()) {
+    const double wi = s.inv_mass[e.i], wj = s.inv_mass[e.j];
+    if (wi == 0.0 || wj == 0.0) continue;  // a held end: the free end's vertex contact is enough
+    Vec3 &xi = s.x[e.i], &xj = s.x[e.j];
+    // Cull: the edge's nearest point to the shape's bounding ball centre must be within reach.
+    const Vec3 d = xj - xi;
+    const double dd = d.squaredNorm();
+    const double tc = dd > 0.0 ? std::clamp((centre - xi).dot(d) / dd, 0.0, 1.0) : 0.0;
+    if ((xi + tc * d - centre).squaredNorm() > reach2) continue;
+    // Golden-section search of the convex phi(t) on [0, 1].
+    constexpr double g = 0.6180339887498949;
+    double a = 0.0, b = 1.0;
+    double t1 = b - g * (b - a), t2 = a + g * (b - a);
+    double f1 = phi_at(xi + t1 * d, nullptr), f2 = phi_at(xi + t2 * d, nullptr);
+    for (int it = 0; it < 24; ++it) {
+      if (f1 < f2) {
+        b = t2, t2 = t1, f2 = f1;
+        t1 = b - g * (b - a);
+        f1 = phi_at(xi + t1 * d, nullptr);
+      } else {
+        a = t1, t1 = t2, f1 = f2;
+        t2 = a + g * (b - a);
+        f2 = phi_at(xi + t2 * d, nullptr);
+      }
+    }
+    const double t = 0.5 * (a + b);
+    if (t < 0.02 || t > 0.98) continue;  // at an end: the vertex pass handled it
+    Vec3 n;
+    const Vec3 p = xi + t * d;
+    const double phi = phi_at(p, &n);
+    if (!(phi < thickness_)) continue;
+    // Only a true interior minimum: deeper than both ends (otherwise the vertex pass has it).
+    if (!(phi < std::min(phi_at(xi, nullptr), phi_at(xj, nullptr)) - 1e-9)) continue;
+    // Push across the edge, not along it: the normal's part perpendicular to the cloth edge. At a smooth
+    // surface the interior minimum already has n ⟂ d; at a box edge the nearest face's normal would slide
+    // the cloth edge off the corner, while the perpendicular part is the edge-edge normal (it wraps the
+    // cloth round the corner). The push grows by 1 / (n·n') so x(t) leaves by the same depth.
+    const Vec3 dh = d / std::sqrt(dd);
+    Vec3 np = n - n.dot(dh) * dh;
+    const double np_norm = np.norm();
+    if (!(np_norm > 0.3)) continue;
+    np /= np_norm;
+    const double depth = (thickness_ - phi) / np_norm;
+    n = np;
+    const double ai = (1.0 - t) * wi, aj = t * wj;
+    const double denom = (1.0 - t) * ai + t * aj;  // m/s of x(t) per N s applied at x(t), i.e. 1 / effective mass
+    if (!(denom > 0.0)) continue;
+    ++edge_contacts_;
+    last_penetration_ = std::max(last_penetration_, -phi);
+    const double lambda = depth / denom;
+    xi += ai * lambda * n;
+    xj += aj * lambda * n;
+    const Vec3 q = xi + t * (xj - xi);           // the contact point after the push
+    const Vec3 vb = (q - back * q) / h;           // m/s, the body point's velocity
+    Vec3 &vi = s.v[e.i], &vj = s.v[e.j];
+    const Vec3 rel = (1.0 - t) * vi + t * vj - vb;
+    const double vn = rel.dot(n);
+    if (vn >= 0.0) continue;
+    const Vec3 vt = rel - vn * n;
+    const double vt_norm = vt.norm();
+    const double keep = vt_norm > 0.0 ? std::max(0.0, 1.0 - mu * (-vn) / vt_norm) : 0.0;
+    const Vec3 dv = (vb + keep * vt) - (rel + vb);  // wanted change of x(t)'s velocity
+    const Vec3 impulse = dv / denom;                // N s given to the cloth at x(t)
+    vi += ai * impulse;
+    vj += aj * impulse;
+    col.reaction_impulse -= impulse;
+    col.reaction_angular_impulse -= (q - centre).cross(impulse);
   }
 }
 

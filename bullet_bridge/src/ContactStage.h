@@ -5,7 +5,7 @@
 // relative normal velocity (inelastic), applies Coulomb friction to the tangential part, and sums minus the
 // impulse given to the cloth into each collider's reaction_impulse / reaction_angular_impulse (moment about
 // curr's origin), so the sum over cloth and colliders is exactly conserved.
-// Vertex-only: edges of a collider can still pass between cloth vertices.
+// Vertices, then cloth edges (a collider's edge or corner slicing between two vertices; convex shapes).
 #include <map>
 #include <string>
 
@@ -22,7 +22,7 @@ class ContactStage final : public cloth::Stage {
   const char* name() const override { return "bullet_contacts"; }
   void run(cloth::StageContext& ctx) override;
   std::vector<std::pair<std::string, double>> counters() const override {
-    return {{"contacts", static_cast<double>(contacts_)}};
+    return {{"contacts", static_cast<double>(contacts_)}, {"edge_contacts", static_cast<double>(edge_contacts_)}};
   }
   double thickness() const { return thickness_; }  // m
   // Deepest penetration (m, >= 0) below the surface seen before the push-out in the last run.
@@ -30,11 +30,14 @@ class ContactStage final : public cloth::Stage {
 
  private:
   const HullPlanes* hull_for(const collision::Collider& c);
+  void edge_contacts(collision::Collider& col, const HullPlanes* hull, double reach, const Transform& back, double h,
+                     cloth::ClothState& s, const cloth::ClothMesh& mesh);
 
   collision::ColliderSetPtr colliders_;
   double thickness_;  // m
   std::map<std::string, HullPlanes> hulls_;  // convex colliders' planes by name
   long contacts_ = 0;
+  long edge_contacts_ = 0;
   double last_penetration_ = 0.0;
 };
 

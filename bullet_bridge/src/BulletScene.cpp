@@ -1,0 +1,179 @@
+#include "loom/bullet/BulletScene.h"
+
+#include <btBulletDynamicsCommon.h>
+
+#include <algorithm>
+
+#include "BulletConvert.h"
+#include "ShapeDistance.h"
+#include "loom/bullet/BulletCloth.h"
+#include "loom/cloth/Error.h"
+
+namespace loom::bullet {
+
+using collision::RigidBodySpec;
+using collision::ShapeType;
+
+// The Bullet world and the scene's rigid bodies (in `bodies` order). Members are destroyed in reverse order:
+// bodies are removed from the world in ~World before the world goes.
+struct BulletScene::World {
+  btDefaultCollisionConfiguration config;
+  btCollisionDispatcher dispatcher{&config};
+  btDbvtBroadphase broadphase;
+  btSequentialImpulseConstraintSolver solver;
+  btDiscreteDynamicsWorld world{&dispatcher, &broadphase, &solver, &config};
+  std::vector<std::unique_ptr<btCollisionShape>> shapes;
+  std::vector<std::unique_ptr<btDefaultMotionState>> states;
+  std::vector<std::unique_ptr<btRigidBody>> bodies;
+
+  ~World() {
+    for (auto& b : bodies) world.removeRigidBody(b.get());
+  }
+
+  void add(const RigidBodySpec& b, size_t index) {
+    std::unique_ptr<btCollisionShape> shape;
+    switch (b.shape.type) {
+      case ShapeType::plane: shape = std::make_unique<btStaticPlaneShape>(btVector3(0, 1, 0), 0); break;
+      case ShapeType::sphere: shape = std::make_unique<btSphereShape>(btScalar(b.shape.radius)); break;
+      case ShapeType::capsule:
+        shape = std::make_unique<btCapsuleShape>(btScalar(b.shape.radius), btScalar(2 * b.shape.half_height));
+        break;
+      case ShapeType::box: shape = std::make_unique<btBoxShape>(to_bt(b.shape.half_extents)); break;
+      case ShapeType::cylinder:
+        shape = std::make_unique<btCylinderShape>(
+            btVector3(btScalar(b.shape.radius), btScalar(b.shape.half_height), btScalar(b.shape.radius)));
+        break;
+      default:
+        throw Error("", "bodies[" + std::to_string(index) + "].shape",
+                    std::string(collision::shape_type_name(b.shape.type)) + " is not supported for rigid bodies");
+    }
+    const bool kinematic = static_cast<bool>(b.motion);
+    states.push_back(std::make_unique<btDefaultMotionState>(to_bt(kinematic ? b.motion(0.0) : b.pose)));
+    btVector3 inertia(0, 0, 0);
+    if (b.mass > 0) shape->calculateLocalInertia(btScalar(b.mass), inertia);
+    btRigidBody::btRigidBodyConstructionInfo info(btScalar(b.mass), states.back().get(), shape.get(), inertia);
+    info.m_friction = btScalar(b.friction);
+    info.m_restitution = btScalar(b.restitution);
+    auto body = std::make_unique<btRigidBody>(info);
+    if (kinematic) {
+      body->setCollisionFlags(body->getCollisionFlags() | btCollisionObject::CF_KINEMATIC_OBJECT);
+      body->setActivationState(DISABLE_DEACTIVATION);
+    }
+    if (b.mass > 0) {
+      body->setLinearVelocity(to_bt(b.velocity));
+      body->setAngularVelocity(to_bt(b.angular_velocity));
+    }
+    world.addRigidBody(body.get());
+    shapes.push_back(std::move(shape));
+    bodies.push_back(std::move(body));
+  }
+};
+
+BulletScene::BulletScene(const cloth::SimulationSetup& setup, const std::vector<RigidBodySpec>& bodies,
+                         const BulletSceneOptions& options)
+    : specs_(bodies), world_(std::make_unique<World>()), body_colliders_(std::make_shared<collision::ColliderSet>()) {
+  if (options.bullet_substeps < 1) throw Error("", "bullet_substeps", "must be >= 1");
+  frame_dt_ = setup.frame_dt;
+  substeps_ = options.bullet_substeps;
+  world_->world.setGravity(to_bt(setup.gravity));
+  for (size_t k = 0; k < specs_.size(); ++k) world_->add(specs_[k], k);
+  BulletClothSettings s;
+  s.fixed_dt = frame_dt_ / substeps_;
+  s.cloth_substeps = std::max(1, (setup.substeps + substeps_ - 1) / substeps_);
+  cloth_ = std::make_unique<BulletCloth>(setup, s);
+  const int num_cloths = static_cast<int>(cloth_->simulation().cloths().size());
+  for (size_t k = 0; k < specs_.size(); ++k)
+    for (size_t a = 0; a < specs_[k].attachments.size(); ++a) {
+      const collision::BodyAttachment& at = specs_[k].attachments[a];
+      const std::string field = "bodies[" + std::to_string(k) + "].attach[" + std::to_string(a) + "]";
+      if (at.cloth < 0 || at.cloth >= num_cloths) throw Error("", field + ".cloth", "no cloth with this index");
+      if (at.vertex < 0 || at.vertex >= cloth_->simulation().cloths()[at.cloth]->state().size())
+        throw Error("", field + ".vertex", "out of range");
+      cloth_->attach(at.cloth, at.vertex, world_->bodies[k].get());
+    }
+  cloth_->add_to(&world_->world);
+  for (const RigidBodySpec& b : specs_) {
+    collision::Collider c;
+    c.name = b.name;
+    c.shape = b.shape;
+    body_colliders_->push_back(std::move(c));
+  }
+  refresh_colliders();
+}
+
+BulletScene::~BulletScene() {
+  if (cloth_) cloth_->remove_from(&world_->world);
+}
+
+cloth::Simulation& BulletScene::simulation() { return cloth_->simulation(); }
+const cloth::Simulation& BulletScene::simulation() const { return cloth_->simulation(); }
+double BulletScene::time() const { return frame_ * frame_dt_; }
+long BulletScene::cloth_steps() const { return cloth_->cloth_steps(); }
+size_t BulletScene::num_bodies() const { return world_->bodies.size(); }
+Vec3 BulletScene::body_position(size_t k) const { return to_eigen(world_->bodies.at(k)->getCenterOfMassPosition()); }
+Vec3 BulletScene::body_velocity(size_t k) const { return to_eigen(world_->bodies.at(k)->getLinearVelocity()); }
+const std::vector<std::string>& BulletScene::warnings() const { return cloth_->warnings(); }
+
+void BulletScene::refresh_colliders() {
+  for (size_t k = 0; k < world_->bodies.size(); ++k) {
+    collision::Collider& c = (*body_colliders_)[k];
+    c.prev = c.curr;
+    c.curr = to_eigen(world_->bodies[k]->getWorldTransform());
+    if (frame_ == 0) c.prev = c.curr;
+  }
+}
+
+cloth::FrameStats BulletScene::step_frame() {
+  const double t_end = (frame_ + 1) * frame_dt_;
+  for (size_t k = 0; k < specs_.size(); ++k)
+    if (specs_[k].motion) world_->bodies[k]->getMotionState()->setWorldTransform(to_bt(specs_[k].motion(t_end)));
+  const long before = cloth_->substeps();
+  std::vector<double> stage_ms;
+  double total_ms = 0.0;
+  bool finite = true;
+  // Bullet calls the cloth once per substep; sum what each cloth step reported.
+  struct Tap final : btActionInterface {
+    BulletCloth* cloth = nullptr;
+    std::vector<double>* stage_ms = nullptr;
+    double* total_ms = nullptr;
+    bool* finite = nullptr;
+    void updateAction(btCollisionWorld*, btScalar) override {
+      const cloth::FrameStats& s = cloth->last_stats();
+      if (stage_ms->size() < s.stage_ms.size()) stage_ms->resize(s.stage_ms.size(), 0.0);
+      for (size_t k = 0; k < s.stage_ms.size(); ++k) (*stage_ms)[k] += s.stage_ms[k];
+      *total_ms += s.total_ms;
+      *finite = *finite && s.finite;
+    }
+    void debugDraw(btIDebugDraw*) override {}
+  } tap;
+  tap.cloth = cloth_.get();
+  tap.stage_ms = &stage_ms;
+  tap.total_ms = &total_ms;
+  tap.finite = &finite;
+  world_->world.addAction(&tap);  // after the cloth: actions run in the order added
+  world_->world.stepSimulation(btScalar(frame_dt_), substeps_ + 1, btScalar(frame_dt_ / substeps_));
+  world_->world.removeAction(&tap);
+  ++frame_;
+  cloth::FrameStats out = cloth_->substeps() > before ? cloth_->last_stats() : simulation().measure();
+  out.frame = frame_;
+  out.time = time();
+  out.stage_ms = stage_ms;
+  out.stage_ms.resize(simulation().stage_names().size(), 0.0);
+  out.total_ms = total_ms;
+  out.finite = finite && out.finite;
+  refresh_colliders();
+  return out;
+}
+
+double BulletScene::max_penetration() const {
+  double worst = 0.0;
+  for (size_t k = 0; k < world_->bodies.size(); ++k) {
+    const collision::Transform pose = to_eigen(world_->bodies[k]->getWorldTransform());
+    for (const auto& c : cloth_->simulation().cloths())
+      for (const Vec3& p : c->state().x)
+        worst = std::max(worst, -shape_signed_distance(specs_[k].shape, nullptr, pose, p, nullptr));
+  }
+  return worst;
+}
+
+}  // namespace loom::bullet
