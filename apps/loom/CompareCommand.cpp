@@ -13,6 +13,10 @@
 #include "loom/cloth/Error.h"
 #include "loom/scene/Scene.h"
 
+#ifdef LOOM_HAVE_CHARACTER_COMPARE
+#include "CompareCharacter.h"
+#endif
+
 namespace loom::app {
 
 namespace {
@@ -22,7 +26,9 @@ const char* kCompareUsage =
     "  Runs SCENE's first cloth (and its `bodies`) in Loom (BulletCloth in a Bullet world), in Bullet's\n"
     "  classic soft body and, without rigid bodies, in Bullet's deformable world. Writes DIR/compare.csv and\n"
     "  DIR/compare.json (default DIR: out/compare). Metrics: ms_per_frame, max_strain, mean_strain,\n"
-    "  max_penetration, diverged. Everything but ms_per_frame is deterministic run to run.\n";
+    "  max_penetration, diverged. Everything but ms_per_frame is deterministic run to run.\n"
+    "  A scene with a `character` runs its garments in Loom (the scene's own pipeline) and as Bullet classic\n"
+    "  soft bodies anchored to the character's capsules, kinematic rigid bodies driven by the clip.\n";
 
 nlohmann::json to_json(const bullet::SystemMetrics& m) {
   nlohmann::json j;
@@ -82,6 +88,9 @@ int compare_main(int argc, char** argv) {
     return 2;
   }
   const scene::Scene sc = scene::load_scene(scene_path, sets);
+#ifdef LOOM_HAVE_CHARACTER_COMPARE
+  if (sc.character) return compare_character(sc, frames, out);  // issue 6: character scenes
+#endif
   bullet::CompareInput in;
   in.setup = sc.setup;
   in.bodies = sc.bodies;

@@ -106,6 +106,7 @@ CapsuleRig CapsuleRig::build(const Motion& motion, const std::map<std::string, d
     b.joint = j;
     b.child = static_cast<int>(c);
     b.half_length = 0.5 * offset.norm();
+    b.turn = Quat::FromTwoVectors(Vec3::UnitY(), offset);
     auto pick = [&](const std::string& key) -> const double* {
       auto it = radii.find(key);
       if (it == radii.end()) return nullptr;
@@ -140,11 +141,9 @@ void CapsuleRig::capsule_poses(const std::vector<Transform>& global, std::vector
     const Bone& b = bones_[k];
     const Transform& g = global[b.joint];
     const Vec3 a = g.translation(), e = global[b.child].translation();
-    // Rotation: the start joint's frame turned by the smallest rotation taking y onto the bone direction.
-    const Vec3 d_local = g.linear().transpose() * (e - a);
-    const Quat turn = Quat::FromTwoVectors(Vec3::UnitY(), d_local);
+    // Rotation: the start joint's frame turned by the bone's fixed rest rotation (Bone::turn).
     Transform p = Transform::Identity();
-    p.linear() = g.linear() * turn.toRotationMatrix();
+    p.linear() = g.linear() * b.turn.toRotationMatrix();
     p.translation() = 0.5 * (a + e);
     poses[k] = p;
   }

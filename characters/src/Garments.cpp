@@ -46,6 +46,30 @@ double clearance_of(const Vec3& p, const std::vector<Segment>& caps) {
   return g;
 }
 
+// Poses of the motion over the simulated time it plays (sampled at 30 Hz; one clip length when looping).
+std::vector<std::vector<Transform>> motion_samples(const Motion& motion) {
+  const MotionSettings& ms = motion.settings();
+  const double span = ms.loop ? motion.duration() / ms.speed : std::max(0.0, (motion.duration() - ms.start) / ms.speed);
+  const int samples = std::max(1, static_cast<int>(std::ceil(span * 30.0)));
+  std::vector<std::vector<Transform>> poses(samples + 1);
+  for (int k = 0; k <= samples; ++k) motion.pose(span * k / samples, poses[k]);
+  return poses;
+}
+
+// Smallest gap (m) between the capsules and a point carried rigidly by `joint` (at x0 when the pose is
+// pose0), over the sampled poses.
+double carried_gap(const Vec3& x0, int joint, const std::vector<Transform>& pose0, const CapsuleRig& rig,
+                   const std::vector<std::vector<Transform>>& samples) {
+  const Vec3 local = pose0[joint].inverse() * x0;
+  double gap = std::numeric_limits<double>::infinity();
+  for (const std::vector<Transform>& p : samples) {
+    const Vec3 x = p[joint] * local;
+    for (const Bone& bone : rig.bones())
+      gap = std::min(gap, segment_distance(x, p[bone.joint].translation(), p[bone.child].translation()) - bone.radius);
+  }
+  return gap;
+}
+
 // A grid of nu x nv vertices (row iv = 0 first); `wrap`: a tube closed along u. Corner uvs in metres
 // (u: arc length along the row, v: down the garment), so warp runs down and weft around.
 std::shared_ptr<const cloth::ClothMesh> grid_mesh(const cloth::Vec3s& x, int nu, int nv, bool wrap,
@@ -182,7 +206,11 @@ Garment make_garment(const GarmentSpec& spec, const Motion& motion, const Capsul
     const int nu = std::max(3, static_cast<int>(std::ceil(width / spec.resolution)) + 1);
     const int nv = std::max(3, static_cast<int>(std::ceil(length / spec.resolution)) + 1);
     cloth::Vec3s x(nu * nv);
-    // One vertical plane behind the back, as close as the capsules allow.
+    // One vertical plane behind the back, as close as the capsules allow; its attached top row must also
+    // clear every capsule at every pose of the motion (an attached vertex cannot be pushed out by contacts:
+    // inside a lifted arm it would squeeze the free cloth next to it, as a thigh does to a skirt's waist).
+    const auto samples = motion_samples(motion);
+    double static_depth = -1.0;
     for (double depth = 0.0;; depth += 0.002) {
       bool clear = true;
       for (int j = 0; j < nv && clear; ++j)
@@ -190,7 +218,10 @@ Garment make_garment(const GarmentSpec& spec, const Motion& motion, const Capsul
           x[j * nu + i] = centre + (-0.5 * width + width * i / (nu - 1)) * right - (length * j / (nv - 1)) * up - depth * forward;
           clear = clearance_of(x[j * nu + i], caps) >= spec.clearance;
         }
-      if (clear || depth > 2.0) break;
+      if (clear && static_depth < 0.0) static_depth = depth;
+      for (int i = 0; i < nu && clear && depth < static_depth + 0.3; ++i)
+        clear = carried_gap(x[i], nearest_joint(x[i], caps, rig, kUpperTorso), pose, rig, samples) >= spec.clearance;
+      if (clear || depth > 2.0 || (static_depth >= 0.0 && depth >= static_depth + 0.3)) break;
     }
     g.mesh = mesh_of(x, nu, nv, false);
     for (int i = 0; i < nu; ++i) {

@@ -31,6 +31,10 @@ struct Bone {
   int child = 0;          // end joint
   double radius = 0.0;    // m
   double half_length = 0.0;  // m, half the rest distance between the joints
+  // Rotation, in the start joint's frame, taking the capsule's local y onto the bone (the child's rest
+  // offset). Fixed per bone, so the capsule is rigidly attached to the joint's frame: no twist flips when
+  // the bone points along -y (Biovision legs), which would give the capsule's surface a spurious spin.
+  Quat turn = Quat::Identity();
 };
 
 class CapsuleRig {
