@@ -29,9 +29,9 @@ SimulationSetup hanging_cloth(const std::string& model, int n = 33) {
 }
 
 TEST(Imex, HangingClothIsStableAt60HzWithOneStepPerFrame) {
-  // The scene's springs model at its 33 x 33 resolution, and the triangle models (explicit dihedral bending)
-  // at 17 x 17 to keep the test short; 3 s each.
-  for (const auto& [model, n] : {std::pair<std::string, int>{"springs", 33}, {"corotated_fem", 17}, {"baraff_witkin", 17}}) {
+  // The scene's springs model at its 33 x 33 resolution, and a triangle model (explicit dihedral bending) at
+  // 17 x 17 to keep the test short; 3 s each.
+  for (const auto& [model, n] : {std::pair<std::string, int>{"springs", 33}, {"corotated_fem", 17}}) {
     Simulation sim(hanging_cloth(model, n));
     const FrameStats s0 = sim.measure();
     const double scale = 0.2 * 9.81 * 1.0;  // J, m g L
