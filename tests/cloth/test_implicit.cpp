@@ -294,7 +294,8 @@ TEST(ImplicitHardCases, StiffClothAtThirtyHertz) {
         s.solver.params = params;
         double e0 = 0.0;
         long corrections = 0;
-        const double worst = run_bounded(s, 30, &e0, &corrections);
+        // 10 frames: without the safeguard the linearised springs step peaked at frame 2 (10.3x).
+        const double worst = run_bounded(s, 10, &e0, &corrections);
         std::printf("%s %s %s: max energy / start = %.3f, safeguard corrections %ld\n", method, model, label,
                     worst / e0, corrections);
         EXPECT_LE(worst, 10.0 * std::abs(e0)) << method << " " << model << " " << label;
