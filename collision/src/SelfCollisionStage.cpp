@@ -459,27 +459,25 @@ bool SelfCollisionStage::ccd_pass(const std::vector<Feature>& fs, int threads, s
 // Provot 1997 rigid impact zone: velocities (x1 - x0) / h of the zone's vertices replaced by the rigid motion
 // with the same linear and angular momentum about the centre of mass at x0 (linearised rotation).
 // With kinematic (pinned) vertices: those keep their end positions; the others follow the pinned vertices'
-// best-fit rotation and translation (Kabsch 1976) when at least three non-collinear pinned vertices determine
-// it, else the rigid motion with their own momentum (as without pins). Neither case is guaranteed.
+// best-fit rotation and translation (Kabsch 1976), translation only when fewer than three non-collinear pinned
+// vertices leave the rotation undetermined. That case is not guaranteed.
 void SelfCollisionStage::apply_rigid_zone(const std::vector<int>& verts_in) {
   std::vector<int> pinned, free;
   for (int v : verts_in) (w_[v] == 0.0 ? pinned : free).push_back(v);
-  bool determined = false;
-  Mat3 R = Mat3::Identity();
-  Vec3 c0 = Vec3::Zero(), c1 = Vec3::Zero();
-  if (pinned.size() >= 3) {
+  if (!pinned.empty()) {
+    Vec3 c0 = Vec3::Zero(), c1 = Vec3::Zero();
     for (int v : pinned) c0 += x0_[v], c1 += x1_[v];
     c0 /= static_cast<double>(pinned.size()), c1 /= static_cast<double>(pinned.size());
-    Mat3 H = Mat3::Zero();
-    for (int v : pinned) H += (x0_[v] - c0) * (x1_[v] - c1).transpose();
-    Eigen::JacobiSVD<Mat3> svd(H, Eigen::ComputeFullU | Eigen::ComputeFullV);
-    Mat3 D = Mat3::Identity();
-    if ((svd.matrixV() * svd.matrixU().transpose()).determinant() < 0.0) D(2, 2) = -1.0;
-    const Eigen::Vector3d sv = svd.singularValues();
-    determined = sv[1] > 1e-9 * sv[0];
-    R = svd.matrixV() * D * svd.matrixU().transpose();
-  }
-  if (determined) {
+    Mat3 R = Mat3::Identity();
+    if (pinned.size() >= 3) {
+      Mat3 H = Mat3::Zero();
+      for (int v : pinned) H += (x0_[v] - c0) * (x1_[v] - c1).transpose();
+      Eigen::JacobiSVD<Mat3> svd(H, Eigen::ComputeFullU | Eigen::ComputeFullV);
+      Mat3 D = Mat3::Identity();
+      if ((svd.matrixV() * svd.matrixU().transpose()).determinant() < 0.0) D(2, 2) = -1.0;
+      const Eigen::Vector3d sv = svd.singularValues();
+      if (sv[1] > 1e-9 * sv[0]) R = svd.matrixV() * D * svd.matrixU().transpose();
+    }
     for (int v : free) x1_[v] = c1 + R * (x0_[v] - c0);
     return;
   }
