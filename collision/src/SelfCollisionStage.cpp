@@ -458,13 +458,31 @@ bool SelfCollisionStage::ccd_pass(const std::vector<Feature>& fs, int threads, s
 
 // Provot 1997 rigid impact zone: velocities (x1 - x0) / h of the zone's vertices replaced by the rigid motion
 // with the same linear and angular momentum about the centre of mass at x0 (linearised rotation).
-// With kinematic vertices (pinned, or left near a collider by the body stage, whose end positions are safe):
-// those keep their end positions, the others follow their best-fit rotation and translation (Kabsch 1976).
-void SelfCollisionStage::apply_rigid_zone(const std::vector<int>& verts) {
-  std::vector<int> pinned;
-  for (int v : verts)
-    if (w_[v] == 0.0 || near_[v]) pinned.push_back(v);
-  if (pinned.empty()) {
+// With kinematic (pinned) vertices: those keep their end positions; the others follow the pinned vertices'
+// best-fit rotation and translation (Kabsch 1976), translation only when fewer than three non-collinear pinned
+// vertices leave the rotation undetermined. That case is not guaranteed.
+void SelfCollisionStage::apply_rigid_zone(const std::vector<int>& verts_in) {
+  std::vector<int> pinned, free;
+  for (int v : verts_in) (w_[v] == 0.0 ? pinned : free).push_back(v);
+  if (!pinned.empty()) {
+    Vec3 c0 = Vec3::Zero(), c1 = Vec3::Zero();
+    for (int v : pinned) c0 += x0_[v], c1 += x1_[v];
+    c0 /= static_cast<double>(pinned.size()), c1 /= static_cast<double>(pinned.size());
+    Mat3 R = Mat3::Identity();
+    if (pinned.size() >= 3) {
+      Mat3 H = Mat3::Zero();
+      for (int v : pinned) H += (x0_[v] - c0) * (x1_[v] - c1).transpose();
+      Eigen::JacobiSVD<Mat3> svd(H, Eigen::ComputeFullU | Eigen::ComputeFullV);
+      Mat3 D = Mat3::Identity();
+      if ((svd.matrixV() * svd.matrixU().transpose()).determinant() < 0.0) D(2, 2) = -1.0;
+      const Eigen::Vector3d sv = svd.singularValues();
+      if (sv[1] > 1e-9 * sv[0]) R = svd.matrixV() * D * svd.matrixU().transpose();
+    }
+    for (int v : free) x1_[v] = c1 + R * (x0_[v] - c0);
+    return;
+  }
+  const std::vector<int>& verts = free;
+  {
     double mass = 0.0;
     Vec3 xc = Vec3::Zero(), vc = Vec3::Zero();
     for (int v : verts) {
@@ -483,22 +501,7 @@ void SelfCollisionStage::apply_rigid_zone(const std::vector<int>& verts) {
     }
     const Vec3 omega = I.completeOrthogonalDecomposition().solve(L);
     for (int v : verts) x1_[v] = x0_[v] + h_ * (vc + omega.cross(x0_[v] - xc));
-    return;
   }
-  Vec3 c0 = Vec3::Zero(), c1 = Vec3::Zero();
-  for (int v : pinned) c0 += x0_[v], c1 += x1_[v];
-  c0 /= static_cast<double>(pinned.size()), c1 /= static_cast<double>(pinned.size());
-  Mat3 H = Mat3::Zero();
-  for (int v : pinned) H += (x0_[v] - c0) * (x1_[v] - c1).transpose();
-  Eigen::JacobiSVD<Mat3> svd(H, Eigen::ComputeFullU | Eigen::ComputeFullV);
-  Mat3 D = Mat3::Identity();
-  if ((svd.matrixV() * svd.matrixU().transpose()).determinant() < 0.0) D(2, 2) = -1.0;
-  // Fewer than three pinned vertices, or all on a line: the rotation is not determined; translate only.
-  const Eigen::Vector3d sv = svd.singularValues();
-  const bool determined = pinned.size() >= 3 && sv[1] > 1e-9 * sv[0];
-  const Mat3 R = determined ? Mat3(svd.matrixV() * D * svd.matrixU().transpose()) : Mat3::Identity();
-  for (int v : verts)
-    if (w_[v] != 0.0 && !near_[v]) x1_[v] = c1 + R * (x0_[v] - c0);
 }
 
 // Harmon, Vouga, Tamstorf, Grinspun 2008, "Robust treatment of simultaneous collisions", Sec. 4 (inelastic

@@ -214,7 +214,9 @@ double cloth_incline(double mu_k, double mu_s) {
     for (int i = 0; i < top.size(); ++i) dx[1][i] = h * (top.v[i] + h * g);
     step(stage, cloths, dx, h, 1);
     for (int i = 0; i < top.size(); ++i) top.v[i] = (top.x[i] - top.x_prev[i]) / h;
-    if (k % 50 == 49) EXPECT_EQ(census(cloths), 0) << "step " << k;
+    if (k % 50 == 49) {
+      EXPECT_EQ(census(cloths), 0) << "step " << k;
+    }
   }
   return top.x[4].x() - start.x();
 }
