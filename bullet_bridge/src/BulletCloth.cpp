@@ -175,7 +175,7 @@ BulletCloth::BulletCloth(cloth::SimulationSetup setup, const BulletClothSettings
     body_ = body.get();
     sim_->add_stage(std::move(body), cloth::Simulation::Slot::after_solve);
   } else {
-    auto contacts = std::make_unique<ContactStage>(colliders_, thickness);
+    auto contacts = std::make_unique<ContactStage>(colliders_, thickness, settings.edge_contacts);
     contacts_ = contacts.get();
     sim_->add_stage(std::move(contacts), cloth::Simulation::Slot::after_solve);
   }

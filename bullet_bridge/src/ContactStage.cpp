@@ -75,7 +75,7 @@ void ContactStage::run(cloth::StageContext& ctx) {
         col.reaction_impulse -= impulse;
         col.reaction_angular_impulse -= (x - centre).cross(impulse);
       }
-      if (col.shape.type != collision::ShapeType::mesh) edge_contacts(col, hull, reach, back, ctx.h, s, cl->mesh());
+      if (edges_ && col.shape.type != collision::ShapeType::mesh) edge_contacts(col, hull, reach, back, ctx.h, s, cl->mesh());
     }
   }
 }

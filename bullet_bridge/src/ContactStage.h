@@ -17,8 +17,8 @@ namespace loom::bullet {
 
 class ContactStage final : public cloth::Stage {
  public:
-  ContactStage(collision::ColliderSetPtr colliders, double thickness)
-      : colliders_(std::move(colliders)), thickness_(thickness) {}
+  ContactStage(collision::ColliderSetPtr colliders, double thickness, bool edges = true)
+      : colliders_(std::move(colliders)), thickness_(thickness), edges_(edges) {}
   const char* name() const override { return "bullet_contacts"; }
   void run(cloth::StageContext& ctx) override;
   std::vector<std::pair<std::string, double>> counters() const override {
@@ -35,6 +35,7 @@ class ContactStage final : public cloth::Stage {
 
   collision::ColliderSetPtr colliders_;
   double thickness_;  // m
+  bool edges_;        // the cloth-edge pass
   std::map<std::string, HullPlanes> hulls_;  // convex colliders' planes by name
   long contacts_ = 0;
   long edge_contacts_ = 0;

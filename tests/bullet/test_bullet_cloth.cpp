@@ -106,18 +106,26 @@ TEST(BulletCloth, HammockHoldsBox) {
   }
   const Vec3 j0 = c->applied_impulse(box);
   const double y0 = box->getCenterOfMassPosition().y();
-  double y_min = y0, y_max = y0;
+  double y_min = y0, y_max = y0, mean_first = 0.0, mean_second = 0.0;
   for (int f = 0; f < 60; ++f) {
     w.frame();
-    y_min = std::min<double>(y_min, box->getCenterOfMassPosition().y());
-    y_max = std::max<double>(y_max, box->getCenterOfMassPosition().y());
+    const double y = box->getCenterOfMassPosition().y();
+    y_min = std::min(y_min, y);
+    y_max = std::max(y_max, y);
+    (f < 30 ? mean_first : mean_second) += y / 30.0;
   }
   const double per_second = (c->applied_impulse(box) - j0).y() / 1.0;
   const double mg = m * 9.81;
   std::printf("hammock: vertical impulse/s %.5f N vs m g %.5f N (%.3f%%), box y %.4f..%.4f m\n", per_second, mg,
               100.0 * (per_second / mg - 1.0), y_min, y_max);
   EXPECT_NEAR(per_second / mg, 1.0, 0.01);
-  EXPECT_LT(y_max - y_min, 2e-3);  // at rest, not sinking
+  // Held, not sinking: it sways by a few mm in the hammock's slow vertical mode (measured 6.4 mm peak to
+  // peak at ~1 Hz) with no downward drift, and it lies in the hammock, not through it: with vertex-only
+  // contacts (before the cloth-edge pass) it sat steadily at y = -0.547 m, the box's edges having sliced
+  // between vertices and the cloth under it stretched ~10x.
+  EXPECT_LT(y_max - y_min, 1e-2);
+  EXPECT_LT(std::abs(mean_second - mean_first), 2e-3);
+  EXPECT_GT(y_min, -0.15);
   // No cloth vertex inside the box.
   const auto& st = c->simulation().cloths()[0]->state();
   const btTransform tf = box->getWorldTransform();

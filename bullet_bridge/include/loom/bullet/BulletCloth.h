@@ -62,6 +62,7 @@ struct BulletClothSettings {
   // 4 mm penetration) at the time of writing — see README, "Bullet bridge".
   enum class Contacts { vertex, body_collision };
   Contacts contacts = Contacts::vertex;
+  bool edge_contacts = true;  // Contacts::vertex: also the cloth-edge pass (ContactStage.cpp)
 };
 
 // Colliders for one Bullet shape placed at `pose` (world frame of the shape: body transform times compound
