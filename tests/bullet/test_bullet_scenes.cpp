@@ -84,11 +84,5 @@ TEST(BulletScenes, FlagStrainBounded) {
   EXPECT_LT(r.max_strain, 0.3);
 }
 
-TEST(BulletScenes, DISABLED_Diag) {
-  const char* which = std::getenv("LOOM_DIAG_SCENE");
-  for (const char* s : {"trampoline.json", "hammock.json", "curtain_and_balls.json", "flag_on_pole.json"})
-    if (!which || std::string(which) == s) run_scene(s);
-}
-
 }  // namespace
 }  // namespace loom::test
