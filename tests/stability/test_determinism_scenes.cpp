@@ -74,7 +74,9 @@ std::uint64_t run_hash(const SceneCase& c, int threads) {
     if (p.name == "body_collision" || p.name == "self_collision")
       for (const auto& [k, v] : p.counters)
         if (k == "contacts") contacts += v;
-  if (c.collides) EXPECT_GT(contacts, 0.0) << c.name << ": the run must exercise collision";
+  if (c.collides) {
+    EXPECT_GT(contacts, 0.0) << c.name << ": the run must exercise collision";
+  }
   return h;
 }
 
