@@ -73,6 +73,10 @@ struct Options {
 
 int run(const Options& o) {
   scene::Scene sc = scene::load_scene(o.scene, o.sets);
+  // Bullet rigid bodies are stepped by `loom run` (bullet::BulletScene); the viewer has no Bullet world, so it
+  // refuses such a scene rather than show it without its bodies.
+  if (!sc.bodies.empty())
+    throw Error(o.scene, "bodies", "scenes with Bullet rigid bodies run in 'loom run' (with --render to see them); loom-view does not step a Bullet world");
   viewer::LiveScene live(sc);
 
   if (!glfwInit()) throw Error("", "loom-view", "cannot initialise GLFW (no display? try xvfb-run)");

@@ -3,6 +3,9 @@
 #include <gtest/gtest.h>
 #include <stb_image.h>
 
+#include <sys/wait.h>
+
+#include <cstdio>
 #include <cstdlib>
 #include <filesystem>
 #include <string>
@@ -54,6 +57,27 @@ TEST(Viewer, XvfbScreenshotShowsColliders) {
   }
   stbi_image_free(px);
   EXPECT_GT(collider, w * h / 200) << "the screenshot shows too little of the sphere collider";
+}
+
+// A scene with Bullet rigid bodies: the viewer has no Bullet world, so it refuses the scene (exit 1, the file
+// and the `bodies` field named) instead of showing it without its bodies; no window is opened.
+TEST(Viewer, RefusesScenesWithBulletBodies) {
+  const fs::path dir = fs::temp_directory_path() / "loom_viewer_tests";
+  fs::create_directories(dir);
+  const fs::path log = dir / "log_bodies.txt";
+  const std::string cmd = std::string(LOOM_VIEW_BINARY) + " " + LOOM_SOURCE_DIR + "/scenes/trampoline.json > " +
+                          log.string() + " 2>&1";
+  const int status = std::system(cmd.c_str());
+  ASSERT_TRUE(WIFEXITED(status)) << cmd;
+  EXPECT_NE(WEXITSTATUS(status), 0) << cmd;
+  std::string text;
+  if (FILE* f = std::fopen(log.string().c_str(), "r")) {
+    char buf[4096];
+    for (size_t n; (n = std::fread(buf, 1, sizeof buf, f)) > 0;) text.append(buf, n);
+    std::fclose(f);
+  }
+  EXPECT_NE(text.find("trampoline.json"), std::string::npos) << text;
+  EXPECT_NE(text.find("bodies"), std::string::npos) << text;
 }
 
 }  // namespace
