@@ -5,6 +5,8 @@
 #include <cmath>
 #include <unsupported/Eigen/AutoDiff>
 
+#include "TriangleJacobians.h"
+
 namespace loom::cloth {
 
 namespace {
@@ -220,30 +222,8 @@ void CorotatedFemTerm::triangle_blocks(int k, const EvalContext& c, const Jacobi
 void CorotatedFemTerm::add_jacobians(const EvalContext& c, const JacobianOptions& o, BlockMatrix* dfdx,
                                      BlockMatrix* dfdv) const {
   if (!dfdx && !dfdv) return;
-  const int nt = static_cast<int>(tris_.size());
-  const bool want_v = dfdv && damping_ != 0.0;
-  auto scatter = [&](int k, const Mat3* kx, const Mat3* kv) {
-    const Tri& v = tris_[k].v;
-    for (int m = 0; m < 3; ++m)
-      for (int n = 0; n < 3; ++n) {
-        const int q = 9 * k + 3 * m + n;
-        if (dfdx) scatter_.add(*dfdx, q, v[m], v[n], kx[3 * m + n]);
-        if (want_v) scatter_.add(*dfdv, q, v[m], v[n], kv[3 * m + n]);
-      }
-  };
-  if (c.threads <= 1) {
-    Mat3 kx[9], kv[9];
-    for (int k = 0; k < nt; ++k) {
-      triangle_blocks(k, c, o, kx, kv);
-      scatter(k, kx, kv);
-    }
-    return;
-  }
-  dx_blocks_.resize(9 * tris_.size());
-  dv_blocks_.resize(9 * tris_.size());
-#pragma omp parallel for num_threads(c.threads) schedule(static)
-  for (int k = 0; k < nt; ++k) triangle_blocks(k, c, o, &dx_blocks_[9 * k], &dv_blocks_[9 * k]);
-  for (int k = 0; k < nt; ++k) scatter(k, &dx_blocks_[9 * k], &dv_blocks_[9 * k]);
+  assemble_triangle_jacobians(tris_, c.threads, dfdv && damping_ != 0.0, scatter_, dx_blocks_, dv_blocks_, dfdx, dfdv,
+                              [&](int k, Mat3* kx, Mat3* kv) { triangle_blocks(k, c, o, kx, kv); });
 }
 
 std::unique_ptr<Term> make_corotated_fem_term(const ClothMesh& mesh, const Material& m) {
