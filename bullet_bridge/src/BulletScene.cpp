@@ -5,6 +5,7 @@
 #include <algorithm>
 
 #include "BulletConvert.h"
+#include "RigidBodies.h"
 #include "ShapeDistance.h"
 #include "loom/bullet/BulletCloth.h"
 #include "loom/cloth/Error.h"
@@ -12,61 +13,19 @@
 namespace loom::bullet {
 
 using collision::RigidBodySpec;
-using collision::ShapeType;
 
 // The Bullet world and the scene's rigid bodies (in `bodies` order). Members are destroyed in reverse order:
-// bodies are removed from the world in ~World before the world goes.
+// the bodies leave the world before the world goes.
 struct BulletScene::World {
   btDefaultCollisionConfiguration config;
   btCollisionDispatcher dispatcher{&config};
   btDbvtBroadphase broadphase;
   btSequentialImpulseConstraintSolver solver;
   btDiscreteDynamicsWorld world{&dispatcher, &broadphase, &solver, &config};
-  std::vector<std::unique_ptr<btCollisionShape>> shapes;
-  std::vector<std::unique_ptr<btDefaultMotionState>> states;
-  std::vector<std::unique_ptr<btRigidBody>> bodies;
+  RigidBodies rigid{world};
+  std::vector<std::unique_ptr<btRigidBody>>& bodies = rigid.bodies;
 
-  ~World() {
-    for (auto& b : bodies) world.removeRigidBody(b.get());
-  }
-
-  void add(const RigidBodySpec& b, size_t index) {
-    std::unique_ptr<btCollisionShape> shape;
-    switch (b.shape.type) {
-      case ShapeType::plane: shape = std::make_unique<btStaticPlaneShape>(btVector3(0, 1, 0), 0); break;
-      case ShapeType::sphere: shape = std::make_unique<btSphereShape>(btScalar(b.shape.radius)); break;
-      case ShapeType::capsule:
-        shape = std::make_unique<btCapsuleShape>(btScalar(b.shape.radius), btScalar(2 * b.shape.half_height));
-        break;
-      case ShapeType::box: shape = std::make_unique<btBoxShape>(to_bt(b.shape.half_extents)); break;
-      case ShapeType::cylinder:
-        shape = std::make_unique<btCylinderShape>(
-            btVector3(btScalar(b.shape.radius), btScalar(b.shape.half_height), btScalar(b.shape.radius)));
-        break;
-      default:
-        throw Error("", "bodies[" + std::to_string(index) + "].shape",
-                    std::string(collision::shape_type_name(b.shape.type)) + " is not supported for rigid bodies");
-    }
-    const bool kinematic = static_cast<bool>(b.motion);
-    states.push_back(std::make_unique<btDefaultMotionState>(to_bt(kinematic ? b.motion(0.0) : b.pose)));
-    btVector3 inertia(0, 0, 0);
-    if (b.mass > 0) shape->calculateLocalInertia(btScalar(b.mass), inertia);
-    btRigidBody::btRigidBodyConstructionInfo info(btScalar(b.mass), states.back().get(), shape.get(), inertia);
-    info.m_friction = btScalar(b.friction);
-    info.m_restitution = btScalar(b.restitution);
-    auto body = std::make_unique<btRigidBody>(info);
-    if (kinematic) {
-      body->setCollisionFlags(body->getCollisionFlags() | btCollisionObject::CF_KINEMATIC_OBJECT);
-      body->setActivationState(DISABLE_DEACTIVATION);
-    }
-    if (b.mass > 0) {
-      body->setLinearVelocity(to_bt(b.velocity));
-      body->setAngularVelocity(to_bt(b.angular_velocity));
-    }
-    world.addRigidBody(body.get());
-    shapes.push_back(std::move(shape));
-    bodies.push_back(std::move(body));
-  }
+  void add(const RigidBodySpec& b, size_t index) { rigid.add(b, index); }
 };
 
 BulletScene::BulletScene(const cloth::SimulationSetup& setup, const std::vector<RigidBodySpec>& bodies,

@@ -9,6 +9,7 @@
 #include <memory>
 
 #include "BulletConvert.h"
+#include "RigidBodies.h"
 #include "ShapeDistance.h"
 #include "TwinAccess.h"
 #include "loom/bullet/BulletCloth.h"
@@ -19,57 +20,16 @@ namespace loom::bullet {
 namespace {
 
 using collision::RigidBodySpec;
-using collision::ShapeType;
 using Clock = std::chrono::steady_clock;
 
-// Rigid bodies of a scene inside one world; removed before the world goes.
+// Rigid bodies of a scene inside one world (RigidBodies.h), driven and measured per frame.
 struct Bodies {
-  btDiscreteDynamicsWorld* world = nullptr;
-  std::vector<std::unique_ptr<btCollisionShape>> shapes;
-  std::vector<std::unique_ptr<btDefaultMotionState>> states;
-  std::vector<std::unique_ptr<btRigidBody>> bodies;
+  RigidBodies rigid;
+  std::vector<std::unique_ptr<btRigidBody>>& bodies = rigid.bodies;
   const std::vector<RigidBodySpec>* specs = nullptr;
 
-  Bodies(btDiscreteDynamicsWorld* w, const std::vector<RigidBodySpec>& s) : world(w), specs(&s) {
-    for (const RigidBodySpec& b : s) {
-      std::unique_ptr<btCollisionShape> shape;
-      switch (b.shape.type) {
-        case ShapeType::plane: shape = std::make_unique<btStaticPlaneShape>(btVector3(0, 1, 0), 0); break;
-        case ShapeType::sphere: shape = std::make_unique<btSphereShape>(btScalar(b.shape.radius)); break;
-        case ShapeType::capsule:
-          shape = std::make_unique<btCapsuleShape>(btScalar(b.shape.radius), btScalar(2 * b.shape.half_height));
-          break;
-        case ShapeType::box: shape = std::make_unique<btBoxShape>(to_bt(b.shape.half_extents)); break;
-        case ShapeType::cylinder:
-          shape = std::make_unique<btCylinderShape>(
-              btVector3(btScalar(b.shape.radius), btScalar(b.shape.half_height), btScalar(b.shape.radius)));
-          break;
-        default: throw Error("", "bodies", b.name + ": shape not supported for rigid bodies");
-      }
-      const bool kinematic = static_cast<bool>(b.motion);
-      const btTransform start = to_bt(kinematic ? b.motion(0.0) : b.pose);
-      states.push_back(std::make_unique<btDefaultMotionState>(start));
-      btVector3 inertia(0, 0, 0);
-      if (b.mass > 0) shape->calculateLocalInertia(btScalar(b.mass), inertia);
-      btRigidBody::btRigidBodyConstructionInfo info(btScalar(b.mass), states.back().get(), shape.get(), inertia);
-      info.m_friction = btScalar(b.friction);
-      info.m_restitution = btScalar(b.restitution);
-      auto body = std::make_unique<btRigidBody>(info);
-      if (kinematic) {
-        body->setCollisionFlags(body->getCollisionFlags() | btCollisionObject::CF_KINEMATIC_OBJECT);
-        body->setActivationState(DISABLE_DEACTIVATION);
-      }
-      if (b.mass > 0) {
-        body->setLinearVelocity(to_bt(b.velocity));
-        body->setAngularVelocity(to_bt(b.angular_velocity));
-      }
-      world->addRigidBody(body.get());
-      shapes.push_back(std::move(shape));
-      bodies.push_back(std::move(body));
-    }
-  }
-  ~Bodies() {
-    for (auto& b : bodies) world->removeRigidBody(b.get());
+  Bodies(btDiscreteDynamicsWorld* w, const std::vector<RigidBodySpec>& s) : rigid(*w), specs(&s) {
+    for (size_t k = 0; k < s.size(); ++k) rigid.add(s[k], k);
   }
   // Kinematic targets for the end of the frame that ends at time t.
   void drive(double t) {
