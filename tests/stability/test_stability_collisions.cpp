@@ -276,11 +276,22 @@ TEST_P(StabilityWithCollisions, SurvivesOrFailsCleanly) {
 
 int num_cases() { return static_cast<int>(collision_cases().size()); }
 
-// DISABLED_ (compiled, not run by default; `--gtest_also_run_disabled_tests` runs it): the table above is
-// not measured yet. The one run so far (issue 8's session, Release, loaded machine) got through explicit
-// Euler on the spinning collider only: its energy passed the 10x bound at frame 5 (104.7 J vs 104.6 J) with
-// the guard not stopping it (as in test_stability.cpp, explicit Euler gains energy), and the census every
-// step at 100 substeps made it take minutes. Enable once every row is measured and the slow rows are cut.
+// Measured (Release, 2026-11-24; `--gtest_also_run_disabled_tests --gtest_filter='*WithCollisions*'`):
+// - collider_spinning_50_rad_s: symplectic_euler, verlet, implicit_euler, bdf2, pbd, xpbd, projective survive
+//   every frame with every invariant (census 0 at every step, no vertex inside, max E/bound 0.02-0.23): they
+//   run in `SpinningCollider` below (0.4-5 s each). explicit_euler (27,600 steps, 240 s) and desbrun stay
+//   finite but pass the energy bound (2.0x and 3.3x of 10x start + work) without the guard stopping them.
+// - crushed_in_shrinking_box: every solver ends steps with vertices 5-95 mm inside the box walls and above the
+//   energy bound (pbd and explicit_euler stop with the guard's strain error): the body stage cannot hold a
+//   cloth squeezed between two approaching walls. An engine gap (issue 8), not a table entry yet.
+// - character_clip_at_3x: not measured to the end (explicit_euler first, minutes per run).
+// The rows not yet green stay DISABLED_ (compiled, run with --gtest_also_run_disabled_tests) until fixed.
+INSTANTIATE_TEST_SUITE_P(SpinningCollider, StabilityWithCollisions,
+                         ::testing::Combine(::testing::Values(0), ::testing::Range(1, 8)),
+                         [](const ::testing::TestParamInfo<std::tuple<int, int>>& info) {
+                           static const std::vector<CollisionCase> cases = collision_cases();
+                           return cases[std::get<0>(info.param)].name + "_" + kSolvers[std::get<1>(info.param)];
+                         });
 INSTANTIATE_TEST_SUITE_P(DISABLED_HardCases, StabilityWithCollisions,
                          ::testing::Combine(::testing::Range(0, num_cases()), ::testing::Range(0, static_cast<int>(kSolvers.size()))),
                          [](const ::testing::TestParamInfo<std::tuple<int, int>>& info) {
