@@ -9,7 +9,7 @@ include(GNUInstallDirs)
 include(CMakePackageConfigHelpers)
 
 # Installed targets and their exported names (loom::<name>). Only targets this configuration defines.
-set(_loom_export_names cloth collision bullet characters scene export)
+set(_loom_export_names cloth collision bullet bullet_double characters scene export)
 set(_loom_installed loom_warnings)
 set(LOOM_PACKAGE_COMPONENTS "")
 foreach(_name IN LISTS _loom_export_names)

@@ -5,9 +5,9 @@
 #include <algorithm>
 
 #include "BulletConvert.h"
-#include "RigidBodies.h"
 #include "ShapeDistance.h"
 #include "loom/bullet/BulletCloth.h"
+#include "loom/bullet/RigidBodies.h"
 #include "loom/cloth/Error.h"
 
 namespace loom::bullet {

@@ -9,7 +9,7 @@
 #include <memory>
 
 #include "BulletConvert.h"
-#include "RigidBodies.h"
+#include "loom/bullet/RigidBodies.h"
 #include "ShapeDistance.h"
 #include "TwinAccess.h"
 #include "loom/bullet/BulletCloth.h"

@@ -1,12 +1,13 @@
 #pragma once
 // A small Bullet world for the BulletCloth tests: btDiscreteDynamicsWorld with the default configuration,
-// bodies it owns, and sheet set-ups.
+// its bodies (bullet::RigidBodies) and cloths, and sheet set-ups.
 #include <btBulletDynamicsCommon.h>
 
 #include <memory>
 #include <vector>
 
 #include "loom/bullet/BulletCloth.h"
+#include "loom/bullet/RigidBodies.h"
 #include "loom/cloth/ClothMesh.h"
 #include "loom/cloth/Simulation.h"
 
@@ -23,35 +24,20 @@ struct TestWorld {
   btDbvtBroadphase broadphase;
   btSequentialImpulseConstraintSolver solver;
   btDiscreteDynamicsWorld world{&dispatcher, &broadphase, &solver, &config};
-  std::vector<std::unique_ptr<btCollisionShape>> shapes;
-  std::vector<std::unique_ptr<btDefaultMotionState>> states;
-  std::vector<std::unique_ptr<btRigidBody>> bodies;
+  bullet::RigidBodies rigid{world};  // after the world: its bodies leave the world first
   std::vector<std::unique_ptr<bullet::BulletCloth>> cloths;
 
   explicit TestWorld(const Vec3& g = Vec3(0, -9.81, 0)) { world.setGravity(bt(g)); }
   ~TestWorld() {
     for (auto& c : cloths) c->remove_from(&world);
-    for (auto& b : bodies) world.removeRigidBody(b.get());
   }
 
   // mass 0: static; kinematic: mass 0 + CF_KINEMATIC_OBJECT (moved through its motion state).
   btRigidBody* add_body(btCollisionShape* shape, double mass, const Vec3& pos, bool kinematic = false) {
-    shapes.emplace_back(shape);
     btTransform tf;
     tf.setIdentity();
     tf.setOrigin(bt(pos));
-    states.push_back(std::make_unique<btDefaultMotionState>(tf));
-    btVector3 inertia(0, 0, 0);
-    if (mass > 0) shape->calculateLocalInertia(btScalar(mass), inertia);
-    btRigidBody::btRigidBodyConstructionInfo info(btScalar(mass), states.back().get(), shape, inertia);
-    bodies.push_back(std::make_unique<btRigidBody>(info));
-    btRigidBody* b = bodies.back().get();
-    if (kinematic) {
-      b->setCollisionFlags(b->getCollisionFlags() | btCollisionObject::CF_KINEMATIC_OBJECT);
-      b->setActivationState(DISABLE_DEACTIVATION);
-    }
-    world.addRigidBody(b);
-    return b;
+    return rigid.add(std::unique_ptr<btCollisionShape>(shape), mass, tf, kinematic);
   }
 
   bullet::BulletCloth* add_cloth(cloth::SimulationSetup setup, const bullet::BulletClothSettings& s) {

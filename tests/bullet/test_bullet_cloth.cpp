@@ -41,9 +41,16 @@ TEST(BulletCloth, MomentumConservedFreeClothFreeBody) {
   // The impact happened: the ball slowed and the cloth carries momentum.
   EXPECT_GT(ball->getLinearVelocity().y(), -2.9);
   EXPECT_LT(cloth_momentum(*c).y(), -0.05);
-  EXPECT_LT(max_rel, 1e-6);  // float build measured 7e-8 (the body's velocity is single precision)
+  // Acceptance: 1e-6 relative in the double build (loom_bullet_double_tests), measured 3.0e-16. The float
+  // build (loom_bullet_tests) meets it too, 4.0e-7: the body's velocity is stored in single precision. The
+  // double build is also held to round-off (1e-12), so a single-precision step anywhere in the impulse
+  // exchange (a btScalar narrowed to float, a float accumulator) shows up.
+  EXPECT_LT(max_rel, 1e-6);
+  if (LOOM_BULLET_DOUBLE) {
+    EXPECT_LT(max_rel, 1e-12);
+  }
   RecordProperty("momentum_rel_error", std::to_string(max_rel));
-  std::printf("momentum: max relative error %.3g\n", max_rel);
+  std::printf("momentum (%s Bullet): max relative error %.3g\n", LOOM_BULLET_DOUBLE ? "double" : "float", max_rel);
 }
 
 // A rigid sphere at 10 m/s does not pass through a sheet pinned at its corners.
@@ -104,26 +111,29 @@ TEST(BulletCloth, HammockHoldsBox) {
   for (int f = 0; f < 240; ++f) {
     w.frame();  // 4 s to settle
   }
+  // Then two seconds: the impulse over both, the box's mean height over each (one second spans a whole
+  // period of the hammock's ~1 Hz vertical mode, so the sway averages out of the means).
   const Vec3 j0 = c->applied_impulse(box);
   const double y0 = box->getCenterOfMassPosition().y();
   double y_min = y0, y_max = y0, mean_first = 0.0, mean_second = 0.0;
-  for (int f = 0; f < 60; ++f) {
+  for (int f = 0; f < 120; ++f) {
     w.frame();
     const double y = box->getCenterOfMassPosition().y();
     y_min = std::min(y_min, y);
     y_max = std::max(y_max, y);
-    (f < 30 ? mean_first : mean_second) += y / 30.0;
+    (f < 60 ? mean_first : mean_second) += y / 60.0;
   }
-  const double per_second = (c->applied_impulse(box) - j0).y() / 1.0;
+  const double per_second = (c->applied_impulse(box) - j0).y() / 2.0;
   const double mg = m * 9.81;
-  std::printf("hammock: vertical impulse/s %.5f N vs m g %.5f N (%.3f%%), box y %.4f..%.4f m\n", per_second, mg,
-              100.0 * (per_second / mg - 1.0), y_min, y_max);
+  std::printf("hammock: vertical impulse/s %.5f N vs m g %.5f N (%.3f%%), box y %.4f..%.4f m, mean %.5f then %.5f m\n",
+              per_second, mg, 100.0 * (per_second / mg - 1.0), y_min, y_max, mean_first, mean_second);
   EXPECT_NEAR(per_second / mg, 1.0, 0.01);
-  // Held, not sinking: it sways by a few mm in the hammock's slow vertical mode (measured 6.4 mm peak to
-  // peak at ~1 Hz) with no downward drift, and it lies in the hammock, not through it: with vertex-only
-  // contacts (before the cloth-edge pass) it sat steadily at y = -0.547 m, the box's edges having sliced
-  // between vertices and the cloth under it stretched ~10x.
-  EXPECT_LT(y_max - y_min, 1e-2);
+  // Held, not sinking: no downward drift between the two seconds (measured 0.28 mm float, 0.96 mm double),
+  // a sway of about 1 cm peak to peak (the vertical mode, excited now and then by the contacts: 9.8 mm float,
+  // 9.7 mm double over these two seconds; bursts to 2.5 cm before 4 s), and it lies in the hammock, not
+  // through it: with vertex-only contacts (before the cloth-edge pass) it sat steadily at y = -0.547 m, the
+  // box's edges having sliced between vertices and the cloth under it stretched ~10x.
+  EXPECT_LT(y_max - y_min, 2e-2);
   EXPECT_LT(std::abs(mean_second - mean_first), 2e-3);
   EXPECT_GT(y_min, -0.15);
   // No cloth vertex inside the box.
