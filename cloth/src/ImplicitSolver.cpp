@@ -103,7 +103,7 @@ void ImplicitSolver::assemble(Cloth& cloth, const Vec3s& x, const Vec3s& v, doub
   K_.set_zero();
   D_.set_zero();
   JacobianOptions o;
-  o.clamp_compression = true;
+  o.clamp_compression = p_.clamp_compression;
   o.damping_position_terms = false;
   const EvalContext ctx{x, v, t, threads};
   for (const Term* term : jac_terms_) {

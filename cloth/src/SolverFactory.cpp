@@ -51,6 +51,7 @@ std::unique_ptr<Solver> make_implicit_solver(ImplicitSolver::Scheme scheme, Solv
   ip.safeguard_tolerance = p.number("safeguard_tolerance", ip.safeguard_tolerance, 0.0, 1e9);
   ip.safeguard_newton_iterations =
       p.integer("safeguard_newton_iterations", ip.safeguard_newton_iterations, 1, 1000);
+  ip.clamp_compression = p.flag("clamp_compression", ip.clamp_compression);
   return std::make_unique<ImplicitSolver>(scheme, ip);
 }
 

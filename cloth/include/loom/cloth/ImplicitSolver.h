@@ -39,6 +39,11 @@
 // no damping position terms} (springs: clamped transverse term; Baraff-Witkin: clamped stretch, Gauss-Newton
 // shear and bending). Non-conservative terms (drag) contribute only their velocity Jacobian D (their
 // position dependence is explicit), and A is symmetrised ((A + Aᵀ)/2) after assembly.
+// clamp_compression = 0 (parameter, default 1) assembles the exact Jacobians instead (Baraff & Witkin 1998
+// publish the exact K): a compressed spring keeps its transverse k (1 - L/l) < 0 and A can be indefinite.
+// Measured on the 5 %-compressed strip (test_buckling.cpp): the linearised step then keeps a linear spring
+// model flat and compressed (for γ²|λ| > m it maps the growing buckling mode back onto the unstable flat
+// state), where the clamp leaves that transverse push explicit and the strip buckles at once.
 // Linear solve: FilteredPCG (block-Jacobi). Kinematic vertices (inverse mass 0) are constrained in the
 // filter (S = 0) with the prescribed velocity that makes x+ = x + h v exactly (Solver.h contract).
 // imex (issue 10): implicit-explicit split (Eberhardt, Etzmuß & Hauth 2000, "Implicit-explicit schemes for
@@ -69,6 +74,7 @@ struct ImplicitParams {
   bool safeguard = true;           // linearised step: energy balance check, Newton correction if violated
   double safeguard_tolerance = 0.2;    // 1, allowed gain relative to the energy exchanged in the step
   int safeguard_newton_iterations = 20;  // most Newton iterations of a correction (stops at cg_tolerance)
+  bool clamp_compression = true;  // false: exact Jacobians (compressed springs keep k (1 - L/l) transverse)
 };
 
 // Work counters since construction.
