@@ -24,12 +24,6 @@ Aabb swept_box(const Vec3& a, const Vec3& b, double margin) {
   return box;
 }
 
-// What one collider is to one cloth this step.
-struct Pair {
-  double thickness;   // m
-  double mu_s, mu_k;  // 1
-};
-
 }  // namespace
 
 BodyCollisionStage::BodyCollisionStage(ColliderSetPtr colliders, BodyCollisionSettings settings)
@@ -55,6 +49,7 @@ void BodyCollisionStage::run(cloth::StageContext& ctx) {
     for (const auto& cl : ctx.cloths) margins[k] = std::max(margins[k], thickness(static_cast<int>(k), cl->material().thickness));
   broad_phase_.update(set, margins);
   max_deficit_ = -HUGE_VAL;
+  h_ = ctx.h;
   near_.resize(ctx.cloths.size());
   for (size_t c = 0; c < ctx.cloths.size(); ++c) run_cloth(*ctx.cloths[c], static_cast<int>(c), ctx.h, ctx.threads);
 }
@@ -65,7 +60,9 @@ void BodyCollisionStage::run_cloth(cloth::Cloth& cloth, int cloth_index, double 
   const int n = s.size();
   std::vector<char>& near = near_[cloth_index];
   near.assign(n, 0);
-  std::vector<Pair> pairs(set.size());
+  if (static_cast<int>(pairs_.size()) <= cloth_index) pairs_.resize(cloth_index + 1), min_thickness_.resize(cloth_index + 1);
+  std::vector<Pair>& pairs = pairs_[cloth_index];
+  pairs.assign(set.size(), Pair());
   for (size_t k = 0; k < set.size(); ++k) {
     pairs[k].thickness = thickness(static_cast<int>(k), cloth.material().thickness);
     pairs[k].mu_k = settings_.friction.value_or(set[k].friction);
@@ -76,24 +73,23 @@ void BodyCollisionStage::run_cloth(cloth::Cloth& cloth, int cloth_index, double 
     pairs[fp.collider].mu_k = fp.friction;
     pairs[fp.collider].mu_s = std::max(fp.friction, fp.static_friction);
   }
-  double max_th = 0.0;
-  for (const Pair& p : pairs) max_th = std::max(max_th, p.thickness);
+  double max_th = 0.0, min_th = HUGE_VAL;
+  for (const Pair& p : pairs) max_th = std::max(max_th, p.thickness), min_th = std::min(min_th, p.thickness);
+  min_thickness_[cloth_index] = min_th;
 
   // Edges first, so the vertex phase (continuous test + projection) has the last word: no vertex ends the
   // step inside a collider because an edge correction pushed it there.
-  std::vector<Record> edge_records;
+  std::vector<Reaction> edge_records;
   if (settings_.edges) run_edges(cloth, h, threads, edge_records);
 
   const int chunks = (n + kChunk - 1) / kChunk;
-  std::vector<std::vector<Record>> records(chunks);
+  std::vector<std::vector<Reaction>> records(chunks);
   struct ChunkCounts {
     long candidates = 0, contacts = 0, ccd_hits = 0;
     int passes = 0;
     double deficit = -HUGE_VAL;
   };
   std::vector<ChunkCounts> counts(chunks);
-  const double ccd_ratio = settings_.ccd_separation;
-  const int max_passes = settings_.max_passes;
 
 #pragma omp parallel for schedule(dynamic, 1) num_threads(threads) if (threads > 1)
   for (int ch = 0; ch < chunks; ++ch) {
@@ -103,62 +99,20 @@ void BodyCollisionStage::run_cloth(cloth::Cloth& cloth, int cloth_index, double 
     chunk_box.lo -= Vec3::Constant(max_th), chunk_box.hi += Vec3::Constant(max_th);
     const std::vector<int> cands = broad_phase_.query(chunk_box);
     ChunkCounts& cc = counts[ch];
-    std::vector<Record>& out = records[ch];
+    std::vector<Reaction>& out = records[ch];
     if (cands.empty()) continue;
+    std::vector<int> mine;
     for (int i = begin; i < end; ++i) {
       if (s.inv_mass[i] == 0.0) continue;  // kinematic vertices follow their pins
       const Vec3 x0 = s.x_prev[i];
       Vec3 x = s.x[i], v = s.v[i];
-      const double m = s.mass[i];
-      std::vector<int> mine;
+      mine.clear();
       for (int k : cands)
         if (swept_box(x0, x, pairs[k].thickness).overlaps(broad_phase_.box(k))) mine.push_back(k);
       if (mine.empty()) continue;
       cc.candidates += static_cast<long>(mine.size());
-      int pass = 0;
-      for (; pass < max_passes; ++pass) {
-        bool changed = false;
-        for (int k : mine) {
-          const Collider& c = set[k];
-          const Pair& pr = pairs[k];
-          // Continuous: the vertex path against the moving collider.
-          const SweptHit hit = swept_point(c, x0, x, ccd_ratio * pr.thickness);
-          if (hit.hit) {
-            x = c.curr * hit.local;  // carried with the body from the contact to the end of the step
-            ++cc.ccd_hits;
-          }
-          Vec3 nrm;
-          const double d = signed_distance(c, c.curr, x, &nrm);
-          const double limit = pass == 0 && !hit.hit ? pr.thickness : pr.thickness * (1.0 - 1e-6);
-          if (!hit.hit && d >= limit) continue;
-          if (d < pr.thickness) x += (pr.thickness - d) * nrm;  // projection to surface + thickness
-          // Velocity: relative to the body's surface (translation and rotation over the step).
-          const Vec3 vs = surface_velocity(c.prev, c.curr, h, x);
-          const Vec3 vr = v - vs;
-          const double vn = vr.dot(nrm);
-          const double dvn = std::max(0.0, -vn);
-          const Vec3 vt = vr - vn * nrm;
-          const double vt_len = vt.norm();
-          // Coulomb friction (Bridson et al. 2002, Sec. 7.2).
-          Vec3 vt_new = Vec3::Zero();
-          if (vt_len > pr.mu_s * dvn) vt_new = vt * std::max(0.0, 1.0 - pr.mu_k * dvn / vt_len);
-          const Vec3 v_new = vs + std::max(vn, 0.0) * nrm + vt_new;
-          // The tangential change acts over the whole step (x = x_prev + h v), unless the vertex was already
-          // placed by the swept test.
-          if (!hit.hit) {
-            x += h * (vt_new - vt);
-            Vec3 n2;
-            const double d2 = signed_distance(c, c.curr, x, &n2);
-            if (d2 < pr.thickness) x += (pr.thickness - d2) * n2;
-          }
-          out.push_back({k, m * (v_new - v), x});
-          v = v_new;
-          ++cc.contacts;
-          changed = true;
-        }
-        if (!changed) break;
-      }
-      cc.passes = std::max(cc.passes, pass + (pass < max_passes ? 1 : 0));
+      const int used = respond_vertex(mine, pairs, x0, x, v, s.mass[i], h, out, cc.contacts, cc.ccd_hits);
+      cc.passes = std::max(cc.passes, used);
       s.x[i] = x;
       s.v[i] = v;
       for (int k : mine) {
@@ -169,7 +123,7 @@ void BodyCollisionStage::run_cloth(cloth::Cloth& cloth, int cloth_index, double 
     }
   }
 
-  std::vector<Record> all = std::move(edge_records);
+  std::vector<Reaction> all = std::move(edge_records);
   int step_passes = 0;
   for (int ch = 0; ch < chunks; ++ch) {
     all.insert(all.end(), records[ch].begin(), records[ch].end());
@@ -180,14 +134,105 @@ void BodyCollisionStage::run_cloth(cloth::Cloth& cloth, int cloth_index, double 
     max_deficit_ = std::max(max_deficit_, counts[ch].deficit);
   }
   passes_ += step_passes;
-  for (const Record& r : all) {
+  for (const Reaction& r : all) {
     Collider& c = set[r.collider];
     c.reaction_impulse -= r.impulse;
     c.reaction_angular_impulse += (r.point - c.curr.translation()).cross(-r.impulse);
   }
 }
 
-void BodyCollisionStage::run_edges(cloth::Cloth& cloth, double h, int threads, std::vector<Record>& records) {
+// Step 4 for one free vertex (path x0 -> x, velocity v, mass m) against its candidate colliders `mine`:
+// returns the passes used; responses are appended to `out`.
+int BodyCollisionStage::respond_vertex(const std::vector<int>& mine, const std::vector<Pair>& pairs, const Vec3& x0,
+                                       Vec3& x, Vec3& v, double m, double h, std::vector<Reaction>& out, long& contacts,
+                                       long& ccd_hits) const {
+  const ColliderSet& set = *colliders_;
+  const double ccd_ratio = settings_.ccd_separation;
+  const int max_passes = settings_.max_passes;
+  int pass = 0;
+  for (; pass < max_passes; ++pass) {
+    bool changed = false;
+    for (int k : mine) {
+      const Collider& c = set[k];
+      const Pair& pr = pairs[k];
+      // Continuous: the vertex path against the moving collider.
+      const SweptHit hit = swept_point(c, x0, x, ccd_ratio * pr.thickness);
+      if (hit.hit) {
+        x = c.curr * hit.local;  // carried with the body from the contact to the end of the step
+        ++ccd_hits;
+      }
+      Vec3 nrm;
+      const double d = signed_distance(c, c.curr, x, &nrm);
+      const double limit = pass == 0 && !hit.hit ? pr.thickness : pr.thickness * (1.0 - 1e-6);
+      if (!hit.hit && d >= limit) continue;
+      if (d < pr.thickness) x += (pr.thickness - d) * nrm;  // projection to surface + thickness
+      // Velocity: relative to the body's surface (translation and rotation over the step).
+      const Vec3 vs = surface_velocity(c.prev, c.curr, h, x);
+      const Vec3 vr = v - vs;
+      const double vn = vr.dot(nrm);
+      const double dvn = std::max(0.0, -vn);
+      const Vec3 vt = vr - vn * nrm;
+      const double vt_len = vt.norm();
+      // Coulomb friction (Bridson et al. 2002, Sec. 7.2).
+      Vec3 vt_new = Vec3::Zero();
+      if (vt_len > pr.mu_s * dvn) vt_new = vt * std::max(0.0, 1.0 - pr.mu_k * dvn / vt_len);
+      const Vec3 v_new = vs + std::max(vn, 0.0) * nrm + vt_new;
+      // The tangential change acts over the whole step (x = x_prev + h v), unless the vertex was already
+      // placed by the swept test.
+      if (!hit.hit) {
+        x += h * (vt_new - vt);
+        Vec3 n2;
+        const double d2 = signed_distance(c, c.curr, x, &n2);
+        if (d2 < pr.thickness) x += (pr.thickness - d2) * n2;
+      }
+      out.push_back({k, m * (v_new - v), x});
+      v = v_new;
+      ++contacts;
+      changed = true;
+    }
+    if (!changed) break;
+  }
+  return pass + (pass < max_passes ? 1 : 0);
+}
+
+bool BodyCollisionStage::revisit_vertex(int cloth_index, const Vec3& x0, const Vec3& x_body, Vec3& x, Vec3& v,
+                                        double m, double fraction, std::vector<Reaction>& out) const {
+  if (cloth_index >= static_cast<int>(pairs_.size())) return false;
+  const std::vector<Pair>& pairs = pairs_[cloth_index];
+  // Moved less than a quarter of the smallest thickness from where this stage left it: signed distances are
+  // 1-Lipschitz, so the end point is still at least 3/4 of the thickness outside every collider.
+  if ((x - x_body).norm() < 0.25 * min_thickness_[cloth_index]) return false;
+  const ColliderSet& set = *colliders_;
+  double max_th = 0.0;
+  for (const Pair& p : pairs) max_th = std::max(max_th, p.thickness);
+  std::vector<int> mine;
+  bool act = false;
+  for (int k : broad_phase_.query(swept_box(x0, x, max_th))) {
+    if (!swept_box(x0, x, pairs[k].thickness).overlaps(broad_phase_.box(k))) continue;
+    mine.push_back(k);
+    const Collider& c = set[k];
+    if (!act) {
+      act = signed_distance(c, c.curr, x, nullptr) < fraction * pairs[k].thickness ||
+            swept_point(c, x0, x, settings_.ccd_separation * pairs[k].thickness).hit;
+    }
+  }
+  if (!act) return false;
+  long contacts = 0, hits = 0;
+  respond_vertex(mine, pairs, x0, x, v, m, h_, out, contacts, hits);
+  return true;
+}
+
+void BodyCollisionStage::add_reactions(const std::vector<Reaction>& reactions) {
+  ColliderSet& set = *colliders_;
+  for (const Reaction& r : reactions) {
+    Collider& c = set[r.collider];
+    c.reaction_impulse -= r.impulse;
+    c.reaction_angular_impulse += (r.point - c.curr.translation()).cross(-r.impulse);
+  }
+  revisits_ += static_cast<long>(reactions.size());
+}
+
+void BodyCollisionStage::run_edges(cloth::Cloth& cloth, double h, int threads, std::vector<Reaction>& records) {
   ColliderSet& set = *colliders_;
   std::vector<int> edge_colliders;
   for (int k = 0; k < static_cast<int>(set.size()); ++k)
@@ -276,7 +321,8 @@ std::vector<std::pair<std::string, double>> BodyCollisionStage::counters() const
           {"contacts", static_cast<double>(contacts_)},
           {"ccd_hits", static_cast<double>(ccd_hits_)},
           {"edge_contacts", static_cast<double>(edge_contacts_)},
-          {"passes", static_cast<double>(passes_)}};
+          {"passes", static_cast<double>(passes_)},
+          {"revisit_contacts", static_cast<double>(revisits_)}};
 }
 
 }  // namespace loom::collision

@@ -54,7 +54,9 @@ std::vector<std::pair<std::string, double>> SelfCollisionStage::counters() const
           {"bvh_rebuilds", static_cast<double>(bvh_rebuilds_)},
           {"ccd_tests", static_cast<double>(ccd_tests_)},
           {"ccd_boxes", static_cast<double>(ccd_boxes_)},
-          {"unresolved", static_cast<double>(unresolved_)}};
+          {"unresolved", static_cast<double>(unresolved_)},
+          {"collider_fixes", static_cast<double>(collider_fixes_)},
+          {"collider_rounds", static_cast<double>(collider_rounds_)}};
 }
 
 void SelfCollisionStage::setup(loom::cloth::StageContext& ctx) {
@@ -463,7 +465,10 @@ bool SelfCollisionStage::ccd_pass(const std::vector<Feature>& fs, int threads, s
 // vertices leave the rotation undetermined. That case is not guaranteed.
 void SelfCollisionStage::apply_rigid_zone(const std::vector<int>& verts_in) {
   std::vector<int> pinned, free;
-  for (int v : verts_in) (w_[v] == 0.0 ? pinned : free).push_back(v);
+  for (int v : verts_in) {
+    if (fixed_[v]) fixed_[v] = 0, w_[v] = w_free_[v];  // held for a collider: moves with the zone, checked again
+    (w_[v] == 0.0 ? pinned : free).push_back(v);
+  }
   if (!pinned.empty()) {
     Vec3 c0 = Vec3::Zero(), c1 = Vec3::Zero();
     for (int v : pinned) c0 += x0_[v], c1 += x1_[v];
@@ -680,12 +685,66 @@ bool SelfCollisionStage::impact_zones(std::vector<char> dirty, int threads) {
   return false;
 }
 
+// Steps 3-4: continuous passes (the first over every candidate pair when `all`, else over pairs touching
+// `dirty`), then the impact-zone fail-safe if a pass still hit.
+void SelfCollisionStage::resolve(std::vector<char>& dirty, bool all, int threads) {
+  bool hits = true;
+  for (int pass = 0; pass < settings_.passes && hits; ++pass) {
+    update_bvhs(threads, false);
+    const std::vector<Feature> fs = pass == 0 && all ? features(all_triangle_pairs(threads), nullptr, threads)
+                                                     : features(triangle_pairs_touching(dirty), &dirty, threads);
+    hits = ccd_pass(fs, threads, dirty);
+    ++passes_;
+  }
+  if (hits) impact_zones(dirty, threads);
+}
+
+// One collider round: every free vertex this stage moved is handed back to the body stage
+// (BodyCollisionStage::revisit_vertex). Those it acts on take its position and velocity, become fixed
+// (inverse mass 0 here) and are marked in `dirty` (cleared first). Returns whether any was acted on.
+bool SelfCollisionStage::collider_round(loom::cloth::StageContext& ctx, std::vector<char>& dirty, int threads) {
+  const int nv = static_cast<int>(x1_.size());
+  std::fill(dirty.begin(), dirty.end(), 0);
+  std::vector<int> moved;
+  for (int v = 0; v < nv; ++v)
+    if (w_[v] > 0.0 && !(x1_[v] - x1_solver_[v]).isZero(0.0)) moved.push_back(v);
+  const long n = static_cast<long>(moved.size());
+  std::vector<char> acted(n, 0);
+  std::vector<Vec3> vel(n);
+  std::vector<std::vector<BodyCollisionStage::Reaction>> reactions(n);
+#pragma omp parallel for num_threads(threads) if (threads > 1) schedule(dynamic, 64)
+  for (long k = 0; k < n; ++k) {
+    const int v = moved[k];
+    const int c = vertex_cloth_[v];
+    const int i = v - vertex_offset_[c];
+    // The velocity this stage gives the vertex so far: the solver's, plus its position change over h.
+    vel[k] = ctx.cloths[c]->state().v[i] + (x1_[v] - x1_solver_[v]) / h_;
+    Vec3 x = x1_[v];
+    acted[k] = body_->revisit_vertex(c, x0_[v], x1_solver_[v], x, vel[k], ctx.cloths[c]->state().mass[i], 0.5,
+                                     reactions[k]);
+    if (acted[k]) x1_[v] = x;
+  }
+  bool any = false;
+  for (long k = 0; k < n; ++k) {
+    if (!acted[k]) continue;
+    const int v = moved[k];
+    any = true;
+    fixed_[v] = 1;
+    fixed_v_[v] = vel[k];
+    w_[v] = 0.0;
+    dirty[v] = 1;
+    ++collider_fixes_;
+    body_->add_reactions(reactions[k]);
+  }
+  return any;
+}
+
 void SelfCollisionStage::run(loom::cloth::StageContext& ctx) {
   if (num_cloths_ != static_cast<int>(ctx.cloths.size())) setup(ctx);
   h_ = ctx.h;
   const int threads = ctx.threads;
   const int nv = vertex_offset_[num_cloths_];
-  x0_.resize(nv), x1_.resize(nv), w_.resize(nv), m_.resize(nv), near_.resize(nv);
+  x0_.resize(nv), x1_.resize(nv), w_.resize(nv), m_.resize(nv), near_.resize(nv), fixed_v_.resize(nv), w_free_.resize(nv);
   for (int c = 0; c < num_cloths_; ++c) {
     const loom::cloth::ClothState& s = ctx.cloths[c]->state();
     const int vo = vertex_offset_[c];
@@ -697,29 +756,42 @@ void SelfCollisionStage::run(loom::cloth::StageContext& ctx) {
       near_[vo + i] = near && (*near)[i];
       const double f = near_[vo + i] ? settings_.near_body_mass : 1.0;
       w_[vo + i] = s.inv_mass[i] / f;
+      w_free_[vo + i] = w_[vo + i];
       m_[vo + i] = s.mass[i] * f;
     }
   }
   x1_solver_ = x1_;
+  fixed_.assign(nv, 0);
 
   update_bvhs(threads, true);
   proximity(threads);
 
   std::vector<char> dirty(nv, 1);
-  bool hits = true;
-  for (int pass = 0; pass < settings_.passes && hits; ++pass) {
-    update_bvhs(threads, false);
-    const std::vector<Feature> fs =
-        pass == 0 ? features(all_triangle_pairs(threads), nullptr, threads) : features(triangle_pairs_touching(dirty), &dirty, threads);
-    hits = ccd_pass(fs, threads, dirty);
-    ++passes_;
+  resolve(dirty, true, threads);
+  // Colliders: the responses above may have moved a free vertex into a collider (or its path through one).
+  // Such a vertex gets the body stage's vertex response again (continuous test, projection to the thickness,
+  // velocity relative to the surface with friction) and is then held (inverse mass 0) for the rest of the
+  // step; the vertices it was moved against are resolved again around it. Until none is left, at most
+  // kColliderRounds rounds; the last round's projections stand, so no free vertex ends the step closer than
+  // half its thickness to a collider.
+  if (body_) {
+    for (int round = 0;; ++round) {
+      if (!collider_round(ctx, dirty, threads)) break;
+      ++collider_rounds_;
+      if (round == kColliderRounds) break;
+      resolve(dirty, false, threads);
+    }
   }
-  if (hits) impact_zones(dirty, threads);
 
   for (int c = 0; c < num_cloths_; ++c) {
     loom::cloth::ClothState& s = ctx.cloths[c]->state();
     const int vo = vertex_offset_[c];
     for (int i = 0; i < s.size(); ++i) {
+      if (fixed_[vo + i]) {  // velocity from the collider response
+        s.x[i] = x1_[vo + i];
+        s.v[i] = fixed_v_[vo + i];
+        continue;
+      }
       const Vec3 dx = x1_[vo + i] - x1_solver_[vo + i];
       if (dx.isZero(0.0)) continue;
       s.x[i] = x1_[vo + i];

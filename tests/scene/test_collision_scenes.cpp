@@ -13,6 +13,7 @@
 #include "loom/collision/MultiClothCensus.h"
 #include "loom/scene/Build.h"
 #include "loom/scene/Scene.h"
+#include <nlohmann/json.hpp>
 
 namespace {
 
@@ -68,8 +69,7 @@ struct Outcome {
   double contacts = 0.0;   // body + self contacts
 };
 
-Outcome run_scene(const std::string& name, const std::vector<std::string>& overrides) {
-  const scene::Scene sc = scene::load_scene(std::string(LOOM_SOURCE_DIR) + "/scenes/" + name + ".json", overrides);
+Outcome run_built(const std::string& name, const scene::Scene& sc) {
   collision::ColliderSetPtr colliders;
   auto sim = scene::build_simulation(sc, &colliders);
   auto check = std::make_unique<CheckStage>(colliders);
@@ -98,6 +98,10 @@ Outcome run_scene(const std::string& name, const std::vector<std::string>& overr
   return o;
 }
 
+Outcome run_scene(const std::string& name, const std::vector<std::string>& overrides) {
+  return run_built(name, scene::load_scene(std::string(LOOM_SOURCE_DIR) + "/scenes/" + name + ".json", overrides));
+}
+
 void expect_clean(const Outcome& o, int min_steps, double speed_bound) {
   EXPECT_TRUE(o.finite);
   EXPECT_GE(o.steps, min_steps);
@@ -120,20 +124,36 @@ TEST(CollisionScenes, LayerStack) { expect_clean(run_scene("layer_stack", {"dura
 TEST(CollisionScenes, CapsuleShot) {
   expect_clean(run_scene("capsule_shot", {"cloths[0].mesh.nodes=[13,13]", "duration=0.1"}), 24, 150.0);
 }
-// Known gap (issue 5): with self-collision on, vertices near the table's edge end steps up to 2 cm inside the
-// table (measured 0.0198 m at t = 0.54 s, 13x13 nodes) and the mean speed peaks at 11-12 m/s. The census,
-// NaN and energy checks hold and run here; the full check (depth within the table's 5 mm thickness, speed
-// below 10 m/s) is kept, disabled, as the target.
+// The pulled edge drags the cloth over the table's edge; with self-collision on, the cloth-cloth responses
+// used to push vertices near the edge up to 2 cm into the table (0.0198 m at t = 0.54 s, 13x13 nodes, and a
+// mean speed of 11 m/s). The self-collision stage now hands such vertices back to the body stage (step 5 in
+// SelfCollisionStage.h). The bound on the speed: 3x the 3.2 m/s of the pulled edge.
 TEST(CollisionScenes, TableclothPull) {
-  const Outcome o = run_scene("tablecloth_pull", {"cloths[0].mesh.nodes=[13,13]", "duration=0.8"});
-  EXPECT_TRUE(o.finite);
-  EXPECT_GE(o.steps, 192);
-  EXPECT_EQ(o.worst, 0) << "first intersecting step " << o.first_bad;
-  EXPECT_LT(o.max_speed, 16.0);  // bounded: 5x the 3.2 m/s of the pulled edge
-  EXPECT_GT(o.contacts, 0.0);
-}
-TEST(CollisionScenes, DISABLED_TableclothPullNoVertexInsideTheTable) {
   expect_clean(run_scene("tablecloth_pull", {"cloths[0].mesh.nodes=[13,13]", "duration=0.8"}), 192, 10.0);
+}
+// A 0.8 m sheet lying on the floor squeezed between two box walls that close in from 0.9 m to 0.1 m apart
+// over 0.8 s: it buckles into folds pressed between the walls and against itself, vertices near two or three
+// colliders at once, the walls' edges included. Beyond the usual checks, no free vertex ends any step inside
+// a collider at all (the self-collision stage hands back to the body stage every vertex it moved closer than
+// half the thickness). Before that hand-back a vertex ended 0.90 m below the floor (pushed through it by the
+// cloth-cloth responses). The speed bound is loose: the crushed folds still throw single vertices (measured
+// peak of the mean speed 9.6 m/s at frame 54, strain spikes up to 5x; an open energy gap of the responses).
+TEST(CollisionScenes, SqueezedBetweenWalls) {
+  const nlohmann::json root = nlohmann::json::parse(R"({
+    "duration": 1.0, "fps": 60, "solver": {"method": "implicit_euler", "substeps": 4},
+    "collision": {"self": true, "friction": 0.3},
+    "cloths": [{"name": "sheet", "mesh": {"type": "grid", "size": [0.8, 0.4], "nodes": [17, 9], "plane": "xz",
+                "origin": [-0.4, 0.01, -0.2]}, "material": {"preset": "cotton"}, "mass": 0.1}],
+    "colliders": [
+      {"name": "floor", "shape": "plane", "thickness": 0.004, "friction": 0.3},
+      {"name": "east", "shape": "box", "half_extents": [0.05, 0.2, 0.3], "thickness": 0.004, "friction": 0.3,
+       "motion": {"keyframes": [{"t": 0, "position": [0.5, 0.2, 0]}, {"t": 0.8, "position": [0.1, 0.2, 0]}]}},
+      {"name": "west", "shape": "box", "half_extents": [0.05, 0.2, 0.3], "thickness": 0.004, "friction": 0.3,
+       "motion": {"keyframes": [{"t": 0, "position": [-0.5, 0.2, 0]}, {"t": 0.8, "position": [-0.1, 0.2, 0]}]}}]
+  })");
+  const Outcome o = run_built("squeezed_between_walls", scene::parse_scene(root, "squeezed_between_walls.json"));
+  expect_clean(o, 240, 15.0);
+  EXPECT_LE(o.worst_depth, 0.0) << o.where;
 }
 TEST(CollisionScenes, DrapedLayers) { expect_clean(run_scene("draped_layers", {"duration=0.5"}), 60, 5.0); }
 

@@ -19,7 +19,7 @@ std::unique_ptr<cloth::Simulation> build_simulation(const Scene& scene, collisio
 #endif
   // Effects from other modules add their stages here, each only when the scene names it.
   // Body collision (issue 5): only when there is something to collide with (scene colliders, rig capsules).
-  const collision::BodyCollisionStage* body_stage = nullptr;
+  collision::BodyCollisionStage* body_stage = nullptr;
   if (!colliders->empty()) {
     collision::BodyCollisionSettings body;
     if (scene.collision) body.friction_pairs = scene.collision->friction_pairs;  // the (cloth, collider) entries

@@ -49,7 +49,8 @@ class BodyCollisionStage final : public cloth::Stage {
   const char* name() const override { return "body_collision"; }
   void run(cloth::StageContext& ctx) override;
   // candidate_vertices (vertex-collider pairs past the broad phase), contacts (responses), ccd_hits,
-  // edge_contacts, passes (the most any vertex needed in a step, summed over steps).
+  // edge_contacts, passes (the most any vertex needed in a step, summed over steps), revisit_contacts
+  // (responses given through revisit_vertex).
   std::vector<std::pair<std::string, double>> counters() const override;
 
   const ColliderSetPtr& colliders() const { return colliders_; }
@@ -66,21 +67,41 @@ class BodyCollisionStage final : public cloth::Stage {
     return c < static_cast<int>(near_.size()) ? &near_[c] : nullptr;
   }
 
- private:
-  struct Record {
+  // A velocity change given to the cloth by collider `collider` (its reaction is minus this).
+  struct Reaction {
     int collider;
     Vec3 impulse;  // N s, given to the cloth
     Vec3 point;    // m, where
   };
+  // For a stage after this one in the same step that moved free vertex x of cloth `cloth_index` (the
+  // self-collision stage): path x0 -> x, velocity v (m/s), mass m (kg); x_body is where this stage left it.
+  // If x moved at least a quarter thickness from x_body and its path now crosses a collider (the continuous
+  // test) or it ends closer than `fraction` x the thickness to one, step 4 is done again for it (x and v
+  // replaced, responses appended to `out`) and true is returned. Const and thread-safe; hand `out` to
+  // add_reactions afterwards, in a fixed order.
+  bool revisit_vertex(int cloth_index, const Vec3& x0, const Vec3& x_body, Vec3& x, Vec3& v, double m,
+                      double fraction, std::vector<Reaction>& out) const;
+  void add_reactions(const std::vector<Reaction>& reactions);
+
+ private:
+  struct Pair {          // what one collider is to one cloth this step
+    double thickness = 0.0;       // m
+    double mu_s = 0.0, mu_k = 0.0;  // 1
+  };
   void run_cloth(cloth::Cloth& cloth, int cloth_index, double h, int threads);
-  void run_edges(cloth::Cloth& cloth, double h, int threads, std::vector<Record>& records);
+  void run_edges(cloth::Cloth& cloth, double h, int threads, std::vector<Reaction>& records);
+  int respond_vertex(const std::vector<int>& mine, const std::vector<Pair>& pairs, const Vec3& x0, Vec3& x, Vec3& v,
+                     double m, double h, std::vector<Reaction>& out, long& contacts, long& ccd_hits) const;
 
   ColliderSetPtr colliders_;
   BodyCollisionSettings settings_;
   ColliderBroadPhase broad_phase_;
   double max_deficit_ = 0.0;
   std::vector<std::vector<char>> near_;  // per cloth, per vertex: near a collider after the last step
-  long candidates_ = 0, contacts_ = 0, ccd_hits_ = 0, edge_contacts_ = 0, passes_ = 0;
+  std::vector<std::vector<Pair>> pairs_;  // per cloth, per collider, this step
+  std::vector<double> min_thickness_;     // m, per cloth: smallest contact thickness this step
+  double h_ = 0.0;                        // s, this step
+  long candidates_ = 0, contacts_ = 0, ccd_hits_ = 0, edge_contacts_ = 0, passes_ = 0, revisits_ = 0;
 };
 
 }  // namespace loom::collision

@@ -21,6 +21,13 @@
 //      rigid motion is an invertible affine image of its intersection-free start at every t, so it cannot
 //      self-intersect; merging ends, at worst, with one zone. Zones with kinematic (pinned) vertices follow
 //      the best-fit rotation of their pinned vertices (Kabsch 1976) instead; that case is not guaranteed.
+//   5. Colliders (with a body stage, set_body_stage): every free vertex moved by 2-4 whose end point came
+//      closer than half the thickness to a collider, or whose path now crosses one, gets the body stage's
+//      vertex response again (BodyCollisionStage::revisit_vertex) and is then held (inverse mass 0) while
+//      3-4 run again on the pairs around it (a rigid zone takes held vertices back and moves them with it,
+//      to be checked again); at most 16 such rounds, the last one's projections stand. So
+//      no free vertex ends a step closer than half its thickness to a collider, also with several colliders
+//      or a cloth squeezed between two; the census stays 0 when 3-4 can resolve around the held vertices.
 // Impulses are computed per contact in parallel and applied per vertex in a fixed order (averaged over the
 // vertex's contacts), so results are bit-identical for any thread count.
 #include <cstdint>
@@ -59,12 +66,14 @@ class SelfCollisionStage final : public loom::cloth::Stage {
   // The body-collision stage that runs before this one (optional): vertices it left near a collider count
   // `near_body_mass` times heavier here, so cloth-cloth responses move the other cloth, not these into the
   // body (layers stacked on a body, a tablecloth under objects).
-  void set_body_stage(const BodyCollisionStage* body) { body_ = body; }
+  // It also hands back every free vertex this stage moved into a collider (or whose path it moved through
+  // one): step 5 below.
+  void set_body_stage(BodyCollisionStage* body) { body_ = body; }
   const char* name() const override { return "self_collision"; }
   void run(loom::cloth::StageContext& ctx) override;
   // candidate_pairs (triangle pairs from the BVHs), culled_nodes (normal-cone culls), contacts (proximity +
   // continuous contacts given impulses), passes (continuous-test passes), impact_zones (zones formed),
-  // zone_iterations, projections (inelastic projections of a zone), rigid_zones (zones that went rigid), bvh_rebuilds, ccd_tests and ccd_boxes (continuous tests in the passes, inclusion boxes), unresolved (steps that ended with a forced global zone); all since the start.
+  // zone_iterations, projections (inelastic projections of a zone), rigid_zones (zones that went rigid), bvh_rebuilds, ccd_tests and ccd_boxes (continuous tests in the passes, inclusion boxes), unresolved (steps that ended with a forced global zone), collider_fixes (vertices handed back to the body stage), collider_rounds; all since the start.
   std::vector<std::pair<std::string, double>> counters() const override;
 
  private:
@@ -91,6 +100,9 @@ class SelfCollisionStage final : public loom::cloth::Stage {
   // One continuous pass over `fs`; returns whether any pair hit, marks moved/hit vertices in `dirty`.
   bool ccd_pass(const std::vector<Feature>& fs, int threads, std::vector<char>& dirty);
   bool impact_zones(std::vector<char> dirty, int threads);
+  void resolve(std::vector<char>& dirty, bool all, int threads);
+  bool collider_round(loom::cloth::StageContext& ctx, std::vector<char>& dirty, int threads);
+  static constexpr int kColliderRounds = 16;
   struct ZoneConstraint {  // n . sum_i w_i x1_{v_i} >= b (inelastic projection, Harmon et al. 2008)
     int v[4] = {0, 0, 0, 0};
     double w[4] = {0, 0, 0, 0};
@@ -101,7 +113,7 @@ class SelfCollisionStage final : public loom::cloth::Stage {
   void apply_rigid_zone(const std::vector<int>& verts);
 
   SelfCollisionSettings settings_;
-  const BodyCollisionStage* body_ = nullptr;
+  BodyCollisionStage* body_ = nullptr;
   double h_ = 0.0;
   // Global numbering over all cloths, set up on the first run.
   int num_cloths_ = 0;
@@ -119,13 +131,16 @@ class SelfCollisionStage final : public loom::cloth::Stage {
   // Per step.
   loom::cloth::Vec3s x0_, x1_, x1_solver_;  // m: start, current end, end as the solver left it
   std::vector<double> w_, m_;               // 1/kg inverse masses, kg masses
+  std::vector<double> w_free_;              // 1/kg, w_ before any vertex was held for a collider
   std::vector<char> near_;                  // 1: the body stage left the vertex near a collider
+  std::vector<char> fixed_;                 // 1: handed back to the body stage this step, held since
+  loom::cloth::Vec3s fixed_v_;              // m/s, the velocity the body stage gave a fixed vertex
   std::vector<int> zone_parent_;            // union-find over vertices for impact zones (-1: no zone)
   std::vector<ZoneConstraint> zone_constraints_;  // the contacts found by the fail-safe this step
   // Counters.
   long candidate_pairs_ = 0, contacts_ = 0, passes_ = 0, impact_zones_ = 0, zone_iterations_ = 0;
   long bvh_rebuilds_ = 0, unresolved_ = 0, culled_nodes_ = 0, ccd_tests_ = 0, ccd_boxes_ = 0;
-  long projections_ = 0, rigid_zones_ = 0;
+  long projections_ = 0, rigid_zones_ = 0, collider_fixes_ = 0, collider_rounds_ = 0;
 };
 
 }  // namespace loom::collision
