@@ -3,6 +3,8 @@
 #include <Eigen/SparseCholesky>
 #include <algorithm>
 #include <cmath>
+#include <cstdio>
+#include <cstdlib>
 
 #include "loom/cloth/Error.h"
 
@@ -49,6 +51,11 @@ void StaticSolver::step(Cloth& cloth, double t, double h, int threads) {
   Eigen::SimplicialLDLT<Eigen::SparseMatrix<double>> ldlt;
   double mu = 0.0;
   last_iterations_ = 0;
+  int factorizations = 0;
+  // H = -K over the free DOFs: one pattern, analysed (ordered) once per step; each Levenberg try only
+  // refactorises H + mu I numerically.
+  Eigen::SparseMatrix<double> H(3 * nf, 3 * nf), Hs;
+  bool analysed = false;
   for (int it = 0; it < s_.max_iterations; ++it) {
     cloth.compute_forces(s.x, zero_v, t + h, threads, f);
     Eigen::VectorXd g(3 * nf);
@@ -79,15 +86,19 @@ void StaticSolver::step(Cloth& cloth, double t, double h, int threads) {
         if (i == j) max_diag = std::max(max_diag, -b.diagonal().minCoeff());
       }
     }
-    Eigen::SparseMatrix<double> H(3 * nf, 3 * nf);
-    H.setFromTriplets(trips.begin(), trips.end());
-    Eigen::SparseMatrix<double> I(3 * nf, 3 * nf);
-    I.setIdentity();
+    H.setFromTriplets(trips.begin(), trips.end());  // the same pattern every iteration (zeros are kept)
+    if (!analysed) {
+      ldlt.analyzePattern(H);
+      analysed = true;
+    }
     if (mu == 0.0) mu = 1e-10 * std::max(max_diag, 1e-12);
     Eigen::VectorXd p;
     // Levenberg shift: grow until the factorisation succeeds and p is a descent direction.
     for (int tries = 0; tries < 40; ++tries) {
-      ldlt.compute(H + mu * I);
+      Hs = H;
+      Hs.diagonal().array() += mu;  // K has every diagonal block, so the diagonal is in the pattern
+      ldlt.factorize(Hs);
+      ++factorizations;
       if (ldlt.info() == Eigen::Success) {
         p = ldlt.solve(-g);
         if (ldlt.info() == Eigen::Success && p.allFinite() && p.dot(g) < 0.0) break;
@@ -116,8 +127,10 @@ void StaticSolver::step(Cloth& cloth, double t, double h, int threads) {
       continue;
     }
     s.x.swap(trial);
+    if (getenv("LOOM_DBG2")) fprintf(stderr, "  it %d residual %g alpha %g mu %g\n", it, residual, alpha, mu);
     mu = std::max(mu * (alpha == 1.0 ? 0.1 : 1.0), 1e-14 * std::max(max_diag, 1e-12));
   }
+  if (getenv("LOOM_DBG")) fprintf(stderr, "static step: %d iterations %d factorizations residual %g mu %g\n", last_iterations_, factorizations, last_residual_, mu);
   for (int i = 0; i < n; ++i) s.v[i] = s.inv_mass[i] == 0.0 ? s.v[i] : Vec3::Zero();
 }
 
