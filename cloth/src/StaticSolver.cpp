@@ -3,8 +3,6 @@
 #include <Eigen/SparseCholesky>
 #include <algorithm>
 #include <cmath>
-#include <cstdio>
-#include <cstdlib>
 
 #include "loom/cloth/Error.h"
 
@@ -51,7 +49,6 @@ void StaticSolver::step(Cloth& cloth, double t, double h, int threads) {
   Eigen::SimplicialLDLT<Eigen::SparseMatrix<double>> ldlt;
   double mu = 0.0;
   last_iterations_ = 0;
-  int factorizations = 0;
   // H = -K over the free DOFs: one pattern, analysed (ordered) once per step; each Levenberg try only
   // refactorises H + mu I numerically.
   Eigen::SparseMatrix<double> H(3 * nf, 3 * nf), Hs;
@@ -98,7 +95,6 @@ void StaticSolver::step(Cloth& cloth, double t, double h, int threads) {
       Hs = H;
       Hs.diagonal().array() += mu;  // K has every diagonal block, so the diagonal is in the pattern
       ldlt.factorize(Hs);
-      ++factorizations;
       if (ldlt.info() == Eigen::Success) {
         p = ldlt.solve(-g);
         if (ldlt.info() == Eigen::Success && p.allFinite() && p.dot(g) < 0.0) break;
@@ -127,10 +123,8 @@ void StaticSolver::step(Cloth& cloth, double t, double h, int threads) {
       continue;
     }
     s.x.swap(trial);
-    if (getenv("LOOM_DBG2")) fprintf(stderr, "  it %d residual %g alpha %g mu %g\n", it, residual, alpha, mu);
     mu = std::max(mu * (alpha == 1.0 ? 0.1 : 1.0), 1e-14 * std::max(max_diag, 1e-12));
   }
-  if (getenv("LOOM_DBG")) fprintf(stderr, "static step: %d iterations %d factorizations residual %g mu %g\n", last_iterations_, factorizations, last_residual_, mu);
   for (int i = 0; i < n; ++i) s.v[i] = s.inv_mass[i] == 0.0 ? s.v[i] : Vec3::Zero();
 }
 

@@ -349,6 +349,13 @@ Scene parse_scene(const nlohmann::json& root, const std::string& file) {
       ds.method = d.string("method", "curved_faces", {"curved_faces"});
       ds.levels = d.integer("levels", 2, 0);
       if (ds.levels > 5) d.fail("levels", "must be <= 5 (each level multiplies the triangles by 4)");
+      if (d.has("wrinkles")) {  // geometric wrinkles from the coarse compression (CurvedFaces.h)
+        const JsonReader w = d.object("wrinkles");
+        ds.wrinkles.enabled = true;
+        ds.wrinkles.amplitude = w.number("amplitude", ds.wrinkles.amplitude, 0.0);
+        ds.wrinkles.wavelength = w.number("wavelength", ds.wrinkles.wavelength, 0.0, true);
+        w.finish();
+      }
       d.finish();
       scene.detail[static_cast<int>(scene.setup.cloths.size())] = ds;
     }
