@@ -11,6 +11,7 @@ DetailView::DetailView(const scene::Scene& scene, cloth::Simulation& sim) : sim_
     if (it != scene.detail.end()) {
       faces_.push_back(std::make_unique<cloth::CurvedFaces>(cloths[c]->mesh(), it->second.levels, scene.file,
                                                             "cloths[" + std::to_string(c) + "].detail"));
+      faces_.back()->set_wrinkles(it->second.wrinkles, scene.file, "cloths[" + std::to_string(c) + "].detail");
       shown_->push_back(std::make_unique<cloth::Cloth>(cloths[c]->name(), faces_.back()->fine_mesh(), cloths[c]->material()));
     } else {
       faces_.push_back(nullptr);

@@ -37,6 +37,8 @@ const char* kFabricUsage =
     "  --overhang-ratio X    cantilever: overhang l over bending length c (default 2)\n"
     "  --span D              catenary: span in metres for a 1 m strip (default 0.8)\n"
     "  --solver S            static (default) or a dynamic solver that settles the strip\n"
+    "  --settle-frames N     dynamic solvers: at most N frames of 0.01 s (default 400)\n"
+    "  --settle-speed V      dynamic solvers: settled when every vertex is slower than V m/s (default 1e-6)\n"
     "  --json                print one JSON object (test, material, model, resolution, measured, theory, error,\n"
     "                        and the test's own fields) instead of text\n"
     "  --out DIR             report folder (default: out/fabric-test/<test>): report.md, curve.csv, plot.png\n";
@@ -66,7 +68,8 @@ void write_report(const fs::path& dir, const cloth::FabricTestResult& r) {
      << "| " << r.quantity << " measured | " << r.measured << " " << r.unit << " |\n"
      << "| theory | " << r.theory << " " << r.unit << " |\n| error | " << r.error << " " << r.unit << " |\n";
   for (const auto& [k, v] : r.fields) md << "| " << k << " | " << v << " |\n";
-  md << "| wall time | " << r.seconds << " s |\n\n";
+  md << "| solver | " << r.solver << " |\n| settle frames | " << r.settle_frames << (r.settled ? " (settled)" : " (not settled)")
+     << " |\n| wall time | " << r.seconds << " s |\n| CPU time | " << r.cpu_seconds << " s |\n\n";
   // The plot, through gnuplot when it is installed.
   const std::string gp = (dir / "plot.gp").string();
   {
@@ -122,6 +125,12 @@ int fabric_test_main(int argc, char** argv) {
       o.span = parse_number(a, value());
     } else if (a == "--solver") {
       o.solver = value();
+    } else if (a == "--settle-frames") {
+      o.settle_frames = static_cast<int>(parse_number(a, value()));
+      if (o.settle_frames < 1) throw Error("", "--settle-frames", "must be at least 1");
+    } else if (a == "--settle-speed") {
+      o.settle_speed = parse_number(a, value());
+      if (!(o.settle_speed > 0.0)) throw Error("", "--settle-speed", "must be positive (m/s)");
     } else if (a == "--json") {
       json = true;
     } else if (a == "--out") {
@@ -160,6 +169,10 @@ int fabric_test_main(int argc, char** argv) {
     j["error"] = r.error;
     for (const auto& [k, v] : r.fields) j[k] = v;
     j["seconds"] = r.seconds;
+    j["cpu_seconds"] = r.cpu_seconds;
+    j["solver"] = r.solver;
+    j["settle_frames"] = r.settle_frames;
+    j["settled"] = r.settled;
     std::cout << j.dump() << "\n";
   } else {
     if (std::isfinite(r.theory))
@@ -170,7 +183,8 @@ int fabric_test_main(int argc, char** argv) {
       std::printf("%s (%s, %s, resolution %d)\n  %s: measured %.6g %s (no theory value)\n", r.test.c_str(),
                   r.material.c_str(), r.model.c_str(), r.resolution, r.quantity.c_str(), r.measured, r.unit.c_str());
     for (const auto& [k, v] : r.fields) std::printf("  %s = %.6g\n", k.c_str(), v);
-    std::printf("  wall time %.2f s\n", r.seconds);
+    std::printf("  solver %s: %d frames, %s\n", r.solver.c_str(), r.settle_frames, r.settled ? "settled" : "NOT settled");
+    std::printf("  wall time %.2f s, CPU time %.2f s\n", r.seconds, r.cpu_seconds);
   }
   return 0;
 }

@@ -1,5 +1,9 @@
 #include "loom/cloth/CurvedFaces.h"
 
+#include <Eigen/Eigenvalues>
+#include <algorithm>
+#include <cmath>
+#include <deque>
 #include <map>
 
 #include "loom/cloth/Error.h"
@@ -25,6 +29,14 @@ Vec3 pn_point(const Vec3& p1, const Vec3& p2, const Vec3& p3, const Vec3& n1, co
   return p1 * (w * w * w) + p2 * (u * u * u) + p3 * (v * v * v) + b210 * (3.0 * w * w * u) +
          b120 * (3.0 * w * u * u) + b201 * (3.0 * w * w * v) + b021 * (3.0 * u * u * v) + b102 * (3.0 * w * v * v) +
          b012 * (3.0 * u * v * v) + b111 * (6.0 * w * u * v);
+}
+
+constexpr double kPi = 3.14159265358979323846;
+
+// Largest eigenvalue of a symmetric 2x2 matrix.
+double largest_eigenvalue(const Eigen::Matrix2d& q) {
+  const double h = 0.5 * (q(0, 0) - q(1, 1));
+  return 0.5 * (q(0, 0) + q(1, 1)) + std::sqrt(h * h + q(0, 1) * q(0, 1));
 }
 
 }  // namespace
@@ -94,6 +106,112 @@ CurvedFaces::CurvedFaces(const ClothMesh& coarse, int levels, const std::string&
     uvs.push_back(uv);
   }
   fine_ = ClothMesh::from_triangles(std::move(rest), std::move(fine_tris), std::move(uvs), file.empty() ? "detail" : file);
+  heights_.assign(samples_.size(), 0.0);
+
+  // Wrinkle data. Material coordinates unfolded breadth-first over the coarse triangles: every triangle's
+  // rest_uv is in the same warp/weft orientation, so a triangle's unplaced corners are its rest_uv shifted by
+  // the offset of an already placed corner (exact on flat and developable pieces without a closing seam).
+  const auto& frames = coarse.triangle_frames();
+  tri_uv_.resize(coarse_tris_.size());
+  vertex_area_.assign(coarse_n_, 0.0);
+  std::vector<std::vector<int>> vertex_tris(coarse_n_);
+  for (size_t t = 0; t < coarse_tris_.size(); ++t) {
+    tri_uv_[t] = frames[t].rest_uv;
+    const Vec2 e1 = tri_uv_[t][1] - tri_uv_[t][0], e2 = tri_uv_[t][2] - tri_uv_[t][0];
+    const double area = 0.5 * std::abs(e1.x() * e2.y() - e1.y() * e2.x());
+    for (int v : coarse_tris_[t]) {
+      vertex_tris[v].push_back(static_cast<int>(t));
+      vertex_area_[v] += area;
+    }
+  }
+  material_.assign(coarse_n_, Vec2::Zero());
+  std::vector<char> placed(coarse_n_, 0), queued(coarse_tris_.size(), 0);
+  for (size_t seed = 0; seed < coarse_tris_.size(); ++seed) {
+    if (queued[seed]) continue;
+    std::deque<int> queue{static_cast<int>(seed)};
+    queued[seed] = 1;
+    while (!queue.empty()) {
+      const int t = queue.front();
+      queue.pop_front();
+      const Tri& c = coarse_tris_[t];
+      Vec2 offset = Vec2::Zero();
+      for (int k = 0; k < 3; ++k)
+        if (placed[c[k]]) {
+          offset = material_[c[k]] - tri_uv_[t][k];
+          break;
+        }
+      for (int k = 0; k < 3; ++k) {
+        if (!placed[c[k]]) {
+          material_[c[k]] = tri_uv_[t][k] + offset;
+          placed[c[k]] = 1;
+        }
+        for (int n : vertex_tris[c[k]])
+          if (!queued[n]) {
+            queued[n] = 1;
+            queue.push_back(n);
+          }
+      }
+    }
+  }
+}
+
+void CurvedFaces::set_wrinkles(const WrinkleSettings& w, const std::string& file, const std::string& where) {
+  if (w.enabled) {
+    if (!(w.wavelength > 0.0) || !std::isfinite(w.wavelength))
+      throw Error(file, where + ".wrinkles.wavelength", "must be a positive length (m)");
+    if (!(w.amplitude >= 0.0) || !std::isfinite(w.amplitude))
+      throw Error(file, where + ".wrinkles.amplitude", "must be a non-negative length (m)");
+  }
+  wrinkles_ = w;
+}
+
+void CurvedFaces::vertex_compression(const Vec3s& x) const {
+  compression_.assign(coarse_n_, Eigen::Matrix2d::Zero());
+  for (size_t t = 0; t < coarse_tris_.size(); ++t) {
+    const Tri& c = coarse_tris_[t];
+    const auto& uv = tri_uv_[t];
+    // Deformation gradient F (3x2) from the warp/weft rest frame to the current positions.
+    Eigen::Matrix2d dm;
+    dm << uv[1] - uv[0], uv[2] - uv[0];
+    Eigen::Matrix<double, 3, 2> ds;
+    ds << x[c[1]] - x[c[0]], x[c[2]] - x[c[0]];
+    const Eigen::Matrix<double, 3, 2> F = ds * dm.inverse();
+    const Eigen::SelfAdjointEigenSolver<Eigen::Matrix2d> eig(F.transpose() * F);
+    Eigen::Matrix2d q = Eigen::Matrix2d::Zero();
+    for (int i = 0; i < 2; ++i) {
+      const double shrink = std::max(0.0, 1.0 - std::sqrt(std::max(eig.eigenvalues()[i], 0.0)));
+      q += shrink * eig.eigenvectors().col(i) * eig.eigenvectors().col(i).transpose();
+    }
+    const double area = 0.5 * std::abs(dm.determinant());
+    for (int v : c) compression_[v] += area * q;
+  }
+  for (int v = 0; v < coarse_n_; ++v)
+    if (vertex_area_[v] > 0.0) compression_[v] /= vertex_area_[v];
+}
+
+double CurvedFaces::wrinkle_height(int tri, const Vec3& bary) const {
+  if (!wrinkles_.enabled || compression_.empty()) return 0.0;
+  const Tri& t = coarse_tris_[tri];
+  const Eigen::Matrix2d q = bary[0] * compression_[t[0]] + bary[1] * compression_[t[1]] + bary[2] * compression_[t[2]];
+  const double q1 = std::min(largest_eigenvalue(q), 0.999);
+  if (q1 <= 0.0) return 0.0;
+  const Vec2 m = bary[0] * material_[t[0]] + bary[1] * material_[t[1]] + bary[2] * material_[t[2]];
+  const double lambda = wrinkles_.wavelength;
+  const double amplitude = std::min(wrinkles_.amplitude, lambda / kPi * std::sqrt(q1 / (1.0 - q1)));
+  // Weights of the four wave directions: the principal compression direction θ (mod π) shares itself
+  // between its two nearest directions (linear in angle), blended with equal weights by the isotropy of Q.
+  const double q2 = q(0, 0) + q(1, 1) - largest_eigenvalue(q);
+  const double anisotropy = std::clamp((q1 - q2) / q1, 0.0, 1.0);
+  const double theta = 0.5 * std::atan2(2.0 * q(0, 1), q(0, 0) - q(1, 1));
+  double h = 0.0;
+  for (int k = 0; k < 4; ++k) {
+    const double dk = k * kPi / 4.0;
+    double dist = std::fmod(std::abs(theta - dk), kPi);
+    if (dist > 0.5 * kPi) dist = kPi - dist;
+    const double w = anisotropy * std::max(0.0, 1.0 - dist / (0.25 * kPi)) + (1.0 - anisotropy) * 0.25;
+    if (w > 0.0) h += w * std::cos(2.0 * kPi * (std::cos(dk) * m.x() + std::sin(dk) * m.y()) / lambda);
+  }
+  return amplitude * h;
 }
 
 void CurvedFaces::vertex_normals(const Vec3s& x, Vec3s& normals) const {
@@ -118,6 +236,18 @@ void CurvedFaces::evaluate(const Vec3s& coarse_x, Vec3s& fine_x) const {
     const Tri& t = coarse_tris_[s.tri];
     fine_x[i] = pn_point(coarse_x[t[0]], coarse_x[t[1]], coarse_x[t[2]], normals_[t[0]], normals_[t[1]], normals_[t[2]],
                          s.bary);
+  }
+  if (!wrinkles_.enabled) return;
+  vertex_compression(coarse_x);
+  heights_.resize(n);
+#pragma omp parallel for schedule(static) if (n > 20000)
+  for (int i = 0; i < n; ++i) {
+    const Sample& s = samples_[i];
+    const Tri& t = coarse_tris_[s.tri];
+    const Vec3 normal = s.bary[0] * normals_[t[0]] + s.bary[1] * normals_[t[1]] + s.bary[2] * normals_[t[2]];
+    const double len = normal.norm();
+    heights_[i] = wrinkle_height(s.tri, s.bary);
+    if (len > 0.0) fine_x[i] += heights_[i] / len * normal;
   }
 }
 

@@ -3,6 +3,7 @@
 #include <chrono>
 #include <algorithm>
 #include <cmath>
+#include <ctime>
 #include <limits>
 
 #include "loom/cloth/Error.h"
@@ -134,14 +135,27 @@ Vec3 centre(const ClothState& st, const Strip& strip, int iu) {
   return 0.5 * (st.x[a * strip.nu + iu] + st.x[b * strip.nu + iu]);
 }
 
-// Runs frames until the largest vertex move is below tol (m); returns the frames used. A static solver
-// needs one or a few; dynamic solvers run up to settle_frames.
-int settle(Simulation& sim, double tol, const FabricTestOptions& o) {
+// Wall and CPU clocks around the simulation part of a test (set-up and settling, not the theory).
+struct SolveTimer {
+  std::chrono::steady_clock::time_point wall = std::chrono::steady_clock::now();
+  std::clock_t cpu = std::clock();
+  void stop(FabricTestResult& r) const {
+    r.seconds += std::chrono::duration<double>(std::chrono::steady_clock::now() - wall).count();
+    r.cpu_seconds += static_cast<double>(std::clock() - cpu) / CLOCKS_PER_SEC;
+  }
+};
+
+// Runs frames until the cloth has settled; returns the frames used and records them (and whether it settled)
+// in r. Static solver: until the largest vertex move in a frame is below tol (m), at most 8 frames (it needs
+// one or a few). Dynamic solvers: until the largest vertex speed over a frame is below o.settle_speed (m/s),
+// at most o.settle_frames frames.
+int settle(Simulation& sim, double tol, const FabricTestOptions& o, FabricTestResult& r) {
   int max_frames = 8;
   if (o.solver != "static") {
-    tol *= o.settle_dt;  // a per-frame move of tol*dt: velocity below tol
+    tol = o.settle_speed * o.settle_dt;  // a per-frame move below this: speed below settle_speed
     max_frames = std::max(o.settle_frames, 1);
   }
+  r.settled = false;
   for (int f = 1; f <= max_frames; ++f) {
     const Vec3s before = sim.cloths()[0]->state().x;
     sim.step_frame();
@@ -149,7 +163,11 @@ int settle(Simulation& sim, double tol, const FabricTestOptions& o) {
     const Vec3s& after = sim.cloths()[0]->state().x;
     for (size_t i = 0; i < after.size(); ++i) moved = std::max(moved, (after[i] - before[i]).norm());
     if (!std::isfinite(moved)) throw Error("", "fabric-test", "the simulation became non-finite");
-    if (moved < tol) return f;
+    r.settle_frames = f;
+    if (moved < tol) {
+      r.settled = true;
+      return f;
+    }
   }
   return max_frames;
 }
@@ -173,8 +191,10 @@ FabricTestResult cantilever(const FabricTestOptions& o) {
   SimulationSetup s = static_setup(strip, o, Vec3(0, -kG, 0));
   pin_row(s, strip, 0);
   pin_row(s, strip, 1);
+  const SolveTimer timer;
   Simulation sim(s);
-  const int frames = settle(sim, 1e-9 * l, o);
+  const int frames = settle(sim, 1e-9 * l, o, r);
+  timer.stop(r);
   const ClothState& st = sim.cloths()[0]->state();
   const Vec3 edge = 0.5 * (centre(st, strip, 0) + centre(st, strip, 1)), tip = centre(st, strip, n);
   r.quantity = "tip chord angle";
@@ -229,7 +249,8 @@ double pulled_strain(const FabricTestOptions& o, double line_load, int n, double
     forces.push_back(Vec3(line_load * width / (nv - 1) * share, 0, 0));
   }
   sim.cloths()[0]->add_term(std::make_unique<LoadTerm>(verts, forces));
-  settle(sim, 1e-12, o);
+  FabricTestResult unused;
+  settle(sim, 1e-12, o, unused);
   const ClothState& st = sim.cloths()[0]->state();
   double moved = 0.0;
   for (int v : verts) moved += st.x[v].x() - strip.mesh->rest_positions()[v].x();
@@ -294,12 +315,14 @@ FabricTestResult catenary(const FabricTestOptions& o) {
       const int v = iv * n + iu;
       s.cloths[0].pins.push_back(PinSpec{v, v_shape(iu * d, strip.mesh->rest_positions()[v].z()), {}, {}});
     }
+  const SolveTimer timer;
   Simulation sim(s);
   ClothState& st = sim.cloths()[0]->state();
   for (int v = 0; v < st.size(); ++v)
     if (st.inv_mass[v] != 0.0) st.x[v] = v_shape(strip.mesh->rest_positions()[v].x(), strip.mesh->rest_positions()[v].z());
   st.x_prev = st.x;
-  settle(sim, 1e-10, o);
+  settle(sim, 1e-10, o, r);
+  timer.stop(r);
   double lowest = 0.0;
   for (int iu = 0; iu < n; ++iu) {
     const Vec3 p = centre(st, strip, iu);
@@ -438,7 +461,7 @@ FabricTestResult drape(const FabricTestOptions& o) {
     st.x[v] = Vec3(rad * std::cos(a), -t * std::sin(slope) + wave, rad * std::sin(a));
   }
   st.x_prev = st.x;
-  const int frames = settle(sim, 1e-7, o);
+  const int frames = settle(sim, 1e-7, o, r);
   // Shadow area, the disc's own (flat) area and the support area, all on the same sampling grid.
   const double cell = 0.5e-3;
   const double As = shadow_area(st.x, mesh->triangles(), R * 1.05, cell);
@@ -503,6 +526,7 @@ FabricTestResult run_fabric_test(const FabricTestOptions& o) {
     throw Error("", "--resolution", "must be in [5, 2000]");
   if (!(o.overhang_ratio > 0.05 && o.overhang_ratio < 10.0)) throw Error("", "--overhang-ratio", "must be in (0.05, 10)");
   const auto start = std::chrono::steady_clock::now();
+  const std::clock_t cpu_start = std::clock();
   FabricTestResult r;
   if (o.test == "cantilever") {
     r = cantilever(o);
@@ -520,7 +544,11 @@ FabricTestResult run_fabric_test(const FabricTestOptions& o) {
   r.test = o.test;
   r.material = o.material.name;
   r.model = o.model;
-  r.seconds = std::chrono::duration<double>(std::chrono::steady_clock::now() - start).count();
+  r.solver = o.solver;
+  if (r.seconds == 0.0) {  // tests without their own solve timer (tensile, shear: several solves)
+    r.seconds = std::chrono::duration<double>(std::chrono::steady_clock::now() - start).count();
+    r.cpu_seconds = static_cast<double>(std::clock() - cpu_start) / CLOCKS_PER_SEC;
+  }
   return r;
 }
 

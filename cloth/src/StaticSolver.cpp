@@ -49,6 +49,10 @@ void StaticSolver::step(Cloth& cloth, double t, double h, int threads) {
   Eigen::SimplicialLDLT<Eigen::SparseMatrix<double>> ldlt;
   double mu = 0.0;
   last_iterations_ = 0;
+  // H = -K over the free DOFs: one pattern, analysed (ordered) once per step; each Levenberg try only
+  // refactorises H + mu I numerically.
+  Eigen::SparseMatrix<double> H(3 * nf, 3 * nf), Hs;
+  bool analysed = false;
   for (int it = 0; it < s_.max_iterations; ++it) {
     cloth.compute_forces(s.x, zero_v, t + h, threads, f);
     Eigen::VectorXd g(3 * nf);
@@ -79,15 +83,18 @@ void StaticSolver::step(Cloth& cloth, double t, double h, int threads) {
         if (i == j) max_diag = std::max(max_diag, -b.diagonal().minCoeff());
       }
     }
-    Eigen::SparseMatrix<double> H(3 * nf, 3 * nf);
-    H.setFromTriplets(trips.begin(), trips.end());
-    Eigen::SparseMatrix<double> I(3 * nf, 3 * nf);
-    I.setIdentity();
+    H.setFromTriplets(trips.begin(), trips.end());  // the same pattern every iteration (zeros are kept)
+    if (!analysed) {
+      ldlt.analyzePattern(H);
+      analysed = true;
+    }
     if (mu == 0.0) mu = 1e-10 * std::max(max_diag, 1e-12);
     Eigen::VectorXd p;
     // Levenberg shift: grow until the factorisation succeeds and p is a descent direction.
     for (int tries = 0; tries < 40; ++tries) {
-      ldlt.compute(H + mu * I);
+      Hs = H;
+      Hs.diagonal().array() += mu;  // K has every diagonal block, so the diagonal is in the pattern
+      ldlt.factorize(Hs);
       if (ldlt.info() == Eigen::Success) {
         p = ldlt.solve(-g);
         if (ldlt.info() == Eigen::Success && p.allFinite() && p.dot(g) < 0.0) break;

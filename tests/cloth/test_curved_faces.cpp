@@ -6,6 +6,7 @@
 #include <chrono>
 #include <cmath>
 #include <cstdio>
+#include <map>
 #include <random>
 
 #include "TestUtil.h"
@@ -145,6 +146,187 @@ TEST(CurvedFaces, ContinuousInTimeAndCloseToAFineSimulation) {
   EXPECT_LT(worst_ratio, 2.0);  // no popping: the fine surface moves by O(the coarse motion)
   EXPECT_LT(pn.rms, 0.05);      // m, on a 1 m sheet
   EXPECT_LT(pn.max, 0.15);
+}
+
+
+// Geometric wrinkles (CurvedFaces.h): a 1 m sheet, coarse 9 x 9, 3 levels (fine edge 1/64 m), wavelength
+// 0.125 m (8 fine edges).
+WrinkleSettings wrinkles(double amplitude = 0.05, double wavelength = 0.125) {
+  WrinkleSettings w;
+  w.enabled = true;
+  w.amplitude = amplitude;
+  w.wavelength = wavelength;
+  return w;
+}
+
+double fine_area(const ClothMesh& mesh, const Vec3s& x) {
+  double a = 0.0;
+  for (const Tri& t : mesh.triangles()) a += 0.5 * (x[t[1]] - x[t[0]]).cross(x[t[2]] - x[t[0]]).norm();
+  return a;
+}
+
+TEST(CurvedFacesWrinkles, NoneWithoutCompression) {
+  auto coarse = grid(9);
+  CurvedFaces plain(*coarse, 2), wr(*coarse, 2);
+  wr.set_wrinkles(wrinkles());
+  const Mat3 R = Eigen::AngleAxisd(0.4, Vec3(0, 1, 1).normalized()).toRotationMatrix();
+  // At rest, rigidly rotated, stretched 5 % along the weft and 2 % along the warp: nothing is compressed.
+  for (int c = 0; c < 3; ++c) {
+    Vec3s x = coarse->rest_positions();
+    for (Vec3& p : x) {
+      if (c >= 1) p = R * p;
+      if (c == 2) p = Vec3(1.05 * p.x(), p.y(), 1.02 * p.z());
+    }
+    Vec3s a, b;
+    plain.evaluate(x, a);
+    wr.evaluate(x, b);
+    double off = 0.0, hmax = 0.0;
+    for (size_t i = 0; i < a.size(); ++i) off = std::max(off, (a[i] - b[i]).norm());
+    for (double h : wr.wrinkle_heights()) hmax = std::max(hmax, std::abs(h));
+    // Exactly none at rest and stretched; a rotation leaves round-off in the stretches (1e-16), which the
+    // square-root amplitude law turns into about 1e-9 m.
+    EXPECT_LE(off, c == 1 ? 1e-8 : 0.0) << c;
+    EXPECT_LE(hmax, c == 1 ? 1e-8 : 0.0) << c;
+  }
+  EXPECT_THROW(wr.set_wrinkles(wrinkles(0.01, 0.0)), Error);
+  EXPECT_THROW(wr.set_wrinkles(wrinkles(-0.01, 0.1)), Error);
+}
+
+TEST(CurvedFacesWrinkles, CompressionMakesWrinklesAcrossItsAxisThatKeepTheArea) {
+  auto coarse = grid(9);
+  CurvedFaces cf(*coarse, 3);
+  cf.set_wrinkles(wrinkles());
+  const auto& fine = *cf.fine_mesh();
+  const double lambda = 0.125;
+  for (int axis : {0, 2}) {  // compress 10 % along x (weft, u) or along z (warp, v)
+    Vec3s x = coarse->rest_positions();
+    for (Vec3& p : x) p[axis] *= 0.9;
+    Vec3s out, flat;
+    cf.evaluate(x, out);
+    CurvedFaces plain(*coarse, 3);
+    plain.evaluate(x, flat);
+    // Amplitude from the arc-length rule, A = (λ/π) √(q / (1 - q)) with q = 0.1.
+    const double expected = lambda / 3.14159265358979 * std::sqrt(0.1 / 0.9);
+    double hmax = 0.0, spread_along = 0.0, worst_normal = 0.0;
+    // Crests perpendicular to the compression axis: the height depends only on the rest coordinate along it.
+    std::map<long, std::pair<double, double>> by_line;  // rest coordinate along the axis -> min, max height
+    for (int i = 0; i < fine.num_vertices(); ++i) {
+      const double h = cf.wrinkle_heights()[i];
+      hmax = std::max(hmax, std::abs(h));
+      const long key = std::lround(fine.rest_positions()[i][axis] * 1024.0);
+      auto it = by_line.find(key);
+      if (it == by_line.end()) by_line[key] = {h, h};
+      else it->second = {std::min(it->second.first, h), std::max(it->second.second, h)};
+      // The displacement is along the normal (±y here).
+      worst_normal = std::max(worst_normal, std::abs((out[i] - flat[i]).norm() - std::abs(h)) + std::abs(std::abs(out[i].y() - flat[i].y()) - std::abs(h)));
+    }
+    for (const auto& [k, mm] : by_line) spread_along = std::max(spread_along, mm.second - mm.first);
+    const double a_rest = fine_area(fine, fine.rest_positions()), a_flat = fine_area(fine, flat), a_wr = fine_area(fine, out);
+    std::printf("wrinkles, 10%% compression along %c: max height %.4g m (rule %.4g m), height spread along the crests %.2g m; "
+                "area rest %.4f, compressed flat %.4f, with wrinkles %.4f m²\n",
+                axis == 0 ? 'x' : 'z', hmax, expected, spread_along, a_rest, a_flat, a_wr);
+    EXPECT_NEAR(hmax, expected, 0.02 * expected);
+    EXPECT_LT(spread_along, 1e-9);
+    EXPECT_LT(worst_normal, 1e-12);
+    EXPECT_LT(std::abs(a_wr - a_rest), 0.35 * std::abs(a_flat - a_rest));  // area roughly kept
+  }
+  // The amplitude cap.
+  cf.set_wrinkles(wrinkles(0.002));
+  Vec3s x = coarse->rest_positions(), out;
+  for (Vec3& p : x) p.x() *= 0.9;
+  cf.evaluate(x, out);
+  double hmax = 0.0;
+  for (double h : cf.wrinkle_heights()) hmax = std::max(hmax, std::abs(h));
+  EXPECT_NEAR(hmax, 0.002, 1e-9);
+}
+
+// A smooth, locally varying deformation: compressed in a bump, bent, sheared (s: 0..1 ramps it in).
+Vec3s squeezed(const ClothMesh& m, double s) {
+  Vec3s x = m.rest_positions();
+  for (Vec3& p : x) {
+    const double u = p.x(), v = p.z();
+    const double squeeze = 0.15 * s * std::exp(-8.0 * (u * u + v * v));
+    p = Vec3(u * (1.0 - squeeze) + 0.05 * s * v * v, 1.0 + 0.2 * s * u * u + 0.05 * s * std::sin(3 * v), v * (1.0 - 0.5 * squeeze));
+  }
+  return x;
+}
+
+TEST(CurvedFacesWrinkles, ContinuousAcrossSharedCoarseEdges) {
+  auto coarse = grid(9);
+  CurvedFaces cf(*coarse, 2);
+  cf.set_wrinkles(wrinkles(0.05, 0.1));
+  Vec3s out;
+  cf.evaluate(squeezed(*coarse, 1.0), out);
+  double hmax = 0.0;
+  for (double h : cf.wrinkle_heights()) hmax = std::max(hmax, std::abs(h));
+  ASSERT_GT(hmax, 1e-3);  // there are wrinkles to compare
+  // Every interior coarse edge: points on it evaluated from both triangles agree.
+  std::map<std::pair<int, int>, std::vector<std::pair<int, int>>> edge_tris;  // edge -> (triangle, corner of its first vertex)
+  const auto& tris = coarse->triangles();
+  for (int t = 0; t < static_cast<int>(tris.size()); ++t)
+    for (int k = 0; k < 3; ++k) edge_tris[std::minmax(tris[t][k], tris[t][(k + 1) % 3])].push_back({t, k});
+  int compared = 0;
+  double worst = 0.0;
+  for (const auto& [e, ts] : edge_tris) {
+    if (ts.size() != 2) continue;
+    for (double f : {0.1, 0.37, 0.5, 0.8}) {
+      double h[2];
+      for (int side = 0; side < 2; ++side) {
+        const auto [t, k] = ts[side];
+        Vec3 bary = Vec3::Zero();
+        // weight of edge vertex e.first = 1 - f, of e.second = f
+        for (int c = 0; c < 3; ++c) {
+          if (tris[t][c] == e.first) bary[c] = 1.0 - f;
+          if (tris[t][c] == e.second) bary[c] = f;
+        }
+        (void)k;
+        h[side] = cf.wrinkle_height(t, bary);
+      }
+      worst = std::max(worst, std::abs(h[0] - h[1]));
+      ++compared;
+    }
+  }
+  std::printf("wrinkles across %d shared-edge points: largest difference between the two sides %.3g m (max height %.3g m)\n",
+              compared, worst, hmax);
+  EXPECT_GT(compared, 100);
+  EXPECT_LT(worst, 1e-12);
+}
+
+TEST(CurvedFacesWrinkles, BoundedFrameToFrameChangeForSmoothMotion) {
+  // The deformation ramps in over 200 frames: the fine surface (wrinkles included) must move by a bounded
+  // multiple of the coarse motion per frame, never jump (popping would be a jump of the order of the
+  // amplitude in one frame).
+  auto coarse = grid(9);
+  CurvedFaces cf(*coarse, 2);
+  cf.set_wrinkles(wrinkles(0.05, 0.1));
+  Vec3s prev, out;
+  Vec3s prev_coarse = coarse->rest_positions();
+  cf.evaluate(prev_coarse, prev);
+  const int frames = 200;
+  double worst_fine = 0.0, worst_coarse = 0.0, hmax = 0.0, worst_dh = 0.0;
+  std::vector<double> prev_h(cf.fine_mesh()->num_vertices(), 0.0);
+  for (int f = 1; f <= frames; ++f) {
+    const double s = 0.5 - 0.5 * std::cos(3.14159265358979 * f / frames);  // smooth ramp 0 -> 1
+    const Vec3s x = squeezed(*coarse, s);
+    cf.evaluate(x, out);
+    double dc = 0.0, df = 0.0;
+    for (size_t i = 0; i < x.size(); ++i) dc = std::max(dc, (x[i] - prev_coarse[i]).norm());
+    for (size_t i = 0; i < out.size(); ++i) df = std::max(df, (out[i] - prev[i]).norm());
+    worst_fine = std::max(worst_fine, df);
+    worst_coarse = std::max(worst_coarse, dc);
+    for (size_t i = 0; i < prev_h.size(); ++i) worst_dh = std::max(worst_dh, std::abs(cf.wrinkle_heights()[i] - prev_h[i]));
+    prev_h = cf.wrinkle_heights();
+    prev = out;
+    prev_coarse = x;
+  }
+  for (double h : cf.wrinkle_heights()) hmax = std::max(hmax, std::abs(h));
+  std::printf("wrinkles over a smooth %d-frame ramp: largest per-frame move fine %.3g m, coarse %.3g m, of a wrinkle "
+              "height %.3g m; final max height %.3g m\n",
+              frames, worst_fine, worst_coarse, worst_dh, hmax);
+  ASSERT_GT(hmax, 2e-3);
+  EXPECT_LT(worst_fine, 0.2 * hmax);
+  EXPECT_LT(worst_fine, 5.0 * worst_coarse);
+  EXPECT_LT(worst_dh, 0.1 * hmax);  // the wrinkles grow over many frames
 }
 
 }  // namespace

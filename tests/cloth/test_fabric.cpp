@@ -2,6 +2,8 @@
 // static solver agreeing with a settled dynamic solver.
 #include <gtest/gtest.h>
 
+#include <cstdio>
+
 #include "loom/cloth/Error.h"
 #include "loom/cloth/FabricTests.h"
 #include "loom/cloth/Simulation.h"
@@ -126,7 +128,49 @@ TEST(StaticSolver, AgreesWithASettledDynamicSolver) {
   o.solver = "implicit_euler";
   o.settle_frames = 600;
   const FabricTestResult d = run_fabric_test(o);
+  EXPECT_TRUE(s.settled);
+  EXPECT_TRUE(d.settled) << d.settle_frames << " frames";
   EXPECT_NEAR(s.measured, d.measured, 0.05) << "static " << s.measured << "°, dynamic " << d.measured << "°";
+}
+
+TEST(StaticSolver, CantileverAndCatenaryAgreeWithSettledDynamicsAndTheory) {
+  // Issue 10: the static solver's cantilever (dihedral bending, l/c = 2) and catenary (springs, span 0.8 m)
+  // agree with damped implicit Euler (and BDF2, cantilever) settled until every vertex is slower than 1e-6 m/s, and both with
+  // theory within the fabric-test tolerances (cantilever 1.5°, catenary sag 1 %). Times: README (the
+  // full-size ratio is measured by `loom fabric-test ... --solver`, not asserted here).
+  for (const char* test : {"cantilever", "catenary"}) {
+    const bool cantilever = std::string(test) == "cantilever";
+    FabricTestOptions o = options(test, cantilever ? "baraff_witkin" : "springs");
+    o.resolution = cantilever ? 9 : 21;
+    o.overhang_ratio = 2.0;
+    o.span = 0.8;
+    const FabricTestResult s = run_fabric_test(o);
+    EXPECT_TRUE(s.settled) << test;
+    for (const char* dynamic : {"implicit_euler", "bdf2"}) {
+      // BDF2 on the springs catenary keeps a slow residual motion above 1e-6 m/s for 3000 frames (measured:
+      // sag 0.26581 m against 0.265724 m static): only implicit Euler settles it.
+      if (!cantilever && std::string(dynamic) == "bdf2") continue;
+      o.solver = dynamic;
+      o.settle_frames = 3000;
+      o.settle_speed = 1e-6;
+      const FabricTestResult d = run_fabric_test(o);
+      std::printf("%s: static %.6g, %s %.6g (%d frames to < 1e-6 m/s), theory %.6g %s; CPU %.3f s vs %.3f s\n", test,
+                  s.measured, dynamic, d.measured, d.settle_frames, s.theory, s.unit.c_str(), s.cpu_seconds, d.cpu_seconds);
+      EXPECT_TRUE(d.settled) << test << " " << dynamic;
+      if (cantilever) {
+        EXPECT_NEAR(s.measured, d.measured, 0.05) << dynamic;  // degrees
+        EXPECT_NEAR(d.measured, d.theory, 1.5) << dynamic;
+      } else {
+        EXPECT_NEAR(s.measured, d.measured, 1e-3 * s.theory) << dynamic;  // m
+        EXPECT_NEAR(d.measured / d.theory, 1.0, 0.01) << dynamic;
+      }
+    }
+    if (cantilever) {
+      EXPECT_NEAR(s.measured, s.theory, 1.5);
+    } else {
+      EXPECT_NEAR(s.measured / s.theory, 1.0, 0.01);
+    }
+  }
 }
 
 TEST(StaticSolver, RejectsNonConservativeTermsAtSetUp) {

@@ -65,6 +65,25 @@ TEST(Issue10Scenes, DetailErrorsNameThePath) {
   EXPECT_NE(m.find("levles"), std::string::npos) << m;
 }
 
+TEST(Issue10Scenes, WrinklesAreParsedAndCheckedByPath) {
+  const std::string solver = R"({"method": "implicit_euler"})";
+  const Scene s = load_scene(write_scene(
+      "wrinkles.json", scene_text(solver, R"(, "detail": {"levels": 2, "wrinkles": {"amplitude": 0.004, "wavelength": 0.03}})", "")));
+  ASSERT_EQ(s.detail.size(), 1u);
+  EXPECT_TRUE(s.detail.at(0).wrinkles.enabled);
+  EXPECT_DOUBLE_EQ(s.detail.at(0).wrinkles.amplitude, 0.004);
+  EXPECT_DOUBLE_EQ(s.detail.at(0).wrinkles.wavelength, 0.03);
+  EXPECT_FALSE(load_scene(write_scene("nowrinkles.json", scene_text(solver, R"(, "detail": {"levels": 2})", "")))
+                   .detail.at(0)
+                   .wrinkles.enabled);
+  std::string m = error_of("wl.json", scene_text(solver, R"(, "detail": {"wrinkles": {"wavelength": 0}})", ""));
+  EXPECT_NE(m.find("cloths[0].detail.wrinkles.wavelength"), std::string::npos) << m;
+  m = error_of("amp.json", scene_text(solver, R"(, "detail": {"wrinkles": {"amplitude": -1}})", ""));
+  EXPECT_NE(m.find("cloths[0].detail.wrinkles.amplitude"), std::string::npos) << m;
+  m = error_of("wkey.json", scene_text(solver, R"(, "detail": {"wrinkles": {"height": 1}})", ""));
+  EXPECT_NE(m.find("height"), std::string::npos) << m;
+}
+
 TEST(Issue10Scenes, WeilRefusesWhatNeedsMotionOrCollision) {
   const std::string weil = R"({"method": "weil"})";
   const double one_frame = 1.0 / 60.0;

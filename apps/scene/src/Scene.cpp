@@ -250,6 +250,22 @@ std::vector<cloth::PinSpec> parse_pins(const JsonReader& r, const cloth::ClothMe
 
 }  // namespace
 
+cloth::DetailSettings parse_detail(const JsonReader& d) {
+  cloth::DetailSettings ds;
+  ds.method = d.string("method", "curved_faces", {"curved_faces"});
+  ds.levels = d.integer("levels", 2, 0);
+  if (ds.levels > 5) d.fail("levels", "must be <= 5 (each level multiplies the triangles by 4)");
+  if (d.has("wrinkles")) {  // geometric wrinkles from the coarse compression (CurvedFaces.h)
+    const JsonReader w = d.object("wrinkles");
+    ds.wrinkles.enabled = true;
+    ds.wrinkles.amplitude = w.number("amplitude", ds.wrinkles.amplitude, 0.0);
+    ds.wrinkles.wavelength = w.number("wavelength", ds.wrinkles.wavelength, 0.0, true);
+    w.finish();
+  }
+  d.finish();
+  return ds;
+}
+
 Scene parse_scene(const nlohmann::json& root, const std::string& file) {
   const JsonReader r(root, "", file);
   Scene scene;
@@ -343,15 +359,8 @@ Scene parse_scene(const nlohmann::json& root, const std::string& file) {
     if (c.has("mass")) cs.material.areal_density = c.number("mass", std::nullopt, 0.0, true) / cs.mesh->total_area();
     cs.initial_velocity = c.vec3("velocity", Vec3::Zero());
     cs.pins = parse_pins(c, *cs.mesh);
-    if (c.has("detail")) {  // issue 10: hybrid detail (CurvedFaces.h)
-      const JsonReader d = c.object("detail");
-      cloth::DetailSettings ds;
-      ds.method = d.string("method", "curved_faces", {"curved_faces"});
-      ds.levels = d.integer("levels", 2, 0);
-      if (ds.levels > 5) d.fail("levels", "must be <= 5 (each level multiplies the triangles by 4)");
-      d.finish();
-      scene.detail[static_cast<int>(scene.setup.cloths.size())] = ds;
-    }
+    if (c.has("detail"))  // issue 10: hybrid detail (CurvedFaces.h)
+      scene.detail[static_cast<int>(scene.setup.cloths.size())] = parse_detail(c.object("detail"));
     c.finish();
     scene.setup.cloths.push_back(std::move(cs));
   }

@@ -5,6 +5,8 @@
 
 #include "loom/cloth/Error.h"
 #include "loom/cloth/Model.h"
+#include "loom/scene/JsonReader.h"
+#include "loom/scene/Scene.h"
 
 #ifdef LOOM_HAVE_CHARACTERS
 #include "loom/characters/Character.h"
@@ -97,6 +99,8 @@ void parse_character(const JsonReader& root, Scene& scene) {
       const ch::Garment garment = ch::make_garment(spec, character->motion, character->rig, file, g.path(), layers);
       layers.insert(layers.end(), garment.mesh->rest_positions().begin(), garment.mesh->rest_positions().end());
       if (g.has("mass")) material.areal_density = g.number("mass", std::nullopt, 0.0, true) / garment.mesh->total_area();
+      if (g.has("detail"))  // issue 10: the garment shown as its curved-face surface
+        scene.detail[static_cast<int>(scene.setup.cloths.size())] = parse_detail(g.object("detail"));
       g.finish();
       character->add_garment(scene.setup, garment, name, material, model);
     }

@@ -14,6 +14,24 @@
 // surface moves continuously with them (no popping). The fine topology is `levels` 1:4 subdivisions of every
 // coarse triangle (4^levels fine triangles each); fine vertices sit at fixed barycentric coordinates of one
 // coarse triangle.
+//
+// Optional geometric wrinkles (in the spirit of Oshita & Makinouchi's wrinkles from shortened edges and of
+// wrinkle maps, Hadap et al. 1999): the fine surface is displaced along the interpolated vertex normal by
+//   h(X) = A(q1) Σ_k w_k cos(2π d_k·m(X) / λ),   d_k = (cos kπ/4, sin kπ/4), k = 0..3,
+// where m is a material coordinate (m, warp/weft) unfolded once from the coarse rest mesh, Q the 2x2
+// compression tensor Σ_i max(0, 1 - s_i) e_i e_iᵀ of each coarse triangle (s_i, e_i: principal stretches and
+// directions of FᵀF in its warp/weft frame) averaged per vertex by area and interpolated barycentrically,
+// q1 ≥ q2 its eigenvalues, θ the angle of its principal direction (mod π); the weights share θ linearly in
+// angle between its two nearest d_k (hat functions of width π/4), blended with equal weights 1/4 by the
+// isotropy: w_k = a hat_k(θ) + (1 - a)/4, a = (q1 - q2)/q1 (θ is undefined only where a = 0). A wave along
+// d_k has its crests perpendicular to d_k, so uniaxial compression along a d_k gives straight crests
+// perpendicular to the compression axis. The amplitude keeps the arc length of a compressed line: a sine of amplitude A and
+// wavelength λ is longer than its chord by about (πA/λ)², so A(q) = (λ/π) √(q / (1 - q)), capped at
+// `amplitude`. Everything is a continuous function of the coarse positions and of per-vertex values
+// (continuous across coarse triangles and in time), the phases are fixed in material space (the wrinkles
+// do not swim), and there are none where nothing is compressed. Wavelengths shorter than about four fine
+// edges are not resolved by the fine mesh (aliasing). Seams of the unfolding (closed tubes) distort the
+// phase in the triangles where it closes, without a jump.
 #include <memory>
 #include <string>
 #include <vector>
@@ -22,10 +40,17 @@
 
 namespace loom::cloth {
 
+struct WrinkleSettings {
+  bool enabled = false;
+  double amplitude = 0.01;   // m, the largest wrinkle amplitude
+  double wavelength = 0.05;  // m
+};
+
 // `cloths[i].detail` of a scene.
 struct DetailSettings {
   std::string method = "curved_faces";  // the only method
   int levels = 2;                       // 1:4 subdivisions of each coarse triangle (0-5)
+  WrinkleSettings wrinkles;             // "wrinkles": {"amplitude", "wavelength"}; off without the key
 };
 
 class CurvedFaces {
@@ -34,6 +59,16 @@ class CurvedFaces {
   CurvedFaces(const ClothMesh& coarse, int levels, const std::string& file = "", const std::string& where = "detail");
 
   int levels() const { return levels_; }
+  // Turns the geometric wrinkles on (enabled) or off. Throws loom::Error for a non-positive wavelength or a
+  // negative amplitude.
+  void set_wrinkles(const WrinkleSettings& w, const std::string& file = "", const std::string& where = "detail");
+  // The wrinkle height (m, along the normal) of every fine vertex at the last evaluate() (zeros without
+  // wrinkles).
+  const std::vector<double>& wrinkle_heights() const { return heights_; }
+  // Wrinkle height of fine vertex i computed from coarse triangle `tri` at barycentric weights `bary` (for
+  // tests: the two triangles on a shared edge give the same value there). Uses the last evaluate()'s
+  // per-vertex compression.
+  double wrinkle_height(int tri, const Vec3& bary) const;
   // The fine mesh: topology, rest shape (the curved surface of the coarse rest positions) and material
   // frames (the coarse triangle's warp/weft).
   const std::shared_ptr<const ClothMesh>& fine_mesh() const { return fine_; }
@@ -48,6 +83,8 @@ class CurvedFaces {
     Vec3 bary{};     // weights of its corners
   };
   void vertex_normals(const Vec3s& x, Vec3s& normals) const;
+  void vertex_compression(const Vec3s& x) const;  // fills compression_
+
 
   std::vector<Tri> coarse_tris_;
   int coarse_n_ = 0;
@@ -56,6 +93,13 @@ class CurvedFaces {
   std::vector<int> coarse_to_fine_;
   std::shared_ptr<const ClothMesh> fine_;
   mutable Vec3s normals_;  // scratch
+  // Wrinkles.
+  WrinkleSettings wrinkles_;
+  std::vector<Vec2> material_;                   // per coarse vertex, m (unfolded warp/weft coordinates)
+  std::vector<std::array<Vec2, 3>> tri_uv_;      // per coarse triangle: its rest_uv (m)
+  std::vector<double> vertex_area_;              // per coarse vertex: sum of its triangles' rest areas (m²)
+  mutable std::vector<Eigen::Matrix2d> compression_;      // per coarse vertex, 1 (2x2 tensor in warp/weft)
+  mutable std::vector<double> heights_;          // per fine vertex, m
 };
 
 }  // namespace loom::cloth

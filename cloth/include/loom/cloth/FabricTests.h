@@ -32,22 +32,29 @@ struct FabricTestOptions {
   double overhang_ratio = 2.0;     // cantilever: l / c
   double span = 0.8;               // catenary: d (m), with S = 1 m
   int threads = 1;
-  // "static" (energy minimisation, the default) or any dynamic solver, which then runs `settle_frames`
-  // frames of `settle_dt` seconds with damping so the result can be compared with the static one.
+  // "static" (energy minimisation, the default) or any dynamic solver, which then runs frames of
+  // `settle_dt` seconds with damping until it has settled — the largest vertex speed over a frame below
+  // `settle_speed` — or `settle_frames` frames have passed, so the result can be compared with the static one.
   std::string solver = "static";
   int settle_frames = 400;
-  double settle_dt = 0.01;  // s
+  double settle_dt = 0.01;      // s
+  double settle_speed = 1e-6;   // m/s, dynamic solvers: settled when every vertex moves slower than this
 };
 
 struct FabricTestResult {
-  std::string test, material, model;
+  std::string test, material, model, solver;
   int resolution = 0;
   std::string quantity, unit;       // what measured/theory are, e.g. "tip chord angle", "deg"
   double measured = 0.0, theory = 0.0, error = 0.0;  // error = measured - theory (same unit)
   std::vector<std::pair<std::string, double>> fields;  // the test's own numbers
   // Curves for the report's plot: simulated and theoretical (x, y) points.
   std::vector<std::pair<double, double>> curve, theory_curve;
-  double seconds = 0.0;            // wall time of the simulation
+  double seconds = 0.0;            // s, wall time of the simulation (set-up and solve/settle; not the theory)
+  double cpu_seconds = 0.0;        // s, process CPU time of the same (the comparable figure on a busy machine)
+  // Settling (every test that settles): frames run, and for dynamic solvers whether the speed fell below
+  // settle_speed before settle_frames (the static solver: 1 when its Newton residual met its tolerance).
+  int settle_frames = 0;
+  bool settled = false;
 };
 
 std::vector<std::string> fabric_test_names();

@@ -54,6 +54,10 @@ struct Scene {
   std::map<int, cloth::DetailSettings> detail;
 };
 
+class JsonReader;
+// `detail` of a cloth or of a character garment (issue 10): {"method", "levels", "wrinkles"}.
+cloth::DetailSettings parse_detail(const JsonReader& d);
+
 // Reads a JSON file; syntax errors name the file, line and column.
 nlohmann::json read_json_file(const std::string& path);
 // Applies one `--set path=value` override (path: `solver.method`, `cloths.0.material.preset`, or
