@@ -290,6 +290,7 @@ Garment make_garment(const GarmentSpec& spec, const Motion& motion, const Capsul
       if (own) torso.push_back(c);
     }
     const int trial = 96;
+    const auto samples = skirt ? motion_samples(motion) : std::vector<std::vector<Transform>>{};
     std::vector<double> scale(nv, 1.0);
     for (int j = 0; j < nv; ++j) {
       const double s = static_cast<double>(j) / (nv - 1);
@@ -307,6 +308,23 @@ Garment make_garment(const GarmentSpec& spec, const Motion& motion, const Capsul
         double last = 0.0;  // m, farthest point of the ray still within clearance of the body
         for (double r = 0.0; r < 1.5; r += 0.002)
           if (clearance_of(axis + r * dir, avoid) < gap) last = r;
+        // The pinned ring also clears the torso over the whole motion (a spine bending forward over it).
+        while (ring && last < 1.5) {
+          const Vec3 local = pose[root].inverse() * (axis + (last + 0.002) * dir);
+          bool clear = true;
+          for (size_t k = 0; k < samples.size() && clear; ++k)
+            for (const Segment& c : torso)
+              if (c.bone >= 0) {
+                const Bone& bone = rig.bones()[c.bone];
+                const std::vector<Transform>& p = samples[k];
+                if (segment_distance(p[root] * local, p[bone.joint].translation(), p[bone.child].translation()) - bone.radius < gap) {
+                  clear = false;
+                  break;
+                }
+              }
+          if (clear) break;
+          last += 0.002;
+        }
         need = std::max(need, (last + 0.002) / base);
       }
       scale[j] = j == 0 ? need : std::max(need, scale[j - 1]);
