@@ -105,6 +105,15 @@ TEST(CharacterClips, SkirtOnBoxing) {
               0.5);
 }
 
+// Boxing_Toes around 24 s (high knees and punches to the body): not met yet. Measured (loom_bench_character_clips
+// --start 23.8 --seconds 1.5): max strain 1.06, 12.7 m/s, the waist ring 8.5 mm inside a capsule at 24.04 s; the
+// whole clip reaches strain 2.4, 28.8 m/s and a free vertex 4.2 cm inside a capsule (28.56 s).
+TEST(CharacterClips, DISABLED_SkirtOnBoxingHighKnees) {
+  expect_sane(run_scene("character_skirt", 1.5, {"character.bvh=../tests/data/mocap/Boxing_Toes.bvh", "character.start=23.8",
+                                                 "character.garments.0.resolution=0.08"}),
+              0.5);
+}
+
 // Skirt + cape as layers with self- and cloth-cloth collision: the exact census after every pipeline step.
 TEST(CharacterClips, LayersOnJumpingCmu_01_01_CensusEveryStep) {
   const RunFigures f = run_scene("character_layers", 1.5, {"character.start=13.0", "character.garments.0.resolution=0.08",
