@@ -117,7 +117,8 @@ TEST(CapsuleRig, RadiiFittedToTheMotionKeepArmsOffTheBody) {
     const CapsuleRig table = rig;
     EXPECT_LT(closest_arm_body_gap(m, table, false), 0.0) << clip;  // the table's capsules overlap somewhere
     EXPECT_GT(rig.fit_to_motion(m, 0.02), 0) << clip;
-    EXPECT_GT(closest_arm_body_gap(m, rig, true), 0.02 - 1e-6) << clip;  // 2 cm, where the floor allowed it
+    // 2 cm where the floor allowed it (0.2 mm: the fit samples the clip at other instants than this check)
+    EXPECT_GT(closest_arm_body_gap(m, rig, true), 0.02 - 2e-4) << clip;
     for (size_t k = 0; k < rig.bones().size(); ++k) {
       EXPECT_LE(rig.bones()[k].radius, table.bones()[k].radius) << clip;
       EXPECT_GE(rig.bones()[k].radius, 0.5 * table.bones()[k].radius - 1e-12) << clip;
