@@ -122,7 +122,9 @@ TEST(CapsuleRig, RadiiFittedToTheMotionKeepArmsOffTheBody) {
     for (size_t k = 0; k < rig.bones().size(); ++k) {
       EXPECT_LE(rig.bones()[k].radius, table.bones()[k].radius) << clip;
       EXPECT_GE(rig.bones()[k].radius, 0.5 * table.bones()[k].radius - 1e-12) << clip;
-      if (rig.bones()[k].canonical == "LeftForeArm") EXPECT_EQ(rig.bones()[k].radius, 0.05) << clip;  // override kept
+      if (rig.bones()[k].canonical == "LeftForeArm") {
+        EXPECT_EQ(rig.bones()[k].radius, 0.05) << clip;  // override kept
+      }
     }
   }
 }
