@@ -129,7 +129,9 @@ void BodyCollisionStage::run_cloth(cloth::Cloth& cloth, int cloth_index, double 
             // surface is removed below): a vertex that springs keep pulling along a curved surface is caught by
             // the swept test at every step and hardly moves, so keeping the velocity it had let it gather
             // speed without bound (40 m/s on a forearm moving at 2 m/s).
-            v = (x - x0) / h;
+            const Vec3 v_did = (x - x0) / h;
+            out.push_back({k, m * (v_did - v), x});  // its reaction, as every velocity change's
+            v = v_did;
             ++cc.ccd_hits;
           }
           Vec3 nrm;
