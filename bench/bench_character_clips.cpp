@@ -68,8 +68,10 @@ int main(int argc, char** argv) {
               resolution.c_str(), threads, census_every);
   std::printf("# depth: deepest free vertex inside a capsule (m; the tolerance is the cloth thickness 0.001 m);"
               " att_depth: the same for attached vertices\n");
-  std::printf("%-17s %-16s %7s %6s %5s %7s %10s %10s %10s %10s %7s %9s %6s %10s\n", "scene", "clip", "seconds", "frames",
-              "nan", "verts", "max_strain", "max_speed", "depth", "track", "census", "ms/frame", "rollb", "att_depth");
+  std::printf("# t_*: clip time (s) of the worst frame/step of strain, speed, free and attached depth\n");
+  std::printf("%-17s %-16s %7s %6s %5s %7s %10s %10s %10s %10s %7s %9s %6s %10s %8s %8s %8s %8s\n", "scene", "clip", "seconds",
+              "frames", "nan", "verts", "max_strain", "max_speed", "depth", "track", "census", "ms/frame", "rollb", "att_depth",
+              "t_strain", "t_speed", "t_depth", "t_att");
   int failures = 0;
   for (const std::string& clip : clips) {
     const std::string path = find_clip(clip);
@@ -101,7 +103,7 @@ int main(int argc, char** argv) {
         sim->add_stage(std::move(probe));
         int vertices = 0;
         for (const auto& c : sim->cloths()) vertices += c->state().size();
-        double max_strain = 0.0;
+        double max_strain = 0.0, strain_time = 0.0;
         bool finite = true;
         const auto t0 = std::chrono::steady_clock::now();
         int frames = 0;
@@ -109,15 +111,16 @@ int main(int argc, char** argv) {
           const auto s = sim->step_frame();
           finite = finite && s.finite;
           if (!s.finite) break;
-          max_strain = std::max(max_strain, s.max_strain);
+          if (s.max_strain > max_strain) max_strain = s.max_strain, strain_time = (frames + 1) * sc.setup.frame_dt;
         }
         const double ms = std::chrono::duration<double, std::milli>(std::chrono::steady_clock::now() - t0).count() / std::max(frames, 1);
         const auto& f = p->figures();
         const bool nan = !finite || !f.finite;
-        std::printf("%-17s %-16s %7.2f %6d %5s %7d %10.4f %10.3f %10.5f %10.2e %7s %9.2f %6ld %10.5f\n", name.c_str(), clip.c_str(),
-                    frames * sc.setup.frame_dt, frames, nan ? "yes" : "no", vertices, max_strain, f.max_speed, f.max_depth,
-                    f.max_track, census_every > 0 ? std::to_string(f.max_intersections).c_str() : "-", ms, sim->rollbacks(),
-                    f.max_attached_depth);
+        std::printf("%-17s %-16s %7.2f %6d %5s %7d %10.4f %10.3f %10.5f %10.2e %7s %9.2f %6ld %10.5f %8.2f %8.2f %8.2f %8.2f\n",
+                    name.c_str(), clip.c_str(), frames * sc.setup.frame_dt, frames, nan ? "yes" : "no", vertices, max_strain,
+                    f.max_speed, f.max_depth, f.max_track, census_every > 0 ? std::to_string(f.max_intersections).c_str() : "-", ms,
+                    sim->rollbacks(), f.max_attached_depth, start + strain_time, start + f.max_speed_time,
+                    start + f.max_depth_time, start + f.max_attached_depth_time);
         std::fflush(stdout);
         failures += nan || frames < sc.frames;
       } catch (const loom::Error& e) {

@@ -1,9 +1,12 @@
 #include "loom/characters/CapsuleRig.h"
 
 #include <algorithm>
+#include <cmath>
+#include <limits>
 #include <set>
 
 #include "loom/cloth/Error.h"
+#include "loom/collision/Distance.h"
 
 namespace loom::characters {
 
@@ -115,12 +118,15 @@ CapsuleRig CapsuleRig::build(const Motion& motion, const std::map<std::string, d
     };
     if (const double* r = pick(b.name)) {
       b.radius = *r;
+      b.overridden = true;
     } else if (const double* r2 = pick(b.canonical)) {
       b.radius = *r2;
+      b.overridden = true;
     } else {
       auto it = default_bone_radii().find(b.canonical);
       b.radius = size * (it != default_bone_radii().end() ? it->second : default_bone_radii().at("default"));
     }
+    b.table_radius = b.radius;
     if (b.radius > 0.0) rig.bones_.push_back(b);
   }
   for (const auto& [name, r] : radii) {
@@ -163,6 +169,100 @@ std::vector<collision::Collider> CapsuleRig::make_colliders(const std::vector<Tr
     out.push_back(std::move(c));
   }
   return out;
+}
+
+namespace {
+
+const std::set<std::string> kArm = {"LeftArm", "RightArm", "LeftForeArm", "RightForeArm", "LeftHand",
+                                    "RightHand", "LeftFingerBase", "RightFingerBase"};
+
+// Samples (>= 1) and span (s) of the motion as it is played (clamped, or one loop).
+double played_span(const Motion& motion) {
+  const MotionSettings& ms = motion.settings();
+  return ms.loop ? motion.duration() / ms.speed : std::max(0.0, (motion.duration() - ms.start) / ms.speed);
+}
+
+}  // namespace
+
+int CapsuleRig::keep_clear_of(const Motion& motion, const std::vector<std::pair<int, Vec3>>& points, double gap,
+                              double rate) {
+  if (!(gap >= 0.0) || !(rate > 0.0) || points.empty()) return 0;
+  std::vector<int> arms;
+  for (size_t k = 0; k < bones_.size(); ++k)
+    if (kArm.count(bones_[k].canonical) && !bones_[k].overridden) arms.push_back(static_cast<int>(k));
+  const double span = played_span(motion);
+  const int samples = std::max(1, static_cast<int>(std::ceil(span * rate)));
+  std::vector<double> closest(bones_.size(), std::numeric_limits<double>::infinity());  // m, axis to a point
+  std::vector<Transform> pose;
+  for (int k = 0; k <= samples; ++k) {
+    motion.pose(span * k / samples, pose);
+    for (int b : arms) {
+      const Vec3 a = pose[bones_[b].joint].translation(), d = pose[bones_[b].child].translation() - a;
+      const double l2 = d.squaredNorm();
+      for (const auto& [joint, local] : points) {
+        const Vec3 p = pose[joint] * local;
+        const double s = l2 > 0.0 ? std::clamp((p - a).dot(d) / l2, 0.0, 1.0) : 0.0;
+        closest[b] = std::min(closest[b], (p - a - s * d).norm());
+      }
+    }
+  }
+  int changed = 0;
+  for (int b : arms) {
+    const double want = std::max(0.5 * bones_[b].table_radius, closest[b] - gap);
+    if (want < bones_[b].radius) bones_[b].radius = want, ++changed;
+  }
+  return changed;
+}
+
+int CapsuleRig::fit_to_motion(const Motion& motion, double gap, double rate) {
+  const std::set<std::string>& arm = kArm;
+  static const std::set<std::string> body = {"Hips", "LowerBack", "Spine", "Spine1", "Chest", "LHipJoint", "RHipJoint",
+                                             "LeftUpLeg", "RightUpLeg", "LeftLeg", "RightLeg"};
+  if (!(gap >= 0.0) || !(rate > 0.0)) return 0;
+  std::vector<std::pair<int, int>> pairs;
+  for (size_t a = 0; a < bones_.size(); ++a)
+    for (size_t b = 0; b < bones_.size(); ++b)
+      if (arm.count(bones_[a].canonical) && body.count(bones_[b].canonical)) pairs.emplace_back(int(a), int(b));
+  if (pairs.empty()) return 0;
+  // Closest approach (m) of each pair's axes over the motion as it is played (clamped or one loop).
+  const double span = played_span(motion);
+  const int samples = std::max(1, static_cast<int>(std::ceil(span * rate)));
+  std::vector<double> closest(pairs.size(), std::numeric_limits<double>::infinity());
+  std::vector<Transform> pose;
+  for (int k = 0; k <= samples; ++k) {
+    motion.pose(span * k / samples, pose);
+    for (size_t p = 0; p < pairs.size(); ++p) {
+      const Bone &a = bones_[pairs[p].first], &b = bones_[pairs[p].second];
+      const double d2 = collision::segment_segment_closest(pose[a.joint].translation(), pose[a.child].translation(),
+                                                           pose[b.joint].translation(), pose[b.child].translation())
+                            .distance_squared;
+      closest[p] = std::min(closest[p], std::sqrt(d2));
+    }
+  }
+  std::vector<double> floor(bones_.size());
+  for (size_t k = 0; k < bones_.size(); ++k) floor[k] = std::min(bones_[k].radius, 0.5 * bones_[k].table_radius);
+  std::set<int> changed;
+  // Tightest pairs first, so a bone shrunk for one pair is not shrunk again more than it needs.
+  std::vector<size_t> order(pairs.size());
+  for (size_t p = 0; p < order.size(); ++p) order[p] = p;
+  std::sort(order.begin(), order.end(), [&](size_t x, size_t y) {
+    const Bone &ax = bones_[pairs[x].first], &bx = bones_[pairs[x].second], &ay = bones_[pairs[y].first], &by = bones_[pairs[y].second];
+    return closest[x] - ax.radius - bx.radius < closest[y] - ay.radius - by.radius;
+  });
+  for (size_t p : order) {
+    Bone &a = bones_[pairs[p].first], &b = bones_[pairs[p].second];
+    double excess = a.radius + b.radius + gap - closest[p];  // m, how much the radii must lose
+    if (excess <= 0.0) continue;
+    if (!a.overridden) {
+      const double cut = std::min(excess, a.radius - floor[pairs[p].first]);
+      if (cut > 0.0) a.radius -= cut, excess -= cut, changed.insert(pairs[p].first);
+    }
+    if (excess > 0.0 && !b.overridden) {
+      const double cut = std::min(excess, b.radius - floor[pairs[p].second]);
+      if (cut > 0.0) b.radius -= cut, changed.insert(pairs[p].second);
+    }
+  }
+  return static_cast<int>(changed.size());
 }
 
 int CapsuleRig::find(const std::string& canonical) const {

@@ -34,12 +34,14 @@ void ClipProbe::run(cloth::StageContext& ctx) {
     const cloth::ClothState& s = ctx.cloths[k]->state();
     f_.finite = f_.finite && s.is_finite();
     for (int i = 0; i < s.size(); ++i) {
-      f_.max_speed = std::max(f_.max_speed, s.v[i].norm());
+      const double speed = s.v[i].norm();
+      if (speed > f_.max_speed) f_.max_speed = speed, f_.max_speed_time = ctx.t + ctx.h;
       double depth = 0.0;
       for (const Bone& b : c.rig.bones())
         depth = std::max(depth, b.radius - segment_distance(s.x[i], pose_[b.joint].translation(), pose_[b.child].translation()));
       double& worst = attached_[k][i] ? f_.max_attached_depth : f_.max_depth;
-      worst = std::max(worst, depth);
+      double& when = attached_[k][i] ? f_.max_attached_depth_time : f_.max_depth_time;
+      if (depth > worst) worst = depth, when = ctx.t + ctx.h;
     }
   }
   for (const Attachment& a : c.attachments)
@@ -56,13 +58,14 @@ void ClipProbe::run(cloth::StageContext& ctx) {
 void ClipProbe::save_state(cloth::StateWriter& out) const {
   out.tag("character_probe");
   out.doubles({static_cast<double>(f_.steps), f_.finite ? 1.0 : 0.0, f_.max_speed, f_.max_depth, f_.max_attached_depth,
-               f_.max_track, static_cast<double>(f_.max_intersections), static_cast<double>(f_.census_steps)});
+               f_.max_track, static_cast<double>(f_.max_intersections), static_cast<double>(f_.census_steps),
+               f_.max_speed_time, f_.max_depth_time, f_.max_attached_depth_time});
 }
 
 void ClipProbe::load_state(cloth::StateReader& in) {
   in.tag("character_probe");
   const std::vector<double> d = in.doubles();
-  if (d.size() != 8) return;
+  if (d.size() != 11) return;
   f_.steps = static_cast<long>(d[0]);
   f_.finite = d[1] != 0.0;
   f_.max_speed = d[2];
@@ -71,6 +74,9 @@ void ClipProbe::load_state(cloth::StateReader& in) {
   f_.max_track = d[5];
   f_.max_intersections = static_cast<long>(d[6]);
   f_.census_steps = static_cast<long>(d[7]);
+  f_.max_speed_time = d[8];
+  f_.max_depth_time = d[9];
+  f_.max_attached_depth_time = d[10];
 }
 
 }  // namespace loom::characters

@@ -14,6 +14,7 @@ namespace loom::characters {
 namespace {
 
 constexpr double kPi = 3.14159265358979323846;
+constexpr double kRingClearance = 0.008;  // m, a skirt's attached waist ring to the pelvis capsules
 
 struct Segment {
   Vec3 a, b;
@@ -210,6 +211,11 @@ Garment make_garment(const GarmentSpec& spec, const Motion& motion, const Capsul
     // clear every capsule at every pose of the motion (an attached vertex cannot be pushed out by contacts:
     // inside a lifted arm it would squeeze the free cloth next to it, as a thigh does to a skirt's waist).
     const auto samples = motion_samples(motion);
+    // The whole top row hangs from one frame, the chest (the neck's parent joint): attached to the nearest of
+    // the neck and clavicle bones, neighbouring pins on different bones pulled the edge between them to
+    // +58 % when the shoulders moved against the neck (the default scene's max strain).
+    const int chest = motion.joints()[need("Neck")].parent;
+    if (chest < 0) throw Error(source, where, "the neck has no parent joint in " + motion.source());
     double static_depth = -1.0;
     for (double depth = 0.0;; depth += 0.002) {
       bool clear = true;
@@ -220,13 +226,13 @@ Garment make_garment(const GarmentSpec& spec, const Motion& motion, const Capsul
         }
       if (clear && static_depth < 0.0) static_depth = depth;
       for (int i = 0; i < nu && clear && depth < static_depth + 0.3; ++i)
-        clear = carried_gap(x[i], nearest_joint(x[i], caps, rig, kUpperTorso), pose, rig, samples) >= spec.clearance;
+        clear = carried_gap(x[i], chest, pose, rig, samples) >= spec.clearance;
       if (clear || depth > 2.0 || (static_depth >= 0.0 && depth >= static_depth + 0.3)) break;
     }
     g.mesh = mesh_of(x, nu, nv, false);
     for (int i = 0; i < nu; ++i) {
       g.attached_vertices.push_back(i);
-      g.attached_joints.push_back(nearest_joint(x[i], caps, rig, kUpperTorso));
+      g.attached_joints.push_back(chest);
     }
   } else if (spec.type == "skirt" || spec.type == "shirt") {
     const bool skirt = spec.type == "skirt";
@@ -236,7 +242,16 @@ Garment make_garment(const GarmentSpec& spec, const Motion& motion, const Capsul
     Vec3 centre, right;
     if (skirt) {
       const Vec3 knee = pose[need("LeftLeg")].translation();
-      top = hips.y();
+      // The waist ring sits above the thighs' capsules where they leave the pelvis, so that a raised knee
+      // does not sweep through the pinned ring (Biovision hips are level with the root, CMU's 12 cm below).
+      double lift = 0.0;  // m, above the root
+      for (const char* leg : {"LeftUpLeg", "RightUpLeg"}) {
+        need(leg);
+        const Bone& thigh = rig.bones()[rig.find(leg)];
+        const double hip = (pose[root].inverse() * pose[thigh.joint].translation()).y();
+        lift = std::max(lift, hip + thigh.radius + kRingClearance);
+      }
+      top = hips.y() + lift;
       bottom = spec.length > 0.0 ? top - spec.length : knee.y();
       centre = hips;
       a = b = 0.1;
@@ -263,23 +278,53 @@ Garment make_garment(const GarmentSpec& spec, const Motion& motion, const Capsul
     // far that every ray from the axis has left the body's capsules (the garment's set) `clearance` before
     // the ring; a ring is never smaller than the one above it. Smooth rings, so edges do not cut capsules.
     // ... plus any other capsule with an end inside the garment's height (hanging hands, a boxer's forearms).
-    std::vector<Segment> body;
+    // The attached top ring of a skirt clears the pelvis and thighs only, and closely (`ring_clearance`):
+    // the arms swing past the hips (CapsuleRig::fit_to_motion keeps them capsule_gap away from the body), and
+    // a pinned ring pushed out around the hanging hands at t = 0 would sit where the arms pass.
+    std::vector<Segment> body, torso;
     auto within = [&](const Vec3& p) { return p.y() > bottom && p.y() < top - 0.05; };
-    for (const Segment& c : caps)
-      if (c.bone < 0 || set.count(rig.bones()[c.bone].canonical) || within(c.a) || within(c.b)) body.push_back(c);
+    for (const Segment& c : caps) {
+      const bool own = c.bone < 0 || set.count(rig.bones()[c.bone].canonical);
+      // A skirt's rows go inside the arms (CapsuleRig::fit_to_motion leaves room between arms and body).
+      if (own || (!skirt && (within(c.a) || within(c.b)))) body.push_back(c);
+      if (own) torso.push_back(c);
+    }
     const int trial = 96;
+    const auto samples = skirt ? motion_samples(motion) : std::vector<std::vector<Transform>>{};
     std::vector<double> scale(nv, 1.0);
     for (int j = 0; j < nv; ++j) {
       const double s = static_cast<double>(j) / (nv - 1);
       const Vec3 axis(centre.x(), top - s * (top - bottom), centre.z());
       double need = skirt ? 1.0 + (spec.flare - 1.0) * s : 1.0;
+      const bool ring = skirt && j == 0;
+      const std::vector<Segment>& avoid = ring ? torso : body;
+      // m; 5 mm for the chords; a skirt stays within 1.5 cm of the body, inside the arms hanging 2 cm away
+      const double gap = ring ? std::min(spec.clearance, kRingClearance)
+                              : (skirt ? std::min(spec.clearance, 0.01) : spec.clearance) + 0.005;
       for (int i = 0; i < trial; ++i) {
         const double th = 2.0 * kPi * i / trial;
         const Vec3 dir = std::cos(th) * right + std::sin(th) * forward;
         const double base = std::hypot(a * std::cos(th), b * std::sin(th));
         double last = 0.0;  // m, farthest point of the ray still within clearance of the body
         for (double r = 0.0; r < 1.5; r += 0.002)
-          if (clearance_of(axis + r * dir, body) < spec.clearance + 0.005) last = r;  // 5 mm for the chords
+          if (clearance_of(axis + r * dir, avoid) < gap) last = r;
+        // The pinned ring also clears the torso over the whole motion (a spine bending forward over it).
+        while (ring && last < 1.5) {
+          const Vec3 local = pose[root].inverse() * (axis + (last + 0.002) * dir);
+          bool clear = true;
+          for (size_t k = 0; k < samples.size() && clear; ++k)
+            for (const Segment& c : torso)
+              if (c.bone >= 0) {
+                const Bone& bone = rig.bones()[c.bone];
+                const std::vector<Transform>& p = samples[k];
+                if (segment_distance(p[root] * local, p[bone.joint].translation(), p[bone.child].translation()) - bone.radius < gap) {
+                  clear = false;
+                  break;
+                }
+              }
+          if (clear) break;
+          last += 0.002;
+        }
         need = std::max(need, (last + 0.002) / base);
       }
       scale[j] = j == 0 ? need : std::max(need, scale[j - 1]);

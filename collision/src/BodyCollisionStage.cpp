@@ -159,6 +159,13 @@ int BodyCollisionStage::respond_vertex(const std::vector<int>& mine, const std::
       const SweptHit hit = swept_point(c, x0, x, ccd_ratio * pr.thickness);
       if (hit.hit) {
         x = c.curr * hit.local;  // carried with the body from the contact to the end of the step
+      // The velocity becomes what the vertex did, (x - x_prev) / h (then the inward part relative to the
+      // surface is removed below): a vertex that springs keep pulling along a curved surface is caught by
+      // the swept test at every step and hardly moves, so keeping the velocity it had let it gather
+      // speed without bound (40 m/s on a forearm moving at 2 m/s).
+      const Vec3 v_did = (x - x0) / h;
+      out.push_back({k, m * (v_did - v), x});  // its reaction, as every velocity change's
+      v = v_did;
         ++ccd_hits;
       }
       Vec3 nrm;
@@ -282,6 +289,10 @@ void BodyCollisionStage::run_edges(cloth::Cloth& cloth, double h, int threads, s
         }
         // Endpoint contacts belong to the vertex phase.
         if (deficit <= 1e-9 * th || sp <= 1e-6 || sp >= 1.0 - 1e-6) continue;
+        // Next to a kinematic endpoint the lever amplifies the free endpoint's correction by 1/s (a contact
+        // near a pin, e.g. a garment's attached ring, would fling its neighbour): the free half's contacts
+        // only; the vertex phase handles the free endpoint itself.
+        if ((wa == 0.0 && sp < 0.5) || (wb == 0.0 && sp > 0.5)) continue;
         // Move the edge point (1-s) a + s b by `deficit` along n, split by inverse mass (Bridson et al. 2002,
         // Sec. 7.1): lambda = deficit / (wa (1-s)^2 + wb s^2).
         const double wsum = wa * (1.0 - sp) * (1.0 - sp) + wb * sp * sp;
@@ -303,11 +314,18 @@ void BodyCollisionStage::run_edges(cloth::Cloth& cloth, double h, int threads, s
       }
     }
     if (found == 0) break;
+    // Jacobi: a vertex on several corrected edges gets the mean of their corrections, not the sum (summed,
+    // the 4-6 edges of a vertex on one capsule push it 4-6 times too far and too fast).
+    std::vector<int> hits(s.size(), 0);
+    for (int e = 0; e < ne; ++e)
+      if (corr[e].collider >= 0) ++hits[edges[e].i], ++hits[edges[e].j];
     // Gather in edge order (deterministic for any thread count).
     for (int e = 0; e < ne; ++e) {
-      const Correction& cr = corr[e];
+      Correction& cr = corr[e];
       if (cr.collider < 0) continue;
       const int a = edges[e].i, b = edges[e].j;
+      const double fa = 1.0 / hits[a], fb = 1.0 / hits[b];
+      cr.dxa *= fa, cr.dva *= fa, cr.dxb *= fb, cr.dvb *= fb;
       s.x[a] += cr.dxa, s.x[b] += cr.dxb;
       s.v[a] += cr.dva, s.v[b] += cr.dvb;
       records.push_back({cr.collider, s.mass[a] * cr.dva + s.mass[b] * cr.dvb, cr.point});

@@ -68,12 +68,23 @@ void expect_sane(const RunFigures& f, double strain_bound) {
   EXPECT_LE(f.probe.max_depth, kThickness);  // no free vertex deeper inside a capsule than the thickness
 }
 
+// The hardest seconds of each clip at CI size (0.08 m), found by running the whole clips with
+// loom_bench_character_clips (bench/results/characters.txt: the t_* columns give the clip time of the worst
+// strain, speed and depth): 01_01 around 10.5-13 s, 01_03 around 9.4 s (a shipped excerpt of it), Boxing_Toes
+// around 9-10.5 s for the cape.
 TEST(CharacterClips, CapeOnJumpingCmu_01_01) {
-  expect_sane(run_scene("character_cape", 2.0, {"character.start=1.0", "character.garments.0.resolution=0.08"}), 0.5);
+  expect_sane(run_scene("character_cape", 2.0, {"character.start=10.5", "character.garments.0.resolution=0.08"}), 0.5);
 }
 
 TEST(CharacterClips, SkirtOnJumpingCmu_01_01) {
-  expect_sane(run_scene("character_skirt", 2.0, {"character.start=1.0",
+  expect_sane(run_scene("character_skirt", 2.5, {"character.start=10.5", "character.garments.0.resolution=0.08"}), 0.5);
+}
+
+// CMU 01_03 from 8.5 s to 11 s (tests/data/mocap/01_03_8.5s_to_11s.bvh): the subject bends over the skirt's
+// waist ring (the spine capsule came 3 cm inside the pinned ring before the ring cleared the torso over the
+// whole motion).
+TEST(CharacterClips, SkirtOnCmu_01_03_BendingOver) {
+  expect_sane(run_scene("character_skirt", 2.4, {"character.bvh=../tests/data/mocap/01_03_8.5s_to_11s.bvh", "character.start=0",
                                                  "character.garments.0.resolution=0.08"}),
               0.5);
 }
@@ -83,20 +94,29 @@ TEST(CharacterClips, SkirtOnJumpingCmu_01_01) {
 // rigidly attached to their joint frames (Bone::turn): the Biovision legs point along -y, where the
 // shortest-arc rotation computed every substep flipped its twist, so the thigh's surface spun at ~50 m/s.
 TEST(CharacterClips, CapeOnBoxing) {
-  expect_sane(run_scene("character_cape", 2.0, {"character.bvh=../tests/data/mocap/Boxing_Toes.bvh", "character.start=2.0",
+  expect_sane(run_scene("character_cape", 2.0, {"character.bvh=../tests/data/mocap/Boxing_Toes.bvh", "character.start=8.8",
                                                 "character.garments.0.resolution=0.08"}),
-              3.0);
+              0.5);
 }
 
 TEST(CharacterClips, SkirtOnBoxing) {
   expect_sane(run_scene("character_skirt", 2.0, {"character.bvh=../tests/data/mocap/Boxing_Toes.bvh", "character.start=2.0",
                                                  "character.garments.0.resolution=0.08"}),
-              3.0);
+              0.5);
+}
+
+// Boxing_Toes around 24 s (high knees and punches to the body): not met yet. Measured (loom_bench_character_clips
+// --start 23.8 --seconds 1.5): max strain 1.06, 12.7 m/s, the waist ring 8.5 mm inside a capsule at 24.04 s; the
+// whole clip reaches strain 2.4, 28.8 m/s and a free vertex 4.2 cm inside a capsule (28.56 s).
+TEST(CharacterClips, DISABLED_SkirtOnBoxingHighKnees) {
+  expect_sane(run_scene("character_skirt", 1.5, {"character.bvh=../tests/data/mocap/Boxing_Toes.bvh", "character.start=23.8",
+                                                 "character.garments.0.resolution=0.08"}),
+              0.5);
 }
 
 // Skirt + cape as layers with self- and cloth-cloth collision: the exact census after every pipeline step.
 TEST(CharacterClips, LayersOnJumpingCmu_01_01_CensusEveryStep) {
-  const RunFigures f = run_scene("character_layers", 1.5, {"character.start=1.0", "character.garments.0.resolution=0.08",
+  const RunFigures f = run_scene("character_layers", 1.5, {"character.start=13.0", "character.garments.0.resolution=0.08",
                                                            "character.garments.1.resolution=0.08"}, 1);
   expect_sane(f, 0.5);
   EXPECT_EQ(f.probe.census_steps, f.probe.steps);

@@ -68,6 +68,11 @@ void parse_character(const JsonReader& root, Scene& scene) {
   } catch (const Error& e) {
     throw Error(file, c.child("radii"), e.what());
   }
+  // Radii fitted to the motion (CapsuleRig::fit_to_motion): arm capsules kept `capsule_gap` away from the
+  // torso and leg capsules over the clip; "fit_radii": false keeps the table.
+  const double capsule_gap = c.number("capsule_gap", 0.02, 0.0);  // m
+  const bool fit_radii = c.boolean("fit_radii", true);
+  if (fit_radii) character->rig.fit_to_motion(character->motion, capsule_gap);
   character->friction = c.number("friction", character->friction, 0.0);
   character->thickness = c.number("thickness", character->thickness, 0.0);
   if (c.has("garments")) {
@@ -104,6 +109,12 @@ void parse_character(const JsonReader& root, Scene& scene) {
       g.finish();
       character->add_garment(scene.setup, garment, name, material, model);
     }
+  }
+  // Arms kept clear of the attached garment vertices over the clip (an attached vertex cannot be pushed out).
+  if (fit_radii) {
+    std::vector<std::pair<int, cloth::Vec3>> points;
+    for (const ch::Attachment& a : character->attachments) points.emplace_back(a.joint, a.local);
+    character->rig.keep_clear_of(character->motion, points, 0.5 * capsule_gap);
   }
   c.finish();
   scene.character = character;

@@ -31,6 +31,8 @@ struct Bone {
   int child = 0;          // end joint
   double radius = 0.0;    // m
   double half_length = 0.0;  // m, half the rest distance between the joints
+  double table_radius = 0.0; // m, the radius before fitting (table or override)
+  bool overridden = false;   // radius given by the scene (`radii`): the fits leave it alone
   // Rotation, in the start joint's frame, taking the capsule's local y onto the bone (the child's rest
   // offset). Fixed per bone, so the capsule is rigidly attached to the joint's frame: no twist flips when
   // the bone points along -y (Biovision legs), which would give the capsule's surface a spurious spin.
@@ -49,6 +51,19 @@ class CapsuleRig {
   void capsule_poses(const std::vector<Transform>& global, std::vector<Transform>& poses) const;
   // One Collider per bone (shape capsule), named "character/<bone>", with the poses at `global`.
   std::vector<collision::Collider> make_colliders(const std::vector<Transform>& global) const;
+  // Fits the table radii to the motion: mocap limbs pass through the table's round capsules (a forearm
+  // swinging past the hip overlaps the pelvis capsule by 1-2 cm in CMU 01_01 and Boxing_Toes), and cloth
+  // caught between two overlapping capsules cannot be outside both. For every pair of an arm bone
+  // (upper arm, forearm, hand, finger base) and a torso or leg bone (pelvis, spine, chest, hips, thighs,
+  // shins), the closest approach of the two axes over the played motion (sampled at `rate` Hz) is measured;
+  // when the capsules come closer than `gap` (m), the arm's radius shrinks (down to half its table value),
+  // then the body's. Overridden radii are kept. Returns the number of radii changed.
+  int fit_to_motion(const Motion& motion, double gap, double rate = 120.0);
+  // Shrinks arm capsules (as fit_to_motion, down to half their table radius) that come closer than `gap` (m)
+  // to any of `points` (a joint and a position in its frame: garment vertices attached to bones) over the
+  // played motion: an attached vertex cannot be pushed out of a capsule. Returns the number of radii changed.
+  int keep_clear_of(const Motion& motion, const std::vector<std::pair<int, Vec3>>& points, double gap,
+                    double rate = 120.0);
   // Index of the first bone whose canonical name is `canonical` (-1 if none).
   int find(const std::string& canonical) const;
 

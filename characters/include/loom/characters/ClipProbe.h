@@ -25,6 +25,8 @@ struct ProbeFigures {
   double max_track = 0.0;          // m, attached vertex to bone target
   long max_intersections = 0;      // census: intersecting triangle pairs (self and between cloths), worst step
   long census_steps = 0;           // steps the census ran at
+  // s, simulated time (end of the step) of the worst step of each: where the hardest seconds of a clip are
+  double max_speed_time = 0.0, max_depth_time = 0.0, max_attached_depth_time = 0.0;
 };
 
 class ClipProbe final : public cloth::Stage {

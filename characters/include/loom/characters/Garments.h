@@ -1,8 +1,9 @@
 #pragma once
 // Garments fitted to a skeleton's measurements at its pose at t = 0 (issue 6):
 //   cape   a rectangle hanging behind the back from the shoulder line (shoulder width, shoulders to knees),
-//          its top row attached to the nearest of the chest, neck and clavicle bones;
-//   skirt  a flared tube from the waist (root joint height) to the knees, its waist ring attached to the root;
+//          its whole top row attached to the chest joint (the neck's parent), placed clear of every capsule over the motion;
+//   skirt  a flared tube from the waist (root height, or above the thighs' capsules) to the knees, its waist ring
+//          attached to the root, hugging the pelvis and clear of the torso over the whole motion;
 //   shirt  a loose tube (poncho) around the torso and arms, from the shoulders to the hips, its top ring
 //          attached to the nearest of the chest, neck and clavicle bones;
 //   obj    a mesh from an OBJ file whose `g` groups name attachments: every vertex of a group's faces is
