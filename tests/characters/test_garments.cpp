@@ -89,6 +89,25 @@ class TrackingCheck final : public loom::cloth::Stage {
   std::vector<Transform> pose_;
 };
 
+// The fit samples the clip's poses; a slow playback must give the same garment, not more samples (speed
+// 1e-6 used to ask for 3e7 poses per clip second and hung the process).
+TEST(Garments, FitDoesNotDependOnPlaybackSpeed) {
+  GarmentSpec spec;
+  spec.type = "cape";
+  spec.resolution = 0.08;
+  std::vector<Vec3> rest[2];
+  for (int k = 0; k < 2; ++k) {
+    MotionSettings ms;
+    ms.speed = k == 0 ? 1.0 : 1e-6;
+    Character c;
+    c.motion = Motion::load(loom::test::mocap("01_01.bvh"), ms);
+    c.rig = CapsuleRig::build(c.motion);
+    rest[k] = make_garment(spec, c.motion, c.rig).mesh->rest_positions();
+  }
+  ASSERT_EQ(rest[0].size(), rest[1].size());
+  for (size_t i = 0; i < rest[0].size(); ++i) EXPECT_EQ(rest[0][i], rest[1][i]) << i;
+}
+
 TEST(Garments, AttachedVerticesTrackTheirBonesAtEverySubstep) {
   for (const char* method : {"implicit_euler", "symplectic_euler"}) {
     auto c = std::make_shared<Character>();
