@@ -1,11 +1,16 @@
 #include "loom/cloth/BlockMatrix.h"
 
 #include <algorithm>
+#include <atomic>
 #include <cassert>
 
 namespace loom::cloth {
 
-BlockMatrix::BlockMatrix(int n, const std::vector<std::pair<int, int>>& pairs) : n_(n) {
+namespace {
+std::atomic<std::uint64_t> next_pattern_id{1};
+}  // namespace
+
+BlockMatrix::BlockMatrix(int n, const std::vector<std::pair<int, int>>& pairs) : n_(n), pattern_id_(next_pattern_id++) {
   std::vector<std::vector<int>> rows(n);
   for (int i = 0; i < n; ++i) rows[i].push_back(i);
   for (const auto& [i, j] : pairs) {

@@ -49,7 +49,11 @@ PcgResult FilteredPCG::solve(const BlockMatrix& A, const Vec3s& b, const std::ve
   r_.resize(n);
   c_.resize(n);
   s_.resize(n);
-  // Block-Jacobi preconditioner; Δv starts at z (fixed) / 0 (free).
+  // Below kParallelMin vertices the fork/join costs more than the work: small systems run on one thread
+  // (same results either way: every loop is per vertex, every sum is chunked in a fixed order).
+  const int t = n >= kParallelMin ? threads : 1;
+  // Block-Jacobi preconditioner; Δv starts at z (fixed) / 0 (free); s = P⁻¹ b.
+#pragma omp parallel for num_threads(t) if (t > 1) schedule(static)
   for (int i = 0; i < n; ++i) {
     if (fixed[i]) {
       pinv_[i].setZero();
@@ -61,24 +65,25 @@ PcgResult FilteredPCG::solve(const BlockMatrix& A, const Vec3s& b, const std::ve
       if (d) d->computeInverseWithCheck(inv, ok);
       pinv_[i] = ok && inv.allFinite() ? inv : Mat3::Identity();
     }
+    s_[i] = pinv_[i] * b[i];
   }
   // δ0 = filter(b)ᵀ P⁻¹ filter(b)   (P⁻¹ is zero on fixed vertices, so it filters too)
-  for (int i = 0; i < n; ++i) s_[i] = pinv_[i] * b[i];
-  const double delta0 = dot(b, s_, threads);
+  const double delta0 = dot(b, s_, t);
   PcgResult res;
-  // r = filter(b - AΔv)
-  multiply(A, dv, q_, threads);
-  for (int i = 0; i < n; ++i) r_[i] = fixed[i] ? Vec3::Zero() : Vec3(b[i] - q_[i]);
-  for (int i = 0; i < n; ++i) c_[i] = pinv_[i] * r_[i];
-  double delta = dot(r_, c_, threads);
+  // r = filter(b - AΔv), c = P⁻¹ r
+  multiply(A, dv, q_, t);
+#pragma omp parallel for num_threads(t) if (t > 1) schedule(static)
+  for (int i = 0; i < n; ++i) {
+    r_[i] = fixed[i] ? Vec3::Zero() : Vec3(b[i] - q_[i]);
+    c_[i] = pinv_[i] * r_[i];
+  }
+  double delta = dot(r_, c_, t);
   if (!(delta0 > 0.0)) {
     res.converged = true;
     return res;
   }
   const double stop = tol * tol * delta0;
-  // Iterations: per-chunk fused loops (3 parallel regions per iteration); below kParallelMin vertices
-  // the fork/join costs more than the work, so small systems run on one thread (same sums either way).
-  const int t = n >= kParallelMin ? threads : 1;
+  // Iterations: per-chunk fused loops (3 parallel regions per iteration).
   const int chunks = (n + kChunk - 1) / kChunk;
   partial_.assign(chunks, 0.0);
   auto total = [&] {

@@ -67,8 +67,8 @@ void ImplicitSolver::prepare(const Cloth& cloth) {
   std::sort(pairs.begin(), pairs.end());
   pairs.erase(std::unique(pairs.begin(), pairs.end()), pairs.end());
   K_ = BlockMatrix(n, pairs);
-  D_ = BlockMatrix(n, pairs);
-  A_ = BlockMatrix(n, pairs);
+  D_ = K_;  // copies share the pattern (and its pattern_id(), so the terms' slot lists serve all three)
+  A_ = K_;
   transpose_.resize(A_.num_blocks());
   const Mat3* base = A_.blocks().data();
   for (int i = 0; i < n; ++i)
@@ -100,8 +100,14 @@ void ImplicitSolver::multiply(const BlockMatrix& m, const Vec3s& x, Vec3s& y, in
 void ImplicitSolver::assemble(Cloth& cloth, const Vec3s& x, const Vec3s& v, double t, double gamma,
                               int threads) {
   const auto t0 = Clock::now();
-  K_.set_zero();
-  D_.set_zero();
+  auto& kb = K_.blocks();
+  auto& db = D_.blocks();
+  const int nb = A_.num_blocks();
+#pragma omp parallel for num_threads(threads) if (threads > 1) schedule(static)
+  for (int k = 0; k < nb; ++k) {
+    kb[k].setZero();
+    db[k].setZero();
+  }
   JacobianOptions o;
   o.clamp_compression = p_.clamp_compression;
   o.damping_position_terms = false;
@@ -110,21 +116,23 @@ void ImplicitSolver::assemble(Cloth& cloth, const Vec3s& x, const Vec3s& v, doub
     // Non-conservative terms (drag): only df/dv goes into A; their position dependence stays explicit.
     term->add_jacobians(ctx, o, term->conservative() ? &K_ : nullptr, &D_);
   }
-  // A = M - γD - γ²K, then symmetrised: A_ij = (A_ij + A_jiᵀ)/2.
+  // A = M - γD - γ²K, then symmetrised: A_ij = (A_ij + A_jiᵀ)/2. Row i writes its blocks (i, j >= i) and
+  // their mirrors (j, i): every block is written once, rows in parallel.
   const ClothState& s = cloth.state();
   auto& a = A_.blocks();
-  const auto& kb = K_.blocks();
-  const auto& db = D_.blocks();
-  const int nb = A_.num_blocks();
-  for (int k = 0; k < nb; ++k) a[k] = -gamma * db[k] - gamma * gamma * kb[k];
+  const auto& rs = A_.row_start();
+  const auto& cols = A_.cols();
+  auto raw = [&](int k) -> Mat3 { return -gamma * db[k] - gamma * gamma * kb[k]; };
+#pragma omp parallel for num_threads(threads) if (threads > 1) schedule(static)
   for (int i = 0; i < n_; ++i)
-    for (int k = A_.row_start()[i]; k < A_.row_start()[i + 1]; ++k) {
-      const int j = A_.cols()[k];
+    for (int k = rs[i]; k < rs[i + 1]; ++k) {
+      const int j = cols[k];
       if (j == i) {
-        a[k] = 0.5 * (a[k] + a[k].transpose()).eval();
+        const Mat3 d = raw(k);
+        a[k] = 0.5 * (d + d.transpose());
         a[k] += s.mass[i] * Mat3::Identity();
       } else if (j > i) {
-        const Mat3 avg = 0.5 * (a[k] + a[transpose_[k]].transpose());
+        const Mat3 avg = 0.5 * (raw(k) + raw(transpose_[k]).transpose());
         a[k] = avg;
         a[transpose_[k]] = avg.transpose();
       }

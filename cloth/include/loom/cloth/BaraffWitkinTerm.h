@@ -15,6 +15,7 @@
 #include <memory>
 #include <vector>
 
+#include "loom/cloth/BlockGather.h"
 #include "loom/cloth/BlockScatter.h"
 #include "loom/cloth/ClothMesh.h"
 #include "loom/cloth/ElementGather.h"
@@ -59,6 +60,7 @@ class BaraffWitkinTerm final : public Term {
   mutable Vec3s corner_force_;                       // scratch: 3 per triangle
   mutable std::vector<Mat3> dx_blocks_, dv_blocks_;  // scratch: 9 per triangle (row m, column n)
   mutable BlockScatter scatter_;
+  mutable BlockGather gather_x_, gather_v_;  // slot lists of the df/dx and df/dv matrices (threads > 1)
 };
 
 // The stretch and shear terms of a cloth's mesh and material.

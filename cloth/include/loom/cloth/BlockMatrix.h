@@ -2,6 +2,7 @@
 // BlockMatrix: a block-sparse matrix of 3x3 blocks with a fixed pattern (CSR over vertices). Terms add
 // their Jacobian blocks (df/dx, df/dv) into it; implicit solvers multiply with it or export it to Eigen.
 #include <Eigen/Sparse>
+#include <cstdint>
 #include <utility>
 #include <vector>
 
@@ -31,9 +32,13 @@ class BlockMatrix {
   const std::vector<int>& cols() const { return cols_; }
   std::vector<Mat3>& blocks() { return blocks_; }
   const std::vector<Mat3>& blocks() const { return blocks_; }
+  // Identifies the pattern: unique per constructed pattern, kept by copies (so K, D and A of a solver, copied
+  // from one matrix, share it). Caches of slot indices (BlockGather) key on it; 0 = the empty matrix.
+  std::uint64_t pattern_id() const { return pattern_id_; }
 
  private:
   int n_ = 0;
+  std::uint64_t pattern_id_ = 0;
   std::vector<int> row_start_;  // n + 1
   std::vector<int> cols_;       // sorted within a row
   std::vector<Mat3> blocks_;

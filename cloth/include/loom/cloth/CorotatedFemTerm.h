@@ -33,6 +33,7 @@
 #include <vector>
 
 #include "loom/cloth/BaraffWitkinTerm.h"
+#include "loom/cloth/BlockGather.h"
 #include "loom/cloth/BlockScatter.h"
 #include "loom/cloth/ClothMesh.h"
 #include "loom/cloth/ElementGather.h"
@@ -70,6 +71,7 @@ class CorotatedFemTerm final : public Term {
   mutable Vec3s corner_force_;                       // scratch: 3 per triangle
   mutable std::vector<Mat3> dx_blocks_, dv_blocks_;  // scratch: 9 per triangle (row m, column n)
   mutable BlockScatter scatter_;
+  mutable BlockGather gather_x_, gather_v_;  // slot lists of the df/dx and df/dv matrices (threads > 1)
 };
 
 std::unique_ptr<Term> make_corotated_fem_term(const ClothMesh& mesh, const Material& m);

@@ -2,7 +2,9 @@
 // Hooke springs with damping along the spring (reference/methods.md §1.1):
 //   f_i = k (l - L) x̂ + c (x̂·(v_j - v_i)) x̂,  f_j = -f_i,  x̂ = (x_j - x_i) / l,  E = k/2 (l - L)².
 // Forces are computed per spring in parallel, then gathered per vertex in a fixed order, so the result is
-// bit-identical for any thread count.
+// bit-identical for any thread count. Jacobians likewise: per-spring blocks in parallel, then added block by
+// block in spring order (BlockGather).
+#include "loom/cloth/BlockGather.h"
 #include "loom/cloth/PairGather.h"
 #include "loom/cloth/Term.h"
 
@@ -32,7 +34,10 @@ class SpringTerm final : public Term {
   int n_;
   std::vector<Spring> springs_;
   PairGather gather_;
+  bool damped_ = false;              // some spring has c != 0 (df/dv is not zero)
   mutable Vec3s spring_force_;       // scratch: force on end i of each spring
+  mutable std::vector<Mat3> kx_, kv_;  // scratch: df_i/dx_j (N/m) and df_i/dv_j (N·s/m) of each spring
+  mutable BlockGather gather_x_, gather_v_;  // slot lists of the df/dx and df/dv matrices
 };
 
 }  // namespace loom::cloth
