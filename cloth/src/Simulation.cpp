@@ -3,6 +3,7 @@
 #include <algorithm>
 #include <chrono>
 #include <cmath>
+#include <sstream>
 
 #include "GuardInternal.h"
 #include "loom/cloth/Error.h"
@@ -196,8 +197,9 @@ std::vector<StageProfile> Simulation::profile() const {
   return rows;
 }
 
-void Simulation::run_substeps(int n) {
+std::string Simulation::run_substeps(int n, bool stop_on_violation) {
   const double h = setup_.frame_dt / n;
+  std::string why;
   for (int s = 0; s < n; ++s) {
     StageContext ctx{cloths_, t_, h, setup_.threads};
     for (size_t k = 0; k < stages_.size(); ++k) {
@@ -207,9 +209,20 @@ void Simulation::run_substeps(int n) {
     }
     // Time advanced by counting steps, not by summing h, so it does not drift.
     t_ = (frame_ + static_cast<double>(s + 1) / n) * setup_.frame_dt;
+    if (stop_on_violation) {
+      for (const auto& stage : stages_) {
+        why = stage->violation();
+        if (!why.empty()) break;
+      }
+      if (!why.empty()) {
+        why += " after step " + std::to_string(s + 1) + " of " + std::to_string(n);
+        break;
+      }
+    }
   }
   ++frame_;
   t_ = frame_ * setup_.frame_dt;
+  return why;
 }
 
 FrameStats Simulation::step_frame() {
@@ -227,19 +240,26 @@ FrameStats Simulation::step_frame() {
       FrameStats s0;
       fill_stats(s0);
       start_sample_ = guard_sample(s0);
+      if (budget_ref_ < 0.0) {  // the energy budget's reference: the start of the run (Guard.h)
+        budget_ref_ = std::max(s0.kinetic + std::max(0.0, s0.elastic), guard_weight_scale(setup_, cloths_));
+        budget_potential0_ = s0.potential;
+      }
     }
     snapshot_.clear();
     save_state(snapshot_);
     guard_ms_ += ms_since(start);
     failure_.clear();
     for (int attempt = 0;; ++attempt) {
-      run_substeps(setup_.substeps << attempt);
+      std::string why = run_substeps(setup_.substeps << attempt, true);
       start = Clock::now();
       stats = FrameStats();
       fill_stats(stats);
       stats_total_ms_ += ms_since(start);
-      const std::string why = guard_violation(setup_.guard, *start_sample_, guard_sample(stats), energy_scale_);
+      if (why.empty()) why = guard_violation(setup_.guard, *start_sample_, guard_sample(stats), energy_scale_);
+      double pin_work = 0.0;
+      if (why.empty() && setup_.guard.energy_bound > 0.0) why = energy_budget_violation(stats, &pin_work);
       if (why.empty()) {
+        pin_work_ += pin_work;
         start_sample_ = guard_sample(stats);
         if (attempt > 0) ++retried_frames_;
         break;
@@ -268,6 +288,40 @@ FrameStats Simulation::step_frame() {
     if (after[k].name.find('/') == std::string::npos) stats.total_ms += stats.stage_ms[k];
   }
   return stats;
+}
+
+std::string Simulation::energy_budget_violation(const FrameStats& end, double* pin_work) {
+  // Guard.h: E(t) > energy_bound · max(E_kin(0) + E_el(0), Σ m|g|L) + W(t); W(t): kinematic vertices
+  // |f·v| Δt and wind |f_drag| (|v| + |wind|) Δt per frame (at the frame end) and the stages' work_in().
+  double w = 0.0;
+  for (auto& c : cloths_) {
+    const ClothState& st = c->state();
+    bool kinematic = false;
+    for (int i = 0; i < st.size() && !kinematic; ++i) kinematic = st.inv_mass[i] == 0.0;
+    if (kinematic) {
+      Vec3s f;
+      c->compute_forces(st.x, st.v, t_, setup_.threads, f);
+      for (int i = 0; i < st.size(); ++i)
+        if (st.inv_mass[i] == 0.0) w += std::abs(f[i].dot(st.v[i])) * setup_.frame_dt;
+    }
+    if (const Term* drag = c->find_term("drag")) {  // wind: |f_drag| (|v| + |wind| (1 + gusts)) Δt per vertex
+      Vec3s fd(st.size(), Vec3::Zero());
+      drag->add_forces(EvalContext{st.x, st.v, t_, setup_.threads}, fd);
+      const double wind = setup_.drag->wind.norm() * (1.0 + std::abs(setup_.drag->gust_amplitude));
+      for (int i = 0; i < st.size(); ++i) w += fd[i].norm() * (st.v[i].norm() + wind) * setup_.frame_dt;
+    }
+  }
+  *pin_work = w;
+  double stage_work = 0.0;
+  for (const auto& stage : stages_) stage_work += stage->work_in();
+  const double e = end.kinetic + end.elastic + end.potential - budget_potential0_;
+  const double bound = setup_.guard.energy_bound * budget_ref_ + pin_work_ + w + stage_work;
+  if (e <= bound) return "";
+  std::ostringstream why;
+  why << "the energy exploded (E_kin + E_el + E_pot - E_pot(0) = " << e << " J, above the budget " << bound << " J: "
+      << setup_.guard.energy_bound << " x " << budget_ref_ << " J at the start + " << pin_work_ + w + stage_work
+      << " J of work put in)";
+  return why.str();
 }
 
 FrameStats Simulation::measure() const {

@@ -18,6 +18,22 @@ GuardSample guard_sample(const FrameStats& s) {
   return g;
 }
 
+double guard_weight_scale(const SimulationSetup& setup, const std::vector<std::unique_ptr<Cloth>>& cloths) {
+  double e = 0.0;
+  for (const auto& c : cloths) {
+    const Vec3s& X = c->mesh().rest_positions();
+    Vec3 lo = Vec3::Constant(1e300), hi = Vec3::Constant(-1e300);
+    for (const Vec3& p : X) {
+      lo = lo.cwiseMin(p);
+      hi = hi.cwiseMax(p);
+    }
+    double m = 0.0;
+    for (double mi : c->state().mass) m += mi;
+    e += m * setup.gravity.norm() * (X.empty() ? 0.0 : (hi - lo).norm());
+  }
+  return e;
+}
+
 double guard_energy_scale(const SimulationSetup& setup, const std::vector<std::unique_ptr<Cloth>>& cloths) {
   // Guard.h: E_ref = Σ m (|g| L + ½ v_ref²), v_ref = 10 m/s + the fastest wind (with gusts), initial
   // velocity or pin path.
@@ -30,20 +46,10 @@ double guard_energy_scale(const SimulationSetup& setup, const std::vector<std::u
       for (size_t k = 1; k < p.times.size(); ++k)
         fastest = std::max(fastest, (p.offsets[k] - p.offsets[k - 1]).norm() / (p.times[k] - p.times[k - 1]));
   v_ref += fastest;
-  double e = 0.0;
-  for (const auto& c : cloths) {
-    const Vec3s& X = c->mesh().rest_positions();
-    Vec3 lo = Vec3::Constant(1e300), hi = Vec3::Constant(-1e300);
-    for (const Vec3& p : X) {
-      lo = lo.cwiseMin(p);
-      hi = hi.cwiseMax(p);
-    }
-    const double L = X.empty() ? 0.0 : (hi - lo).norm();
-    double m = 0.0;
-    for (double mi : c->state().mass) m += mi;
-    e += m * (setup.gravity.norm() * L + 0.5 * v_ref * v_ref);
-  }
-  return e;
+  double mass = 0.0;
+  for (const auto& c : cloths)
+    for (double mi : c->state().mass) mass += mi;
+  return guard_weight_scale(setup, cloths) + 0.5 * v_ref * v_ref * mass;
 }
 
 void Simulation::set_substeps(int substeps) {
@@ -52,10 +58,13 @@ void Simulation::set_substeps(int substeps) {
 }
 
 void Simulation::save_state(StateWriter& out) const {
-  out.tag("loom-simulation-state-1");
+  out.tag("loom-simulation-state-2");
   out.f64(t_);
   out.i64(frame_);
   out.i64(setup_.substeps);
+  out.f64(budget_ref_);
+  out.f64(budget_potential0_);
+  out.f64(pin_work_);
   out.i64(static_cast<std::int64_t>(cloths_.size()));
   for (const auto& c : cloths_) {
     const ClothState& s = c->state();
@@ -72,9 +81,11 @@ void Simulation::save_state(StateWriter& out) const {
 }
 
 void Simulation::load_state(StateReader& in) {
-  in.tag("loom-simulation-state-1");
+  in.tag("loom-simulation-state-2");
   const double t = in.f64();
-  const std::int64_t frame = in.i64(), substeps = in.i64(), n = in.i64();
+  const std::int64_t frame = in.i64(), substeps = in.i64();
+  const double budget_ref = in.f64(), budget_potential0 = in.f64(), pin_work = in.f64();
+  const std::int64_t n = in.i64();
   if (n != static_cast<std::int64_t>(cloths_.size()) || substeps < 1 || frame < 0 || !std::isfinite(t))
     throw Error(in.source(), "", "state archive does not match this simulation (" + std::to_string(n) + " cloths, this scene has " +
                                      std::to_string(cloths_.size()) + ")");
@@ -97,6 +108,9 @@ void Simulation::load_state(StateReader& in) {
   t_ = t;
   frame_ = static_cast<int>(frame);
   setup_.substeps = static_cast<int>(substeps);
+  budget_ref_ = budget_ref;
+  budget_potential0_ = budget_potential0;
+  pin_work_ = pin_work;
   start_sample_.reset();  // measured again from the restored state at the next frame
 }
 

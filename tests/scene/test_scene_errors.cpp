@@ -111,6 +111,8 @@ const Case kCases[] = {
     {"guard_zero_strain", {"guard={\"max_strain\": 0}"}, "guard.max_strain", "must be > 0"},
     {"guard_growth_below_one", {"guard={\"energy_growth\": 0.5}"}, "guard.energy_growth", "must be >= 1"},
     {"guard_enabled_type", {"guard={\"enabled\": \"yes\"}"}, "guard.enabled", "expected"},
+    {"guard_negative_energy_bound", {"guard={\"energy_bound\": -1}"}, "guard.energy_bound", "must be >= 0"},
+    {"guard_penetration_type", {"guard={\"max_penetration\": \"1 mm\"}"}, "guard.max_penetration", "expected"},
 };
 
 INSTANTIATE_TEST_SUITE_P(AllCases, SceneErrors, ::testing::ValuesIn(kCases),

@@ -6,7 +6,10 @@
 //     retried with more substeps and the run goes on; a hopeless one stops at the last good frame.
 #include <gtest/gtest.h>
 
+#include <algorithm>
+#include <cmath>
 #include <cstdint>
+#include <memory>
 #include <cstring>
 
 #include "loom/cloth/Error.h"
@@ -181,6 +184,111 @@ TEST(Guard, NonFiniteStateIsNamedAsSuch) {
   b = a;
   b.kinetic = 50.0;  // within 100 x (0 + 0 + 0 + 1 J)
   EXPECT_EQ(guard_violation(g, a, b, 1.0), "");
+}
+
+// A stage that reports a violation after every step longer than `max_h` (s) that starts at or after `from_t`
+// (s): the guard must treat it like an explosion (roll back, retry with smaller steps, stop with its cause
+// when none is small enough).
+class StepLimitStage final : public Stage {
+ public:
+  explicit StepLimitStage(double max_h, double from_t = 0.0) : max_h_(max_h), from_t_(from_t) {}
+  const char* name() const override { return "step_limit"; }
+  void run(StageContext& ctx) override {
+    ++steps;
+    why_ = ctx.h > max_h_ && ctx.t >= from_t_ ? "step too long for the test stage" : "";
+  }
+  std::string violation() const override { return why_; }
+  long steps = 0;
+
+ private:
+  double max_h_, from_t_;
+  std::string why_;
+};
+
+TEST(Guard, StageViolationIsRetriedWithSmallerSteps) {
+  SimulationSetup s = sheet("implicit_euler", 5, 1);
+  s.substeps = 1;
+  Simulation sim(s);
+  auto stage = std::make_unique<StepLimitStage>(s.frame_dt / 3.0);  // needs 4 substeps: two halvings
+  StepLimitStage* sl = stage.get();
+  sim.add_stage(std::move(stage));
+  for (int f = 1; f <= 3; ++f) {
+    const FrameStats st = sim.step_frame();
+    ASSERT_TRUE(st.finite) << sim.failure();
+    EXPECT_EQ(sim.frame(), f);
+  }
+  EXPECT_EQ(sim.rollbacks(), 6);  // each frame: 1 substep (stopped after its step), 2 substeps (after the 1st), 4
+  EXPECT_EQ(sl->steps, 3 * (1 + 1 + 4));
+}
+
+TEST(Guard, StageViolationThatNoStepCuresStopsTheRunWithItsCause) {
+  SimulationSetup s = sheet("bdf2", 5, 1);
+  s.substeps = 2;
+  s.guard.max_halvings = 2;
+  Simulation sim(s);
+  sim.add_stage(std::make_unique<StepLimitStage>(0.0, 0.99 * s.frame_dt));  // frame 1 passes, frame 2 cannot
+  ASSERT_TRUE(sim.step_frame().finite) << sim.failure();
+  StateWriter before;
+  sim.save_state(before);
+  const FrameStats st = sim.step_frame();
+  EXPECT_FALSE(st.finite);
+  EXPECT_EQ(sim.frame(), 1);
+  EXPECT_NE(sim.failure().find("step too long for the test stage after step 1 of 8 in frame 2"), std::string::npos)
+      << sim.failure();
+  EXPECT_NE(sim.failure().find("also with 8 substeps"), std::string::npos) << sim.failure();
+  StateWriter after;
+  sim.save_state(after);
+  EXPECT_EQ(before.data(), after.data());  // exactly frame 1: nothing of the failed frame is kept
+}
+
+// A stage that claims `per_step` J of work put in per step (Stage::work_in()).
+class WorkStage final : public Stage {
+ public:
+  explicit WorkStage(double per_step) : per_step_(per_step) {}
+  const char* name() const override { return "work"; }
+  void run(StageContext&) override { work_ += per_step_; }
+  double work_in() const override { return work_; }
+  void save_state(StateWriter& out) const override { out.f64(work_); }
+  void load_state(StateReader& in) override { work_ = in.f64(); }
+
+ private:
+  double per_step_, work_ = 0.0;
+};
+
+TEST(Guard, EnergyBudgetCountsStartEnergyAndWorkPutIn) {
+  // A free sheet thrown up at 10 m/s: E(t) = E_kin + E_el + E_pot - E_pot(0) stays at most E_kin(0) = ½ m 100
+  // (the fall trades kinetic for potential energy; implicit Euler only loses some). With the budget at
+  // 1x max(E(0), m|g|L) it holds; at 0.5x it stops at once, naming the budget; work a stage claims to put
+  // in widens the budget again.
+  SimulationSetup s = sheet("implicit_euler", 5, 1);
+  s.drag.reset();
+  s.cloths[0].pins.clear();
+  s.cloths[0].initial_velocity = Vec3(0, 10, 0);
+  s.substeps = 4;
+  s.guard.energy_bound = 1.0;
+  {
+    Simulation sim(s);
+    for (int f = 0; f < 10; ++f) ASSERT_TRUE(sim.step_frame().finite) << sim.failure();
+  }
+  s.guard.energy_bound = 0.5;
+  double m = 0.0;
+  {
+    Simulation probe(s);
+    for (double mi : probe.cloths()[0]->state().mass) m += mi;
+  }
+  const double e0 = 0.5 * m * 100.0, weight = m * 9.81 * std::sqrt(2.0);
+  ASSERT_GT(e0, 0.5 * std::max(e0, weight) + 1e-9);
+  {
+    Simulation sim(s);
+    EXPECT_FALSE(sim.step_frame().finite);
+    EXPECT_NE(sim.failure().find("above the budget"), std::string::npos) << sim.failure();
+    EXPECT_EQ(sim.frame(), 0);
+  }
+  {
+    Simulation sim(s);
+    sim.add_stage(std::make_unique<WorkStage>(e0));  // claims E(0) of work per step: enough
+    for (int f = 0; f < 5; ++f) ASSERT_TRUE(sim.step_frame().finite) << sim.failure();
+  }
 }
 
 TEST(StateArchive, CutShortOrMismatchedArchivesAreErrors) {

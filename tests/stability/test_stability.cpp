@@ -143,12 +143,17 @@ std::vector<HardCase> hard_cases() {
     c.max_strain = 3.0;
     cases.push_back(c);
   }
-  {  // dt changed mid-run: 10 -> 3 -> 40 -> 10 substeps
+  {  // dt changed mid-run: 10 -> 3 -> 40 -> 10 substeps; explicit Euler, unstable on cotton at 10, from its own
+     // stable step (its energy drift grows with h): 1600 -> 800 -> 3200 -> 1600
     HardCase c = make("dt_changed_mid_run", base(), 40);
+    c.prepare = [](Simulation& sim) {
+      if (sim.setup().solver.method == "explicit_euler") sim.set_substeps(1600);
+    };
     c.before_frame = [](Simulation& sim, int f) {
-      if (f == 11) sim.set_substeps(3);
-      if (f == 21) sim.set_substeps(40);
-      if (f == 31) sim.set_substeps(10);
+      const bool expl = sim.setup().solver.method == "explicit_euler";
+      if (f == 11) sim.set_substeps(expl ? 800 : 3);
+      if (f == 21) sim.set_substeps(expl ? 3200 : 40);
+      if (f == 31) sim.set_substeps(expl ? 1600 : 10);
     };
     cases.push_back(c);
   }
@@ -168,13 +173,13 @@ constexpr Expect S = Expect::kSurvive, F = Expect::kFailCleanly, K = Expect::kKn
 // Which solvers must survive each case (S) and which must stop with a clean, named failure (F), in the order
 // of kSolvers:                                 expl  sympl verlet impl  bdf2  pbd   xpbd  proj  desbrun
 const std::map<std::string, std::vector<Expect>> kExpected = {
-    {"stiff_1e6_dt_1_30",    /* */ {F, F, F, S, S, K, K, K, S}},
+    {"stiff_1e6_dt_1_30",    /* */ {F, F, F, S, S, S, S, S, S}},
     {"light_1em4_kg_m2",     /* */ {F, F, F, S, S, S, S, S, S}},
     {"wind_50_m_s",          /* */ {F, S, S, S, S, S, S, S, S}},
     {"pulled_to_3x",         /* */ {F, S, S, S, S, F, S, S, S}},
     {"needle_triangles",     /* */ {F, F, F, S, S, S, S, S, S}},
     {"collapsed_within_1mm", /* */ {F, S, S, S, S, S, S, S, S}},
-    {"dt_changed_mid_run",   /* */ {F, S, S, S, S, S, S, S, S}},
+    {"dt_changed_mid_run",   /* */ {S, S, S, S, S, S, S, S, S}},
 };
 
 struct Outcome {
@@ -222,6 +227,7 @@ Outcome run_case(const HardCase& hc, const std::string& solver, bool check_energ
   SimulationSetup setup = hc.setup;
   setup.solver.method = solver;
   setup.guard.max_strain = hc.max_strain;
+  setup.guard.energy_bound = 10.0;  // the guard enforces the energy invariant too (Guard.h; its W is the one above)
   Simulation sim(setup, hc.name + ".json");
   if (hc.prepare) hc.prepare(sim);
   FrameStats s0 = sim.measure();

@@ -1,5 +1,5 @@
 // The stability suite's hard cases with collisions on (issue 8): a collider spinning at 50 rad/s, a cloth
-// crushed in a shrinking box, a character clip played at 3x speed. Each is a scene (JSON below, built with
+// crushed in a shrinking box (two sizes), a character clip played at 3x speed. Each is a scene (JSON below, built with
 // loom::scene like `loom run`), self-collision on, run with every solver; invariants:
 //   - after every pipeline step (a stage after the collision stages; rolled-back steps are forgotten with the
 //     guard's snapshot): the exact census (loom::collision::count_all_intersections) finds 0 intersecting
@@ -11,10 +11,15 @@
 //     |f·v| dt per frame (as in test_stability.cpp) and the colliders' push, per frame
 //     |ΔJ·v| + |ΔL·ω| (ΔJ, ΔL: the change of the collider's reaction impulse and its moment about the
 //     collider's origin; v, ω: the collider's velocity and spin over the frame, from its poses).
+// The guard is given the same bounds (strain, energy budget with its own per-step estimate of the colliders'
+// work, 1 mm penetration via collision::ContactGuardStage), so a solver that cannot hold a case is rolled
+// back, retried with smaller steps and stopped with a named cause instead of handing out a bad frame.
 // Table kExpected says, per solver, whether it must survive every frame (S) or stop with a clean, named failure
-// (F: the guard's cause, the last good frame kept, nothing non-finite handed out).
+// (F: the guard's cause, the last good frame kept, nothing non-finite handed out), or is a known gap (K: the
+// census finds intersections, which the guard does not check). Rows too slow for ctest: kSlow (DISABLED_).
 #include <gtest/gtest.h>
 
+#include <algorithm>
 #include <cmath>
 #include <cstdio>
 #include <map>
@@ -68,7 +73,8 @@ struct CollisionCase {
   std::string scene;        // JSON; "@SOLVER" is replaced by the solver's settings
   int frames = 30;
   double max_strain = 1.0;  // 1, bound of max(l/L - 1) per frame (also the guard's limit)
-  double max_depth = 0.0;   // m, bound of max_penetration per frame
+  double max_depth = 0.0;   // m, bound of max_penetration per frame (also the guard's limit)
+  int max_halvings = 5;     // the guard's retries of a failed frame (2x, 4x, ... the substeps)
 };
 
 // Solver settings per solver: the explicit ones need small steps on cotton (stability limit), the others
@@ -76,6 +82,11 @@ struct CollisionCase {
 std::string solver_json(const std::string& solver) {
   const int substeps = solver == "explicit_euler" ? 100 : solver == "symplectic_euler" || solver == "verlet" ? 40 : 4;
   return "{\"method\": \"" + solver + "\", \"substeps\": " + std::to_string(substeps) + "}";
+}
+
+std::string replace_all(std::string s, const std::string& from, const std::string& to) {
+  for (size_t p = s.find(from); p != std::string::npos; p = s.find(from, p + to.size())) s.replace(p, from.size(), to);
+  return s;
 }
 
 std::vector<CollisionCase> collision_cases() {
@@ -97,10 +108,16 @@ std::vector<CollisionCase> collision_cases() {
     c.max_depth = 1e-3;
     cases.push_back(c);
   }
-  {  // a sheet in a box whose six walls close in, from 1.2 x 0.6 x 1.2 m to 0.3 x 0.15 x 0.3 m over 0.6 s
+  // A sheet dropped into a box whose six walls close in at 0.75 m/s (lid and side walls; 3.1 mm per step at
+  // 4 substeps of a 60 Hz frame, less than the walls' 5 mm thickness, so a step can resolve it). Two sizes:
+  //  - to 0.5 x 0.25 x 0.5 m (at t = 0.47 s, then held): the 1 m sheet folds to half its width each way, about
+  //    4 layers in 0.25 m: it fits;
+  //  - to 0.3 x 0.15 x 0.3 m (at t = 0.6 s): 11x less area, with 83 mm edges (13x13 nodes) only 3.6 edges
+  //    across the box: the coarse sheet cannot fold that tight.
+  auto box = [](const std::string& name, double half, double lid, double t_end) {
     CollisionCase c;
-    c.name = "crushed_in_shrinking_box";
-    c.scene = R"({
+    c.name = name;
+    std::string s = R"({
       "duration": 1, "fps": 60, "solver": @SOLVER,
       "collision": {"self": true},
       "cloths": [{"name": "sheet", "mesh": {"type": "grid", "size": [1, 1], "nodes": [13, 13], "plane": "xz", "origin": [-0.5, 0.3, -0.5]},
@@ -108,21 +125,26 @@ std::vector<CollisionCase> collision_cases() {
       "colliders": [
         {"name": "floor", "shape": "plane", "thickness": 0.005},
         {"name": "lid", "shape": "plane", "thickness": 0.005, "rotation": {"axis": [1, 0, 0], "degrees": 180},
-         "motion": {"keyframes": [{"t": 0, "position": [0, 0.6, 0]}, {"t": 0.6, "position": [0, 0.15, 0]}]}},
+         "motion": {"keyframes": [{"t": 0, "position": [0, 0.6, 0]}, {"t": @T, "position": [0, @LID, 0]}]}},
         {"name": "east", "shape": "plane", "thickness": 0.005, "rotation": {"axis": [0, 0, 1], "degrees": 90},
-         "motion": {"keyframes": [{"t": 0, "position": [0.6, 0, 0]}, {"t": 0.6, "position": [0.15, 0, 0]}]}},
+         "motion": {"keyframes": [{"t": 0, "position": [0.6, 0, 0]}, {"t": @T, "position": [@H, 0, 0]}]}},
         {"name": "west", "shape": "plane", "thickness": 0.005, "rotation": {"axis": [0, 0, 1], "degrees": -90},
-         "motion": {"keyframes": [{"t": 0, "position": [-0.6, 0, 0]}, {"t": 0.6, "position": [-0.15, 0, 0]}]}},
+         "motion": {"keyframes": [{"t": 0, "position": [-0.6, 0, 0]}, {"t": @T, "position": [-@H, 0, 0]}]}},
         {"name": "north", "shape": "plane", "thickness": 0.005, "rotation": {"axis": [1, 0, 0], "degrees": -90},
-         "motion": {"keyframes": [{"t": 0, "position": [0, 0, 0.6]}, {"t": 0.6, "position": [0, 0, 0.15]}]}},
+         "motion": {"keyframes": [{"t": 0, "position": [0, 0, 0.6]}, {"t": @T, "position": [0, 0, @H]}]}},
         {"name": "south", "shape": "plane", "thickness": 0.005, "rotation": {"axis": [1, 0, 0], "degrees": 90},
-         "motion": {"keyframes": [{"t": 0, "position": [0, 0, -0.6]}, {"t": 0.6, "position": [0, 0, -0.15]}]}}]
+         "motion": {"keyframes": [{"t": 0, "position": [0, 0, -0.6]}, {"t": @T, "position": [0, 0, -@H]}]}}]
     })";
+    s = replace_all(replace_all(replace_all(s, "@T", std::to_string(t_end)), "@LID", std::to_string(lid)), "@H", std::to_string(half));
+    c.scene = s;
     c.frames = 48;
     c.max_strain = 1.0;
     c.max_depth = 1e-3;
-    cases.push_back(c);
-  }
+    return c;
+  };
+  cases.push_back(box("crushed_in_shrinking_box_to_50_cm", 0.25, 0.25, 0.35 / 0.75));
+  cases.push_back(box("crushed_in_shrinking_box_to_30_cm", 0.15, 0.15, 0.45 / 0.75));
+  cases.back().max_halvings = 1;  // every solver fails it; fewer retries keep the rows short
 #ifdef LOOM_HAVE_CHARACTERS
   {  // the CMU jump (tests/data/mocap/01_01.bvh) played at 3x with a cape: the root moves at up to ~6 m/s
     CollisionCase c;
@@ -134,7 +156,7 @@ std::vector<CollisionCase> collision_cases() {
       "character": {"bvh": "@MOCAP/01_01.bvh", "start": 1.0, "speed": 3.0,
                     "garments": [{"type": "cape", "name": "cape", "material": {"preset": "cotton", "damping": 1e-4}, "resolution": 0.08}]}
     })";
-    c.frames = 30;
+    c.frames = 60;  // the scene's whole second: 3 s of the clip
     c.max_strain = 1.0;
     c.max_depth = 1e-3;
     cases.push_back(c);
@@ -146,16 +168,31 @@ std::vector<CollisionCase> collision_cases() {
 const std::vector<std::string> kSolvers = {"explicit_euler", "symplectic_euler", "verlet", "implicit_euler", "bdf2",
                                            "pbd", "xpbd", "projective", "desbrun"};
 
-enum class Expect { kSurvive, kFailCleanly };
-constexpr Expect S = Expect::kSurvive, F = Expect::kFailCleanly;
+enum class Expect { kSurvive, kFailCleanly, kKnownGap };
+constexpr Expect S = Expect::kSurvive, F = Expect::kFailCleanly, K = Expect::kKnownGap;
 
-// Which solvers must survive each case (S) and which must stop with a clean, named failure (F), in the order
-// of kSolvers:                                       expl  sympl verlet impl  bdf2  pbd   xpbd  proj  desbrun
+// Which solvers must survive each case (S: every invariant after every step/frame) and which must stop with a
+// clean, named failure (F: the guard's cause, the last good frame kept, nothing non-finite handed out); K: a
+// known gap, asserted as such so that a fix shows up (it runs to the end, finite, but breaks an invariant the
+// guard does not check: the census). In the order of kSolvers:
+//                                                       expl  sympl verlet impl  bdf2  pbd   xpbd  proj  desbrun
 const std::map<std::string, std::vector<Expect>> kExpected = {
-    {"collider_spinning_50_rad_s", /* */ {S, S, S, S, S, S, S, S, S}},
-    {"crushed_in_shrinking_box",   /* */ {S, S, S, S, S, S, S, S, S}},
-    {"character_clip_at_3x",       /* */ {S, S, S, S, S, S, S, S, S}},
+    {"collider_spinning_50_rad_s",        /* */ {F, S, S, S, S, S, S, S, S}},
+    {"crushed_in_shrinking_box_to_50_cm", /* */ {F, S, S, S, S, F, S, S, F}},
+    {"crushed_in_shrinking_box_to_30_cm", /* */ {F, F, F, F, F, F, F, F, F}},
+    {"character_clip_at_3x",              /* */ {F, S, K, S, S, S, S, S, K}},
 };
+
+// Rows too slow for ctest (the self-collision stage on the crumpling sheet at 40-100 substeps per frame, or
+// the guard's retries): compiled, run with --gtest_also_run_disabled_tests; measured in the table below.
+const std::vector<std::string> kSlow = {
+    "collider_spinning_50_rad_s_explicit_euler",          "collider_spinning_50_rad_s_desbrun",
+    "crushed_in_shrinking_box_to_50_cm_explicit_euler",   "crushed_in_shrinking_box_to_50_cm_symplectic_euler",
+    "crushed_in_shrinking_box_to_50_cm_verlet",           "crushed_in_shrinking_box_to_50_cm_xpbd",
+    "crushed_in_shrinking_box_to_50_cm_desbrun",          "crushed_in_shrinking_box_to_30_cm_explicit_euler",
+    "crushed_in_shrinking_box_to_30_cm_symplectic_euler", "crushed_in_shrinking_box_to_30_cm_verlet",
+    "character_clip_at_3x_explicit_euler",                "character_clip_at_3x_verlet",
+    "character_clip_at_3x_desbrun"};
 
 struct Outcome {
   bool survived = false;
@@ -165,10 +202,6 @@ struct Outcome {
   double max_depth = 0.0, max_strain = 0.0, max_energy_ratio = 0.0;
 };
 
-std::string replace_all(std::string s, const std::string& from, const std::string& to) {
-  for (size_t p = s.find(from); p != std::string::npos; p = s.find(from, p + to.size())) s.replace(p, from.size(), to);
-  return s;
-}
 
 // Speed (m/s) of the collider's origin and spin (rad/s) over the frame from pose a to pose b.
 void collider_motion(const collision::Transform& a, const collision::Transform& b, double dt, cloth::Vec3& v, cloth::Vec3& w) {
@@ -177,11 +210,15 @@ void collider_motion(const collision::Transform& a, const collision::Transform& 
   w = d.axis() * d.angle() / dt;
 }
 
-Outcome run_case(const CollisionCase& cc, const std::string& solver, bool check_energy) {
+Outcome run_case(const CollisionCase& cc, const std::string& solver, bool strict) {
   const std::string text = replace_all(replace_all(cc.scene, "@SOLVER", solver_json(solver)), "@MOCAP",
                                        std::string(LOOM_TEST_DATA) + "/mocap");
   nlohmann::json root = nlohmann::json::parse(text);
-  root["guard"] = {{"max_strain", cc.max_strain}};
+  // The guard enforces the invariants below (Guard.h): the strain bound, the energy budget 10x start + work
+  // (its own estimate of the work: per step, from the colliders' reaction impulses) and the penetration bound
+  // (collision::ContactGuardStage), so a solver that breaks one stops cleanly instead of handing the frame out.
+  root["guard"] = {{"max_strain", cc.max_strain}, {"energy_bound", 10.0}, {"max_penetration", cc.max_depth},
+                   {"max_halvings", solver == "explicit_euler" ? std::min(cc.max_halvings, 1) : cc.max_halvings}};
   const scene::Scene sc = scene::parse_scene(root, cc.name + ".json");
   collision::ColliderSetPtr colliders;
   std::unique_ptr<cloth::Simulation> sim = scene::build_simulation(sc, &colliders);
@@ -237,21 +274,27 @@ Outcome run_case(const CollisionCase& cc, const std::string& solver, bool check_
       before = *colliders;
       const double depth = collision::max_penetration(census_input(), *colliders);
       out.max_depth = std::max(out.max_depth, depth);
-      EXPECT_LE(depth, cc.max_depth) << cc.name << " " << solver << " frame " << f << ": a vertex inside a collider";
+      if (strict) {
+        EXPECT_LE(depth, cc.max_depth) << cc.name << " " << solver << " frame " << f << ": a vertex inside a collider";
+      }
     }
     const double e = s.kinetic + s.elastic + s.potential - s0.potential;
     out.max_energy_ratio = std::max(out.max_energy_ratio, e / (scale + work));
-    if (check_energy) {
+    if (strict) {
       EXPECT_LE(e, scale + work) << cc.name << " " << solver << " frame " << f << ": energy above 10x start + work";
     }
-    EXPECT_LE(s.max_strain, cc.max_strain) << cc.name << " " << solver << " frame " << f;
+    if (strict) {
+      EXPECT_LE(s.max_strain, cc.max_strain) << cc.name << " " << solver << " frame " << f;
+    }
     out.max_strain = std::max(out.max_strain, s.max_strain);
     out.frames_done = f;
   }
   out.survived = out.frames_done == cc.frames;
   out.intersections = cs->worst;
   out.census_steps = cs->steps;
-  EXPECT_EQ(cs->worst, 0) << cc.name << " " << solver << ": intersecting triangle pairs at step " << cs->worst_step;
+  if (strict) {
+    EXPECT_EQ(cs->worst, 0) << cc.name << " " << solver << ": intersecting triangle pairs at step " << cs->worst_step;
+  }
   EXPECT_GE(cs->steps, out.frames_done * sim->setup().substeps) << "the census must see every step";
   return out;
 }
@@ -263,41 +306,66 @@ TEST_P(StabilityWithCollisions, SurvivesOrFailsCleanly) {
   const CollisionCase& cc = cases[std::get<0>(GetParam())];
   const std::string& solver = kSolvers[std::get<1>(GetParam())];
   const Expect want = kExpected.at(cc.name)[std::get<1>(GetParam())];
-  const Outcome o = run_case(cc, solver, want == S);
+  const Outcome o = run_case(cc, solver, want != K);
   std::printf("%-27s %-17s %s after %d frames, census 0/%ld steps: worst %ld, depth %.3g m, strain %.3g, max E/bound %.3g %s\n",
               cc.name.c_str(), solver.c_str(), o.survived ? "survived" : "FAILED", o.frames_done, o.census_steps,
               o.intersections, o.max_depth, o.max_strain, o.max_energy_ratio, o.failure.c_str());
   if (want == S) {
     EXPECT_TRUE(o.survived) << cc.name << " " << solver << ": " << o.failure;
-  } else {
+  } else if (want == F) {
     EXPECT_FALSE(o.survived) << cc.name << " " << solver << " was expected to fail cleanly (table kExpected)";
+  } else {
+    EXPECT_TRUE(o.survived) << cc.name << " " << solver << ": " << o.failure;
+    EXPECT_GT(o.intersections, 0) << cc.name << " " << solver << " now keeps the census at 0: make it S in kExpected";
   }
 }
 
 int num_cases() { return static_cast<int>(collision_cases().size()); }
 
-// Measured (Release, 2026-11-24; `--gtest_also_run_disabled_tests --gtest_filter='*WithCollisions*'`):
-// - collider_spinning_50_rad_s: symplectic_euler, verlet, implicit_euler, bdf2, pbd, xpbd, projective survive
-//   every frame with every invariant (census 0 at every step, no vertex inside, max E/bound 0.02-0.23): they
-//   run in `SpinningCollider` below (0.4-5 s each). explicit_euler (27,600 steps, 240 s) and desbrun stay
-//   finite but pass the energy bound (2.0x and 3.3x of 10x start + work) without the guard stopping them.
-// - crushed_in_shrinking_box: every solver ends steps with vertices 5-95 mm inside the box walls and above the
-//   energy bound (pbd and explicit_euler stop with the guard's strain error): the body stage cannot hold a
-//   cloth squeezed between two approaching walls. An engine gap (issue 8), not a table entry yet.
-// - character_clip_at_3x: not measured to the end (explicit_euler first, minutes per run).
-// The rows not yet green stay DISABLED_ (compiled, run with --gtest_also_run_disabled_tests) until fixed.
-INSTANTIATE_TEST_SUITE_P(SpinningCollider, StabilityWithCollisions,
-                         ::testing::Combine(::testing::Values(0), ::testing::Range(1, 8)),
-                         [](const ::testing::TestParamInfo<std::tuple<int, int>>& info) {
-                           static const std::vector<CollisionCase> cases = collision_cases();
-                           return cases[std::get<0>(info.param)].name + "_" + kSolvers[std::get<1>(info.param)];
-                         });
-INSTANTIATE_TEST_SUITE_P(DISABLED_HardCases, StabilityWithCollisions,
-                         ::testing::Combine(::testing::Range(0, num_cases()), ::testing::Range(0, static_cast<int>(kSolvers.size()))),
-                         [](const ::testing::TestParamInfo<std::tuple<int, int>>& info) {
-                           static const std::vector<CollisionCase> cases = collision_cases();
-                           return cases[std::get<0>(info.param)].name + "_" + kSolvers[std::get<1>(info.param)];
-                         });
+// Measured (Release, 2026-11-24, machine shared with other builds: times are 2-4x an idle run;
+// `build/tests/loom_stability_tests --gtest_also_run_disabled_tests --gtest_filter='*WithCollisions*'`), per
+// row: outcome, max E / (10x start + work) over the frames handed out, time; slow rows (kSlow) marked *.
+// - collider_spinning_50_rad_s: explicit_euler* F frame 5, energy (its 100 substeps, one retry at 200, do not
+//   hold the cotton sheet even before contact; 234 s with 5 retries, same failure at frame 6), 23 s;
+//   symplectic_euler S 0.21 14 s; verlet S 0.20 18 s; implicit_euler S 0.05 1.2 s; bdf2 S 0.06 2.1 s;
+//   pbd S 0.02 2.8 s; xpbd S 0.16 2.8 s; projective S 0.23 2.6 s; desbrun* S 0.97 (the energy budget makes
+//   the guard retry its frames; without it 3.3x over the bound) 18 s.
+// - crushed_in_shrinking_box_to_50_cm: explicit_euler* F frame 5, strain 1.7, 24 s; symplectic_euler* S 0.93
+//   60 s; verlet* S 0.74 53 s; implicit_euler S 0.99 3.1 s; bdf2 S 0.55 3.8 s; pbd F frame 17 "vertex 1 is
+//   4.5 mm inside collider 'south'", 3.9 s; xpbd* S 0.57 20 s; projective S 0.97 8.9 s; desbrun* F frame 30
+//   "vertex 37 is 14.4 mm inside collider 'floor'", 17 s.
+// - crushed_in_shrinking_box_to_30_cm (max_halvings 1): every solver F: explicit_euler* frame 5 strain, 24 s;
+//   symplectic_euler* frame 34 (1.02 mm inside 'floor') 57 s; verlet* frame 30 (8.5 mm inside 'north') 21 s;
+//   implicit_euler frame 32 (3.1 mm inside 'west') 3.1 s; bdf2 frame 31 (6.4 mm, 'north') 1.7 s; pbd frame 16
+//   energy 1.9 s; xpbd frame 26 (10 mm, 'floor') 2.0 s; projective frame 27 (3.1 mm, 'floor') 1.4 s;
+//   desbrun frame 19 (1.4 mm, 'south') 1.9 s. With 5 retries the same (frames 30-37, 2.9-12 mm; 3-119 s).
+// - character_clip_at_3x (60 frames, 3 s of the clip): explicit_euler* F frame 19 strain 1.37, 19 s;
+//   symplectic_euler S 0.19 13 s; verlet* K (1 intersecting pair at step 2309 of 2400) 73 s; implicit_euler
+//   S 0.17 1.4 s; bdf2 S 0.23 1.3 s; pbd S 0.10 1.4 s; xpbd S 0.34 3.4 s; projective S 0.12 1.5 s; desbrun* K
+//   (26 intersecting pairs, census at step 121 on) 13 s.
+// Engine gaps the F and K rows show (collision/, issue 5): the body stage lets vertices through a wall that
+// closes on cloth pressed against another wall or the floor (pbd from frame 17 already at 0.78 m box width);
+// self-collision leaves intersections on the character for desbrun and verlet.
+std::string row_name(const std::tuple<int, int>& row) {
+  static const std::vector<CollisionCase> cases = collision_cases();
+  return cases[std::get<0>(row)].name + "_" + kSolvers[std::get<1>(row)];
+}
+
+// Every (case, solver) row, the slow ones (kSlow) or the rest.
+std::vector<std::tuple<int, int>> rows(bool slow) {
+  std::vector<std::tuple<int, int>> out;
+  for (int c = 0; c < num_cases(); ++c)
+    for (int k = 0; k < static_cast<int>(kSolvers.size()); ++k) {
+      const bool is_slow = std::find(kSlow.begin(), kSlow.end(), row_name({c, k})) != kSlow.end();
+      if (is_slow == slow) out.emplace_back(c, k);
+    }
+  return out;
+}
+
+INSTANTIATE_TEST_SUITE_P(HardCases, StabilityWithCollisions, ::testing::ValuesIn(rows(false)),
+                         [](const ::testing::TestParamInfo<std::tuple<int, int>>& info) { return row_name(info.param); });
+INSTANTIATE_TEST_SUITE_P(DISABLED_SlowCases, StabilityWithCollisions, ::testing::ValuesIn(rows(true)),
+                         [](const ::testing::TestParamInfo<std::tuple<int, int>>& info) { return row_name(info.param); });
 
 }  // namespace
 }  // namespace loom

@@ -1,6 +1,7 @@
 #include "loom/scene/Build.h"
 
 #include "loom/collision/BodyCollisionStage.h"
+#include "loom/collision/ContactGuardStage.h"
 
 #ifdef LOOM_HAVE_CHARACTERS
 #include "loom/characters/Character.h"
@@ -35,6 +36,11 @@ std::unique_ptr<cloth::Simulation> build_simulation(const Scene& scene, collisio
     stage->set_body_stage(body_stage);
     sim->add_stage(std::move(stage));
   }
+  // The guard's contact check and the colliders' work (issue 8, Guard.h), last: only when the scene's `guard`
+  // asks for a penetration limit or an energy budget and there are colliders.
+  const cloth::GuardSettings& guard = scene.setup.guard;
+  if (!colliders->empty() && guard.enabled && (guard.max_penetration > 0.0 || guard.energy_bound > 0.0))
+    sim->add_stage(std::make_unique<collision::ContactGuardStage>(colliders, guard.max_penetration));
   if (colliders_out) *colliders_out = colliders;
   return sim;
 }

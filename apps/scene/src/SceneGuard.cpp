@@ -11,6 +11,8 @@ void parse_guard(const JsonReader& root, cloth::GuardSettings& g) {
   g.max_strain = r.number("max_strain", g.max_strain, 0.0, true);
   g.energy_growth = r.number("energy_growth", g.energy_growth, 0.0, true);
   if (g.energy_growth < 1.0) r.fail("energy_growth", "must be >= 1");
+  g.energy_bound = r.number("energy_bound", g.energy_bound, 0.0);
+  g.max_penetration = r.number("max_penetration", g.max_penetration, 0.0);
   r.finish();
 }
 

@@ -13,6 +13,18 @@
 //   E_kin(end) + E_el(end) > energy_growth · (E_kin(start) + E_el(start) + max(0, ΔE_pot) + E_ref)
 // (no stored or supplied energy source can pay for that much motion and stretch in one frame), or a strain
 // max(l/L - 1) above `max_strain`.
+//
+// Two more criteria, off by default (scene key `guard`):
+//  - energy budget (`energy_bound` > 0): since the start, with E(t) = E_kin + E_el + E_pot(t) - E_pot(0),
+//      E(t) > energy_bound · max(E_kin(0) + E_el(0), Σ m |g| L) + W(t)
+//    is exploding; W(t) is an upper estimate of the work put in from outside: kinematic (pinned, attached)
+//    vertices |f·v| Δt per frame (f: the cloth's forces on them at the frame end), wind |f_drag| (|v| +
+//    |wind| (1 + gusts)) Δt per vertex and frame, plus each stage's Stage::work_in() (a moving collider's
+//    push): the stability suite's invariant "energy never above 10x its start plus work done" as a guard;
+//  - contacts (`max_penetration` > 0, m): a stage that checks contacts (collision::ContactGuardStage, added
+//    by the scene builder) reports a cloth vertex deeper than this inside a collider after a step as a
+//    violation (Stage::violation(): "could not resolve contacts: ..."); any stage's violation after any step
+//    rejects the frame like an explosion.
 #include <string>
 
 namespace loom::cloth {
@@ -22,6 +34,8 @@ struct GuardSettings {
   int max_halvings = 5;          // retries of a failed frame, each with twice the substeps of the one before
   double max_strain = 10.0;      // 1, largest accepted l/L - 1 of a strain edge at a frame end
   double energy_growth = 100.0;  // 1, factor of the kinetic-energy bound above
+  double energy_bound = 0.0;     // 1, factor of the energy budget since the start (0: off)
+  double max_penetration = 0.0;  // m, deepest accepted cloth vertex inside a collider after a step (0: off)
 };
 
 // The guard's view of a frame end (energies in J, strain in 1).

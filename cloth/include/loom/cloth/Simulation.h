@@ -114,7 +114,12 @@ class Simulation {
 
  private:
   void fill_stats(FrameStats& s) const;
-  void run_substeps(int n);  // n pipeline steps of frame_dt / n from frame_ (time by counting steps)
+  // n pipeline steps of frame_dt / n from frame_ (time by counting steps). With `stop_on_violation`, the first
+  // step after which a stage reports Stage::violation() ends the loop early and its cause is returned.
+  std::string run_substeps(int n, bool stop_on_violation = false);
+  // Guard's energy budget (Guard.h, energy_bound): "" or why the frame just run breaks it; *pin_work (J)
+  // receives the kinematic vertices' work of this frame.
+  std::string energy_budget_violation(const FrameStats& end, double* pin_work);
 
   SimulationSetup setup_;
   std::vector<std::unique_ptr<Cloth>> cloths_;
@@ -128,6 +133,9 @@ class Simulation {
   StateWriter snapshot_;
   std::optional<GuardSample> start_sample_;
   double energy_scale_ = 0.0;  // J, E_ref of Guard.h
+  // Energy budget (Guard.h, energy_bound), saved with the state: max(E_kin(0) + E_el(0), Σ m|g|L) (J; < 0
+  // before the first frame), E_pot(0) (J) and the kinematic vertices' work so far (J).
+  double budget_ref_ = -1.0, budget_potential0_ = 0.0, pin_work_ = 0.0;
   std::string failure_;
   long rollbacks_ = 0, retried_frames_ = 0, failed_frames_ = 0;
   double guard_ms_ = 0.0;

@@ -30,6 +30,13 @@ class Stage {
   // checkpoints (`loom run --checkpoint-every`). Stateless stages keep the defaults (issue 8).
   virtual void save_state(StateWriter& out) const { (void)out; }
   virtual void load_state(StateReader& in) { (void)in; }
+  // Guard (Guard.h): "" or why the step this stage has just run left a state the run must not keep (e.g.
+  // contacts it could not resolve). The guard checks it after every step: the frame is rolled back and run
+  // again with smaller steps, and if that fails too the run stops with this cause.
+  virtual std::string violation() const { return {}; }
+  // Guard's energy budget (GuardSettings::energy_bound): the energy (J) this stage has put into the cloths
+  // from outside since the start (e.g. a moving collider's push), an upper estimate. Part of the saved state.
+  virtual double work_in() const { return 0.0; }
 };
 
 }  // namespace loom::cloth
