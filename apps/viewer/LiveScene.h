@@ -94,7 +94,7 @@ class LiveScene {
   std::string solver_;
   int substeps_ = 1;
   std::unique_ptr<cloth::Simulation> sim_;  // null in a Bullet scene (the BulletScene owns its simulation)
-  std::unique_ptr<bullet::BulletScene> bullet_;
+  std::shared_ptr<bullet::BulletScene> bullet_;  // shared_ptr: complete only where the bridge is linked
   cloth::Simulation* live_ = nullptr;       // sim_ or bullet_'s simulation
   collision::ColliderSetPtr colliders_;
   std::optional<Grab> grab_;
