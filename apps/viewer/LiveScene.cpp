@@ -1,7 +1,15 @@
 #include "LiveScene.h"
 
+#include <algorithm>
+#include <cmath>
+
+#include "loom/cloth/Error.h"
 #include "loom/collision/RayCast.h"
 #include "loom/scene/Build.h"
+#ifdef LOOM_HAVE_BULLET
+#include "loom/bullet/BulletScene.h"
+#include "loom/collision/SelfCollisionStage.h"
+#endif
 
 namespace loom::viewer {
 
@@ -16,7 +24,32 @@ LiveScene::LiveScene(scene::Scene scene) : scene_(std::move(scene)) {
   for (const cloth::ClothSetup& c : scene_.setup.cloths) materials_.push_back(c.material);
   solver_ = scene_.setup.solver.method;
   substeps_ = scene_.setup.substeps;
+  if (!scene_.bodies.empty()) {
+#ifdef LOOM_HAVE_BULLET
+    if (!scene_.colliders.empty())
+      throw Error(scene_.file, "colliders", "cannot be combined with 'bodies' yet: give static shapes as bodies (mass 0)");
+    if (scene_.character) throw Error(scene_.file, "character", "cannot be combined with 'bodies' yet");
+#else
+    throw Error(scene_.file, "bodies", "rigid bodies need the Bullet bridge, and this loom-view was built without it (Debian: libbullet-dev)");
+#endif
+  }
   build(false);
+}
+
+LiveScene::~LiveScene() = default;
+
+int LiveScene::frame() const {
+#ifdef LOOM_HAVE_BULLET
+  if (bullet_) return bullet_->frame();
+#endif
+  return sim_->frame();
+}
+
+double LiveScene::time() const {
+#ifdef LOOM_HAVE_BULLET
+  if (bullet_) return bullet_->time();
+#endif
+  return sim_->time();
 }
 
 scene::Scene LiveScene::edited() const {
@@ -34,6 +67,21 @@ scene::Scene LiveScene::edited() const {
 }
 
 void LiveScene::build(bool keep_state) {
+#ifdef LOOM_HAVE_BULLET
+  if (!scene_.bodies.empty()) {
+    // As `loom run`: the cloths as one BulletCloth in a Bullet world with the bodies. The world's state is
+    // not copied, so this starts from the scene's start (the grab goes with the old cloth).
+    const scene::Scene s = edited();
+    auto fresh = std::make_unique<bullet::BulletScene>(s.setup, s.bodies);  // throws: old run kept
+    if (s.collision && (s.collision->self || s.setup.cloths.size() > 1))
+      fresh->simulation().add_stage(std::make_unique<collision::SelfCollisionStage>(*s.collision));
+    grab_.reset();
+    bullet_ = std::move(fresh);
+    live_ = &bullet_->simulation();
+    colliders_ = bullet_->body_colliders();
+    return;
+  }
+#endif
   collision::ColliderSetPtr colliders;
   std::unique_ptr<cloth::Simulation> fresh = scene::build_simulation(edited(), &colliders);  // throws: old run kept
   if (keep_state && sim_) {
@@ -54,6 +102,7 @@ void LiveScene::build(bool keep_state) {
         }
   }
   sim_ = std::move(fresh);
+  live_ = sim_.get();
   colliders_ = colliders ? colliders : std::make_shared<collision::ColliderSet>();
   if (grab_) {  // the new cloth has its own inverse masses: keep the grabbed vertex kinematic
     cloth::ClothState& s = sim_->cloths()[grab_->cloth]->state();
@@ -72,16 +121,46 @@ void LiveScene::restart() {
 cloth::FrameStats LiveScene::step_frame() {
   if (grab_) {
     // Kinematic for this frame (Solver.h contract): every substep moves it by h v, so it ends at the target.
-    cloth::ClothState& s = sim_->cloths()[grab_->cloth]->state();
-    s.v[grab_->vertex] = (target_ - s.x[grab_->vertex]) / sim_->setup().frame_dt;
+    cloth::ClothState& s = sim().cloths()[grab_->cloth]->state();
+    // In a Bullet scene the cloth steps Bullet substeps inside one scene frame of bullet_->frame_dt().
+    double dt = sim().setup().frame_dt;
+#ifdef LOOM_HAVE_BULLET
+    if (bullet_) dt = bullet_->frame_dt();
+#endif
+    s.v[grab_->vertex] = (target_ - s.x[grab_->vertex]) / dt;
   }
+#ifdef LOOM_HAVE_BULLET
+  cloth::FrameStats stats = bullet_ ? bullet_->step_frame() : sim_->step_frame();
+#else
   cloth::FrameStats stats = sim_->step_frame();
-  if (grab_) sim_->cloths()[grab_->cloth]->state().v[grab_->vertex].setZero();
+#endif
+  if (grab_) sim().cloths()[grab_->cloth]->state().v[grab_->vertex].setZero();
   return stats;
 }
 
 bool LiveScene::grab(const cloth::Vec3& origin, const cloth::Vec3& dir) {
   release();
+  Grab g;
+#ifdef LOOM_HAVE_BULLET
+  if (bullet_) {
+    // BulletCloth::ray_test casts a segment: from the origin to past the farthest cloth vertex.
+    const double len = dir.norm();
+    if (!(len > 0.0)) return false;
+    double reach = 0.0;
+    for (const auto& c : sim().cloths())
+      for (const cloth::Vec3& p : c->state().x) reach = std::max(reach, (p - origin).norm());
+    const bullet::RayHit hit = bullet_->ray_test(origin, origin + (2.0 * reach + 1.0) / len * dir);
+    if (!hit.hit) return false;
+    int k = 0;
+    hit.barycentric.maxCoeff(&k);
+    g.cloth = hit.cloth;
+    g.triangle = hit.triangle;
+    g.barycentric = hit.barycentric;
+    g.vertex = sim().cloths()[hit.cloth]->mesh().triangles()[hit.triangle][k];
+    g.distance = hit.distance;
+    return hold(g);
+  }
+#endif
   std::optional<collision::RayHit> best;
   int best_cloth = -1;
   for (size_t c = 0; c < sim_->cloths().size(); ++c) {
@@ -94,11 +173,16 @@ bool LiveScene::grab(const cloth::Vec3& origin, const cloth::Vec3& dir) {
   }
   if (!best) return false;
   const cloth::Cloth& cl = *sim_->cloths()[best_cloth];
-  Grab g;
   g.cloth = best_cloth;
+  g.triangle = best->triangle;
+  g.barycentric = best->barycentric;
   g.vertex = collision::nearest_corner(*best, cl.mesh().triangles());
   g.distance = best->distance;
-  cloth::ClothState& s = sim_->cloths()[best_cloth]->state();
+  return hold(g);
+}
+
+bool LiveScene::hold(const Grab& g) {
+  cloth::ClothState& s = sim().cloths()[g.cloth]->state();
   // A pinned vertex stays as it is (its pin owns it).
   if (s.inv_mass[g.vertex] == 0.0) return false;
   grab_ = g;
@@ -110,7 +194,7 @@ bool LiveScene::grab(const cloth::Vec3& origin, const cloth::Vec3& dir) {
 
 void LiveScene::release() {
   if (!grab_) return;
-  sim_->cloths()[grab_->cloth]->state().inv_mass[grab_->vertex] = grab_inv_mass_;
+  sim().cloths()[grab_->cloth]->state().inv_mass[grab_->vertex] = grab_inv_mass_;
   grab_.reset();
 }
 

@@ -4,6 +4,11 @@
 // rebuilding it from an edited copy of the scene while keeping the clock and every cloth's x, v, x_prev
 // (solver history such as BDF2's previous step starts afresh), and dragging a cloth vertex picked with a
 // ray (collision/RayCast.h) as a temporary kinematic pin.
+// A scene with Bullet rigid `bodies` (issue 9; only when built with the Bullet bridge, LOOM_HAVE_BULLET) runs
+// in a bullet::BulletScene as `loom run` does: colliders() are then the bodies at their poses, picking goes
+// through BulletCloth::ray_test (BulletScene::ray_test) and the grabbed vertex is a kinematic pin on the
+// cloth simulation inside the Bullet world. The Bullet world's state is not copied, so there an edit
+// (rebuild) starts the run again from the scene's start with the new settings.
 #include <memory>
 #include <optional>
 #include <string>
@@ -12,6 +17,10 @@
 #include "loom/cloth/Simulation.h"
 #include "loom/collision/Collider.h"
 #include "loom/scene/Scene.h"
+
+namespace loom::bullet {
+class BulletScene;
+}
 
 namespace loom::viewer {
 
@@ -27,18 +36,29 @@ struct Effects {
 
 struct Grab {
   int cloth = -1, vertex = -1;
+  int triangle = -1;                          // the triangle the pick ray hit
+  cloth::Vec3 barycentric = cloth::Vec3::Zero();  // 1, the hit point's weights on that triangle
   double distance = 0.0;  // m from the ray origin to the grabbed point when picked
 };
 
 class LiveScene {
  public:
+  // Throws loom::Error for a scene with `bodies` when built without the Bullet bridge, or one that also has
+  // `colliders` or a character (as `loom run`).
   explicit LiveScene(scene::Scene scene);
+  ~LiveScene();
 
-  cloth::Simulation& sim() { return *sim_; }
-  const cloth::Simulation& sim() const { return *sim_; }
+  cloth::Simulation& sim() { return *live_; }
+  const cloth::Simulation& sim() const { return *live_; }
   // The simulation's colliders (never null; empty without any).
   const collision::ColliderSet& colliders() const { return *colliders_; }
   const scene::Scene& scene() const { return scene_; }
+  // The Bullet world for a scene with `bodies`, else null.
+  bullet::BulletScene* bullet() { return bullet_.get(); }
+  const bullet::BulletScene* bullet() const { return bullet_.get(); }
+  // Scene frames run and scene time (s) (in a Bullet scene sim() counts Bullet substeps).
+  int frame() const;
+  double time() const;
 
   const Effects& available() const { return available_; }  // what the scene names
   Effects& enabled() { return enabled_; }                   // edit, then rebuild()
@@ -66,13 +86,16 @@ class LiveScene {
  private:
   scene::Scene edited() const;
   void build(bool keep_state);
+  bool hold(const Grab& g);  // makes the picked vertex a temporary kinematic pin (false for a pinned one)
 
   scene::Scene scene_;
   Effects available_, enabled_;
   std::vector<cloth::Material> materials_;
   std::string solver_;
   int substeps_ = 1;
-  std::unique_ptr<cloth::Simulation> sim_;
+  std::unique_ptr<cloth::Simulation> sim_;  // null in a Bullet scene (the BulletScene owns its simulation)
+  std::shared_ptr<bullet::BulletScene> bullet_;  // shared_ptr: complete only where the bridge is linked
+  cloth::Simulation* live_ = nullptr;       // sim_ or bullet_'s simulation
   collision::ColliderSetPtr colliders_;
   std::optional<Grab> grab_;
   double grab_inv_mass_ = 0.0;  // the grabbed vertex's own inverse mass, restored on release

@@ -2,7 +2,9 @@
 // Interactive viewer (GLFW + Dear ImGui, OpenGL 2.1): play/pause/step, solver and substeps (applied by
 // restarting), on/off toggles for the scene's effects and sliders for each cloth's material (applied live
 // by rebuilding, LiveScene.h), per-stage timings of the last frame, colliders at their current poses,
-// orbit camera (left-drag), zoom (wheel), drag a cloth vertex (right-drag). Drawing is the offscreen
+// orbit camera (left-drag), zoom (wheel), drag a cloth vertex (right-drag). Scenes with Bullet rigid
+// `bodies` run in a Bullet world (bullet::BulletScene): the bodies are drawn as colliders and picking goes
+// through BulletCloth::ray_test. Drawing is the offscreen
 // renderer's (apps/render/src/gl/Draw.cpp). With --frames N --screenshot FILE it plays N frames, saves
 // the window to FILE and exits (the Xvfb test uses this).
 #include <GLFW/glfw3.h>
@@ -73,10 +75,7 @@ struct Options {
 
 int run(const Options& o) {
   scene::Scene sc = scene::load_scene(o.scene, o.sets);
-  // Bullet rigid bodies are stepped by `loom run` (bullet::BulletScene); the viewer has no Bullet world, so it
-  // refuses such a scene rather than show it without its bodies.
-  if (!sc.bodies.empty())
-    throw Error(o.scene, "bodies", "scenes with Bullet rigid bodies run in 'loom run' (with --render to see them); loom-view does not step a Bullet world");
+  // A scene with Bullet rigid `bodies` runs in a Bullet world (LiveScene.h); its colliders are the bodies.
   viewer::LiveScene live(sc);
 
   if (!glfwInit()) throw Error("", "loom-view", "cannot initialise GLFW (no display? try xvfb-run)");
@@ -128,7 +127,8 @@ int run(const Options& o) {
     ImGui::SetNextWindowPos(ImVec2(10, 10), ImGuiCond_Once);
     ImGui::Begin("loom", nullptr, ImGuiWindowFlags_AlwaysAutoResize);
     cloth::Simulation* sim = &live.sim();
-    ImGui::Text("%s  t = %.3f s  frame %d", sc.name.c_str(), sim->time(), sim->frame());
+    ImGui::Text("%s  t = %.3f s  frame %d", sc.name.c_str(), live.time(), live.frame());
+    if (live.bullet()) ImGui::Text("Bullet world: %zu rigid bodies (edits restart the run)", sc.bodies.size());
     if (ImGui::Button(playing ? "pause" : "play")) playing = !playing;
     ImGui::SameLine();
     if (ImGui::Button("step")) step = true;

@@ -72,6 +72,7 @@ size_t BulletScene::num_bodies() const { return world_->bodies.size(); }
 Vec3 BulletScene::body_position(size_t k) const { return to_eigen(world_->bodies.at(k)->getCenterOfMassPosition()); }
 Vec3 BulletScene::body_velocity(size_t k) const { return to_eigen(world_->bodies.at(k)->getLinearVelocity()); }
 const std::vector<std::string>& BulletScene::warnings() const { return cloth_->warnings(); }
+RayHit BulletScene::ray_test(const Vec3& from, const Vec3& to) const { return cloth_->ray_test(from, to); }
 
 void BulletScene::refresh_colliders() {
   for (size_t k = 0; k < world_->bodies.size(); ++k) {

@@ -2,6 +2,9 @@
 // restore their stages and terms, material edits rebuild the cloth (mass follows the areal density), both
 // keep the clock and the cloth's state, an invalid edit keeps the old run, and a vertex picked with a ray
 // is the one under the cursor and follows the mouse target exactly as a temporary kinematic pin.
+// With the Bullet bridge: a scene with rigid `bodies` runs in a Bullet world (the box moves, the colliders
+// are the bodies), picking returns what BulletCloth::ray_test and a brute-force cast return, and dragging
+// works there too.
 #include <gtest/gtest.h>
 
 #include <algorithm>
@@ -10,6 +13,11 @@
 
 #include "LiveScene.h"
 #include "loom/scene/Scene.h"
+#ifdef LOOM_HAVE_BULLET
+#include "loom/bullet/BulletCloth.h"
+#include "loom/bullet/BulletScene.h"
+#include "loom/bullet/ClothRay.h"
+#endif
 
 namespace loom::viewer {
 namespace {
@@ -132,6 +140,94 @@ TEST_P(LiveSceneDrag, PickedVertexIsTheOneUnderTheRayAndFollowsTheTarget) {
 }
 
 INSTANTIATE_TEST_SUITE_P(Solvers, LiveSceneDrag, ::testing::Values("symplectic_euler", "implicit_euler"));
+
+#ifdef LOOM_HAVE_BULLET
+scene::Scene trampoline(std::vector<std::string> sets = {}) {
+  sets.push_back("cloths.0.mesh.nodes=[11, 11]");
+  return scene::load_scene(std::string(LOOM_SOURCE_DIR) + "/scenes/trampoline.json", sets);
+}
+
+TEST(LiveSceneBullet, BodiesSceneStepsInABulletWorldWithTheBoxMoving) {
+  LiveScene live(trampoline());
+  ASSERT_NE(live.bullet(), nullptr);
+  ASSERT_EQ(live.colliders().size(), 1u);
+  EXPECT_EQ(live.colliders()[0].name, "box");
+  const Vec3 p0 = live.bullet()->body_position(0);
+  EXPECT_NEAR(p0.y(), 1.0, 1e-6);
+  for (int f = 0; f < 10; ++f) EXPECT_TRUE(live.step_frame().finite);
+  EXPECT_EQ(live.frame(), 10);
+  EXPECT_NEAR(live.time(), 10.0 / 60.0, 1e-12);
+  const Vec3 p1 = live.bullet()->body_position(0);
+  // Thrown down at 2 m/s under gravity: about 0.47 m lower after 1/6 s, onto the sheet at y = 0.5.
+  EXPECT_LT(p1.y(), p0.y() - 0.2);
+  // The drawn collider is the body at its pose now.
+  EXPECT_LT((live.colliders()[0].curr.translation() - p1).norm(), 1e-6);
+  // Rebuilding (an edit) starts the Bullet world again from the scene's start.
+  live.materials()[0].areal_density *= 2.0;
+  live.rebuild();
+  EXPECT_EQ(live.frame(), 0);
+  EXPECT_NEAR(live.bullet()->body_position(0).y(), 1.0, 1e-6);
+  live.step_frame();
+  EXPECT_EQ(live.frame(), 1);
+}
+
+TEST(LiveSceneBullet, PickGoesThroughBulletClothRayTestAndDragsTheVertex) {
+  LiveScene live(trampoline());
+  for (int f = 0; f < 5; ++f) live.step_frame();
+  const cloth::Cloth& cl = *live.sim().cloths()[0];
+  // A known cloth point: weights (0.6, 0.3, 0.1) on a triangle near a free corner region, away from the box.
+  int tri = -1;
+  for (int t = 0; t < static_cast<int>(cl.mesh().triangles().size()); ++t) {
+    const auto& T = cl.mesh().triangles()[t];
+    const Vec3 c = (cl.state().x[T[0]] + cl.state().x[T[1]] + cl.state().x[T[2]]) / 3.0;
+    if (c.x() > 0.2 && c.x() < 0.35 && c.z() > 0.2 && c.z() < 0.35 && cl.state().inv_mass[T[0]] > 0) { tri = t; break; }
+  }
+  ASSERT_GE(tri, 0);
+  const auto& T = cl.mesh().triangles()[tri];
+  const Vec3 point = 0.6 * cl.state().x[T[0]] + 0.3 * cl.state().x[T[1]] + 0.1 * cl.state().x[T[2]];
+  const Vec3 origin = point + Vec3(0.15, 1.5, 0.1), dir = point - origin;
+  const Vec3 far = origin + 3.0 * dir;
+  const bullet::RayHit by_bullet = live.bullet()->cloth().ray_test(origin, far);
+  const bullet::RayHit brute = bullet::ray_triangles(cl.mesh(), cl.state().x, origin, far);
+  ASSERT_TRUE(by_bullet.hit);
+  EXPECT_EQ(by_bullet.triangle, tri);
+  EXPECT_EQ(brute.triangle, tri);
+
+  const double inv_mass = cl.state().inv_mass[T[0]];
+  EXPECT_GT(inv_mass, 0.0);
+  EXPECT_FALSE(live.grab(origin + Vec3(5, 0, 0), dir));  // misses the sheet
+  ASSERT_TRUE(live.grab(origin, dir));
+  const Grab g = *live.grabbed();
+  EXPECT_EQ(g.cloth, by_bullet.cloth);
+  EXPECT_EQ(g.triangle, by_bullet.triangle);
+  EXPECT_LT((g.barycentric - by_bullet.barycentric).norm(), 1e-12);
+  EXPECT_NEAR(g.distance, by_bullet.distance, 1e-9 * by_bullet.distance);
+  EXPECT_NEAR(g.distance, dir.norm(), 1e-9);
+  EXPECT_LT((g.barycentric - Vec3(0.6, 0.3, 0.1)).norm(), 1e-9);
+  EXPECT_EQ(g.vertex, T[0]);  // the corner with the largest weight
+  EXPECT_EQ(live.sim().cloths()[0]->state().inv_mass[g.vertex], 0.0);
+
+  // Dragged up over two frames in the Bullet world: at the target after each frame.
+  const Vec3 p = cl.state().x[g.vertex];
+  for (const Vec3& target : {Vec3(p + Vec3(0.0, 0.2, 0.0)), Vec3(p + Vec3(0.05, 0.35, 0.0))}) {
+    live.drag_to(target);
+    live.step_frame();
+    EXPECT_LT((live.sim().cloths()[0]->state().x[g.vertex] - target).norm(), 1e-9);
+  }
+  live.release();
+  EXPECT_EQ(live.sim().cloths()[0]->state().inv_mass[g.vertex], inv_mass);
+}
+
+TEST(LiveSceneBullet, BodiesWithCollidersAreRefusedNamingTheField) {
+  try {
+    LiveScene live(trampoline({"colliders=[{\"name\": \"ball\", \"shape\": \"sphere\", \"radius\": 0.1, \"position\": [0, 2, 0]}]"}));
+    FAIL() << "accepted a scene with both bodies and colliders";
+  } catch (const std::exception& e) {
+    EXPECT_NE(std::string(e.what()).find("trampoline.json"), std::string::npos) << e.what();
+    EXPECT_NE(std::string(e.what()).find("colliders"), std::string::npos) << e.what();
+  }
+}
+#endif
 
 }  // namespace
 }  // namespace loom::viewer

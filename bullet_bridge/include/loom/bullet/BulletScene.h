@@ -10,6 +10,7 @@
 #include <string>
 #include <vector>
 
+#include "loom/bullet/ClothRay.h"
 #include "loom/cloth/Simulation.h"
 #include "loom/collision/Collider.h"
 #include "loom/collision/RigidBodySpec.h"
@@ -45,6 +46,9 @@ class BulletScene {
   cloth::Simulation& simulation();
   const cloth::Simulation& simulation() const;
   BulletCloth& cloth() { return *cloth_; }
+  // BulletCloth::ray_test for code that does not include Bullet headers (loom-view's picking): the nearest
+  // cloth triangle hit by the segment from -> to (m), `cloth` set to the cloth's index in simulation().
+  RayHit ray_test(const Vec3& from, const Vec3& to) const;
 
   // One collider per body (its shape, `curr` = its pose now), refreshed after every frame; names are the
   // bodies' names. The renderer draws these.
