@@ -20,6 +20,7 @@
 
 #include "loom/cloth/Error.h"
 #include "loom/cloth/Simulation.h"
+#include "StabilityExpect.h"
 
 namespace loom::cloth {
 namespace {
@@ -160,15 +161,16 @@ std::vector<HardCase> hard_cases() {
   return cases;
 }
 
-const std::vector<std::string> kSolvers = {"explicit_euler", "symplectic_euler", "verlet", "implicit_euler", "bdf2",
-                                           "pbd", "xpbd", "projective", "desbrun"};
+const std::vector<std::string>& kSolvers = test::kStabilitySolvers;
 
 // S: survives every frame with every invariant. F: stops with a clean, named failure (the guard's cause; the
 // frames handed out before are finite and within the strain bound; no NaN). K: a known gap — finite and
 // within the strain bound, but its energy breaks the 10x bound without the guard noticing (the guard looks at
 // one frame's growth, not at the run's total): asserted as such, so a fix shows up here.
-enum class Expect { kSurvive, kFailCleanly, kKnownGap };
-constexpr Expect S = Expect::kSurvive, F = Expect::kFailCleanly, K = Expect::kKnownGap;
+using test::Expect;
+using test::F;
+using test::K;
+using test::S;
 
 // Which solvers must survive each case (S) and which must stop with a clean, named failure (F), in the order
 // of kSolvers:                                 expl  sympl verlet impl  bdf2  pbd   xpbd  proj  desbrun

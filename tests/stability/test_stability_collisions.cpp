@@ -32,6 +32,7 @@
 #include "loom/collision/MultiClothCensus.h"
 #include "loom/scene/Build.h"
 #include "loom/scene/Scene.h"
+#include "StabilityExpect.h"
 
 namespace loom {
 namespace {
@@ -165,11 +166,11 @@ std::vector<CollisionCase> collision_cases() {
   return cases;
 }
 
-const std::vector<std::string> kSolvers = {"explicit_euler", "symplectic_euler", "verlet", "implicit_euler", "bdf2",
-                                           "pbd", "xpbd", "projective", "desbrun"};
-
-enum class Expect { kSurvive, kFailCleanly, kKnownGap };
-constexpr Expect S = Expect::kSurvive, F = Expect::kFailCleanly, K = Expect::kKnownGap;
+const std::vector<std::string>& kSolvers = test::kStabilitySolvers;
+using test::Expect;
+using test::F;
+using test::K;
+using test::S;
 
 // Which solvers must survive each case (S: every invariant after every step/frame) and which must stop with a
 // clean, named failure (F: the guard's cause, the last good frame kept, nothing non-finite handed out); K: a
