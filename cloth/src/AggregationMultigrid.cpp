@@ -10,9 +10,9 @@ constexpr int kParallelMin = 2048;  // vertices; smaller levels run on one threa
 }  // namespace
 
 void AggregationMultigrid::aggregate(const Level& l, std::vector<int>& agg) const {
-  // Vaněk, Mandel & Brezina 1996 §3: (1) roots whose strong neighbourhood is still free form an aggregate with
-  // it; (2) the rest join the aggregate of their strongest aggregated neighbour; (3) what is left groups with its
-  // unaggregated strong neighbours.
+  // Vaněk, Mandel & Brezina 1996 §3: (1) roots whose strong neighbourhood is still free form an aggregate
+  // with it; (2) the rest join the aggregate of their strongest aggregated neighbour; (3) what is left groups
+  // with its unaggregated strong neighbours.
   const BlockMatrix& A = *l.A;
   const auto& rs = A.row_start();
   const auto& cols = A.cols();
@@ -224,7 +224,25 @@ void AggregationMultigrid::cycle(int q, int threads) {
     }
     return;
   }
-  const double w = s_.omega;
+  const double w = q == 0 && s_.cycle == MultigridCycle::kAdditiveFinest ? s_.omega_additive : s_.omega;
+  if (q == 0 && s_.cycle == MultigridCycle::kAdditiveFinest) {
+    // x = ω D⁻¹ b + P B_c Pᵀ b: both terms from b, no fine-level residual.
+    Level& c = levels_[1];
+    const int tc = c.n >= kParallelMin ? threads : 1;
+#pragma omp parallel for num_threads(tc) if (tc > 1) schedule(static)
+    for (int I = 0; I < c.n; ++I) {
+      Vec3 sum = Vec3::Zero();
+      for (int k = l.member_start[I]; k < l.member_start[I + 1]; ++k) sum += l.b[l.members[k]];
+      c.b[I] = sum;
+    }
+    cycle(1, threads);
+#pragma omp parallel for num_threads(t) if (t > 1) schedule(static)
+    for (int i = 0; i < l.n; ++i) {
+      l.x[i] = w * (l.dinv[i] * l.b[i]);
+      if (l.agg[i] >= 0) l.x[i] += c.x[l.agg[i]];
+    }
+    return;
+  }
   // Pre-smoothing from x = 0: the first sweep is x = ω D⁻¹ b.
 #pragma omp parallel for num_threads(t) if (t > 1) schedule(static)
   for (int i = 0; i < l.n; ++i) l.x[i] = w * (l.dinv[i] * l.b[i]);

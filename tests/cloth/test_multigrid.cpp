@@ -79,10 +79,11 @@ Problem hanging_problem(int n, unsigned seed) {
   return p;
 }
 
-PcgResult solve(const Problem& p, Preconditioner pre, double tol, Vec3s& dv, int threads = 1) {
+PcgResult solve(const Problem& p, Preconditioner pre, double tol, Vec3s& dv, int threads = 1,
+                MultigridCycle cycle = MultigridCycle::kAdditiveFinest) {
   dv = p.z;
   FilteredPCG pcg;
-  pcg.set_preconditioner(pre);
+  pcg.set_preconditioner(pre, cycle);
   return pcg.solve(p.A, p.b, p.fixed, dv, tol, 5000, threads);
 }
 
@@ -115,78 +116,88 @@ TEST(Multigrid, BuildsACoarseningHierarchyOfTheFreeVertices) {
 TEST(Multigrid, PreconditionerIsSymmetricAndZeroOnFixedVertices) {
   // CG needs a symmetric preconditioner: uᵀ B w == wᵀ B u for random u, w (filtered), and B r = 0 on fixed.
   const Problem p = hanging_problem(24, 9);
-  AggregationMultigrid mg;
-  mg.setup(p.A, p.fixed, 1);
-  std::mt19937 rng(3);
-  std::uniform_real_distribution<double> u(-1.0, 1.0);
-  Vec3s a(p.A.size()), c(p.A.size()), Ba, Bc;
-  for (int i = 0; i < p.A.size(); ++i) {
-    a[i] = p.fixed[i] ? Vec3::Zero() : Vec3(u(rng), u(rng), u(rng));
-    c[i] = p.fixed[i] ? Vec3::Zero() : Vec3(u(rng), u(rng), u(rng));
-  }
-  mg.apply(a, Ba, 1);
-  mg.apply(c, Bc, 1);
-  double cBa = 0.0, aBc = 0.0, aBa = 0.0;
-  for (int i = 0; i < p.A.size(); ++i) {
-    cBa += c[i].dot(Ba[i]);
-    aBc += a[i].dot(Bc[i]);
-    aBa += a[i].dot(Ba[i]);
-    if (p.fixed[i]) {
-      EXPECT_EQ(Ba[i], Vec3::Zero()) << i;
+  for (MultigridCycle cycle : {MultigridCycle::kAdditiveFinest, MultigridCycle::kVCycle}) {
+    MultigridSettings settings;
+    settings.cycle = cycle;
+    AggregationMultigrid mg(settings);
+    mg.setup(p.A, p.fixed, 1);
+    std::mt19937 rng(3);
+    std::uniform_real_distribution<double> u(-1.0, 1.0);
+    Vec3s a(p.A.size()), c(p.A.size()), Ba, Bc;
+    for (int i = 0; i < p.A.size(); ++i) {
+      a[i] = p.fixed[i] ? Vec3::Zero() : Vec3(u(rng), u(rng), u(rng));
+      c[i] = p.fixed[i] ? Vec3::Zero() : Vec3(u(rng), u(rng), u(rng));
     }
+    mg.apply(a, Ba, 1);
+    mg.apply(c, Bc, 1);
+    double cBa = 0.0, aBc = 0.0, aBa = 0.0;
+    for (int i = 0; i < p.A.size(); ++i) {
+      cBa += c[i].dot(Ba[i]);
+      aBc += a[i].dot(Bc[i]);
+      aBa += a[i].dot(Ba[i]);
+      if (p.fixed[i]) {
+        EXPECT_EQ(Ba[i], Vec3::Zero()) << i;
+      }
+    }
+    EXPECT_NEAR(cBa, aBc, 1e-10 * std::abs(aBa));
+    EXPECT_GT(aBa, 0.0);
   }
-  EXPECT_NEAR(cBa, aBc, 1e-10 * std::abs(aBa));
-  EXPECT_GT(aBa, 0.0);
 }
 
 TEST(Multigrid, FilteredPcgHonoursConstraintsAndMatchesBlockJacobiInFewerIterations) {
   const Problem p = hanging_problem(48, 1);
-  Vec3s jacobi, mg;
-  const PcgResult rj = solve(p, Preconditioner::kBlockJacobi, 1e-10, jacobi);
-  const PcgResult rm = solve(p, Preconditioner::kMultigrid, 1e-10, mg);
-  ASSERT_TRUE(rj.converged);
-  ASSERT_TRUE(rm.converged);
-  // Pinned vertices keep their prescribed values bit-exactly.
-  for (int i = 0; i < p.A.size(); ++i)
-    if (p.fixed[i]) {
-      EXPECT_EQ(mg[i], p.z[i]) << i;
-      EXPECT_EQ(jacobi[i], p.z[i]) << i;
+  for (MultigridCycle cycle : {MultigridCycle::kAdditiveFinest, MultigridCycle::kVCycle}) {
+    Vec3s jacobi, mg;
+    const PcgResult rj = solve(p, Preconditioner::kBlockJacobi, 1e-10, jacobi);
+    const PcgResult rm = solve(p, Preconditioner::kMultigrid, 1e-10, mg, 1, cycle);
+    ASSERT_TRUE(rj.converged);
+    ASSERT_TRUE(rm.converged);
+    // Pinned vertices keep their prescribed values bit-exactly.
+    for (int i = 0; i < p.A.size(); ++i)
+      if (p.fixed[i]) {
+        EXPECT_EQ(mg[i], p.z[i]) << i;
+        EXPECT_EQ(jacobi[i], p.z[i]) << i;
+      }
+    // The same solution of the free block.
+    double scale = 0.0, diff = 0.0;
+    for (int i = 0; i < p.A.size(); ++i) {
+      scale = std::max(scale, jacobi[i].norm());
+      diff = std::max(diff, (mg[i] - jacobi[i]).norm());
     }
-  // The same solution of the free block.
-  double scale = 0.0, diff = 0.0;
-  for (int i = 0; i < p.A.size(); ++i) {
-    scale = std::max(scale, jacobi[i].norm());
-    diff = std::max(diff, (mg[i] - jacobi[i]).norm());
+    EXPECT_LT(diff, 1e-7 * scale);
+    double bmax = 0.0;
+    for (const Vec3& v : p.b) bmax = std::max(bmax, v.norm());
+    EXPECT_LT(free_residual(p, mg), 1e-7 * bmax);
+    // Iterations: block-Jacobi needs ~N (the pins' load crosses the grid one vertex per iteration); the
+    // V-cycle carries it in one application. At 1e-10 and at the bench's 1e-2:
+    EXPECT_LT(3 * rm.iterations, rj.iterations) << rm.iterations << " vs " << rj.iterations;
+    const int j2 = solve(p, Preconditioner::kBlockJacobi, 1e-2, jacobi).iterations;
+    const int m2 = solve(p, Preconditioner::kMultigrid, 1e-2, mg, 1, cycle).iterations;
+    EXPECT_LT(3 * m2, j2) << m2 << " vs " << j2;
+    std::printf("%s: iterations to 1e-10: block-Jacobi %d, multigrid %d; to 1e-2: %d, %d\n",
+                cycle == MultigridCycle::kVCycle ? "V-cycle" : "additive finest", rj.iterations,
+                rm.iterations, j2, m2);
   }
-  EXPECT_LT(diff, 1e-7 * scale);
-  double bmax = 0.0;
-  for (const Vec3& v : p.b) bmax = std::max(bmax, v.norm());
-  EXPECT_LT(free_residual(p, mg), 1e-7 * bmax);
-  // Iterations: block-Jacobi needs ~N (the pins' load crosses the grid one vertex per iteration); the V-cycle
-  // carries it in one application. At 1e-10 and at the bench's 1e-2:
-  EXPECT_LT(3 * rm.iterations, rj.iterations) << rm.iterations << " vs " << rj.iterations;
-  const int j2 = solve(p, Preconditioner::kBlockJacobi, 1e-2, jacobi).iterations;
-  const int m2 = solve(p, Preconditioner::kMultigrid, 1e-2, mg).iterations;
-  EXPECT_LT(3 * m2, j2) << m2 << " vs " << j2;
-  std::printf("iterations to 1e-10: block-Jacobi %d, multigrid %d; to 1e-2: %d, %d\n", rj.iterations, rm.iterations,
-              j2, m2);
 }
 
 TEST(Multigrid, LargeSystemIsBitIdenticalForOneAndTwoThreads) {
   const Problem p = hanging_problem(50, 2);  // 2500 vertices: above the parallel threshold
   Vec3s out[2];
   int it[2];
-  for (int th = 1; th <= 2; ++th) it[th - 1] = solve(p, Preconditioner::kMultigrid, 1e-8, out[th - 1], th).iterations;
-  EXPECT_EQ(it[0], it[1]);
-  for (int i = 0; i < p.A.size(); ++i) ASSERT_EQ(out[0][i], out[1][i]) << i;
+  for (MultigridCycle cycle : {MultigridCycle::kAdditiveFinest, MultigridCycle::kVCycle}) {
+    for (int th = 1; th <= 2; ++th)
+      it[th - 1] = solve(p, Preconditioner::kMultigrid, 1e-8, out[th - 1], th, cycle).iterations;
+    EXPECT_EQ(it[0], it[1]);
+    for (int i = 0; i < p.A.size(); ++i) ASSERT_EQ(out[0][i], out[1][i]) << i;
+  }
 }
 
 TEST(Multigrid, ImplicitEulerWithMultigridMatchesBlockJacobiAtTightTolerance) {
   // The accuracy bench's hanging cloth at N=24 for 3 frames (60 Hz, 1 substep): the two preconditioners at
   // cg_tolerance 1e-9 give the same motion; the pinned corners stay exactly where they are.
-  Vec3s out[2];
-  double its[2];
-  for (int mg = 0; mg <= 1; ++mg) {
+  Vec3s out[3];
+  double its[3];
+  for (int mg = 0; mg <= 2; ++mg) {
     SimulationSetup s;
     ClothSetup c;
     GridSpec g;
@@ -212,10 +223,12 @@ TEST(Multigrid, ImplicitEulerWithMultigridMatchesBlockJacobiAtTightTolerance) {
       for (const auto& kv : pr.counters)
         if (kv.first == "cg_iterations") its[mg] = kv.second;
   }
-  double diff = 0.0;
-  for (size_t i = 0; i < out[0].size(); ++i) diff = std::max(diff, (out[0][i] - out[1][i]).norm());
-  EXPECT_LT(diff, 1e-6);  // m
-  EXPECT_LT(its[1], its[0]);
+  for (int mg = 1; mg <= 2; ++mg) {
+    double diff = 0.0;
+    for (size_t i = 0; i < out[0].size(); ++i) diff = std::max(diff, (out[0][i] - out[mg][i]).norm());
+    EXPECT_LT(diff, 1e-6) << "multigrid " << mg;  // m
+    EXPECT_LT(its[mg], its[0]) << "multigrid " << mg;
+  }
 }
 
 }  // namespace

@@ -27,7 +27,12 @@ enum class Preconditioner { kBlockJacobi, kMultigrid };
 
 class FilteredPCG {
  public:
-  void set_preconditioner(Preconditioner p) { precond_ = p; }
+  void set_preconditioner(Preconditioner p, MultigridCycle cycle = MultigridCycle::kAdditiveFinest) {
+    precond_ = p;
+    MultigridSettings s;
+    s.cycle = cycle;
+    mg_.set_settings(s);
+  }
   Preconditioner preconditioner() const { return precond_; }
   const AggregationMultigrid& multigrid() const { return mg_; }
 
