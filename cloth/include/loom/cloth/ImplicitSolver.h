@@ -154,6 +154,7 @@ class ImplicitSolver final : public Solver {
   std::vector<double> e_start_, e_end_;  // J, per conservative term (safeguard)
   double gamma_ = 0.0;
   double h_dv_ = 0.0;  // s, step of the Δv kept in dv_ (the PCG's warm start); 0 = none
+  bool d_written_ = false;  // the last assembly wrote df/dv into D_ (so D_ must be cleared before it is skipped)
 };
 
 }  // namespace loom::cloth
