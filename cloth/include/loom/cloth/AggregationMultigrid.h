@@ -1,11 +1,11 @@
 #pragma once
-// Aggregation multigrid preconditioner for FilteredPCG (issue 3): one V-cycle per application, P⁻¹ ≈ A⁻¹ on
+// Aggregation multigrid preconditioner for FilteredPCG (issue 3): one cycle per application, P⁻¹ ≈ A⁻¹ on
 // the free vertices. Unsmoothed aggregation on 3x3 blocks (Vaněk, Mandel & Brezina 1996 "Algebraic multigrid
 // by smoothed aggregation" §3 for the aggregation; Notay 2010 "An aggregation-based algebraic multigrid
 // method" for plain aggregates under a Krylov method): vertices are grouped into aggregates along strong
 // couplings |A_ij|_F > θ sqrt(|A_ii|_F |A_jj|_F); the prolongation P copies an aggregate's 3-vector to each
 // of its vertices (the three translations), so the Galerkin coarse matrix PᵀAP is again block-sparse 3x3 with
-// A_c(I, J) = Σ_{i∈I, j∈J} A_ij — summing blocks, no matrix products. Levels until <= kCoarsest vertices,
+// A_c(I, J) = Σ_{i∈I, j∈J} A_ij — summing blocks, no matrix products. Levels until <= `coarsest` vertices,
 // solved there by a dense Cholesky factorisation.
 // V-cycle: ν damped block-Jacobi sweeps x += ω D⁻¹ (b - A x) before and after the coarse correction (the same
 // sweeps both sides, so the cycle is a symmetric operator, Jacobi being self-adjoint in the A inner product);
@@ -14,8 +14,9 @@
 // the coarse correction are added instead of applied in turn (a two-level additive Schwarz / BPX-type
 // operator, Bramble, Pasciak & Xu 1990), B = ω_a D⁻¹ + P B_c Pᵀ, symmetric and SPD on the free subspace. It
 // needs no fine-level matrix product, so one application costs a fraction of the PCG's own product, where the
-// multiplicative V-cycle costs two; measured on the accuracy bench (N=64, cg_tolerance 0.03) it took 10.7 CG
-// iterations per step against 6.1 for the V-cycle and 52 for block-Jacobi (at 0.01), and the least time.
+// multiplicative V-cycle costs two. Measured on the accuracy bench (N=64, 1 substep): 13.4 CG iterations per
+// step at cg_tolerance 0.02 against 8.2 for the V-cycle and 55.8 for block-Jacobi at 0.01, and the least time
+// (bench/results/issue3_multigrid.md).
 // Filter: fixed vertices are in no aggregate and have D⁻¹ = 0, so the cycle maps a filtered residual to a
 // correction that is exactly 0 on them: the operator is S B S with B SPD on the free subspace, as the
 // filtered PCG needs.
