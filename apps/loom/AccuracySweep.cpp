@@ -48,6 +48,10 @@ std::map<std::string, std::vector<SweepConfig>> loom_sweep_table(int explicit_st
   t["implicit_euler"] = grid({1, 2, 4, 8, 16}, "cg_tolerance", {1e-2, 1e-4, 1e-6});
   append(t["implicit_euler"], grid({1, 4}, "newton_iterations", {3}, {{"cg_tolerance", 1e-6}}));
   append(t["implicit_euler"], grid({1, 4}, "adaptive", {1}, {{"cg_tolerance", 1e-4}}));
+  // The aggregation multigrid preconditioner (AggregationMultigrid.h): 1 = additive finest level, 2 = V-cycle; one
+  // substep at the loosest tolerances that keep the max strain (README, "Multigrid preconditioner").
+  append(t["implicit_euler"], grid({1}, "cg_tolerance", {1e-2, 2e-2}, {{"multigrid", 1}}));
+  append(t["implicit_euler"], grid({1}, "cg_tolerance", {1e-2, 3e-2}, {{"multigrid", 2}}));
   t["bdf2"] = grid({1, 2, 4, 8, 16}, "cg_tolerance", {1e-3, 1e-6});
   // Issue 10. IMEX: structural and shear springs implicit, bend springs and gravity explicit (ImplicitSolver.h).
   t["imex"] = grid({1, 2, 4, 8, 16}, "cg_tolerance", {1e-4});

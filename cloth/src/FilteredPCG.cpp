@@ -67,6 +67,12 @@ PcgResult FilteredPCG::solve(const BlockMatrix& A, const Vec3s& b, const std::ve
     }
     s_[i] = pinv_[i] * b[i];
   }
+  const bool mg = precond_ == Preconditioner::kMultigrid;
+  if (mg) {
+    // s = B filter(b) (the cycle reads free rows only and returns 0 on fixed ones).
+    mg_.setup(A, fixed, t);
+    mg_.apply(b, s_, t);
+  }
   // δ0 = filter(b)ᵀ P⁻¹ filter(b)   (P⁻¹ is zero on fixed vertices, so it filters too)
   const double delta0 = dot(b, s_, t);
   PcgResult res;
@@ -77,6 +83,7 @@ PcgResult FilteredPCG::solve(const BlockMatrix& A, const Vec3s& b, const std::ve
     r_[i] = fixed[i] ? Vec3::Zero() : Vec3(b[i] - q_[i]);
     c_[i] = pinv_[i] * r_[i];
   }
+  if (mg) mg_.apply(r_, c_, t);
   double delta = dot(r_, c_, t);
   if (!(delta0 > 0.0)) {
     res.converged = true;
@@ -114,20 +121,30 @@ PcgResult FilteredPCG::solve(const BlockMatrix& A, const Vec3s& b, const std::ve
     if (!(cq > 0.0)) break;  // A not positive definite along c: stop with what we have (methods.md §1.4)
     const double alpha = delta / cq;
     // Δv += α c, r -= α q, s = P⁻¹ r, rᵀs
+    const double delta_old = delta;
+    if (mg) {
 #pragma omp parallel for num_threads(t) if (t > 1) schedule(static)
-    for (int ch = 0; ch < chunks; ++ch) {
-      double acc = 0.0;
-      const int end = std::min(n, (ch + 1) * kChunk);
-      for (int i = ch * kChunk; i < end; ++i) {
+      for (int i = 0; i < n; ++i) {
         dv[i] += alpha * c_[i];
         r_[i] -= alpha * q_[i];
-        s_[i] = pinv_[i] * r_[i];
-        acc += r_[i].dot(s_[i]);
       }
-      partial_[ch] = acc;
+      mg_.apply(r_, s_, t);
+      delta = dot(r_, s_, t);
+    } else {
+#pragma omp parallel for num_threads(t) if (t > 1) schedule(static)
+      for (int ch = 0; ch < chunks; ++ch) {
+        double acc = 0.0;
+        const int end = std::min(n, (ch + 1) * kChunk);
+        for (int i = ch * kChunk; i < end; ++i) {
+          dv[i] += alpha * c_[i];
+          r_[i] -= alpha * q_[i];
+          s_[i] = pinv_[i] * r_[i];
+          acc += r_[i].dot(s_[i]);
+        }
+        partial_[ch] = acc;
+      }
+      delta = total();
     }
-    const double delta_old = delta;
-    delta = total();
     const double beta = delta / delta_old;
 #pragma omp parallel for num_threads(t) if (t > 1) schedule(static)
     for (int i = 0; i < n; ++i) c_[i] = s_[i] + beta * c_[i];

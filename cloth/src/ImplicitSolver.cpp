@@ -67,6 +67,7 @@ void ImplicitSolver::prepare(const Cloth& cloth) {
   std::sort(pairs.begin(), pairs.end());
   pairs.erase(std::unique(pairs.begin(), pairs.end()), pairs.end());
   K_ = BlockMatrix(n, pairs);
+  d_written_ = false;
   D_ = K_;  // copies share the pattern (and its pattern_id(), so the terms' slot lists serve all three)
   A_ = K_;
   transpose_.resize(A_.num_blocks());
@@ -103,10 +104,16 @@ void ImplicitSolver::assemble(Cloth& cloth, const Vec3s& x, const Vec3s& v, doub
   auto& kb = K_.blocks();
   auto& db = D_.blocks();
   const int nb = A_.num_blocks();
+  // D is cleared and read only when some term has a velocity Jacobian (damped springs, drag); otherwise it
+  // stays zero (cleared once if an earlier assembly wrote it).
+  bool use_d = false;
+  for (const Term* term : jac_terms_) use_d = use_d || term->has_velocity_jacobian();
+  const bool clear_d = use_d || d_written_;
+  d_written_ = use_d;
 #pragma omp parallel for num_threads(threads) if (threads > 1) schedule(static)
   for (int k = 0; k < nb; ++k) {
     kb[k].setZero();
-    db[k].setZero();
+    if (clear_d) db[k].setZero();
   }
   JacobianOptions o;
   o.clamp_compression = p_.clamp_compression;
@@ -114,7 +121,7 @@ void ImplicitSolver::assemble(Cloth& cloth, const Vec3s& x, const Vec3s& v, doub
   const EvalContext ctx{x, v, t, threads};
   for (const Term* term : jac_terms_) {
     // Non-conservative terms (drag): only df/dv goes into A; their position dependence stays explicit.
-    term->add_jacobians(ctx, o, term->conservative() ? &K_ : nullptr, &D_);
+    term->add_jacobians(ctx, o, term->conservative() ? &K_ : nullptr, use_d ? &D_ : nullptr);
   }
   // A = M - γD - γ²K, then symmetrised: A_ij = (A_ij + A_jiᵀ)/2. Row i writes its blocks (i, j >= i) and
   // their mirrors (j, i): every block is written once, rows in parallel.
@@ -122,7 +129,7 @@ void ImplicitSolver::assemble(Cloth& cloth, const Vec3s& x, const Vec3s& v, doub
   auto& a = A_.blocks();
   const auto& rs = A_.row_start();
   const auto& cols = A_.cols();
-  auto raw = [&](int k) -> Mat3 { return -gamma * db[k] - gamma * gamma * kb[k]; };
+  auto raw = [&](int k) -> Mat3 { return use_d ? Mat3(-gamma * db[k] - gamma * gamma * kb[k]) : Mat3(-gamma * gamma * kb[k]); };
 #pragma omp parallel for num_threads(threads) if (threads > 1) schedule(static)
   for (int i = 0; i < n_; ++i)
     for (int k = rs[i]; k < rs[i + 1]; ++k) {

@@ -253,10 +253,11 @@ SimulationSetup pinned_setup(const std::string& method, std::map<std::string, do
 
 TEST(ImplicitSolvers, PinnedVertexTracksItsMovingTargetExactly) {
   for (const char* method : {"implicit_euler", "bdf2"})
-    for (int variant = 0; variant < 3; ++variant) {
+    for (int variant = 0; variant < 5; ++variant) {
       std::map<std::string, double> params;
       if (variant == 1) params = {{"newton_iterations", 3}};
       if (variant == 2) params = {{"adaptive", 1}, {"max_strain_change", 0.002}};
+      if (variant >= 3) params = {{"multigrid", variant - 2}};
       Simulation sim(pinned_setup(method, params));
       const Cloth& c = *sim.cloths()[0];
       const Vec3 fixed0 = c.state().x[8];
@@ -448,17 +449,20 @@ TEST(ImplicitHardCases, CollapsedStart) {
 }
 
 TEST(ImplicitSolvers, ResultsAreBitIdenticalForOneAndTwoThreads) {
-  for (const char* method : {"implicit_euler", "bdf2"}) {
-    Vec3s out[2];
-    for (int th = 1; th <= 2; ++th) {
-      SimulationSetup s = pinned_setup(method, {{"newton_iterations", 2}, {"cg_max_iterations", 40}});
-      s.threads = th;
-      Simulation sim(s);
-      sim.step_frame();
-      out[th - 1] = sim.cloths()[0]->state().x;
+  for (const char* method : {"implicit_euler", "bdf2"})
+    for (int mg = 0; mg <= 2; ++mg) {
+      Vec3s out[2];
+      for (int th = 1; th <= 2; ++th) {
+        SimulationSetup s =
+            pinned_setup(method, {{"newton_iterations", 2}, {"cg_max_iterations", 40}, {"multigrid", double(mg)}});
+        s.threads = th;
+        Simulation sim(s);
+        sim.step_frame();
+        out[th - 1] = sim.cloths()[0]->state().x;
+      }
+      for (size_t i = 0; i < out[0].size(); ++i)
+        ASSERT_EQ(out[0][i], out[1][i]) << method << " multigrid " << mg << " vertex " << i;
     }
-    for (size_t i = 0; i < out[0].size(); ++i) ASSERT_EQ(out[0][i], out[1][i]) << method << " vertex " << i;
-  }
 }
 
 TEST(ImplicitSolvers, ParametersAreCheckedByName) {
@@ -467,7 +471,9 @@ TEST(ImplicitSolvers, ParametersAreCheckedByName) {
                                                 {"cg_max_iterations", 50},
                                                 {"newton_iterations", 3},
                                                 {"adaptive", 1},
-                                                {"max_strain_change", 0.2}})));
+                                                {"max_strain_change", 0.2},
+                                                {"multigrid", 1}})));
+    EXPECT_THROW(make_solver(solver(method, {{"multigrid", 3}})), Error);
     EXPECT_THROW(make_solver(solver(method, {{"iterations", 3}})), Error);
     EXPECT_THROW(make_solver(solver(method, {{"cg_tolerance", -1}})), Error);
     EXPECT_THROW(make_solver(solver(method, {{"newton_iterations", 0}})), Error);

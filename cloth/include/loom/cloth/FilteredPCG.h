@@ -5,10 +5,13 @@
 // z_i). The solution satisfies S(b - AΔv) ≈ 0 and (I - S)Δv = z exactly: a pinned vertex gets exactly
 // its prescribed velocity. With S_i in {0, I}, MPCG is the exact PCG of the system restricted to the free
 // vertices (Ascher & Boxerman 2003), so the usual CG convergence holds.
-// Preconditioner: 3x3 block-Jacobi, P⁻¹_i = (A_ii)⁻¹ on free vertices.
+// Preconditioner: 3x3 block-Jacobi, P⁻¹_i = (A_ii)⁻¹ on free vertices (default), or one V-cycle of the
+// aggregation multigrid (AggregationMultigrid.h), which carries the pins' load across the cloth in one
+// application where block-Jacobi moves it about one vertex per iteration.
 // Dot products are summed in fixed-size chunks in a fixed order: bit-identical for any thread count.
 #include <vector>
 
+#include "loom/cloth/AggregationMultigrid.h"
 #include "loom/cloth/BlockMatrix.h"
 #include "loom/cloth/Types.h"
 
@@ -20,8 +23,19 @@ struct PcgResult {
   bool converged = false;
 };
 
+enum class Preconditioner { kBlockJacobi, kMultigrid };
+
 class FilteredPCG {
  public:
+  void set_preconditioner(Preconditioner p, MultigridCycle cycle = MultigridCycle::kAdditiveFinest) {
+    precond_ = p;
+    MultigridSettings s;
+    s.cycle = cycle;
+    mg_.set_settings(s);
+  }
+  Preconditioner preconditioner() const { return precond_; }
+  const AggregationMultigrid& multigrid() const { return mg_; }
+
   // fixed[i] != 0: vertex i is constrained (S_i = 0). `dv` holds z (prescribed values) on entry for fixed
   // vertices and, with warm_start, the initial guess on free ones (otherwise they start at 0); the
   // solution on exit. Stops when rᵀP⁻¹r <= tol² bᵀP⁻¹b (filtered b) or after max_iterations.
@@ -30,6 +44,8 @@ class FilteredPCG {
 
  private:
   double dot(const Vec3s& a, const Vec3s& b, int threads);
+  Preconditioner precond_ = Preconditioner::kBlockJacobi;
+  AggregationMultigrid mg_;
   std::vector<Mat3> pinv_;
   Vec3s r_, c_, q_, s_;
   std::vector<double> partial_;

@@ -44,7 +44,7 @@
 // Measured on the 5 %-compressed strip (test_buckling.cpp): the linearised step then keeps a linear spring
 // model flat and compressed (for γ²|λ| > m it maps the growing buckling mode back onto the unstable flat
 // state), where the clamp leaves that transverse push explicit and the strip buckles at once.
-// Linear solve: FilteredPCG (block-Jacobi). Kinematic vertices (inverse mass 0) are constrained in the
+// Linear solve: FilteredPCG (block-Jacobi; multigrid = 1 or 2: aggregation multigrid). Kinematic vertices (inverse mass 0) are constrained in the
 // filter (S = 0) with the prescribed velocity that makes x+ = x + h v exactly (Solver.h contract).
 // imex (issue 10): implicit-explicit split (Eberhardt, Etzmuß & Hauth 2000, "Implicit-explicit schemes for
 // fast animation with particle systems"; Bridson, Marino & Fedkiw 2003 treat the stiff part implicitly and the
@@ -75,6 +75,9 @@ struct ImplicitParams {
   double safeguard_tolerance = 0.2;    // 1, allowed gain relative to the energy exchanged in the step
   int safeguard_newton_iterations = 20;  // most Newton iterations of a correction (stops at cg_tolerance)
   bool clamp_compression = true;  // false: exact Jacobians (compressed springs keep k (1 - L/l) transverse)
+  // PCG preconditioner (AggregationMultigrid.h): 0 block-Jacobi, 1 aggregation multigrid with an additive finest
+  // level, 2 aggregation multigrid V-cycle (multiplicative on every level).
+  int multigrid = 0;
 };
 
 // Work counters since construction.
@@ -94,7 +97,10 @@ struct ImplicitCounters {
 class ImplicitSolver final : public Solver {
  public:
   enum class Scheme { kBackwardEuler, kBdf2, kImex };
-  ImplicitSolver(Scheme scheme, ImplicitParams params) : scheme_(scheme), p_(params) {}
+  ImplicitSolver(Scheme scheme, ImplicitParams params) : scheme_(scheme), p_(params) {
+    pcg_.set_preconditioner(p_.multigrid ? Preconditioner::kMultigrid : Preconditioner::kBlockJacobi,
+                            p_.multigrid == 2 ? MultigridCycle::kVCycle : MultigridCycle::kAdditiveFinest);
+  }
   const char* name() const override {
     return scheme_ == Scheme::kBdf2 ? "bdf2" : scheme_ == Scheme::kImex ? "imex" : "implicit_euler";
   }
@@ -148,6 +154,7 @@ class ImplicitSolver final : public Solver {
   std::vector<double> e_start_, e_end_;  // J, per conservative term (safeguard)
   double gamma_ = 0.0;
   double h_dv_ = 0.0;  // s, step of the Δv kept in dv_ (the PCG's warm start); 0 = none
+  bool d_written_ = false;  // the last assembly wrote df/dv into D_ (so D_ must be cleared before it is skipped)
 };
 
 }  // namespace loom::cloth

@@ -18,6 +18,7 @@ class LoadTerm final : public Term {
     for (size_t k = 0; k < vertices_.size(); ++k) f[vertices_[k]] += forces_[k];
   }
   void add_jacobians(const EvalContext&, const JacobianOptions&, BlockMatrix*, BlockMatrix*) const override {}
+  bool has_velocity_jacobian() const override { return false; }
   long work_items() const override { return static_cast<long>(vertices_.size()); }
 
  private:

@@ -26,6 +26,7 @@ class SpringTerm final : public Term {
   void add_pattern(std::vector<std::pair<int, int>>& pairs) const override;
   void add_jacobians(const EvalContext& c, const JacobianOptions& o, BlockMatrix* dfdx,
                      BlockMatrix* dfdv) const override;
+  bool has_velocity_jacobian() const override { return damped_; }
   long work_items() const override { return static_cast<long>(springs_.size()); }
   const std::vector<Spring>& springs() const { return springs_; }
 

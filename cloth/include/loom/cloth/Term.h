@@ -38,6 +38,9 @@ class Term {
   // Accumulates df/dx into dfdx and df/dv into dfdv (either may be null).
   virtual void add_jacobians(const EvalContext& c, const JacobianOptions& o, BlockMatrix* dfdx,
                              BlockMatrix* dfdv) const = 0;
+  // False when add_jacobians never adds to dfdv (the force does not depend on v): implicit solvers then skip
+  // clearing and reading df/dv.
+  virtual bool has_velocity_jacobian() const { return true; }
   // Work done by the last add_forces call, for the profile (elements evaluated).
   virtual long work_items() const { return 0; }
 };
