@@ -277,8 +277,9 @@ void ClothBvh::cross_recurse(int a, int b, bool skip_adjacent, std::vector<Trian
     out.emplace_back(std::min(na.triangle, nb.triangle), std::max(na.triangle, nb.triangle));
     return;
   }
-  // Descend the larger (or the only internal) node.
-  if (nb.left < 0 || (na.left >= 0 && na.box.surface_area() >= nb.box.surface_area())) {
+  // Descend the larger (or the only internal) node; larger = more triangles (a node's box grows with its
+  // patch, and the count costs nothing to compare).
+  if (nb.left < 0 || (na.left >= 0 && na.count >= nb.count)) {
     cross_recurse(na.left, b, skip_adjacent, out);
     cross_recurse(na.right, b, skip_adjacent, out);
   } else {

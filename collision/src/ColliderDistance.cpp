@@ -113,12 +113,29 @@ double rss_lower_bound(const fcl::RSSd& rss, const Vec3& q) {
 // OBBRSS tree (built once in ColliderGeometry, never refitted), branch and bound on the nodes' RSS distance
 // lower bounds, nearer child first; exact point-triangle distance at the leaves (Distance.h). One traversal
 // per query with no per-query set-up (fcl::distance fits an OBBRSS to the point probe on every call, which
-// was a quarter of the funnel scene's run time).
+// was a quarter of the funnel scene's run time). Warm start: the triangle this thread found last for this
+// mesh (the body stage asks about one vertex several times in a row, then its neighbour), so the bound is
+// tight from the first node. The answer does not depend on the warm start: nodes are pruned only when their
+// bound exceeds the best distance (with a relative slack of 1e-12 for rounding), and among triangles at the
+// same computed distance the lowest-numbered one wins.
 double mesh_sd(const Shape& s, const ColliderGeometry& g, const Vec3& q, Vec3* n) {
   const auto& model = static_cast<const fcl::BVHModel<fcl::OBBRSSd>&>(*g.fcl->geometry);
+  const int num_tris = static_cast<int>(s.triangles.size());
+  thread_local const ColliderGeometry* hint_geometry = nullptr;
+  thread_local int hint_tri = -1;
   double best = HUGE_VAL;  // m
   int best_tri = -1;
   Vec3 best_point = Vec3::Zero();
+  auto visit = [&](int tri) {
+    const Tri& t = s.triangles[tri];
+    const Vec3 &a = s.vertices[t[0]], &b = s.vertices[t[1]], &c = s.vertices[t[2]];
+    const auto cl = point_triangle_closest(q, a, b, c);
+    const double d = std::sqrt(cl.distance_squared);
+    if (d < best || (d == best && tri < best_tri))
+      best = d, best_tri = tri, best_point = cl.weights[0] * a + cl.weights[1] * b + cl.weights[2] * c;
+  };
+  if (hint_geometry == &g && hint_tri >= 0 && hint_tri < num_tris) visit(hint_tri);
+  auto pruned = [&](double bound) { return bound > best * (1.0 + 1e-12) + 1e-300; };
   struct Entry {
     int node;
     double bound;  // m
@@ -129,24 +146,20 @@ double mesh_sd(const Shape& s, const ColliderGeometry& g, const Vec3& q, Vec3* n
   while (!stack.empty()) {
     const Entry e = stack.back();
     stack.pop_back();
-    if (e.bound >= best) continue;
+    if (pruned(e.bound)) continue;
     const fcl::BVNode<fcl::OBBRSSd>& node = model.getBV(e.node);
     if (node.isLeaf()) {
-      const int tri = node.primitiveId();
-      const Tri& t = s.triangles[tri];
-      const Vec3 &a = s.vertices[t[0]], &b = s.vertices[t[1]], &c = s.vertices[t[2]];
-      const auto cl = point_triangle_closest(q, a, b, c);
-      const double d = std::sqrt(cl.distance_squared);
-      if (d < best) best = d, best_tri = tri, best_point = cl.weights[0] * a + cl.weights[1] * b + cl.weights[2] * c;
+      visit(node.primitiveId());
       continue;
     }
     const int l = node.leftChild(), r = node.rightChild();
     const double bl = rss_lower_bound(model.getBV(l).bv.rss, q), br = rss_lower_bound(model.getBV(r).bv.rss, q);
     // Farther child below the nearer one, so the nearer is searched first and tightens `best`.
     const Entry near{bl <= br ? l : r, std::min(bl, br)}, far{bl <= br ? r : l, std::max(bl, br)};
-    if (far.bound < best) stack.push_back(far);
-    if (near.bound < best) stack.push_back(near);
+    if (!pruned(far.bound)) stack.push_back(far);
+    if (!pruned(near.bound)) stack.push_back(near);
   }
+  hint_geometry = &g, hint_tri = best_tri;
   Vec3 dir = q - best_point;
   double d = best;
   if (best_tri >= 0 && !(d > 0.0)) {
