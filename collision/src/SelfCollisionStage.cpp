@@ -226,9 +226,12 @@ std::vector<SelfCollisionStage::Feature> SelfCollisionStage::features(const std:
   auto is_dirty = [&](int v) { return !dirty || (*dirty)[v]; };
   // Feature-level filter: swept boxes of the two features, inflated by the pair thickness, must overlap
   // (covers the proximity distance at x0 and the continuous test's separation, which is smaller).
+  // Per-vertex swept boxes once per call (a vertex is in many features).
+  std::vector<Aabb> vbox(x0_.size());
+  for (size_t v = 0; v < x0_.size(); ++v) vbox[v].lo = x0_[v].cwiseMin(x1_[v]), vbox[v].hi = x0_[v].cwiseMax(x1_[v]);
   auto swept = [&](std::initializer_list<int> vs) {
     Aabb b;
-    for (int v : vs) b.grow(x0_[v]), b.grow(x1_[v]);
+    for (int v : vs) b.grow(vbox[v]);
     return b;
   };
   auto near = [&](Aabb a, const Aabb& b, int ca, int cb) {
