@@ -8,6 +8,7 @@
 #include <benchmark/benchmark.h>
 
 #include <algorithm>
+#include <cstdio>
 #include <string>
 #include <vector>
 
@@ -75,6 +76,12 @@ void run(benchmark::State& state, const std::string& scene_name, std::vector<std
   state.counters["self_share"] = self_ms / collision_ms;  // self_collision stage
   state.counters["intersections"] = static_cast<double>(c->worst);
   state.counters["finite"] = finite ? 1 : 0;
+  // The collision stages' counters (whole run, warm-up included) on stderr, for profiling.
+  std::fprintf(stderr, "%s/%d counters:", scene_name.c_str(), threads);
+  for (const cloth::StageProfile& p : sim->profile())
+    if (p.name == "body_collision" || p.name == "self_collision")
+      for (const auto& [key, value] : p.counters) std::fprintf(stderr, " %s.%s=%.0f", p.name.c_str(), key.c_str(), value);
+  std::fprintf(stderr, " steps=%ld\n", c->steps);
 }
 
 void Sphere(benchmark::State& s) { run(s, "scenes/sphere_spin.json", {"cloths[0].mesh.nodes=[101,101]"}, 12); }

@@ -102,6 +102,7 @@ void BodyCollisionStage::run_cloth(cloth::Cloth& cloth, int cloth_index, double 
     std::vector<Reaction>& out = records[ch];
     if (cands.empty()) continue;
     std::vector<int> mine;
+    std::vector<double> final_d;
     for (int i = begin; i < end; ++i) {
       if (s.inv_mass[i] == 0.0) continue;  // kinematic vertices follow their pins
       const Vec3 x0 = s.x_prev[i];
@@ -111,12 +112,13 @@ void BodyCollisionStage::run_cloth(cloth::Cloth& cloth, int cloth_index, double 
         if (swept_box(x0, x, pairs[k].thickness).overlaps(broad_phase_.box(k))) mine.push_back(k);
       if (mine.empty()) continue;
       cc.candidates += static_cast<long>(mine.size());
-      const int used = respond_vertex(mine, pairs, x0, x, v, s.mass[i], h, out, cc.contacts, cc.ccd_hits);
+      const int used = respond_vertex(mine, pairs, x0, x, v, s.mass[i], h, out, cc.contacts, cc.ccd_hits, &final_d);
       cc.passes = std::max(cc.passes, used);
       s.x[i] = x;
       s.v[i] = v;
-      for (int k : mine) {
-        const double d = signed_distance(set[k], set[k].curr, x, nullptr);
+      for (size_t j = 0; j < mine.size(); ++j) {
+        const int k = mine[j];
+        const double d = final_d.empty() ? signed_distance(set[k], set[k].curr, x, nullptr) : final_d[j];
         cc.deficit = std::max(cc.deficit, pairs[k].thickness - d);
         if (d < 2.0 * pairs[k].thickness) near[i] = 1;
       }
@@ -145,14 +147,17 @@ void BodyCollisionStage::run_cloth(cloth::Cloth& cloth, int cloth_index, double 
 // returns the passes used; responses are appended to `out`.
 int BodyCollisionStage::respond_vertex(const std::vector<int>& mine, const std::vector<Pair>& pairs, const Vec3& x0,
                                        Vec3& x, Vec3& v, double m, double h, std::vector<Reaction>& out, long& contacts,
-                                       long& ccd_hits) const {
+                                       long& ccd_hits, std::vector<double>* final_d) const {
   const ColliderSet& set = *colliders_;
   const double ccd_ratio = settings_.ccd_separation;
   const int max_passes = settings_.max_passes;
+  if (final_d) final_d->assign(mine.size(), 0.0);
   int pass = 0;
+  bool changed = true;
   for (; pass < max_passes; ++pass) {
-    bool changed = false;
-    for (int k : mine) {
+    changed = false;
+    for (size_t j = 0; j < mine.size(); ++j) {
+      const int k = mine[j];
       const Collider& c = set[k];
       const Pair& pr = pairs[k];
       // Continuous: the vertex path against the moving collider.
@@ -171,6 +176,7 @@ int BodyCollisionStage::respond_vertex(const std::vector<int>& mine, const std::
       Vec3 nrm;
       const double d = signed_distance(c, c.curr, x, &nrm);
       const double limit = pass == 0 && !hit.hit ? pr.thickness : pr.thickness * (1.0 - 1e-6);
+      if (final_d) (*final_d)[j] = d;
       if (!hit.hit && d >= limit) continue;
       if (d < pr.thickness) x += (pr.thickness - d) * nrm;  // projection to surface + thickness
       // Velocity: relative to the body's surface (translation and rotation over the step).
@@ -199,6 +205,8 @@ int BodyCollisionStage::respond_vertex(const std::vector<int>& mine, const std::
     }
     if (!changed) break;
   }
+  // A pass that changed nothing evaluated every collider's distance at the final x.
+  if (final_d && changed) final_d->clear();
   return pass + (pass < max_passes ? 1 : 0);
 }
 

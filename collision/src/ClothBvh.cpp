@@ -75,6 +75,32 @@ bool share_vertex(const loom::cloth::Tri& a, const loom::cloth::Tri& b) {
 
 }  // namespace
 
+void sort_pairs(std::vector<TrianglePair>& pairs) {
+  if (pairs.size() < 64) {
+    std::sort(pairs.begin(), pairs.end());
+    return;
+  }
+  int n = 0;
+  for (const TrianglePair& p : pairs) n = std::max(n, p.first + 1);
+  // Counting sort by the first index (stable), then each run of equal first indices (a handful of pairs: a
+  // triangle's neighbours) by the second.
+  std::vector<int> start(n + 1, 0);
+  for (const TrianglePair& p : pairs) ++start[p.first + 1];
+  for (int i = 0; i < n; ++i) start[i + 1] += start[i];
+  std::vector<TrianglePair> out(pairs.size());
+  std::vector<int> fill(start.begin(), start.end() - 1);
+  for (const TrianglePair& p : pairs) out[fill[p.first]++] = p;
+  for (int i = 0; i < n; ++i) {
+    auto b = out.begin() + start[i], e = out.begin() + start[i + 1];
+    if (e - b > 1) {
+      // Insertion sort: the runs are short.
+      for (auto it = b + 1; it != e; ++it)
+        for (auto jt = it; jt != b && jt->second < (jt - 1)->second; --jt) std::iter_swap(jt, jt - 1);
+    }
+  }
+  pairs.swap(out);
+}
+
 double Aabb::surface_area() const {
   const Vec3 d = (hi - lo).cwiseMax(0.0);
   return 2.0 * (d.x() * d.y() + d.y() * d.z() + d.z() * d.x());
@@ -251,8 +277,9 @@ void ClothBvh::cross_recurse(int a, int b, bool skip_adjacent, std::vector<Trian
     out.emplace_back(std::min(na.triangle, nb.triangle), std::max(na.triangle, nb.triangle));
     return;
   }
-  // Descend the larger (or the only internal) node.
-  if (nb.left < 0 || (na.left >= 0 && na.box.surface_area() >= nb.box.surface_area())) {
+  // Descend the larger (or the only internal) node; larger = more triangles (a node's box grows with its
+  // patch, and the count costs nothing to compare).
+  if (nb.left < 0 || (na.left >= 0 && na.count >= nb.count)) {
     cross_recurse(na.left, b, skip_adjacent, out);
     cross_recurse(na.right, b, skip_adjacent, out);
   } else {
@@ -264,7 +291,7 @@ void ClothBvh::cross_recurse(int a, int b, bool skip_adjacent, std::vector<Trian
 std::vector<TrianglePair> ClothBvh::self_pairs(bool skip_adjacent) const {
   std::vector<TrianglePair> out;
   if (!nodes_.empty()) self_recurse(0, skip_adjacent, out);
-  std::sort(out.begin(), out.end());
+  sort_pairs(out);
   return out;
 }
 
@@ -374,7 +401,7 @@ std::vector<TrianglePair> ClothBvh::self_pairs_culled(const Vec3s& x0, const Vec
   for (const auto& p : parts) total += p.size();
   out.reserve(total);
   for (const auto& p : parts) out.insert(out.end(), p.begin(), p.end());
-  std::sort(out.begin(), out.end());
+  sort_pairs(out);
   if (culled) *culled = n_culled;
   return out;
 }
@@ -417,7 +444,7 @@ void ClothBvh::two_tree_recurse(int a, const ClothBvh& other, int b, std::vector
 std::vector<TrianglePair> ClothBvh::cross_pairs(const ClothBvh& other) const {
   std::vector<TrianglePair> out;
   if (!nodes_.empty() && !other.nodes_.empty()) two_tree_recurse(0, other, 0, out);
-  std::sort(out.begin(), out.end());
+  sort_pairs(out);
   return out;
 }
 

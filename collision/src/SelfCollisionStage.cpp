@@ -3,6 +3,7 @@
 
 #include <Eigen/Dense>
 #include <algorithm>
+#include <chrono>
 #include <cmath>
 #include <map>
 
@@ -17,6 +18,17 @@ using loom::cloth::Tri;
 using loom::cloth::Vec3s;
 
 namespace {
+
+// Adds the wall time of its scope to `ms` (ms): the stage's phase timers in the profile.
+class PhaseTimer {
+ public:
+  explicit PhaseTimer(double& ms) : ms_(ms), start_(std::chrono::steady_clock::now()) {}
+  ~PhaseTimer() { ms_ += std::chrono::duration<double, std::milli>(std::chrono::steady_clock::now() - start_).count(); }
+
+ private:
+  double& ms_;
+  std::chrono::steady_clock::time_point start_;
+};
 
 int find_root(std::vector<int>& parent, int v) {
   while (parent[v] != v) {
@@ -56,7 +68,13 @@ std::vector<std::pair<std::string, double>> SelfCollisionStage::counters() const
           {"ccd_boxes", static_cast<double>(ccd_boxes_)},
           {"unresolved", static_cast<double>(unresolved_)},
           {"collider_fixes", static_cast<double>(collider_fixes_)},
-          {"collider_rounds", static_cast<double>(collider_rounds_)}};
+          {"collider_rounds", static_cast<double>(collider_rounds_)},
+          {"bvh_ms", bvh_ms_},
+          {"pairs_ms", pairs_ms_},
+          {"features_ms", features_ms_},
+          {"proximity_ms", proximity_ms_},
+          {"ccd_ms", ccd_ms_},
+          {"zones_ms", zones_ms_}};
 }
 
 void SelfCollisionStage::setup(loom::cloth::StageContext& ctx) {
@@ -131,6 +149,7 @@ void SelfCollisionStage::setup(loom::cloth::StageContext& ctx) {
 }
 
 void SelfCollisionStage::update_bvhs(int threads, bool full_update) {
+  PhaseTimer timer(bvh_ms_);
   for (int c = 0; c < num_cloths_; ++c) {
     const int vo = vertex_offset_[c], n = vertex_offset_[c + 1] - vo;
     Vec3s& a = cx0_[c];
@@ -149,6 +168,7 @@ void SelfCollisionStage::update_bvhs(int threads, bool full_update) {
 // Self pairs of each cloth (normal-cone culled when enabled) and pairs between every two cloths (never culled:
 // layers lie on each other, flat, and must always be tested).
 std::vector<TrianglePair> SelfCollisionStage::all_triangle_pairs(int threads) {
+  PhaseTimer timer(pairs_ms_);
   std::vector<TrianglePair> out;
   for (int c = 0; c < num_cloths_; ++c) {
     if (settings_.self) {
@@ -168,6 +188,7 @@ std::vector<TrianglePair> SelfCollisionStage::all_triangle_pairs(int threads) {
 
 // I-Cloth's Td x (Td u Ts): triangles with a dirty vertex, queried against every cloth's refitted tree.
 std::vector<TrianglePair> SelfCollisionStage::triangle_pairs_touching(const std::vector<char>& dirty) {
+  PhaseTimer timer(pairs_ms_);
   std::vector<char> td(tris_.size(), 0);
   for (int v = 0; v < static_cast<int>(dirty.size()); ++v)
     if (dirty[v])
@@ -188,7 +209,7 @@ std::vector<TrianglePair> SelfCollisionStage::triangle_pairs_touching(const std:
       }
     }
   }
-  std::sort(out.begin(), out.end());
+  sort_pairs(out);
   out.erase(std::unique(out.begin(), out.end()), out.end());
   candidate_pairs_ += static_cast<long>(out.size());
   return out;
@@ -201,12 +222,16 @@ std::vector<TrianglePair> SelfCollisionStage::triangle_pairs_touching(const std:
 std::vector<SelfCollisionStage::Feature> SelfCollisionStage::features(const std::vector<TrianglePair>& pairs,
                                                                      const std::vector<char>* dirty,
                                                                      int threads) const {
+  PhaseTimer timer(features_ms_);
   auto is_dirty = [&](int v) { return !dirty || (*dirty)[v]; };
   // Feature-level filter: swept boxes of the two features, inflated by the pair thickness, must overlap
   // (covers the proximity distance at x0 and the continuous test's separation, which is smaller).
+  // Per-vertex swept boxes once per call (a vertex is in many features).
+  std::vector<Aabb> vbox(x0_.size());
+  for (size_t v = 0; v < x0_.size(); ++v) vbox[v].lo = x0_[v].cwiseMin(x1_[v]), vbox[v].hi = x0_[v].cwiseMax(x1_[v]);
   auto swept = [&](std::initializer_list<int> vs) {
     Aabb b;
-    for (int v : vs) b.grow(x0_[v]), b.grow(x1_[v]);
+    for (int v : vs) b.grow(vbox[v]);
     return b;
   };
   auto near = [&](Aabb a, const Aabb& b, int ca, int cb) {
@@ -286,24 +311,43 @@ double SelfCollisionStage::pair_thickness(const Contact& c) const {
 // contacts' (sorted) order, so the result does not depend on the thread count.
 namespace {
 
-struct Impulse {
-  bool active = false;
+struct Impulse {  // a contact's velocity changes (m/s) of its four vertices; inactive: a hit without one
+  int v[4] = {0, 0, 0, 0};
   Vec3 dv[4];
+  bool active = false;
 };
 
-void apply_impulses(const std::vector<int>& verts4, const std::vector<Impulse>& imp, double h, Vec3s& x1,
-                    std::vector<char>* moved) {
+// Runs body(i, out) for i in [0, n) in parallel over contiguous chunks, each appending to its own list, and
+// returns the lists joined in chunk order: the order of i whatever the thread count, with no per-feature
+// storage (most features give nothing).
+template <class Body>
+std::vector<Impulse> collect_impulses(long n, int threads, Body body) {
+  const int chunks = n < 4096 ? 1 : std::max(1, threads) * 8;
+  std::vector<std::vector<Impulse>> parts(chunks);
+#pragma omp parallel for num_threads(threads) if (threads > 1 && chunks > 1) schedule(dynamic, 1)
+  for (int ch = 0; ch < chunks; ++ch)
+    for (long i = n * ch / chunks; i < n * (ch + 1) / chunks; ++i) body(i, parts[ch]);
+  if (chunks == 1) return std::move(parts[0]);
+  std::vector<Impulse> out;
+  size_t total = 0;
+  for (const auto& p : parts) total += p.size();
+  out.reserve(total);
+  for (const auto& p : parts) out.insert(out.end(), p.begin(), p.end());
+  return out;
+}
+
+void apply_impulses(const std::vector<Impulse>& imp, double h, Vec3s& x1, std::vector<char>* moved) {
   std::vector<int> touched;
   static thread_local std::vector<Vec3> sum;
   static thread_local std::vector<int> count;
   if (sum.size() < x1.size()) sum.assign(x1.size(), Vec3::Zero()), count.assign(x1.size(), 0);
-  for (size_t i = 0; i < imp.size(); ++i) {
-    if (!imp[i].active) continue;
+  for (const Impulse& im : imp) {
+    if (!im.active) continue;
     for (int k = 0; k < 4; ++k) {
-      const int v = verts4[4 * i + k];
-      if (imp[i].dv[k].isZero(0.0)) continue;
+      const int v = im.v[k];
+      if (im.dv[k].isZero(0.0)) continue;
       if (count[v] == 0) touched.push_back(v);
-      sum[v] += imp[i].dv[k];
+      sum[v] += im.dv[k];
       ++count[v];
     }
   }
@@ -320,20 +364,25 @@ void apply_impulses(const std::vector<int>& verts4, const std::vector<Impulse>& 
 // Bridson et al. 2002, Sec. 7.2: pairs closer than the thickness at the step's start get an impulse that
 // removes `repulsion` of the overlap per step along the normal; Sec. 7.3: Coulomb friction clamps the
 // tangential relative velocity by mu * (normal velocity change) (static: stop it entirely).
-void SelfCollisionStage::proximity(int threads) {
-  const std::vector<Feature> fs = features(all_triangle_pairs(threads), nullptr, threads);
+void SelfCollisionStage::proximity(const std::vector<Feature>& fs, int threads, std::vector<char>& moved) {
+  PhaseTimer timer(proximity_ms_);
   const long n = static_cast<long>(fs.size());
-  std::vector<Impulse> imp(n);
-  std::vector<int> verts(4 * n);
-#pragma omp parallel for num_threads(threads) if (threads > 1) schedule(dynamic, 256)
-  for (long i = 0; i < n; ++i) {
+  const std::vector<Impulse> imp = collect_impulses(n, threads, [&](long i, std::vector<Impulse>& out) {
     const Contact c = contact_of(fs[i]);
-    for (int k = 0; k < 4; ++k) verts[4 * i + k] = c.v[k];
     const double hp = pair_thickness(c);
     const Vec3& p0 = x0_[c.v[0]];
     const Vec3& p1 = x0_[c.v[1]];
     const Vec3& p2 = x0_[c.v[2]];
     const Vec3& p3 = x0_[c.v[3]];
+    {
+      // Cheap rejection: the two features' boxes at x0 farther apart than the thickness on some axis.
+      Aabb ba, bb;
+      ba.grow(p0);
+      (fs[i].type == 0 ? bb : ba).grow(p1);
+      bb.grow(p2), bb.grow(p3);
+      ba.lo.array() -= hp, ba.hi.array() += hp;
+      if (!ba.overlaps(bb)) return;
+    }
     double w[4];
     double d2;
     Vec3 fallback;
@@ -348,7 +397,7 @@ void SelfCollisionStage::proximity(int threads) {
       w[0] = 1.0 - r.s, w[1] = r.s, w[2] = -(1.0 - r.t), w[3] = -r.t;
       fallback = (p1 - p0).cross(p3 - p2);
     }
-    if (!(d2 < hp * hp)) continue;
+    if (!(d2 < hp * hp)) return;
     const double d = std::sqrt(d2);
     Vec3 diff = Vec3::Zero(), vrel = Vec3::Zero();
     double denom = 0.0;
@@ -357,12 +406,12 @@ void SelfCollisionStage::proximity(int threads) {
       vrel += w[k] * (x1_[c.v[k]] - x0_[c.v[k]]) / h_;
       denom += w[k] * w[k] * w_[c.v[k]];
     }
-    if (!(denom > 0.0)) continue;
+    if (!(denom > 0.0)) return;
     Vec3 nrm;
-    if (!contact_normal(diff, fallback, vrel, nrm)) continue;
+    if (!contact_normal(diff, fallback, vrel, nrm)) return;
     const double vn = vrel.dot(nrm);
     const double target = settings_.repulsion * (hp - d) / h_;  // m/s
-    if (!(vn < target)) continue;
+    if (!(vn < target)) return;
     const double dvn = target - vn;
     const double mu_k = pair_mu_k_[c.cloth_a * num_cloths_ + c.cloth_b];
     const double mu_s = pair_mu_s_[c.cloth_a * num_cloths_ + c.cloth_b];
@@ -374,25 +423,44 @@ void SelfCollisionStage::proximity(int threads) {
     } else if (vtn > 0.0) {
       dv -= (mu_k * dvn / vtn) * vt;  // kinetic: reduced by mu * dvn, never reversed (vtn > mu_s dvn >= ...)
     }
-    imp[i].active = true;
-    for (int k = 0; k < 4; ++k) imp[i].dv[k] = (w[k] * w_[c.v[k]] / denom) * dv;
-  }
-  for (long i = 0; i < n; ++i) contacts_ += imp[i].active;
-  apply_impulses(verts, imp, h_, x1_, nullptr);
+    Impulse& im = out.emplace_back();
+    im.active = true;
+    for (int k = 0; k < 4; ++k) im.v[k] = c.v[k], im.dv[k] = (w[k] * w_[c.v[k]] / denom) * dv;
+  });
+  contacts_ += static_cast<long>(imp.size());
+  apply_impulses(imp, h_, x1_, &moved);
+}
+
+// The first continuous pass's features from the proximity phase's `fs` (I-Cloth's incremental sets): the
+// features of triangle pairs with no vertex moved by proximity impulses are unchanged (same boxes, same
+// features); those of pairs touching a moved vertex are dropped and found again from the refitted trees
+// (triangle_pairs_touching, not culled). A feature belongs to one pair only (its owner pair, see features()).
+void SelfCollisionStage::first_pass_features(std::vector<Feature>& fs, const std::vector<char>& moved, int threads) {
+  if (std::none_of(moved.begin(), moved.end(), [](char m) { return m != 0; })) return;
+  update_bvhs(threads, false);
+  std::vector<char> td(tris_.size(), 0);  // triangles with a moved vertex
+  for (int v = 0; v < static_cast<int>(moved.size()); ++v)
+    if (moved[v])
+      for (int k = vtx_tri_start_[v]; k < vtx_tri_start_[v + 1]; ++k) td[vtx_tri_[k]] = 1;
+  fs.erase(std::remove_if(fs.begin(), fs.end(),
+                          [&](const Feature& f) {
+                            return f.type == 0 ? td[vtx_tri_[vtx_tri_start_[f.a]]] || td[f.b]
+                                               : td[edge_owner_[f.a]] || td[edge_owner_[f.b]];
+                          }),
+           fs.end());
+  const std::vector<Feature> redo = features(triangle_pairs_touching(moved), nullptr, threads);
+  fs.insert(fs.end(), redo.begin(), redo.end());
 }
 
 // Continuous test of every feature on x0 -> x1 with minimum separation; hits approaching along the contact
 // normal at the time of impact get the inelastic impulse that cancels the approach (Bridson 2002, Sec. 7.4).
 bool SelfCollisionStage::ccd_pass(const std::vector<Feature>& fs, int threads, std::vector<char>& dirty) {
+  PhaseTimer timer(ccd_ms_);
   const long n = static_cast<long>(fs.size());
-  std::vector<Impulse> imp(n);
-  std::vector<int> verts(4 * n);
-  std::vector<char> hit(n, 0);
   long tests = 0, boxes = 0;
-#pragma omp parallel for num_threads(threads) if (threads > 1) schedule(dynamic, 256) reduction(+ : tests, boxes)
-  for (long i = 0; i < n; ++i) {
+  // Every hit is recorded (its vertices are retested next pass); `active` when it gives an impulse.
+  const std::vector<Impulse> imp = collect_impulses(n, threads, [&](long i, std::vector<Impulse>& out) {
     const Contact c = contact_of(fs[i]);
-    for (int k = 0; k < 4; ++k) verts[4 * i + k] = c.v[k];
     const Vec3 *a0[4], *a1[4];
     for (int k = 0; k < 4; ++k) a0[k] = &x0_[c.v[k]], a1[k] = &x1_[c.v[k]];
     // Cheap rejection: swept boxes farther apart than the separation on some axis.
@@ -401,7 +469,22 @@ bool SelfCollisionStage::ccd_pass(const std::vector<Feature>& fs, int threads, s
     const int split = fs[i].type == 0 ? 1 : 2;
     for (int k = 0; k < 4; ++k) (k < split ? ba : bb).grow(*a0[k]), (k < split ? ba : bb).grow(*a1[k]);
     ba.lo.array() -= sep, ba.hi.array() += sep;
-    if (!ba.overlaps(bb)) continue;
+    if (!ba.overlaps(bb)) return;
+    // Cheap rejection 2: distance at t = 0 minus how much it can shrink during the step. For points moving
+    // linearly, the distance between the two features changes by at most the largest relative displacement
+    // |dx_i - dx_j| over one vertex i of the first feature and one vertex j of the second (a point of either
+    // feature is a fixed convex combination of its vertices), so d(0) > sep + that bound proves d(t) > sep
+    // on the whole step: the continuous test could only find a false positive.
+    {
+      Vec3 dx[4];
+      for (int k = 0; k < 4; ++k) dx[k] = *a1[k] - *a0[k];
+      double reach2 = 0.0;
+      for (int k = 0; k < split; ++k)
+        for (int m = split; m < 4; ++m) reach2 = std::max(reach2, (dx[k] - dx[m]).squaredNorm());
+      const double d0 = std::sqrt(fs[i].type == 0 ? point_triangle_closest(*a0[0], *a0[1], *a0[2], *a0[3]).distance_squared
+                                                   : segment_segment_closest(*a0[0], *a0[1], *a0[2], *a0[3]).distance_squared);
+      if (d0 > (sep + std::sqrt(reach2)) * (1.0 + 1e-9)) return;
+    }
     CcdOptions opt;
     opt.min_separation = sep;
     opt.tolerance = 1e-4;     // of the query's extent: a few micrometres at cloth scale, well below sep
@@ -410,10 +493,13 @@ bool SelfCollisionStage::ccd_pass(const std::vector<Feature>& fs, int threads, s
     const CcdResult r = fs[i].type == 0
                             ? vertex_face_ccd(*a0[0], *a0[1], *a0[2], *a0[3], *a1[0], *a1[1], *a1[2], *a1[3], opt)
                             : edge_edge_ccd(*a0[0], *a0[1], *a0[2], *a0[3], *a1[0], *a1[1], *a1[2], *a1[3], opt);
+#pragma omp atomic
     ++tests;
+#pragma omp atomic
     boxes += r.boxes;
-    if (!r.hit) continue;
-    hit[i] = 1;
+    if (!r.hit) return;
+    Impulse& im = out.emplace_back();
+    for (int k = 0; k < 4; ++k) im.v[k] = c.v[k];
     Vec3 q[4];
     for (int k = 0; k < 4; ++k) q[k] = *a0[k] + r.toi * (*a1[k] - *a0[k]);
     double w[4];
@@ -435,27 +521,24 @@ bool SelfCollisionStage::ccd_pass(const std::vector<Feature>& fs, int threads, s
       vrel += w[k] * (*a1[k] - *a0[k]) / h_;
       denom += w[k] * w[k] * w_[c.v[k]];
     }
-    if (!(denom > 0.0)) continue;
+    if (!(denom > 0.0)) return;
     Vec3 nrm;
-    if (!contact_normal(diff, fallback, side, nrm)) continue;
+    if (!contact_normal(diff, fallback, side, nrm)) return;
     const double vn = vrel.dot(nrm);
-    if (!(vn < 0.0)) continue;
-    imp[i].active = true;
+    if (!(vn < 0.0)) return;
+    im.active = true;
     const Vec3 dv = -vn * nrm;
-    for (int k = 0; k < 4; ++k) imp[i].dv[k] = (w[k] * w_[c.v[k]] / denom) * dv;
-  }
+    for (int k = 0; k < 4; ++k) im.dv[k] = (w[k] * w_[c.v[k]] / denom) * dv;
+  });
   ccd_tests_ += tests;
   ccd_boxes_ += boxes;
   std::fill(dirty.begin(), dirty.end(), 0);
-  bool any = false;
-  for (long i = 0; i < n; ++i) {
-    if (!hit[i]) continue;
-    any = true;
-    contacts_ += imp[i].active;
-    for (int k = 0; k < 4; ++k) dirty[verts[4 * i + k]] = 1;  // retested next pass even if not moved
+  for (const Impulse& im : imp) {
+    contacts_ += im.active;
+    for (int k = 0; k < 4; ++k) dirty[im.v[k]] = 1;  // retested next pass even if not moved
   }
-  apply_impulses(verts, imp, h_, x1_, &dirty);
-  return any;
+  apply_impulses(imp, h_, x1_, &dirty);
+  return !imp.empty();
 }
 
 // Provot 1997 rigid impact zone: velocities (x1 - x0) / h of the zone's vertices replaced by the rigid motion
@@ -550,6 +633,7 @@ bool SelfCollisionStage::project_zone(const std::vector<int>& constraints) {
 // last resort, apply_rigid_zone). Repeat until no hit. Pairs inside one rigid zone are skipped (it moves
 // affinely from its intersection-free start). Returns false if the iteration cap forced one global zone.
 bool SelfCollisionStage::impact_zones(std::vector<char> dirty, int threads) {
+  PhaseTimer timer(zones_ms_);
   constexpr int kProjections = 4;
   const int nv = static_cast<int>(x0_.size());
   zone_parent_.assign(nv, -1);
@@ -685,15 +769,17 @@ bool SelfCollisionStage::impact_zones(std::vector<char> dirty, int threads) {
   return false;
 }
 
-// Steps 3-4: continuous passes (the first over every candidate pair when `all`, else over pairs touching
-// `dirty`), then the impact-zone fail-safe if a pass still hit.
-void SelfCollisionStage::resolve(std::vector<char>& dirty, bool all, int threads) {
+// Steps 3-4: continuous passes (the first over `first` when given, every candidate pair's features, else over
+// pairs touching `dirty`), then the impact-zone fail-safe if a pass still hit.
+void SelfCollisionStage::resolve(std::vector<char>& dirty, const std::vector<Feature>* first, int threads) {
   bool hits = true;
   for (int pass = 0; pass < settings_.passes && hits; ++pass) {
-    update_bvhs(threads, false);
-    const std::vector<Feature> fs = pass == 0 && all ? features(all_triangle_pairs(threads), nullptr, threads)
-                                                     : features(triangle_pairs_touching(dirty), &dirty, threads);
-    hits = ccd_pass(fs, threads, dirty);
+    if (pass == 0 && first) {
+      hits = ccd_pass(*first, threads, dirty);  // the trees are up to date with x1 (first_pass_features)
+    } else {
+      update_bvhs(threads, false);
+      hits = ccd_pass(features(triangle_pairs_touching(dirty), &dirty, threads), threads, dirty);
+    }
     ++passes_;
   }
   if (hits) impact_zones(dirty, threads);
@@ -764,10 +850,13 @@ void SelfCollisionStage::run(loom::cloth::StageContext& ctx) {
   fixed_.assign(nv, 0);
 
   update_bvhs(threads, true);
-  proximity(threads);
-
-  std::vector<char> dirty(nv, 1);
-  resolve(dirty, true, threads);
+  // One search over all pairs per step: proximity uses its features, the first continuous pass the same ones
+  // with those around vertices that proximity moved found again.
+  std::vector<Feature> fs = features(all_triangle_pairs(threads), nullptr, threads);
+  std::vector<char> dirty(nv, 0);
+  proximity(fs, threads, dirty);
+  first_pass_features(fs, dirty, threads);
+  resolve(dirty, &fs, threads);
   // Colliders: the responses above may have moved a free vertex into a collider (or its path through one).
   // Such a vertex gets the body stage's vertex response again (continuous test, projection to the thickness,
   // velocity relative to the surface with friction) and is then held (inverse mass 0) for the rest of the
@@ -779,7 +868,7 @@ void SelfCollisionStage::run(loom::cloth::StageContext& ctx) {
       if (!collider_round(ctx, dirty, threads)) break;
       ++collider_rounds_;
       if (round == kColliderRounds) break;
-      resolve(dirty, false, threads);
+      resolve(dirty, nullptr, threads);
     }
   }
 

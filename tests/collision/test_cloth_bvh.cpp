@@ -210,3 +210,17 @@ TEST(ClothBvhNormalCones, CullingNeverDropsATouchingPair) {
   EXPECT_GT(culled_total, 10);
   EXPECT_GT(dropped, 1000);
 }
+
+// sort_pairs (the counting sort of candidate pairs) orders like std::sort, duplicates and empty runs included.
+TEST(ClothBvh, SortPairsMatchesStdSort) {
+  std::mt19937 rng(3);
+  for (const int count : {0, 5, 63, 64, 1000, 20000}) {
+    std::uniform_int_distribution<int> first(0, std::max(1, count / 7)), second(0, 3 * count + 1);
+    std::vector<lc::TrianglePair> pairs(count);
+    for (auto& p : pairs) p = {first(rng), second(rng)};
+    auto expect = pairs;
+    std::sort(expect.begin(), expect.end());
+    lc::sort_pairs(pairs);
+    EXPECT_EQ(pairs, expect) << count;
+  }
+}

@@ -188,6 +188,46 @@ TEST(ColliderDistance, MeshIsTwoSidedDistanceToNearestTriangle) {
   }
 }
 
+// The mesh search is warm-started from the last triangle found (per thread): points next to the surface
+// still get the brute-force distance, and the answer (distance and normal) is bit-identical whatever was
+// queried before it (forward and reverse order, interleaved with far points).
+TEST(ColliderDistance, MeshDistanceDoesNotDependOnQueryOrder) {
+  Collider mesh = make(ShapeType::mesh);
+  const int n = 20;
+  for (int j = 0; j < n; ++j)
+    for (int i = 0; i < n; ++i) mesh.shape.vertices.emplace_back(i * 0.05, 0.04 * std::sin(i * 0.9) * std::cos(j * 0.6), j * 0.05);
+  for (int j = 0; j + 1 < n; ++j)
+    for (int i = 0; i + 1 < n; ++i) {
+      const int a = j * n + i;
+      mesh.shape.triangles.push_back({a, a + 1, a + n});
+      mesh.shape.triangles.push_back({a + 1, a + n + 1, a + n});
+    }
+  prepare_collider(mesh);
+  std::mt19937 rng(11);
+  std::uniform_real_distribution<double> u(0.0, 0.95), off(-1e-3, 1e-3);
+  std::vector<Vec3> pts;
+  for (int k = 0; k < 300; ++k) {
+    // On or within 1 mm of the surface (a random vertex of the wavy patch, moved a little), or far.
+    const Vec3& v = mesh.shape.vertices[std::uniform_int_distribution<int>(0, n * n - 1)(rng)];
+    pts.push_back(k % 3 == 2 ? Vec3(u(rng), 2.0 * u(rng) - 1.0, u(rng)) : Vec3(v + Vec3(off(rng), off(rng), off(rng))));
+  }
+  std::vector<double> d(pts.size());
+  std::vector<Vec3> nrm(pts.size());
+  for (size_t k = 0; k < pts.size(); ++k) {
+    d[k] = signed_distance(mesh, Transform::Identity(), pts[k], &nrm[k]);
+    double bf = HUGE_VAL;
+    for (const Tri& t : mesh.shape.triangles)
+      bf = std::min(bf, std::sqrt(point_triangle_closest(pts[k], mesh.shape.vertices[t[0]], mesh.shape.vertices[t[1]], mesh.shape.vertices[t[2]]).distance_squared));
+    EXPECT_NEAR(d[k], bf, 1e-12) << k;
+  }
+  for (size_t r = pts.size(); r-- > 0;) {
+    Vec3 nr;
+    const double dr = signed_distance(mesh, Transform::Identity(), pts[r], &nr);
+    EXPECT_EQ(dr, d[r]) << r;
+    EXPECT_EQ(nr, nrm[r]) << r;
+  }
+}
+
 // Swept point against a moving, rotating collider: every path that a dense sampling finds within the
 // separation is reported, and no later than the first sampled time.
 TEST(SweptCollider, NoFalseNegativesAgainstDenseSampling) {

@@ -90,8 +90,11 @@ class BodyCollisionStage final : public cloth::Stage {
   };
   void run_cloth(cloth::Cloth& cloth, int cloth_index, double h, int threads);
   void run_edges(cloth::Cloth& cloth, double h, int threads, std::vector<Reaction>& records);
+  // final_d (optional): per entry of `mine`, the signed distance (m) at the returned x; left empty when the
+  // last pass still changed x (then the caller evaluates it).
   int respond_vertex(const std::vector<int>& mine, const std::vector<Pair>& pairs, const Vec3& x0, Vec3& x, Vec3& v,
-                     double m, double h, std::vector<Reaction>& out, long& contacts, long& ccd_hits) const;
+                     double m, double h, std::vector<Reaction>& out, long& contacts, long& ccd_hits,
+                     std::vector<double>* final_d = nullptr) const;
 
   ColliderSetPtr colliders_;
   BodyCollisionSettings settings_;

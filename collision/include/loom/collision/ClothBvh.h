@@ -106,6 +106,10 @@ class ClothBvh {
   bool rebuilt_pending_ = false;  // build() ran; the next refit records area_after_build_
 };
 
+// Sorts pairs of non-negative indices (lexicographically), in time linear in the count and the largest first
+// index (a counting sort; std::sort of the candidate pairs was a tenth of the self-collision stage).
+void sort_pairs(std::vector<TrianglePair>& pairs);
+
 // Brute force over all triangle pairs, with the same leaf boxes: the reference for tests.
 std::vector<TrianglePair> brute_force_pairs(const loom::cloth::ClothMesh& mesh, const Vec3s& x0, const Vec3s& x1,
                                             double thickness, bool skip_adjacent);
