@@ -203,7 +203,7 @@ int BodyCollisionStage::respond_vertex(const std::vector<int>& mine, const std::
   return pass + (pass < max_passes ? 1 : 0);
 }
 
-// A vertex in the crease of two overlapping colliders (the back of a bent knee, where thigh and shin capsules
+// A vertex in the crease of two overlapping capsules (the back of a bent knee, where thigh and shin capsules
 // overlap; an armpit) is pushed into one by the projection out of the other, and the passes end with it inside
 // whichever came first (a skirt's hem 1.6 cm inside the thigh, on the shin's surface, in Boxing_Toes' high
 // knees). It leaves the union instead: along the sum of the normals of the colliders it is within the
@@ -223,6 +223,9 @@ void BodyCollisionStage::exit_pinch(const std::vector<int>& mine, const std::vec
       const double deficit = pairs[k].thickness - d;
       // Touching (within 1% of the thickness past it) counts too: the collider the last pass projected out of.
       if (deficit <= -0.01 * pairs[k].thickness) continue;
+      // Capsules only (the joints of a character rig): between walls closing in (a shrinking box) there is no
+      // way out of the union, and moving there fed energy into a crushed cloth (the stability suite).
+      if (set[k].shape.type != ShapeType::capsule) return;
       touched.emplace_back(k, n);
       dir += n;
       inside = inside || deficit > 1e-6 * pairs[k].thickness;
