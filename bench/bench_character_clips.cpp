@@ -6,6 +6,7 @@
 //
 //   loom_bench_character_clips [--resolution M] [--threads N] [--census-every K] [--clips a.bvh,b.bvh]
 //                              [--scenes character_cape,character_skirt,...] [--seconds S] [--start S]
+//                              [--set key=value]...   (scene overrides, as `loom run --set`)
 // Clips are looked up in tests/data/mocap/ and in Debian's assimp-testmodels (/usr/share/assimp/models/BVH/).
 #include <chrono>
 #include <cstdio>
@@ -50,6 +51,7 @@ int main(int argc, char** argv) {
   double start = 1.0 / 120.0;
   std::vector<std::string> clips = {"01_01.bvh", "01_03.bvh", "Boxing_Toes.bvh"};
   std::vector<std::string> scenes = {"character_cape", "character_skirt", "character_layers", "character_shirt"};
+  std::vector<std::string> extra;  // --set overrides
   for (int i = 1; i + 1 < argc; i += 2) {
     const std::string a = argv[i], v = argv[i + 1];
     if (a == "--resolution") resolution = v;
@@ -59,6 +61,7 @@ int main(int argc, char** argv) {
     else if (a == "--scenes") scenes = split(v);
     else if (a == "--seconds") seconds = std::atof(v.c_str());
     else if (a == "--start") start = std::atof(v.c_str());
+    else if (a == "--set") extra.push_back(v);
     else {
       std::fprintf(stderr, "unknown option %s\n", a.c_str());
       return 2;
@@ -69,9 +72,10 @@ int main(int argc, char** argv) {
   std::printf("# depth: deepest free vertex inside a capsule (m; the tolerance is the cloth thickness 0.001 m);"
               " att_depth: the same for attached vertices\n");
   std::printf("# t_*: clip time (s) of the worst frame/step of strain, speed, free and attached depth\n");
-  std::printf("%-17s %-16s %7s %6s %5s %7s %10s %10s %10s %10s %7s %9s %6s %10s %8s %8s %8s %8s\n", "scene", "clip", "seconds",
+  std::printf("# bone/att_bone: the capsule of the deepest free / attached vertex\n");
+  std::printf("%-17s %-16s %7s %6s %5s %7s %10s %10s %10s %10s %7s %9s %6s %10s %8s %8s %8s %8s %s %s\n", "scene", "clip", "seconds",
               "frames", "nan", "verts", "max_strain", "max_speed", "depth", "track", "census", "ms/frame", "rollb", "att_depth",
-              "t_strain", "t_speed", "t_depth", "t_att");
+              "t_strain", "t_speed", "t_depth", "t_att", "bone", "att_bone");
   int failures = 0;
   for (const std::string& clip : clips) {
     const std::string path = find_clip(clip);
@@ -85,6 +89,7 @@ int main(int argc, char** argv) {
       try {
         std::vector<std::string> sets = {"character.bvh=" + path, "character.start=" + std::to_string(start)};
         for (int g = 0; g < 2; ++g) sets.push_back("character.garments." + std::to_string(g) + ".resolution=" + resolution);
+        sets.insert(sets.begin() + 2, extra.begin(), extra.end());  // before the garment overrides (popped below)
         // The number of garments is the scene's: drop the override of a garment that does not exist.
         loom::scene::Scene probe_scene;
         try {
@@ -116,11 +121,14 @@ int main(int argc, char** argv) {
         const double ms = std::chrono::duration<double, std::milli>(std::chrono::steady_clock::now() - t0).count() / std::max(frames, 1);
         const auto& f = p->figures();
         const bool nan = !finite || !f.finite;
-        std::printf("%-17s %-16s %7.2f %6d %5s %7d %10.4f %10.3f %10.5f %10.2e %7s %9.2f %6ld %10.5f %8.2f %8.2f %8.2f %8.2f\n",
+        const auto& bones = sc.character->rig.bones();
+        auto bone_name = [&](int b) { return b < 0 ? std::string("-") : bones[b].name; };
+        std::printf("%-17s %-16s %7.2f %6d %5s %7d %10.4f %10.3f %10.5f %10.2e %7s %9.2f %6ld %10.5f %8.2f %8.2f %8.2f %8.2f %s %s\n",
                     name.c_str(), clip.c_str(), frames * sc.setup.frame_dt, frames, nan ? "yes" : "no", vertices, max_strain,
                     f.max_speed, f.max_depth, f.max_track, census_every > 0 ? std::to_string(f.max_intersections).c_str() : "-", ms,
                     sim->rollbacks(), f.max_attached_depth, start + strain_time, start + f.max_speed_time,
-                    start + f.max_depth_time, start + f.max_attached_depth_time);
+                    start + f.max_depth_time, start + f.max_attached_depth_time, bone_name(f.max_depth_bone).c_str(),
+                    bone_name(f.max_attached_depth_bone).c_str());
         std::fflush(stdout);
         failures += nan || frames < sc.frames;
       } catch (const loom::Error& e) {

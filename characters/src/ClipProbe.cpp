@@ -37,11 +37,16 @@ void ClipProbe::run(cloth::StageContext& ctx) {
       const double speed = s.v[i].norm();
       if (speed > f_.max_speed) f_.max_speed = speed, f_.max_speed_time = ctx.t + ctx.h;
       double depth = 0.0;
-      for (const Bone& b : c.rig.bones())
-        depth = std::max(depth, b.radius - segment_distance(s.x[i], pose_[b.joint].translation(), pose_[b.child].translation()));
+      int bone = -1;
+      for (size_t bk = 0; bk < c.rig.bones().size(); ++bk) {
+        const Bone& b = c.rig.bones()[bk];
+        const double d = b.radius - segment_distance(s.x[i], pose_[b.joint].translation(), pose_[b.child].translation());
+        if (d > depth) depth = d, bone = static_cast<int>(bk);
+      }
       double& worst = attached_[k][i] ? f_.max_attached_depth : f_.max_depth;
       double& when = attached_[k][i] ? f_.max_attached_depth_time : f_.max_depth_time;
-      if (depth > worst) worst = depth, when = ctx.t + ctx.h;
+      int& which = attached_[k][i] ? f_.max_attached_depth_bone : f_.max_depth_bone;
+      if (depth > worst) worst = depth, when = ctx.t + ctx.h, which = bone;
     }
   }
   for (const Attachment& a : c.attachments)
@@ -59,13 +64,14 @@ void ClipProbe::save_state(cloth::StateWriter& out) const {
   out.tag("character_probe");
   out.doubles({static_cast<double>(f_.steps), f_.finite ? 1.0 : 0.0, f_.max_speed, f_.max_depth, f_.max_attached_depth,
                f_.max_track, static_cast<double>(f_.max_intersections), static_cast<double>(f_.census_steps),
-               f_.max_speed_time, f_.max_depth_time, f_.max_attached_depth_time});
+               f_.max_speed_time, f_.max_depth_time, f_.max_attached_depth_time,
+               static_cast<double>(f_.max_depth_bone), static_cast<double>(f_.max_attached_depth_bone)});
 }
 
 void ClipProbe::load_state(cloth::StateReader& in) {
   in.tag("character_probe");
   const std::vector<double> d = in.doubles();
-  if (d.size() != 11) return;
+  if (d.size() != 13) return;
   f_.steps = static_cast<long>(d[0]);
   f_.finite = d[1] != 0.0;
   f_.max_speed = d[2];
@@ -77,6 +83,8 @@ void ClipProbe::load_state(cloth::StateReader& in) {
   f_.max_speed_time = d[8];
   f_.max_depth_time = d[9];
   f_.max_attached_depth_time = d[10];
+  f_.max_depth_bone = static_cast<int>(d[11]);
+  f_.max_attached_depth_bone = static_cast<int>(d[12]);
 }
 
 }  // namespace loom::characters

@@ -27,6 +27,8 @@ struct ProbeFigures {
   long census_steps = 0;           // steps the census ran at
   // s, simulated time (end of the step) of the worst step of each: where the hardest seconds of a clip are
   double max_speed_time = 0.0, max_depth_time = 0.0, max_attached_depth_time = 0.0;
+  // Rig bone (index into CapsuleRig::bones()) of the deepest free / attached vertex (-1: none inside)
+  int max_depth_bone = -1, max_attached_depth_bone = -1;
 };
 
 class ClipProbe final : public cloth::Stage {

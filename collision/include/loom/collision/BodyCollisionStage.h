@@ -17,6 +17,8 @@
 //        removed, and Coulomb friction acts on the tangential relative velocity with a static and a kinetic
 //        coefficient (Bridson, Fedkiw, Anderson 2002, "Robust treatment of collisions, contact and friction
 //        for cloth animation", Sec. 7.2: stick if |v_t| <= mu_s dv_n, else v_t *= 1 - mu_k dv_n / |v_t|);
+//      - pinch: when the passes end with the vertex still inside one of two overlapping capsules (a crease),
+//        it is moved along the sum of their normals until it is outside all of them (exit_pinch);
 //      The vertex phase runs last, so its postcondition (no vertex closer than the thickness) holds at the end;
 //   5. the reaction -m dv of every velocity change, and its moment about curr's origin, is added to the
 //      collider's reaction_impulse / reaction_angular_impulse.
@@ -95,6 +97,10 @@ class BodyCollisionStage final : public cloth::Stage {
   int respond_vertex(const std::vector<int>& mine, const std::vector<Pair>& pairs, const Vec3& x0, Vec3& x, Vec3& v,
                      double m, double h, std::vector<Reaction>& out, long& contacts, long& ccd_hits,
                      std::vector<double>* final_d = nullptr) const;
+  // After the passes left a vertex inside a capsule (a pinch between two): moves it out of all of `mine`
+  // (nothing when a non-capsule collider is within its thickness).
+  void exit_pinch(const std::vector<int>& mine, const std::vector<Pair>& pairs, Vec3& x, Vec3& v, double m, double h,
+                  std::vector<Reaction>& out, long& contacts) const;
 
   ColliderSetPtr colliders_;
   BodyCollisionSettings settings_;
