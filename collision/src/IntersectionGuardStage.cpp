@@ -8,6 +8,13 @@
 #include "loom/cloth/Error.h"
 
 namespace loom::collision {
+namespace {
+
+// m, contour clearance of the normal-cone culling (MultiClothCensus.h): a patch whose projected contour
+// comes closer to itself than this is checked pair by pair.
+constexpr double kConeMargin = 1e-6;
+
+}  // namespace
 
 std::vector<IntersectingPair> IntersectionGuardStage::find(const std::vector<std::unique_ptr<cloth::Cloth>>& cloths,
                                                            int threads) {
@@ -26,7 +33,7 @@ std::vector<IntersectingPair> IntersectionGuardStage::find(const std::vector<std
     }
     trees.push_back(trees_[i].get());
   }
-  return intersecting_pairs(in, trees, threads);
+  return intersecting_pairs(in, trees, threads, kConeMargin);
 }
 
 void IntersectionGuardStage::prime(const std::vector<std::unique_ptr<cloth::Cloth>>& cloths, int threads) {

@@ -57,12 +57,16 @@ bool IntersectingPair::operator==(const IntersectingPair& o) const {
 }
 
 std::vector<IntersectingPair> intersecting_pairs(const std::vector<CensusInput>& cloths,
-                                                 const std::vector<const ClothBvh*>& trees, int threads) {
+                                                 const std::vector<const ClothBvh*>& trees, int threads,
+                                                 double cone_margin) {
   std::vector<IntersectingPair> out;
   for (size_t i = 0; i < cloths.size(); ++i) {
     for (size_t j = i; j < cloths.size(); ++j) {
       // Candidates: overlapping leaf boxes (within one cloth, pairs sharing a vertex left out).
-      const std::vector<TrianglePair> cand = i == j ? trees[i]->self_pairs(/*skip_adjacent=*/true) : trees[i]->cross_pairs(*trees[j]);
+      const std::vector<TrianglePair> cand =
+          i != j              ? trees[i]->cross_pairs(*trees[j])
+          : cone_margin < 0.0 ? trees[i]->self_pairs(/*skip_adjacent=*/true)
+                              : trees[i]->self_pairs_culled(*cloths[i].x, *cloths[i].x, cone_margin, true, threads);
       const auto& t0 = cloths[i].mesh->triangles();
       const auto& t1 = cloths[j].mesh->triangles();
       const loom::cloth::Vec3s& x0 = *cloths[i].x;

@@ -30,9 +30,13 @@ struct IntersectingPair {
 // Every intersecting pair (the same pairs count_all_intersections counts), sorted. `trees`: one ClothBvh per
 // cloth whose leaf boxes hold the triangles at `x` (refit or rebuilt on x, any thickness >= 0); a caller that
 // checks every step keeps its trees and refits them (ClothBvh::update). The result does not depend on the
-// trees' topology nor on the thread count.
+// trees' topology nor on the thread count. With cone_margin >= 0 (m), the self pairs of a patch that is a
+// height field with a simple contour (ClothBvh::self_pairs_culled at x0 = x1 = x, that margin) are skipped:
+// such a patch cannot intersect itself (its projection along the cone axis is one-to-one), so the pairs are
+// the same, found faster on smooth cloth.
 std::vector<IntersectingPair> intersecting_pairs(const std::vector<CensusInput>& cloths,
-                                                 const std::vector<const ClothBvh*>& trees, int threads = 1);
+                                                 const std::vector<const ClothBvh*>& trees, int threads = 1,
+                                                 double cone_margin = -1.0);
 // The same with trees built here.
 std::vector<IntersectingPair> intersecting_pairs(const std::vector<CensusInput>& cloths, int threads = 1);
 // Largest depth (m) of any cloth vertex inside any collider at its current pose (`curr`), by the collider's
