@@ -46,6 +46,11 @@ bool segments_meet_2d(const Vec3& p, const Vec3& q, const Vec3& r, const Vec3& s
 // Axis to drop so that the projection of a non-degenerate triangle stays non-degenerate: the axis of the
 // largest |normal| component, computed exactly.
 int drop_axis(const Vec3& a, const Vec3& b, const Vec3& c) {
+  // Exact shortcut (flat cloth in a coordinate plane): a coordinate the three share makes u, v zero there, so
+  // the normal's other two components are exactly 0 and that axis is the largest (the triangle is not
+  // degenerate where this is called).
+  for (int k = 0; k < 3; ++k)
+    if (a[k] == b[k] && b[k] == c[k]) return k;
   mpq_class u[3], v[3];
   for (int k = 0; k < 3; ++k) u[k] = mpq_class(b[k]) - mpq_class(a[k]), v[k] = mpq_class(c[k]) - mpq_class(a[k]);
   const mpq_class n[3] = {u[1] * v[2] - u[2] * v[1], u[2] * v[0] - u[0] * v[2], u[0] * v[1] - u[1] * v[0]};
@@ -116,6 +121,12 @@ int orient3d(const Vec3& a, const Vec3& b, const Vec3& c, const Vec3& d) {
   const double bound = kO3dBound * permanent;
   if (det > bound) return 1;
   if (-det > bound) return -1;
+  // Exact zeros without GMP: a zero column (the four points share a coordinate: flat cloth in a coordinate
+  // plane) or a zero row (a point equal to d). Differences of doubles are 0 exactly when the two are equal.
+  if ((adx == 0.0 && bdx == 0.0 && cdx == 0.0) || (ady == 0.0 && bdy == 0.0 && cdy == 0.0) ||
+      (adz == 0.0 && bdz == 0.0 && cdz == 0.0))
+    return 0;
+  if (a == d || b == d || c == d) return 0;
   return orient3d_exact(a, b, c, d);
 }
 
@@ -127,6 +138,9 @@ int orient2d(const Vec3& a, const Vec3& b, const Vec3& c, int drop) {
   const double bound = kO2dBound * (std::abs(l) + std::abs(r));
   if (det > bound) return 1;
   if (-det > bound) return -1;
+  // Exact zeros without GMP: the three share a coordinate (points on a grid line), or a or b equals c.
+  if ((a[i] == c[i] && b[i] == c[i]) || (a[j] == c[j] && b[j] == c[j])) return 0;
+  if ((a[i] == c[i] && a[j] == c[j]) || (b[i] == c[i] && b[j] == c[j])) return 0;
   const mpq_class el = (mpq_class(a[i]) - mpq_class(c[i])) * (mpq_class(b[j]) - mpq_class(c[j]));
   const mpq_class er = (mpq_class(a[j]) - mpq_class(c[j])) * (mpq_class(b[i]) - mpq_class(c[i]));
   return sign(el - er);

@@ -3,6 +3,7 @@
 
 #include <algorithm>
 #include <memory>
+#include <tuple>
 
 #include "loom/collision/ClothBvh.h"
 #include "loom/collision/ColliderDistance.h"
@@ -45,6 +46,56 @@ long count_all_intersections(const std::vector<CensusInput>& cloths, int threads
     for (size_t j = i + 1; j < cloths.size(); ++j) count += count_intersecting_pairs_between(cloths[i], cloths[j], threads);
   }
   return count;
+}
+
+bool IntersectingPair::operator<(const IntersectingPair& o) const {
+  return std::tie(cloth_a, tri_a, cloth_b, tri_b) < std::tie(o.cloth_a, o.tri_a, o.cloth_b, o.tri_b);
+}
+
+bool IntersectingPair::operator==(const IntersectingPair& o) const {
+  return cloth_a == o.cloth_a && tri_a == o.tri_a && cloth_b == o.cloth_b && tri_b == o.tri_b;
+}
+
+std::vector<IntersectingPair> intersecting_pairs(const std::vector<CensusInput>& cloths,
+                                                 const std::vector<const ClothBvh*>& trees, int threads,
+                                                 double cone_margin) {
+  std::vector<IntersectingPair> out;
+  for (size_t i = 0; i < cloths.size(); ++i) {
+    for (size_t j = i; j < cloths.size(); ++j) {
+      // Candidates: overlapping leaf boxes (within one cloth, pairs sharing a vertex left out).
+      const std::vector<TrianglePair> cand =
+          i != j              ? trees[i]->cross_pairs(*trees[j])
+          : cone_margin < 0.0 ? trees[i]->self_pairs(/*skip_adjacent=*/true)
+                              : trees[i]->self_pairs_culled(*cloths[i].x, *cloths[i].x, cone_margin, true, threads);
+      const auto& t0 = cloths[i].mesh->triangles();
+      const auto& t1 = cloths[j].mesh->triangles();
+      const loom::cloth::Vec3s& x0 = *cloths[i].x;
+      const loom::cloth::Vec3s& x1 = *cloths[j].x;
+      const long n = static_cast<long>(cand.size());
+      std::vector<char> hit(cand.size(), 0);
+#pragma omp parallel for num_threads(threads) if (threads > 1) schedule(dynamic, 64)
+      for (long k = 0; k < n; ++k) {
+        const auto& p = t0[cand[k].first];
+        const auto& q = t1[cand[k].second];
+        hit[k] = triangles_intersect(x0[p[0]], x0[p[1]], x0[p[2]], x1[q[0]], x1[q[1]], x1[q[2]]);
+      }
+      for (long k = 0; k < n; ++k)
+        if (hit[k]) out.push_back({static_cast<int>(i), cand[k].first, static_cast<int>(j), cand[k].second});
+    }
+  }
+  std::sort(out.begin(), out.end());
+  return out;
+}
+
+std::vector<IntersectingPair> intersecting_pairs(const std::vector<CensusInput>& cloths, int threads) {
+  std::vector<std::unique_ptr<ClothBvh>> own;
+  std::vector<const ClothBvh*> trees;
+  for (const CensusInput& c : cloths) {
+    own.push_back(std::make_unique<ClothBvh>(borrow(c.mesh)));
+    own.back()->rebuild(*c.x, *c.x, 0.0, threads);
+    trees.push_back(own.back().get());
+  }
+  return intersecting_pairs(cloths, trees, threads);
 }
 
 double max_penetration(const std::vector<CensusInput>& cloths, const ColliderSet& colliders) {

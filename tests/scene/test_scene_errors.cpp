@@ -113,6 +113,7 @@ const Case kCases[] = {
     {"guard_enabled_type", {"guard={\"enabled\": \"yes\"}"}, "guard.enabled", "expected"},
     {"guard_negative_energy_bound", {"guard={\"energy_bound\": -1}"}, "guard.energy_bound", "must be >= 0"},
     {"guard_penetration_type", {"guard={\"max_penetration\": \"1 mm\"}"}, "guard.max_penetration", "expected"},
+    {"guard_intersections_type", {"guard={\"intersections\": 1}"}, "guard.intersections", "expected"},
 };
 
 INSTANTIATE_TEST_SUITE_P(AllCases, SceneErrors, ::testing::ValuesIn(kCases),

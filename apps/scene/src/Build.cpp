@@ -2,6 +2,7 @@
 
 #include "loom/collision/BodyCollisionStage.h"
 #include "loom/collision/ContactGuardStage.h"
+#include "loom/collision/IntersectionGuardStage.h"
 
 #ifdef LOOM_HAVE_CHARACTERS
 #include "loom/characters/Character.h"
@@ -31,7 +32,8 @@ std::unique_ptr<cloth::Simulation> build_simulation(const Scene& scene, collisio
   // Self- and cloth-cloth collision (issue 5), after body collision: only with a `collision` object that asks
   // for self-collision or has more than one cloth to collide. It sees which vertices the body stage left near
   // a collider (those count heavier in cloth-cloth responses).
-  if (scene.collision && (scene.collision->self || scene.setup.cloths.size() > 1)) {
+  const bool cloth_collision = scene.collision && (scene.collision->self || scene.setup.cloths.size() > 1);
+  if (cloth_collision) {
     auto stage = std::make_unique<collision::SelfCollisionStage>(*scene.collision);
     stage->set_body_stage(body_stage);
     sim->add_stage(std::move(stage));
@@ -41,6 +43,13 @@ std::unique_ptr<cloth::Simulation> build_simulation(const Scene& scene, collisio
   const cloth::GuardSettings& guard = scene.setup.guard;
   if (!colliders->empty() && guard.enabled && (guard.max_penetration > 0.0 || guard.energy_bound > 0.0))
     sim->add_stage(std::make_unique<collision::ContactGuardStage>(colliders, guard.max_penetration));
+  // The guard's intersection check (issue 8), very last: with `guard.intersections` and cloth collision on
+  // (without it nothing keeps the cloths apart). The pairs of the start state are allowed in the first step.
+  if (cloth_collision && guard.enabled && guard.intersections) {
+    auto stage = std::make_unique<collision::IntersectionGuardStage>();
+    stage->prime(sim->cloths(), scene.setup.threads);
+    sim->add_stage(std::move(stage));
+  }
   if (colliders_out) *colliders_out = colliders;
   return sim;
 }

@@ -13,6 +13,8 @@ void parse_guard(const JsonReader& root, cloth::GuardSettings& g) {
   if (g.energy_growth < 1.0) r.fail("energy_growth", "must be >= 1");
   g.energy_bound = r.number("energy_bound", g.energy_bound, 0.0);
   g.max_penetration = r.number("max_penetration", g.max_penetration, 0.0);
+  g.intersections_set = r.has("intersections");
+  g.intersections = r.boolean("intersections", g.intersections);
   r.finish();
 }
 

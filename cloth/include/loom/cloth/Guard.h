@@ -24,7 +24,12 @@
 //  - contacts (`max_penetration` > 0, m): a stage that checks contacts (collision::ContactGuardStage, added
 //    by the scene builder) reports a cloth vertex deeper than this inside a collider after a step as a
 //    violation (Stage::violation(): "could not resolve contacts: ..."); any stage's violation after any step
-//    rejects the frame like an explosion.
+//    rejects the frame like an explosion;
+//  - intersections (`intersections` true): collision::IntersectionGuardStage (added by the scene builder when
+//    the scene has cloth-cloth or self-collision) finds the intersecting triangle pairs after every step
+//    (exact, the census of `loom run --census`); a pair the step's start did not have is a violation
+//    ("cloth intersections: N intersecting triangle pairs the step start did not have (cloth 'C': triangles
+//    A and B)"). `loom run` turns it on for such scenes unless the scene sets it (RunCommand.cpp).
 #include <string>
 
 namespace loom::cloth {
@@ -36,6 +41,8 @@ struct GuardSettings {
   double energy_growth = 100.0;  // 1, factor of the kinetic-energy bound above
   double energy_bound = 0.0;     // 1, factor of the energy budget since the start (0: off)
   double max_penetration = 0.0;  // m, deepest accepted cloth vertex inside a collider after a step (0: off)
+  bool intersections = false;    // reject a step that leaves new intersecting triangle pairs (with collision)
+  bool intersections_set = false;  // the scene gave `intersections` (a caller's default must not override it)
 };
 
 // The guard's view of a frame end (energies in J, strain in 1).

@@ -6,6 +6,7 @@
 #include <vector>
 
 #include "loom/cloth/ClothMesh.h"
+#include "loom/collision/ClothBvh.h"
 #include "loom/collision/Collider.h"
 
 namespace loom::collision {
@@ -19,6 +20,25 @@ struct CensusInput {
 long count_intersecting_pairs_between(const CensusInput& a, const CensusInput& b, int threads = 1);
 // Self census of every cloth plus every cloth pair.
 long count_all_intersections(const std::vector<CensusInput>& cloths, int threads = 1);
+// One intersecting triangle pair: triangle tri_a of cloth cloth_a and triangle tri_b of cloth cloth_b (indices
+// into the census input), (cloth_a, tri_a) < (cloth_b, tri_b); within one cloth the two share no vertex.
+struct IntersectingPair {
+  int cloth_a = 0, tri_a = 0, cloth_b = 0, tri_b = 0;
+  bool operator<(const IntersectingPair& o) const;
+  bool operator==(const IntersectingPair& o) const;
+};
+// Every intersecting pair (the same pairs count_all_intersections counts), sorted. `trees`: one ClothBvh per
+// cloth whose leaf boxes hold the triangles at `x` (refit or rebuilt on x, any thickness >= 0); a caller that
+// checks every step keeps its trees and refits them (ClothBvh::update). The result does not depend on the
+// trees' topology nor on the thread count. With cone_margin >= 0 (m), the self pairs of a patch that is a
+// height field with a simple contour (ClothBvh::self_pairs_culled at x0 = x1 = x, that margin) are skipped:
+// such a patch cannot intersect itself (its projection along the cone axis is one-to-one), so the pairs are
+// the same, found faster on smooth cloth.
+std::vector<IntersectingPair> intersecting_pairs(const std::vector<CensusInput>& cloths,
+                                                 const std::vector<const ClothBvh*>& trees, int threads = 1,
+                                                 double cone_margin = -1.0);
+// The same with trees built here.
+std::vector<IntersectingPair> intersecting_pairs(const std::vector<CensusInput>& cloths, int threads = 1);
 // Largest depth (m) of any cloth vertex inside any collider at its current pose (`curr`), by the collider's
 // signed distance (ColliderDistance.h); 0 when no vertex is inside. Meshes have no inside (always 0).
 double max_penetration(const std::vector<CensusInput>& cloths, const ColliderSet& colliders);
