@@ -35,6 +35,14 @@ inline std::filesystem::path test_dir() {
   return dir;
 }
 
+// Writes a scene (a JSON value: anything with dump(indent)) into the test's scratch folder; returns its path.
+template <class Json>
+std::string write_json_scene(const std::string& name, const Json& j) {
+  const auto path = test_dir() / name;
+  std::ofstream(path) << j.dump(1);
+  return path.string();
+}
+
 inline CliResult run_loom(const std::string& args) {
   const auto dir = test_dir();
   const std::string out = (dir / "stdout.txt").string(), err = (dir / "stderr.txt").string();

@@ -11,12 +11,7 @@ namespace {
 
 using loom::test::run_loom;
 using loom::test::test_dir;
-
-std::string write_scene(const std::string& name, const nlohmann::json& j) {
-  const auto path = test_dir() / name;
-  std::ofstream(path) << j.dump(1);
-  return path.string();
-}
+using loom::test::write_json_scene;
 
 nlohmann::json sheet(const std::string& name, const std::string& plane, const std::vector<double>& origin) {
   return {{"name", name},
@@ -37,7 +32,7 @@ nlohmann::json summary_of(const std::string& out) {
 TEST(CensusCli, CountsCrossingSheets) {
   nlohmann::json j = base_scene();
   j["cloths"] = {sheet("flat", "xz", {-0.2, 0.5, -0.2}), sheet("upright", "xy", {-0.2, 0.3, 0.0})};
-  const std::string scene = write_scene("crossing.json", j), out = (test_dir() / "out").string();
+  const std::string scene = write_json_scene("crossing.json", j), out = (test_dir() / "out").string();
   const auto r = run_loom("run " + scene + " --out " + out + " --frames 2 --census");
   ASSERT_EQ(r.code, 0) << r.err;
   const nlohmann::json s = summary_of(out);
@@ -58,7 +53,7 @@ TEST(CensusCli, CollisionKeepsLayersApart) {
   top["velocity"] = {0.0, -3.0, 0.0};
   j["cloths"] = {sheet("bottom", "xz", {-0.2, 0.5, -0.2}), top};
   j["collision"] = {{"self", true}, {"layers", {0.002, 0.001}}, {"passes", 3}};
-  const std::string scene = write_scene("layers.json", j), out = (test_dir() / "out").string();
+  const std::string scene = write_json_scene("layers.json", j), out = (test_dir() / "out").string();
   const auto r = run_loom("run " + scene + " --out " + out + " --census --threads 2");
   ASSERT_EQ(r.code, 0) << r.err;
   const nlohmann::json s = summary_of(out);
@@ -72,11 +67,11 @@ TEST(CensusCli, CollisionKeyErrorsNameThePath) {
   nlohmann::json j = base_scene();
   j["cloths"] = {sheet("a", "xz", {-0.2, 0.5, -0.2}), sheet("b", "xz", {-0.2, 0.6, -0.2})};
   j["collision"] = {{"layers", {0.002}}};
-  const auto r = run_loom("run " + write_scene("bad.json", j) + " --out " + (test_dir() / "out").string());
+  const auto r = run_loom("run " + write_json_scene("bad.json", j) + " --out " + (test_dir() / "out").string());
   EXPECT_EQ(r.code, 1);
   EXPECT_NE(r.err.find("collision.layers"), std::string::npos) << r.err;
   j["collision"] = {{"passes", 2}, {"bogus", 1}};
-  const auto r2 = run_loom("run " + write_scene("bad2.json", j) + " --out " + (test_dir() / "out").string());
+  const auto r2 = run_loom("run " + write_json_scene("bad2.json", j) + " --out " + (test_dir() / "out").string());
   EXPECT_EQ(r2.code, 1);
   EXPECT_NE(r2.err.find("collision.bogus"), std::string::npos) << r2.err;
 }

@@ -17,12 +17,7 @@ namespace {
 
 using loom::test::run_loom;
 using loom::test::test_dir;
-
-std::string write_scene(const std::string& name, const nlohmann::json& j) {
-  const auto path = test_dir() / name;
-  std::ofstream(path) << j.dump(1);
-  return path.string();
-}
+using loom::test::write_json_scene;
 
 nlohmann::json summary_of(const std::string& out) {
   return nlohmann::json::parse(loom::test::slurp(std::filesystem::path(out) / "summary.json"));
@@ -51,7 +46,7 @@ nlohmann::json pierce_scene() {
 }
 
 TEST(IntersectionGuardCli, OnByDefaultWithCollisionAndStopsNamingTheCause) {
-  const std::string scene = write_scene("pierce.json", pierce_scene()), out = (test_dir() / "out").string();
+  const std::string scene = write_json_scene("pierce.json", pierce_scene()), out = (test_dir() / "out").string();
   const auto r = run_loom("run " + scene + " --out " + out);
   ASSERT_EQ(r.code, 3) << r.err;
   EXPECT_NE(r.err.find("pierce.json: cloth intersections: "), std::string::npos) << r.err;
@@ -78,7 +73,7 @@ TEST(IntersectionGuardCli, OnByDefaultWithCollisionAndStopsNamingTheCause) {
 TEST(IntersectionGuardCli, OffInTheSceneTheRunGoesOnAndTheCensusFindsThePairs) {
   nlohmann::json j = pierce_scene();
   j["guard"]["intersections"] = false;
-  const std::string scene = write_scene("pierce_off.json", j), out = (test_dir() / "out").string();
+  const std::string scene = write_json_scene("pierce_off.json", j), out = (test_dir() / "out").string();
   const auto r = run_loom("run " + scene + " --out " + out + " --census");
   ASSERT_EQ(r.code, 0) << r.err;
   const nlohmann::json s = summary_of(out);
@@ -96,7 +91,7 @@ TEST(IntersectionGuardCli, ATangledStartIsAllowed) {
   j["cloths"][0].erase("pins");
   j["cloths"][1]["mesh"]["plane"] = "xy";
   j["cloths"][1]["mesh"]["origin"] = {-0.13, -0.1, 0.01};
-  const std::string scene = write_scene("tangled.json", j), out = (test_dir() / "out").string();
+  const std::string scene = write_json_scene("tangled.json", j), out = (test_dir() / "out").string();
   const auto r = run_loom("run " + scene + " --out " + out + " --census");
   ASSERT_EQ(r.code, 0) << r.err;
   const nlohmann::json s = summary_of(out);

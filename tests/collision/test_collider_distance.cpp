@@ -158,19 +158,23 @@ TEST(ColliderDistance, ConvexHullMatchesBoxAndBruteForce) {
   }
 }
 
-TEST(ColliderDistance, MeshIsTwoSidedDistanceToNearestTriangle) {
+// A wavy n x n patch of a mesh collider: vertex (i, j) at (i s, a sin(fi i) cos(fj j), j s), prepared.
+Collider wavy_mesh(int n, double s, double a, double fi, double fj) {
   Collider mesh = make(ShapeType::mesh);
-  // A wavy 12x12 patch.
-  const int n = 12;
   for (int j = 0; j < n; ++j)
-    for (int i = 0; i < n; ++i) mesh.shape.vertices.emplace_back(i * 0.1, 0.05 * std::sin(i * 0.7) * std::cos(j * 0.5), j * 0.1);
+    for (int i = 0; i < n; ++i) mesh.shape.vertices.emplace_back(i * s, a * std::sin(i * fi) * std::cos(j * fj), j * s);
   for (int j = 0; j + 1 < n; ++j)
     for (int i = 0; i + 1 < n; ++i) {
-      const int a = j * n + i;
-      mesh.shape.triangles.push_back({a, a + 1, a + n});
-      mesh.shape.triangles.push_back({a + 1, a + n + 1, a + n});
+      const int k = j * n + i;
+      mesh.shape.triangles.push_back({k, k + 1, k + n});
+      mesh.shape.triangles.push_back({k + 1, k + n + 1, k + n});
     }
   prepare_collider(mesh);
+  return mesh;
+}
+
+TEST(ColliderDistance, MeshIsTwoSidedDistanceToNearestTriangle) {
+  const Collider mesh = wavy_mesh(12, 0.1, 0.05, 0.7, 0.5);
   const Transform p = pose(Vec3(-0.5, 1.0, 0.2), Vec3(1, 0, 0), 0.3);
   std::mt19937 rng(5);
   std::uniform_real_distribution<double> u(-0.3, 1.4);
@@ -192,17 +196,8 @@ TEST(ColliderDistance, MeshIsTwoSidedDistanceToNearestTriangle) {
 // still get the brute-force distance, and the answer (distance and normal) is bit-identical whatever was
 // queried before it (forward and reverse order, interleaved with far points).
 TEST(ColliderDistance, MeshDistanceDoesNotDependOnQueryOrder) {
-  Collider mesh = make(ShapeType::mesh);
   const int n = 20;
-  for (int j = 0; j < n; ++j)
-    for (int i = 0; i < n; ++i) mesh.shape.vertices.emplace_back(i * 0.05, 0.04 * std::sin(i * 0.9) * std::cos(j * 0.6), j * 0.05);
-  for (int j = 0; j + 1 < n; ++j)
-    for (int i = 0; i + 1 < n; ++i) {
-      const int a = j * n + i;
-      mesh.shape.triangles.push_back({a, a + 1, a + n});
-      mesh.shape.triangles.push_back({a + 1, a + n + 1, a + n});
-    }
-  prepare_collider(mesh);
+  const Collider mesh = wavy_mesh(n, 0.05, 0.04, 0.9, 0.6);
   std::mt19937 rng(11);
   std::uniform_real_distribution<double> u(0.0, 0.95), off(-1e-3, 1e-3);
   std::vector<Vec3> pts;
