@@ -207,6 +207,17 @@ void AggregationMultigrid::residual(Level& l, int threads) {
   }
 }
 
+// c.b = Pᵀ v: each aggregate's sum of its members' v (ascending member order: deterministic).
+void AggregationMultigrid::restrict_to_coarser(const Level& l, const Vec3s& v, Level& c, int threads) {
+  const int tc = c.n >= kParallelMin ? threads : 1;
+#pragma omp parallel for num_threads(tc) if (tc > 1) schedule(static)
+  for (int I = 0; I < c.n; ++I) {
+    Vec3 sum = Vec3::Zero();
+    for (int k = l.member_start[I]; k < l.member_start[I + 1]; ++k) sum += v[l.members[k]];
+    c.b[I] = sum;
+  }
+}
+
 void AggregationMultigrid::cycle(int q, int threads) {
   Level& l = levels_[q];
   const int t = l.n >= kParallelMin ? threads : 1;
@@ -228,13 +239,7 @@ void AggregationMultigrid::cycle(int q, int threads) {
   if (q == 0 && s_.cycle == MultigridCycle::kAdditiveFinest) {
     // x = ω D⁻¹ b + P B_c Pᵀ b: both terms from b, no fine-level residual.
     Level& c = levels_[1];
-    const int tc = c.n >= kParallelMin ? threads : 1;
-#pragma omp parallel for num_threads(tc) if (tc > 1) schedule(static)
-    for (int I = 0; I < c.n; ++I) {
-      Vec3 sum = Vec3::Zero();
-      for (int k = l.member_start[I]; k < l.member_start[I + 1]; ++k) sum += l.b[l.members[k]];
-      c.b[I] = sum;
-    }
+    restrict_to_coarser(l, l.b, c, threads);
     cycle(1, threads);
 #pragma omp parallel for num_threads(t) if (t > 1) schedule(static)
     for (int i = 0; i < l.n; ++i) {
@@ -254,13 +259,7 @@ void AggregationMultigrid::cycle(int q, int threads) {
   // Coarse correction: b_c = Pᵀ (b - A x), x += P x_c.
   residual(l, threads);
   Level& c = levels_[q + 1];
-  const int tc = c.n >= kParallelMin ? threads : 1;
-#pragma omp parallel for num_threads(tc) if (tc > 1) schedule(static)
-  for (int I = 0; I < c.n; ++I) {
-    Vec3 sum = Vec3::Zero();
-    for (int k = l.member_start[I]; k < l.member_start[I + 1]; ++k) sum += l.res[l.members[k]];
-    c.b[I] = sum;
-  }
+  restrict_to_coarser(l, l.res, c, threads);
   cycle(q + 1, threads);
 #pragma omp parallel for num_threads(t) if (t > 1) schedule(static)
   for (int i = 0; i < l.n; ++i)

@@ -52,6 +52,19 @@ bool contact_normal(const Vec3& d, const Vec3& fallback, const Vec3& side, Vec3&
   return true;
 }
 
+
+// The per-chunk lists of a parallel loop joined in chunk order (the serial order, whatever the thread count).
+template <class T>
+std::vector<T> join_chunks(std::vector<std::vector<T>>& parts) {
+  if (parts.size() == 1) return std::move(parts[0]);
+  std::vector<T> out;
+  size_t total = 0;
+  for (const auto& p : parts) total += p.size();
+  out.reserve(total);
+  for (const auto& p : parts) out.insert(out.end(), p.begin(), p.end());
+  return out;
+}
+
 }  // namespace
 
 std::vector<std::pair<std::string, double>> SelfCollisionStage::counters() const {
@@ -282,12 +295,7 @@ std::vector<SelfCollisionStage::Feature> SelfCollisionStage::features(const std:
       }
     }
   }
-  std::vector<Feature> out;
-  size_t total = 0;
-  for (const auto& part : parts) total += part.size();
-  out.reserve(total);
-  for (const auto& part : parts) out.insert(out.end(), part.begin(), part.end());
-  return out;
+  return join_chunks(parts);
 }
 
 SelfCollisionStage::Contact SelfCollisionStage::contact_of(const Feature& f) const {
@@ -327,13 +335,7 @@ std::vector<Impulse> collect_impulses(long n, int threads, Body body) {
 #pragma omp parallel for num_threads(threads) if (threads > 1 && chunks > 1) schedule(dynamic, 1)
   for (int ch = 0; ch < chunks; ++ch)
     for (long i = n * ch / chunks; i < n * (ch + 1) / chunks; ++i) body(i, parts[ch]);
-  if (chunks == 1) return std::move(parts[0]);
-  std::vector<Impulse> out;
-  size_t total = 0;
-  for (const auto& p : parts) total += p.size();
-  out.reserve(total);
-  for (const auto& p : parts) out.insert(out.end(), p.begin(), p.end());
-  return out;
+  return join_chunks(parts);
 }
 
 void apply_impulses(const std::vector<Impulse>& imp, double h, Vec3s& x1, std::vector<char>* moved) {

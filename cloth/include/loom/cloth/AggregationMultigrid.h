@@ -78,6 +78,7 @@ class AggregationMultigrid {
   void coarse_values(int level, int threads);  // level's blocks from the finer level's
   void cycle(int level, int threads);
   void residual(Level& l, int threads);  // l.res = b - A x (0 on fixed)
+  static void restrict_to_coarser(const Level& l, const Vec3s& v, Level& c, int threads);  // c.b = Pᵀ v
 
   MultigridSettings s_;
   std::vector<Level> levels_;
