@@ -554,6 +554,7 @@ int bench_accuracy(const AccuracyOptions& o) {
         std::printf("  note: no sweep table entry for '%s'; using substeps 1, 4\n", method.c_str());
       }
       for (const SweepConfig& c : configs) {
+        if (!o.configs.empty() && c.label().find(o.configs) == std::string::npos) continue;
         std::optional<Row> diverged;
         for (int threads : o.threads) {
           if (diverged) {
@@ -643,7 +644,7 @@ namespace {
 
 const char* kBenchUsage =
     "Usage: loom bench accuracy [--sizes 32,64,128] [--out DIR] [--quick] [--duration S] [--threads 1,2]\n"
-    "                           [--methods LIST]\n"
+    "                           [--methods LIST] [--configs TEXT]\n"
     "\n"
     "The accuracy-vs-time benchmark on the hanging-cloth scene (1 m cotton square, 0.2 kg, two corners pinned,\n"
     "released horizontally, 60 Hz frames, damping off). Every registered solver runs over its knob sweep, and\n"
@@ -660,7 +661,8 @@ const char* kBenchUsage =
     "  --duration S    simulated seconds (default 0.25; longer runs lose a converged reference)\n"
     "  --threads LIST  thread counts for Loom's solvers (default 1,2)\n"
     "  --perturbation M  amplitude of the start bump that fixes the buckling direction (default 0.001 m)\n"
-    "  --methods LIST  only these solvers / bullet_classic / bullet_deformable (default: all)\n";
+    "  --methods LIST  only these solvers / bullet_classic / bullet_deformable (default: all)\n"
+    "  --configs TEXT  only the Loom configurations whose label contains TEXT, e.g. 'substeps=1 cg_tolerance=0.02'\n";
 
 bool parse_list(const std::string& s, std::vector<int>& out, int min) {
   out.clear();
@@ -722,6 +724,8 @@ int bench_main(int argc, char** argv) {
              return out;
            }(value()))
         o.methods.insert(m);
+    } else if (a == "--configs") {
+      o.configs = value();
     } else if (a == "--out") {
       o.out = value();
     } else if (a == "--duration") {

@@ -16,6 +16,7 @@ struct AccuracyOptions {
   double perturbation = 1e-3;      // m, out-of-plane start bump (AccuracyBench.cpp, make_scene)
   std::vector<int> threads{1, 2};  // thread counts for the Loom solvers (Bullet runs single-threaded)
   std::set<std::string> methods;   // empty: all; else solver names and/or bullet_classic, bullet_deformable
+  std::string configs;             // empty: all; else only Loom configurations whose label contains it
 };
 
 // Returns the process exit code: 0 ok, 1 I/O error.

@@ -66,7 +66,11 @@ std::map<std::string, std::vector<SweepConfig>> loom_sweep_table(int explicit_st
     t[m] = grid({1, 4, 16}, "iterations", {1, 4, 16});
     append(t[m], grid({64}, "iterations", {1}));
   }
+  // XPBD "small steps" (Macklin et al. 2019: many substeps of one iteration), the games' 2 ms-class setting,
+  // between 16 and 64 substeps; and projective dynamics at one substep with few Chebyshev iterations.
+  append(t["xpbd"], grid({8, 32}, "iterations", {1}));
   t["projective"] = grid({1, 4, 16}, "iterations", {4, 16});
+  append(t["projective"], grid({1}, "iterations", {4, 8}, {{"chebyshev", 1}}));
   append(t["projective"], grid({1, 4}, "iterations", {16}, {{"chebyshev", 1}}));
   // Quasi-static Newton minimisation per frame: not a dynamics integrator; its error is what ignoring
   // inertia costs.

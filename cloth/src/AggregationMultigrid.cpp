@@ -152,7 +152,8 @@ void AggregationMultigrid::coarse_values(int q, int threads) {
   }
 }
 
-void AggregationMultigrid::setup(const BlockMatrix& A, const std::vector<char>& fixed, int threads) {
+void AggregationMultigrid::setup(const BlockMatrix& A, const std::vector<char>& fixed, int threads,
+                                 const std::vector<Mat3>* fine_dinv) {
   if (A.pattern_id() != pattern_id_ || fixed != fixed_key_ || levels_.empty() || levels_[0].n != A.size()) {
     pattern_id_ = A.pattern_id();
     fixed_key_ = fixed;
@@ -163,6 +164,10 @@ void AggregationMultigrid::setup(const BlockMatrix& A, const std::vector<char>& 
     Level& l = levels_[q];
     const int t = l.n >= kParallelMin ? threads : 1;
     if (q > 0) coarse_values(static_cast<int>(q), threads);
+    if (q == 0 && fine_dinv && static_cast<int>(fine_dinv->size()) == l.n) {
+      l.dinv = *fine_dinv;
+      continue;
+    }
     const BlockMatrix& M = *l.A;
 #pragma omp parallel for num_threads(t) if (t > 1) schedule(static)
     for (int i = 0; i < l.n; ++i) {

@@ -41,7 +41,11 @@ void Cloth::add_pin(Pin pin) {
 }
 
 void Cloth::compute_forces(const Vec3s& x, const Vec3s& v, double t, int threads, Vec3s& f) {
-  f.assign(x.size(), Vec3::Zero());
+  // Cleared in parallel on large meshes: a serial clear capped the explicit solvers' 2-thread speed-up.
+  const int n = static_cast<int>(x.size());
+  f.resize(n);
+#pragma omp parallel for num_threads(threads) if (threads > 1 && n >= kParallelMinVertices) schedule(static)
+  for (int i = 0; i < n; ++i) f[i].setZero();
   const EvalContext ctx{x, v, t, threads};
   for (size_t k = 0; k < terms_.size(); ++k) {
     const auto start = std::chrono::steady_clock::now();

@@ -70,7 +70,7 @@ PcgResult FilteredPCG::solve(const BlockMatrix& A, const Vec3s& b, const std::ve
   const bool mg = precond_ == Preconditioner::kMultigrid;
   if (mg) {
     // s = B filter(b) (the cycle reads free rows only and returns 0 on fixed ones).
-    mg_.setup(A, fixed, t);
+    mg_.setup(A, fixed, t, &pinv_);  // its finest D⁻¹ is pinv_ (the same inverses, computed above)
     mg_.apply(b, s_, t);
   }
   // δ0 = filter(b)ᵀ P⁻¹ filter(b)   (P⁻¹ is zero on fixed vertices, so it filters too)

@@ -53,7 +53,10 @@ class AggregationMultigrid {
   void set_settings(const MultigridSettings& s) { s_ = s; }
   // Hierarchy for A restricted to the free vertices (fixed[i] == 0). A must outlive the following apply()
   // calls.
-  void setup(const BlockMatrix& A, const std::vector<char>& fixed, int threads);
+  // `fine_dinv`, if given, is (A_ii)⁻¹ of the finest level as the caller already computed it (0 on fixed
+  // vertices, identity where A_ii is singular): copied instead of inverted again.
+  void setup(const BlockMatrix& A, const std::vector<char>& fixed, int threads,
+             const std::vector<Mat3>* fine_dinv = nullptr);
   // z = B r (one V-cycle from zero); z is 0 on fixed vertices, r is read on free vertices only.
   void apply(const Vec3s& r, Vec3s& z, int threads);
   int levels() const { return static_cast<int>(levels_.size()); }

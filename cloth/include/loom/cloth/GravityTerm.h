@@ -12,6 +12,7 @@ class GravityTerm final : public Term {
   void add_forces(const EvalContext& c, Vec3s& f) const override;
   void add_jacobians(const EvalContext&, const JacobianOptions&, BlockMatrix*, BlockMatrix*) const override {}
   bool has_velocity_jacobian() const override { return false; }
+  bool symmetric_jacobians(const JacobianOptions&) const override { return true; }  // adds nothing
   long work_items() const override { return static_cast<long>(mass_.size()); }
   const Vec3& g() const { return g_; }
 

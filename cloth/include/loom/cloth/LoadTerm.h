@@ -19,6 +19,7 @@ class LoadTerm final : public Term {
   }
   void add_jacobians(const EvalContext&, const JacobianOptions&, BlockMatrix*, BlockMatrix*) const override {}
   bool has_velocity_jacobian() const override { return false; }
+  bool symmetric_jacobians(const JacobianOptions&) const override { return true; }  // adds nothing
   long work_items() const override { return static_cast<long>(vertices_.size()); }
 
  private:

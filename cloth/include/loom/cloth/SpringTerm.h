@@ -27,6 +27,9 @@ class SpringTerm final : public Term {
   void add_jacobians(const EvalContext& c, const JacobianOptions& o, BlockMatrix* dfdx,
                      BlockMatrix* dfdv) const override;
   bool has_velocity_jacobian() const override { return damped_; }
+  // K_s = k [n̂n̂ᵀ + r (I - n̂n̂ᵀ)] and c n̂n̂ᵀ are symmetric element by element and go to (i, j) and (j, i) in spring
+  // order; only the damping position term (non-symmetric) breaks that.
+  bool symmetric_jacobians(const JacobianOptions& o) const override { return !(o.damping_position_terms && damped_); }
   long work_items() const override { return static_cast<long>(springs_.size()); }
   const std::vector<Spring>& springs() const { return springs_; }
 

@@ -25,6 +25,10 @@ struct JacobianOptions {
   bool damping_position_terms = true;  // include d(damping force)/dx (non-symmetric; usually dropped)
 };
 
+// Per-vertex loops shorter than this run on one thread: the fork/join costs more than the work (results do not
+// depend on it: such loops are independent per vertex).
+constexpr int kParallelMinVertices = 2048;
+
 class Term {
  public:
   virtual ~Term() = default;
@@ -41,6 +45,13 @@ class Term {
   // False when add_jacobians never adds to dfdv (the force does not depend on v): implicit solvers then skip
   // clearing and reading df/dv.
   virtual bool has_velocity_jacobian() const { return true; }
+  // True when, under options o, every block add_jacobians adds is mirrored bit for bit: block (j, i) receives
+  // the transpose of what (i, j) receives, in the same order, and diagonal blocks are symmetric. Implicit
+  // solvers then skip symmetrising A (it would not change a bit).
+  virtual bool symmetric_jacobians(const JacobianOptions& o) const {
+    (void)o;
+    return false;
+  }
   // Work done by the last add_forces call, for the profile (elements evaluated).
   virtual long work_items() const { return 0; }
 };
