@@ -253,10 +253,7 @@ void SelfCollisionStage::update_bvhs(int threads, bool full_update) {
 }
 
 // Self pairs of each cloth (normal-cone culled when enabled) and pairs between every two cloths (never culled:
-// layers lie on each other, flat, and must always be tested). The contour clearance of the cone test is the
-// continuous passes' minimum separation (what the passes keep between features), not the whole thickness: a
-// culled patch is a height field with a simple contour, so it cannot cross itself whatever the clearance, and
-// with the whole thickness hardly a node of a fine or compressed mesh passed the test.
+// layers lie on each other, flat, and must always be tested).
 std::vector<TrianglePair> SelfCollisionStage::all_triangle_pairs(int threads) {
   PhaseTimer timer(pairs_ms_);
   std::vector<TrianglePair> out;
@@ -264,7 +261,7 @@ std::vector<TrianglePair> SelfCollisionStage::all_triangle_pairs(int threads) {
     if (settings_.self) {
       long culled = 0;
       const std::vector<TrianglePair> self =
-          settings_.normal_cones ? bvhs_[c]->self_pairs_culled(cx0_[c], cx1_[c], settings_.separation * cloth_thickness_[c], false, threads, &culled)
+          settings_.normal_cones ? bvhs_[c]->self_pairs_culled(cx0_[c], cx1_[c], cloth_thickness_[c], false, threads, &culled)
                                  : bvhs_[c]->self_pairs(false);
       culled_nodes_ += culled;
       for (const TrianglePair& p : self) out.emplace_back(tri_offset_[c] + p.first, tri_offset_[c] + p.second);
@@ -567,51 +564,15 @@ bool SelfCollisionStage::ccd_pass(const std::vector<Feature>& fs, int threads, s
     // |dx_i - dx_j| over one vertex i of the first feature and one vertex j of the second (a point of either
     // feature is a fixed convex combination of its vertices), so d(0) > sep + that bound proves d(t) > sep
     // on the whole step: the continuous test could only find a false positive.
-    // The same bound from both ends and on halves of the step: d(t) is Lipschitz in t with that displacement
-    // bound L, so on [a, b] it stays above (d(a) + d(b) - L (b - a)) / 2; intervals where that does not clear
-    // the separation are halved (at most kDepth times) before the continuous test is run. Sliding contact
-    // (cloth dragged over cloth on the spinning sphere) moves a lot but keeps its distance: proven apart here.
     {
       Vec3 dx[4];
       for (int k = 0; k < 4; ++k) dx[k] = *a1[k] - *a0[k];
       double reach2 = 0.0;
       for (int k = 0; k < split; ++k)
         for (int m = split; m < 4; ++m) reach2 = std::max(reach2, (dx[k] - dx[m]).squaredNorm());
-      const double L = std::sqrt(reach2) * (1.0 + 1e-9), clear = sep * (1.0 + 1e-9);
-      auto dist = [&](double t) {
-        Vec3 q[4];
-        for (int k = 0; k < 4; ++k) q[k] = *a0[k] + t * dx[k];
-        return std::sqrt(fs[i].type == 0 ? point_triangle_closest(q[0], q[1], q[2], q[3]).distance_squared
-                                         : segment_segment_closest(q[0], q[1], q[2], q[3]).distance_squared);
-      };
-      const double d0 = dist(0.0);
-      if (d0 > clear + L) return;
-      if (d0 > clear) {
-        constexpr int kDepth = 3;
-        struct Span {
-          double a, b, da, db;
-          int depth;
-        };
-        Span stack[kDepth + 2];
-        int top = 0;
-        stack[top++] = {0.0, 1.0, d0, dist(1.0), 0};
-        bool proven = true;
-        while (top > 0 && proven) {
-          const Span sp = stack[--top];
-          if (sp.db <= clear) {
-            proven = false;
-          } else if (0.5 * (sp.da + sp.db - L * (sp.b - sp.a)) > clear) {
-            continue;
-          } else if (sp.depth == kDepth) {
-            proven = false;
-          } else {
-            const double m = 0.5 * (sp.a + sp.b), dm = dist(m);
-            stack[top++] = {m, sp.b, dm, sp.db, sp.depth + 1};
-            stack[top++] = {sp.a, m, sp.da, dm, sp.depth + 1};
-          }
-        }
-        if (proven) return;
-      }
+      const double d0 = std::sqrt(fs[i].type == 0 ? point_triangle_closest(*a0[0], *a0[1], *a0[2], *a0[3]).distance_squared
+                                                   : segment_segment_closest(*a0[0], *a0[1], *a0[2], *a0[3]).distance_squared);
+      if (d0 > (sep + std::sqrt(reach2)) * (1.0 + 1e-9)) return;
     }
     CcdOptions opt;
     opt.min_separation = sep;
