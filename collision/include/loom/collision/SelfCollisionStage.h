@@ -9,7 +9,9 @@
 //      (Volino & Magnenat-Thalmann 1994; Provot 1997): cone half-angle < 90 deg over the whole step and a
 //      simple projected contour; pairs between cloths are never culled.
 //   2. Proximity: vertex-face and edge-edge pairs closer than the pair thickness at x_prev get a repulsion
-//      impulse and Coulomb friction (Bridson, Fedkiw, Anderson 2002, Sec. 7.2-7.3).
+//      impulse and Coulomb friction (Bridson, Fedkiw, Anderson 2002, Sec. 7.2-7.3). Rest neighbours (features of
+//      one cloth closer than twice its thickness in the rest mesh) have their pair thickness capped at half their
+//      rest distance everywhere (2-4 too): one patch of cloth, not a contact, yet never left untested.
 //   3. Up to `passes` passes of continuous tests (Ccd.h, conservative, minimum separation) on x_prev -> x
 //      with inelastic impulses; every pass after the first tests only pairs touching vertices that moved or
 //      hit in the previous pass (I-Cloth, Tang et al. 2018, incremental sets).
