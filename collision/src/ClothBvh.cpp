@@ -300,6 +300,10 @@ std::vector<TrianglePair> ClothBvh::self_pairs(bool skip_adjacent) const {
 // no vertex must be farther apart at t = 0 than their largest projected endpoint displacements d_i + d_j plus
 // the margin: a point of a linearly moving segment moves at most as far as its farthest endpoint, so their
 // distance can shrink by at most d_i + d_j during the step.
+// Contour edges closer than the margin in the rest mesh (material space: a fine mesh whose edges are about the
+// margin, e.g. two edges one diagonal apart) are close at rest and need only stay apart: for them the margin is
+// dropped, never the strict bound, so the contour is still proven simple (Volino & Magnenat-Thalmann 1994 need
+// nothing more) and fine meshes keep their culling.
 bool ClothBvh::cullable(int n, const Vec3s& x0, const Vec3s& x1, double margin) const {
   const Node& nd = nodes_[n];
   if (nd.count < kConeMin || !nd.connected || !(nd.angle < 0.5 * M_PI * (1.0 - 1e-9))) return false;
@@ -310,6 +314,7 @@ bool ClothBvh::cullable(int n, const Vec3s& x0, const Vec3s& x1, double margin) 
   auto proj = [&](const Vec3& p) { return Vec3(p.dot(u), p.dot(w), 0.0); };
   struct Seg {
     Vec3 a, b;        // projected at t = 0
+    double disp;      // m, displacement bound
     double reach;     // m, displacement bound + half the margin
     double lo, hi;    // box along u
     double wlo, whi;  // box along w
@@ -321,6 +326,7 @@ bool ClothBvh::cullable(int n, const Vec3s& x0, const Vec3s& x1, double margin) 
     sg.i = c[k].first, sg.j = c[k].second;
     sg.a = proj(x0[sg.i]), sg.b = proj(x0[sg.j]);
     const double disp = std::max(proj(x1[sg.i] - x0[sg.i]).norm(), proj(x1[sg.j] - x0[sg.j]).norm());
+    sg.disp = disp;
     sg.reach = disp + 0.5 * margin;
     sg.lo = std::min(sg.a.x(), sg.b.x()) - sg.reach, sg.hi = std::max(sg.a.x(), sg.b.x()) + sg.reach;
     sg.wlo = std::min(sg.a.y(), sg.b.y()) - sg.reach, sg.whi = std::max(sg.a.y(), sg.b.y()) + sg.reach;
@@ -333,7 +339,12 @@ bool ClothBvh::cullable(int n, const Vec3s& x0, const Vec3s& x1, double margin) 
       if (q.whi < p.wlo || p.whi < q.wlo) continue;
       if (p.i == q.i || p.i == q.j || p.j == q.i || p.j == q.j) continue;  // adjacent contour edges
       const double reach = p.reach + q.reach;
-      if (segment_segment_closest(p.a, p.b, q.a, q.b).distance_squared <= reach * reach) return false;
+      const double d2 = segment_segment_closest(p.a, p.b, q.a, q.b).distance_squared;
+      if (d2 > reach * reach) continue;
+      const double strict = p.disp + q.disp;
+      if (d2 <= strict * strict) return false;
+      const Vec3s& r = mesh_->rest_positions();
+      if (segment_segment_closest(r[p.i], r[p.j], r[q.i], r[q.j]).distance_squared >= margin * margin) return false;
     }
   }
   return true;

@@ -176,6 +176,36 @@ TEST(ClothBvhNormalCones, FlatPatchIsCulledWhole) {
   EXPECT_TRUE(bvh.self_pairs_culled(x0, x1, 0.001, true, 1).empty());
 }
 
+// A margin larger than the edges (62.5 mm edges, 70 mm margin, as a fine mesh whose edges are about its
+// thickness): two boundary edges one edge apart along the border are closer than the margin at rest. They need
+// only stay apart, so the gently waving sheet is still culled whole; on crumpled and rolled sheets whatever is
+// culled with that margin is still provably apart over the step.
+TEST(ClothBvhNormalCones, ContourEdgesCloseAtRestNeedOnlyStayApart) {
+  const auto mesh = sheet(17);
+  lc::ClothBvh bvh(mesh);
+  Vec3s x0 = mesh->rest_positions(), x1 = x0;
+  for (size_t i = 0; i < x0.size(); ++i) {
+    x0[i].y() += 0.05 * std::sin(4.0 * x0[i].x()) * std::cos(3.0 * x0[i].z());
+    x1[i].y() += 0.05 * std::sin(4.0 * x1[i].x() + 0.3) * std::cos(3.0 * x1[i].z());
+  }
+  bvh.refit(x0, x1, 0.0);
+  const double margin = 0.07;
+  long culled = 0;
+  EXPECT_GT(check_culling_sound(*mesh, bvh, x0, x1, margin, &culled), 0);
+  EXPECT_EQ(culled, 1);
+  std::mt19937_64 rng(5);
+  long culled_total = 0;
+  for (int it = 0; it < 5; ++it) {
+    x0 = deform(*mesh, rng, 0.001 * it);
+    x1 = x0;
+    for (Vec3& p : x1) p += 0.004 * Vec3(std::sin(7.0 * p.z() + it), 0.3, std::cos(5.0 * p.x()));
+    bvh.refit(x0, x1, 0.0);
+    check_culling_sound(*mesh, bvh, x0, x1, margin, &culled);
+    culled_total += culled;
+  }
+  EXPECT_GT(culled_total, 0);
+}
+
 // Rolled and folded sheets, and a fold whose upper half is thrown through the lower half during the step:
 // whatever is culled is provably apart over the step, the pairs that do touch are all kept, and culling
 // removes a substantial share of the pairs.

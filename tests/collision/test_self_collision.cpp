@@ -186,6 +186,57 @@ TEST(SelfCollision, NormalConesCullFlatSheetsButNeverPairsBetweenLayers) {
   EXPECT_GE(counter(stage, "passes"), 1.0);
 }
 
+// A sheet whose edges (2.2 mm) are about its thickness (2 mm), as the 50k-triangle twisting bench: a vertex and
+// the triangle across its quad's diagonal are 1.6 mm apart at rest. Such rest neighbours are one patch of cloth,
+// not a contact: compressing the flat sheet by 5% gives no impulse and leaves every vertex where the solver put
+// it (before their thickness was capped, every one of them got a repulsion impulse every step). The same sheet
+// folded onto itself, 1.2 mm between the halves (far apart in the rest mesh), does get its contacts: repulsion
+// pushes the halves apart, nothing intersects. Normal cones off: the flat sheet would otherwise be culled whole.
+TEST(SelfCollision, RestNeighboursAreNoContactButAFoldOfTheSameSheetIs) {
+  const int nodes = 17;
+  const double edge = 0.0022, size = edge * (nodes - 1), mid = 0.5 * size;
+  const auto mesh = flat_sheet(size, nodes, 0.0);
+  SelfCollisionSettings set;
+  set.thickness = {0.002};
+  set.normal_cones = false;
+  {
+    Cloths cloths;
+    cloths.push_back(std::make_unique<Cloth>("flat", mesh, loom::cloth::Material()));
+    SelfCollisionStage stage(set);
+    const auto& s = cloths[0]->state();
+    Vec3s dx(s.size());
+    for (int i = 0; i < s.size(); ++i) dx[i] = -0.05 * Vec3(s.x[i].x() - mid, 0.0, s.x[i].z() - mid);
+    for (int k = 0; k < 3; ++k) {
+      const Vec3s start = s.x;
+      step(stage, cloths, {dx}, 1.0 / 240.0, 1);
+      for (int i = 0; i < s.size(); ++i) ASSERT_EQ(s.x[i], Vec3(start[i] + dx[i])) << "vertex " << i << " step " << k;
+    }
+    EXPECT_GT(counter(stage, "features"), 0.0);  // the rest neighbours are still tested (continuous passes)
+    EXPECT_EQ(counter(stage, "contacts"), 0.0);
+  }
+  {
+    Cloths cloths;
+    cloths.push_back(std::make_unique<Cloth>("folded", mesh, loom::cloth::Material()));
+    auto& s = cloths[0]->state();
+    const double gap = 0.0012;
+    for (Vec3& p : s.x)
+      if (p.x() > mid + 1e-9) p = Vec3(2.0 * mid - p.x(), gap, p.z());
+    ASSERT_EQ(count_intersecting_pairs(*mesh, s.x), 0);
+    SelfCollisionStage stage(set);
+    Vec3s dx(s.size(), Vec3::Zero());
+    double candidate = 0.0, upper = 0.0;
+    int n_upper = 0;
+    for (int i = 0; i < s.size(); ++i)
+      if (s.x[i].y() > 0.5 * gap) dx[i] = Vec3(0, -3e-4, 0), candidate += s.x[i].y() - 3e-4, ++n_upper;
+    step(stage, cloths, {dx}, 1.0 / 240.0, 1);
+    EXPECT_EQ(count_intersecting_pairs(*mesh, s.x), 0);
+    EXPECT_GT(counter(stage, "contacts"), 0.0);
+    for (int i = 0; i < s.size(); ++i)
+      if (dx[i].y() < 0.0) upper += s.x[i].y();
+    EXPECT_GT(upper / n_upper, candidate / n_upper + 1e-5);  // m: repulsion pushed the upper half back up
+  }
+}
+
 // Cloth-cloth friction per material pair: a small sheet resting on a pinned sheet, gravity tilted by theta with
 // tan(theta) = 0.45. The pair's coefficients (mu_s = 0.5) hold it; the same scene with a slippery pair
 // (0.05) slides it down nearly freely (a = g (sin - 0.05 cos)), whatever the global coefficients say (0.9/1.0).

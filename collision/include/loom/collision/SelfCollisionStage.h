@@ -9,7 +9,9 @@
 //      (Volino & Magnenat-Thalmann 1994; Provot 1997): cone half-angle < 90 deg over the whole step and a
 //      simple projected contour; pairs between cloths are never culled.
 //   2. Proximity: vertex-face and edge-edge pairs closer than the pair thickness at x_prev get a repulsion
-//      impulse and Coulomb friction (Bridson, Fedkiw, Anderson 2002, Sec. 7.2-7.3).
+//      impulse and Coulomb friction (Bridson, Fedkiw, Anderson 2002, Sec. 7.2-7.3). Rest neighbours (features of
+//      one cloth closer than twice its thickness in the rest mesh) have their pair thickness capped at half their
+//      rest distance everywhere (2-4 too): one patch of cloth, not a contact, yet never left untested.
 //   3. Up to `passes` passes of continuous tests (Ccd.h, conservative, minimum separation) on x_prev -> x
 //      with inelastic impulses; every pass after the first tests only pairs touching vertices that moved or
 //      hit in the previous pass (I-Cloth, Tang et al. 2018, incremental sets).
@@ -30,6 +32,7 @@
 //      or a cloth squeezed between two; the census stays 0 when 3-4 can resolve around the held vertices.
 // Impulses are computed per contact in parallel and applied per vertex in a fixed order (averaged over the
 // vertex's contacts), so results are bit-identical for any thread count.
+#include <cmath>
 #include <cstdint>
 #include <memory>
 #include <string>
@@ -71,7 +74,8 @@ class SelfCollisionStage final : public loom::cloth::Stage {
   void set_body_stage(BodyCollisionStage* body) { body_ = body; }
   const char* name() const override { return "self_collision"; }
   void run(loom::cloth::StageContext& ctx) override;
-  // candidate_pairs (triangle pairs from the BVHs), culled_nodes (normal-cone culls), contacts (proximity +
+  // candidate_pairs (triangle pairs from the BVHs), features (their vertex-face and edge-edge features that
+  // passed the box filter), culled_nodes (normal-cone culls), contacts (proximity +
   // continuous contacts given impulses), passes (continuous-test passes), impact_zones (zones formed),
   // zone_iterations, projections (inelastic projections of a zone), rigid_zones (zones that went rigid), bvh_rebuilds, ccd_tests and ccd_boxes (continuous tests in the passes, inclusion boxes), unresolved (steps that ended with a forced global zone), collider_fixes (vertices handed back to the body stage), collider_rounds; all since the start. Phase
   // wall times (ms since the start): bvh_ms, pairs_ms, features_ms, proximity_ms, ccd_ms, zones_ms (the zones' own
@@ -82,6 +86,7 @@ class SelfCollisionStage final : public loom::cloth::Stage {
   struct Feature {   // vertex-face (a = vertex, b = triangle) or edge-edge (a < b, edges); global indices
     int type = 0;    // 0 VF, 1 EE
     int a = 0, b = 0;
+    float cap = HUGE_VALF;  // m, the pair thickness' cap for rest neighbours (rest_cap), else infinite
     bool operator<(const Feature& o) const { return type != o.type ? type < o.type : a != o.a ? a < o.a : b < o.b; }
     bool operator==(const Feature& o) const { return type == o.type && a == o.a && b == o.b; }
   };
@@ -89,6 +94,7 @@ class SelfCollisionStage final : public loom::cloth::Stage {
     int v[4] = {0, 0, 0, 0};
     double w[4] = {0, 0, 0, 0};
     int cloth_a = 0, cloth_b = 0;
+    double cap = HUGE_VAL;  // m, Feature::cap
   };
 
   void setup(loom::cloth::StageContext& ctx);
@@ -97,7 +103,12 @@ class SelfCollisionStage final : public loom::cloth::Stage {
   std::vector<TrianglePair> triangle_pairs_touching(const std::vector<char>& dirty);
   std::vector<Feature> features(const std::vector<TrianglePair>& pairs, const std::vector<char>* dirty, int threads) const;
   Contact contact_of(const Feature& f) const;
+  // m: the mean of the two cloths' thicknesses, capped for rest neighbours (Contact::cap).
   double pair_thickness(const Contact& c) const;
+  // Rest neighbours (setup_rest_neighbours): features of one cloth closer than twice its thickness in the rest
+  // mesh. Returns the cap of their pair thickness, half their rest distance (m), or infinity.
+  float rest_cap(const Feature& f) const;
+  void setup_rest_neighbours(const loom::cloth::StageContext& ctx);
   // Proximity impulses over `fs` (all features); marks the vertices it moved in `moved`.
   void proximity(const std::vector<Feature>& fs, int threads, std::vector<char>& moved);
   void first_pass_features(std::vector<Feature>& fs, const std::vector<char>& moved, int threads);
@@ -131,6 +142,9 @@ class SelfCollisionStage final : public loom::cloth::Stage {
   std::vector<int> vtx_tri_start_, vtx_tri_;           // vertex -> triangles (CSR, ascending)
   std::vector<int> edge_owner_;                        // edge -> lowest-numbered triangle holding it
   std::vector<double> cloth_thickness_, cloth_friction_;
+  // Rest neighbours with their caps (m): vertex -> (triangle, cap), CSR; edge -> (higher edge, cap), CSR.
+  std::vector<int> rest_vf_start_, rest_ee_start_;
+  std::vector<std::pair<int, float>> rest_vf_, rest_ee_;
   std::vector<double> pair_mu_k_, pair_mu_s_;  // 1, per cloth pair (num_cloths_^2, symmetric)
   std::vector<std::unique_ptr<ClothBvh>> bvhs_;
   std::vector<loom::cloth::Vec3s> cx0_, cx1_;  // m, per cloth: the positions of the last BVH refit
@@ -151,6 +165,7 @@ class SelfCollisionStage final : public loom::cloth::Stage {
   // proximity impulses, continuous passes, impact zones (the zones' own searches included).
   double bvh_ms_ = 0.0, pairs_ms_ = 0.0, proximity_ms_ = 0.0, ccd_ms_ = 0.0, zones_ms_ = 0.0;
   mutable double features_ms_ = 0.0;
+  mutable long features_ = 0;  // features extracted from candidate pairs (all calls)
 };
 
 }  // namespace loom::collision
