@@ -60,6 +60,7 @@ void BodyCollisionStage::run_cloth(cloth::Cloth& cloth, int cloth_index, double 
   const int n = s.size();
   std::vector<char>& near = near_[cloth_index];
   near.assign(n, 0);
+  s.contact_normal.assign(n, Vec3::Zero());  // set below for the vertices left near a collider
   if (static_cast<int>(pairs_.size()) <= cloth_index) pairs_.resize(cloth_index + 1), min_thickness_.resize(cloth_index + 1);
   std::vector<Pair>& pairs = pairs_[cloth_index];
   pairs.assign(set.size(), Pair());
@@ -116,11 +117,20 @@ void BodyCollisionStage::run_cloth(cloth::Cloth& cloth, int cloth_index, double 
       cc.passes = std::max(cc.passes, used);
       s.x[i] = x;
       s.v[i] = v;
+      int closest = -1;
+      double closest_gap = HUGE_VAL;
       for (size_t j = 0; j < mine.size(); ++j) {
         const int k = mine[j];
         const double d = final_d.empty() ? signed_distance(set[k], set[k].curr, x, nullptr) : final_d[j];
         cc.deficit = std::max(cc.deficit, pairs[k].thickness - d);
         if (d < 2.0 * pairs[k].thickness) near[i] = 1;
+        if (d - pairs[k].thickness < closest_gap) closest_gap = d - pairs[k].thickness, closest = k;
+      }
+      // Held against the closest collider in the next solve (ClothState::contact_normal), if it is near.
+      if (near[i] && closest >= 0) {
+        Vec3 nrm;
+        signed_distance(set[closest], set[closest].curr, x, &nrm);
+        s.contact_normal[i] = nrm;
       }
     }
   }
