@@ -322,7 +322,7 @@ void BodyCollisionStage::run_edges(cloth::Cloth& cloth, double h, int threads, s
   struct Correction {
     int collider = -1;
     Vec3 dxa = Vec3::Zero(), dxb = Vec3::Zero(), dva = Vec3::Zero(), dvb = Vec3::Zero();
-    Vec3 point = Vec3::Zero();
+    Vec3 point = Vec3::Zero(), normal = Vec3::Zero();
   };
   std::vector<Correction> corr(ne);
   for (int pass = 0; pass < settings_.max_passes; ++pass) {
@@ -380,6 +380,7 @@ void BodyCollisionStage::run_edges(cloth::Cloth& cloth, double h, int threads, s
         }
         cr.collider = k;
         cr.point = pe;
+        cr.normal = nrm;
         ++found;
         break;  // one collider per edge per pass
       }
@@ -399,6 +400,10 @@ void BodyCollisionStage::run_edges(cloth::Cloth& cloth, double h, int threads, s
       cr.dxa *= fa, cr.dva *= fa, cr.dxb *= fb, cr.dvb *= fb;
       s.x[a] += cr.dxa, s.x[b] += cr.dxb;
       s.v[a] += cr.dva, s.v[b] += cr.dvb;
+      // Both free ends are held along the contact normal in the next solve (ClothState::contact_normal; the vertex
+      // phase replaces it for a vertex that ends near a collider itself).
+      if (s.inv_mass[a] > 0.0) s.contact_normal[a] = cr.normal;
+      if (s.inv_mass[b] > 0.0) s.contact_normal[b] = cr.normal;
       records.push_back({cr.collider, s.mass[a] * cr.dva + s.mass[b] * cr.dvb, cr.point});
       ++edge_contacts_;
     }
