@@ -97,12 +97,12 @@ void Simulation::load_state(StateReader& in) {
     if (static_cast<int>(x.size()) != s.size() || v.size() != x.size() || xp.size() != x.size())
       throw Error(in.source(), "cloth " + c->name(), "state archive has " + std::to_string(x.size()) +
                                                          " vertices, this scene's cloth has " + std::to_string(s.size()));
-    s.x = std::move(x);
-    s.v = std::move(v);
-    s.x_prev = std::move(xp);
     if (!cn.empty() && cn.size() != x.size())
       throw Error(in.source(), "cloth " + c->name(), "state archive has " + std::to_string(cn.size()) +
                                                          " contact normals for " + std::to_string(x.size()) + " vertices");
+    s.x = std::move(x);
+    s.v = std::move(v);
+    s.x_prev = std::move(xp);
     s.contact_normal = std::move(cn);
   }
   for (auto& stage : stages_) {
