@@ -322,16 +322,16 @@ TEST(FilteredPCG, ContactNormalKeepsTheNormalComponentAndSolvesTheTangentRows) {
 }
 
 // ClothState::contact_normal in the implicit solve: a contact the step pushes against is kept (the vertex keeps its
-// normal velocity), a contact the step pulls away from is released (Baraff & Witkin 1998 Sec. 5.3), and
-// solver.contact_filter = 0 ignores them.
+// normal velocity), a contact the step pulls away from is released (Baraff & Witkin 1998 Sec. 5.3), with
+// solver.contact_filter = 1; without it (the default) they are ignored.
 TEST(ImplicitSolvers, ContactNormalsHoldPushingContactsAndReleasePullingOnes) {
   for (const char* method : {"implicit_euler", "bdf2"})
     for (int variant = 0; variant < 4; ++variant) {
       // 0: floor under every vertex (+y), gravity pushes into it: held. 1: body above (-y): released.
-      // 2: floor, contact_filter 0: ignored. 3: floor, Newton (newton_iterations 3): held.
-      std::map<std::string, double> params;
-      if (variant == 2) params = {{"contact_filter", 0}};
-      if (variant == 3) params = {{"newton_iterations", 3}};
+      // 2: floor, contact_filter off: ignored. 3: floor, Newton (newton_iterations 3): held.
+      std::map<std::string, double> params = {{"contact_filter", 1}};
+      if (variant == 2) params = {};  // the default: off
+      if (variant == 3) params = {{"contact_filter", 1}, {"newton_iterations", 3}};
       Simulation sim(pinned_setup(method, params));
       Cloth& c = *sim.cloths()[0];
       const Vec3s x0 = c.state().x;

@@ -81,7 +81,10 @@ struct ImplicitParams {
   // Contacts as constraints (issue 6): vertices a collision stage left against a body (ClothState::contact_normal)
   // keep their normal velocity through the linear solves (filtered PCG), so the step cannot drive them into the
   // body for the collision stage to push them back (a period-2 oscillation of skirts on thighs, 40-68 m/s).
-  bool contact_filter = true;
+  // Off by default: the body stage's Coulomb friction is scaled by the approach it removes, which a held contact
+  // no longer has, so resting cloth slides (a cape held still on a leaning back kept moving at 0.39 m/s). The
+  // character scenes turn it on (`solver.contact_filter: 1`).
+  bool contact_filter = false;
 };
 
 // Work counters since construction.
