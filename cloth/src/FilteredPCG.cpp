@@ -42,8 +42,15 @@ double FilteredPCG::dot(const Vec3s& a, const Vec3s& b, int threads) {
 }
 
 PcgResult FilteredPCG::solve(const BlockMatrix& A, const Vec3s& b, const std::vector<char>& fixed, Vec3s& dv,
-                             double tol, int max_iterations, int threads, bool warm_start) {
+                             double tol, int max_iterations, int threads, bool warm_start, const Vec3s* normals) {
   const int n = A.size();
+  // Contact filters (S_i = I - n nᵀ): y_i -= n (n·y_i) on the vertices that have one.
+  const bool filtered = normals && static_cast<int>(normals->size()) == n;
+  auto filter = [&](int i, Vec3& y) {
+    if (!filtered) return;
+    const Vec3& nrm = (*normals)[i];
+    if (nrm.x() != 0.0 || nrm.y() != 0.0 || nrm.z() != 0.0) y -= nrm * nrm.dot(y);
+  };
   dv.resize(n);
   pinv_.resize(n);
   r_.resize(n);
@@ -64,14 +71,20 @@ PcgResult FilteredPCG::solve(const BlockMatrix& A, const Vec3s& b, const std::ve
       bool ok = false;
       if (d) d->computeInverseWithCheck(inv, ok);
       pinv_[i] = ok && inv.allFinite() ? inv : Mat3::Identity();
+      filter(i, dv[i]);
     }
-    s_[i] = pinv_[i] * b[i];
+    Vec3 bi = b[i];
+    filter(i, bi);
+    s_[i] = pinv_[i] * bi;
+    filter(i, s_[i]);
   }
   const bool mg = precond_ == Preconditioner::kMultigrid;
   if (mg) {
     // s = B filter(b) (the cycle reads free rows only and returns 0 on fixed ones).
     mg_.setup(A, fixed, t, &pinv_);  // its finest D⁻¹ is pinv_ (the same inverses, computed above)
     mg_.apply(b, s_, t);
+    if (filtered)
+      for (int i = 0; i < n; ++i) filter(i, s_[i]);
   }
   // δ0 = filter(b)ᵀ P⁻¹ filter(b)   (P⁻¹ is zero on fixed vertices, so it filters too)
   const double delta0 = dot(b, s_, t);
@@ -81,9 +94,15 @@ PcgResult FilteredPCG::solve(const BlockMatrix& A, const Vec3s& b, const std::ve
 #pragma omp parallel for num_threads(t) if (t > 1) schedule(static)
   for (int i = 0; i < n; ++i) {
     r_[i] = fixed[i] ? Vec3::Zero() : Vec3(b[i] - q_[i]);
+    filter(i, r_[i]);
     c_[i] = pinv_[i] * r_[i];
+    filter(i, c_[i]);
   }
-  if (mg) mg_.apply(r_, c_, t);
+  if (mg) {
+    mg_.apply(r_, c_, t);
+    if (filtered)
+      for (int i = 0; i < n; ++i) filter(i, c_[i]);
+  }
   double delta = dot(r_, c_, t);
   if (!(delta0 > 0.0)) {
     res.converged = true;
@@ -112,6 +131,7 @@ PcgResult FilteredPCG::solve(const BlockMatrix& A, const Vec3s& b, const std::ve
         Vec3 y = Vec3::Zero();
         if (!fixed[i])
           for (int k = rs[i]; k < rs[i + 1]; ++k) y += blocks[k] * c_[cols[k]];
+        filter(i, y);
         q_[i] = y;
         acc += c_[i].dot(y);
       }
@@ -129,6 +149,8 @@ PcgResult FilteredPCG::solve(const BlockMatrix& A, const Vec3s& b, const std::ve
         r_[i] -= alpha * q_[i];
       }
       mg_.apply(r_, s_, t);
+      if (filtered)
+        for (int i = 0; i < n; ++i) filter(i, s_[i]);
       delta = dot(r_, s_, t);
     } else {
 #pragma omp parallel for num_threads(t) if (t > 1) schedule(static)
@@ -139,6 +161,7 @@ PcgResult FilteredPCG::solve(const BlockMatrix& A, const Vec3s& b, const std::ve
           dv[i] += alpha * c_[i];
           r_[i] -= alpha * q_[i];
           s_[i] = pinv_[i] * r_[i];
+          filter(i, s_[i]);
           acc += r_[i].dot(s_[i]);
         }
         partial_[ch] = acc;

@@ -25,6 +25,8 @@ std::vector<std::pair<std::string, double>> ImplicitSolver::counters() const {
           {"newton_iterations", double(c.newton_iterations)},
           {"line_search_halvings", double(c.line_search_halvings)},
           {"safeguard_corrections", double(c.safeguard_corrections)},
+          {"contact_constraints", double(c.contact_constraints)},
+          {"contact_releases", double(c.contact_releases)},
           {"safeguard_ms", c.safeguard_ms},
           {"assembly_ms", c.assembly_ms},
           {"cg_ms", c.cg_ms}};
@@ -228,8 +230,7 @@ bool ImplicitSolver::substep(Cloth& cloth, double t, double h, int threads) {
       if (fixed_[i]) dv_[i] = pinned_velocity(i) - s.v[i];
     }
     const auto t0 = Clock::now();
-    const PcgResult r =
-        pcg_.solve(A_, rhs_, fixed_, dv_, p_.cg_tolerance, p_.cg_max_iterations, threads, true);
+    const PcgResult r = solve_with_contacts(cloth, dv_, true, threads);
     h_dv_ = h;
     counters_.cg_ms += ms_since(t0);
     ++counters_.linear_solves;
@@ -340,6 +341,34 @@ bool ImplicitSolver::energy_gain_excessive(Cloth& cloth, double t, double h, int
   return !(gain <= allowed());  // a non-finite balance counts as excessive
 }
 
+PcgResult ImplicitSolver::solve_with_contacts(const Cloth& cloth, Vec3s& x, bool warm_start, int threads) {
+  const ClothState& s = cloth.state();
+  int constrained = 0;
+  if (p_.contact_filter && static_cast<int>(s.contact_normal.size()) == n_) {
+    normals_ = s.contact_normal;
+    for (int i = 0; i < n_; ++i) {
+      if (fixed_[i]) normals_[i].setZero();
+      if (!normals_[i].isZero(0.0)) ++constrained;
+    }
+  }
+  if (constrained == 0) return pcg_.solve(A_, rhs_, fixed_, x, p_.cg_tolerance, p_.cg_max_iterations, threads, warm_start);
+  counters_.contact_constraints += constrained;
+  PcgResult r = pcg_.solve(A_, rhs_, fixed_, x, p_.cg_tolerance, p_.cg_max_iterations, threads, warm_start, &normals_);
+  // Release the contacts that hold their vertex against the body: the constraint impulse λ n = (A x - b) along n
+  // (n points out of the body) is negative there. One more solve from this result, without them.
+  multiply(A_, x, tmp_, threads);
+  int released = 0;
+  for (int i = 0; i < n_; ++i) {
+    if (normals_[i].isZero(0.0)) continue;
+    if ((tmp_[i] - rhs_[i]).dot(normals_[i]) < 0.0) normals_[i].setZero(), ++released;
+  }
+  if (released == 0) return r;
+  counters_.contact_releases += released;
+  counters_.cg_iterations += r.iterations;
+  ++counters_.linear_solves;
+  return pcg_.solve(A_, rhs_, fixed_, x, p_.cg_tolerance, p_.cg_max_iterations, threads, true, &normals_);
+}
+
 void ImplicitSolver::newton(Cloth& cloth, double t, double h, int threads, int iterations) {
   // Newton on the incremental potential Φ from the iterate in vk_, with a backtracking line search.
   ClothState& s = cloth.state();
@@ -375,8 +404,7 @@ void ImplicitSolver::newton(Cloth& cloth, double t, double h, int threads, int i
     for (int i = 0; i < n; ++i) rhs_[i] = -g_[i];
     p_dir_.assign(n, Vec3::Zero());
     const auto t0 = Clock::now();
-    const PcgResult r =
-        pcg_.solve(A_, rhs_, fixed_, p_dir_, p_.cg_tolerance, p_.cg_max_iterations, threads);
+    const PcgResult r = solve_with_contacts(cloth, p_dir_, false, threads);
     counters_.cg_ms += ms_since(t0);
     ++counters_.linear_solves;
     counters_.cg_iterations += r.iterations;

@@ -58,7 +58,7 @@ void Simulation::set_substeps(int substeps) {
 }
 
 void Simulation::save_state(StateWriter& out) const {
-  out.tag("loom-simulation-state-2");
+  out.tag("loom-simulation-state-3");
   out.f64(t_);
   out.i64(frame_);
   out.i64(setup_.substeps);
@@ -72,6 +72,7 @@ void Simulation::save_state(StateWriter& out) const {
     out.vec3s(s.x);
     out.vec3s(s.v);
     out.vec3s(s.x_prev);
+    out.vec3s(s.contact_normal);
   }
   for (const auto& stage : stages_) {
     out.tag(std::string("stage:") + stage->name());
@@ -81,7 +82,7 @@ void Simulation::save_state(StateWriter& out) const {
 }
 
 void Simulation::load_state(StateReader& in) {
-  in.tag("loom-simulation-state-2");
+  in.tag("loom-simulation-state-3");
   const double t = in.f64();
   const std::int64_t frame = in.i64(), substeps = in.i64();
   const double budget_ref = in.f64(), budget_potential0 = in.f64(), pin_work = in.f64();
@@ -92,13 +93,17 @@ void Simulation::load_state(StateReader& in) {
   for (auto& c : cloths_) {
     in.tag("cloth:" + c->name());
     ClothState& s = c->state();
-    Vec3s x = in.vec3s(), v = in.vec3s(), xp = in.vec3s();
+    Vec3s x = in.vec3s(), v = in.vec3s(), xp = in.vec3s(), cn = in.vec3s();
     if (static_cast<int>(x.size()) != s.size() || v.size() != x.size() || xp.size() != x.size())
       throw Error(in.source(), "cloth " + c->name(), "state archive has " + std::to_string(x.size()) +
                                                          " vertices, this scene's cloth has " + std::to_string(s.size()));
+    if (!cn.empty() && cn.size() != x.size())
+      throw Error(in.source(), "cloth " + c->name(), "state archive has " + std::to_string(cn.size()) +
+                                                         " contact normals for " + std::to_string(x.size()) + " vertices");
     s.x = std::move(x);
     s.v = std::move(v);
     s.x_prev = std::move(xp);
+    s.contact_normal = std::move(cn);
   }
   for (auto& stage : stages_) {
     in.tag(std::string("stage:") + stage->name());

@@ -53,6 +53,7 @@ std::unique_ptr<Solver> make_implicit_solver(ImplicitSolver::Scheme scheme, Solv
       p.integer("safeguard_newton_iterations", ip.safeguard_newton_iterations, 1, 1000);
   ip.clamp_compression = p.flag("clamp_compression", ip.clamp_compression);
   ip.multigrid = p.integer("multigrid", ip.multigrid, 0, 2);
+  ip.contact_filter = p.flag("contact_filter", ip.contact_filter);
   return std::make_unique<ImplicitSolver>(scheme, ip);
 }
 

@@ -60,6 +60,7 @@ void BodyCollisionStage::run_cloth(cloth::Cloth& cloth, int cloth_index, double 
   const int n = s.size();
   std::vector<char>& near = near_[cloth_index];
   near.assign(n, 0);
+  s.contact_normal.assign(n, Vec3::Zero());  // set below for the vertices left near a collider
   if (static_cast<int>(pairs_.size()) <= cloth_index) pairs_.resize(cloth_index + 1), min_thickness_.resize(cloth_index + 1);
   std::vector<Pair>& pairs = pairs_[cloth_index];
   pairs.assign(set.size(), Pair());
@@ -116,11 +117,22 @@ void BodyCollisionStage::run_cloth(cloth::Cloth& cloth, int cloth_index, double 
       cc.passes = std::max(cc.passes, used);
       s.x[i] = x;
       s.v[i] = v;
+      int closest = -1;
+      double closest_gap = HUGE_VAL;
       for (size_t j = 0; j < mine.size(); ++j) {
         const int k = mine[j];
         const double d = final_d.empty() ? signed_distance(set[k], set[k].curr, x, nullptr) : final_d[j];
         cc.deficit = std::max(cc.deficit, pairs[k].thickness - d);
         if (d < 2.0 * pairs[k].thickness) near[i] = 1;
+        if (d - pairs[k].thickness < closest_gap) closest_gap = d - pairs[k].thickness, closest = k;
+      }
+      // Held against the closest collider in the next solve (ClothState::contact_normal), if it is near and not
+      // leaving it (relative normal velocity <= 0: resting, or approaching; a vertex leaving keeps gravity's pull).
+      if (near[i] && closest >= 0) {
+        Vec3 nrm;
+        signed_distance(set[closest], set[closest].curr, x, &nrm);
+        const Vec3 vs = surface_velocity(set[closest].prev, set[closest].curr, h, x);
+        if ((v - vs).dot(nrm) <= 1e-9) s.contact_normal[i] = nrm;
       }
     }
   }
@@ -312,7 +324,8 @@ void BodyCollisionStage::run_edges(cloth::Cloth& cloth, double h, int threads, s
   struct Correction {
     int collider = -1;
     Vec3 dxa = Vec3::Zero(), dxb = Vec3::Zero(), dva = Vec3::Zero(), dvb = Vec3::Zero();
-    Vec3 point = Vec3::Zero();
+    Vec3 point = Vec3::Zero(), normal = Vec3::Zero();
+    bool leaving = false;  // the edge point separates from the surface (then its ends get no contact normal)
   };
   std::vector<Correction> corr(ne);
   for (int pass = 0; pass < settings_.max_passes; ++pass) {
@@ -363,6 +376,7 @@ void BodyCollisionStage::run_edges(cloth::Cloth& cloth, double h, int threads, s
         const Vec3 pe = (1.0 - sp) * s.x[a] + sp * s.x[b];
         const Vec3 vs = surface_velocity(c.prev, c.curr, h, pe);
         const double vn = ((1.0 - sp) * s.v[a] + sp * s.v[b] - vs).dot(nrm);
+        cr.leaving = vn > 1e-9;
         if (vn < 0.0) {
           const double mu = -vn / wsum;
           cr.dva = wa * (1.0 - sp) * mu * nrm;
@@ -370,6 +384,7 @@ void BodyCollisionStage::run_edges(cloth::Cloth& cloth, double h, int threads, s
         }
         cr.collider = k;
         cr.point = pe;
+        cr.normal = nrm;
         ++found;
         break;  // one collider per edge per pass
       }
@@ -389,6 +404,10 @@ void BodyCollisionStage::run_edges(cloth::Cloth& cloth, double h, int threads, s
       cr.dxa *= fa, cr.dva *= fa, cr.dxb *= fb, cr.dvb *= fb;
       s.x[a] += cr.dxa, s.x[b] += cr.dxb;
       s.v[a] += cr.dva, s.v[b] += cr.dvb;
+      // Both free ends are held along the contact normal in the next solve (ClothState::contact_normal; the vertex
+      // phase replaces it for a vertex that ends near a collider itself), unless the edge point leaves the surface.
+      if (s.inv_mass[a] > 0.0 && !cr.leaving) s.contact_normal[a] = cr.normal;
+      if (s.inv_mass[b] > 0.0 && !cr.leaving) s.contact_normal[b] = cr.normal;
       records.push_back({cr.collider, s.mass[a] * cr.dva + s.mass[b] * cr.dvb, cr.point});
       ++edge_contacts_;
     }

@@ -329,6 +329,83 @@ TEST(ImplicitSolvers, PinnedVertexTracksItsMovingTargetExactly) {
     }
 }
 
+// Contacts as constraints (issue 6): a vertex with a contact normal n gets the filter S = I - n nᵀ, so its Δv
+// has no component along n and its other two rows are solved.
+TEST(FilteredPCG, ContactNormalKeepsTheNormalComponentAndSolvesTheTangentRows) {
+  std::mt19937 rng(5);
+  std::uniform_real_distribution<double> u(-1.0, 1.0);
+  const int n = 12;
+  std::vector<std::pair<int, int>> pairs;
+  for (int i = 0; i + 1 < n; ++i) pairs.emplace_back(i, i + 1);
+  for (int i = 0; i + 3 < n; ++i) pairs.emplace_back(i, i + 3);
+  BlockMatrix A(n, pairs);
+  for (const auto& [i, j] : pairs) {
+    Mat3 r;
+    for (int a = 0; a < 9; ++a) r(a / 3, a % 3) = u(rng);
+    const Mat3 c = r * r.transpose();
+    A.add(i, i, c);
+    A.add(j, j, c);
+    A.add(i, j, -c);
+    A.add(j, i, -c);
+  }
+  for (int i = 0; i < n; ++i) A.add(i, i, (1.0 + i * 0.1) * Mat3::Identity());
+  Vec3s b(n);
+  for (Vec3& x : b) x = Vec3(u(rng), u(rng), u(rng));
+  std::vector<char> fixed(n, 0);
+  fixed[0] = 1;
+  Vec3s normals(n, Vec3::Zero());
+  normals[4] = Vec3(1.0, 2.0, -2.0) / 3.0;
+  normals[9] = Vec3(0.0, 1.0, 0.0);
+  for (const bool multigrid : {false, true}) {
+    FilteredPCG pcg;
+    if (multigrid) pcg.set_preconditioner(Preconditioner::kMultigrid);
+    Vec3s dv(n, Vec3::Zero());
+    dv[0] = Vec3(0.1, -0.2, 0.3);
+    const PcgResult r = pcg.solve(A, b, fixed, dv, 1e-12, 1000, 1, false, &normals);
+    EXPECT_TRUE(r.converged) << multigrid;
+    EXPECT_EQ(dv[0], Vec3(0.1, -0.2, 0.3));
+    EXPECT_LT(std::abs(dv[4].dot(normals[4])), 1e-14) << multigrid;
+    EXPECT_EQ(dv[9].y(), 0.0) << multigrid;  // an axis normal is filtered exactly
+    Vec3s Ad;
+    A.multiply(dv, Ad);
+    for (int i = 1; i < n; ++i) {
+      const Vec3 res = Ad[i] - b[i];
+      const Vec3 tangent = res - normals[i] * normals[i].dot(res);
+      EXPECT_LT(tangent.norm(), 1e-9) << i << " multigrid " << multigrid;
+    }
+    // The constrained rows carry the constraint impulse along n (here non-zero: the constraint acts).
+    EXPECT_GT(std::abs((Ad[4] - b[4]).dot(normals[4])), 1e-6);
+  }
+}
+
+// ClothState::contact_normal in the implicit solve: a contact the step pushes against is kept (the vertex keeps its
+// normal velocity), a contact the step pulls away from is released (Baraff & Witkin 1998 Sec. 5.3), with
+// solver.contact_filter = 1; without it (the default) they are ignored.
+TEST(ImplicitSolvers, ContactNormalsHoldPushingContactsAndReleasePullingOnes) {
+  for (const char* method : {"implicit_euler", "bdf2"})
+    for (int variant = 0; variant < 4; ++variant) {
+      // 0: floor under every vertex (+y), gravity pushes into it: held. 1: body above (-y): released.
+      // 2: floor, contact_filter off: ignored. 3: floor, Newton (newton_iterations 3): held.
+      std::map<std::string, double> params = {{"contact_filter", 1}};
+      if (variant == 2) params = {};  // the default: off
+      if (variant == 3) params = {{"contact_filter", 1}, {"newton_iterations", 3}};
+      Simulation sim(pinned_setup(method, params));
+      Cloth& c = *sim.cloths()[0];
+      const Vec3s x0 = c.state().x;
+      c.state().contact_normal.assign(c.state().size(), Vec3(0.0, variant == 1 ? -1.0 : 1.0, 0.0));
+      sim.step_frame();
+      double lowest = 0.0;  // the largest drop of a free vertex (m)
+      for (int i = 0; i < c.state().size(); ++i)
+        if (c.state().inv_mass[i] > 0.0) lowest = std::max(lowest, x0[i].y() - c.state().x[i].y());
+      const std::string what = std::string(method) + " variant " + std::to_string(variant);
+      if (variant == 0 || variant == 3) {
+        EXPECT_LT(lowest, 1e-12) << what;  // held: no free vertex moved down
+      } else {
+        EXPECT_GT(lowest, 1e-3) << what;  // fell (1/60 s of gravity: ~1.4 mm; more next to the lifted pin)
+      }
+    }
+}
+
 TEST(ImplicitSolvers, AdaptiveStepRejectsAndGrowsBack) {
   // A 9x9 cotton cloth falling from flat with two corners fixed; a tight strain-change bound.
   GridSpec g;

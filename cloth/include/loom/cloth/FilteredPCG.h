@@ -39,8 +39,11 @@ class FilteredPCG {
   // fixed[i] != 0: vertex i is constrained (S_i = 0). `dv` holds z (prescribed values) on entry for fixed
   // vertices and, with warm_start, the initial guess on free ones (otherwise they start at 0); the
   // solution on exit. Stops when rᵀP⁻¹r <= tol² bᵀP⁻¹b (filtered b) or after max_iterations.
+  // `normals` (optional, per vertex; a zero vector: none): a free vertex with a unit normal n_i gets the filter
+  // S_i = I - n_i n_iᵀ with z_i = 0 along n_i (Baraff & Witkin 1998 Sec. 5.3: a contact constrains one
+  // direction): its Δv keeps no component along n_i, the other two are solved for.
   PcgResult solve(const BlockMatrix& A, const Vec3s& b, const std::vector<char>& fixed, Vec3s& dv, double tol,
-                  int max_iterations, int threads, bool warm_start = false);
+                  int max_iterations, int threads, bool warm_start = false, const Vec3s* normals = nullptr);
 
  private:
   double dot(const Vec3s& a, const Vec3s& b, int threads);

@@ -78,6 +78,13 @@ struct ImplicitParams {
   // PCG preconditioner (AggregationMultigrid.h): 0 block-Jacobi, 1 aggregation multigrid with an additive finest
   // level, 2 aggregation multigrid V-cycle (multiplicative on every level).
   int multigrid = 0;
+  // Contacts as constraints (issue 6): vertices a collision stage left against a body (ClothState::contact_normal)
+  // keep their normal velocity through the linear solves (filtered PCG), so the step cannot drive them into the
+  // body for the collision stage to push them back (a period-2 oscillation of skirts on thighs, 40-68 m/s).
+  // Off by default: the body stage's Coulomb friction is scaled by the approach it removes, which a held contact
+  // no longer has, so resting cloth slides (a cape held still on a leaning back kept moving at 0.39 m/s). The
+  // character scenes turn it on (`solver.contact_filter: 1`).
+  bool contact_filter = false;
 };
 
 // Work counters since construction.
@@ -89,6 +96,8 @@ struct ImplicitCounters {
   long newton_iterations = 0;
   long line_search_halvings = 0;
   long safeguard_corrections = 0;  // linearised steps redone by Newton (energy balance violated)
+  long contact_constraints = 0;    // vertex contacts filtered in linear solves (ClothState::contact_normal)
+  long contact_releases = 0;       // of them released (their impulse pulled towards the body), solve redone
   double assembly_ms = 0.0;  // ms, Jacobian assembly (K, D, A)
   double cg_ms = 0.0;        // ms, filtered PCG
   double safeguard_ms = 0.0; // ms, energy balance checks (not the Newton corrections)
@@ -126,11 +135,16 @@ class ImplicitSolver final : public Solver {
                            std::vector<double>& per_term) const;
   bool energy_gain_excessive(Cloth& cloth, double t, double h, int threads);
   double max_strain_change(const Vec3s& before, const Vec3s& after) const;
+  // pcg_.solve with the cloth's contact constraints (ClothState::contact_normal) as filters; a contact whose
+  // constraint impulse ((A x - b)·n) comes out negative (holding the vertex against the body) is released and
+  // the system solved again from the result (Baraff & Witkin 1998 Sec. 5.3). Counts into counters_.
+  PcgResult solve_with_contacts(const Cloth& cloth, Vec3s& x, bool warm_start, int threads);
 
   Scheme scheme_;
   ImplicitParams p_;
   ImplicitCounters counters_;
   FilteredPCG pcg_;
+  Vec3s normals_;  // the contact filters of the current solve
   // Pattern (built once per cloth).
   const Cloth* cloth_ = nullptr;
   int n_ = 0;
