@@ -24,15 +24,14 @@ SolverSettings solver(const std::string& method, std::map<std::string, double> p
   return s;
 }
 
-TEST(FilteredPCG, SolvesTheFreeBlockAndKeepsPrescribedValuesExactly) {
-  std::mt19937 rng(21);
+// An n-block SPD system coupling i with i+1 and i+3: a graph Laplacian of random SPD 3x3 couplings plus a
+// diagonal, drawn from rng (uniform in [-1, 1]).
+BlockMatrix random_spd_chain(int n, std::mt19937& rng) {
   std::uniform_real_distribution<double> u(-1.0, 1.0);
-  const int n = 12;
   std::vector<std::pair<int, int>> pairs;
   for (int i = 0; i + 1 < n; ++i) pairs.emplace_back(i, i + 1);
   for (int i = 0; i + 3 < n; ++i) pairs.emplace_back(i, i + 3);
   BlockMatrix A(n, pairs);
-  // SPD: a graph Laplacian of random SPD 3x3 couplings plus a diagonal.
   for (const auto& [i, j] : pairs) {
     Mat3 r;
     for (int a = 0; a < 9; ++a) r(a / 3, a % 3) = u(rng);
@@ -43,6 +42,14 @@ TEST(FilteredPCG, SolvesTheFreeBlockAndKeepsPrescribedValuesExactly) {
     A.add(j, i, -c);
   }
   for (int i = 0; i < n; ++i) A.add(i, i, (1.0 + i * 0.1) * Mat3::Identity());
+  return A;
+}
+
+TEST(FilteredPCG, SolvesTheFreeBlockAndKeepsPrescribedValuesExactly) {
+  std::mt19937 rng(21);
+  std::uniform_real_distribution<double> u(-1.0, 1.0);
+  const int n = 12;
+  const BlockMatrix A = random_spd_chain(n, rng);
   Vec3s b(n), dv(n, Vec3::Zero());
   for (Vec3& x : b) x = Vec3(u(rng), u(rng), u(rng));
   std::vector<char> fixed(n, 0);
@@ -335,20 +342,7 @@ TEST(FilteredPCG, ContactNormalKeepsTheNormalComponentAndSolvesTheTangentRows) {
   std::mt19937 rng(5);
   std::uniform_real_distribution<double> u(-1.0, 1.0);
   const int n = 12;
-  std::vector<std::pair<int, int>> pairs;
-  for (int i = 0; i + 1 < n; ++i) pairs.emplace_back(i, i + 1);
-  for (int i = 0; i + 3 < n; ++i) pairs.emplace_back(i, i + 3);
-  BlockMatrix A(n, pairs);
-  for (const auto& [i, j] : pairs) {
-    Mat3 r;
-    for (int a = 0; a < 9; ++a) r(a / 3, a % 3) = u(rng);
-    const Mat3 c = r * r.transpose();
-    A.add(i, i, c);
-    A.add(j, j, c);
-    A.add(i, j, -c);
-    A.add(j, i, -c);
-  }
-  for (int i = 0; i < n; ++i) A.add(i, i, (1.0 + i * 0.1) * Mat3::Identity());
+  const BlockMatrix A = random_spd_chain(n, rng);
   Vec3s b(n);
   for (Vec3& x : b) x = Vec3(u(rng), u(rng), u(rng));
   std::vector<char> fixed(n, 0);

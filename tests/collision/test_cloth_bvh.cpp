@@ -156,6 +156,17 @@ long check_culling_sound(const ClothMesh& mesh, const lc::ClothBvh& bvh, const V
   return static_cast<long>(dropped.size());
 }
 
+// A gently waving sheet over one step (start x0, end x1): heights within 5 cm, normals within 45 degrees of
+// the vertical.
+void gently_waving(const ClothMesh& mesh, Vec3s& x0, Vec3s& x1) {
+  x0 = mesh.rest_positions();
+  x1 = x0;
+  for (size_t i = 0; i < x0.size(); ++i) {
+    x0[i].y() += 0.05 * std::sin(4.0 * x0[i].x()) * std::cos(3.0 * x0[i].z());
+    x1[i].y() += 0.05 * std::sin(4.0 * x1[i].x() + 0.3) * std::cos(3.0 * x1[i].z());
+  }
+}
+
 }  // namespace
 
 // A gently waving sheet (normals within 45 degrees of the vertical over the step): the whole sheet is one
@@ -163,11 +174,8 @@ long check_culling_sound(const ClothMesh& mesh, const lc::ClothBvh& bvh, const V
 TEST(ClothBvhNormalCones, FlatPatchIsCulledWhole) {
   const auto mesh = sheet(17);
   lc::ClothBvh bvh(mesh);
-  Vec3s x0 = mesh->rest_positions(), x1 = x0;
-  for (size_t i = 0; i < x0.size(); ++i) {
-    x0[i].y() += 0.05 * std::sin(4.0 * x0[i].x()) * std::cos(3.0 * x0[i].z());
-    x1[i].y() += 0.05 * std::sin(4.0 * x1[i].x() + 0.3) * std::cos(3.0 * x1[i].z());
-  }
+  Vec3s x0, x1;
+  gently_waving(*mesh, x0, x1);
   bvh.refit(x0, x1, 0.0);
   EXPECT_LT(bvh.cone(0).second, 0.5 * M_PI);
   long culled = 0;
@@ -183,11 +191,8 @@ TEST(ClothBvhNormalCones, FlatPatchIsCulledWhole) {
 TEST(ClothBvhNormalCones, ContourEdgesCloseAtRestNeedOnlyStayApart) {
   const auto mesh = sheet(17);
   lc::ClothBvh bvh(mesh);
-  Vec3s x0 = mesh->rest_positions(), x1 = x0;
-  for (size_t i = 0; i < x0.size(); ++i) {
-    x0[i].y() += 0.05 * std::sin(4.0 * x0[i].x()) * std::cos(3.0 * x0[i].z());
-    x1[i].y() += 0.05 * std::sin(4.0 * x1[i].x() + 0.3) * std::cos(3.0 * x1[i].z());
-  }
+  Vec3s x0, x1;
+  gently_waving(*mesh, x0, x1);
   bvh.refit(x0, x1, 0.0);
   const double margin = 0.07;
   long culled = 0;
