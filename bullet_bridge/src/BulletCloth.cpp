@@ -171,6 +171,7 @@ BulletCloth::BulletCloth(cloth::SimulationSetup setup, const BulletClothSettings
     bs.thickness = thickness;
     bs.friction = settings.friction;
     bs.static_friction = std::max(settings.friction, settings.static_friction);
+    bs.contact_normals = sim_->setup().solver.holds_contacts();  // only a solver that reads them
     auto body = std::make_unique<collision::BodyCollisionStage>(colliders_, bs);
     body_ = body.get();
     sim_->add_stage(std::move(body), cloth::Simulation::Slot::after_solve);

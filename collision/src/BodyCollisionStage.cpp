@@ -60,7 +60,11 @@ void BodyCollisionStage::run_cloth(cloth::Cloth& cloth, int cloth_index, double 
   const int n = s.size();
   std::vector<char>& near = near_[cloth_index];
   near.assign(n, 0);
-  s.contact_normal.assign(n, Vec3::Zero());  // set below for the vertices left near a collider
+  // Set below for the vertices left near a collider, when the solver reads them (settings_.contact_normals).
+  if (settings_.contact_normals)
+    s.contact_normal.assign(n, Vec3::Zero());
+  else
+    s.contact_normal.clear();
   if (static_cast<int>(pairs_.size()) <= cloth_index) pairs_.resize(cloth_index + 1), min_thickness_.resize(cloth_index + 1);
   std::vector<Pair>& pairs = pairs_[cloth_index];
   pairs.assign(set.size(), Pair());
@@ -128,7 +132,7 @@ void BodyCollisionStage::run_cloth(cloth::Cloth& cloth, int cloth_index, double 
       }
       // Held against the closest collider in the next solve (ClothState::contact_normal), if it is near and not
       // leaving it (relative normal velocity <= 0: resting, or approaching; a vertex leaving keeps gravity's pull).
-      if (near[i] && closest >= 0) {
+      if (settings_.contact_normals && near[i] && closest >= 0) {
         Vec3 nrm;
         signed_distance(set[closest], set[closest].curr, x, &nrm);
         const Vec3 vs = surface_velocity(set[closest].prev, set[closest].curr, h, x);
@@ -406,8 +410,10 @@ void BodyCollisionStage::run_edges(cloth::Cloth& cloth, double h, int threads, s
       s.v[a] += cr.dva, s.v[b] += cr.dvb;
       // Both free ends are held along the contact normal in the next solve (ClothState::contact_normal; the vertex
       // phase replaces it for a vertex that ends near a collider itself), unless the edge point leaves the surface.
-      if (s.inv_mass[a] > 0.0 && !cr.leaving) s.contact_normal[a] = cr.normal;
-      if (s.inv_mass[b] > 0.0 && !cr.leaving) s.contact_normal[b] = cr.normal;
+      if (settings_.contact_normals && !cr.leaving) {
+        if (s.inv_mass[a] > 0.0) s.contact_normal[a] = cr.normal;
+        if (s.inv_mass[b] > 0.0) s.contact_normal[b] = cr.normal;
+      }
       records.push_back({cr.collider, s.mass[a] * cr.dva + s.mass[b] * cr.dvb, cr.point});
       ++edge_contacts_;
     }

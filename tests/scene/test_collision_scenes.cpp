@@ -157,4 +157,26 @@ TEST(CollisionScenes, SqueezedBetweenWalls) {
 }
 TEST(CollisionScenes, DrapedLayers) { expect_clean(run_scene("draped_layers", {"duration=0.5"}), 60, 5.0); }
 
+// The body stage leaves contact normals (ClothState::contact_normal) only for a solver that reads them
+// (`solver.contact_filter`, issue 6); other scenes pay nothing for them. Cloth on the spinning sphere, 10 frames.
+TEST(CollisionScenes, ContactNormalsOnlyForASolverThatHoldsContacts) {
+  for (const bool filter : {false, true}) {
+    std::vector<std::string> overrides = {"duration=0.1667"};
+    if (filter) overrides.push_back("solver.contact_filter=1");
+    const scene::Scene sc =
+        scene::load_scene(std::string(LOOM_SOURCE_DIR) + "/scenes/sphere_spin.json", overrides);
+    auto sim = scene::build_simulation(sc);
+    for (int f = 0; f < sc.frames; ++f) ASSERT_TRUE(sim->step_frame().finite);
+    const cloth::ClothState& s = sim->cloths()[0]->state();
+    long held = 0;
+    for (const cloth::Vec3& n : s.contact_normal) held += n.isZero(0.0) ? 0 : 1;
+    if (filter) {
+      ASSERT_EQ(s.contact_normal.size(), s.x.size());
+      EXPECT_GT(held, 0);  // the sheet lies on the sphere
+    } else {
+      EXPECT_TRUE(s.contact_normal.empty());
+    }
+  }
+}
+
 }  // namespace

@@ -25,6 +25,7 @@ std::unique_ptr<cloth::Simulation> build_simulation(const Scene& scene, collisio
   if (!colliders->empty()) {
     collision::BodyCollisionSettings body;
     if (scene.collision) body.friction_pairs = scene.collision->friction_pairs;  // the (cloth, collider) entries
+    body.contact_normals = scene.setup.solver.holds_contacts();  // only a solver that reads them
     auto stage = std::make_unique<collision::BodyCollisionStage>(colliders, body);
     body_stage = stage.get();
     sim->add_stage(std::move(stage), cloth::Simulation::Slot::after_solve);

@@ -20,6 +20,12 @@ struct SolverSettings {
   // Solver-specific knobs by name (iterations, tolerance, ...): every key of the scene's `solver` object
   // other than method/substeps/dt. Each solver reads its own through SolverParams; others are errors.
   std::map<std::string, double> params;
+  // True when the solver holds body contacts in its linear solve (`contact_filter` on, implicit solvers): only
+  // then does a body-collision stage leave ClothState::contact_normal for it.
+  bool holds_contacts() const {
+    const auto it = params.find("contact_filter");
+    return it != params.end() && it->second != 0.0;
+  }
 };
 
 // Typed access to SolverSettings::params for one solver; finish() rejects keys the solver did not read,
