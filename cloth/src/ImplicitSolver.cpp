@@ -189,6 +189,9 @@ double ImplicitSolver::max_strain_change(const Vec3s& before, const Vec3s& after
 bool ImplicitSolver::substep(Cloth& cloth, double t, double h, int threads) {
   ClothState& s = cloth.state();
   const int n = n_;
+  // The per-vertex loops of the step run on several threads from kParallelMinVertices up (each writes its own
+  // vertex: the same results for any thread count).
+  const bool par = threads > 1 && n >= kParallelMinVertices;
   for (int i = 0; i < n; ++i) fixed_[i] = s.inv_mass[i] == 0.0;
   xb_.resize(n);
   vb_.resize(n);
@@ -203,6 +206,7 @@ bool ImplicitSolver::substep(Cloth& cloth, double t, double h, int threads) {
     gamma = h * (1.0 + w) / (1.0 + 2.0 * w);
   }
   gamma_ = gamma;
+#pragma omp parallel for num_threads(threads) if (par) schedule(static)
   for (int i = 0; i < n; ++i) {
     xb_[i] = bdf2 ? Vec3(c1 * s.x[i] - c2 * x_hist_[i]) : s.x[i];
     vb_[i] = bdf2 ? Vec3(c1 * s.v[i] - c2 * v_hist_[i]) : s.v[i];
@@ -218,14 +222,16 @@ bool ImplicitSolver::substep(Cloth& cloth, double t, double h, int threads) {
     cloth.compute_forces(s.x, s.v, t, threads, f_);
     assemble(cloth, s.x, s.v, t, gamma, threads);
     y_.resize(n);
+#pragma omp parallel for num_threads(threads) if (par) schedule(static)
     for (int i = 0; i < n; ++i) y_[i] = xb_[i] - s.x[i] + gamma * s.v[i];
     multiply(K_, y_, tmp_, threads);
     rhs_.resize(n);
     // Warm start: the previous step's Δv (≈ h a), scaled to this step.
     dv_.resize(n, Vec3::Zero());
     const double scale = h_dv_ > 0.0 ? h / h_dv_ : 0.0;
-    for (int i = 0; i < n; ++i) dv_[i] *= scale;
+#pragma omp parallel for num_threads(threads) if (par) schedule(static)
     for (int i = 0; i < n; ++i) {
+      dv_[i] *= scale;
       rhs_[i] = s.mass[i] * (vb_[i] - s.v[i]) + gamma * (f_[i] + tmp_[i]);
       if (fixed_[i]) dv_[i] = pinned_velocity(i) - s.v[i];
     }
@@ -235,6 +241,7 @@ bool ImplicitSolver::substep(Cloth& cloth, double t, double h, int threads) {
     counters_.cg_ms += ms_since(t0);
     ++counters_.linear_solves;
     counters_.cg_iterations += r.iterations;
+#pragma omp parallel for num_threads(threads) if (par) schedule(static)
     for (int i = 0; i < n; ++i) vplus[i] = s.v[i] + dv_[i];
     const auto t_check = Clock::now();
     const bool excessive = p_.safeguard && energy_gain_excessive(cloth, t, h, threads);
@@ -258,10 +265,13 @@ bool ImplicitSolver::substep(Cloth& cloth, double t, double h, int threads) {
   }
   // Commit: free vertices x+ = x_b + γ v+; kinematic vertices x+ = x + h v exactly.
   y_.resize(n);
-  for (int i = 0; i < n; ++i) y_[i] = s.x[i];  // start of the step
   tmp_.resize(n);
-  for (int i = 0; i < n; ++i) tmp_[i] = s.v[i];
+  x_hist_.resize(n);
+  s.x_prev.resize(n);
+#pragma omp parallel for num_threads(threads) if (par) schedule(static)
   for (int i = 0; i < n; ++i) {
+    y_[i] = s.x[i];  // start of the step
+    tmp_[i] = s.v[i];
     if (fixed_[i]) {
       s.x[i] = s.x[i] + h * s.v[i];
     } else {
@@ -269,9 +279,11 @@ bool ImplicitSolver::substep(Cloth& cloth, double t, double h, int threads) {
       s.x[i] = xb_[i] + gamma * vplus[i];
     }
   }
-  s.x_prev = y_;
-  x_hist_ = y_;
-  v_hist_ = tmp_;
+  // x_prev and the BDF2 history: the start of the step (x_prev a copy, the history swapped in).
+#pragma omp parallel for num_threads(threads) if (par) schedule(static)
+  for (int i = 0; i < n; ++i) s.x_prev[i] = y_[i];
+  x_hist_.swap(y_);
+  v_hist_.swap(tmp_);
   h_hist_ = h;
   has_history_ = true;
   return s.is_finite();
