@@ -101,7 +101,7 @@ void ImplicitSolver::multiply(const BlockMatrix& m, const Vec3s& x, Vec3s& y, in
 }
 
 void ImplicitSolver::assemble(Cloth& cloth, const Vec3s& x, const Vec3s& v, double t, double gamma,
-                              int threads) {
+                              int threads, const Vec3s* y, Vec3s* ky) {
   const auto t0 = Clock::now();
   auto& kb = K_.blocks();
   auto& db = D_.blocks();
@@ -137,12 +137,18 @@ void ImplicitSolver::assemble(Cloth& cloth, const Vec3s& x, const Vec3s& v, doub
   if (symmetric) {
     // Every term mirrors its blocks bit for bit (Term::symmetric_jacobians): raw(j, i) = raw(i, j)ᵀ exactly, so
     // (raw + rawᵀ)/2 = raw exactly and one pass over the blocks, without the transposed reads, gives the same A.
+    // K y is summed in the same pass, row by row in column order as multiply() does (the same bits).
+    if (ky) ky->resize(n_);
 #pragma omp parallel for num_threads(threads) if (threads > 1) schedule(static)
-    for (int i = 0; i < n_; ++i)
+    for (int i = 0; i < n_; ++i) {
+      Vec3 acc = Vec3::Zero();
       for (int k = rs[i]; k < rs[i + 1]; ++k) {
         a[k] = raw(k);
         if (cols[k] == i) a[k] += s.mass[i] * Mat3::Identity();
+        if (ky) acc += kb[k] * (*y)[cols[k]];
       }
+      if (ky) (*ky)[i] = acc;
+    }
     counters_.assembly_ms += ms_since(t0);
     return;
   }
@@ -160,6 +166,7 @@ void ImplicitSolver::assemble(Cloth& cloth, const Vec3s& x, const Vec3s& v, doub
         a[transpose_[k]] = avg.transpose();
       }
     }
+  if (ky) multiply(K_, *y, *ky, threads);
   counters_.assembly_ms += ms_since(t0);
 }
 
@@ -220,11 +227,10 @@ bool ImplicitSolver::substep(Cloth& cloth, double t, double h, int threads) {
   if (p_.newton_iterations <= 1) {
     // Linearised step (Baraff & Witkin 1998 eq. 18; methods.md §1.6 for BDF2).
     cloth.compute_forces(s.x, s.v, t, threads, f_);
-    assemble(cloth, s.x, s.v, t, gamma, threads);
     y_.resize(n);
 #pragma omp parallel for num_threads(threads) if (par) schedule(static)
     for (int i = 0; i < n; ++i) y_[i] = xb_[i] - s.x[i] + gamma * s.v[i];
-    multiply(K_, y_, tmp_, threads);
+    assemble(cloth, s.x, s.v, t, gamma, threads, &y_, &tmp_);  // and tmp_ = K y_
     rhs_.resize(n);
     // Warm start: the previous step's Δv (≈ h a), scaled to this step.
     dv_.resize(n, Vec3::Zero());

@@ -126,7 +126,10 @@ class ImplicitSolver final : public Solver {
  private:
   void prepare(const Cloth& cloth);
   bool substep(Cloth& cloth, double t, double h, int threads);
-  void assemble(Cloth& cloth, const Vec3s& x, const Vec3s& v, double t, double gamma, int threads);
+  // K, D and A at (x, v). With `ky` (and y), also ky = K y (the same sums as multiply(K_, y, ky)), formed in the pass
+  // that writes A when it can (one pass over K less).
+  void assemble(Cloth& cloth, const Vec3s& x, const Vec3s& v, double t, double gamma, int threads,
+                const Vec3s* y = nullptr, Vec3s* ky = nullptr);
   void multiply(const BlockMatrix& m, const Vec3s& x, Vec3s& y, int threads) const;
   double incremental_potential(Cloth& cloth, const Vec3s& v, double t, int threads);
   void newton(Cloth& cloth, double t, double h, int threads, int iterations);
