@@ -138,13 +138,18 @@ void ImplicitSolver::assemble(Cloth& cloth, const Vec3s& x, const Vec3s& v, doub
     // Every term mirrors its blocks bit for bit (Term::symmetric_jacobians): raw(j, i) = raw(i, j)ᵀ exactly, so
     // (raw + rawᵀ)/2 = raw exactly and one pass over the blocks, without the transposed reads, gives the same A.
     // K y is summed in the same pass, row by row in column order as multiply() does (the same bits).
+    // The PCG's block-Jacobi inverses too (FilteredPCG::diagonal_inverse), where the diagonal block is written.
     if (ky) ky->resize(n_);
+    dinv_.resize(n_);
 #pragma omp parallel for num_threads(threads) if (threads > 1) schedule(static)
     for (int i = 0; i < n_; ++i) {
       Vec3 acc = Vec3::Zero();
       for (int k = rs[i]; k < rs[i + 1]; ++k) {
         a[k] = raw(k);
-        if (cols[k] == i) a[k] += s.mass[i] * Mat3::Identity();
+        if (cols[k] == i) {
+          a[k] += s.mass[i] * Mat3::Identity();
+          dinv_[i] = fixed_[i] ? Mat3::Zero() : FilteredPCG::diagonal_inverse(a[k]);
+        }
         if (ky) acc += kb[k] * (*y)[cols[k]];
       }
       if (ky) (*ky)[i] = acc;
@@ -152,6 +157,7 @@ void ImplicitSolver::assemble(Cloth& cloth, const Vec3s& x, const Vec3s& v, doub
     counters_.assembly_ms += ms_since(t0);
     return;
   }
+  dinv_.resize(n_);
 #pragma omp parallel for num_threads(threads) if (threads > 1) schedule(static)
   for (int i = 0; i < n_; ++i)
     for (int k = rs[i]; k < rs[i + 1]; ++k) {
@@ -160,6 +166,7 @@ void ImplicitSolver::assemble(Cloth& cloth, const Vec3s& x, const Vec3s& v, doub
         const Mat3 d = raw(k);
         a[k] = 0.5 * (d + d.transpose());
         a[k] += s.mass[i] * Mat3::Identity();
+        dinv_[i] = fixed_[i] ? Mat3::Zero() : FilteredPCG::diagonal_inverse(a[k]);
       } else if (j > i) {
         const Mat3 avg = 0.5 * (raw(k) + raw(transpose_[k]).transpose());
         a[k] = avg;
@@ -369,9 +376,11 @@ PcgResult ImplicitSolver::solve_with_contacts(const Cloth& cloth, Vec3s& x, bool
       if (!normals_[i].isZero(0.0)) ++constrained;
     }
   }
-  if (constrained == 0) return pcg_.solve(A_, rhs_, fixed_, x, p_.cg_tolerance, p_.cg_max_iterations, threads, warm_start);
+  if (constrained == 0)
+    return pcg_.solve(A_, rhs_, fixed_, x, p_.cg_tolerance, p_.cg_max_iterations, threads, warm_start, nullptr, &dinv_);
   counters_.contact_constraints += constrained;
-  PcgResult r = pcg_.solve(A_, rhs_, fixed_, x, p_.cg_tolerance, p_.cg_max_iterations, threads, warm_start, &normals_);
+  PcgResult r =
+      pcg_.solve(A_, rhs_, fixed_, x, p_.cg_tolerance, p_.cg_max_iterations, threads, warm_start, &normals_, &dinv_);
   // Release the contacts that hold their vertex against the body: the constraint impulse λ n = (A x - b) along n
   // (n points out of the body) is negative there. One more solve from this result, without them.
   multiply(A_, x, tmp_, threads);
@@ -384,7 +393,7 @@ PcgResult ImplicitSolver::solve_with_contacts(const Cloth& cloth, Vec3s& x, bool
   counters_.contact_releases += released;
   counters_.cg_iterations += r.iterations;
   ++counters_.linear_solves;
-  return pcg_.solve(A_, rhs_, fixed_, x, p_.cg_tolerance, p_.cg_max_iterations, threads, true, &normals_);
+  return pcg_.solve(A_, rhs_, fixed_, x, p_.cg_tolerance, p_.cg_max_iterations, threads, true, &normals_, &dinv_);
 }
 
 void ImplicitSolver::newton(Cloth& cloth, double t, double h, int threads, int iterations) {

@@ -152,6 +152,7 @@ class ImplicitSolver final : public Solver {
   const Cloth* cloth_ = nullptr;
   int n_ = 0;
   BlockMatrix K_, D_, A_;
+  std::vector<Mat3> dinv_;  // block-Jacobi inverses of A (0 on fixed vertices), formed where A's diagonal is written
   // The terms whose Jacobians enter A: all of the cloth's, or for imex the stiff in-plane ones (some owned:
   // the stiff springs of a "springs" term).
   std::vector<const Term*> jac_terms_;
