@@ -132,7 +132,8 @@ void AggregationMultigrid::build_pattern(const BlockMatrix& A, const std::vector
     l.b.assign(l.n, Vec3::Zero());
     l.x.assign(l.n, Vec3::Zero());
     l.res.assign(l.n, Vec3::Zero());
-    l.dinv.assign(l.n, Mat3::Zero());
+    l.own_dinv.assign(l.n, Mat3::Zero());
+    l.dinv = &l.own_dinv;
   }
 }
 
@@ -143,7 +144,7 @@ void AggregationMultigrid::coarse_values(int q, int threads) {
   const auto& fb = f.A->blocks();
   auto& cb = l.own.blocks();
   const int ncb = l.own.num_blocks();
-  const int t = l.n >= kParallelMin ? threads : 1;
+  const int t = f.n >= kParallelMin ? threads : 1;  // the work is the finer level's blocks
 #pragma omp parallel for num_threads(t) if (t > 1) schedule(static)
   for (int p = 0; p < ncb; ++p) {
     Mat3 sum = Mat3::Zero();
@@ -165,19 +166,21 @@ void AggregationMultigrid::setup(const BlockMatrix& A, const std::vector<char>& 
     const int t = l.n >= kParallelMin ? threads : 1;
     if (q > 0) coarse_values(static_cast<int>(q), threads);
     if (q == 0 && fine_dinv && static_cast<int>(fine_dinv->size()) == l.n) {
-      l.dinv = *fine_dinv;
+      l.dinv = fine_dinv;  // the caller's inverses, read in place
       continue;
     }
+    l.dinv = &l.own_dinv;
     const BlockMatrix& M = *l.A;
+    auto& dinv = l.own_dinv;
 #pragma omp parallel for num_threads(t) if (t > 1) schedule(static)
     for (int i = 0; i < l.n; ++i) {
-      l.dinv[i].setZero();
+      dinv[i].setZero();
       if (!l.fixed.empty() && l.fixed[i]) continue;
       const Mat3* d = M.find(i, i);
       Mat3 inv;
       bool ok = false;
       if (d) d->computeInverseWithCheck(inv, ok);
-      l.dinv[i] = ok && inv.allFinite() ? inv : Mat3::Identity();
+      dinv[i] = ok && inv.allFinite() ? inv : Mat3::Identity();
     }
   }
   // Coarsest level: dense factorisation (fixed vertices, if any, get identity rows and columns).
@@ -194,7 +197,7 @@ void AggregationMultigrid::setup(const BlockMatrix& A, const std::vector<char>& 
   if (coarse_use_ldlt_) coarse_ldlt_.compute(dense);
 }
 
-void AggregationMultigrid::residual(Level& l, int threads) {
+void AggregationMultigrid::residual(Level& l, const Vec3s& b, const Vec3s& x, int threads) {
   const auto& rs = l.A->row_start();
   const auto& cols = l.A->cols();
   const auto& blocks = l.A->blocks();
@@ -206,15 +209,15 @@ void AggregationMultigrid::residual(Level& l, int threads) {
       res[i].setZero();
       continue;
     }
-    Vec3 y = l.b[i];
-    for (int k = rs[i]; k < rs[i + 1]; ++k) y -= blocks[k] * l.x[cols[k]];
+    Vec3 y = b[i];
+    for (int k = rs[i]; k < rs[i + 1]; ++k) y -= blocks[k] * x[cols[k]];
     res[i] = y;
   }
 }
 
 // c.b = Pᵀ v: each aggregate's sum of its members' v (ascending member order: deterministic).
 void AggregationMultigrid::restrict_to_coarser(const Level& l, const Vec3s& v, Level& c, int threads) {
-  const int tc = c.n >= kParallelMin ? threads : 1;
+  const int tc = l.n >= kParallelMin ? threads : 1;  // reads every vertex of the finer level
 #pragma omp parallel for num_threads(tc) if (tc > 1) schedule(static)
   for (int I = 0; I < c.n; ++I) {
     Vec3 sum = Vec3::Zero();
@@ -223,20 +226,21 @@ void AggregationMultigrid::restrict_to_coarser(const Level& l, const Vec3s& v, L
   }
 }
 
-void AggregationMultigrid::cycle(int q, int threads) {
+void AggregationMultigrid::cycle(int q, const Vec3s& b, Vec3s& x, int threads) {
   Level& l = levels_[q];
   const int t = l.n >= kParallelMin ? threads : 1;
+  const std::vector<Mat3>& dinv = *l.dinv;
   if (q + 1 == static_cast<int>(levels_.size())) {
     coarse_rhs_.resize(3 * l.n);
     for (int i = 0; i < l.n; ++i) {
       const bool fx = !l.fixed.empty() && l.fixed[i];
-      coarse_rhs_.segment<3>(3 * i) = fx ? Vec3::Zero() : l.b[i];
+      coarse_rhs_.segment<3>(3 * i) = fx ? Vec3::Zero() : b[i];
     }
     const Eigen::VectorXd sol = coarse_use_ldlt_ ? Eigen::VectorXd(coarse_ldlt_.solve(coarse_rhs_))
                                                  : Eigen::VectorXd(coarse_llt_.solve(coarse_rhs_));
     for (int i = 0; i < l.n; ++i) {
       const bool fx = !l.fixed.empty() && l.fixed[i];
-      l.x[i] = fx ? Vec3::Zero() : Vec3(sol.segment<3>(3 * i));
+      x[i] = fx ? Vec3::Zero() : Vec3(sol.segment<3>(3 * i));
     }
     return;
   }
@@ -244,44 +248,43 @@ void AggregationMultigrid::cycle(int q, int threads) {
   if (q == 0 && s_.cycle == MultigridCycle::kAdditiveFinest) {
     // x = ω D⁻¹ b + P B_c Pᵀ b: both terms from b, no fine-level residual.
     Level& c = levels_[1];
-    restrict_to_coarser(l, l.b, c, threads);
-    cycle(1, threads);
+    restrict_to_coarser(l, b, c, threads);
+    cycle(1, c.b, c.x, threads);
 #pragma omp parallel for num_threads(t) if (t > 1) schedule(static)
     for (int i = 0; i < l.n; ++i) {
-      l.x[i] = w * (l.dinv[i] * l.b[i]);
-      if (l.agg[i] >= 0) l.x[i] += c.x[l.agg[i]];
+      x[i] = w * (dinv[i] * b[i]);
+      if (l.agg[i] >= 0) x[i] += c.x[l.agg[i]];
     }
     return;
   }
   // Pre-smoothing from x = 0: the first sweep is x = ω D⁻¹ b.
 #pragma omp parallel for num_threads(t) if (t > 1) schedule(static)
-  for (int i = 0; i < l.n; ++i) l.x[i] = w * (l.dinv[i] * l.b[i]);
+  for (int i = 0; i < l.n; ++i) x[i] = w * (dinv[i] * b[i]);
   for (int s = 1; s < s_.sweeps; ++s) {
-    residual(l, threads);
+    residual(l, b, x, threads);
 #pragma omp parallel for num_threads(t) if (t > 1) schedule(static)
-    for (int i = 0; i < l.n; ++i) l.x[i] += w * (l.dinv[i] * l.res[i]);
+    for (int i = 0; i < l.n; ++i) x[i] += w * (dinv[i] * l.res[i]);
   }
   // Coarse correction: b_c = Pᵀ (b - A x), x += P x_c.
-  residual(l, threads);
+  residual(l, b, x, threads);
   Level& c = levels_[q + 1];
   restrict_to_coarser(l, l.res, c, threads);
-  cycle(q + 1, threads);
+  cycle(q + 1, c.b, c.x, threads);
 #pragma omp parallel for num_threads(t) if (t > 1) schedule(static)
   for (int i = 0; i < l.n; ++i)
-    if (l.agg[i] >= 0) l.x[i] += c.x[l.agg[i]];
+    if (l.agg[i] >= 0) x[i] += c.x[l.agg[i]];
   // Post-smoothing: the same sweeps (symmetric cycle).
   for (int s = 0; s < s_.sweeps; ++s) {
-    residual(l, threads);
+    residual(l, b, x, threads);
 #pragma omp parallel for num_threads(t) if (t > 1) schedule(static)
-    for (int i = 0; i < l.n; ++i) l.x[i] += w * (l.dinv[i] * l.res[i]);
+    for (int i = 0; i < l.n; ++i) x[i] += w * (dinv[i] * l.res[i]);
   }
 }
 
 void AggregationMultigrid::apply(const Vec3s& r, Vec3s& z, int threads) {
-  Level& l = levels_[0];
-  l.b = r;
-  cycle(0, threads);
-  z = l.x;
+  // The finest level works on r and z in place.
+  z.resize(levels_[0].n);
+  cycle(0, r, z, threads);
 }
 
 }  // namespace loom::cloth

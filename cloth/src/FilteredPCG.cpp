@@ -42,7 +42,8 @@ double FilteredPCG::dot(const Vec3s& a, const Vec3s& b, int threads) {
 }
 
 PcgResult FilteredPCG::solve(const BlockMatrix& A, const Vec3s& b, const std::vector<char>& fixed, Vec3s& dv,
-                             double tol, int max_iterations, int threads, bool warm_start, const Vec3s* normals) {
+                             double tol, int max_iterations, int threads, bool warm_start, const Vec3s* normals,
+                             const std::vector<Mat3>* diag_inverse) {
   const int n = A.size();
   // Contact filters (S_i = I - n nᵀ): y_i -= n (n·y_i) on the vertices that have one.
   const bool filtered = normals && static_cast<int>(normals->size()) == n;
@@ -52,7 +53,9 @@ PcgResult FilteredPCG::solve(const BlockMatrix& A, const Vec3s& b, const std::ve
     if (nrm.x() != 0.0 || nrm.y() != 0.0 || nrm.z() != 0.0) y -= nrm * nrm.dot(y);
   };
   dv.resize(n);
-  pinv_.resize(n);
+  const bool given = diag_inverse && static_cast<int>(diag_inverse->size()) == n;
+  if (!given) pinv_.resize(n);
+  const std::vector<Mat3>& pinv = given ? *diag_inverse : pinv_;
   r_.resize(n);
   c_.resize(n);
   s_.resize(n);
@@ -63,25 +66,24 @@ PcgResult FilteredPCG::solve(const BlockMatrix& A, const Vec3s& b, const std::ve
 #pragma omp parallel for num_threads(t) if (t > 1) schedule(static)
   for (int i = 0; i < n; ++i) {
     if (fixed[i]) {
-      pinv_[i].setZero();
+      if (!given) pinv_[i].setZero();
     } else {
       if (!warm_start || !dv[i].allFinite()) dv[i].setZero();
-      const Mat3* d = A.find(i, i);
-      Mat3 inv;
-      bool ok = false;
-      if (d) d->computeInverseWithCheck(inv, ok);
-      pinv_[i] = ok && inv.allFinite() ? inv : Mat3::Identity();
+      if (!given) {
+        const Mat3* d = A.find(i, i);
+        pinv_[i] = d ? diagonal_inverse(*d) : Mat3::Identity();
+      }
       filter(i, dv[i]);
     }
     Vec3 bi = b[i];
     filter(i, bi);
-    s_[i] = pinv_[i] * bi;
+    s_[i] = pinv[i] * bi;
     filter(i, s_[i]);
   }
   const bool mg = precond_ == Preconditioner::kMultigrid;
   if (mg) {
     // s = B filter(b) (the cycle reads free rows only and returns 0 on fixed ones).
-    mg_.setup(A, fixed, t, &pinv_);  // its finest D⁻¹ is pinv_ (the same inverses, computed above)
+    mg_.setup(A, fixed, t, &pinv);  // its finest D⁻¹ is pinv (the same inverses, computed above or given)
     mg_.apply(b, s_, t);
     if (filtered)
       for (int i = 0; i < n; ++i) filter(i, s_[i]);
@@ -95,7 +97,7 @@ PcgResult FilteredPCG::solve(const BlockMatrix& A, const Vec3s& b, const std::ve
   for (int i = 0; i < n; ++i) {
     r_[i] = fixed[i] ? Vec3::Zero() : Vec3(b[i] - q_[i]);
     filter(i, r_[i]);
-    c_[i] = pinv_[i] * r_[i];
+    c_[i] = pinv[i] * r_[i];
     filter(i, c_[i]);
   }
   if (mg) {
@@ -160,7 +162,7 @@ PcgResult FilteredPCG::solve(const BlockMatrix& A, const Vec3s& b, const std::ve
         for (int i = ch * kChunk; i < end; ++i) {
           dv[i] += alpha * c_[i];
           r_[i] -= alpha * q_[i];
-          s_[i] = pinv_[i] * r_[i];
+          s_[i] = pinv[i] * r_[i];
           filter(i, s_[i]);
           acc += r_[i].dot(s_[i]);
         }

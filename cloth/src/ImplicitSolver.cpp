@@ -101,7 +101,7 @@ void ImplicitSolver::multiply(const BlockMatrix& m, const Vec3s& x, Vec3s& y, in
 }
 
 void ImplicitSolver::assemble(Cloth& cloth, const Vec3s& x, const Vec3s& v, double t, double gamma,
-                              int threads) {
+                              int threads, const Vec3s* y, Vec3s* ky) {
   const auto t0 = Clock::now();
   auto& kb = K_.blocks();
   auto& db = D_.blocks();
@@ -137,15 +137,27 @@ void ImplicitSolver::assemble(Cloth& cloth, const Vec3s& x, const Vec3s& v, doub
   if (symmetric) {
     // Every term mirrors its blocks bit for bit (Term::symmetric_jacobians): raw(j, i) = raw(i, j)ᵀ exactly, so
     // (raw + rawᵀ)/2 = raw exactly and one pass over the blocks, without the transposed reads, gives the same A.
+    // K y is summed in the same pass, row by row in column order as multiply() does (the same bits).
+    // The PCG's block-Jacobi inverses too (FilteredPCG::diagonal_inverse), where the diagonal block is written.
+    if (ky) ky->resize(n_);
+    dinv_.resize(n_);
 #pragma omp parallel for num_threads(threads) if (threads > 1) schedule(static)
-    for (int i = 0; i < n_; ++i)
+    for (int i = 0; i < n_; ++i) {
+      Vec3 acc = Vec3::Zero();
       for (int k = rs[i]; k < rs[i + 1]; ++k) {
         a[k] = raw(k);
-        if (cols[k] == i) a[k] += s.mass[i] * Mat3::Identity();
+        if (cols[k] == i) {
+          a[k] += s.mass[i] * Mat3::Identity();
+          dinv_[i] = fixed_[i] ? Mat3::Zero() : FilteredPCG::diagonal_inverse(a[k]);
+        }
+        if (ky) acc += kb[k] * (*y)[cols[k]];
       }
+      if (ky) (*ky)[i] = acc;
+    }
     counters_.assembly_ms += ms_since(t0);
     return;
   }
+  dinv_.resize(n_);
 #pragma omp parallel for num_threads(threads) if (threads > 1) schedule(static)
   for (int i = 0; i < n_; ++i)
     for (int k = rs[i]; k < rs[i + 1]; ++k) {
@@ -154,12 +166,14 @@ void ImplicitSolver::assemble(Cloth& cloth, const Vec3s& x, const Vec3s& v, doub
         const Mat3 d = raw(k);
         a[k] = 0.5 * (d + d.transpose());
         a[k] += s.mass[i] * Mat3::Identity();
+        dinv_[i] = fixed_[i] ? Mat3::Zero() : FilteredPCG::diagonal_inverse(a[k]);
       } else if (j > i) {
         const Mat3 avg = 0.5 * (raw(k) + raw(transpose_[k]).transpose());
         a[k] = avg;
         a[transpose_[k]] = avg.transpose();
       }
     }
+  if (ky) multiply(K_, *y, *ky, threads);
   counters_.assembly_ms += ms_since(t0);
 }
 
@@ -189,6 +203,9 @@ double ImplicitSolver::max_strain_change(const Vec3s& before, const Vec3s& after
 bool ImplicitSolver::substep(Cloth& cloth, double t, double h, int threads) {
   ClothState& s = cloth.state();
   const int n = n_;
+  // The per-vertex loops of the step run on several threads from kParallelMinVertices up (each writes its own
+  // vertex: the same results for any thread count).
+  const bool par = threads > 1 && n >= kParallelMinVertices;
   for (int i = 0; i < n; ++i) fixed_[i] = s.inv_mass[i] == 0.0;
   xb_.resize(n);
   vb_.resize(n);
@@ -203,6 +220,7 @@ bool ImplicitSolver::substep(Cloth& cloth, double t, double h, int threads) {
     gamma = h * (1.0 + w) / (1.0 + 2.0 * w);
   }
   gamma_ = gamma;
+#pragma omp parallel for num_threads(threads) if (par) schedule(static)
   for (int i = 0; i < n; ++i) {
     xb_[i] = bdf2 ? Vec3(c1 * s.x[i] - c2 * x_hist_[i]) : s.x[i];
     vb_[i] = bdf2 ? Vec3(c1 * s.v[i] - c2 * v_hist_[i]) : s.v[i];
@@ -216,16 +234,17 @@ bool ImplicitSolver::substep(Cloth& cloth, double t, double h, int threads) {
   if (p_.newton_iterations <= 1) {
     // Linearised step (Baraff & Witkin 1998 eq. 18; methods.md §1.6 for BDF2).
     cloth.compute_forces(s.x, s.v, t, threads, f_);
-    assemble(cloth, s.x, s.v, t, gamma, threads);
     y_.resize(n);
+#pragma omp parallel for num_threads(threads) if (par) schedule(static)
     for (int i = 0; i < n; ++i) y_[i] = xb_[i] - s.x[i] + gamma * s.v[i];
-    multiply(K_, y_, tmp_, threads);
+    assemble(cloth, s.x, s.v, t, gamma, threads, &y_, &tmp_);  // and tmp_ = K y_
     rhs_.resize(n);
     // Warm start: the previous step's Δv (≈ h a), scaled to this step.
     dv_.resize(n, Vec3::Zero());
     const double scale = h_dv_ > 0.0 ? h / h_dv_ : 0.0;
-    for (int i = 0; i < n; ++i) dv_[i] *= scale;
+#pragma omp parallel for num_threads(threads) if (par) schedule(static)
     for (int i = 0; i < n; ++i) {
+      dv_[i] *= scale;
       rhs_[i] = s.mass[i] * (vb_[i] - s.v[i]) + gamma * (f_[i] + tmp_[i]);
       if (fixed_[i]) dv_[i] = pinned_velocity(i) - s.v[i];
     }
@@ -235,6 +254,7 @@ bool ImplicitSolver::substep(Cloth& cloth, double t, double h, int threads) {
     counters_.cg_ms += ms_since(t0);
     ++counters_.linear_solves;
     counters_.cg_iterations += r.iterations;
+#pragma omp parallel for num_threads(threads) if (par) schedule(static)
     for (int i = 0; i < n; ++i) vplus[i] = s.v[i] + dv_[i];
     const auto t_check = Clock::now();
     const bool excessive = p_.safeguard && energy_gain_excessive(cloth, t, h, threads);
@@ -258,10 +278,13 @@ bool ImplicitSolver::substep(Cloth& cloth, double t, double h, int threads) {
   }
   // Commit: free vertices x+ = x_b + γ v+; kinematic vertices x+ = x + h v exactly.
   y_.resize(n);
-  for (int i = 0; i < n; ++i) y_[i] = s.x[i];  // start of the step
   tmp_.resize(n);
-  for (int i = 0; i < n; ++i) tmp_[i] = s.v[i];
+  x_hist_.resize(n);
+  s.x_prev.resize(n);
+#pragma omp parallel for num_threads(threads) if (par) schedule(static)
   for (int i = 0; i < n; ++i) {
+    y_[i] = s.x[i];  // start of the step
+    tmp_[i] = s.v[i];
     if (fixed_[i]) {
       s.x[i] = s.x[i] + h * s.v[i];
     } else {
@@ -269,9 +292,11 @@ bool ImplicitSolver::substep(Cloth& cloth, double t, double h, int threads) {
       s.x[i] = xb_[i] + gamma * vplus[i];
     }
   }
-  s.x_prev = y_;
-  x_hist_ = y_;
-  v_hist_ = tmp_;
+  // x_prev and the BDF2 history: the start of the step (x_prev a copy, the history swapped in).
+#pragma omp parallel for num_threads(threads) if (par) schedule(static)
+  for (int i = 0; i < n; ++i) s.x_prev[i] = y_[i];
+  x_hist_.swap(y_);
+  v_hist_.swap(tmp_);
   h_hist_ = h;
   has_history_ = true;
   return s.is_finite();
@@ -351,9 +376,11 @@ PcgResult ImplicitSolver::solve_with_contacts(const Cloth& cloth, Vec3s& x, bool
       if (!normals_[i].isZero(0.0)) ++constrained;
     }
   }
-  if (constrained == 0) return pcg_.solve(A_, rhs_, fixed_, x, p_.cg_tolerance, p_.cg_max_iterations, threads, warm_start);
+  if (constrained == 0)
+    return pcg_.solve(A_, rhs_, fixed_, x, p_.cg_tolerance, p_.cg_max_iterations, threads, warm_start, nullptr, &dinv_);
   counters_.contact_constraints += constrained;
-  PcgResult r = pcg_.solve(A_, rhs_, fixed_, x, p_.cg_tolerance, p_.cg_max_iterations, threads, warm_start, &normals_);
+  PcgResult r =
+      pcg_.solve(A_, rhs_, fixed_, x, p_.cg_tolerance, p_.cg_max_iterations, threads, warm_start, &normals_, &dinv_);
   // Release the contacts that hold their vertex against the body: the constraint impulse λ n = (A x - b) along n
   // (n points out of the body) is negative there. One more solve from this result, without them.
   multiply(A_, x, tmp_, threads);
@@ -366,7 +393,7 @@ PcgResult ImplicitSolver::solve_with_contacts(const Cloth& cloth, Vec3s& x, bool
   counters_.contact_releases += released;
   counters_.cg_iterations += r.iterations;
   ++counters_.linear_solves;
-  return pcg_.solve(A_, rhs_, fixed_, x, p_.cg_tolerance, p_.cg_max_iterations, threads, true, &normals_);
+  return pcg_.solve(A_, rhs_, fixed_, x, p_.cg_tolerance, p_.cg_max_iterations, threads, true, &normals_, &dinv_);
 }
 
 void ImplicitSolver::newton(Cloth& cloth, double t, double h, int threads, int iterations) {

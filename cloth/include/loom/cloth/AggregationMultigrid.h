@@ -23,7 +23,8 @@
 // The aggregates, coarse patterns and the lists that sum fine blocks into coarse ones are built when A's
 // pattern (BlockMatrix::pattern_id) or the fixed set changes; setup() refreshes the values only (one pass
 // over A's blocks, the diagonal inverses, the coarsest factorisation). Every loop is per vertex or per coarse
-// block with its sums in a fixed order: results are bit-identical for any thread count.
+// block with its sums in a fixed order: results are bit-identical for any thread count. A loop runs on several
+// threads when the level it reads has >= 2048 vertices (the coarse sums and restrictions read the finer level).
 #include <Eigen/Cholesky>
 #include <cstdint>
 #include <vector>
@@ -54,10 +55,12 @@ class AggregationMultigrid {
   // Hierarchy for A restricted to the free vertices (fixed[i] == 0). A must outlive the following apply()
   // calls.
   // `fine_dinv`, if given, is (A_ii)⁻¹ of the finest level as the caller already computed it (0 on fixed
-  // vertices, identity where A_ii is singular): copied instead of inverted again.
+  // vertices, identity where A_ii is singular): read in place (it must outlive the apply() calls too) instead of
+  // inverted again.
   void setup(const BlockMatrix& A, const std::vector<char>& fixed, int threads,
              const std::vector<Mat3>* fine_dinv = nullptr);
-  // z = B r (one V-cycle from zero); z is 0 on fixed vertices, r is read on free vertices only.
+  // z = B r (one V-cycle from zero); z is 0 on fixed vertices, r is read on free vertices only. r and z must be
+  // distinct; the finest level works on them in place (no copies).
   void apply(const Vec3s& r, Vec3s& z, int threads);
   int levels() const { return static_cast<int>(levels_.size()); }
   int vertices(int level) const { return levels_[level].n; }
@@ -69,7 +72,8 @@ class AggregationMultigrid {
     const BlockMatrix* A = nullptr;  // level 0: the caller's matrix; coarser: `own`
     BlockMatrix own;
     std::vector<char> fixed;  // level 0 only (coarse levels have no fixed vertices)
-    std::vector<Mat3> dinv;   // (A_ii)⁻¹ on free vertices, 0 on fixed
+    std::vector<Mat3> own_dinv;  // (A_ii)⁻¹ on free vertices, 0 on fixed (unless the caller's is used, level 0)
+    const std::vector<Mat3>* dinv = nullptr;  // own_dinv or the caller's fine_dinv
     // To the next coarser level (absent on the coarsest):
     std::vector<int> agg;                          // aggregate of each vertex, -1 for fixed vertices
     std::vector<int> member_start, members;        // CSR: the vertices of each aggregate, ascending
@@ -79,8 +83,9 @@ class AggregationMultigrid {
   void build_pattern(const BlockMatrix& A, const std::vector<char>& fixed);
   void aggregate(const Level& l, std::vector<int>& agg) const;
   void coarse_values(int level, int threads);  // level's blocks from the finer level's
-  void cycle(int level, int threads);
-  void residual(Level& l, int threads);  // l.res = b - A x (0 on fixed)
+  // One cycle on `level` for the right-hand side b into x (level 0: the caller's r and z; coarser: the level's own).
+  void cycle(int level, const Vec3s& b, Vec3s& x, int threads);
+  static void residual(Level& l, const Vec3s& b, const Vec3s& x, int threads);  // l.res = b - A x (0 on fixed)
   static void restrict_to_coarser(const Level& l, const Vec3s& v, Level& c, int threads);  // c.b = Pᵀ v
 
   MultigridSettings s_;

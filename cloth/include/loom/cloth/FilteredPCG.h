@@ -42,8 +42,18 @@ class FilteredPCG {
   // `normals` (optional, per vertex; a zero vector: none): a free vertex with a unit normal n_i gets the filter
   // S_i = I - n_i n_iᵀ with z_i = 0 along n_i (Baraff & Witkin 1998 Sec. 5.3: a contact constrains one
   // direction): its Δv keeps no component along n_i, the other two are solved for.
+  // `diag_inverse` (optional): the block-Jacobi inverses as the caller already computed them, exactly as solve()
+  // would: 0 on fixed vertices, (A_ii)⁻¹ on free ones (identity where A_ii is singular or the inverse not finite).
   PcgResult solve(const BlockMatrix& A, const Vec3s& b, const std::vector<char>& fixed, Vec3s& dv, double tol,
-                  int max_iterations, int threads, bool warm_start = false, const Vec3s* normals = nullptr);
+                  int max_iterations, int threads, bool warm_start = false, const Vec3s* normals = nullptr,
+                  const std::vector<Mat3>* diag_inverse = nullptr);
+  // The block-Jacobi inverse of one free vertex's diagonal block, as solve() computes it.
+  static Mat3 diagonal_inverse(const Mat3& a_ii) {
+    Mat3 inv;
+    bool ok = false;
+    a_ii.computeInverseWithCheck(inv, ok);
+    return ok && inv.allFinite() ? inv : Mat3::Identity();
+  }
 
  private:
   double dot(const Vec3s& a, const Vec3s& b, int threads);

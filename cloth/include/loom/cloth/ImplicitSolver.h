@@ -126,7 +126,10 @@ class ImplicitSolver final : public Solver {
  private:
   void prepare(const Cloth& cloth);
   bool substep(Cloth& cloth, double t, double h, int threads);
-  void assemble(Cloth& cloth, const Vec3s& x, const Vec3s& v, double t, double gamma, int threads);
+  // K, D and A at (x, v). With `ky` (and y), also ky = K y (the same sums as multiply(K_, y, ky)), formed in the pass
+  // that writes A when it can (one pass over K less).
+  void assemble(Cloth& cloth, const Vec3s& x, const Vec3s& v, double t, double gamma, int threads,
+                const Vec3s* y = nullptr, Vec3s* ky = nullptr);
   void multiply(const BlockMatrix& m, const Vec3s& x, Vec3s& y, int threads) const;
   double incremental_potential(Cloth& cloth, const Vec3s& v, double t, int threads);
   void newton(Cloth& cloth, double t, double h, int threads, int iterations);
@@ -149,6 +152,7 @@ class ImplicitSolver final : public Solver {
   const Cloth* cloth_ = nullptr;
   int n_ = 0;
   BlockMatrix K_, D_, A_;
+  std::vector<Mat3> dinv_;  // block-Jacobi inverses of A (0 on fixed vertices), formed where A's diagonal is written
   // The terms whose Jacobians enter A: all of the cloth's, or for imex the stiff in-plane ones (some owned:
   // the stiff springs of a "springs" term).
   std::vector<const Term*> jac_terms_;
