@@ -456,10 +456,10 @@ void apply_impulses(const std::vector<Impulse>& imp, double h, Vec3s& x1, std::v
 // w_j^2 w_j^-1 (m^-1 = inverse mass). Here that rule decides only the split between the two features, with the
 // inverse masses of this stage (vertices the body stage left near a collider `near_body_mass` times heavier,
 // held ones infinitely heavy): the layer resting on the body yields less. Within a feature the share goes by
-// the vertices' own inverse masses (held ones still 0), the lever rule of the cloth itself: with the near-body
-// factor inside one feature, a contact point next to a near-body vertex was moved by flicking the feature's
-// far vertex, 1/|w_k| times the contact's change (up to 32 m/s for a 2 m/s contact, measured on the layers
-// scene). Returns false when neither feature can move.
+// the vertices' own inverse masses (held ones still 0), the lever rule of the cloth itself, whenever that moves
+// no vertex faster than Bridson's rule: with the near-body factor inside one feature, a contact point next to a
+// near-body vertex was moved by flicking the feature's far vertex, 1/|w_k| times the contact's change (up to
+// 32 m/s for a 2 m/s contact, measured on the layers scene). Returns false when neither feature can move.
 bool SelfCollisionStage::contact_shares(const Contact& c, const double w[4], int split, double beta[4]) const {
   double heavy[2] = {0.0, 0.0}, own[2] = {0.0, 0.0}, im[4];
   for (int k = 0; k < 4; ++k) {
@@ -470,10 +470,18 @@ bool SelfCollisionStage::contact_shares(const Contact& c, const double w[4], int
   }
   const double total = heavy[0] + heavy[1];
   if (!(total > 0.0)) return false;
+  // Both shares meet the contact (sum_k w_k beta_k = 1); the one that moves no vertex faster is taken, so the
+  // near-body weights still decide inside a feature where they do not amplify (a near-body vertex on the far
+  // side of the contact point).
+  double own_beta[4], heavy_beta[4], own_max = 0.0, heavy_max = 0.0;
   for (int k = 0; k < 4; ++k) {
     const int side = k >= split;
-    beta[k] = own[side] > 0.0 ? (heavy[side] / total) * w[k] * im[k] / own[side] : 0.0;
+    own_beta[k] = own[side] > 0.0 ? (heavy[side] / total) * w[k] * im[k] / own[side] : 0.0;
+    heavy_beta[k] = w[k] * w_[c.v[k]] / total;
+    own_max = std::max(own_max, std::abs(own_beta[k]));
+    heavy_max = std::max(heavy_max, std::abs(heavy_beta[k]));
   }
+  for (int k = 0; k < 4; ++k) beta[k] = heavy_max <= own_max ? heavy_beta[k] : own_beta[k];
   return true;
 }
 
