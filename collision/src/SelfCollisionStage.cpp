@@ -450,41 +450,6 @@ void apply_impulses(const std::vector<Impulse>& imp, double h, Vec3s& x1, std::v
 
 }  // namespace
 
-// How a change dv of a contact's relative velocity sum_k w_k v_k (w > 0 on the first feature, the vertex or
-// edge a; w < 0 on the second) is shared among its vertices: vertex k changes by beta_k dv, with
-// sum_k w_k beta_k = 1. Bridson et al. 2002, Sec. 7.1 distribute it by inverse mass, beta_k = w_k w_k^-1 / sum_j
-// w_j^2 w_j^-1 (m^-1 = inverse mass). Here that rule decides only the split between the two features, with the
-// inverse masses of this stage (vertices the body stage left near a collider `near_body_mass` times heavier,
-// held ones infinitely heavy): the layer resting on the body yields less. Within a feature the share goes by
-// the vertices' own inverse masses (held ones still 0), the lever rule of the cloth itself, whenever that moves
-// no vertex faster than Bridson's rule: with the near-body factor inside one feature, a contact point next to a
-// near-body vertex was moved by flicking the feature's far vertex, 1/|w_k| times the contact's change (up to
-// 32 m/s for a 2 m/s contact, measured on the layers scene). Returns false when neither feature can move.
-bool SelfCollisionStage::contact_shares(const Contact& c, const double w[4], int split, double beta[4]) const {
-  double heavy[2] = {0.0, 0.0}, own[2] = {0.0, 0.0}, im[4];
-  for (int k = 0; k < 4; ++k) {
-    const int v = c.v[k];
-    im[k] = near_[v] ? w_[v] * settings_.near_body_mass : w_[v];  // w_ is 0 for pinned and held vertices
-    heavy[k >= split] += w[k] * w[k] * w_[v];
-    own[k >= split] += w[k] * w[k] * im[k];
-  }
-  const double total = heavy[0] + heavy[1];
-  if (!(total > 0.0)) return false;
-  // Both shares meet the contact (sum_k w_k beta_k = 1); the one that moves no vertex faster is taken, so the
-  // near-body weights still decide inside a feature where they do not amplify (a near-body vertex on the far
-  // side of the contact point).
-  double own_beta[4], heavy_beta[4], own_max = 0.0, heavy_max = 0.0;
-  for (int k = 0; k < 4; ++k) {
-    const int side = k >= split;
-    own_beta[k] = own[side] > 0.0 ? (heavy[side] / total) * w[k] * im[k] / own[side] : 0.0;
-    heavy_beta[k] = w[k] * w_[c.v[k]] / total;
-    own_max = std::max(own_max, std::abs(own_beta[k]));
-    heavy_max = std::max(heavy_max, std::abs(heavy_beta[k]));
-  }
-  for (int k = 0; k < 4; ++k) beta[k] = heavy_max <= own_max ? heavy_beta[k] : own_beta[k];
-  return true;
-}
-
 // Bridson et al. 2002, Sec. 7.2: pairs closer than the thickness at the step's start get an impulse that
 // removes `repulsion` of the overlap per step along the normal; Sec. 7.3: Coulomb friction clamps the
 // tangential relative velocity by mu * (normal velocity change) (static: stop it entirely).
@@ -524,12 +489,13 @@ void SelfCollisionStage::proximity(const std::vector<Feature>& fs, int threads, 
     if (!(d2 < hp * hp)) return;
     const double d = std::sqrt(d2);
     Vec3 diff = Vec3::Zero(), vrel = Vec3::Zero();
+    double denom = 0.0;
     for (int k = 0; k < 4; ++k) {
       diff += w[k] * x0_[c.v[k]];
       vrel += w[k] * (x1_[c.v[k]] - x0_[c.v[k]]) / h_;
+      denom += w[k] * w[k] * w_[c.v[k]];
     }
-    double beta[4];
-    if (!contact_shares(c, w, fs[i].type == 0 ? 1 : 2, beta)) return;
+    if (!(denom > 0.0)) return;
     Vec3 nrm;
     if (!contact_normal(diff, fallback, vrel, nrm)) return;
     const double vn = vrel.dot(nrm);
@@ -548,7 +514,7 @@ void SelfCollisionStage::proximity(const std::vector<Feature>& fs, int threads, 
     }
     Impulse& im = out.emplace_back();
     im.active = true;
-    for (int k = 0; k < 4; ++k) im.v[k] = c.v[k], im.dv[k] = beta[k] * dv;
+    for (int k = 0; k < 4; ++k) im.v[k] = c.v[k], im.dv[k] = (w[k] * w_[c.v[k]] / denom) * dv;
   });
   contacts_ += static_cast<long>(imp.size());
   apply_impulses(imp, h_, x1_, &moved);
@@ -637,20 +603,21 @@ bool SelfCollisionStage::ccd_pass(const std::vector<Feature>& fs, int threads, s
       fallback = (q[1] - q[0]).cross(q[3] - q[2]);
     }
     Vec3 diff = Vec3::Zero(), side = Vec3::Zero(), vrel = Vec3::Zero();
+    double denom = 0.0;
     for (int k = 0; k < 4; ++k) {
       diff += w[k] * q[k];
       side += w[k] * *a0[k];
       vrel += w[k] * (*a1[k] - *a0[k]) / h_;
+      denom += w[k] * w[k] * w_[c.v[k]];
     }
-    double beta[4];
-    if (!contact_shares(c, w, split, beta)) return;
+    if (!(denom > 0.0)) return;
     Vec3 nrm;
     if (!contact_normal(diff, fallback, side, nrm)) return;
     const double vn = vrel.dot(nrm);
     if (!(vn < 0.0)) return;
     im.active = true;
     const Vec3 dv = -vn * nrm;
-    for (int k = 0; k < 4; ++k) im.dv[k] = beta[k] * dv;
+    for (int k = 0; k < 4; ++k) im.dv[k] = (w[k] * w_[c.v[k]] / denom) * dv;
   });
   ccd_tests_ += tests;
   ccd_boxes_ += boxes;

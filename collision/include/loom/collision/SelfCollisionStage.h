@@ -109,8 +109,6 @@ class SelfCollisionStage final : public loom::cloth::Stage {
   // mesh. Returns the cap of their pair thickness, half their rest distance (m), or infinity.
   float rest_cap(const Feature& f) const;
   void setup_rest_neighbours(const loom::cloth::StageContext& ctx);
-  // Shares beta_k of a contact's velocity change per vertex (see the .cpp); `split`: vertices of the first feature.
-  bool contact_shares(const Contact& c, const double w[4], int split, double beta[4]) const;
   // Proximity impulses over `fs` (all features); marks the vertices it moved in `moved`.
   void proximity(const std::vector<Feature>& fs, int threads, std::vector<char>& moved);
   void first_pass_features(std::vector<Feature>& fs, const std::vector<char>& moved, int threads);
