@@ -129,6 +129,7 @@ int main(int argc, char** argv) {
                     sim->rollbacks(), f.max_attached_depth, start + strain_time, start + f.max_speed_time,
                     start + f.max_depth_time, start + f.max_attached_depth_time, bone_name(f.max_depth_bone).c_str(),
                     bone_name(f.max_attached_depth_bone).c_str());
+        if (!sim->failure().empty()) std::printf("# %s on %s stopped at frame %d: %s\n", name.c_str(), clip.c_str(), frames, sim->failure().c_str());
         std::fflush(stdout);
         failures += nan || frames < sc.frames;
       } catch (const loom::Error& e) {
