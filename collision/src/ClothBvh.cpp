@@ -363,19 +363,15 @@ void ClothBvh::self_recurse_culled(int n, bool skip_adjacent, const Vec3s& x0, c
   cross_recurse(nd.left, nd.right, skip_adjacent, out);
 }
 
-std::vector<TrianglePair> ClothBvh::self_pairs_culled(const Vec3s& x0, const Vec3s& x1, double margin,
-                                                      bool skip_adjacent, int threads, long* culled) const {
-  std::vector<TrianglePair> out;
+std::vector<std::pair<int, int>> ClothBvh::self_pair_tasks(const Vec3s& x0, const Vec3s& x1, double margin,
+                                                            long* culled) const {
   long n_culled = 0;
-  if (nodes_.empty()) {
-    if (culled) *culled = 0;
-    return out;
-  }
-  // Tasks: {a, a} = self pairs below node a, {a, b} = pairs between subtrees a and b. The self tasks of the
-  // top levels are split (after their own cull test) until there are enough tasks for the threads.
-  std::vector<std::pair<int, int>> tasks{{0, 0}}, done;
-  const size_t want = threads > 1 ? static_cast<size_t>(16 * threads) : 1;
-  while (tasks.size() + done.size() < want) {
+  std::vector<std::pair<int, int>> tasks, done;
+  if (!nodes_.empty()) tasks.push_back({0, 0});
+  // The self tasks of the top levels are split (after their own cull test) until there are kTasks tasks: enough
+  // for dynamic scheduling on a few threads, and the same for every thread count.
+  constexpr size_t kTasks = 64;
+  while (!tasks.empty() && tasks.size() + done.size() < kTasks) {
     std::vector<std::pair<int, int>> next;
     bool split = false;
     for (const auto& t : tasks) {
@@ -397,17 +393,29 @@ std::vector<TrianglePair> ClothBvh::self_pairs_culled(const Vec3s& x0, const Vec
     if (!split) break;
   }
   done.insert(done.end(), tasks.begin(), tasks.end());
-  const int nt = static_cast<int>(done.size());
+  if (culled) *culled = n_culled;
+  return done;
+}
+
+void ClothBvh::self_pairs_of_task(std::pair<int, int> task, const Vec3s& x0, const Vec3s& x1, double margin,
+                                  bool skip_adjacent, std::vector<TrianglePair>& out, long& culled) const {
+  const auto [a, b] = task;
+  if (a == b) {
+    self_recurse_culled(a, skip_adjacent, x0, x1, margin, out, culled);
+  } else {
+    cross_recurse(a, b, skip_adjacent, out);
+  }
+}
+
+std::vector<TrianglePair> ClothBvh::self_pairs_culled(const Vec3s& x0, const Vec3s& x1, double margin,
+                                                      bool skip_adjacent, int threads, long* culled) const {
+  long n_culled = 0;
+  const std::vector<std::pair<int, int>> tasks = self_pair_tasks(x0, x1, margin, &n_culled);
+  const int nt = static_cast<int>(tasks.size());
   std::vector<std::vector<TrianglePair>> parts(nt);
 #pragma omp parallel for num_threads(threads) if (threads > 1) schedule(dynamic, 1) reduction(+ : n_culled)
-  for (int k = 0; k < nt; ++k) {
-    const auto [a, b] = done[k];
-    if (a == b) {
-      self_recurse_culled(a, skip_adjacent, x0, x1, margin, parts[k], n_culled);
-    } else {
-      cross_recurse(a, b, skip_adjacent, parts[k]);
-    }
-  }
+  for (int k = 0; k < nt; ++k) self_pairs_of_task(tasks[k], x0, x1, margin, skip_adjacent, parts[k], n_culled);
+  std::vector<TrianglePair> out;
   size_t total = 0;
   for (const auto& p : parts) total += p.size();
   out.reserve(total);

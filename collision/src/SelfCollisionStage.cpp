@@ -53,6 +53,9 @@ bool contact_normal(const Vec3& d, const Vec3& fallback, const Vec3& side, Vec3&
 }
 
 
+// A float at most d (d >= 0): float rounding is within 2^-24 relatively, the factor keeps it below.
+float lower_float(double d) { return d > 0.0 ? static_cast<float>(d) * 0.999999f : 0.0f; }
+
 // The per-chunk lists of a parallel loop joined in chunk order (the serial order, whatever the thread count).
 template <class T>
 std::vector<T> join_chunks(std::vector<std::vector<T>>& parts) {
@@ -160,6 +163,14 @@ void SelfCollisionStage::setup(loom::cloth::StageContext& ctx) {
   std::vector<int> fill(vtx_tri_start_.begin(), vtx_tri_start_.end() - 1);
   for (int t = 0; t < static_cast<int>(tris_.size()); ++t)
     for (int k = 0; k < 3; ++k) vtx_tri_[fill[tris_[t][k]]++] = t;
+  // Owner masks: bit k (k < 3) = the triangle is its vertex k's owner (the lowest-numbered triangle holding it),
+  // bit 3 + k = the owner of its edge k (extract_features).
+  tri_owns_.assign(tris_.size(), 0);
+  for (int t = 0; t < static_cast<int>(tris_.size()); ++t)
+    for (int k = 0; k < 3; ++k) {
+      if (vtx_tri_[vtx_tri_start_[tris_[t][k]]] == t) tri_owns_[t] |= static_cast<unsigned char>(1u << k);
+      if (edge_owner_[tri_edges_[t][k]] == t) tri_owns_[t] |= static_cast<unsigned char>(8u << k);
+    }
   setup_rest_neighbours(ctx);
 }
 
@@ -252,27 +263,6 @@ void SelfCollisionStage::update_bvhs(int threads, bool full_update) {
   }
 }
 
-// Self pairs of each cloth (normal-cone culled when enabled) and pairs between every two cloths (never culled:
-// layers lie on each other, flat, and must always be tested).
-std::vector<TrianglePair> SelfCollisionStage::all_triangle_pairs(int threads) {
-  PhaseTimer timer(pairs_ms_);
-  std::vector<TrianglePair> out;
-  for (int c = 0; c < num_cloths_; ++c) {
-    if (settings_.self) {
-      long culled = 0;
-      const std::vector<TrianglePair> self =
-          settings_.normal_cones ? bvhs_[c]->self_pairs_culled(cx0_[c], cx1_[c], cloth_thickness_[c], false, threads, &culled)
-                                 : bvhs_[c]->self_pairs(false);
-      culled_nodes_ += culled;
-      for (const TrianglePair& p : self) out.emplace_back(tri_offset_[c] + p.first, tri_offset_[c] + p.second);
-    }
-    for (int d = c + 1; d < num_cloths_; ++d)
-      for (const TrianglePair& p : bvhs_[c]->cross_pairs(*bvhs_[d])) out.emplace_back(tri_offset_[c] + p.first, tri_offset_[d] + p.second);
-  }
-  candidate_pairs_ += static_cast<long>(out.size());
-  return out;
-}
-
 // I-Cloth's Td x (Td u Ts): triangles with a dirty vertex, queried against every cloth's refitted tree.
 std::vector<TrianglePair> SelfCollisionStage::triangle_pairs_touching(const std::vector<char>& dirty) {
   PhaseTimer timer(pairs_ms_);
@@ -304,84 +294,162 @@ std::vector<TrianglePair> SelfCollisionStage::triangle_pairs_touching(const std:
 
 // Features of the candidate triangle pairs, each exactly once: a vertex-face pair (v, f) comes only from the
 // pair (owner(v), f) and an edge-edge pair only from (owner(ea), owner(eb)), owner = the lowest-numbered
-// triangle holding the vertex or edge. That pair is always a candidate when the feature can be: the feature's
-// swept box lies inside its owner's leaf box. Chunks of pairs are done in parallel and joined in order.
-std::vector<SelfCollisionStage::Feature> SelfCollisionStage::features(const std::vector<TrianglePair>& pairs,
-                                                                     const std::vector<char>* dirty,
-                                                                     int threads) const {
-  PhaseTimer timer(features_ms_);
+// triangle holding the vertex or edge (tri_owns_). That pair is always a candidate when the feature can be: the
+// feature's swept box lies inside its owner's leaf box. Feature-level filter: swept boxes of the two features
+// (vertex_boxes), inflated by the pair thickness, must overlap (covers the proximity distance at x0 and the
+// continuous test's separation, which is smaller); rest neighbours (rest_cap) are checked again with their
+// capped thickness.
+void SelfCollisionStage::extract_features(const TrianglePair* pairs, long n, const std::vector<char>* dirty,
+                                          std::vector<Feature>& out) const {
   auto is_dirty = [&](int v) { return !dirty || (*dirty)[v]; };
-  // Feature-level filter: swept boxes of the two features, inflated by the pair thickness, must overlap
-  // (covers the proximity distance at x0 and the continuous test's separation, which is smaller).
-  // Per-vertex swept boxes once per call (a vertex is in many features).
-  std::vector<Aabb> vbox(x0_.size());
-  for (size_t v = 0; v < x0_.size(); ++v) vbox[v].lo = x0_[v].cwiseMin(x1_[v]), vbox[v].hi = x0_[v].cwiseMax(x1_[v]);
-  auto swept = [&](std::initializer_list<int> vs) {
-    Aabb b;
-    for (int v : vs) b.grow(vbox[v]);
-    return b;
-  };
-  // Rest neighbours (rest_cap) only need their capped pair thickness: checked again with it.
+  const std::vector<Aabb>& vbox = vbox_;
   auto near = [&](Aabb a, const Aabb& b, int ca, int cb, float cap = HUGE_VALF) {
     const double hp = std::min(0.5 * (cloth_thickness_[ca] + cloth_thickness_[cb]), static_cast<double>(cap));
     a.lo.array() -= hp, a.hi.array() += hp;
     return a.overlaps(b);
   };
-  const long n = static_cast<long>(pairs.size());
-  const int chunks = std::max(1, threads) * 4;
-  std::vector<std::vector<Feature>> parts(chunks);
-#pragma omp parallel for num_threads(threads) if (threads > 1) schedule(dynamic, 1)
-  for (int ch = 0; ch < chunks; ++ch) {
-    std::vector<Feature>& out = parts[ch];
-    for (long i = n * ch / chunks; i < n * (ch + 1) / chunks; ++i) {
-      const TrianglePair& p = pairs[i];
-      const Tri& ta = tris_[p.first];
-      const Tri& tb = tris_[p.second];
-      for (int side = 0; side < 2; ++side) {
-        const Tri& tv = side ? tb : ta;
-        const Tri& tf = side ? ta : tb;
-        const int t = side ? p.second : p.first;
-        const int f = side ? p.first : p.second;
-        const bool face_dirty = is_dirty(tf[0]) || is_dirty(tf[1]) || is_dirty(tf[2]);
-        bool have_box = false;
-        Aabb fb;
-        for (int k = 0; k < 3; ++k) {
-          const int v = tv[k];
-          if (vtx_tri_[vtx_tri_start_[v]] != t) continue;  // not the owner
-          if (v == tf[0] || v == tf[1] || v == tf[2]) continue;
-          if (!(face_dirty || is_dirty(v))) continue;
-          if (!have_box) fb = swept({tf[0], tf[1], tf[2]}), have_box = true;
-          const Aabb vb = swept({v});
-          if (!near(vb, fb, vertex_cloth_[v], tri_cloth_[f])) continue;
-          Feature fe{0, v, f};
-          fe.cap = rest_cap(fe);
-          if (fe.cap < HUGE_VALF && !near(vb, fb, vertex_cloth_[v], tri_cloth_[f], fe.cap)) continue;
-          out.push_back(fe);
+  for (long i = 0; i < n; ++i) {
+    const TrianglePair& p = pairs[i];
+    const unsigned own_a = tri_owns_[p.first], own_b = tri_owns_[p.second];
+    const Tri& ta = tris_[p.first];
+    const Tri& tb = tris_[p.second];
+    for (int side = 0; side < 2; ++side) {
+      const unsigned own = side ? own_b : own_a;
+      if (!(own & 7u)) continue;
+      const Tri& tv = side ? tb : ta;
+      const Tri& tf = side ? ta : tb;
+      const int f = side ? p.first : p.second;
+      const bool face_dirty = is_dirty(tf[0]) || is_dirty(tf[1]) || is_dirty(tf[2]);
+      bool have_box = false;
+      Aabb fb;
+      for (int k = 0; k < 3; ++k) {
+        if (!(own & (1u << k))) continue;  // not the owner of this vertex
+        const int v = tv[k];
+        if (v == tf[0] || v == tf[1] || v == tf[2]) continue;
+        if (!(face_dirty || is_dirty(v))) continue;
+        if (!have_box) {
+          fb = vbox[tf[0]], fb.grow(vbox[tf[1]]), fb.grow(vbox[tf[2]]);
+          have_box = true;
         }
+        const Aabb& vb = vbox[v];
+        if (!near(vb, fb, vertex_cloth_[v], tri_cloth_[f])) continue;
+        Feature fe{0, v, f};
+        fe.cap = rest_cap(fe);
+        if (fe.cap < HUGE_VALF && !near(vb, fb, vertex_cloth_[v], tri_cloth_[f], fe.cap)) continue;
+        out.push_back(fe);
       }
-      for (int i2 = 0; i2 < 3; ++i2) {
-        const int ea = tri_edges_[p.first][i2];
-        if (edge_owner_[ea] != p.first) continue;
-        for (int j = 0; j < 3; ++j) {
-          const int eb = tri_edges_[p.second][j];
-          if (edge_owner_[eb] != p.second) continue;
-          const auto& a = edges_[ea];
-          const auto& b = edges_[eb];
-          if (a[0] == b[0] || a[0] == b[1] || a[1] == b[0] || a[1] == b[1]) continue;
-          if (!(is_dirty(a[0]) || is_dirty(a[1]) || is_dirty(b[0]) || is_dirty(b[1]))) continue;
-          const Aabb ab = swept({a[0], a[1]}), bb = swept({b[0], b[1]});
-          if (!near(ab, bb, edge_cloth_[ea], edge_cloth_[eb])) continue;
-          Feature fe{1, std::min(ea, eb), std::max(ea, eb)};
-          fe.cap = rest_cap(fe);
-          if (fe.cap < HUGE_VALF && !near(ab, bb, edge_cloth_[ea], edge_cloth_[eb], fe.cap)) continue;
-          out.push_back(fe);
-        }
+    }
+    if (!(own_a & 56u) || !(own_b & 56u)) continue;
+    for (int i2 = 0; i2 < 3; ++i2) {
+      if (!(own_a & (8u << i2))) continue;
+      const int ea = tri_edges_[p.first][i2];
+      const auto& a = edges_[ea];
+      Aabb ab = vbox[a[0]];
+      ab.grow(vbox[a[1]]);
+      for (int j = 0; j < 3; ++j) {
+        if (!(own_b & (8u << j))) continue;
+        const int eb = tri_edges_[p.second][j];
+        const auto& b = edges_[eb];
+        if (a[0] == b[0] || a[0] == b[1] || a[1] == b[0] || a[1] == b[1]) continue;
+        if (!(is_dirty(a[0]) || is_dirty(a[1]) || is_dirty(b[0]) || is_dirty(b[1]))) continue;
+        Aabb bb = vbox[b[0]];
+        bb.grow(vbox[b[1]]);
+        if (!near(ab, bb, edge_cloth_[ea], edge_cloth_[eb])) continue;
+        Feature fe{1, std::min(ea, eb), std::max(ea, eb)};
+        fe.cap = rest_cap(fe);
+        if (fe.cap < HUGE_VALF && !near(ab, bb, edge_cloth_[ea], edge_cloth_[eb], fe.cap)) continue;
+        out.push_back(fe);
       }
     }
   }
+}
+
+// Per-vertex swept boxes of x0 -> x1 once per search (a vertex is in many features).
+void SelfCollisionStage::vertex_boxes(int threads) const {
+  const int nv = static_cast<int>(x0_.size());
+  vbox_.resize(nv);
+#pragma omp parallel for num_threads(threads) if (threads > 1 && nv > 8192) schedule(static)
+  for (int v = 0; v < nv; ++v) vbox_[v].lo = x0_[v].cwiseMin(x1_[v]), vbox_[v].hi = x0_[v].cwiseMax(x1_[v]);
+}
+
+// Features of `pairs` (extract_features); chunks of pairs are done in parallel and joined in order.
+std::vector<SelfCollisionStage::Feature> SelfCollisionStage::features(const std::vector<TrianglePair>& pairs,
+                                                                     const std::vector<char>* dirty,
+                                                                     int threads) const {
+  PhaseTimer timer(features_ms_);
+  vertex_boxes(threads);
+  const long n = static_cast<long>(pairs.size());
+  const int chunks = n < 4096 ? 1 : std::max(1, threads) * 4;
+  std::vector<std::vector<Feature>> parts(chunks);
+#pragma omp parallel for num_threads(threads) if (threads > 1 && chunks > 1) schedule(dynamic, 1)
+  for (int ch = 0; ch < chunks; ++ch)
+    extract_features(pairs.data() + n * ch / chunks, n * (ch + 1) / chunks - n * ch / chunks, dirty, parts[ch]);
   std::vector<Feature> out = join_chunks(parts);
   features_ += static_cast<long>(out.size());
   return out;
+}
+
+// The step's search over all pairs, features straight from the traversal: the self pairs of each cloth (normal-
+// cone culled when enabled) go to extract_features task by task as the tree yields them (ClothBvh::
+// self_pair_tasks: the same tasks and order for any thread count), never stored, sorted or joined whole; pairs
+// between every two cloths (never culled: layers lie on each other, flat, and must always be tested) are
+// searched and extracted as before.
+std::vector<SelfCollisionStage::Feature> SelfCollisionStage::all_features(int threads) {
+  PhaseTimer timer(pairs_ms_);
+  vertex_boxes(threads);
+  std::vector<Feature> out;
+  for (int c = 0; c < num_cloths_; ++c) {
+    if (settings_.self && settings_.normal_cones) {
+      const ClothBvh& bvh = *bvhs_[c];
+      long culled = 0, npairs = 0;
+      const std::vector<std::pair<int, int>> tasks = bvh.self_pair_tasks(cx0_[c], cx1_[c], cloth_thickness_[c], &culled);
+      const int nt = static_cast<int>(tasks.size()), to = tri_offset_[c];
+      std::vector<std::vector<Feature>> parts(nt);
+#pragma omp parallel for num_threads(threads) if (threads > 1) schedule(dynamic, 1) reduction(+ : culled, npairs)
+      for (int k = 0; k < nt; ++k) {
+        static thread_local std::vector<TrianglePair> buf;
+        buf.clear();
+        bvh.self_pairs_of_task(tasks[k], cx0_[c], cx1_[c], cloth_thickness_[c], false, buf, culled);
+        npairs += static_cast<long>(buf.size());
+        if (to != 0)
+          for (TrianglePair& p : buf) p.first += to, p.second += to;
+        extract_features(buf.data(), static_cast<long>(buf.size()), nullptr, parts[k]);
+      }
+      culled_nodes_ += culled;
+      candidate_pairs_ += npairs;
+      std::vector<Feature> fc = join_chunks(parts);
+      if (out.empty()) {
+        out.swap(fc);
+      } else {
+        out.insert(out.end(), fc.begin(), fc.end());
+      }
+    }
+    std::vector<TrianglePair> pairs;
+    if (settings_.self && !settings_.normal_cones)
+      for (const TrianglePair& p : bvhs_[c]->self_pairs(false)) pairs.emplace_back(tri_offset_[c] + p.first, tri_offset_[c] + p.second);
+    for (int d = c + 1; d < num_cloths_; ++d)
+      for (const TrianglePair& p : bvhs_[c]->cross_pairs(*bvhs_[d])) pairs.emplace_back(tri_offset_[c] + p.first, tri_offset_[d] + p.second);
+    if (pairs.empty()) continue;
+    candidate_pairs_ += static_cast<long>(pairs.size());
+    const long n = static_cast<long>(pairs.size());
+    const int chunks = n < 4096 ? 1 : std::max(1, threads) * 4;
+    std::vector<std::vector<Feature>> parts(chunks);
+#pragma omp parallel for num_threads(threads) if (threads > 1 && chunks > 1) schedule(dynamic, 1)
+    for (int ch = 0; ch < chunks; ++ch)
+      extract_features(pairs.data() + n * ch / chunks, n * (ch + 1) / chunks - n * ch / chunks, nullptr, parts[ch]);
+    for (const auto& part : parts) out.insert(out.end(), part.begin(), part.end());
+  }
+  features_ += static_cast<long>(out.size());
+  // In the order of their first vertex (a stable counting sort): the phases after this one then read the
+  // positions almost sequentially, as the sorted pair order of a separate search did.
+  const int nv = static_cast<int>(x0_.size());
+  auto key = [&](const Feature& f) { return f.type == 0 ? f.a : edges_[f.a][0]; };
+  std::vector<int> start(nv + 1, 0);
+  for (const Feature& f : out) ++start[key(f) + 1];
+  for (int v = 0; v < nv; ++v) start[v + 1] += start[v];
+  std::vector<Feature> sorted(out.size());
+  for (const Feature& f : out) sorted[start[key(f)]++] = f;
+  return sorted;
 }
 
 SelfCollisionStage::Contact SelfCollisionStage::contact_of(const Feature& f) const {
@@ -453,7 +521,7 @@ void apply_impulses(const std::vector<Impulse>& imp, double h, Vec3s& x1, std::v
 // Bridson et al. 2002, Sec. 7.2: pairs closer than the thickness at the step's start get an impulse that
 // removes `repulsion` of the overlap per step along the normal; Sec. 7.3: Coulomb friction clamps the
 // tangential relative velocity by mu * (normal velocity change) (static: stop it entirely).
-void SelfCollisionStage::proximity(const std::vector<Feature>& fs, int threads, std::vector<char>& moved) {
+void SelfCollisionStage::proximity(std::vector<Feature>& fs, int threads, std::vector<char>& moved) {
   PhaseTimer timer(proximity_ms_);
   const long n = static_cast<long>(fs.size());
   const std::vector<Impulse> imp = collect_impulses(n, threads, [&](long i, std::vector<Impulse>& out) {
@@ -469,8 +537,10 @@ void SelfCollisionStage::proximity(const std::vector<Feature>& fs, int threads, 
       ba.grow(p0);
       (fs[i].type == 0 ? bb : ba).grow(p1);
       bb.grow(p2), bb.grow(p3);
-      ba.lo.array() -= hp, ba.hi.array() += hp;
-      if (!ba.overlaps(bb)) return;
+      if (!ba.overlaps_within(bb, hp)) {
+        fs[i].d0 = lower_float(ba.gap(bb));  // the largest axis gap of the boxes: below the distance
+        return;
+      }
     }
     double w[4];
     double d2;
@@ -486,8 +556,9 @@ void SelfCollisionStage::proximity(const std::vector<Feature>& fs, int threads, 
       w[0] = 1.0 - r.s, w[1] = r.s, w[2] = -(1.0 - r.t), w[3] = -r.t;
       fallback = (p1 - p0).cross(p3 - p2);
     }
-    if (!(d2 < hp * hp)) return;
     const double d = std::sqrt(d2);
+    fs[i].d0 = lower_float(d);
+    if (!(d2 < hp * hp)) return;
     Vec3 diff = Vec3::Zero(), vrel = Vec3::Zero();
     double denom = 0.0;
     for (int k = 0; k < 4; ++k) {
@@ -570,9 +641,11 @@ bool SelfCollisionStage::ccd_pass(const std::vector<Feature>& fs, int threads, s
       double reach2 = 0.0;
       for (int k = 0; k < split; ++k)
         for (int m = split; m < 4; ++m) reach2 = std::max(reach2, (dx[k] - dx[m]).squaredNorm());
+      const double bound = (sep + std::sqrt(reach2)) * (1.0 + 1e-9);
+      if (fs[i].d0 > bound) return;  // the proximity phase's lower bound on d(0) already proves it
       const double d0 = std::sqrt(fs[i].type == 0 ? point_triangle_closest(*a0[0], *a0[1], *a0[2], *a0[3]).distance_squared
                                                    : segment_segment_closest(*a0[0], *a0[1], *a0[2], *a0[3]).distance_squared);
-      if (d0 > (sep + std::sqrt(reach2)) * (1.0 + 1e-9)) return;
+      if (d0 > bound) return;
     }
     CcdOptions opt;
     opt.min_separation = sep;
@@ -941,7 +1014,7 @@ void SelfCollisionStage::run(loom::cloth::StageContext& ctx) {
   update_bvhs(threads, true);
   // One search over all pairs per step: proximity uses its features, the first continuous pass the same ones
   // with those around vertices that proximity moved found again.
-  std::vector<Feature> fs = features(all_triangle_pairs(threads), nullptr, threads);
+  std::vector<Feature> fs = all_features(threads);
   std::vector<char> dirty(nv, 0);
   proximity(fs, threads, dirty);
   first_pass_features(fs, dirty, threads);

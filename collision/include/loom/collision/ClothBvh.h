@@ -12,6 +12,7 @@
 // patch is edge-connected, its cone's half-angle is below 90 degrees (so at every t it is a height field over
 // the cone axis) and its contour, projected along the axis, stays simple over the whole step (no two contour
 // edges sharing no vertex come closer than `margin` in projection, bounded through their motion).
+#include <algorithm>
 #include <cmath>
 #include <memory>
 #include <utility>
@@ -30,6 +31,13 @@ struct Aabb {
   void grow(const Vec3& p) { lo = lo.cwiseMin(p), hi = hi.cwiseMax(p); }
   void grow(const Aabb& b) { lo = lo.cwiseMin(b.lo), hi = hi.cwiseMax(b.hi); }
   bool overlaps(const Aabb& b) const { return (lo.array() <= b.hi.array()).all() && (b.lo.array() <= hi.array()).all(); }
+  // Overlap after inflating this box by `margin` (m) on every side.
+  bool overlaps_within(const Aabb& b, double margin) const {
+    return (lo.array() - margin <= b.hi.array()).all() && (b.lo.array() <= hi.array() + margin).all();
+  }
+  // m: the largest gap between the two boxes along an axis (<= 0 when they overlap), a lower bound on the
+  // distance between any point of one and any point of the other.
+  double gap(const Aabb& b) const { return std::max((lo - b.hi).maxCoeff(), (b.lo - hi).maxCoeff()); }
   double surface_area() const;  // m^2
 };
 
@@ -61,6 +69,14 @@ class ClothBvh {
   // pairs of subtrees as tasks), sorted. `culled` (optional) receives the number of culled nodes.
   std::vector<TrianglePair> self_pairs_culled(const Vec3s& x0, const Vec3s& x1, double margin, bool skip_adjacent,
                                               int threads = 1, long* culled = nullptr) const;
+  // The same search split into tasks, for callers that consume the pairs as they come (without the sort):
+  // {a, a} = pairs below node a, {a, b} = pairs between subtrees a and b. The split does not depend on the
+  // thread count, so visiting the tasks in order gives the same pairs in the same order for any thread count.
+  std::vector<std::pair<int, int>> self_pair_tasks(const Vec3s& x0, const Vec3s& x1, double margin,
+                                                   long* culled = nullptr) const;
+  // The pairs of one task, in traversal order (unsorted), appended to `out`; `culled` counts culled nodes.
+  void self_pairs_of_task(std::pair<int, int> task, const Vec3s& x0, const Vec3s& x1, double margin,
+                          bool skip_adjacent, std::vector<TrianglePair>& out, long& culled) const;
   // Triangles whose leaf box overlaps `box`, sorted.
   std::vector<int> query(const Aabb& box) const;
   // Pairs (i in this tree, j in `other`) whose leaf boxes overlap, sorted: cloth-cloth candidates.

@@ -78,8 +78,9 @@ class SelfCollisionStage final : public loom::cloth::Stage {
   // passed the box filter), culled_nodes (normal-cone culls), contacts (proximity +
   // continuous contacts given impulses), passes (continuous-test passes), impact_zones (zones formed),
   // zone_iterations, projections (inelastic projections of a zone), rigid_zones (zones that went rigid), bvh_rebuilds, ccd_tests and ccd_boxes (continuous tests in the passes, inclusion boxes), unresolved (steps that ended with a forced global zone), collider_fixes (vertices handed back to the body stage), collider_rounds; all since the start. Phase
-  // wall times (ms since the start): bvh_ms, pairs_ms, features_ms, proximity_ms, ccd_ms, zones_ms (the zones' own
-  // searches counted in it and in their phases).
+  // wall times (ms since the start): bvh_ms, pairs_ms (the step's first search, all_features, includes its
+  // feature extraction), features_ms (the other searches' extraction), proximity_ms, ccd_ms, zones_ms (the zones'
+  // own searches counted in it and in their phases).
   std::vector<std::pair<std::string, double>> counters() const override;
 
  private:
@@ -87,6 +88,9 @@ class SelfCollisionStage final : public loom::cloth::Stage {
     int type = 0;    // 0 VF, 1 EE
     int a = 0, b = 0;
     float cap = HUGE_VALF;  // m, the pair thickness' cap for rest neighbours (rest_cap), else infinite
+    // m, a lower bound on the two features' distance at x0 (fixed during the step), left by the proximity phase
+    // for the continuous passes; < 0: unknown.
+    float d0 = -1.0f;
     bool operator<(const Feature& o) const { return type != o.type ? type < o.type : a != o.a ? a < o.a : b < o.b; }
     bool operator==(const Feature& o) const { return type == o.type && a == o.a && b == o.b; }
   };
@@ -99,9 +103,12 @@ class SelfCollisionStage final : public loom::cloth::Stage {
 
   void setup(loom::cloth::StageContext& ctx);
   void update_bvhs(int threads, bool full_update);
-  std::vector<TrianglePair> all_triangle_pairs(int threads);
+  // The step's features of all candidate pairs (self pairs culled by normal cones, pairs between cloths).
+  std::vector<Feature> all_features(int threads);
   std::vector<TrianglePair> triangle_pairs_touching(const std::vector<char>& dirty);
   std::vector<Feature> features(const std::vector<TrianglePair>& pairs, const std::vector<char>* dirty, int threads) const;
+  void extract_features(const TrianglePair* pairs, long n, const std::vector<char>* dirty, std::vector<Feature>& out) const;
+  void vertex_boxes(int threads) const;
   Contact contact_of(const Feature& f) const;
   // m: the mean of the two cloths' thicknesses, capped for rest neighbours (Contact::cap).
   double pair_thickness(const Contact& c) const;
@@ -109,8 +116,9 @@ class SelfCollisionStage final : public loom::cloth::Stage {
   // mesh. Returns the cap of their pair thickness, half their rest distance (m), or infinity.
   float rest_cap(const Feature& f) const;
   void setup_rest_neighbours(const loom::cloth::StageContext& ctx);
-  // Proximity impulses over `fs` (all features); marks the vertices it moved in `moved`.
-  void proximity(const std::vector<Feature>& fs, int threads, std::vector<char>& moved);
+  // Proximity impulses over `fs` (all features); marks the vertices it moved in `moved`, and leaves in each feature
+  // a lower bound on its distance at x0 (Feature::d0).
+  void proximity(std::vector<Feature>& fs, int threads, std::vector<char>& moved);
   void first_pass_features(std::vector<Feature>& fs, const std::vector<char>& moved, int threads);
   // One continuous pass over `fs`; returns whether any pair hit, marks moved/hit vertices in `dirty`.
   bool ccd_pass(const std::vector<Feature>& fs, int threads, std::vector<char>& dirty);
@@ -141,6 +149,7 @@ class SelfCollisionStage final : public loom::cloth::Stage {
   std::vector<std::array<int, 3>> tri_edges_;          // global edge indices
   std::vector<int> vtx_tri_start_, vtx_tri_;           // vertex -> triangles (CSR, ascending)
   std::vector<int> edge_owner_;                        // edge -> lowest-numbered triangle holding it
+  std::vector<unsigned char> tri_owns_;                // triangle -> owner bits (vertices 0-2, edges 3-5)
   std::vector<double> cloth_thickness_, cloth_friction_;
   // Rest neighbours with their caps (m): vertex -> (triangle, cap), CSR; edge -> (higher edge, cap), CSR.
   std::vector<int> rest_vf_start_, rest_ee_start_;
@@ -165,6 +174,7 @@ class SelfCollisionStage final : public loom::cloth::Stage {
   // proximity impulses, continuous passes, impact zones (the zones' own searches included).
   double bvh_ms_ = 0.0, pairs_ms_ = 0.0, proximity_ms_ = 0.0, ccd_ms_ = 0.0, zones_ms_ = 0.0;
   mutable double features_ms_ = 0.0;
+  mutable std::vector<Aabb> vbox_;  // m, per vertex: swept box of x0 -> x1 at the last feature search
   mutable long features_ = 0;  // features extracted from candidate pairs (all calls)
 };
 
