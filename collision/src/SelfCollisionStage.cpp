@@ -378,15 +378,22 @@ std::vector<SelfCollisionStage::Feature> SelfCollisionStage::features(const std:
                                                                      int threads) const {
   PhaseTimer timer(features_ms_);
   vertex_boxes(threads);
+  std::vector<Feature> out = extract_in_chunks(pairs, dirty, threads);
+  features_ += static_cast<long>(out.size());
+  return out;
+}
+
+// extract_features over `pairs` (vertex boxes already computed): chunks in parallel, joined in pair order.
+std::vector<SelfCollisionStage::Feature> SelfCollisionStage::extract_in_chunks(const std::vector<TrianglePair>& pairs,
+                                                                              const std::vector<char>* dirty,
+                                                                              int threads) const {
   const long n = static_cast<long>(pairs.size());
   const int chunks = n < 4096 ? 1 : std::max(1, threads) * 4;
   std::vector<std::vector<Feature>> parts(chunks);
 #pragma omp parallel for num_threads(threads) if (threads > 1 && chunks > 1) schedule(dynamic, 1)
   for (int ch = 0; ch < chunks; ++ch)
     extract_features(pairs.data() + n * ch / chunks, n * (ch + 1) / chunks - n * ch / chunks, dirty, parts[ch]);
-  std::vector<Feature> out = join_chunks(parts);
-  features_ += static_cast<long>(out.size());
-  return out;
+  return join_chunks(parts);
 }
 
 // The step's search over all pairs, features straight from the traversal: the self pairs of each cloth (normal-
@@ -431,13 +438,8 @@ std::vector<SelfCollisionStage::Feature> SelfCollisionStage::all_features(int th
       for (const TrianglePair& p : bvhs_[c]->cross_pairs(*bvhs_[d])) pairs.emplace_back(tri_offset_[c] + p.first, tri_offset_[d] + p.second);
     if (pairs.empty()) continue;
     candidate_pairs_ += static_cast<long>(pairs.size());
-    const long n = static_cast<long>(pairs.size());
-    const int chunks = n < 4096 ? 1 : std::max(1, threads) * 4;
-    std::vector<std::vector<Feature>> parts(chunks);
-#pragma omp parallel for num_threads(threads) if (threads > 1 && chunks > 1) schedule(dynamic, 1)
-    for (int ch = 0; ch < chunks; ++ch)
-      extract_features(pairs.data() + n * ch / chunks, n * (ch + 1) / chunks - n * ch / chunks, nullptr, parts[ch]);
-    for (const auto& part : parts) out.insert(out.end(), part.begin(), part.end());
+    const std::vector<Feature> fc = extract_in_chunks(pairs, nullptr, threads);
+    out.insert(out.end(), fc.begin(), fc.end());
   }
   features_ += static_cast<long>(out.size());
   // In the order of their first vertex (a stable counting sort): the phases after this one then read the

@@ -108,6 +108,8 @@ class SelfCollisionStage final : public loom::cloth::Stage {
   std::vector<TrianglePair> triangle_pairs_touching(const std::vector<char>& dirty);
   std::vector<Feature> features(const std::vector<TrianglePair>& pairs, const std::vector<char>* dirty, int threads) const;
   void extract_features(const TrianglePair* pairs, long n, const std::vector<char>* dirty, std::vector<Feature>& out) const;
+  std::vector<Feature> extract_in_chunks(const std::vector<TrianglePair>& pairs, const std::vector<char>* dirty,
+                                         int threads) const;
   void vertex_boxes(int threads) const;
   Contact contact_of(const Feature& f) const;
   // m: the mean of the two cloths' thicknesses, capped for rest neighbours (Contact::cap).
