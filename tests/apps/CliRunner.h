@@ -10,6 +10,8 @@
 #include <sstream>
 #include <string>
 
+#include "TestDir.h"
+
 namespace loom::test {
 
 struct CliResult {
@@ -22,17 +24,6 @@ inline std::string slurp(const std::filesystem::path& p) {
   std::stringstream s;
   s << in.rdbuf();
   return s.str();
-}
-
-// A scratch folder for the current test (created, not emptied).
-inline std::filesystem::path test_dir() {
-  const auto* info = ::testing::UnitTest::GetInstance()->current_test_info();
-  std::string name = std::string(info->test_suite_name()) + "." + info->name() + "." + std::to_string(getpid());
-  for (char& c : name)
-    if (c == '/') c = '_';
-  const auto dir = std::filesystem::temp_directory_path() / "loom_tests" / name;
-  std::filesystem::create_directories(dir);
-  return dir;
 }
 
 // Writes a scene (a JSON value: anything with dump(indent)) into the test's scratch folder; returns its path.

@@ -8,6 +8,7 @@
 #include "loom/cloth/ClothMesh.h"
 #include "loom/cloth/Error.h"
 #include "loom/cloth/SpringSet.h"
+#include "TestDir.h"
 
 namespace loom::cloth {
 namespace {
@@ -15,9 +16,7 @@ namespace {
 namespace fs = std::filesystem;
 
 std::string write_temp(const std::string& name, const std::string& text) {
-  const fs::path dir = fs::temp_directory_path() / "loom_mesh_tests";
-  fs::create_directories(dir);
-  const fs::path p = dir / name;
+  const fs::path p = test::test_dir() / name;
   std::ofstream(p) << text;
   return p.string();
 }

@@ -15,6 +15,7 @@
 
 #ifdef LOOM_HAVE_TINYGLTF
 #include <tiny_gltf.h>
+#include "TestDir.h"
 #endif
 
 namespace loom::exporter {
@@ -25,7 +26,7 @@ using cloth::Vec3;
 using cloth::Vec3s;
 
 fs::path fresh_dir(const std::string& name) {
-  const fs::path d = fs::temp_directory_path() / "loom_export_tests" / name;
+  const fs::path d = test::test_dir() / name;
   fs::remove_all(d);
   fs::create_directories(d);
   return d;

@@ -7,6 +7,7 @@
 
 #include "loom/cloth/Error.h"
 #include "loom/scene/Scene.h"
+#include "TestDir.h"
 
 namespace loom::scene {
 namespace {
@@ -14,9 +15,7 @@ namespace {
 namespace fs = std::filesystem;
 
 std::string write_scene(const std::string& name, const std::string& text) {
-  const fs::path dir = fs::temp_directory_path() / "loom_issue10_scene_tests";
-  fs::create_directories(dir);
-  const fs::path p = dir / name;
+  const fs::path p = test::test_dir() / name;
   std::ofstream(p) << text;
   return p.string();
 }

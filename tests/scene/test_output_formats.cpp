@@ -7,6 +7,7 @@
 
 #include "loom/cloth/Error.h"
 #include "loom/scene/Scene.h"
+#include "TestDir.h"
 
 namespace loom::scene {
 namespace {
@@ -19,9 +20,7 @@ const char* kScene = R"({
 })";
 
 std::string scene_file() {
-  const fs::path dir = fs::temp_directory_path() / "loom_scene_tests";
-  fs::create_directories(dir);
-  const fs::path p = dir / "output_formats.json";
+  const fs::path p = test::test_dir() / "output_formats.json";
   std::ofstream(p) << kScene;
   return p.string();
 }

@@ -8,6 +8,7 @@
 
 #include "loom/cloth/Error.h"
 #include "loom/scene/Scene.h"
+#include "TestDir.h"
 
 namespace loom::scene {
 namespace {
@@ -24,9 +25,7 @@ const char* kScene = R"({
 })";
 
 std::string write_scene(const std::string& name) {
-  const fs::path dir = fs::temp_directory_path() / "loom_scene_constraint_tests";
-  fs::create_directories(dir);
-  const fs::path p = dir / (name + ".json");
+  const fs::path p = test::test_dir() / (name + ".json");
   std::ofstream(p) << kScene;
   return p.string();
 }

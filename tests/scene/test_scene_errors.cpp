@@ -6,6 +6,7 @@
 
 #include "loom/cloth/Error.h"
 #include "loom/scene/Scene.h"
+#include "TestDir.h"
 
 namespace loom::scene {
 namespace {
@@ -23,9 +24,7 @@ const char* kValid = R"({
 })";
 
 std::string write_scene(const std::string& name, const std::string& text) {
-  const fs::path dir = fs::temp_directory_path() / "loom_scene_tests";
-  fs::create_directories(dir);
-  const fs::path p = dir / name;
+  const fs::path p = test::test_dir() / name;
   std::ofstream(p) << text;
   return p.string();
 }
@@ -120,9 +119,7 @@ INSTANTIATE_TEST_SUITE_P(AllCases, SceneErrors, ::testing::ValuesIn(kCases),
                          [](const ::testing::TestParamInfo<Case>& info) { return std::string(info.param.name); });
 
 TEST(Scene, ObjErrorsNameSceneMeshAndObjLine) {
-  const fs::path dir = fs::temp_directory_path() / "loom_scene_tests";
-  fs::create_directories(dir);
-  std::ofstream(dir / "broken.obj") << "v 0 0 0\nv 1 0 0\nv 0 1 0\nf 1 2 9\n";
+  std::ofstream(test::test_dir() / "broken.obj") << "v 0 0 0\nv 1 0 0\nv 0 1 0\nf 1 2 9\n";
   const std::string path = write_scene("obj_scene.json", kValid);
   try {
     load_scene(path, {"cloths[0].mesh={\"type\": \"obj\", \"path\": \"broken.obj\"}", "cloths[0].pins=[]"});

@@ -1,0 +1,24 @@
+#pragma once
+// A scratch folder per running test. ctest runs every test as its own process, two at a time, so tests of one
+// executable must never share a file: a test that rewrites a shared scene file while another reads it sees a
+// half-written file now and then (CI failed on exactly that in OutputRender.DefaultsAndCamera).
+#include <gtest/gtest.h>
+#include <unistd.h>
+
+#include <filesystem>
+#include <string>
+
+namespace loom::test {
+
+// <tmp>/loom_tests/<suite>.<test>.<pid>: created, not emptied.
+inline std::filesystem::path test_dir() {
+  const auto* info = ::testing::UnitTest::GetInstance()->current_test_info();
+  std::string name = std::string(info->test_suite_name()) + "." + info->name() + "." + std::to_string(getpid());
+  for (char& c : name)
+    if (c == '/') c = '_';
+  const auto dir = std::filesystem::temp_directory_path() / "loom_tests" / name;
+  std::filesystem::create_directories(dir);
+  return dir;
+}
+
+}  // namespace loom::test
