@@ -286,14 +286,11 @@ TEST(SelfCollision, FrictionPerMaterialPair) {
 // the triangle's vertex b0 that rests on a floor (the body stage leaves it near a collider, so the self stage
 // counts it 1000 times heavier). The contact point is 90 % at b0: sharing the velocity change by those
 // weights inside the triangle moved the point by flicking the two far vertices at ~9x the contact's speed
-// (20 m/s). The split between the two cloths uses the near-body weights, the share inside a cloth the
-// vertices' own masses: no vertex of the triangle is faster than the pin, nothing passes through, b0 does
-// not go into the floor. Both the proximity impulse (start gap 0.5 mm) and the continuous pass (2 mm).
-// DISABLED: the fix (SelfCollisionStage::contact_shares, commits 3fe6c9b / 7e624fe) was reverted at the end of the
-// fifth pass: the feature-internal share broke CollisionScenes.TableclothPull (18.7 m/s), the min-of-both variant
-// broke the stability row crushed_in_shrinking_box_to_30_cm/symplectic_euler (cloth intersections). Bridson's
-// share gives 20.7 m/s here.
-TEST(SelfCollision, DISABLED_ContactNextToANearBodyVertexDoesNotFlickTheFarVertices) {
+// (20.7 m/s with Bridson's shares unbounded, max_share 0). With the shares capped at max_share (1: no vertex
+// changes faster than the contact) the triangle gives way as a whole: no vertex of it is faster than the pin,
+// nothing passes through, b0 does not go into the floor. Both the proximity impulse (start gap 0.5 mm) and the
+// continuous pass (2 mm).
+TEST(SelfCollision, ContactNextToANearBodyVertexDoesNotFlickTheFarVertices) {
   for (double gap : {5e-4, 2e-3}) {
     const Vec3 b0(0, 0.0015, 0), b1(0.1, 0.0515, 0), b2(0, 0.0515, 0.1);
     const Vec3 n = (b1 - b0).cross(b2 - b0).normalized() * -1.0;  // the triangle's upper side (+y)

@@ -179,7 +179,7 @@ const std::map<std::string, std::vector<Expect>> kExpected = {
     {"collider_spinning_50_rad_s",        /* */ {F, S, S, S, S, S, S, S, S}},
     {"crushed_in_shrinking_box_to_50_cm", /* */ {F, S, S, S, S, S, S, S, S}},
     {"crushed_in_shrinking_box_to_30_cm", /* */ {F, S, S, S, S, S, S, S, S}},
-    {"character_clip_at_3x",              /* */ {F, S, S, S, S, S, S, S, F}},
+    {"character_clip_at_3x",              /* */ {F, S, S, S, S, S, S, S, S}},
 };
 
 struct Outcome {
@@ -335,10 +335,12 @@ int num_cases() { return static_cast<int>(collision_cases().size()); }
 // After merging the issue-5 collision speed work and the issue-6 capsule crease exit with the guard (ctest,
 // 2 threads, idle machine): box to 30 cm pbd F -> S (census 0 over 356 steps, strain 0.999 of the 1.0 bound,
 // E/bound 0.99: a narrow survival), 48 s; every other row as above.
+// With the cloth-cloth impulse shares capped (SelfCollisionSettings::max_share, issue 6; `--gtest_filter=
+// '*crushed*:*Collision*'`, 313 s wall, load ~2): character_clip_at_3x desbrun F -> S (census 0 over 252 steps,
+// strain 0.929, E/bound 0.37); every other row as above.
 // Before the intersection guard the table took 482 s wall (280 s CPU) for the 23 rows then in ctest: the rows
 // that tangled spent it in the self-collision stage of a tangled sheet (50 cm pbd alone 257 s).
-// Engine gaps the F rows show: explicit Euler does not hold cotton at 100-200 substeps; self-collision (collision/, issue 5) leaves an
-// intersecting pair on the fast character for Desbrun that 128 substeps do not cure.
+// Engine gaps the F rows show: explicit Euler does not hold cotton at 100-200 substeps.
 std::string row_name(const std::tuple<int, int>& row) {
   static const std::vector<CollisionCase> cases = collision_cases();
   return cases[std::get<0>(row)].name + "_" + kSolvers[std::get<1>(row)];

@@ -59,6 +59,9 @@ struct SelfCollisionSettings {
   bool normal_cones = true;        // cull self pairs of flat patches (never pairs between cloths)
   int max_zone_iterations = 200;   // fail-safe rounds before every vertex goes into one zone
   double near_body_mass = 1e3;     // 1, mass factor of vertices the body stage left near a collider
+  // 1, the largest velocity change a cloth-cloth impulse gives one vertex, as a multiple of the contact's
+  // relative velocity change (capped_shares in the .cpp); <= 0 or infinite: Bridson's shares unbounded
+  double max_share = 1.0;
 };
 
 class BodyCollisionStage;
