@@ -180,25 +180,26 @@ void ClothBvh::build_topology() {
   }
 }
 
-void ClothBvh::refit_internal(int id) {
+void ClothBvh::refit_internal(int id, bool cones) {
   Node& nd = nodes_[id];
   if (nd.left < 0) return;
   const Node& l = nodes_[nd.left];
   const Node& r = nodes_[nd.right];
   nd.box = l.box;
   nd.box.grow(r.box);
-  merge_cones(l.axis, l.angle, r.axis, r.angle, nd.axis, nd.angle);
+  if (cones) merge_cones(l.axis, l.angle, r.axis, r.angle, nd.axis, nd.angle);
 }
 
-void ClothBvh::refit(const Vec3s& x0, const Vec3s& x1, double thickness, int threads) {
+void ClothBvh::refit(const Vec3s& x0, const Vec3s& x1, double thickness, int threads, bool cones) {
   const auto& tris = mesh_->triangles();
   const int n = static_cast<int>(tris.size());
 #pragma omp parallel for num_threads(threads) if (threads > 1) schedule(static)
   for (int i = 0; i < n; ++i) {
     Node& leaf = nodes_[leaf_of_[i]];
     leaf.box = leaf_box(tris[i], x0, x1, thickness);
-    leaf_cone(tris[i], x0, x1, leaf.axis, leaf.angle);
+    if (cones) leaf_cone(tris[i], x0, x1, leaf.axis, leaf.angle);
   }
+  cones_valid_ = cones;
   // Internal nodes: children come after their parent (pre-order), so a reverse sweep sees both children
   // first. In parallel: the subtrees below a frontier of >= 4 x threads nodes (each a contiguous index range)
   // as tasks, then the nodes above the frontier.
@@ -224,10 +225,10 @@ void ClothBvh::refit(const Vec3s& x0, const Vec3s& x1, double thickness, int thr
 #pragma omp parallel for num_threads(threads) if (threads > 1) schedule(dynamic, 1)
   for (int f = 0; f < nf; ++f) {
     const int root = frontier[f];
-    for (int id = root + 2 * nodes_[root].count - 2; id >= root; --id) refit_internal(id);
+    for (int id = root + 2 * nodes_[root].count - 2; id >= root; --id) refit_internal(id, cones);
   }
   std::sort(top.begin(), top.end());
-  for (auto it = top.rbegin(); it != top.rend(); ++it) refit_internal(*it);
+  for (auto it = top.rbegin(); it != top.rend(); ++it) refit_internal(*it, cones);
   if (rebuilt_pending_) {
     area_after_build_ = surface_area_sum();
     rebuilt_pending_ = false;
@@ -306,6 +307,7 @@ std::vector<TrianglePair> ClothBvh::self_pairs(bool skip_adjacent) const {
 // nothing more) and fine meshes keep their culling.
 bool ClothBvh::cullable(int n, const Vec3s& x0, const Vec3s& x1, double margin) const {
   const Node& nd = nodes_[n];
+  if (!cones_valid_) return false;  // stale cones (box-only refit): nothing is culled
   if (nd.count < kConeMin || !nd.connected || !(nd.angle < 0.5 * M_PI * (1.0 - 1e-9))) return false;
   const std::vector<EdgeKey>& c = contour_[n];
   const Vec3 d = nd.axis;

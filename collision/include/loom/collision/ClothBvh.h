@@ -53,8 +53,10 @@ class ClothBvh {
   // Builds the tree over the mesh's rest positions (material space); boxes are the rest triangles.
   explicit ClothBvh(std::shared_ptr<const loom::cloth::ClothMesh> mesh, ClothBvhSettings settings = {});
 
-  // Leaf boxes = box(triangle at x0, triangle at x1) inflated by thickness (m); parents refitted.
-  void refit(const Vec3s& x0, const Vec3s& x1, double thickness, int threads = 1);
+  // Leaf boxes = box(triangle at x0, triangle at x1) inflated by thickness (m); parents refitted. With
+  // `cones` false only the boxes are refitted (queries within a step need no cones): the cones are then
+  // marked stale and no node is culled until the next refit with cones.
+  void refit(const Vec3s& x0, const Vec3s& x1, double thickness, int threads = 1, bool cones = true);
   // New topology from the triangle centroids at x1, then refit.
   void rebuild(const Vec3s& x0, const Vec3s& x1, double thickness, int threads = 1);
   // One step's update: refit, and rebuild if the quality dropped or rebuild_every steps passed. Returns
@@ -100,7 +102,7 @@ class ClothBvh {
   };
   using EdgeKey = std::pair<int, int>;  // vertex pair, first < second
   void build_topology();
-  void refit_internal(int id);
+  void refit_internal(int id, bool cones);
   bool cullable(int n, const Vec3s& x0, const Vec3s& x1, double margin) const;
   void self_recurse_culled(int n, bool skip_adjacent, const Vec3s& x0, const Vec3s& x1, double margin,
                            std::vector<TrianglePair>& out, long& culled) const;
@@ -120,6 +122,7 @@ class ClothBvh {
   int steps_since_build_ = 0;
   int rebuilds_ = 0;
   bool rebuilt_pending_ = false;  // build() ran; the next refit records area_after_build_
+  bool cones_valid_ = true;       // the cones hold the last refit's motion (false after a box-only refit)
 };
 
 // Sorts pairs of non-negative indices (lexicographically), in time linear in the count and the largest first
