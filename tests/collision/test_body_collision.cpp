@@ -267,6 +267,42 @@ TEST(BodyCollision, CapsuleThreadedThroughATriangleDoesNotTearItsEdgesApart) {
   }
 }
 
+// One vertex (P) on three edges that cross a capsule below the sheet at different depths, each of its three
+// partners (Q1-Q3) on that one corrected edge only; Q3, on the deepest, also holds a hem edge Q3-R that touches
+// nothing. Scaled per end, Q3 took its whole inverse-mass share of a 1.6 cm deficit while P took the mean, and
+// Q3 alone jumped away from R (layers on Boxing_Toes at 3.33 s: a skirt vertex moved 8.9 cm in one substep, its
+// hem edge went to strain 0.87 and the implicit step threw the hem vertex at 18.4 m/s). Both ends of an edge now
+// take the same fraction: the edge is moved along the normal, not swung about P.
+TEST(BodyCollision, EdgeCorrectionMovesBothEndsAlikeAndSparesTheirOtherEdges) {
+  const Vec3 p(0, 0, 0), q1(0, 0, 0.1), q2(0.1, 0, 0.1), q3(-0.1, 0, 0.1), r(-0.2, 0, 0.15);
+  auto mesh = cloth::ClothMesh::from_triangles({p, q1, q2, q3, r}, {{0, 2, 1}, {0, 1, 3}, {3, 1, 4}}, {}, "fan");
+  std::vector<std::unique_ptr<cloth::Cloth>> cloths;
+  cloths.push_back(std::make_unique<cloth::Cloth>("fan", mesh, cloth::material_preset("cotton")));
+  auto& st = cloths[0]->state();
+  st.x_prev = st.x;
+  // Along x under the line z = 0.05, tilted: its axis 5 mm below the sheet at x = -0.05, 15 mm at x = 0.05.
+  Collider c = shape(ShapeType::capsule, 0.02, 0.3);
+  c.thickness = 0.001;
+  c.prev = c.curr = at(Vec3(0, -0.01, 0.05), -M_PI / 2 - std::atan(0.1));
+  auto set = std::make_shared<ColliderSet>(1, c);
+  const double rest = (q3 - r).norm();
+  BodyCollisionStage stage(set);
+  cloth::StageContext ctx{cloths, 0.0, 1.0 / 240.0, 1};
+  stage.run(ctx);
+  EXPECT_TRUE(st.is_finite());
+  // The capsule reached all three edges of P (deficits 0.6-1.6 cm) and moved them out.
+  for (const auto& e : mesh->edges()) {
+    double sp = 0.0;
+    Vec3 n;
+    EXPECT_GT(segment_capsule_distance(c, c.curr, st.x[e.i], st.x[e.j], &sp, &n), -0.002) << "edge " << e.i << "-" << e.j;
+  }
+  EXPECT_GT((st.x[0] - p).norm(), 0.003);
+  // Q3 moves no farther than P (1.4 vs 1.8 cm; scaled per end 2.1 vs 1.1 cm), and its hem edge stretches by
+  // less than 1.8% (1.3%; scaled per end 2.5%).
+  EXPECT_LE((st.x[3] - q3).norm(), (st.x[0] - p).norm() + 1e-12);
+  EXPECT_LT((st.x[3] - st.x[4]).norm() / rest - 1.0, 0.018);
+}
+
 TEST(BodyCollision, OneAndTwoThreadsBitIdentical) {
   cloth::Vec3s a, b;
   capsule_shot(1, &a);
