@@ -13,6 +13,7 @@
 #include <sstream>
 #include <string>
 #include <vector>
+#include "TestDir.h"
 
 namespace {
 
@@ -49,7 +50,7 @@ std::set<std::string> registered_solvers(const fs::path& dir) {
 }  // namespace
 
 TEST(BenchAccuracy, QuickRunWritesTheCsvWithEveryMethodAndTheReferenceCheck) {
-  const fs::path dir = fs::temp_directory_path() / "loom_bench_accuracy_tests";
+  const fs::path dir = loom::test::test_dir() / "out";
   fs::remove_all(dir);
   const fs::path out = dir / "out";
   const Result r = run("bench accuracy --quick --out " + out.string(), dir);
@@ -103,7 +104,7 @@ TEST(BenchAccuracy, QuickRunWritesTheCsvWithEveryMethodAndTheReferenceCheck) {
 }
 
 TEST(BenchAccuracy, BadOptionsExitWithTwo) {
-  const fs::path dir = fs::temp_directory_path() / "loom_bench_accuracy_tests_bad";
+  const fs::path dir = loom::test::test_dir() / "bad";
   EXPECT_EQ(run("bench accuracy --sizes 2,x", dir).code, 2);
   EXPECT_EQ(run("bench accuracy --bogus", dir).code, 2);
   EXPECT_EQ(run("bench nothing", dir).code, 2);

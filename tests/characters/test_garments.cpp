@@ -7,6 +7,7 @@
 #include "loom/characters/Character.h"
 #include "loom/cloth/Error.h"
 #include "loom/cloth/Material.h"
+#include "TestDir.h"
 
 namespace {
 
@@ -141,7 +142,7 @@ TEST(Garments, AttachedVerticesTrackTheirBonesAtEverySubstep) {
 
 TEST(Garments, ObjGarmentAttachesNamedGroups) {
   // A 3 x 3-vertex square with a "collar" group (the top row's faces) and a "body" group.
-  const std::string path = testing::TempDir() + "/loom_char_garment.obj";
+  const std::string path = (loom::test::test_dir() / "loom_char_garment.obj").string();
   {
     std::ofstream o(path);
     for (int j = 0; j < 3; ++j)

@@ -10,6 +10,7 @@
 
 #include "loom/cloth/Error.h"
 #include "loom/collision/CcdSampleQueries.h"
+#include "TestDir.h"
 
 namespace lc = loom::collision;
 using lc::Vec3;
@@ -82,7 +83,7 @@ TEST(CcdSampleQueries, ScaleTranslateKeepsCoordinatesExact) {
 }
 
 TEST(CcdSampleQueries, ReaderErrorsNameFileAndLine) {
-  const std::string dir = testing::TempDir() + "/vertex-face";
+  const std::string dir = (loom::test::test_dir() / "vertex-face").string();
   std::filesystem::create_directories(dir);
   const std::string f = dir + "/bad.csv";
   {
@@ -96,7 +97,7 @@ TEST(CcdSampleQueries, ReaderErrorsNameFileAndLine) {
   } catch (const loom::Error& e) {
     EXPECT_NE(std::string(e.what()).find("bad.csv: line 4"), std::string::npos) << e.what();
   }
-  EXPECT_THROW(lc::read_ccd_queries(testing::TempDir() + "/no-type.csv"), loom::Error);
+  EXPECT_THROW(lc::read_ccd_queries((loom::test::test_dir() / "no-type.csv").string()), loom::Error);
 }
 
 // A vertex falling through the centre of a triangle: FCL misses this at 1 mm scale (reference/collision.md).

@@ -15,8 +15,9 @@
 
 #ifdef LOOM_HAVE_TINYGLTF
 #include <tiny_gltf.h>
-#include "TestDir.h"
 #endif
+
+#include "TestDir.h"
 
 namespace loom::exporter {
 namespace {

@@ -10,6 +10,7 @@
 
 #include "loom/cloth/ClothMesh.h"
 #include "loom/render/Renderer.h"
+#include "TestDir.h"
 
 namespace loom::render {
 namespace {
@@ -124,7 +125,7 @@ TEST(Render, BackSideIsLitAndShadowFallsOnTheGround) {
 }
 
 TEST(Render, LoomRunRenderWritesPngsVideoAndGif) {
-  const fs::path out = fs::temp_directory_path() / "loom_render_tests" / "run";
+  const fs::path out = loom::test::test_dir() / "run";
   fs::remove_all(out);
   const std::string cmd = std::string(LOOM_BINARY) + " run " + LOOM_SOURCE_DIR +
                           "/scenes/hanging_cloth.json --frames 6 --render --out " + out.string() +

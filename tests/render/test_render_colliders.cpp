@@ -11,6 +11,7 @@
 
 #include "loom/cloth/ClothMesh.h"
 #include "loom/render/Renderer.h"
+#include "TestDir.h"
 
 namespace loom::render {
 namespace {
@@ -116,7 +117,7 @@ TEST(RenderColliders, ClothInFrontHidesTheColliderAndAGroundPlaneMovesTheGround)
 // End to end: `loom run --render` on a scene with a sphere collider shows it in the frames.
 TEST(RenderColliders, LoomRunRenderShowsTheScenesColliders) {
   namespace fs = std::filesystem;
-  const fs::path out = fs::temp_directory_path() / "loom_render_tests" / "colliders";
+  const fs::path out = loom::test::test_dir() / "colliders";
   fs::remove_all(out);
   const std::string cmd = std::string(LOOM_BINARY) + " run " + LOOM_SOURCE_DIR +
                           "/scenes/sphere_spin.json --frames 2 --render --out " + out.string() +

@@ -7,13 +7,14 @@
 #include <cstdlib>
 #include <filesystem>
 #include <string>
+#include "TestDir.h"
 
 namespace {
 
 namespace fs = std::filesystem;
 
 TEST(Viewer, XvfbRunsHundredFramesAndScreenshotShowsCloth) {
-  const fs::path dir = fs::temp_directory_path() / "loom_viewer_tests";
+  const fs::path dir = loom::test::test_dir();
   fs::create_directories(dir);
   const fs::path shot = dir / "view.png";
   fs::remove(shot);
@@ -37,7 +38,7 @@ TEST(Viewer, XvfbRunsHundredFramesAndScreenshotShowsCloth) {
 
 // A scene with colliders: the screenshot shows the sphere collider (slate-teal) under the draped cloth.
 TEST(Viewer, XvfbScreenshotShowsColliders) {
-  const fs::path dir = fs::temp_directory_path() / "loom_viewer_tests";
+  const fs::path dir = loom::test::test_dir();
   fs::create_directories(dir);
   const fs::path shot = dir / "colliders.png";
   fs::remove(shot);
@@ -61,7 +62,7 @@ TEST(Viewer, XvfbScreenshotShowsColliders) {
 // collider (slate-teal) on the red sheet. Only when built with the Bullet bridge.
 #ifdef LOOM_HAVE_BULLET
 TEST(Viewer, XvfbRunsBulletBodiesSceneAndShowsTheBox) {
-  const fs::path dir = fs::temp_directory_path() / "loom_viewer_tests";
+  const fs::path dir = loom::test::test_dir();
   fs::create_directories(dir);
   const fs::path shot = dir / "bodies.png";
   fs::remove(shot);
