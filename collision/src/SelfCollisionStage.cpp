@@ -487,6 +487,51 @@ double SelfCollisionStage::pair_thickness(const Contact& c) const {
   return std::min(0.5 * (cloth_thickness_[c.cloth_a] + cloth_thickness_[c.cloth_b]), c.cap);
 }
 
+// Shares beta_k of a contact's velocity change dv per vertex (vertex k changes by beta_k dv), with
+// sum_k w_k beta_k = 1 so the contact's relative velocity changes by dv. Bridson et al. 2002, Sec. 7.1 take the
+// least mass-weighted change, beta_k = lambda w_k m_k^-1 with lambda = 1 / sum_j w_j^2 m_j^-1 (m^-1 = the
+// stage's inverse masses `im`). The same least change under the bound |beta_k| <= cap: beta_k =
+// sign(w_k) min(cap, lambda |w_k| m_k^-1), with lambda raised until the constraint holds again (the vertices
+// over the bound are capped one round at a time; once capped, a vertex stays capped as lambda only grows).
+// Without the bound, a contact point next to a vertex the body stage left near a collider (1000 times heavier
+// here) was moved by flicking the feature's far vertex at 1/w_k times the contact's change (layers 01_01 at
+// 6.24 s: 52.9 m/s). Where only vertices that cannot move (m^-1 = 0) could take the rest, every vertex that can
+// move takes the bound and the rest of the change is left to the next pass and the impact zones: Bridson's
+// unbounded shares there flicked a free vertex at 14 times the contact's change (layers 01_03 at 25.64 s: edge
+// 45-46 against 64-65, the contact 95 % at vertices the collider round had just held, 2 m/s -> 33 m/s).
+// Returns false when no vertex can move.
+bool capped_shares(const double w[4], const double im[4], int first, double cap, double beta[4]) {
+  double denom = 0.0;
+  for (int k = 0; k < 4; ++k) denom += w[k] * w[k] * im[k];
+  if (!(denom > 0.0)) return false;
+  for (int k = 0; k < 4; ++k) beta[k] = w[k] * im[k] / denom;
+  if (!(cap > 0.0)) return true;
+  bool capped[4] = {false, false, false, false};
+  for (;;) {  // each further round caps at least one more movable vertex: at most 5 rounds
+    double rest = 1.0, free_denom = 0.0;
+    for (int k = 0; k < 4; ++k) {
+      if (capped[k]) rest -= cap * std::abs(w[k]);
+      else free_denom += w[k] * w[k] * im[k];
+    }
+    // Infeasible: every movable vertex of the contact is at the bound (or, by rounding, the capped ones already
+    // give the whole change). Every movable vertex of both features takes the bound on its feature's side,
+    // those with w_k = 0 too (a contact on a triangle's edge): each feature moves as a block and keeps its shape.
+    // Moving only the w_k != 0 vertices sheared the features: the 30 cm box with PBD then failed with 65 new
+    // intersecting triangle pairs (tests/stability, crushed_in_shrinking_box_to_30_cm_pbd).
+    if (!(free_denom > 0.0) || !(rest > 0.0)) {
+      for (int k = 0; k < 4; ++k) beta[k] = im[k] > 0.0 ? (k < first ? cap : -cap) : 0.0;
+      return true;
+    }
+    const double lambda = rest / free_denom;
+    bool more = false;
+    for (int k = 0; k < 4; ++k)
+      if (!capped[k] && lambda * std::abs(w[k]) * im[k] > cap * (1.0 + 1e-9)) capped[k] = more = true;  // rounding
+    if (more) continue;
+    for (int k = 0; k < 4; ++k) beta[k] = capped[k] ? std::copysign(cap, w[k]) : lambda * w[k] * im[k];
+    return true;
+  }
+}
+
 // Per-contact velocity changes dv[4] (m/s) are applied per vertex: averaged over the vertex's contacts, in the
 // contacts' (sorted) order, so the result does not depend on the thread count.
 namespace {
@@ -508,47 +553,6 @@ std::vector<Impulse> collect_impulses(long n, int threads, Body body) {
   for (int ch = 0; ch < chunks; ++ch)
     for (long i = n * ch / chunks; i < n * (ch + 1) / chunks; ++i) body(i, parts[ch]);
   return join_chunks(parts);
-}
-
-// Shares beta_k of a contact's velocity change dv per vertex (vertex k changes by beta_k dv), with
-// sum_k w_k beta_k = 1 so the contact's relative velocity changes by dv. Bridson et al. 2002, Sec. 7.1 take the
-// least mass-weighted change, beta_k = lambda w_k m_k^-1 with lambda = 1 / sum_j w_j^2 m_j^-1 (m^-1 = the
-// stage's inverse masses `im`). The same least change under the bound |beta_k| <= cap: beta_k =
-// sign(w_k) min(cap, lambda |w_k| m_k^-1), with lambda raised until the constraint holds again (the vertices
-// over the bound are capped one round at a time; once capped, a vertex stays capped as lambda only grows).
-// Without the bound, a contact point next to a vertex the body stage left near a collider (1000 times heavier
-// here) was moved by flicking the feature's far vertex at 1/w_k times the contact's change (layers 01_01 at
-// 6.24 s: 52.9 m/s). Where only vertices that cannot move (m^-1 = 0) could take the rest, every vertex that can
-// move takes the bound and the rest of the change is left to the next pass and the impact zones: Bridson's
-// unbounded shares there flicked a free vertex at 14 times the contact's change (layers 01_03 at 25.64 s: edge
-// 45-46 against 64-65, the contact 95 % at vertices the collider round had just held, 2 m/s -> 33 m/s).
-// Returns false when no vertex can move.
-bool capped_shares(const double w[4], const double im[4], double cap, double beta[4]) {
-  double denom = 0.0;
-  for (int k = 0; k < 4; ++k) denom += w[k] * w[k] * im[k];
-  if (!(denom > 0.0)) return false;
-  for (int k = 0; k < 4; ++k) beta[k] = w[k] * im[k] / denom;
-  if (!(cap > 0.0)) return true;
-  bool capped[4] = {false, false, false, false};
-  for (int round = 0; round < 4; ++round) {
-    double rest = 1.0, free_denom = 0.0;
-    for (int k = 0; k < 4; ++k) {
-      if (capped[k]) rest -= cap * std::abs(w[k]);
-      else free_denom += w[k] * w[k] * im[k];
-    }
-    if (!(free_denom > 0.0) || !(rest > 0.0)) {  // infeasible: every movable vertex at the bound
-      for (int k = 0; k < 4; ++k) beta[k] = im[k] > 0.0 ? std::copysign(cap, w[k]) : 0.0;
-      return true;
-    }
-    const double lambda = rest / free_denom;
-    bool more = false;
-    for (int k = 0; k < 4; ++k)
-      if (!capped[k] && lambda * std::abs(w[k]) * im[k] > cap * (1.0 + 1e-9)) capped[k] = more = true;  // rounding
-    if (more) continue;
-    for (int k = 0; k < 4; ++k) beta[k] = capped[k] ? std::copysign(cap, w[k]) : lambda * w[k] * im[k];
-    return true;
-  }
-  return true;
 }
 
 void apply_impulses(const std::vector<Impulse>& imp, double h, Vec3s& x1, std::vector<char>* moved) {
@@ -624,7 +628,7 @@ void SelfCollisionStage::proximity(std::vector<Feature>& fs, int threads, std::v
       vrel += w[k] * (x1_[c.v[k]] - x0_[c.v[k]]) / h_;
       im_k[k] = w_[c.v[k]];
     }
-    if (!capped_shares(w, im_k, settings_.max_share, beta)) return;
+    if (!capped_shares(w, im_k, fs[i].type == 0 ? 1 : 2, settings_.max_share, beta)) return;
     Vec3 nrm;
     if (!contact_normal(diff, fallback, vrel, nrm)) return;
     const double vn = vrel.dot(nrm);
@@ -754,7 +758,7 @@ bool SelfCollisionStage::ccd_pass(const std::vector<Feature>& fs, int threads, s
       vrel += w[k] * (*a1[k] - *a0[k]) / h_;
       im_k[k] = w_[c.v[k]];
     }
-    if (!capped_shares(w, im_k, settings_.max_share, beta)) return;
+    if (!capped_shares(w, im_k, fs[i].type == 0 ? 1 : 2, settings_.max_share, beta)) return;
     Vec3 nrm;
     if (!contact_normal(diff, fallback, side, nrm)) return;
     const double vn = vrel.dot(nrm);

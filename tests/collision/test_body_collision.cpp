@@ -267,6 +267,51 @@ TEST(BodyCollision, CapsuleThreadedThroughATriangleDoesNotTearItsEdgesApart) {
   }
 }
 
+// KNOWN GAP, disabled. The threaded test compares each corrected edge's normal with the vertex's *first*
+// capsule correction only. Here v0's first corrected edge (v0-v1) lies on a limb below the sheet (capsule A),
+// and a second capsule B is threaded through triangle (v0 v2 v3) near v0, reaching edges v0-v2 and v0-v3 from
+// opposite sides: B's two edges are corrected and pull v2 and v3 apart. Comparing every two edges of a vertex
+// per capsule (and dropping only that capsule's edges) passes this test, but made the layers on Boxing_Toes
+// worse (max speed 22.3 m/s at 27.63 s, strain 1.11, against 12.1 / 0.53 with the first-normal test; session
+// 8), so it is not in.
+TEST(BodyCollision, DISABLED_ThreadedCapsuleIsFoundBehindAnotherCollidersEdge) {
+  auto mesh = cloth::ClothMesh::from_triangles(
+      {Vec3(0, 0, 0), Vec3(0.3, 0, 0), Vec3(0.3, 0, 0.3), Vec3(0, 0, 0.3)}, {{0, 1, 2}, {0, 2, 3}}, {}, "square");
+  ASSERT_EQ(mesh->edges()[0].i, 0);
+  ASSERT_EQ(mesh->edges()[0].j, 1);  // v0's first edge in the stage's order is A's
+  std::vector<std::unique_ptr<cloth::Cloth>> cloths;
+  cloths.push_back(std::make_unique<cloth::Cloth>("square", mesh, cloth::material_preset("cotton")));
+  auto& st = cloths[0]->state();
+  st.x_prev = st.x;
+  for (Vec3& p : st.x_prev) p.y() += 0.01;  // the sheet comes down 1 cm onto A (and along B's axis)
+  const Vec3s start = st.x;
+  auto set = std::make_shared<ColliderSet>();
+  Collider b = shape(ShapeType::capsule, 0.015, 0.1);  // vertical, 1 cm from x = 0 and 1.3 cm from z = x
+  b.thickness = 0.001;
+  b.prev = b.curr = at(Vec3(0.01, 0, 0.028));
+  set->push_back(b);
+  Collider a = shape(ShapeType::capsule, 0.015, 0.1);  // along x from 0.05 to 0.25, 1.1 cm from edge v0-v1
+  a.thickness = 0.001;
+  a.prev = a.curr = at(Vec3(0.15, -0.01, -0.005), -M_PI / 2);
+  set->push_back(a);
+  BodyCollisionStage stage(set);
+  cloth::StageContext ctx{cloths, 0.0, 1.0 / 240.0, 1};
+  stage.run(ctx);
+  double threaded_edges = -1.0;
+  for (const auto& [k, v] : stage.counters())
+    if (k == "threaded_edges") threaded_edges = v;
+  EXPECT_GT(threaded_edges, 0.0);
+  EXPECT_TRUE(st.is_finite());
+  // v2 and v3 are on no corrected edge: they stay where they were, so B did not pull them apart.
+  EXPECT_EQ((st.x[2] - start[2]).norm(), 0.0);
+  EXPECT_EQ((st.x[3] - start[3]).norm(), 0.0);
+  // A's edge was corrected out of A.
+  double sp = 0.0;
+  Vec3 n;
+  EXPECT_GT(segment_capsule_distance(a, a.curr, st.x[0], st.x[1], &sp, &n), 0.0);
+  EXPECT_GT((st.x[0] - start[0]).norm(), 1e-3);
+}
+
 // One vertex (P) on three edges that cross a capsule below the sheet at different depths, each of its three
 // partners (Q1-Q3) on that one corrected edge only; Q3, on the deepest, also holds a hem edge Q3-R that touches
 // nothing. Scaled per end, Q3 took its whole inverse-mass share of a 1.6 cm deficit while P took the mean, and

@@ -2,6 +2,7 @@
 // culling (flat sheets culled, pairs between layers never), friction per material pair, the profile counters.
 #include <gtest/gtest.h>
 
+#include <cmath>
 #include <memory>
 #include <random>
 
@@ -290,6 +291,49 @@ TEST(SelfCollision, FrictionPerMaterialPair) {
 // changes faster than the contact) the triangle gives way as a whole: no vertex of it is faster than the pin,
 // nothing passes through, b0 does not go into the floor. Both the proximity impulse (start gap 0.5 mm) and the
 // continuous pass (2 mm).
+// The bounded shares: the constraint sum_k w_k beta_k = 1 holds wherever some movable vertex is below the
+// bound, and no share exceeds it. Where held vertices leave the movable ones at the bound, the features move
+// as blocks: a vertex with w_k = 0 (closest point on a triangle's edge) moves with its feature, on its
+// feature's side whatever the sign of the zero.
+TEST(SelfCollision, CappedSharesKeepTheBoundAndMoveFeaturesAsBlocks) {
+  auto constraint = [](const double w[4], const double b[4]) {
+    return w[0] * b[0] + w[1] * b[1] + w[2] * b[2] + w[3] * b[3];
+  };
+  double beta[4];
+  {  // free contact, equal masses: Bridson's shares are within the bound and kept
+    const double w[4] = {1.0, -0.2, -0.3, -0.5}, im[4] = {1.0, 1.0, 1.0, 1.0};
+    ASSERT_TRUE(capped_shares(w, im, 1, 1.0, beta));
+    EXPECT_NEAR(constraint(w, beta), 1.0, 1e-12);
+    for (int k = 0; k < 4; ++k) EXPECT_NEAR(beta[k], w[k] / 1.38, 1e-12) << k;
+  }
+  {  // a heavy point (held near a body): the light far vertex alone would take 1/0.1 = 10x; capped at 1
+    const double w[4] = {1.0, -0.9, -0.1, 0.0}, im[4] = {1e-3, 1e-3, 1.0, 1.0};
+    ASSERT_TRUE(capped_shares(w, im, 1, 1.0, beta));
+    for (int k = 0; k < 4; ++k) EXPECT_LE(std::abs(beta[k]), 1.0 + 1e-9) << k;
+    EXPECT_NEAR(constraint(w, beta), 1.0, 1e-9);
+    EXPECT_EQ(beta[3], 0.0);
+  }
+  {  // held point and vertex (inverse mass 0): the movable t1 and t2 (w = +0, on the edge t0-t1) take the
+     // bound on the triangle's side
+    const double w[4] = {1.0, -0.5, -0.5, 0.0}, im[4] = {0.0, 0.0, 1.0, 1.0};
+    ASSERT_TRUE(capped_shares(w, im, 1, 1.0, beta));
+    EXPECT_EQ(beta[0], 0.0);
+    EXPECT_EQ(beta[1], 0.0);
+    EXPECT_EQ(beta[2], -1.0);
+    EXPECT_EQ(beta[3], -1.0);
+  }
+  {  // a tight bound (0.3 < 1 / sum|w_k|) and masses that cap one vertex per round: the fourth round caps the
+     // last vertex, and the fifth finds none left below the bound; none may end beyond it
+    const double w[4] = {1.0, -0.4, -0.35, -0.25}, im[4] = {1.0, 1e-2, 1e-4, 1e-6};
+    ASSERT_TRUE(capped_shares(w, im, 1, 0.3, beta));
+    for (int k = 0; k < 4; ++k) EXPECT_NEAR(std::abs(beta[k]), 0.3, 1e-12) << k;
+  }
+  {  // nothing can move
+    const double w[4] = {1.0, -1.0, 0.0, 0.0}, im[4] = {0.0, 0.0, 0.0, 0.0};
+    EXPECT_FALSE(capped_shares(w, im, 1, 1.0, beta));
+  }
+}
+
 TEST(SelfCollision, ContactNextToANearBodyVertexDoesNotFlickTheFarVertices) {
   for (double gap : {5e-4, 2e-3}) {
     const Vec3 b0(0, 0.0015, 0), b1(0.1, 0.0515, 0), b2(0, 0.0515, 0.1);

@@ -64,6 +64,15 @@ struct SelfCollisionSettings {
   double max_share = 1.0;
 };
 
+// Shares beta_k (k = the contact's four vertices) of a cloth-cloth contact's velocity change: vertex k changes by
+// beta_k dv, with sum_k w_k beta_k = 1 for the barycentric weights w_k, the least mass-weighted change under
+// |beta_k| <= cap (cap <= 0 or infinite: Bridson et al. 2002's unbounded shares); im = inverse masses. The first
+// `first` vertices are one feature (w_k >= 0: the point of a vertex-face pair, first = 1, or an edge, first = 2),
+// the others the second (w_k <= 0). Where no movable vertex is left below the bound, every movable vertex takes
+// the bound on its feature's side, w_k = 0 included (each feature moves as a block), and the rest is left to the
+// next pass. Returns false when no vertex can move.
+bool capped_shares(const double w[4], const double im[4], int first, double cap, double beta[4]);
+
 class BodyCollisionStage;
 
 class SelfCollisionStage final : public loom::cloth::Stage {
