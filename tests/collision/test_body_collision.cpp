@@ -5,6 +5,7 @@
 
 #include <cmath>
 #include <functional>
+#include <string>
 
 #include "loom/cloth/Simulation.h"
 #include "loom/collision/BodyCollisionStage.h"
@@ -213,6 +214,17 @@ TEST(BodyCollision, VertexInTheCreaseOfTwoCapsulesEndsOutsideBoth) {
   EXPECT_GT(worst, -1e-9);
 }
 
+// Runs a body stage on `set` once (one 240 Hz step) and returns its counter `name` (-1 if it has none).
+double run_once(std::vector<std::unique_ptr<cloth::Cloth>>& cloths, const std::shared_ptr<ColliderSet>& set,
+                const std::string& name) {
+  BodyCollisionStage stage(set);
+  cloth::StageContext ctx{cloths, 0.0, 1.0 / 240.0, 1};
+  stage.run(ctx);
+  for (const auto& [k, v] : stage.counters())
+    if (k == name) return v;
+  return -1.0;
+}
+
 // A capsule threaded through a cloth triangle (a hand through a coarse skirt): inside the triangle (v0 v1 v2)
 // near its 45-degree corner v0, touching both edges v0-v1 and v0-v2 from inside. Corrected, the two edges
 // went to opposite sides and pulled v1 and v2 apart (skirt on Boxing_Toes: strain 2.5, then 25-48 m/s from
@@ -241,12 +253,7 @@ TEST(BodyCollision, CapsuleThreadedThroughATriangleDoesNotTearItsEdgesApart) {
     set->push_back(c);
     std::vector<double> before;
     for (const auto& e : mesh->edges()) before.push_back((st.x[e.i] - st.x[e.j]).norm());
-    BodyCollisionStage stage(set);
-    cloth::StageContext ctx{cloths, 0.0, 1.0 / 240.0, 1};
-    stage.run(ctx);
-    double threaded_edges = -1.0;
-    for (const auto& [k, v] : stage.counters())
-      if (k == "threaded_edges") threaded_edges = v;
+    const double threaded_edges = run_once(cloths, set, "threaded_edges");
     double stretch = 0.0;
     for (size_t e = 0; e < mesh->edges().size(); ++e)
       stretch = std::max(stretch, (st.x[mesh->edges()[e].i] - st.x[mesh->edges()[e].j]).norm() - before[e]);
@@ -294,12 +301,7 @@ TEST(BodyCollision, DISABLED_ThreadedCapsuleIsFoundBehindAnotherCollidersEdge) {
   a.thickness = 0.001;
   a.prev = a.curr = at(Vec3(0.15, -0.01, -0.005), -M_PI / 2);
   set->push_back(a);
-  BodyCollisionStage stage(set);
-  cloth::StageContext ctx{cloths, 0.0, 1.0 / 240.0, 1};
-  stage.run(ctx);
-  double threaded_edges = -1.0;
-  for (const auto& [k, v] : stage.counters())
-    if (k == "threaded_edges") threaded_edges = v;
+  const double threaded_edges = run_once(cloths, set, "threaded_edges");
   EXPECT_GT(threaded_edges, 0.0);
   EXPECT_TRUE(st.is_finite());
   // v2 and v3 are on no corrected edge: they stay where they were, so B did not pull them apart.
