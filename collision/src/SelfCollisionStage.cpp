@@ -68,6 +68,18 @@ std::vector<T> join_chunks(std::vector<std::vector<T>>& parts) {
   return out;
 }
 
+// Runs body(begin, end, out) over contiguous chunks of [0, n) in parallel, each chunk appending to its own list,
+// and returns the lists joined in chunk order: the serial order whatever the thread count. Below `serial_below`
+// one chunk; else `per_thread` chunks per thread (dynamic schedule: chunks of uneven cost).
+template <class T, class Body>
+std::vector<T> in_chunks(long n, int threads, long serial_below, int per_thread, Body body) {
+  const int chunks = n < serial_below ? 1 : std::max(1, threads) * per_thread;
+  std::vector<std::vector<T>> parts(chunks);
+#pragma omp parallel for num_threads(threads) if (threads > 1 && chunks > 1) schedule(dynamic, 1)
+  for (int ch = 0; ch < chunks; ++ch) body(n * ch / chunks, n * (ch + 1) / chunks, parts[ch]);
+  return join_chunks(parts);
+}
+
 }  // namespace
 
 std::vector<std::pair<std::string, double>> SelfCollisionStage::counters() const {
@@ -278,13 +290,8 @@ std::vector<TrianglePair> SelfCollisionStage::triangle_pairs_touching(const std:
   std::vector<int> list;
   for (int t = 0; t < static_cast<int>(tris_.size()); ++t)
     if (td[t]) list.push_back(t);
-  const long n = static_cast<long>(list.size());
-  const int chunks = n < 512 ? 1 : std::max(1, threads) * 8;
-  std::vector<std::vector<TrianglePair>> parts(chunks);
-#pragma omp parallel for num_threads(threads) if (threads > 1 && chunks > 1) schedule(dynamic, 1)
-  for (int ch = 0; ch < chunks; ++ch) {
-    std::vector<TrianglePair>& part = parts[ch];
-    for (long i = n * ch / chunks; i < n * (ch + 1) / chunks; ++i) {
+  auto query = [&](long begin, long end, std::vector<TrianglePair>& part) {
+    for (long i = begin; i < end; ++i) {
       const int t = list[i];
       const int c = tri_cloth_[t];
       Aabb box;
@@ -299,8 +306,8 @@ std::vector<TrianglePair> SelfCollisionStage::triangle_pairs_touching(const std:
         }
       }
     }
-  }
-  std::vector<TrianglePair> out = join_chunks(parts);
+  };
+  std::vector<TrianglePair> out = in_chunks<TrianglePair>(static_cast<long>(list.size()), threads, 512, 8, query);
   sort_pairs(out);
   out.erase(std::unique(out.begin(), out.end()), out.end());
   candidate_pairs_ += static_cast<long>(out.size());
@@ -402,13 +409,10 @@ std::vector<SelfCollisionStage::Feature> SelfCollisionStage::features(const std:
 std::vector<SelfCollisionStage::Feature> SelfCollisionStage::extract_in_chunks(const std::vector<TrianglePair>& pairs,
                                                                               const std::vector<char>* dirty,
                                                                               int threads) const {
-  const long n = static_cast<long>(pairs.size());
-  const int chunks = n < 4096 ? 1 : std::max(1, threads) * 4;
-  std::vector<std::vector<Feature>> parts(chunks);
-#pragma omp parallel for num_threads(threads) if (threads > 1 && chunks > 1) schedule(dynamic, 1)
-  for (int ch = 0; ch < chunks; ++ch)
-    extract_features(pairs.data() + n * ch / chunks, n * (ch + 1) / chunks - n * ch / chunks, dirty, parts[ch]);
-  return join_chunks(parts);
+  return in_chunks<Feature>(static_cast<long>(pairs.size()), threads, 4096, 4,
+                            [&](long begin, long end, std::vector<Feature>& out) {
+                              extract_features(pairs.data() + begin, end - begin, dirty, out);
+                            });
 }
 
 // The step's search over all pairs, features straight from the traversal: the self pairs of each cloth (normal-
@@ -499,7 +503,6 @@ double SelfCollisionStage::pair_thickness(const Contact& c) const {
 // move takes the bound and the rest of the change is left to the next pass and the impact zones: Bridson's
 // unbounded shares there flicked a free vertex at 14 times the contact's change (layers 01_03 at 25.64 s: edge
 // 45-46 against 64-65, the contact 95 % at vertices the collider round had just held, 2 m/s -> 33 m/s).
-// Returns false when no vertex can move.
 bool capped_shares(const double w[4], const double im[4], int first, double cap, double beta[4]) {
   double denom = 0.0;
   for (int k = 0; k < 4; ++k) denom += w[k] * w[k] * im[k];
@@ -542,17 +545,13 @@ struct Impulse {  // a contact's velocity changes (m/s) of its four vertices; in
   bool active = false;
 };
 
-// Runs body(i, out) for i in [0, n) in parallel over contiguous chunks, each appending to its own list, and
-// returns the lists joined in chunk order: the order of i whatever the thread count, with no per-feature
-// storage (most features give nothing).
+// Runs body(i, out) for every feature i in [0, n) (in_chunks): the impulses in the order of i whatever the thread
+// count, with no per-feature storage (most features give nothing).
 template <class Body>
 std::vector<Impulse> collect_impulses(long n, int threads, Body body) {
-  const int chunks = n < 4096 ? 1 : std::max(1, threads) * 8;
-  std::vector<std::vector<Impulse>> parts(chunks);
-#pragma omp parallel for num_threads(threads) if (threads > 1 && chunks > 1) schedule(dynamic, 1)
-  for (int ch = 0; ch < chunks; ++ch)
-    for (long i = n * ch / chunks; i < n * (ch + 1) / chunks; ++i) body(i, parts[ch]);
-  return join_chunks(parts);
+  return in_chunks<Impulse>(n, threads, 4096, 8, [&](long begin, long end, std::vector<Impulse>& out) {
+    for (long i = begin; i < end; ++i) body(i, out);
+  });
 }
 
 void apply_impulses(const std::vector<Impulse>& imp, double h, Vec3s& x1, std::vector<char>* moved) {
