@@ -59,18 +59,16 @@ Deformation deformation(const BwTriangle& t, const Vec3s& x, const Vec3s& v) {
 }  // namespace
 
 double BaraffWitkinTerm::energy(const EvalContext& c) const {
-  double e = 0.0;
-  for (const BwTriangle& t : tris_) {
+  return chunked_sum(static_cast<int>(tris_.size()), c.threads, [&](int k) {
+    const BwTriangle& t = tris_[k];
     const Deformation d = deformation(t, c.x, c.v);
     if (kind_ == Kind::kStretch) {
       const double cu = t.alpha * (d.wu.norm() - 1.0), cv = t.alpha * (d.wv.norm() - 1.0);
-      e += 0.5 * (k_u_ * cu * cu + k_v_ * cv * cv);
-    } else {
-      const double cs = t.alpha * d.wu.dot(d.wv);
-      e += 0.5 * k_s_ * cs * cs;
+      return 0.5 * (k_u_ * cu * cu + k_v_ * cv * cv);
     }
-  }
-  return e;
+    const double cs = t.alpha * d.wu.dot(d.wv);
+    return 0.5 * k_s_ * cs * cs;
+  });
 }
 
 void BaraffWitkinTerm::add_forces(const EvalContext& c, Vec3s& f) const {

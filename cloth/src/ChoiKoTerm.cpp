@@ -374,15 +374,14 @@ double ChoiKoTerm::interlaced_energy(const BucklingSpring& s, double l) const {
 }
 
 double ChoiKoTerm::energy(const EvalContext& c) const {
-  double e = 0.0;
-  for (size_t k = 0; k < sequential_.size(); ++k) {
+  const double seq = chunked_sum(static_cast<int>(sequential_.size()), c.threads, [&](int k) {
     const Spring& s = sequential_[k];
     const double l = (c.x[s.j] - c.x[s.i]).norm(), stretch = l - s.rest_length;
-    if (stretch > 0.0) e += 0.5 * s.k * stretch * stretch;
-    else if (!seq_buckle_.empty()) e += interlaced_energy(seq_buckle_[k], l);
-  }
-  for (const BucklingSpring& s : interlaced_) e += spring_energy(s, c.x);
-  return e;
+    if (stretch > 0.0) return 0.5 * s.k * stretch * stretch;
+    return seq_buckle_.empty() ? 0.0 : interlaced_energy(seq_buckle_[k], l);
+  });
+  return seq + chunked_sum(static_cast<int>(interlaced_.size()), c.threads,
+                           [&](int k) { return spring_energy(interlaced_[k], c.x); });
 }
 
 void ChoiKoTerm::add_forces(const EvalContext& c, Vec3s& f) const {

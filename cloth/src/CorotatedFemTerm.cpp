@@ -110,13 +110,12 @@ CorotatedFemTerm::CorotatedFemTerm(int num_vertices, std::vector<BwTriangle> tri
 }
 
 double CorotatedFemTerm::energy(const EvalContext& c) const {
-  double e = 0.0;
-  Vec3 grad[3];
-  for (const BwTriangle& t : tris_) {
+  return chunked_sum(static_cast<int>(tris_.size()), c.threads, [&](int k) {
+    const BwTriangle& t = tris_[k];
     const Vec3 x[3] = {c.x[t.v[0]], c.x[t.v[1]], c.x[t.v[2]]};
-    e += fem_gradient(t, x, y_u_, y_v_, g_, grad);
-  }
-  return e;
+    Vec3 grad[3];
+    return fem_gradient(t, x, y_u_, y_v_, g_, grad);
+  });
 }
 
 void CorotatedFemTerm::triangle_forces(int k, const EvalContext& c, Vec3* out) const {

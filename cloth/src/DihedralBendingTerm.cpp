@@ -67,17 +67,16 @@ DihedralBendingTerm::DihedralBendingTerm(int num_vertices, std::vector<BendHinge
 }
 
 double DihedralBendingTerm::energy(const EvalContext& c) const {
-  double e = 0.0;
-  for (const BendHinge& h : hinges_) {
+  return chunked_sum(static_cast<int>(hinges_.size()), c.threads, [&](int k) {
+    const BendHinge& h = hinges_[k];
     const Vec3 &x1 = c.x[h.v[0]], &x2 = c.x[h.v[1]], &x3 = c.x[h.v[2]], &x4 = c.x[h.v[3]];
     const Vec3 E = x4 - x3;
     const double e2 = E.squaredNorm();
     const double n1 = (x1 - x3).cross(x1 - x4).squaredNorm(), n2 = (x2 - x4).cross(x2 - x3).squaredNorm();
-    if (!(e2 > 0.0) || !(n1 > 1e-20 * e2 * e2) || !(n2 > 1e-20 * e2 * e2)) continue;  // as theta_gradient
+    if (!(e2 > 0.0) || !(n1 > 1e-20 * e2 * e2) || !(n2 > 1e-20 * e2 * e2)) return 0.0;  // as theta_gradient
     const double d = wrap(dihedral_angle(x1, x2, x3, x4) - h.rest_angle);
-    e += h.k * d * d;
-  }
-  return e;
+    return h.k * d * d;
+  });
 }
 
 void DihedralBendingTerm::add_forces(const EvalContext& c, Vec3s& f) const {

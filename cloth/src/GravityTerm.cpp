@@ -3,9 +3,7 @@
 namespace loom::cloth {
 
 double GravityTerm::energy(const EvalContext& c) const {
-  double e = 0.0;
-  for (size_t i = 0; i < mass_.size(); ++i) e -= mass_[i] * g_.dot(c.x[i]);
-  return e;
+  return -chunked_sum(static_cast<int>(mass_.size()), c.threads, [&](int i) { return mass_[i] * g_.dot(c.x[i]); });
 }
 
 void GravityTerm::add_forces(const EvalContext& c, Vec3s& f) const {

@@ -12,12 +12,11 @@ SpringTerm::SpringTerm(int num_vertices, std::vector<Spring> springs, const char
 }
 
 double SpringTerm::energy(const EvalContext& c) const {
-  double e = 0.0;
-  for (const Spring& s : springs_) {
+  return chunked_sum(static_cast<int>(springs_.size()), c.threads, [&](int k) {
+    const Spring& s = springs_[k];
     const double stretch = (c.x[s.j] - c.x[s.i]).norm() - s.rest_length;
-    e += 0.5 * s.k * stretch * stretch;
-  }
-  return e;
+    return 0.5 * s.k * stretch * stretch;
+  });
 }
 
 void SpringTerm::add_forces(const EvalContext& c, Vec3s& f) const {

@@ -3,12 +3,14 @@
 #include <gtest/gtest.h>
 
 #include <Eigen/Eigenvalues>
+#include <cmath>
 #include <functional>
 #include <random>
 
 #include "TestUtil.h"
 #include "loom/cloth/AirDragTerm.h"
 #include "loom/cloth/GravityTerm.h"
+#include "loom/cloth/Model.h"
 #include "loom/cloth/SpringSet.h"
 #include "loom/cloth/SpringTerm.h"
 
@@ -128,6 +130,47 @@ TEST(Jacobians, AirDragOpposesRelativeMotion) {
   double power = 0.0;
   for (size_t i = 0; i < f.size(); ++i) power += f[i].dot(v[i]);
   EXPECT_LT(power, 0.0);  // drag only dissipates
+}
+
+}  // namespace
+}  // namespace loom::cloth
+
+namespace loom::cloth {
+namespace {
+
+using test::perturbed;
+
+TEST(Energies, ChunkedSumIsTheSerialSumUpToOneChunkAndThreadIndependent) {
+  std::mt19937 rng(7);
+  std::uniform_real_distribution<double> u(-1.0, 1.0);
+  std::vector<double> v(5000);
+  for (double& a : v) a = u(rng) * std::exp(10.0 * u(rng));  // magnitudes over 9 decades: order matters
+  const auto term = [&](int k) { return v[k]; };
+  double serial = 0.0;
+  for (int k = 0; k < 512; ++k) serial += v[k];
+  EXPECT_EQ(chunked_sum(512, 2, term), serial);  // one chunk: the serial loop, bit for bit
+  long double exact = 0.0L;
+  for (double a : v) exact += a;
+  const double one = chunked_sum(5000, 1, term), two = chunked_sum(5000, 2, term);
+  EXPECT_EQ(one, two);
+  EXPECT_NEAR(one, static_cast<double>(exact), 1e-12 * std::exp(10.0) * 5000);
+  EXPECT_EQ(chunked_sum(0, 2, term), 0.0);
+}
+
+TEST(Energies, EveryModelsEnergyHasTheSameBitsOnOneAndTwoThreads) {
+  // A 48x48 sheet (4418 triangles, > kParallelMinVertices elements: the chunks run in parallel), deformed.
+  std::mt19937 rng(8);
+  for (const std::string& model : model_names()) {
+    GridSpec g;
+    g.nodes_u = g.nodes_v = 48;
+    auto mesh = ClothMesh::grid(g);
+    Cloth cloth("sheet", mesh, material_preset("cotton"));
+    add_model_terms(cloth, model, "", "model");
+    cloth.state().x = perturbed(mesh->rest_positions(), 0.005, rng);
+    const double one = cloth.elastic_energy(1), two = cloth.elastic_energy(2);
+    EXPECT_GT(one, 0.0) << model;
+    EXPECT_EQ(one, two) << model;
+  }
 }
 
 }  // namespace

@@ -2,6 +2,7 @@
 // Term: one piece of physics (gravity, springs, drag, ...). Every term gives its energy, its forces and its
 // 3x3 Jacobian blocks; solvers consume terms only through this interface (DESIGN.md, "terms"). Virtual
 // dispatch happens per term, never per element.
+#include <algorithm>
 #include <utility>
 #include <vector>
 
@@ -28,6 +29,27 @@ struct JacobianOptions {
 // Per-vertex loops shorter than this run on one thread: the fork/join costs more than the work (results do not
 // depend on it: such loops are independent per vertex).
 constexpr int kParallelMinVertices = 2048;
+
+// Σ_{k<n} f(k), deterministically: the terms are added in fixed chunks of 512, then the chunk sums in order,
+// so the result has the same bits for any thread count. Chunks run on several threads from
+// kParallelMinVertices terms up (energies of large meshes: the implicit safeguard and line search evaluate
+// them several times per step). With at most one chunk it is the serial loop's sum, bit for bit.
+template <class F>
+double chunked_sum(int n, int threads, const F& f) {
+  constexpr int kChunk = 512;
+  const int chunks = (n + kChunk - 1) / kChunk;
+  std::vector<double> partial(std::max(chunks, 0), 0.0);
+#pragma omp parallel for num_threads(threads) if (threads > 1 && n >= kParallelMinVertices) schedule(static)
+  for (int ch = 0; ch < chunks; ++ch) {
+    double acc = 0.0;
+    const int end = std::min(n, (ch + 1) * kChunk);
+    for (int k = ch * kChunk; k < end; ++k) acc += f(k);
+    partial[ch] = acc;
+  }
+  double sum = 0.0;
+  for (double p : partial) sum += p;
+  return sum;
+}
 
 class Term {
  public:
