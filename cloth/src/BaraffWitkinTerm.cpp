@@ -2,7 +2,7 @@
 
 #include <cmath>
 
-#include "TriangleJacobians.h"
+#include "ElementJacobians.h"
 
 namespace loom::cloth {
 
@@ -171,7 +171,7 @@ void BaraffWitkinTerm::triangle_blocks(int k, const EvalContext& c, const Jacobi
 void BaraffWitkinTerm::add_jacobians(const EvalContext& c, const JacobianOptions& o, BlockMatrix* dfdx,
                                      BlockMatrix* dfdv) const {
   if (!dfdx && !dfdv) return;
-  assemble_triangle_jacobians(tris_, c.threads, dfdv && damping_ != 0.0, scatter_, gather_x_, gather_v_,
+  assemble_element_jacobians<3>(tris_, c.threads, dfdv && damping_ != 0.0, scatter_, gather_x_, gather_v_,
                               dx_blocks_, dv_blocks_, dfdx, dfdv,
                               [&](int k, Mat3* kx, Mat3* kv) { triangle_blocks(k, c, o, kx, kv); });
 }

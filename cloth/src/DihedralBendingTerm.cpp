@@ -4,6 +4,8 @@
 #include <map>
 #include <unsupported/Eigen/AutoDiff>
 
+#include "ElementJacobians.h"
+
 namespace loom::cloth {
 
 namespace {
@@ -150,32 +152,11 @@ void DihedralBendingTerm::hinge_blocks(int k, const EvalContext& c, const Jacobi
 void DihedralBendingTerm::add_jacobians(const EvalContext& c, const JacobianOptions& o, BlockMatrix* dfdx,
                                         BlockMatrix* dfdv) const {
   if (!dfdx && !dfdv) return;
-  const int nh = static_cast<int>(hinges_.size());
   const bool want_v = dfdv && damping_ != 0.0;
-  auto scatter = [&](int k, const Mat3* kx, const Mat3* kv) {
-    const auto& v = hinges_[k].v;
-    for (int i = 0; i < 4; ++i)
-      for (int j = 0; j < 4; ++j) {
-        const int q = 16 * k + 4 * i + j;
-        if (dfdx) scatter_.add(*dfdx, q, v[i], v[j], kx[4 * i + j]);
-        if (want_v) scatter_.add(*dfdv, q, v[i], v[j], kv[4 * i + j]);
-      }
-  };
-  if (c.threads <= 1) {
-    // One pass, no scratch; the same blocks in the same order as the parallel path (bit-identical).
-    Mat3 kx[16], kv[16];
-    for (int k = 0; k < nh; ++k) {
-      hinge_blocks(k, c, o, kx, want_v ? kv : nullptr);
-      scatter(k, kx, kv);
-    }
-    return;
-  }
-  dx_blocks_.resize(16 * hinges_.size());
-  if (want_v) dv_blocks_.resize(16 * hinges_.size());
-#pragma omp parallel for num_threads(c.threads) schedule(static)
-  for (int k = 0; k < nh; ++k)
-    hinge_blocks(k, c, o, &dx_blocks_[16 * k], want_v ? &dv_blocks_[16 * k] : nullptr);
-  for (int k = 0; k < nh; ++k) scatter(k, &dx_blocks_[16 * k], want_v ? &dv_blocks_[16 * k] : nullptr);
+  assemble_element_jacobians<4>(hinges_, c.threads, want_v, scatter_, gather_x_, gather_v_, dx_blocks_, dv_blocks_,
+                                 dfdx, dfdv, [&](int k, Mat3* kx, Mat3* kv) {
+                                   hinge_blocks(k, c, o, kx, want_v ? kv : nullptr);
+                                 });
 }
 
 std::unique_ptr<Term> make_dihedral_bending_term(const ClothMesh& mesh, const Material& m) {

@@ -21,6 +21,7 @@
 #include <memory>
 #include <vector>
 
+#include "loom/cloth/BlockGather.h"
 #include "loom/cloth/BlockScatter.h"
 #include "loom/cloth/ClothMesh.h"
 #include "loom/cloth/ElementGather.h"
@@ -61,6 +62,7 @@ class DihedralBendingTerm final : public Term {
   mutable Vec3s corner_force_;                       // scratch: 4 per hinge
   mutable std::vector<Mat3> dx_blocks_, dv_blocks_;  // scratch: 16 per hinge
   mutable BlockScatter scatter_;
+  mutable BlockGather gather_x_, gather_v_;  // threaded assembly (ElementJacobians.h)
 };
 
 std::unique_ptr<Term> make_dihedral_bending_term(const ClothMesh& mesh, const Material& m);
