@@ -39,8 +39,8 @@ void DesbrunSolver::step(Cloth& cloth, double t, double h, int threads) {
   rhs_.resize(num_free_, 3);
   for (int i = 0; i < n; ++i)
     if (index_[i] >= 0) rhs_.row(index_[i]) = h * f_[i].transpose();
-  dv_ = llt_.solve(rhs_);
-  if (angular_correction_) correct_angular_momentum(s, h);
+  solve_columns(llt_, rhs_, dv_, n >= kMinParallel ? threads : 1);
+  if (angular_correction_) correct_angular_momentum(s, h, threads);
   s.x_prev = s.x;
 #pragma omp parallel for num_threads(threads) if (threads > 1 && n >= kMinParallel) schedule(static)
   for (int i = 0; i < n; ++i) {
@@ -49,7 +49,7 @@ void DesbrunSolver::step(Cloth& cloth, double t, double h, int threads) {
   }
 }
 
-void DesbrunSolver::correct_angular_momentum(const ClothState& s, double h) {
+void DesbrunSolver::correct_angular_momentum(const ClothState& s, double h, int threads) {
   if (num_free_ < 3) return;
   // The internal forces (springs between free vertices) are central: zero net torque. Their filtered
   // response W h f_int carries a spurious angular momentum; remove it with a rigid rotation about the free
@@ -75,7 +75,8 @@ void DesbrunSolver::correct_angular_momentum(const ClothState& s, double h) {
     rhs_.row(fi) += f.transpose();
     rhs_.row(fj) -= f.transpose();
   }
-  const Eigen::MatrixX3d dv_int = llt_.solve(rhs_);
+  Eigen::MatrixX3d dv_int;
+  solve_columns(llt_, rhs_, dv_int, s.size() >= kMinParallel ? threads : 1);
   Vec3 spurious = Vec3::Zero();
   Mat3 inertia = Mat3::Zero();
   for (int i = 0; i < s.size(); ++i) {

@@ -31,7 +31,7 @@ class DesbrunSolver final : public Solver {
 
  private:
   void prepare(const Cloth& cloth, double h);
-  void correct_angular_momentum(const ClothState& s, double h);
+  void correct_angular_momentum(const ClothState& s, double h, int threads);
 
   bool angular_correction_;
   Eigen::SimplicialLLT<Eigen::SparseMatrix<double>> llt_;
