@@ -221,9 +221,9 @@ void CorotatedFemTerm::triangle_blocks(int k, const EvalContext& c, const Jacobi
 void CorotatedFemTerm::add_jacobians(const EvalContext& c, const JacobianOptions& o, BlockMatrix* dfdx,
                                      BlockMatrix* dfdv) const {
   if (!dfdx && !dfdv) return;
-  assemble_element_jacobians<3>(tris_, c.threads, dfdv && damping_ != 0.0, scatter_, gather_x_, gather_v_,
-                              dx_blocks_, dv_blocks_, dfdx, dfdv,
-                              [&](int k, Mat3* kx, Mat3* kv) { triangle_blocks(k, c, o, kx, kv); });
+  assemble_element_jacobians(tris_, c.threads, dfdv && damping_ != 0.0, scatter_, gather_x_, gather_v_,
+                             dx_blocks_, dv_blocks_, dfdx, dfdv,
+                             [&](int k, Mat3* kx, Mat3* kv) { triangle_blocks(k, c, o, kx, kv); });
 }
 
 std::unique_ptr<Term> make_corotated_fem_term(const ClothMesh& mesh, const Material& m) {

@@ -153,10 +153,9 @@ void DihedralBendingTerm::add_jacobians(const EvalContext& c, const JacobianOpti
                                         BlockMatrix* dfdv) const {
   if (!dfdx && !dfdv) return;
   const bool want_v = dfdv && damping_ != 0.0;
-  assemble_element_jacobians<4>(hinges_, c.threads, want_v, scatter_, gather_x_, gather_v_, dx_blocks_, dv_blocks_,
-                                 dfdx, dfdv, [&](int k, Mat3* kx, Mat3* kv) {
-                                   hinge_blocks(k, c, o, kx, want_v ? kv : nullptr);
-                                 });
+  assemble_element_jacobians(
+      hinges_, c.threads, want_v, scatter_, gather_x_, gather_v_, dx_blocks_, dv_blocks_, dfdx, dfdv,
+      [&](int k, Mat3* kx, Mat3* kv) { hinge_blocks(k, c, o, kx, want_v ? kv : nullptr); });
 }
 
 std::unique_ptr<Term> make_dihedral_bending_term(const ClothMesh& mesh, const Material& m) {

@@ -1,6 +1,8 @@
 #pragma once
 // Assembly of per-element Jacobian blocks shared by the element terms: triangles (BaraffWitkinTerm,
 // CorotatedFemTerm, 3 corners) and bending hinges (DihedralBendingTerm, 4 corners).
+#include <array>
+#include <tuple>
 #include <vector>
 
 #include "loom/cloth/BlockGather.h"
@@ -9,17 +11,19 @@
 
 namespace loom::cloth {
 
-// Adds every element's C x C df/dx and df/dv blocks (block C m + n couples corner m to corner n, corners
-// element.v[0 .. C-1]) into dfdx / dfdv (either may be null; df/dv only when want_v). `blocks(k, kx, kv)`
-// fills element k's blocks (kv is always writable). One thread: one pass, no scratch. More: the blocks are
-// computed in parallel into `dx_scratch` / `dv_scratch`, then added block by block in element order by
-// `gather_x` / `gather_v` (BlockGather.h, rows in parallel), so both paths add the same blocks in the same
-// order (bit-identical for any thread count) and no part of the assembly runs on one thread only.
-template <int C, class Element, class Blocks>
-void assemble_element_jacobians(const std::vector<Element>& elements, int threads, bool want_v, BlockScatter& scatter,
-                                BlockGather& gather_x, BlockGather& gather_v, std::vector<Mat3>& dx_scratch,
-                                std::vector<Mat3>& dv_scratch, BlockMatrix* dfdx, BlockMatrix* dfdv,
-                                const Blocks& blocks) {
+// Adds every element's C x C df/dx and df/dv blocks (C = the size of the std::array element.v of corners;
+// block C m + n couples corner m to corner n) into dfdx / dfdv (either may be null; df/dv only when want_v).
+// `blocks(k, kx, kv)` fills element k's blocks (kv is always writable). One thread: one pass, no scratch.
+// More: the blocks are computed in parallel into `dx_scratch` / `dv_scratch`, then added block by block in
+// element order by `gather_x` / `gather_v` (BlockGather.h, rows in parallel), so both paths add the same
+// blocks in the same order (bit-identical for any thread count) and no part of the assembly runs on one
+// thread only.
+template <class Element, class Blocks>
+void assemble_element_jacobians(const std::vector<Element>& elements, int threads, bool want_v,
+                                BlockScatter& scatter, BlockGather& gather_x, BlockGather& gather_v,
+                                std::vector<Mat3>& dx_scratch, std::vector<Mat3>& dv_scratch,
+                                BlockMatrix* dfdx, BlockMatrix* dfdv, const Blocks& blocks) {
+  constexpr int C = static_cast<int>(std::tuple_size<decltype(Element::v)>::value);  // corners
   constexpr int B = C * C;
   const int ne = static_cast<int>(elements.size());
   if (threads <= 1) {

@@ -3,6 +3,8 @@
 #include <algorithm>
 #include <cmath>
 
+#include "loom/cloth/Term.h"  // chunked_sum
+
 namespace loom::cloth {
 
 namespace {
@@ -26,19 +28,8 @@ void multiply(const BlockMatrix& A, const Vec3s& x, Vec3s& y, int threads) {
 }  // namespace
 
 double FilteredPCG::dot(const Vec3s& a, const Vec3s& b, int threads) {
-  const int n = static_cast<int>(a.size());
-  const int chunks = (n + kChunk - 1) / kChunk;
-  partial_.assign(chunks, 0.0);
-#pragma omp parallel for num_threads(threads) if (threads > 1) schedule(static)
-  for (int c = 0; c < chunks; ++c) {
-    double acc = 0.0;
-    const int end = std::min(n, (c + 1) * kChunk);
-    for (int i = c * kChunk; i < end; ++i) acc += a[i].dot(b[i]);
-    partial_[c] = acc;
-  }
-  double sum = 0.0;
-  for (double p : partial_) sum += p;
-  return sum;
+  return chunked_sum<kChunk>(
+      static_cast<int>(a.size()), threads, [&](int i) { return a[i].dot(b[i]); }, &partial_);
 }
 
 PcgResult FilteredPCG::solve(const BlockMatrix& A, const Vec3s& b, const std::vector<char>& fixed, Vec3s& dv,

@@ -3,7 +3,8 @@
 namespace loom::cloth {
 
 double GravityTerm::energy(const EvalContext& c) const {
-  return -chunked_sum(static_cast<int>(mass_.size()), c.threads, [&](int i) { return mass_[i] * g_.dot(c.x[i]); });
+  return -chunked_sum(static_cast<int>(mass_.size()), c.threads,
+                      [&](int i) { return mass_[i] * g_.dot(c.x[i]); });
 }
 
 void GravityTerm::add_forces(const EvalContext& c, Vec3s& f) const {

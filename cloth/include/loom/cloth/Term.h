@@ -30,24 +30,32 @@ struct JacobianOptions {
 // depend on it: such loops are independent per vertex).
 constexpr int kParallelMinVertices = 2048;
 
-// Σ_{k<n} f(k), deterministically: the terms are added in fixed chunks of 512, then the chunk sums in order,
-// so the result has the same bits for any thread count. Chunks run on several threads from
+// Σ_{k<n} f(k), deterministically: the terms are added in fixed chunks of `Chunk`, then the chunk sums in
+// order, so the result has the same bits for any thread count. Chunks run on several threads from
 // kParallelMinVertices terms up (energies of large meshes: the implicit safeguard and line search evaluate
-// them several times per step). With at most one chunk it is the serial loop's sum, bit for bit.
-template <class F>
-double chunked_sum(int n, int threads, const F& f) {
-  constexpr int kChunk = 512;
-  const int chunks = (n + kChunk - 1) / kChunk;
-  std::vector<double> partial(std::max(chunks, 0), 0.0);
-#pragma omp parallel for num_threads(threads) if (threads > 1 && n >= kParallelMinVertices) schedule(static)
-  for (int ch = 0; ch < chunks; ++ch) {
+// them several times per step; the PCG's dot products). With at most one chunk it is the serial loop's sum,
+// bit for bit. The parallel path keeps the chunk sums in `scratch` if given (no allocation per call), else in
+// a local vector; the serial path needs neither.
+template <int Chunk = 512, class F>
+double chunked_sum(int n, int threads, const F& f, std::vector<double>* scratch = nullptr) {
+  const int chunks = (n + Chunk - 1) / Chunk;
+  auto chunk_sum = [&](int ch) {
     double acc = 0.0;
-    const int end = std::min(n, (ch + 1) * kChunk);
-    for (int k = ch * kChunk; k < end; ++k) acc += f(k);
-    partial[ch] = acc;
-  }
+    const int end = std::min(n, (ch + 1) * Chunk);
+    for (int k = ch * Chunk; k < end; ++k) acc += f(k);
+    return acc;
+  };
   double sum = 0.0;
-  for (double p : partial) sum += p;
+  if (threads <= 1 || n < kParallelMinVertices) {
+    for (int ch = 0; ch < chunks; ++ch) sum += chunk_sum(ch);
+    return sum;
+  }
+  std::vector<double> local;
+  std::vector<double>& partial = scratch ? *scratch : local;
+  partial.resize(chunks);
+#pragma omp parallel for num_threads(threads) schedule(static)
+  for (int ch = 0; ch < chunks; ++ch) partial[ch] = chunk_sum(ch);
+  for (int ch = 0; ch < chunks; ++ch) sum += partial[ch];
   return sum;
 }
 
