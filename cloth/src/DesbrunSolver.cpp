@@ -26,8 +26,9 @@ void DesbrunSolver::prepare(const Cloth& cloth, double h) {
   // M - h² H with H the zero-rest-length spring matrix, i.e. M + h² L_k; plus h L_c so that the springs'
   // damping is filtered too (explicit damping with c h / m > 2 would blow up at frame-size steps).
   springs_ = collect_springs(cloth);
-  llt_.compute(spring_system_matrix(s, index_, num_free_, springs_, h * h, h));
-  if (llt_.info() != Eigen::Success) throw Error("", "solver", "desbrun: factorisation of M + h² L failed");
+  gather_ = PairGather(s.size(), springs_);
+  if (!factor_.compute(spring_system_matrix(s, index_, num_free_, springs_, h * h, h)))
+    throw Error("", "solver", "desbrun: factorisation of M + h² L failed: " + factor_.error());
   ++factorizations_;
 }
 
@@ -39,7 +40,7 @@ void DesbrunSolver::step(Cloth& cloth, double t, double h, int threads) {
   rhs_.resize(num_free_, 3);
   for (int i = 0; i < n; ++i)
     if (index_[i] >= 0) rhs_.row(index_[i]) = h * f_[i].transpose();
-  solve_columns(llt_, rhs_, dv_, n >= kMinParallel ? threads : 1);
+  factor_.solve(rhs_, dv_, n >= kMinParallel ? threads : 1);
   if (angular_correction_) correct_angular_momentum(s, h, threads);
   s.x_prev = s.x;
 #pragma omp parallel for num_threads(threads) if (threads > 1 && n >= kMinParallel) schedule(static)
@@ -63,20 +64,28 @@ void DesbrunSolver::correct_angular_momentum(const ClothState& s, double h, int 
       c += s.mass[i] * s.x[i];
     }
   c /= m;
-  rhs_.setZero();
-  for (const Spring& sp : springs_) {
-    const int fi = index_[sp.i], fj = index_[sp.j];
-    if (fi < 0 || fj < 0) continue;
-    const Vec3 d = s.x[sp.j] - s.x[sp.i];
-    const double l = d.norm();
-    if (l < 1e-12) continue;
-    const Vec3 n = d / l;
-    const Vec3 f = h * (sp.k * (l - sp.rest_length) + sp.c * n.dot(s.v[sp.j] - s.v[sp.i])) * n;
-    rhs_.row(fi) += f.transpose();
-    rhs_.row(fj) -= f.transpose();
+  // h f of each spring between free vertices (on its end i), gathered per vertex in a fixed order.
+  const int n = s.size(), ns = static_cast<int>(springs_.size());
+  spring_force_.resize(ns);
+#pragma omp parallel num_threads(threads) if (threads > 1 && n >= kMinParallel)
+  {
+#pragma omp for schedule(static)
+    for (int k = 0; k < ns; ++k) {
+      const Spring& sp = springs_[k];
+      spring_force_[k] = Vec3::Zero();
+      if (index_[sp.i] < 0 || index_[sp.j] < 0) continue;
+      const Vec3 d = s.x[sp.j] - s.x[sp.i];
+      const double l = d.norm();
+      if (l < 1e-12) continue;
+      const Vec3 u = d / l;
+      spring_force_[k] = h * (sp.k * (l - sp.rest_length) + sp.c * u.dot(s.v[sp.j] - s.v[sp.i])) * u;
+    }
+#pragma omp for schedule(static)
+    for (int i = 0; i < n; ++i)
+      if (index_[i] >= 0) rhs_.row(index_[i]) = gather_.sum(i, spring_force_).transpose();
   }
   Eigen::MatrixX3d dv_int;
-  solve_columns(llt_, rhs_, dv_int, s.size() >= kMinParallel ? threads : 1);
+  factor_.solve(rhs_, dv_int, s.size() >= kMinParallel ? threads : 1);
   Vec3 spurious = Vec3::Zero();
   Mat3 inertia = Mat3::Zero();
   for (int i = 0; i < s.size(); ++i) {

@@ -64,8 +64,8 @@ void ProjectiveSolver::prepare(const Cloth& cloth, double h) {
     tri.setFromTriplets(trip.begin(), trip.end());
     a += tri;
   }
-  llt_.compute(a);
-  if (llt_.info() != Eigen::Success) throw Error("", "solver", "projective: factorisation of M + h² L failed");
+  if (!factor_.compute(a))
+    throw Error("", "solver", "projective: factorisation of M + h² L failed: " + factor_.error());
   ++factorizations_;
 }
 
@@ -77,29 +77,35 @@ void ProjectiveSolver::step(Cloth& cloth, double t, double h, int threads) {
   external_forces(cloth, s.x, s.v, t, threads, f_);
   x_n_ = s.x;
   y_.resize(n);
-  // y = x_n + h v_n + h² M⁻¹ f_ext; kinematic vertices sit at their target x_n + h v from the start.
-  for (int i = 0; i < n; ++i) {
-    y_[i] = s.x[i] + h * (s.v[i] + h * s.inv_mass[i] * f_[i]);
-    s.x[i] = y_[i];
-  }
-  // Constant part of the right-hand side: M y + h L_c x_n + couplings to kinematic vertices (sequential
-  // over springs: deterministic for any thread count).
   base_rhs_.resize(num_free_, 3);
-  for (int i = 0; i < n; ++i)
-    if (index_[i] >= 0) base_rhs_.row(index_[i]) = s.mass[i] * y_[i].transpose();
-  for (const Spring& sp : springs_) {
-    const int fi = index_[sp.i], fj = index_[sp.j];
-    const Vec3 damp = h * sp.c * (x_n_[sp.j] - x_n_[sp.i]);
-    const double w = h * h * sp.k + h * sp.c;
-    if (fi >= 0) base_rhs_.row(fi) -= damp.transpose();
-    if (fj >= 0) base_rhs_.row(fj) += damp.transpose();
-    if (fi >= 0 && fj < 0) base_rhs_.row(fi) += w * s.x[sp.j].transpose();
-    if (fj >= 0 && fi < 0) base_rhs_.row(fj) += w * s.x[sp.i].transpose();
-  }
   if (static_cast<int>(spring_rhs_.size()) != ns) spring_rhs_.resize(ns);
   q_.resize(num_free_, 3);
-  for (int i = 0; i < n; ++i)
-    if (index_[i] >= 0) q_.row(index_[i]) = s.x[i].transpose();
+#pragma omp parallel num_threads(threads) if (threads > 1 && n >= kMinParallel)
+  {
+    // y = x_n + h v_n + h² M⁻¹ f_ext; kinematic vertices sit at their target x_n + h v from the start.
+#pragma omp for schedule(static)
+    for (int i = 0; i < n; ++i) {
+      y_[i] = s.x[i] + h * (s.v[i] + h * s.inv_mass[i] * f_[i]);
+      s.x[i] = y_[i];
+    }
+    // Constant part of the right-hand side: M y + h L_c x_n + couplings to kinematic vertices, as a term
+    // per spring (its end i's share; end j takes the negative) gathered per vertex in a fixed order.
+#pragma omp for schedule(static)
+    for (int k = 0; k < ns; ++k) {
+      const Spring& sp = springs_[k];
+      const double w = h * h * sp.k + h * sp.c;
+      Vec3 r = -h * sp.c * (x_n_[sp.j] - x_n_[sp.i]);
+      if (index_[sp.j] < 0) r += w * s.x[sp.j];
+      if (index_[sp.i] < 0) r -= w * s.x[sp.i];
+      spring_rhs_[k] = r;
+    }
+#pragma omp for schedule(static)
+    for (int i = 0; i < n; ++i)
+      if (index_[i] >= 0) {
+        base_rhs_.row(index_[i]) = (s.mass[i] * y_[i] + gather_.sum(i, spring_rhs_)).transpose();
+        q_.row(index_[i]) = s.x[i].transpose();
+      }
+  }
   q_prev_ = q_;
   rhs_.resize(num_free_, 3);
   trace_.clear();
@@ -125,11 +131,13 @@ void ProjectiveSolver::step(Cloth& cloth, double t, double h, int threads) {
     }
     if (!triangles_.empty()) add_strain_projection(s, h, rhs_);
     // Global step: the prefactorised solve, three right-hand sides at once.
-    solve_columns(llt_, rhs_, q_hat_, n >= kMinParallel ? threads : 1);
+    factor_.solve(rhs_, q_hat_, n >= kMinParallel ? threads : 1);
     if (settings_.chebyshev && it >= settings_.warmup) {
       // Wang 2015 with γ = 1 (direct global solve).
       omega = it == settings_.warmup ? 2.0 / (2.0 - rho2) : 4.0 / (4.0 - rho2 * omega);
-      q_hat_ = omega * (q_hat_ - q_prev_) + q_prev_;
+#pragma omp parallel for num_threads(threads) if (threads > 1 && n >= kMinParallel) schedule(static)
+      for (int r = 0; r < num_free_; ++r)
+        q_hat_.row(r) = omega * (q_hat_.row(r) - q_prev_.row(r)) + q_prev_.row(r);
     }
     q_prev_.swap(q_);
     q_.swap(q_hat_);

@@ -2,6 +2,7 @@
 // Chebyshev acceleration) and desbrun. Their fixed points, monotonicity, pins and hard cases.
 #include <gtest/gtest.h>
 
+#include <Eigen/SparseCholesky>
 #include <cmath>
 #include <random>
 
@@ -10,6 +11,7 @@
 #include "loom/cloth/Error.h"
 #include "loom/cloth/ProjectiveSolver.h"
 #include "loom/cloth/Simulation.h"
+#include "loom/cloth/SplitCholesky.h"
 #include "loom/cloth/SpringSolverSupport.h"
 
 namespace loom::cloth {
@@ -264,30 +266,90 @@ TEST(SpringSolvers, ProjectiveFactorisesOnlyWhenTheStepChanges) {
   EXPECT_EQ(solver.factorizations(), 2);
 }
 
-TEST(SpringSolvers, ColumnSolvesEqualEigensThreeColumnSolveBitForBit) {
-  // solve_columns (projective's global step, desbrun's filter): one column per thread must give exactly what
-  // Eigen's solve of the whole three-column right-hand side gives, on 1 and 2 threads.
-  SimulationSetup setup = sheet(25, "symplectic_euler");
-  Simulation sim(setup);
+// The system matrix M + a L_k + b L_c of an n x n hanging sheet (two corners pinned), over its free vertices.
+Eigen::SparseMatrix<double> sheet_matrix(int n) {
+  Simulation sim(sheet(n, "symplectic_euler"));
   const ClothState& s = sim.cloths()[0]->state();
   int nf = 0;
   const std::vector<int> index = free_index(s, &nf);
-  Eigen::SimplicialLLT<Eigen::SparseMatrix<double>> llt(
-      spring_system_matrix(s, index, nf, collect_springs(*sim.cloths()[0]), 1e-4, 1e-2));
-  ASSERT_EQ(llt.info(), Eigen::Success);
-  std::mt19937 rng(5);
+  return spring_system_matrix(s, index, nf, collect_springs(*sim.cloths()[0]), 1e-4, 1e-2);
+}
+
+Eigen::MatrixX3d random_rows(int rows, unsigned seed) {
+  std::mt19937 rng(seed);
   std::uniform_real_distribution<double> u(-1.0, 1.0);
-  Eigen::MatrixX3d b(nf, 3);
-  for (int i = 0; i < nf; ++i)
+  Eigen::MatrixX3d b(rows, 3);
+  for (int i = 0; i < rows; ++i)
     for (int c = 0; c < 3; ++c) b(i, c) = u(rng);
-  const Eigen::MatrixX3d want = llt.solve(b);
-  for (int threads = 1; threads <= 2; ++threads) {
-    Eigen::MatrixX3d got;
-    solve_columns(llt, b, got, threads);
-    ASSERT_EQ(got.rows(), nf);
-    EXPECT_TRUE((got.array() == want.array()).all()) << threads << " threads";
-  }
-  EXPECT_GT(want.norm(), 0.0);
+  return b;
+}
+
+TEST(SplitCholesky, SolvesLikeEigensCholeskyOnOneAndTwoThreadsWithTheSameBits) {
+  // 48x48 sheet: 2302 free vertices, above kMinSplit, so the graph is split by a separator.
+  const Eigen::SparseMatrix<double> a = sheet_matrix(48);
+  SplitCholesky factor;
+  ASSERT_TRUE(factor.compute(a)) << factor.error();
+  const auto parts = factor.part_sizes();
+  EXPECT_EQ(parts[0] + parts[1] + parts[2], a.rows());
+  // Both halves hold a real share, and the separator is a thin band (one BFS level of a 48x48 sheet with
+  // bending springs of reach 2 is at most a few rows of vertices).
+  EXPECT_GT(parts[0], a.rows() / 4);
+  EXPECT_GT(parts[1], a.rows() / 4);
+  EXPECT_GT(parts[2], 0);
+  EXPECT_LT(parts[2], a.rows() / 10);
+  EXPECT_EQ(factor.entries_joining_the_parts(), 0);
+  EXPECT_GT(factor.off_diagonal_entries(), a.nonZeros() / 2);
+
+  const Eigen::MatrixX3d b = random_rows(static_cast<int>(a.rows()), 5);
+  Eigen::SimplicialLLT<Eigen::SparseMatrix<double>> eigen(a);
+  ASSERT_EQ(eigen.info(), Eigen::Success);
+  const Eigen::MatrixX3d want = eigen.solve(b);
+  Eigen::MatrixX3d got[2];
+  for (int t = 0; t < 2; ++t) factor.solve(b, got[t], t + 1);
+  EXPECT_TRUE((got[0].array() == got[1].array()).all());
+  EXPECT_LT((got[0] - want).norm(), 1e-12 * want.norm());
+  EXPECT_LT((a * got[0] - b).norm(), 1e-12 * b.norm());
+}
+
+TEST(SplitCholesky, SmallAndDisconnectedMatricesAreSolvedWhole) {
+  // Below kMinSplit: one part, no separator.
+  const Eigen::SparseMatrix<double> small = sheet_matrix(12);
+  SplitCholesky factor;
+  ASSERT_TRUE(factor.compute(small)) << factor.error();
+  EXPECT_EQ(factor.part_sizes()[0], small.rows());
+  Eigen::MatrixX3d b = random_rows(static_cast<int>(small.rows()), 6), x;
+  factor.solve(b, x, 2);
+  EXPECT_LT((small * x - b).norm(), 1e-12 * b.norm());
+
+  // Two copies of a 48x48 sheet side by side: the root's component is half the graph, the other copy joins
+  // the smaller part whole; the solve stays exact.
+  const Eigen::SparseMatrix<double> one = sheet_matrix(48);
+  const int m = static_cast<int>(one.rows());
+  std::vector<Eigen::Triplet<double>> trip;
+  for (int j = 0; j < m; ++j)
+    for (Eigen::SparseMatrix<double>::InnerIterator it(one, j); it; ++it) {
+      trip.emplace_back(it.row(), j, it.value());
+      trip.emplace_back(it.row() + m, j + m, it.value());
+    }
+  Eigen::SparseMatrix<double> two(2 * m, 2 * m);
+  two.setFromTriplets(trip.begin(), trip.end());
+  ASSERT_TRUE(factor.compute(two)) << factor.error();
+  EXPECT_EQ(factor.entries_joining_the_parts(), 0);
+  b = random_rows(2 * m, 7);
+  Eigen::MatrixX3d x2;
+  factor.solve(b, x, 1);
+  factor.solve(b, x2, 2);
+  EXPECT_TRUE((x.array() == x2.array()).all());
+  EXPECT_LT((two * x - b).norm(), 1e-12 * b.norm());
+}
+
+TEST(SplitCholesky, AnIndefiniteMatrixIsRefusedWithAReason) {
+  Eigen::SparseMatrix<double> a = sheet_matrix(12);
+  a.coeffRef(3, 3) = -1.0;
+  SplitCholesky factor;
+  EXPECT_FALSE(factor.compute(a));
+  EXPECT_FALSE(factor.ok());
+  EXPECT_NE(factor.error().find("positive definite"), std::string::npos) << factor.error();
 }
 
 TEST(SpringSolvers, ResultsDoNotDependOnTheThreadCount) {

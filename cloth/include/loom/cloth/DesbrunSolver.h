@@ -1,9 +1,9 @@
 #pragma once
 // Desbrun, Schröder & Barr 1999, "Interactive animation of structured deformable objects" (reference/
 // methods.md §1.5): an approximate implicit step with a constant filter.
-//   H = the springs' linear part (zero rest length): H_ij = k_ij I, H_ii = -Σ_j k_ij I, so M - h² H = M + h² L.
-//   Predictor:  (M + h² L + h L_c) Δv = h f(x_n, v_n)   (all forces, nonlinear), v+ = v + Δv, x+ = x + h v+,
-//   where L_c = Σ c A Aᵀ filters the springs' damping the same way (our addition: the damping force is
+//   H = the springs' linear part (zero rest length): H_ij = k_ij I, H_ii = -Σ_j k_ij I, so M - h² H = M + h²
+//   L. Predictor:  (M + h² L + h L_c) Δv = h f(x_n, v_n)   (all forces, nonlinear), v+ = v + Δv, x+ = x + h
+//   v+, where L_c = Σ c A Aᵀ filters the springs' damping the same way (our addition: the damping force is
 //   explicit in f, and unfiltered it limits h to about 2 m / Σc).
 // Instead of the paper's dense inverse W = (M - h² H)⁻¹ the matrix is factorised once (sparse Cholesky,
 // kinematic vertices eliminated) and refactorised only when h or the kinematic set changes.
@@ -13,10 +13,11 @@
 // (W h f_int)_i, removes it (one extra solve). Torques of gravity, drag and springs to kinematic vertices
 // are genuine and kept.
 // Heavily damped by design (methods.md §2.3).
-#include <Eigen/SparseCholesky>
 #include <vector>
 
+#include "loom/cloth/PairGather.h"
 #include "loom/cloth/Solver.h"
+#include "loom/cloth/SplitCholesky.h"
 #include "loom/cloth/SpringTerm.h"
 
 namespace loom::cloth {
@@ -34,11 +35,13 @@ class DesbrunSolver final : public Solver {
   void correct_angular_momentum(const ClothState& s, double h, int threads);
 
   bool angular_correction_;
-  Eigen::SimplicialLLT<Eigen::SparseMatrix<double>> llt_;
+  SplitCholesky factor_;
   const Cloth* cloth_ = nullptr;
   double h_ = 0.0;               // s
   std::vector<char> kinematic_;  // 1 for inverse mass 0
   std::vector<Spring> springs_;
+  PairGather gather_;            // springs incident to each vertex
+  Vec3s spring_force_;           // N·s per spring, on its end i (angular correction)
   std::vector<int> index_;       // free index per vertex, -1 for kinematic
   int num_free_ = 0;
   long factorizations_ = 0;

@@ -4,8 +4,9 @@
 //   g(x) = ½ (x - y)ᵀ M (x - y) + h² Σ_s ½ k_s (|x_j - x_i| - L_s)² + (h/2) Σ_s c_s |Δ_s(x - x_n)|²,
 //   y = x_n + h v_n + h² M⁻¹ f_ext  (f_ext: gravity, drag at the start of the step),
 // by alternating
-//   local:  d_s = L_s (x_j - x_i) / |x_j - x_i|            (Liu 2013, local step, ½k(l - L)² = min_|d|=L ½k|Δx - d|²)
-//   global: (M + h² L_k + h L_c) x = M y + h² J d + h L_c x_n  (Liu 2013, global step; L = Σ k A Aᵀ, J = Σ k A Sᵀ).
+//   local:  d_s = L_s (x_j - x_i) / |x_j - x_i|            (Liu 2013, local step, ½k(l - L)² = min_|d|=L
+//   ½k|Δx - d|²) global: (M + h² L_k + h L_c) x = M y + h² J d + h L_c x_n  (Liu 2013, global step; L = Σ k A
+//   Aᵀ, J = Σ k A Sᵀ).
 // The damping term is the springs' damping c_s applied isotropically to the relative displacement (a
 // constant, Rayleigh-like matrix L_c = Σ c A Aᵀ, so the prefactorisation stays valid); with c = 0 the fixed
 // point is exactly the backward Euler step of the spring energy. Every iteration decreases g (block
@@ -20,11 +21,11 @@
 //   (w A / 2) |F - T|², F = deformation gradient (3x2, rest uv frame), T = U clamp(Σ, 1 - τ, 1 + τ) Vᵀ
 // from the SVD of F; zero while both principal stretches are within [1 - τ, 1 + τ], a stiff spring back to
 // the band outside it. It adds w A Σ (g_m·g_n) to the constant matrix, so the factorisation stays valid.
-#include <Eigen/SparseCholesky>
 #include <vector>
 
 #include "loom/cloth/PairGather.h"
 #include "loom/cloth/Solver.h"
+#include "loom/cloth/SplitCholesky.h"
 #include "loom/cloth/SpringTerm.h"
 
 namespace loom::cloth {
@@ -66,7 +67,7 @@ class ProjectiveSolver final : public Solver {
 
   ProjectiveSettings settings_;
   // Factorisation and what it was built for.
-  Eigen::SimplicialLLT<Eigen::SparseMatrix<double>> llt_;
+  SplitCholesky factor_;
   const Cloth* cloth_ = nullptr;
   double h_ = 0.0;                   // s
   std::vector<char> kinematic_;      // 1 for inverse mass 0

@@ -4,7 +4,6 @@
 // the forces of the non-elastic terms (gravity, drag) as external forces. Any other elastic term (Choi-Ko,
 // Baraff-Witkin, ...) cannot be projected or filtered by these solvers: check_spring_terms() rejects it at
 // set-up time, naming the term.
-#include <Eigen/SparseCholesky>
 #include <Eigen/SparseCore>
 #include <algorithm>
 #include <vector>
@@ -32,17 +31,6 @@ std::vector<int> free_index(const ClothState& s, int* num_free);
 // Liu et al. 2013 §4 (global matrix); Desbrun et al. 1999 (filter M - h² H, H = -L_k).
 Eigen::SparseMatrix<double> spring_system_matrix(const ClothState& s, const std::vector<int>& index, int num_free,
                                                  const std::vector<Spring>& springs, double a, double b);
-
-// x = A⁻¹ b for the three columns of b (x, y, z) with a sparse factorisation of A, one column per thread on
-// up to three threads. Eigen's solve of a three-column b runs the same triangular solves column by column, so
-// the result has the same bits for any thread count. Its triangular solves are serial; the columns are the
-// only parallelism a 2-core machine can use there (projective's global step, desbrun's filter).
-template <class Factor>
-void solve_columns(const Factor& llt, const Eigen::MatrixX3d& b, Eigen::MatrixX3d& x, int threads) {
-  x.resize(b.rows(), 3);
-#pragma omp parallel for num_threads(std::min(threads, 3)) if (threads > 1) schedule(static)
-  for (int c = 0; c < 3; ++c) x.col(c) = llt.solve(b.col(c));
-}
 
 // Greedy colouring of springs so that no two springs of one colour share a vertex: the springs of a colour
 // can be projected in parallel with results independent of the thread count (PBD, XPBD).
