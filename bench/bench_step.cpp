@@ -43,6 +43,8 @@ void run(benchmark::State& state, const char* method) {
 void StepSymplecticEuler(benchmark::State& s) { run(s, "symplectic_euler"); }
 void StepVerlet(benchmark::State& s) { run(s, "verlet"); }
 void StepExplicitEuler(benchmark::State& s) { run(s, "explicit_euler"); }
+void StepPbd(benchmark::State& s) { run(s, "pbd"); }
+void StepXpbd(benchmark::State& s) { run(s, "xpbd"); }
 
 // The hanging cloth's global matrix at a 60 Hz step, and three random right-hand sides.
 struct GlobalSystem {
@@ -94,4 +96,6 @@ BENCHMARK(GlobalSolveSplit)->ArgsProduct({{65, 129}, {1, 2}})->Unit(benchmark::k
 BENCHMARK(StepSymplecticEuler)->ArgsProduct({{33, 65, 129}, {1, 2}})->Unit(benchmark::kMicrosecond);
 BENCHMARK(StepVerlet)->ArgsProduct({{33, 65, 129}, {1, 2}})->Unit(benchmark::kMicrosecond);
 BENCHMARK(StepExplicitEuler)->ArgsProduct({{33, 65, 129}, {1, 2}})->Unit(benchmark::kMicrosecond);
+BENCHMARK(StepPbd)->ArgsProduct({{65, 129}, {1, 2}})->Unit(benchmark::kMicrosecond)->UseRealTime();
+BENCHMARK(StepXpbd)->ArgsProduct({{65, 129}, {1, 2}})->Unit(benchmark::kMicrosecond)->UseRealTime();
 BENCHMARK_MAIN();

@@ -1,5 +1,8 @@
 #include "loom/cloth/PositionBasedSolvers.h"
 
+#include <omp.h>
+
+#include <algorithm>
 #include <cmath>
 
 #include "loom/cloth/SpringSolverSupport.h"
@@ -15,39 +18,69 @@ constexpr int kMinParallel = 512;
 void PositionBasedSolver::check(const Cloth& cloth) const { check_spring_terms(cloth, name()); }
 
 void PositionBasedSolver::prepare(const Cloth& cloth) {
-  springs_ = collect_springs(cloth);
-  colors_ = color_springs(cloth.state().size(), springs_);
+  const std::vector<Spring> springs = collect_springs(cloth);
+  const std::vector<std::vector<int>> colors = color_springs(cloth.state().size(), springs);
+  springs_.clear();
+  springs_.reserve(springs.size());
+  color_start_.assign(1, 0);
+  for (std::vector<int> color : colors) {
+    std::sort(color.begin(), color.end(), [&](int a, int b) {
+      return std::min(springs[a].i, springs[a].j) < std::min(springs[b].i, springs[b].j);
+    });
+    for (int k : color) springs_.push_back(springs[k]);
+    color_start_.push_back(static_cast<int>(springs_.size()));
+  }
   prepared_for_ = &cloth;
 }
+
+namespace {
+// Thread `me` of `team`'s static share of [begin, end).
+void share(int begin, int end, int me, int team, int* b, int* e) {
+  const long len = end - begin;
+  *b = begin + static_cast<int>(len * me / team);
+  *e = begin + static_cast<int>(len * (me + 1) / team);
+}
+}  // namespace
 
 void PositionBasedSolver::step(Cloth& cloth, double t, double h, int threads) {
   if (prepared_for_ != &cloth) prepare(cloth);
   ClothState& s = cloth.state();
   const int n = s.size();
+  const int ns = static_cast<int>(springs_.size());
+  const int num_colors = static_cast<int>(color_start_.size()) - 1;
   external_forces(cloth, s.x, s.v, t, threads, f_);
   p_.resize(n);
-  // Prediction (Müller 2007, Alg. 1 lines 5-7): kinematic vertices have inv_mass 0, so p = x + h v exactly.
-#pragma omp parallel for num_threads(threads) if (threads > 1 && n >= kMinParallel) schedule(static)
-  for (int i = 0; i < n; ++i) p_[i] = s.x[i] + h * (s.v[i] + h * s.inv_mass[i] * f_[i]);
-  begin_step();
-  for (int it = 0; it < iterations_; ++it)
-    for (const auto& color : colors_) project(color, s, h, threads);
-  s.x_prev = s.x;
-#pragma omp parallel for num_threads(threads) if (threads > 1 && n >= kMinParallel) schedule(static)
-  for (int i = 0; i < n; ++i) {
-    if (s.inv_mass[i] > 0.0) s.v[i] = (p_[i] - s.x[i]) / h;
-    s.x[i] = p_[i];
+  s.x_prev.resize(n);
+#pragma omp parallel num_threads(threads) if (threads > 1 && n >= kMinParallel)
+  {
+    const int team = omp_get_num_threads(), me = omp_get_thread_num();
+    int b = 0, e = 0;
+    share(0, ns, me, team, &b, &e);
+    begin_step(b, e);
+    // Prediction (Müller 2007, Alg. 1 lines 5-7): kinematic vertices have inv_mass 0, so p = x + h v exactly.
+#pragma omp for schedule(static)
+    for (int i = 0; i < n; ++i) p_[i] = s.x[i] + h * (s.v[i] + h * s.inv_mass[i] * f_[i]);
+    for (int it = 0; it < iterations_; ++it)
+      for (int c = 0; c < num_colors; ++c) {
+        share(color_start_[c], color_start_[c + 1], me, team, &b, &e);
+        project(b, e, s, h);
+#pragma omp barrier
+      }
+#pragma omp for schedule(static)
+    for (int i = 0; i < n; ++i) {
+      s.x_prev[i] = s.x[i];
+      if (s.inv_mass[i] > 0.0) s.v[i] = (p_[i] - s.x[i]) / h;
+      s.x[i] = p_[i];
+    }
   }
 }
 
 PbdSolver::PbdSolver(int iterations, double stiffness)
     : PositionBasedSolver(iterations), k_iter_(1.0 - std::pow(1.0 - stiffness, 1.0 / iterations)) {}
 
-void PbdSolver::project(const std::vector<int>& color, const ClothState& s, double, int threads) {
-  const int nc = static_cast<int>(color.size());
-#pragma omp parallel for num_threads(threads) if (threads > 1 && nc >= kMinParallel) schedule(static)
-  for (int q = 0; q < nc; ++q) {
-    const Spring& sp = springs_[color[q]];
+void PbdSolver::project(int begin, int end, const ClothState& s, double) {
+  for (int q = begin; q < end; ++q) {
+    const Spring& sp = springs_[q];
     const double wi = s.inv_mass[sp.i], wj = s.inv_mass[sp.j];
     if (wi + wj == 0.0) continue;
     const Vec3 d = p_[sp.j] - p_[sp.i];
@@ -63,12 +96,16 @@ void PbdSolver::project(const std::vector<int>& color, const ClothState& s, doub
 XpbdSolver::XpbdSolver(int iterations, double compliance_scale)
     : PositionBasedSolver(iterations), compliance_scale_(compliance_scale) {}
 
-void XpbdSolver::project(const std::vector<int>& color, const ClothState& s, double h, int threads) {
-  const int nc = static_cast<int>(color.size());
+void XpbdSolver::begin_step(int begin, int end) {
+  // The team's first thread sizes λ before the barrier; each thread then zeroes its share.
+#pragma omp single
+  lambda_.resize(springs_.size());
+  std::fill(lambda_.begin() + begin, lambda_.begin() + end, 0.0);
+}
+
+void XpbdSolver::project(int begin, int end, const ClothState& s, double h) {
   const double inv_h2 = 1.0 / (h * h);
-#pragma omp parallel for num_threads(threads) if (threads > 1 && nc >= kMinParallel) schedule(static)
-  for (int q = 0; q < nc; ++q) {
-    const int k = color[q];
+  for (int k = begin; k < end; ++k) {
     const Spring& sp = springs_[k];
     const double wi = s.inv_mass[sp.i], wj = s.inv_mass[sp.j];
     if (wi + wj == 0.0 || sp.k <= 0.0) continue;

@@ -14,6 +14,11 @@
 namespace loom::cloth {
 
 // Shared set-up: the springs, their colouring and the scratch arrays, rebuilt when the cloth changes.
+// springs_ holds the springs colour by colour (colour c is [color_start_[c], color_start_[c + 1])), each
+// colour sorted by its springs' lower vertex index so that a sweep reads positions nearly in order. Springs
+// of one colour share no vertex, so their order within the colour does not change any result. One step is one
+// parallel region: each thread projects its static share of a colour, then all wait at a barrier before the
+// next colour.
 class PositionBasedSolver : public Solver {
  public:
   explicit PositionBasedSolver(int iterations) : iterations_(iterations) {}
@@ -22,14 +27,15 @@ class PositionBasedSolver : public Solver {
   int iterations() const { return iterations_; }
 
  protected:
-  // Projects the springs of one colour (indices into springs_) onto their constraints, in place on p_.
-  virtual void project(const std::vector<int>& color, const ClothState& s, double h, int threads) = 0;
-  virtual void begin_step() {}
+  // Projects springs_[begin, end) (all of one colour) onto their constraints, in place on p_.
+  virtual void project(int begin, int end, const ClothState& s, double h) = 0;
+  // Called by every thread of the step's team with its share [begin, end) of springs_, before any projection.
+  virtual void begin_step(int /*begin*/, int /*end*/) {}
 
   int iterations_;
   const Cloth* prepared_for_ = nullptr;
   std::vector<Spring> springs_;
-  std::vector<std::vector<int>> colors_;
+  std::vector<int> color_start_;
   Vec3s p_;  // m, predicted / projected positions
   Vec3s f_;  // N, external forces
 
@@ -46,7 +52,7 @@ class PbdSolver final : public PositionBasedSolver {
   const char* name() const override { return "pbd"; }
 
  private:
-  void project(const std::vector<int>& color, const ClothState& s, double h, int threads) override;
+  void project(int begin, int end, const ClothState& s, double h) override;
   double k_iter_;  // 1, per-iteration stiffness k'
 };
 
@@ -62,10 +68,10 @@ class XpbdSolver final : public PositionBasedSolver {
   const char* name() const override { return "xpbd"; }
 
  private:
-  void begin_step() override { lambda_.assign(springs_.size(), 0.0); }
-  void project(const std::vector<int>& color, const ClothState& s, double h, int threads) override;
+  void begin_step(int begin, int end) override;
+  void project(int begin, int end, const ClothState& s, double h) override;
   double compliance_scale_;     // 1, multiplies α = 1/k
-  std::vector<double> lambda_;  // N·s², accumulated Lagrange multiplier per spring
+  std::vector<double> lambda_;  // N·s², accumulated Lagrange multiplier per spring (order of springs_)
 };
 
 }  // namespace loom::cloth
