@@ -17,6 +17,7 @@ struct AccuracyOptions {
   std::vector<int> threads{1, 2};  // thread counts for the Loom solvers (Bullet runs single-threaded)
   std::set<std::string> methods;   // empty: all; else solver names and/or bullet_classic, bullet_deformable
   std::string configs;             // empty: all; else only Loom configurations whose label contains it
+  int repeats = 1;                 // runs of each Loom row (thread counts interleaved); the fastest is kept
 };
 
 // Returns the process exit code: 0 ok, 1 I/O error.

@@ -103,8 +103,34 @@ TEST(BenchAccuracy, QuickRunWritesTheCsvWithEveryMethodAndTheReferenceCheck) {
   EXPECT_LT(std::stod(f[7]), 0.5);
 }
 
+TEST(BenchAccuracy, RepeatsKeepOneRowPerThreadCountWithTheSameResults) {
+  // --repeats 3: each row runs three times (1 and 2 threads interleaved); one row per thread count is
+  // written, and no repeat reports other results (runs are bit-identical).
+  const fs::path dir = loom::test::test_dir() / "repeats";
+  fs::remove_all(dir);
+  const fs::path out = dir / "out";
+  const Result r =
+      run("bench accuracy --quick --methods xpbd,projective --repeats 3 --out " + out.string(), dir);
+  ASSERT_EQ(r.code, 0) << r.out << r.err;
+  EXPECT_EQ(r.out.find("differ between repeats"), std::string::npos) << r.out;
+  std::ifstream csv(out / "accuracy.csv");
+  std::string line;
+  ASSERT_TRUE(std::getline(csv, line));
+  std::map<std::string, int> rows;
+  while (std::getline(csv, line)) {
+    const auto f = split(line, ',');
+    ASSERT_EQ(f.size(), 12u) << line;
+    ++rows[f[1] + " " + f[3] + " threads=" + f[4]];
+    EXPECT_GE(std::stod(f[5]), 0.0) << line;
+  }
+  ASSERT_EQ(rows.size(), 4u);  // xpbd and projective, one configuration each (--quick), 1 and 2 threads
+  for (const auto& [key, n] : rows) EXPECT_EQ(n, 1) << key;
+}
+
 TEST(BenchAccuracy, BadOptionsExitWithTwo) {
   const fs::path dir = loom::test::test_dir() / "bad";
+  EXPECT_EQ(run("bench accuracy --repeats 0", dir).code, 2);
+  EXPECT_EQ(run("bench accuracy --repeats 2,3", dir).code, 2);
   EXPECT_EQ(run("bench accuracy --sizes 2,x", dir).code, 2);
   EXPECT_EQ(run("bench accuracy --bogus", dir).code, 2);
   EXPECT_EQ(run("bench nothing", dir).code, 2);
