@@ -344,12 +344,19 @@ TEST(SplitCholesky, SmallAndDisconnectedMatricesAreSolvedWhole) {
 }
 
 TEST(SplitCholesky, AnIndefiniteMatrixIsRefusedWithAReason) {
-  Eigen::SparseMatrix<double> a = sheet_matrix(12);
-  a.coeffRef(3, 3) = -1.0;
-  SplitCholesky factor;
-  EXPECT_FALSE(factor.compute(a));
-  EXPECT_FALSE(factor.ok());
-  EXPECT_NE(factor.error().find("positive definite"), std::string::npos) << factor.error();
+  // Whole (12x12 sheet) and split (48x48): a negative diagonal entry at the start, middle and end of the
+  // matrix, wherever the ordering puts it (either half or the separator).
+  for (int n : {12, 48}) {
+    const Eigen::SparseMatrix<double> a = sheet_matrix(n);
+    for (int v : {3, static_cast<int>(a.rows()) / 2, static_cast<int>(a.rows()) - 4}) {
+      Eigen::SparseMatrix<double> bad = a;
+      bad.coeffRef(v, v) = -1.0;
+      SplitCholesky factor;
+      EXPECT_FALSE(factor.compute(bad)) << n << " " << v;
+      EXPECT_FALSE(factor.ok());
+      EXPECT_NE(factor.error().find("positive definite"), std::string::npos) << factor.error();
+    }
+  }
 }
 
 TEST(SpringSolvers, ResultsDoNotDependOnTheThreadCount) {
