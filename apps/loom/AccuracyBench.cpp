@@ -565,7 +565,7 @@ int bench_accuracy(const AccuracyOptions& o) {
         if (!o.configs.empty() && c.label().find(o.configs) == std::string::npos) continue;
         // Each row runs `repeats` times, the thread counts interleaved so that a slow spell of the machine
         // does not fall on one thread count only; the fastest run is kept. Results are bit-identical for
-        // any thread count and run (STYLE): a repeat that differs is reported.
+        // any thread count and run (STYLE): a repeat or a thread count that differs is reported.
         std::vector<std::optional<Row>> best(o.threads.size());
         std::optional<Row> diverged;
         bool skipped = false;
@@ -597,6 +597,10 @@ int bench_accuracy(const AccuracyOptions& o) {
               skipped = true;
             }
           }
+        for (size_t ti = 1; ti < best.size(); ++ti)
+          if (best[0] && best[ti] && !same_results(*best[0], *best[ti]))
+            std::printf("  warning: %s %s: results differ between %d and %d threads\n", method.c_str(),
+                        c.label().c_str(), o.threads[0], o.threads[ti]);
         for (const std::optional<Row>& r : best)
           if (r) {
             rows.push_back(*r);

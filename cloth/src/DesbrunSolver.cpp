@@ -27,8 +27,10 @@ void DesbrunSolver::prepare(const Cloth& cloth, double h) {
   // damping is filtered too (explicit damping with c h / m > 2 would blow up at frame-size steps).
   springs_ = collect_springs(cloth);
   gather_ = PairGather(s.size(), springs_);
-  if (!factor_.compute(spring_system_matrix(s, index_, num_free_, springs_, h * h, h)))
+  if (!factor_.compute(spring_system_matrix(s, index_, num_free_, springs_, h * h, h))) {
+    cloth_ = nullptr;  // nothing is prepared: the next step starts over
     throw Error("", "solver", "desbrun: factorisation of M + h² L failed: " + factor_.error());
+  }
   ++factorizations_;
 }
 

@@ -97,7 +97,7 @@ XpbdSolver::XpbdSolver(int iterations, double compliance_scale)
     : PositionBasedSolver(iterations), compliance_scale_(compliance_scale) {}
 
 void XpbdSolver::begin_step(int begin, int end) {
-  // The team's first thread sizes λ before the barrier; each thread then zeroes its share.
+  // One thread sizes λ (single's implicit barrier follows); each thread then zeroes its share.
 #pragma omp single
   lambda_.resize(springs_.size());
   std::fill(lambda_.begin() + begin, lambda_.begin() + end, 0.0);

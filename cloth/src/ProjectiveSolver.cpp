@@ -64,8 +64,10 @@ void ProjectiveSolver::prepare(const Cloth& cloth, double h) {
     tri.setFromTriplets(trip.begin(), trip.end());
     a += tri;
   }
-  if (!factor_.compute(a))
+  if (!factor_.compute(a)) {
+    cloth_ = nullptr;  // nothing is prepared: the next step starts over
     throw Error("", "solver", "projective: factorisation of M + h² L failed: " + factor_.error());
+  }
   ++factorizations_;
 }
 

@@ -3,6 +3,7 @@
 #include <Eigen/OrderingMethods>
 #include <Eigen/SparseCholesky>
 #include <algorithm>
+#include <stdexcept>
 
 namespace loom::cloth {
 
@@ -112,14 +113,18 @@ std::vector<int> amd_order(const Eigen::SparseMatrix<double>& a, const std::vect
 
 }  // namespace
 
+bool SplitCholesky::fail(const char* why) {
+  // Leaves an empty factor: solve() refuses it instead of reading arrays of another size.
+  *this = SplitCholesky();
+  error_ = why;
+  return false;
+}
+
 bool SplitCholesky::compute(const Eigen::SparseMatrix<double>& a) {
   ok_ = false;
   error_.clear();
   n_ = static_cast<int>(a.rows());
-  if (a.cols() != n_) {
-    error_ = "matrix is not square";
-    return false;
-  }
+  if (a.cols() != n_) return fail("matrix is not square");
   std::vector<int> part(n_, 0);
   if (n_ >= kMinSplit) part = split_graph(graph_of(a), n_);
   std::vector<int> members[3];
@@ -144,10 +149,7 @@ bool SplitCholesky::compute(const Eigen::SparseMatrix<double>& a) {
   Eigen::SparseMatrix<double> permuted(n_, n_);
   permuted.setFromTriplets(trip.begin(), trip.end());
   Eigen::SimplicialLLT<Eigen::SparseMatrix<double>, Eigen::Lower, Eigen::NaturalOrdering<int>> llt(permuted);
-  if (llt.info() != Eigen::Success) {
-    error_ = "matrix is not positive definite";
-    return false;
-  }
+  if (llt.info() != Eigen::Success) return fail("matrix is not positive definite");
   const Eigen::SparseMatrix<double>& l = llt.matrixL().nestedExpression();
   inv_diag_.assign(n_, 0.0);
   start_.assign(n_ + 1, 0);
@@ -224,7 +226,10 @@ void SplitCholesky::backward(int begin, int end, double* y) const {
   }
 }
 
-void SplitCholesky::solve(const Eigen::MatrixX3d& b, Eigen::MatrixX3d& x, int threads) const {
+void SplitCholesky::solve(const Eigen::MatrixX3d& b, Eigen::MatrixX3d& x, int threads) {
+  if (!ok_ || b.rows() != n_)
+    throw std::logic_error(!ok_ ? "SplitCholesky::solve without a factor"
+                                : "SplitCholesky::solve: wrong row count");
   const int n = n_;
   const bool split = end1_ < n;
   const bool parallel = threads > 1 && split;

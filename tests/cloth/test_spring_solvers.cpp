@@ -5,6 +5,7 @@
 #include <Eigen/SparseCholesky>
 #include <cmath>
 #include <random>
+#include <stdexcept>
 
 #include "TestUtil.h"
 #include "loom/cloth/DesbrunSolver.h"
@@ -355,6 +356,9 @@ TEST(SplitCholesky, AnIndefiniteMatrixIsRefusedWithAReason) {
       EXPECT_FALSE(factor.compute(bad)) << n << " " << v;
       EXPECT_FALSE(factor.ok());
       EXPECT_NE(factor.error().find("positive definite"), std::string::npos) << factor.error();
+      // A refused factor is empty: a solve with it throws instead of reading another size's arrays.
+      Eigen::MatrixX3d x;
+      EXPECT_THROW(factor.solve(random_rows(static_cast<int>(a.rows()), 8), x, 1), std::logic_error);
     }
   }
 }

@@ -1,10 +1,12 @@
 #pragma once
 // Desbrun, Schröder & Barr 1999, "Interactive animation of structured deformable objects" (reference/
 // methods.md §1.5): an approximate implicit step with a constant filter.
-//   H = the springs' linear part (zero rest length): H_ij = k_ij I, H_ii = -Σ_j k_ij I, so M - h² H = M + h²
-//   L. Predictor:  (M + h² L + h L_c) Δv = h f(x_n, v_n)   (all forces, nonlinear), v+ = v + Δv, x+ = x + h
-//   v+, where L_c = Σ c A Aᵀ filters the springs' damping the same way (our addition: the damping force is
+// clang-format off
+//   H = the springs' linear part (zero rest length): H_ij = k_ij I, H_ii = -Σ_j k_ij I, so M - h² H = M + h² L.
+//   Predictor:  (M + h² L + h L_c) Δv = h f(x_n, v_n)   (all forces, nonlinear), v+ = v + Δv, x+ = x + h v+,
+//   where L_c = Σ c A Aᵀ filters the springs' damping the same way (our addition: the damping force is
 //   explicit in f, and unfiltered it limits h to about 2 m / Σc).
+// clang-format on
 // Instead of the paper's dense inverse W = (M - h² H)⁻¹ the matrix is factorised once (sparse Cholesky,
 // kinematic vertices eliminated) and refactorised only when h or the kinematic set changes.
 // Corrector: the filter keeps linear momentum (the columns of L sum to zero) but not angular momentum.

@@ -4,9 +4,10 @@
 //   g(x) = ½ (x - y)ᵀ M (x - y) + h² Σ_s ½ k_s (|x_j - x_i| - L_s)² + (h/2) Σ_s c_s |Δ_s(x - x_n)|²,
 //   y = x_n + h v_n + h² M⁻¹ f_ext  (f_ext: gravity, drag at the start of the step),
 // by alternating
-//   local:  d_s = L_s (x_j - x_i) / |x_j - x_i|            (Liu 2013, local step, ½k(l - L)² = min_|d|=L
-//   ½k|Δx - d|²) global: (M + h² L_k + h L_c) x = M y + h² J d + h L_c x_n  (Liu 2013, global step; L = Σ k A
-//   Aᵀ, J = Σ k A Sᵀ).
+// clang-format off
+//   local:  d_s = L_s (x_j - x_i) / |x_j - x_i|            (Liu 2013, local step, ½k(l - L)² = min_|d|=L ½k|Δx - d|²)
+//   global: (M + h² L_k + h L_c) x = M y + h² J d + h L_c x_n  (Liu 2013, global step; L = Σ k A Aᵀ, J = Σ k A Sᵀ).
+// clang-format on
 // The damping term is the springs' damping c_s applied isotropically to the relative displacement (a
 // constant, Rayleigh-like matrix L_c = Σ c A Aᵀ, so the prefactorisation stays valid); with c = 0 the fixed
 // point is exactly the backward Euler step of the spring energy. Every iteration decreases g (block

@@ -32,8 +32,10 @@ class SplitCholesky {
   bool ok() const { return ok_; }
   const std::string& error() const { return error_; }
 
-  // x = A⁻¹ b for the three columns of b, on up to two threads; the same bits for any thread count.
-  void solve(const Eigen::MatrixX3d& b, Eigen::MatrixX3d& x, int threads) const;
+  // x = A⁻¹ b for the three columns of b, on up to two threads; the same bits for any thread count. Uses
+  // scratch buffers of the object (not reentrant). Throws std::logic_error without a successful compute()
+  // or when b has another row count.
+  void solve(const Eigen::MatrixX3d& b, Eigen::MatrixX3d& x, int threads);
 
   int size() const { return n_; }
   // Vertices in part 0, part 1 and the separator S (S = 0 and part 1 = 0 when A is not split).
@@ -44,6 +46,7 @@ class SplitCholesky {
   long entries_joining_the_parts() const;
 
  private:
+  bool fail(const char* why);
   void forward(int begin, int end, double* y, double* s_rows) const;
   void backward(int begin, int end, double* y) const;
 
@@ -56,8 +59,8 @@ class SplitCholesky {
   std::vector<int> start_;        // CSC of L's strictly lower part, rows ascending within a column
   std::vector<int> row_;
   std::vector<double> value_;
-  mutable std::vector<double> y_;                        // 3 n, rows of (x, y, z)
-  mutable std::array<std::vector<double>, 2> s_buffer_;  // each part's updates of S's rows, 3 |S|
+  std::vector<double> y_;                        // 3 n, rows of (x, y, z)
+  std::array<std::vector<double>, 2> s_buffer_;  // each part's updates of S's rows, 3 |S|
 };
 
 }  // namespace loom::cloth
