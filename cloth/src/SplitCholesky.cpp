@@ -120,6 +120,27 @@ bool SplitCholesky::fail(const char* why) {
   return false;
 }
 
+void SplitCholesky::copy_factor(const Eigen::SparseMatrix<double>& l) {
+  // L's diagonal apart, its strictly lower entries column by column in Eigen's order (rows ascending).
+  diag_.assign(n_, 0.0);
+  start_.assign(n_ + 1, 0);
+  row_.clear();
+  value_.clear();
+  row_.reserve(l.nonZeros());
+  value_.reserve(l.nonZeros());
+  for (int j = 0; j < n_; ++j) {
+    for (Eigen::SparseMatrix<double>::InnerIterator it(l, j); it; ++it) {
+      if (it.row() == j) {
+        diag_[j] = it.value();
+      } else {
+        row_.push_back(static_cast<int>(it.row()));
+        value_.push_back(it.value());
+      }
+    }
+    start_[j + 1] = static_cast<int>(row_.size());
+  }
+}
+
 bool SplitCholesky::compute(const Eigen::SparseMatrix<double>& a) {
   ok_ = false;
   error_.clear();
@@ -129,49 +150,39 @@ bool SplitCholesky::compute(const Eigen::SparseMatrix<double>& a) {
   if (n_ >= kMinSplit) part = split_graph(graph_of(a), n_);
   std::vector<int> members[3];
   for (int v = 0; v < n_; ++v) members[part[v]].push_back(v);
-  std::vector<int> local(n_, -1);
-  old_of_new_.clear();
-  old_of_new_.reserve(n_);
-  for (const auto& m : members) {
-    const std::vector<int> order = amd_order(a, m, local);
-    old_of_new_.insert(old_of_new_.end(), order.begin(), order.end());
-  }
   end0_ = static_cast<int>(members[0].size());
   end1_ = end0_ + static_cast<int>(members[1].size());
-  std::vector<int> new_of_old(n_);
-  for (int k = 0; k < n_; ++k) new_of_old[old_of_new_[k]] = k;
-
-  std::vector<Eigen::Triplet<double>> trip;
-  trip.reserve(a.nonZeros());
-  for (int j = 0; j < n_; ++j)
-    for (Eigen::SparseMatrix<double>::InnerIterator it(a, j); it; ++it)
-      trip.emplace_back(new_of_old[it.row()], new_of_old[j], it.value());
-  Eigen::SparseMatrix<double> permuted(n_, n_);
-  permuted.setFromTriplets(trip.begin(), trip.end());
-  Eigen::SimplicialLLT<Eigen::SparseMatrix<double>, Eigen::Lower, Eigen::NaturalOrdering<int>> llt(permuted);
-  if (llt.info() != Eigen::Success) return fail("matrix is not positive definite");
-  const Eigen::SparseMatrix<double>& l = llt.matrixL().nestedExpression();
-  inv_diag_.assign(n_, 0.0);
-  start_.assign(n_ + 1, 0);
-  row_.clear();
-  value_.clear();
-  row_.reserve(l.nonZeros());
-  value_.reserve(l.nonZeros());
-  std::vector<std::pair<int, double>> column;
-  for (int j = 0; j < n_; ++j) {
-    column.clear();
-    for (Eigen::SparseMatrix<double>::InnerIterator it(l, j); it; ++it) {
-      if (it.row() == j)
-        inv_diag_[j] = 1.0 / it.value();
-      else if (it.value() != 0.0)
-        column.emplace_back(static_cast<int>(it.row()), it.value());
+  if (end0_ == n_) {
+    // Not split: Eigen's own factorisation (AMD order) and, in solve(), its substitutions' operations, so the
+    // solve has the bits of SimplicialLLT::solve.
+    const Eigen::SimplicialLLT<Eigen::SparseMatrix<double>> llt(a);
+    if (llt.info() != Eigen::Success) return fail("matrix is not positive definite");
+    const auto& pinv = llt.permutationPinv().indices();  // [new] = old
+    old_of_new_.assign(pinv.data(), pinv.data() + pinv.size());
+    if (old_of_new_.empty())
+      for (int k = 0; k < n_; ++k) old_of_new_.push_back(k);
+    copy_factor(llt.matrixL().nestedExpression());
+  } else {
+    std::vector<int> local(n_, -1);
+    old_of_new_.clear();
+    old_of_new_.reserve(n_);
+    for (const auto& m : members) {
+      const std::vector<int> order = amd_order(a, m, local);
+      old_of_new_.insert(old_of_new_.end(), order.begin(), order.end());
     }
-    std::sort(column.begin(), column.end());
-    for (const auto& [r, v] : column) {
-      row_.push_back(r);
-      value_.push_back(v);
-    }
-    start_[j + 1] = static_cast<int>(row_.size());
+    std::vector<int> new_of_old(n_);
+    for (int k = 0; k < n_; ++k) new_of_old[old_of_new_[k]] = k;
+    std::vector<Eigen::Triplet<double>> trip;
+    trip.reserve(a.nonZeros());
+    for (int j = 0; j < n_; ++j)
+      for (Eigen::SparseMatrix<double>::InnerIterator it(a, j); it; ++it)
+        trip.emplace_back(new_of_old[it.row()], new_of_old[j], it.value());
+    Eigen::SparseMatrix<double> permuted(n_, n_);
+    permuted.setFromTriplets(trip.begin(), trip.end());
+    const Eigen::SimplicialLLT<Eigen::SparseMatrix<double>, Eigen::Lower, Eigen::NaturalOrdering<int>> llt(
+        permuted);
+    if (llt.info() != Eigen::Success) return fail("matrix is not positive definite");
+    copy_factor(llt.matrixL().nestedExpression());
   }
   y_.assign(3 * static_cast<size_t>(n_), 0.0);
   for (auto& buffer : s_buffer_) buffer.assign(3 * static_cast<size_t>(n_ - end1_), 0.0);
@@ -187,11 +198,13 @@ long SplitCholesky::entries_joining_the_parts() const {
 }
 
 void SplitCholesky::forward(int begin, int end, double* y, double* s_rows) const {
-  // Column-oriented L y = b over columns [begin, end); updates of S's rows go to s_rows when given.
+  // Column-oriented L y = b over columns [begin, end); updates of S's rows go to s_rows when given. The
+  // operations are Eigen's (divide by L_jj, then subtract L_ij y_j), so an unsplit factor solves bit for bit
+  // like SimplicialLLT.
   for (int j = begin; j < end; ++j) {
     double* yj = y + 3 * static_cast<size_t>(j);
-    const double d = inv_diag_[j];
-    const double y0 = yj[0] * d, y1 = yj[1] * d, y2 = yj[2] * d;
+    const double d = diag_[j];
+    const double y0 = yj[0] / d, y1 = yj[1] / d, y2 = yj[2] / d;
     yj[0] = y0;
     yj[1] = y1;
     yj[2] = y2;
@@ -219,10 +232,10 @@ void SplitCholesky::backward(int begin, int end, double* y) const {
       r1 -= l * yi[1];
       r2 -= l * yi[2];
     }
-    const double d = inv_diag_[j];
-    yj[0] = r0 * d;
-    yj[1] = r1 * d;
-    yj[2] = r2 * d;
+    const double d = diag_[j];
+    yj[0] = r0 / d;
+    yj[1] = r1 / d;
+    yj[2] = r2 / d;
   }
 }
 

@@ -47,6 +47,7 @@ class SplitCholesky {
 
  private:
   bool fail(const char* why);
+  void copy_factor(const Eigen::SparseMatrix<double>& l);
   void forward(int begin, int end, double* y, double* s_rows) const;
   void backward(int begin, int end, double* y) const;
 
@@ -55,7 +56,7 @@ class SplitCholesky {
   bool ok_ = false;
   std::string error_;
   std::vector<int> old_of_new_;   // permutation: old index of each new index
-  std::vector<double> inv_diag_;  // 1 / L_jj
+  std::vector<double> diag_;      // L_jj
   std::vector<int> start_;        // CSC of L's strictly lower part, rows ascending within a column
   std::vector<int> row_;
   std::vector<double> value_;
