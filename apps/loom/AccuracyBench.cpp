@@ -672,20 +672,17 @@ int bench_accuracy(const AccuracyOptions& o) {
 
 namespace {
 
+// clang-format off
 const char* kBenchUsage =
     "Usage: loom bench accuracy [--sizes 32,64,128] [--out DIR] [--quick] [--duration S] [--threads 1,2]\n"
     "                           [--methods LIST] [--configs TEXT] [--repeats R]\n"
     "\n"
-    "The accuracy-vs-time benchmark on the hanging-cloth scene (1 m cotton square, 0.2 kg, two corners "
-    "pinned,\n"
-    "released horizontally, 60 Hz frames, damping off). Every registered solver runs over its knob sweep, "
-    "and\n"
-    "both Bullet twins (classic btSoftBody, deformable world) over iterations and substeps, against a "
-    "reference\n"
+    "The accuracy-vs-time benchmark on the hanging-cloth scene (1 m cotton square, 0.2 kg, two corners pinned,\n"
+    "released horizontally, 60 Hz frames, damping off). Every registered solver runs over its knob sweep, and\n"
+    "both Bullet twins (classic btSoftBody, deformable world) over iterations and substeps, against a reference\n"
     "(Verlet far below the explicit stability bound, checked by halving its step).\n"
     "Writes DIR/accuracy.csv (system,method,size,config,threads,ms_per_frame,rms_error_max,rms_error_end,\n"
-    "max_strain,mean_strain,energy_drift,diverged), DIR/reference_check.csv, DIR/accuracy_N.png per size "
-    "and\n"
+    "max_strain,mean_strain,energy_drift,diverged), DIR/reference_check.csv, DIR/accuracy_N.png per size and\n"
     "DIR/accuracy.png (the last size).\n"
     "\n"
     "Options:\n"
@@ -696,11 +693,10 @@ const char* kBenchUsage =
     "  --threads LIST  thread counts for Loom's solvers (default 1,2)\n"
     "  --perturbation M  amplitude of the start bump that fixes the buckling direction (default 0.001 m)\n"
     "  --methods LIST  only these solvers / bullet_classic / bullet_deformable (default: all)\n"
-    "  --configs TEXT  only the Loom configurations whose label contains TEXT, e.g. 'substeps=1 "
-    "cg_tolerance=0.02'\n"
-    "  --repeats R     run each Loom row R times, thread counts interleaved, and keep the fastest (default "
-    "1;\n"
+    "  --configs TEXT  only the Loom configurations whose label contains TEXT, e.g. 'substeps=1 cg_tolerance=0.02'\n"
+    "  --repeats R     run each Loom row R times, thread counts interleaved, and keep the fastest (default 1;\n"
     "                  for thread ratios on a shared machine); a repeat with other results is reported\n";
+// clang-format on
 
 bool parse_list(const std::string& s, std::vector<int>& out, int min) {
   out.clear();

@@ -42,7 +42,7 @@ void DesbrunSolver::step(Cloth& cloth, double t, double h, int threads) {
   rhs_.resize(num_free_, 3);
   for (int i = 0; i < n; ++i)
     if (index_[i] >= 0) rhs_.row(index_[i]) = h * f_[i].transpose();
-  factor_.solve(rhs_, dv_, n >= kMinParallel ? threads : 1);
+  factor_.solve(rhs_, dv_, threads);  // parallel only when the factor is split (SplitCholesky)
   if (angular_correction_) correct_angular_momentum(s, h, threads);
   s.x_prev = s.x;
 #pragma omp parallel for num_threads(threads) if (threads > 1 && n >= kMinParallel) schedule(static)
@@ -86,14 +86,13 @@ void DesbrunSolver::correct_angular_momentum(const ClothState& s, double h, int 
     for (int i = 0; i < n; ++i)
       if (index_[i] >= 0) rhs_.row(index_[i]) = gather_.sum(i, spring_force_).transpose();
   }
-  Eigen::MatrixX3d dv_int;
-  factor_.solve(rhs_, dv_int, s.size() >= kMinParallel ? threads : 1);
+  factor_.solve(rhs_, dv_int_, threads);
   Vec3 spurious = Vec3::Zero();
   Mat3 inertia = Mat3::Zero();
   for (int i = 0; i < s.size(); ++i) {
     if (index_[i] < 0) continue;
     const Vec3 r = s.x[i] - c;
-    spurious += s.mass[i] * r.cross(dv_int.row(index_[i]).transpose());
+    spurious += s.mass[i] * r.cross(dv_int_.row(index_[i]).transpose());
     inertia += s.mass[i] * (r.squaredNorm() * Mat3::Identity() - r * r.transpose());
   }
   // A degenerate (collinear) vertex set has a singular inertia tensor: leave the step uncorrected.

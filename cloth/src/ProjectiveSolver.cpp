@@ -133,7 +133,7 @@ void ProjectiveSolver::step(Cloth& cloth, double t, double h, int threads) {
     }
     if (!triangles_.empty()) add_strain_projection(s, h, rhs_);
     // Global step: the prefactorised solve, three right-hand sides at once.
-    factor_.solve(rhs_, q_hat_, n >= kMinParallel ? threads : 1);
+    factor_.solve(rhs_, q_hat_, threads);  // parallel only when the factor is split
     if (settings_.chebyshev && it >= settings_.warmup) {
       // Wang 2015 with γ = 1 (direct global solve).
       omega = it == settings_.warmup ? 2.0 / (2.0 - rho2) : 4.0 / (4.0 - rho2 * omega);

@@ -48,7 +48,7 @@ class DesbrunSolver final : public Solver {
   int num_free_ = 0;
   long factorizations_ = 0;
   Vec3s f_;                      // N
-  Eigen::MatrixX3d rhs_, dv_;    // N·s, m/s (free rows)
+  Eigen::MatrixX3d rhs_, dv_, dv_int_;  // N·s, m/s (free rows)
 };
 
 }  // namespace loom::cloth
