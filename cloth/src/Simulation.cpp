@@ -331,27 +331,59 @@ FrameStats Simulation::measure() const {
   return stats;
 }
 
+namespace {
+// Per-chunk partial results of the frame statistics, combined in chunk order: the same bits for any thread count.
+struct StatChunk {
+  double kinetic = 0.0, potential = 0.0, strain_sum = 0.0, max_strain = 0.0;
+};
+constexpr int kStatChunk = 512;
+
+// chunks[ch] = fill(begin, end, chunk) over [0, n) in kStatChunk pieces, on several threads for large n.
+template <class F>
+void stat_chunks(int n, int threads, std::vector<StatChunk>& chunks, const F& fill) {
+  const int count = (n + kStatChunk - 1) / kStatChunk;
+  chunks.assign(count, StatChunk());
+  const bool par = threads > 1 && n >= kParallelMinVertices;
+#pragma omp parallel for num_threads(threads) if (par) schedule(static)
+  for (int ch = 0; ch < count; ++ch) fill(ch * kStatChunk, std::min(n, (ch + 1) * kStatChunk), chunks[ch]);
+}
+}  // namespace
+
 void Simulation::fill_stats(FrameStats& s) const {
   s.frame = frame_;
   s.time = t_;
   double strain_sum = 0.0;
   long strain_count = 0;
+  std::vector<StatChunk> chunks;
   for (const auto& c : cloths_) {
     const ClothState& st = c->state();
     if (!st.is_finite()) s.finite = false;
-    for (int i = 0; i < st.size(); ++i) {
-      s.kinetic += 0.5 * st.mass[i] * st.v[i].squaredNorm();
-      s.potential -= st.mass[i] * setup_.gravity.dot(st.x[i]);
+    stat_chunks(st.size(), setup_.threads, chunks, [&](int begin, int end, StatChunk& out) {
+      for (int i = begin; i < end; ++i) {
+        out.kinetic += 0.5 * st.mass[i] * st.v[i].squaredNorm();
+        out.potential -= st.mass[i] * setup_.gravity.dot(st.x[i]);
+      }
+    });
+    for (const StatChunk& ch : chunks) {
+      s.kinetic += ch.kinetic;
+      s.potential += ch.potential;
     }
     s.elastic += c->elastic_energy(setup_.threads);
     const auto& springs = c->mesh().springs();
-    for (int k : c->mesh().strain_springs()) {
-      const SpringDef& d = springs[k];
-      const double strain = (st.x[d.j] - st.x[d.i]).norm() / d.rest_length - 1.0;
-      s.max_strain = std::max(s.max_strain, strain);
-      strain_sum += std::abs(strain);
-      ++strain_count;
+    const std::vector<int>& ids = c->mesh().strain_springs();
+    stat_chunks(static_cast<int>(ids.size()), setup_.threads, chunks, [&](int begin, int end, StatChunk& out) {
+      for (int q = begin; q < end; ++q) {
+        const SpringDef& d = springs[ids[q]];
+        const double strain = (st.x[d.j] - st.x[d.i]).norm() / d.rest_length - 1.0;
+        out.max_strain = std::max(out.max_strain, strain);  // a NaN strain is skipped here, caught by the sum
+        out.strain_sum += std::abs(strain);
+      }
+    });
+    for (const StatChunk& ch : chunks) {
+      s.max_strain = std::max(s.max_strain, ch.max_strain);
+      strain_sum += ch.strain_sum;
     }
+    strain_count += static_cast<long>(ids.size());
   }
   s.mean_strain = strain_count ? strain_sum / strain_count : 0.0;
   if (!std::isfinite(s.kinetic) || !std::isfinite(s.potential) || !std::isfinite(s.elastic) ||
