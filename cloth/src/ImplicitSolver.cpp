@@ -84,6 +84,7 @@ void ImplicitSolver::prepare(const Cloth& cloth) {
   dv_.assign(n, Vec3::Zero());
   h_dv_ = 0.0;
   has_history_ = false;
+  energy_cache_valid_ = false;
 }
 
 void ImplicitSolver::multiply(const BlockMatrix& m, const Vec3s& x, Vec3s& y, int threads) const {
@@ -260,6 +261,7 @@ bool ImplicitSolver::substep(Cloth& cloth, double t, double h, int threads) {
     const bool excessive = p_.safeguard && energy_gain_excessive(cloth, t, h, threads);
     counters_.safeguard_ms += ms_since(t_check);
     if (excessive) {
+      energy_cache_valid_ = false;
       // The linearised step created energy that no external work explains (large rotations of stiff
       // cloth, methods.md §2.2): correct this step by Newton with line search, from the better of the
       // linearised result and the start.
@@ -302,12 +304,19 @@ bool ImplicitSolver::substep(Cloth& cloth, double t, double h, int threads) {
   return s.is_finite();
 }
 
+std::vector<const Term*> ImplicitSolver::term_list(const Cloth& cloth) {
+  std::vector<const Term*> out;
+  for (const auto& term : cloth.terms()) out.push_back(term.get());
+  return out;
+}
+
 double ImplicitSolver::mechanical_energy(const Cloth& cloth, const Vec3s& x, const Vec3s& v, double t,
-                                         int threads, std::vector<double>& per_term) const {
+                                         int threads, std::vector<double>& per_term, bool kinetic_only) const {
   const ClothState& s = cloth.state();
   double kinetic = 0.0;
   for (int i = 0; i < n_; ++i)
     if (!fixed_[i]) kinetic += 0.5 * s.mass[i] * v[i].squaredNorm();
+  if (kinetic_only) return kinetic;
   per_term.clear();
   const EvalContext ctx{x, v, t, threads};
   for (const auto& term : cloth.terms())
@@ -329,8 +338,15 @@ bool ImplicitSolver::energy_gain_excessive(Cloth& cloth, double t, double h, int
   const Vec3s& vplus = vk_;
   xk_.resize(n);
   for (int i = 0; i < n; ++i) xk_[i] = xb_[i] + gamma_ * vplus[i];
-  const double k0 = mechanical_energy(cloth, s.x, s.v, t, threads, e_start_);
+  // The start's term energies are the last check's end energies when the step starts where that one ended (the
+  // same positions bit for bit, the same terms): conservative energies depend on x alone (Term.h).
+  const bool reuse = energy_cache_valid_ && energy_cache_terms_ == term_list(cloth) && s.x == energy_cache_x_;
+  const double k0 = mechanical_energy(cloth, s.x, s.v, t, threads, e_start_, reuse);
+  if (reuse) e_start_ = e_end_;
   const double k1 = mechanical_energy(cloth, xk_, vplus, t + h, threads, e_end_);
+  energy_cache_x_ = xk_;
+  energy_cache_terms_ = term_list(cloth);
+  energy_cache_valid_ = true;  // cleared below if the step is redone (its end then moves)
   double gain = k1 - k0, exchanged = k0 + k1;
   for (size_t k = 0; k < e_start_.size(); ++k) {
     gain += e_end_[k] - e_start_[k];

@@ -27,6 +27,7 @@ void ImplicitSolver::load_state(StateReader& in, const Cloth& cloth) {
   streak_ = static_cast<int>(in.i64());
   dv_ = in.vec3s();
   h_dv_ = in.f64();
+  energy_cache_valid_ = false;
 }
 
 }  // namespace loom::cloth

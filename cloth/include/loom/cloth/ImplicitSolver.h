@@ -114,7 +114,10 @@ class ImplicitSolver final : public Solver {
     return scheme_ == Scheme::kBdf2 ? "bdf2" : scheme_ == Scheme::kImex ? "imex" : "implicit_euler";
   }
   void step(Cloth& cloth, double t, double h, int threads) override;
-  void reset() override { has_history_ = false; }
+  void reset() override {
+    has_history_ = false;
+    energy_cache_valid_ = false;
+  }
   // BDF2 history, adaptive substep and the PCG warm start (ImplicitSolverState.cpp, issue 8).
   void save_state(StateWriter& out) const override;
   void load_state(StateReader& in, const Cloth& cloth) override;
@@ -133,9 +136,11 @@ class ImplicitSolver final : public Solver {
   void multiply(const BlockMatrix& m, const Vec3s& x, Vec3s& y, int threads) const;
   double incremental_potential(Cloth& cloth, const Vec3s& v, double t, int threads);
   void newton(Cloth& cloth, double t, double h, int threads, int iterations);
-  // Kinetic energy of the free vertices (returned) and each conservative term's energy (per_term), J.
+  // Kinetic energy of the free vertices (returned) and, unless kinetic_only, each conservative term's energy
+  // (per_term), J.
   double mechanical_energy(const Cloth& cloth, const Vec3s& x, const Vec3s& v, double t, int threads,
-                           std::vector<double>& per_term) const;
+                           std::vector<double>& per_term, bool kinetic_only = false) const;
+  static std::vector<const Term*> term_list(const Cloth& cloth);
   bool energy_gain_excessive(Cloth& cloth, double t, double h, int threads);
   double max_strain_change(const Vec3s& before, const Vec3s& after) const;
   // pcg_.solve with the cloth's contact constraints (ClothState::contact_normal) as filters; a contact whose
@@ -170,6 +175,10 @@ class ImplicitSolver final : public Solver {
   // Scratch.
   Vec3s f_, fc_, xb_, vb_, rhs_, dv_, y_, tmp_, vk_, xk_, g_, p_dir_, vtry_;
   std::vector<double> e_start_, e_end_;  // J, per conservative term (safeguard)
+  // The last check's end positions and terms: e_end_ holds their energies while valid (the next start reuses them).
+  Vec3s energy_cache_x_;
+  std::vector<const Term*> energy_cache_terms_;
+  bool energy_cache_valid_ = false;
   double gamma_ = 0.0;
   double h_dv_ = 0.0;  // s, step of the Δv kept in dv_ (the PCG's warm start); 0 = none
   bool d_written_ = false;  // the last assembly wrote df/dv into D_ (so D_ must be cleared before it is skipped)

@@ -63,7 +63,8 @@ class Term {
  public:
   virtual ~Term() = default;
   virtual const char* name() const = 0;
-  // Conservative terms have force = -grad(energy); the others (drag) return energy 0.
+  // Conservative terms have force = -grad(energy), a function of the positions alone (not of v or t: the implicit
+  // safeguard reuses the energies of unchanged positions); the others (drag) return energy 0.
   virtual bool conservative() const { return true; }
   virtual double energy(const EvalContext& c) const = 0;       // J
   virtual void add_forces(const EvalContext& c, Vec3s& f) const = 0;  // N, accumulated into f
