@@ -53,6 +53,26 @@ TEST(CcdSampleQueries, NoFalseNegativesUnscaled) {
             << "\n";
 }
 
+// The impact zones run the test with a box budget (SelfCollisionStage::impact_zones: 4096 boxes): a query the
+// budget cuts short must still come out a hit, never a miss. With that budget and with a budget so small that many
+// queries run out of it, every true contact is still reported.
+TEST(CcdSampleQueries, NoFalseNegativesWhenTheBoxBudgetRunsOut) {
+  for (long budget : {4096L, 16L}) {
+    lc::CcdOptions o;
+    o.max_boxes = budget;
+    o.toi_tolerance = 1e-2;
+    o.toi_max_boxes = 32;
+    const lc::CcdEvalStats s = lc::evaluate_ccd(all_queries(), o);
+    EXPECT_EQ(s.false_negatives, 0) << "budget " << budget;
+    EXPECT_EQ(s.positives, 435);
+    if (budget == 16) {
+      EXPECT_GT(s.budget_exhausted, 100) << "the small budget should cut queries short";
+    }
+    std::cout << "[ measured ] budget=" << budget << " false_positives=" << s.false_positives
+              << " budget_exhausted=" << s.budget_exhausted << "\n";
+  }
+}
+
 // Every coordinate times 2^k and translated (exactly, so the ground truth stays valid), every k in [-10, 10].
 TEST(CcdSampleQueries, NoFalseNegativesScaledAndTranslated) {
   std::mt19937_64 rng(7);
