@@ -906,12 +906,12 @@ bool SelfCollisionStage::impact_zones(std::vector<char> dirty, int threads) {
       CcdOptions opt;
       opt.toi_tolerance = 1e-2;
       opt.toi_max_boxes = 32;
-      // A query that has not settled after 4096 boxes is a hit (conservative: the zone gets one constraint more).
-      // Features crushed flat against each other, just outside the separation over a whole patch, otherwise
-      // refine that patch at the 1e-6 tolerance to the default budget of 2^18 boxes: in the 30 cm crushed box
-      // (test_stability_collisions.cpp, desbrun) the 7,146 queries that spent that budget took 1.87e9 of the run's
-      // 2.55e9 boxes and the run 135 s; 16 s with this budget (of the 36 collision stability rows, one other ends
-      // with other figures, still within every bound).
+      // A query that has not settled after 4096 boxes is a hit (conservative: the zone gets one constraint
+      // more). Features crushed flat against each other, just outside the separation over a whole patch,
+      // otherwise refine that patch at the 1e-6 tolerance to the default budget of 2^18 boxes: in the 30 cm
+      // crushed box (test_stability_collisions.cpp, desbrun) the 7,146 queries that spent that budget took
+      // 1.87e9 of the run's 2.55e9 boxes and the run 135 s; 16 s with this budget (of the 36 collision
+      // stability rows, one other ends with other figures, still within every bound).
       opt.max_boxes = 1L << 12;
       const CcdResult r = fs[i].type == 0 ? vertex_face_ccd(*a0[0], *a0[1], *a0[2], *a0[3], *a1[0], *a1[1], *a1[2], *a1[3], opt)
                                           : edge_edge_ccd(*a0[0], *a0[1], *a0[2], *a0[3], *a1[0], *a1[1], *a1[2], *a1[3], opt);

@@ -54,8 +54,8 @@ TEST(CcdSampleQueries, NoFalseNegativesUnscaled) {
 }
 
 // The impact zones run the test with a box budget (SelfCollisionStage::impact_zones: 4096 boxes): a query the
-// budget cuts short must still come out a hit, never a miss. With that budget and with a budget so small that many
-// queries run out of it, every true contact is still reported.
+// budget cuts short must still come out a hit, never a miss. With that budget and with a budget so small that
+// many queries run out of it, every true contact is still reported.
 TEST(CcdSampleQueries, NoFalseNegativesWhenTheBoxBudgetRunsOut) {
   for (long budget : {4096L, 16L}) {
     lc::CcdOptions o;

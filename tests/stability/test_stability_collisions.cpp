@@ -338,11 +338,11 @@ int num_cases() { return static_cast<int>(collision_cases().size()); }
 // With the cloth-cloth impulse shares capped (SelfCollisionSettings::max_share, issue 6; `--gtest_filter=
 // '*crushed*:*Collision*'`, 313 s wall, load ~2): character_clip_at_3x desbrun F -> S (census 0 over 252 steps,
 // strain 0.929, E/bound 0.37); every other row as above.
-// With the impact zones' continuous tests capped at 4096 boxes (a query that has not settled by then is a hit;
-// SelfCollisionStage::impact_zones; session 11, idle machine, `--gtest_filter='*crushed*:*collider_spinning*:
-// *character_clip_at_3x*'`, one process: 247 -> 109 s): box to 30 cm desbrun 135 -> 16 s, pbd 24 -> 8.7 s, box
-// to 50 cm pbd 4.4 -> 1.5 s; every row's outcome and figures as before but box to 30 cm pbd (S, 384 -> 328 steps,
-// strain 0.979 -> 0.924, E/bound 0.997 both).
+// With the impact zones' continuous tests capped at 4096 boxes (a query that has not settled by then is a
+// hit; SelfCollisionStage::impact_zones; session 11, idle machine,
+// `--gtest_filter='*crushed*:*collider_spinning*:*character_clip_at_3x*'`, one process: 247 -> 109 s): box
+// to 30 cm desbrun 135 -> 16 s, pbd 24 -> 8.7 s, box to 50 cm pbd 4.4 -> 1.5 s; every row's outcome and
+// figures as before but box to 30 cm pbd (S, 384 -> 328 steps, strain 0.979 -> 0.924, E/bound 0.997 both).
 // Before the intersection guard the table took 482 s wall (280 s CPU) for the 23 rows then in ctest: the rows
 // that tangled spent it in the self-collision stage of a tangled sheet (50 cm pbd alone 257 s).
 // Engine gaps the F rows show: explicit Euler does not hold cotton at 100-200 substeps.
