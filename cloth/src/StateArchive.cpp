@@ -21,12 +21,12 @@ void StateWriter::i64(std::int64_t v) { append(data_, v); }
 
 void StateWriter::vec3s(const Vec3s& v) {
   i64(static_cast<std::int64_t>(v.size()));
-  data_.append(reinterpret_cast<const char*>(v.data()), v.size() * sizeof(Vec3));
+  if (!v.empty()) data_.append(reinterpret_cast<const char*>(v.data()), v.size() * sizeof(Vec3));
 }
 
 void StateWriter::doubles(const std::vector<double>& v) {
   i64(static_cast<std::int64_t>(v.size()));
-  data_.append(reinterpret_cast<const char*>(v.data()), v.size() * sizeof(double));
+  if (!v.empty()) data_.append(reinterpret_cast<const char*>(v.data()), v.size() * sizeof(double));
 }
 
 void StateWriter::bytes(const std::string& b) {
@@ -37,6 +37,7 @@ void StateWriter::bytes(const std::string& b) {
 void StateReader::take(void* out, size_t n, const char* what) {
   if (n > data_.size() - pos_)
     throw Error(source_, "after '" + last_tag_ + "'", std::string("state archive is cut short (reading ") + what + ")");
+  if (n == 0) return;  // an empty array's data() may be null, and memcpy's pointers must not be, even for 0 bytes
   std::memcpy(out, data_.data() + pos_, n);
   pos_ += n;
 }
