@@ -99,6 +99,7 @@ std::vector<std::pair<std::string, double>> SelfCollisionStage::counters() const
           {"unresolved", static_cast<double>(unresolved_)},
           {"collider_fixes", static_cast<double>(collider_fixes_)},
           {"collider_rounds", static_cast<double>(collider_rounds_)},
+          {"zone_ccd_cut", static_cast<double>(zone_ccd_cut_)},
           {"bvh_ms", bvh_ms_},
           {"pairs_ms", pairs_ms_},
           {"features_ms", features_ms_},
@@ -887,7 +888,8 @@ bool SelfCollisionStage::impact_zones(std::vector<char> dirty, int threads) {
     const long n = static_cast<long>(fs.size());
     std::vector<char> hit(n, 0);
     std::vector<ZoneConstraint> found(n);
-#pragma omp parallel for num_threads(threads) if (threads > 1) schedule(dynamic, 256)
+    long cut = 0;
+#pragma omp parallel for num_threads(threads) if (threads > 1) schedule(dynamic, 256) reduction(+ : cut)
     for (long i = 0; i < n; ++i) {
       const Contact c = contact_of(fs[i]);
       // Pairs inside one rigid zone move affinely with it and stay apart.
@@ -915,6 +917,7 @@ bool SelfCollisionStage::impact_zones(std::vector<char> dirty, int threads) {
       opt.max_boxes = 1L << 12;
       const CcdResult r = fs[i].type == 0 ? vertex_face_ccd(*a0[0], *a0[1], *a0[2], *a0[3], *a1[0], *a1[1], *a1[2], *a1[3], opt)
                                           : edge_edge_ccd(*a0[0], *a0[1], *a0[2], *a0[3], *a1[0], *a1[1], *a1[2], *a1[3], opt);
+      cut += r.budget_exhausted;
       if (!r.hit) continue;
       hit[i] = 1;
       // The constraint of this contact: normal and weights at the time of impact; the gap to keep at the end
@@ -941,6 +944,7 @@ bool SelfCollisionStage::impact_zones(std::vector<char> dirty, int threads) {
       }
       zc.b = zc.n.dot(diff) + 0.1 * pair_thickness(c);
     }
+    zone_ccd_cut_ += cut;
     // Merge (serial, in feature order).
     std::vector<int> roots_changed;
     bool any = false;

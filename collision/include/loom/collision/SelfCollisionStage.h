@@ -89,7 +89,7 @@ class SelfCollisionStage final : public loom::cloth::Stage {
   // candidate_pairs (triangle pairs from the BVHs), features (their vertex-face and edge-edge features that
   // passed the box filter), culled_nodes (normal-cone culls), contacts (proximity +
   // continuous contacts given impulses), passes (continuous-test passes), impact_zones (zones formed),
-  // zone_iterations, projections (inelastic projections of a zone), rigid_zones (zones that went rigid), bvh_rebuilds, ccd_tests and ccd_boxes (continuous tests in the passes, inclusion boxes), ccd_start_hits (pairs of the passes closer than the separation at the step's start: hits at t = 0 without a continuous test), unresolved (steps that ended with a forced global zone), collider_fixes (vertices handed back to the body stage), collider_rounds; all since the start. Phase
+  // zone_iterations, projections (inelastic projections of a zone), rigid_zones (zones that went rigid), bvh_rebuilds, ccd_tests and ccd_boxes (continuous tests in the passes, inclusion boxes), ccd_start_hits (pairs of the passes closer than the separation at the step's start: hits at t = 0 without a continuous test), unresolved (steps that ended with a forced global zone), collider_fixes (vertices handed back to the body stage), collider_rounds, zone_ccd_cut (the impact zones' continuous tests that ran out of their 4096-box budget and so count as hits); all since the start. Phase
   // wall times (ms since the start): bvh_ms, pairs_ms (the step's first search, all_features, includes its
   // feature extraction), features_ms (the other searches' extraction), proximity_ms, ccd_ms, zones_ms (the zones'
   // own searches counted in it and in their phases).
@@ -184,6 +184,7 @@ class SelfCollisionStage final : public loom::cloth::Stage {
   long candidate_pairs_ = 0, contacts_ = 0, passes_ = 0, impact_zones_ = 0, zone_iterations_ = 0;
   long bvh_rebuilds_ = 0, unresolved_ = 0, culled_nodes_ = 0, ccd_tests_ = 0, ccd_boxes_ = 0;
   long projections_ = 0, rigid_zones_ = 0, collider_fixes_ = 0, collider_rounds_ = 0, ccd_start_hits_ = 0;
+  long zone_ccd_cut_ = 0;  // the impact zones' continuous tests cut short by their box budget (hits)
   // Phase wall times since the start (ms): BVH refit/rebuild, triangle-pair search, feature extraction,
   // proximity impulses, continuous passes, impact zones (the zones' own searches included).
   double bvh_ms_ = 0.0, pairs_ms_ = 0.0, proximity_ms_ = 0.0, ccd_ms_ = 0.0, zones_ms_ = 0.0;
