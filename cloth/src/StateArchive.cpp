@@ -13,6 +13,10 @@ void append(std::string& s, const T& v) {
 }
 // Arrays go in one copy each: a Vec3s is n packed triples of doubles, the same bytes as writing them one by one.
 static_assert(sizeof(Vec3) == 3 * sizeof(double), "Vec3 must be three packed doubles");
+// An empty array's data() may be null: nothing is copied from it.
+void append_array(std::string& s, const void* data, size_t n) {
+  if (n > 0) s.append(static_cast<const char*>(data), n);
+}
 }  // namespace
 
 void StateWriter::tag(const std::string& name) { bytes(name); }
@@ -21,12 +25,12 @@ void StateWriter::i64(std::int64_t v) { append(data_, v); }
 
 void StateWriter::vec3s(const Vec3s& v) {
   i64(static_cast<std::int64_t>(v.size()));
-  if (!v.empty()) data_.append(reinterpret_cast<const char*>(v.data()), v.size() * sizeof(Vec3));
+  append_array(data_, v.data(), v.size() * sizeof(Vec3));
 }
 
 void StateWriter::doubles(const std::vector<double>& v) {
   i64(static_cast<std::int64_t>(v.size()));
-  if (!v.empty()) data_.append(reinterpret_cast<const char*>(v.data()), v.size() * sizeof(double));
+  append_array(data_, v.data(), v.size() * sizeof(double));
 }
 
 void StateWriter::bytes(const std::string& b) {

@@ -38,6 +38,8 @@ int find_root(std::vector<int>& parent, int v) {
   return v;
 }
 
+constexpr long kZoneCcdBoxes = 4096;  // the impact zones' budget of inclusion boxes per continuous test
+
 // Unit vector along `d`, or along `fallback` oriented like `side` when d is (nearly) zero.
 bool contact_normal(const Vec3& d, const Vec3& fallback, const Vec3& side, Vec3& n) {
   const double len = d.norm();
@@ -888,6 +890,16 @@ bool SelfCollisionStage::impact_zones(std::vector<char> dirty, int threads) {
     const long n = static_cast<long>(fs.size());
     std::vector<char> hit(n, 0);
     std::vector<ZoneConstraint> found(n);
+    // A query that has not settled after kZoneCcdBoxes boxes is a hit (conservative: the zone gets one
+    // constraint more). Features crushed flat against each other, just outside the separation over a whole
+    // patch, otherwise refine that patch at the 1e-6 tolerance to the default budget of 2^18 boxes: in the
+    // 30 cm crushed box (test_stability_collisions.cpp, desbrun) the 7,146 queries that spent that budget
+    // took 1.87e9 of the run's 2.55e9 boxes and the run 135 s; 16 s with this budget (of the 36 collision
+    // stability rows, one other ends with other figures, still within every bound).
+    CcdOptions opt;
+    opt.toi_tolerance = 1e-2;
+    opt.toi_max_boxes = 32;
+    opt.max_boxes = kZoneCcdBoxes;
     long cut = 0;
 #pragma omp parallel for num_threads(threads) if (threads > 1) schedule(dynamic, 256) reduction(+ : cut)
     for (long i = 0; i < n; ++i) {
@@ -905,16 +917,6 @@ bool SelfCollisionStage::impact_zones(std::vector<char> dirty, int threads) {
       const int split = fs[i].type == 0 ? 1 : 2;
       for (int k = 0; k < 4; ++k) (k < split ? ba : bb).grow(*a0[k]), (k < split ? ba : bb).grow(*a1[k]);
       if (!ba.overlaps(bb)) continue;
-      CcdOptions opt;
-      opt.toi_tolerance = 1e-2;
-      opt.toi_max_boxes = 32;
-      // A query that has not settled after 4096 boxes is a hit (conservative: the zone gets one constraint
-      // more). Features crushed flat against each other, just outside the separation over a whole patch,
-      // otherwise refine that patch at the 1e-6 tolerance to the default budget of 2^18 boxes: in the 30 cm
-      // crushed box (test_stability_collisions.cpp, desbrun) the 7,146 queries that spent that budget took
-      // 1.87e9 of the run's 2.55e9 boxes and the run 135 s; 16 s with this budget (of the 36 collision
-      // stability rows, one other ends with other figures, still within every bound).
-      opt.max_boxes = 1L << 12;
       const CcdResult r = fs[i].type == 0 ? vertex_face_ccd(*a0[0], *a0[1], *a0[2], *a0[3], *a1[0], *a1[1], *a1[2], *a1[3], opt)
                                           : edge_edge_ccd(*a0[0], *a0[1], *a0[2], *a0[3], *a1[0], *a1[1], *a1[2], *a1[3], opt);
       cut += r.budget_exhausted;
