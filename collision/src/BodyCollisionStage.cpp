@@ -28,7 +28,7 @@ Aabb swept_box(const Vec3& a, const Vec3& b, double margin) {
 // velocities): `slip` is where the vertex was going relative to the point stuck to the surface, n the outward
 // normal there. Its inward part stands for the normal impulse; the tangential part is dropped when it is within
 // μ_s of that (static), else shortened by μ_k of it (kinetic). The normal part is dropped: the vertex stays on
-// the surface's tangent plane (outside a convex collider; a later pass tests the new path again).
+// the surface's tangent plane, outside the collider when it is convex (a later pass tests the new path again).
 Vec3 coulomb_slip(const Vec3& slip, const Vec3& n, double mu_s, double mu_k) {
   const double sn = slip.dot(n);
   const Vec3 st = slip - sn * n;
@@ -197,8 +197,12 @@ int BodyCollisionStage::respond_vertex(const std::vector<int>& mine, const std::
         // (Ending at the carried point always, as before, was infinite friction: on a sphere spinning at 3 rad/s
         // under a 159x159 sheet the surface moves 7.5 mm per step against 6.3 mm edges, the caught vertices
         // were dragged away from their neighbours, and the sheet tore to 130-360 % strain and piled up.)
+        // A triangle mesh keeps the carried point: on a concave part (the inside of a funnel) the tangent plane
+        // runs into the surface, and a thin shell could be crossed there.
         const Vec3 stuck = c.curr * hit.local;
-        x = stuck + coulomb_slip(x - stuck, c.curr.linear() * hit.normal, pr.mu_s, pr.mu_k);
+        x = c.shape.type == ShapeType::mesh
+                ? stuck
+                : Vec3(stuck + coulomb_slip(x - stuck, c.curr.linear() * hit.normal, pr.mu_s, pr.mu_k));
       // The velocity becomes what the vertex did, (x - x_prev) / h (then the inward part relative to the
       // surface is removed below): a vertex that springs keep pulling along a curved surface is caught by
       // the swept test at every step and hardly moves, so keeping the velocity it had let it gather

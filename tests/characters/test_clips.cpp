@@ -115,6 +115,9 @@ TEST(CharacterClips, SkirtOnBoxing) {
 // clip's root turns 12 degrees in one 10 ms frame), but the left elbow 1.7 cm inside the ring at the start.
 // With body contacts as constraints of the implicit solve (fourth pass): strain 4.34, 35.7 m/s at 23.95-23.98 s (held-
 // then-doubled root frames there; limiting the root's key-to-key turn and speed did not change it), attached depth 1.7 cm.
+// Since swept hits follow Coulomb friction (they used to stick the vertex to the moving capsule): strain 0.40, 12.5 m/s
+// (7.48 and 43.0 m/s just before, same window), no free vertex inside a capsule; what still fails is the left elbow
+// 1.7 cm inside the pinned ring at the window's start (attached depth).
 TEST(CharacterClips, DISABLED_SkirtOnBoxingHighKnees) {
   expect_sane(run_scene("character_skirt", 1.5, {"character.bvh=../tests/data/mocap/Boxing_Toes.bvh", "character.start=23.8",
                                                  "character.garments.0.resolution=0.08"}),
