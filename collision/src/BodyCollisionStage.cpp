@@ -24,11 +24,12 @@ Aabb swept_box(const Vec3& a, const Vec3& b, double margin) {
   return box;
 }
 
-// Coulomb friction on a displacement (Bridson et al. 2002, Sec. 7.2, with displacements over the step in place of
-// velocities): `slip` is where the vertex was going relative to the point stuck to the surface, n the outward
-// normal there. Its inward part stands for the normal impulse; the tangential part is dropped when it is within
-// μ_s of that (static), else shortened by μ_k of it (kinetic). The normal part is dropped: the vertex stays on
-// the surface's tangent plane, outside the collider when it is convex (a later pass tests the new path again).
+// Coulomb friction on a displacement (Bridson et al. 2002, Sec. 7.2, with displacements over the step in
+// place of velocities): `slip` is where the vertex was going relative to the point stuck to the surface, n
+// the outward normal there. Its inward part stands for the normal impulse; the tangential part is dropped
+// when it is within μ_s of that (static), else shortened by μ_k of it (kinetic). The normal part is dropped
+// (as the stuck point always did): the vertex stays on the surface's tangent plane at the contact, which a
+// convex collider lies behind; a later pass tests the new path again.
 Vec3 coulomb_slip(const Vec3& slip, const Vec3& n, double mu_s, double mu_k) {
   const double sn = slip.dot(n);
   const Vec3 st = slip - sn * n;
@@ -192,13 +193,13 @@ int BodyCollisionStage::respond_vertex(const std::vector<int>& mine, const std::
       // Continuous: the vertex path against the moving collider.
       const SweptHit hit = swept_point(c, x0, x, ccd_ratio * pr.thickness);
       if (hit.hit) {
-        // The contact point carried with the body to the end of the step is where the vertex ends if it sticks;
-        // Coulomb friction decides how far it slides from there along the surface towards where it was going.
-        // (Ending at the carried point always, as before, was infinite friction: on a sphere spinning at 3 rad/s
-        // under a 159x159 sheet the surface moves 7.5 mm per step against 6.3 mm edges, the caught vertices
-        // were dragged away from their neighbours, and the sheet tore to 130-360 % strain and piled up.)
-        // A triangle mesh keeps the carried point: on a concave part (the inside of a funnel) the tangent plane
-        // runs into the surface, and a thin shell could be crossed there.
+        // The contact point carried with the body to the end of the step is where the vertex ends if it
+        // sticks; Coulomb friction decides how far it slides from there along the surface towards where it
+        // was going. (Ending at the carried point always, as before, was infinite friction: on a sphere
+        // spinning at 3 rad/s under a 159x159 sheet the surface moves 7.5 mm per step against 6.3 mm edges,
+        // the caught vertices were dragged away from their neighbours, and the sheet tore to 130-360 % strain
+        // and piled up.) A triangle mesh keeps the carried point: on a concave part (the inside of a funnel)
+        // the tangent plane runs into the surface, and a thin shell could be crossed there.
         const Vec3 stuck = c.curr * hit.local;
         x = c.shape.type == ShapeType::mesh
                 ? stuck
