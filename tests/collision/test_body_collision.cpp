@@ -156,7 +156,7 @@ TEST(BodyCollision, SweptHitsOnASpinningSphereFollowCoulombFriction) {
   // Kinetic friction: the drag does not depend on the surface speed (the patch stays far slower than the
   // surface), and it is what μ_k g gives in 0.3 s, ½ μ g t² = 4.4 cm, plus the downhill pull once the patch
   // leaves the top: a point mass on the roller's top (radius R = 0.305 m with the thickness) follows
-  // x'' = μ g + g x / R, so x(t) = μ R (cosh(sqrt(g / R) t) - 1) = 5.6 cm. Measured 4.5 cm (old code: 6.8 cm).
+  // x'' = μ g + g x / R, so x(t) = μ R (cosh(sqrt(g / R) t) - 1) = 5.6 cm. Measured 4.5 cm (old code 6.8).
   const double g = 9.81, mu = 0.1, t = 0.3, r = 0.305;
   const double lower = 0.5 * mu * g * t * t, upper = mu * r * (std::cosh(std::sqrt(g / r) * t) - 1.0);
   const double slow = roller_drag(mu, 10.0), fast = roller_drag(mu, 30.0);
