@@ -24,15 +24,16 @@ Aabb swept_box(const Vec3& a, const Vec3& b, double margin) {
   return box;
 }
 
-// Coulomb friction on a displacement (Bridson et al. 2002, Sec. 7.2, with displacements over the step in
-// place of velocities): `slip` is where the vertex was going relative to the point stuck to the surface, n
-// the outward normal there. Its inward part stands for the normal impulse; the tangential part is dropped
-// when it is within μ_s of that (static), else shortened by μ_k of it (kinetic). The normal part is dropped
-// (as the stuck point always did): the vertex stays on the surface's tangent plane at the contact, which a
-// convex collider lies behind; a later pass tests the new path again.
-Vec3 coulomb_slip(const Vec3& slip, const Vec3& n, double mu_s, double mu_k) {
-  const double sn = slip.dot(n);
-  const Vec3 st = slip - sn * n;
+// Coulomb friction (Bridson et al. 2002, Sec. 7.2) on a relative velocity, or on a displacement over the
+// step in its place: `rel` is the vertex's motion relative to the surface, n the outward normal. Returns its
+// tangential part after friction: dropped when within μ_s of the inward part (which stands for the normal
+// impulse; static), else shortened by μ_k of it (kinetic). For a swept hit, `rel` is where the vertex was
+// going relative to the contact point carried with the body; without the normal part the vertex stays on the
+// surface's tangent plane at the contact, which a convex collider lies behind (a later pass tests the new
+// path).
+Vec3 coulomb_tangent(const Vec3& rel, const Vec3& n, double mu_s, double mu_k) {
+  const double sn = rel.dot(n);
+  const Vec3 st = rel - sn * n;
   const double len = st.norm(), push = std::max(0.0, -sn);
   if (len <= mu_s * push) return Vec3::Zero();
   return st * std::max(0.0, 1.0 - mu_k * push / len);
@@ -203,7 +204,7 @@ int BodyCollisionStage::respond_vertex(const std::vector<int>& mine, const std::
         const Vec3 stuck = c.curr * hit.local;
         x = c.shape.type == ShapeType::mesh
                 ? stuck
-                : Vec3(stuck + coulomb_slip(x - stuck, c.curr.linear() * hit.normal, pr.mu_s, pr.mu_k));
+                : Vec3(stuck + coulomb_tangent(x - stuck, c.curr.linear() * hit.normal, pr.mu_s, pr.mu_k));
       // The velocity becomes what the vertex did, (x - x_prev) / h (then the inward part relative to the
       // surface is removed below): a vertex that springs keep pulling along a curved surface is caught by
       // the swept test at every step and hardly moves, so keeping the velocity it had let it gather
@@ -223,12 +224,8 @@ int BodyCollisionStage::respond_vertex(const std::vector<int>& mine, const std::
       const Vec3 vs = surface_velocity(c.prev, c.curr, h, x);
       const Vec3 vr = v - vs;
       const double vn = vr.dot(nrm);
-      const double dvn = std::max(0.0, -vn);
       const Vec3 vt = vr - vn * nrm;
-      const double vt_len = vt.norm();
-      // Coulomb friction (Bridson et al. 2002, Sec. 7.2).
-      Vec3 vt_new = Vec3::Zero();
-      if (vt_len > pr.mu_s * dvn) vt_new = vt * std::max(0.0, 1.0 - pr.mu_k * dvn / vt_len);
+      const Vec3 vt_new = coulomb_tangent(vr, nrm, pr.mu_s, pr.mu_k);
       const Vec3 v_new = vs + std::max(vn, 0.0) * nrm + vt_new;
       // The tangential change acts over the whole step (x = x_prev + h v), unless the vertex was already
       // placed by the swept test.
