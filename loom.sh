@@ -9,19 +9,23 @@ here="$(cd "$(dirname "${BASH_SOURCE[0]}")" && pwd)"
 cd "$here"
 build_dir="${LOOM_BUILD_DIR:-build}"
 
-# Debian packages Loom builds with. Installed only when missing, so a second run installs nothing.
-packages=(
+# Debian packages, installed only when missing (a second run installs nothing). The demo needs the first list
+# only; the test suite (GoogleTest, benchmarks, the viewer under Xvfb, clang sanitizers and fuzzers, the
+# format check, assimp's test models) adds the second.
+demo_packages=(
   build-essential cmake pkg-config
   libeigen3-dev nlohmann-json3-dev
-  libgtest-dev libgmock-dev libbenchmark-dev
-  libbullet-dev libfcl-dev libccd-dev
-  gnuplot-nox
-  libgmp-dev libqhull-dev
-  libassimp-dev assimp-testmodels
-  libtinygltf-dev libosmesa6-dev libstb-dev ffmpeg
-  libglfw3-dev libimgui-dev libgl1-mesa-dri xvfb xauth
-  clang-14 libfuzzer-14-dev libomp-14-dev
+  libbullet-dev libfcl-dev libccd-dev libgmp-dev libqhull-dev
+  libassimp-dev
+  libosmesa6-dev libstb-dev ffmpeg
 )
+test_packages=(
+  libgtest-dev libgmock-dev libbenchmark-dev
+  gnuplot-nox assimp-testmodels libtinygltf-dev
+  libglfw3-dev libimgui-dev libgl1-mesa-dri xvfb xauth
+  clang-14 libfuzzer-14-dev libomp-14-dev clang-format-14
+)
+packages=("${demo_packages[@]}")
 
 install_missing() {
   local missing=()
@@ -43,14 +47,46 @@ install_missing() {
   "${sudo[@]}" env DEBIAN_FRONTEND=noninteractive apt-get install -y -qq --no-install-recommends "${missing[@]}"
 }
 
+# ccache, when the machine has it, makes a rebuild after a small change cheap.
+launcher=()
+command -v ccache >/dev/null 2>&1 && launcher=(-DCMAKE_CXX_COMPILER_LAUNCHER=ccache)
+
+# configure_and_build demo|test: the demo configures without tests and benchmarks and builds the `loom`
+# program alone; the test suite turns them (and the viewer) on and builds everything.
 configure_and_build() {
-  if [ ! -f "$build_dir/CMakeCache.txt" ]; then
-    cmake -S . -B "$build_dir" -DCMAKE_BUILD_TYPE=Release -DLOOM_WITH_VIEWER=ON
+  if [ "$1" = demo ]; then
+    if [ ! -f "$build_dir/CMakeCache.txt" ]; then
+      cmake -S . -B "$build_dir" -DCMAKE_BUILD_TYPE=Release -DLOOM_BUILD_TESTS=OFF -DLOOM_BUILD_BENCH=OFF \
+        "${launcher[@]}"
+    fi
+    cmake --build "$build_dir" -j2 --target loom
+  else
+    cmake -S . -B "$build_dir" -DCMAKE_BUILD_TYPE=Release -DLOOM_BUILD_TESTS=ON -DLOOM_BUILD_BENCH=ON \
+      -DLOOM_WITH_VIEWER=ON "${launcher[@]}"
+    cmake --build "$build_dir" -j2
   fi
-  cmake --build "$build_dir" -j2
 }
 
-# Issue 8. One clang-14 build in build-asan serves the sanitizers and the fuzzers (one build of the
+# The format check: every tracked C++ file (or the files named) against .clang-format; lists the files
+# clang-format would change and fails when there is one.
+format_check() {
+  local files=("$@")
+  if [ ${#files[@]} -eq 0 ]; then
+    mapfile -t files < <(git ls-files '*.cpp' '*.h' | grep -v '^tests/data/')
+  fi
+  local bad=()
+  for f in "${files[@]}"; do
+    clang-format-14 --style=file --dry-run --Werror "$f" >/dev/null 2>&1 || bad+=("$f")
+  done
+  if [ ${#bad[@]} -gt 0 ]; then
+    echo "loom.sh: these files do not follow .clang-format (run ./loom.sh format):" >&2
+    printf '  %s\n' "${bad[@]}" >&2
+    return 1
+  fi
+  echo "loom.sh: format check: ${#files[@]} files follow .clang-format"
+}
+
+# One clang-14 build in build-asan serves the sanitizers and the fuzzers (one build of the
 # libraries instead of two): every library and the fast test executables with ASan + UBSan at -O1 (-g1:
 # line tables for the reports), the code also with libFuzzer's coverage hooks (fuzzer-no-link) so the fuzz
 # targets (tests/fuzz) link against the same objects. No Bullet, viewer or benchmarks: the fast tests do not
@@ -82,7 +118,7 @@ sanitize_test() {
     ctest --test-dir "$asan_dir" --output-on-failure -j2 -L "$suites" -E "$asan_exclude"
 }
 
-# Issue 8. libFuzzer targets (tests/fuzz: scene parser, OBJ loader, BVH loader), each run SECONDS from its
+# libFuzzer targets (tests/fuzz: scene parser, OBJ loader, BVH loader), each run SECONDS from its
 # seed corpus (tests/fuzz/corpus/<target>; new inputs go to build-asan/corpus/<target> so the repository's
 # seeds stay small). A crash fails with the reproducer's path under build-asan/crashes/<target>/.
 fuzz_run() {
@@ -98,12 +134,13 @@ fuzz_run() {
 
 usage() {
   cat <<'USAGE'
-Usage: ./loom.sh demo | test | gallery
+Usage: ./loom.sh demo | test | fuzz | format | gallery
   demo   install missing Debian packages, build (Release, -j2), run the default scene
   test   install missing Debian packages, build, run the whole test suite (ctest); then (what CI runs)
          the ASan + UBSan build (clang-14, build-asan), the fast tests under it and 15 s of each fuzz target
   test --sanitize  only the ASan + UBSan build and the fast tests under it
   fuzz [SECONDS]   build the libFuzzer targets (build-asan) and run each for SECONDS (60)
+  format [--check] [FILES]  apply (or check) .clang-format on every tracked C++ file or FILES
   gallery  render every scene in scenes/ small (GIF + last frame) into docs/gallery/ (README images)
 USAGE
 }
@@ -112,7 +149,7 @@ cmd="${1:-}"
 case "$cmd" in
   demo)
     install_missing
-    configure_and_build
+    configure_and_build demo
     out="${LOOM_OUT:-out/demo}"
     "$build_dir/apps/loom" run --out "$out" --profile --render
     echo
@@ -124,15 +161,17 @@ case "$cmd" in
     echo "  $out/render.mp4, render.gif   the video and a short GIF preview"
     ;;
   test)
+    packages+=("${test_packages[@]}")
     install_missing
     if [ "${2:-}" = "--sanitize" ]; then
       asan_build "${asan_all_targets[@]}"
       sanitize_test "$asan_suites"
       exit 0
     fi
-    configure_and_build
+    format_check
+    configure_and_build test
     ctest --test-dir "$build_dir" --output-on-failure -j2
-    # Issue 8: the sanitizer pass and a short fuzz pass (LOOM_SKIP_SANITIZE=1 skips both, e.g. for a quick
+    # The sanitizer pass and a short fuzz pass (LOOM_SKIP_SANITIZE=1 skips both, e.g. for a quick
     # local run).
     if [ "${LOOM_SKIP_SANITIZE:-0}" != 1 ]; then
       asan_build "${asan_ci_targets[@]}"
@@ -141,15 +180,27 @@ case "$cmd" in
     fi
     ;;
   fuzz)
+    packages+=("${test_packages[@]}")
     install_missing
     asan_build
     fuzz_run "${2:-60}"
+    ;;
+  format)
+    # ./loom.sh format [--check] [FILES...]: apply .clang-format to every tracked C++ file (or FILES), or check.
+    shift
+    if [ "${1:-}" = --check ]; then
+      shift
+      format_check "$@"
+    else
+      if [ $# -eq 0 ]; then mapfile -t files < <(git ls-files '*.cpp' '*.h' | grep -v '^tests/data/'); else files=("$@"); fi
+      clang-format-14 --style=file -i "${files[@]}"
+    fi
     ;;
   gallery)
     # README images: every shipped scene rendered small (320x240, every 2nd frame), GIF + last frame ->
     # docs/gallery/ (each GIF well under 1 MB: 4 s at 15 fps, 96 colours).
     install_missing
-    configure_and_build
+    configure_and_build demo
     mkdir -p docs/gallery
     for scene in scenes/*.json; do
       name="$(basename "$scene" .json)"

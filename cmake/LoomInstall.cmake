@@ -3,8 +3,8 @@
 #   P/include/loom/...                        public headers of every installed library
 #   P/lib/libloom_*.a                         the libraries
 #   P/lib/cmake/loom/loomConfig.cmake         + loomConfigVersion.cmake (SameMajorVersion), loomTargets.cmake
-# Dependencies are found again by loomConfig.cmake with find_dependency (Eigen3, OpenMP, nlohmann_json, and
-# fcl/GMP when loom::collision is a compiled library). Tested by tests/consumer (ctest: consumer_package).
+# Dependencies are found again by loomConfig.cmake with find_dependency (Eigen3, OpenMP; fcl/GMP/Qhull for
+# loom::collision, nlohmann_json for loom::scene, assimp for loom::characters, Bullet for loom::bullet). Tested by tests/consumer (ctest: consumer_package).
 include(GNUInstallDirs)
 include(CMakePackageConfigHelpers)
 
@@ -33,7 +33,7 @@ if(TARGET loom)
 endif()
 
 # Public headers: every include/ folder of an installed library.
-foreach(_dir cloth collision bullet_bridge characters apps/scene apps/export)
+foreach(_dir cloth collision bullet_bridge characters scene export)
   if(IS_DIRECTORY ${PROJECT_SOURCE_DIR}/${_dir}/include)
     install(DIRECTORY ${PROJECT_SOURCE_DIR}/${_dir}/include/ DESTINATION ${CMAKE_INSTALL_INCLUDEDIR}
             FILES_MATCHING PATTERN "*.h" PATTERN "*.hpp")
@@ -53,6 +53,14 @@ if(TARGET loom_collision)
   endif()
 endif()
 
+set(LOOM_PACKAGE_NEEDS_JSON OFF)
+if(TARGET loom_scene)
+  set(LOOM_PACKAGE_NEEDS_JSON ON)
+endif()
+set(LOOM_PACKAGE_NEEDS_BULLET OFF)
+if(TARGET loom_bullet AND NOT LOOM_BULLET_DOUBLE)  # float Bullet, found again by FindBullet
+  set(LOOM_PACKAGE_NEEDS_BULLET ON)
+endif()
 set(LOOM_PACKAGE_NEEDS_ASSIMP OFF)
 if(TARGET loom_characters)  # loom::characters links assimp (Debian libassimp-dev)
   set(LOOM_PACKAGE_NEEDS_ASSIMP ON)

@@ -8,7 +8,7 @@
 #include <string>
 #include <vector>
 
-#include "loom/collision/CcdSampleQueries.h"
+#include "loom/eval/CcdSampleQueries.h"
 
 namespace loom::app {
 namespace {
@@ -86,18 +86,18 @@ int ccd_eval_main(int argc, char** argv) {
     std::fprintf(stderr, "loom: error: --min-separation and --tolerance must be >= 0\n");
     return 2;
   }
-  std::vector<collision::CcdQuery> queries;
+  std::vector<eval::CcdQuery> queries;
   for (const std::string& f : files) {
-    auto q = collision::read_ccd_queries(f);  // throws loom::Error naming the file and line
+    auto q = eval::read_ccd_queries(f);  // throws loom::Error naming the file and line
     queries.insert(queries.end(), q.begin(), q.end());
   }
   std::mt19937_64 rng(20211);
   std::uniform_real_distribution<double> unit(-1.0, 1.0);
   for (auto& q : queries) {
     const collision::Vec3 offset(unit(rng), unit(rng), unit(rng));
-    collision::scale_translate_exactly(q, scale_exp, offset * translate * std::ldexp(1.0, scale_exp));
+    eval::scale_translate_exactly(q, scale_exp, offset * translate * std::ldexp(1.0, scale_exp));
   }
-  const collision::CcdEvalStats s = collision::evaluate_ccd(queries, options);
+  const eval::CcdEvalStats s = eval::evaluate_ccd(queries, options);
   std::printf("queries=%ld positives=%ld false_negatives=%ld false_positives=%ld us_per_query=%.3f\n", s.queries,
               s.positives, s.false_negatives, s.false_positives,
               s.queries ? 1e6 * s.seconds / static_cast<double>(s.queries) : 0.0);

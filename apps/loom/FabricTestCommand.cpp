@@ -10,7 +10,7 @@
 #include <string>
 
 #include "loom/cloth/Error.h"
-#include "loom/cloth/FabricTests.h"
+#include "loom/eval/FabricTests.h"
 #include "loom/cloth/Model.h"
 
 namespace fs = std::filesystem;
@@ -50,7 +50,7 @@ double parse_number(const std::string& flag, const char* v) {
   return d;
 }
 
-void write_report(const fs::path& dir, const cloth::FabricTestResult& r) {
+void write_report(const fs::path& dir, const eval::FabricTestResult& r) {
   std::error_code ec;
   fs::create_directories(dir, ec);
   if (ec) throw Error(dir.string(), "--out", "cannot create report folder: " + ec.message());
@@ -101,7 +101,7 @@ void write_report(const fs::path& dir, const cloth::FabricTestResult& r) {
 }  // namespace
 
 int fabric_test_main(int argc, char** argv) {
-  cloth::FabricTestOptions o;
+  eval::FabricTestOptions o;
   std::string material = "cotton", out;
   bool json = false, have_test = false;
   for (int i = 2; i < argc; ++i) {
@@ -154,7 +154,7 @@ int fabric_test_main(int argc, char** argv) {
   bool known_model = false;
   for (const auto& m : cloth::model_names()) known_model = known_model || m == o.model;
   if (!known_model) throw Error("", "--model", "unknown model '" + o.model + "'");
-  const cloth::FabricTestResult r = cloth::run_fabric_test(o);
+  const eval::FabricTestResult r = eval::run_fabric_test(o);
   write_report(out.empty() ? fs::path("out") / "fabric-test" / r.test : fs::path(out), r);
   if (json) {
     nlohmann::ordered_json j;

@@ -1,5 +1,5 @@
 #pragma once
-// `loom fabric-test TEST [options]`: the virtual fabric tests (cloth/FabricTests.h) from the command line,
+// `loom fabric-test TEST [options]`: the virtual fabric tests (loom/eval/FabricTests.h) from the command line,
 // with a small report (report.md, curve.csv, plot.png through gnuplot when installed).
 namespace loom::app {
 

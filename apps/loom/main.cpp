@@ -9,7 +9,7 @@
 #include "FabricTestCommand.h"
 #include "RunCommand.h"
 #ifdef LOOM_HAVE_BENCH_ACCURACY
-#include "AccuracyBench.h"
+#include "loom/eval/AccuracyBench.h"
 #include "CompareCommand.h"
 #endif
 #include "loom/cloth/Error.h"
@@ -145,7 +145,7 @@ int main(int argc, char** argv) {
   try {
     if (cmd == "run") return run_main(argc, argv);
 #ifdef LOOM_HAVE_BENCH_ACCURACY
-    if (cmd == "bench") return loom::app::bench_main(argc, argv);
+    if (cmd == "bench") return loom::eval::bench_main(argc, argv);
     if (cmd == "compare") return loom::app::compare_main(argc, argv);
 #endif
     if (cmd == "ccd-eval") return loom::app::ccd_eval_main(argc, argv);

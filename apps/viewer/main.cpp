@@ -5,7 +5,7 @@
 // orbit camera (left-drag), zoom (wheel), drag a cloth vertex (right-drag). Scenes with Bullet rigid
 // `bodies` run in a Bullet world (bullet::BulletScene): the bodies are drawn as colliders and picking goes
 // through BulletCloth::ray_test. Drawing is the offscreen
-// renderer's (apps/render/src/gl/Draw.cpp). With --frames N --screenshot FILE it plays N frames, saves
+// renderer's (render/src/gl/Draw.cpp). With --frames N --screenshot FILE it plays N frames, saves
 // the window to FILE and exits (the Xvfb test uses this).
 #include <GLFW/glfw3.h>
 #include <imgui.h>

@@ -20,7 +20,7 @@ struct Character;  // loom/characters/Character.h (issue 6)
 
 namespace loom::scene {
 
-// output.render: settings of `loom run --render` (apps/render).
+// output.render: settings of `loom run --render` (render/).
 struct RenderOutput {
   int width = 640, height = 480;                       // px
   int every = 1;                                       // render every k-th frame

@@ -1,4 +1,4 @@
-#include "loom/cloth/FabricTests.h"
+#include "loom/eval/FabricTests.h"
 
 #include <chrono>
 #include <algorithm>
@@ -12,7 +12,7 @@
 #include "loom/cloth/Simulation.h"
 #include "loom/cloth/StaticSolver.h"
 
-namespace loom::cloth {
+namespace loom::eval {
 
 namespace {
 
@@ -582,4 +582,4 @@ double catenary_sag(double length, double span) {
   return a * (std::cosh(span / (2 * a)) - 1.0);
 }
 
-}  // namespace loom::cloth
+}  // namespace loom::eval

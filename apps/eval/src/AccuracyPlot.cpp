@@ -1,4 +1,4 @@
-#include "AccuracyPlot.h"
+#include "loom/eval/AccuracyPlot.h"
 
 #include <algorithm>
 #include <cstdio>
@@ -8,7 +8,7 @@
 #include <map>
 #include <numeric>
 
-namespace loom::app {
+namespace loom::eval {
 
 std::vector<size_t> pareto_front(const std::vector<PlotPoint>& points) {
   std::vector<size_t> order(points.size());
@@ -81,4 +81,4 @@ bool plot_accuracy(const std::vector<PlotPoint>& points, const std::string& titl
   return true;
 }
 
-}  // namespace loom::app
+}  // namespace loom::eval

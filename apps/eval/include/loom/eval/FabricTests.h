@@ -22,7 +22,8 @@
 
 #include "loom/cloth/Material.h"
 
-namespace loom::cloth {
+namespace loom::eval {
+using namespace loom::cloth;
 
 struct FabricTestOptions {
   std::string test = "cantilever";  // cantilever | tensile | shear | catenary | drape
@@ -70,4 +71,4 @@ double elastica_overhang_ratio(double chord_angle_deg);
 double catenary_parameter(double length, double span);
 double catenary_sag(double length, double span);
 
-}  // namespace loom::cloth
+}  // namespace loom::eval

@@ -5,10 +5,10 @@
 #include <cstdio>
 
 #include "loom/cloth/Error.h"
-#include "loom/cloth/FabricTests.h"
+#include "loom/eval/FabricTests.h"
 #include "loom/cloth/Simulation.h"
 
-namespace loom::cloth {
+namespace loom::eval {
 namespace {
 
 TEST(FabricTheory, ElasticaMatchesTheReferenceTable) {
@@ -196,4 +196,4 @@ TEST(StaticSolver, RejectsNonConservativeTermsAtSetUp) {
 }
 
 }  // namespace
-}  // namespace loom::cloth
+}  // namespace loom::eval

@@ -6,7 +6,7 @@
 #include <string>
 #include <vector>
 
-namespace loom::app {
+namespace loom::eval {
 
 struct AccuracyOptions {
   std::vector<int> sizes{32, 64};  // nodes per side of the 1 m square
@@ -25,4 +25,4 @@ int bench_accuracy(const AccuracyOptions& options);
 // `loom bench ...` command line (argv[1] == "bench"); returns the exit code (2 for a bad command line).
 int bench_main(int argc, char** argv);
 
-}  // namespace loom::app
+}  // namespace loom::eval

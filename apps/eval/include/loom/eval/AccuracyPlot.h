@@ -4,7 +4,7 @@
 #include <string>
 #include <vector>
 
-namespace loom::app {
+namespace loom::eval {
 
 struct PlotPoint {
   std::string series;  // "loom:verlet", "bullet_classic", ...
@@ -20,4 +20,4 @@ std::vector<size_t> pareto_front(const std::vector<PlotPoint>& points);
 // gnuplot is missing or fails; the CSV stays the result.
 bool plot_accuracy(const std::vector<PlotPoint>& points, const std::string& title, const std::string& png);
 
-}  // namespace loom::app
+}  // namespace loom::eval

@@ -9,23 +9,24 @@
 #include <random>
 
 #include "loom/cloth/Error.h"
-#include "loom/collision/CcdSampleQueries.h"
+#include "loom/eval/CcdSampleQueries.h"
 #include "TestDir.h"
 
 namespace lc = loom::collision;
+namespace le = loom::eval;
 using lc::Vec3;
 
 namespace {
 
-const std::vector<lc::CcdQuery>& all_queries() {
-  static const std::vector<lc::CcdQuery> queries = [] {
+const std::vector<le::CcdQuery>& all_queries() {
+  static const std::vector<le::CcdQuery> queries = [] {
     std::vector<std::string> files;
     for (const auto& e : std::filesystem::recursive_directory_iterator(LOOM_TEST_DATA "/ccd-sample-queries"))
       if (e.path().extension() == ".csv") files.push_back(e.path().string());
     std::sort(files.begin(), files.end());
-    std::vector<lc::CcdQuery> out;
+    std::vector<le::CcdQuery> out;
     for (const auto& f : files) {
-      auto q = lc::read_ccd_queries(f);
+      auto q = le::read_ccd_queries(f);
       out.insert(out.end(), q.begin(), q.end());
     }
     return out;
@@ -43,7 +44,7 @@ TEST(CcdSampleQueries, DataSetIsComplete) {
 }
 
 TEST(CcdSampleQueries, NoFalseNegativesUnscaled) {
-  const lc::CcdEvalStats s = lc::evaluate_ccd(all_queries());
+  const le::CcdEvalStats s = le::evaluate_ccd(all_queries());
   EXPECT_EQ(s.false_negatives, 0);
   EXPECT_EQ(s.positives, 435);
   // Fewer false positives is better; this bound only catches a collapse of the filter into "always hit".
@@ -62,7 +63,7 @@ TEST(CcdSampleQueries, NoFalseNegativesWhenTheBoxBudgetRunsOut) {
     o.max_boxes = budget;
     o.toi_tolerance = 1e-2;
     o.toi_max_boxes = 32;
-    const lc::CcdEvalStats s = lc::evaluate_ccd(all_queries(), o);
+    const le::CcdEvalStats s = le::evaluate_ccd(all_queries(), o);
     EXPECT_EQ(s.false_negatives, 0) << "budget " << budget;
     EXPECT_EQ(s.positives, 435);
     if (budget == 16) {
@@ -78,14 +79,14 @@ TEST(CcdSampleQueries, NoFalseNegativesScaledAndTranslated) {
   std::mt19937_64 rng(7);
   std::uniform_real_distribution<double> unit(-1.0, 1.0);
   for (int k = -10; k <= 10; ++k) {
-    std::vector<lc::CcdQuery> qs = all_queries();
+    std::vector<le::CcdQuery> qs = all_queries();
     long translated = 0;
     for (auto& q : qs) {
       const Vec3 offset = Vec3(unit(rng), unit(rng), unit(rng)) * 5.0 * std::ldexp(1.0, k);
-      translated += lc::scale_translate_exactly(q, k, offset).norm() > 0;
+      translated += le::scale_translate_exactly(q, k, offset).norm() > 0;
     }
     EXPECT_GT(translated, static_cast<long>(qs.size()) / 2) << "k=" << k;  // the translation is not vacuous
-    const lc::CcdEvalStats s = lc::evaluate_ccd(qs);
+    const le::CcdEvalStats s = le::evaluate_ccd(qs);
     EXPECT_EQ(s.false_negatives, 0) << "k=" << k;
     std::cout << "[ measured ] k=" << k << " false_positives=" << s.false_positives
               << " us_per_query=" << 1e6 * s.seconds / s.queries << "\n";
@@ -93,11 +94,11 @@ TEST(CcdSampleQueries, NoFalseNegativesScaledAndTranslated) {
 }
 
 TEST(CcdSampleQueries, ScaleTranslateKeepsCoordinatesExact) {
-  lc::CcdQuery q;
+  le::CcdQuery q;
   q.points.fill(Vec3(0.1, 1.0 / 3.0, 3.0));
   q.points[4] = Vec3(0x1p-60, -2.5, 0.0);
-  lc::CcdQuery s = q;
-  const Vec3 t = lc::scale_translate_exactly(s, -3, Vec3(7.3, -0.4, 1e30));
+  le::CcdQuery s = q;
+  const Vec3 t = le::scale_translate_exactly(s, -3, Vec3(7.3, -0.4, 1e30));
   for (int i = 0; i < 8; ++i)
     for (int a = 0; a < 3; ++a) EXPECT_EQ(s.points[i][a] - t[a], std::ldexp(q.points[i][a], -3));
 }
@@ -112,12 +113,12 @@ TEST(CcdSampleQueries, ReaderErrorsNameFileAndLine) {
     o << "1,3,0,1,0,1,0\n";  // 1/3 is not a double
   }
   try {
-    lc::read_ccd_queries(f);
+    le::read_ccd_queries(f);
     FAIL() << "expected loom::Error";
   } catch (const loom::Error& e) {
     EXPECT_NE(std::string(e.what()).find("bad.csv: line 4"), std::string::npos) << e.what();
   }
-  EXPECT_THROW(lc::read_ccd_queries((loom::test::test_dir() / "no-type.csv").string()), loom::Error);
+  EXPECT_THROW(le::read_ccd_queries((loom::test::test_dir() / "no-type.csv").string()), loom::Error);
 }
 
 // A vertex falling through the centre of a triangle: FCL misses this at 1 mm scale (reference/collision.md).

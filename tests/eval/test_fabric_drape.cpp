@@ -8,9 +8,9 @@
 #include <cmath>
 #include <cstdio>
 
-#include "loom/cloth/FabricTests.h"
+#include "loom/eval/FabricTests.h"
 
-namespace loom::cloth {
+namespace loom::eval {
 namespace {
 
 FabricTestResult drape(const std::string& material, int rings) {
@@ -51,4 +51,4 @@ TEST(FabricDrape, CoefficientOrdersFabricsByStiffnessAndConvergesWithResolution)
 }
 
 }  // namespace
-}  // namespace loom::cloth
+}  // namespace loom::eval

@@ -1,4 +1,4 @@
-#include "AccuracyBench.h"
+#include "loom/eval/AccuracyBench.h"
 
 #include <algorithm>
 #include <chrono>
@@ -13,8 +13,8 @@
 #include <set>
 #include <sstream>
 
-#include "AccuracyPlot.h"
-#include "AccuracySweep.h"
+#include "loom/eval/AccuracyPlot.h"
+#include "loom/eval/AccuracySweep.h"
 #include "loom/bullet/BulletTwin.h"
 #include "loom/cloth/Error.h"
 #include "loom/cloth/Material.h"
@@ -22,7 +22,7 @@
 #include "loom/cloth/Simulation.h"
 #include "loom/cloth/SpringSet.h"
 
-namespace loom::app {
+namespace loom::eval {
 
 namespace {
 
@@ -802,4 +802,4 @@ int bench_main(int argc, char** argv) {
   return bench_accuracy(o);
 }
 
-}  // namespace loom::app
+}  // namespace loom::eval

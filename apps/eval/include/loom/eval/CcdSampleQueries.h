@@ -11,7 +11,8 @@
 
 #include "loom/collision/Ccd.h"
 
-namespace loom::collision {
+namespace loom::eval {
+using namespace loom::collision;
 
 struct CcdQuery {
   bool vertex_face = true;      // else edge-edge
@@ -40,4 +41,4 @@ struct CcdEvalStats {
 
 CcdEvalStats evaluate_ccd(const std::vector<CcdQuery>& queries, const CcdOptions& options = {});
 
-}  // namespace loom::collision
+}  // namespace loom::eval

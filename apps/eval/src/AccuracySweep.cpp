@@ -1,10 +1,10 @@
-#include "AccuracySweep.h"
+#include "loom/eval/AccuracySweep.h"
 
 #include <algorithm>
 #include <cmath>
 #include <sstream>
 
-namespace loom::app {
+namespace loom::eval {
 
 std::string SweepConfig::label() const {
   std::ostringstream s;
@@ -106,4 +106,4 @@ std::map<std::string, std::vector<SweepConfig>> bullet_sweep_table(bool quick) {
   return t;
 }
 
-}  // namespace loom::app
+}  // namespace loom::eval

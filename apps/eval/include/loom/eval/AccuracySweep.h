@@ -6,7 +6,7 @@
 #include <string>
 #include <vector>
 
-namespace loom::app {
+namespace loom::eval {
 
 // One configuration of one method: steps per 60 Hz frame plus the solver's own knobs (SolverSettings::params,
 // or for the Bullet twins: "iterations").
@@ -25,4 +25,4 @@ bool static_only(const std::string& method);
 // Keys "bullet_classic" and "bullet_deformable".
 std::map<std::string, std::vector<SweepConfig>> bullet_sweep_table(bool quick);
 
-}  // namespace loom::app
+}  // namespace loom::eval

@@ -1,5 +1,5 @@
 // Reader, exact scale/translate and evaluation loop for the CCD sample-query format (CcdSampleQueries.h).
-#include "loom/collision/CcdSampleQueries.h"
+#include "loom/eval/CcdSampleQueries.h"
 
 #include <gmpxx.h>
 
@@ -10,7 +10,7 @@
 
 #include "loom/cloth/Error.h"
 
-namespace loom::collision {
+namespace loom::eval {
 namespace {
 
 // Exact rational -> double; throws when the rational is not exactly a double.
@@ -128,4 +128,4 @@ CcdEvalStats evaluate_ccd(const std::vector<CcdQuery>& queries, const CcdOptions
   return s;
 }
 
-}  // namespace loom::collision
+}  // namespace loom::eval

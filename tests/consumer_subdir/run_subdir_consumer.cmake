@@ -1,0 +1,28 @@
+# ctest consumer_subdirectory_cloth_only: configure, build and run tests/consumer_subdir, which embeds the Loom
+# source tree with add_subdirectory and LOOM_WITH_COLLISION OFF, in a fresh build folder.
+#   cmake -DLOOM_SOURCE=... -DWORK_DIR=... -DCONSUMER_SOURCE=... [-DBUILD_TYPE=Release] -P run_subdir_consumer.cmake
+foreach(v LOOM_SOURCE WORK_DIR CONSUMER_SOURCE)
+  if(NOT DEFINED ${v})
+    message(FATAL_ERROR "run_subdir_consumer.cmake: -D${v}=... is required")
+  endif()
+endforeach()
+if(NOT BUILD_TYPE)
+  set(BUILD_TYPE Release)
+endif()
+file(REMOVE_RECURSE ${WORK_DIR})
+foreach(step configure build run)
+  if(step STREQUAL configure)
+    set(cmd ${CMAKE_COMMAND} -S ${CONSUMER_SOURCE} -B ${WORK_DIR} -DCMAKE_BUILD_TYPE=${BUILD_TYPE}
+            -DLOOM_SOURCE=${LOOM_SOURCE})
+  elseif(step STREQUAL build)
+    set(cmd ${CMAKE_COMMAND} --build ${WORK_DIR} -j2)
+  else()
+    set(cmd ${WORK_DIR}/consumer)
+  endif()
+  execute_process(COMMAND ${cmd} RESULT_VARIABLE rc OUTPUT_VARIABLE out ERROR_VARIABLE err)
+  if(NOT rc EQUAL 0)
+    message(FATAL_ERROR "subdirectory consumer: ${step} failed (${rc}):\n${out}\n${err}")
+  endif()
+  message(STATUS "subdirectory consumer: ${step}: ok")
+endforeach()
+message(STATUS "${out}")
