@@ -71,9 +71,9 @@ void expect_sane(const RunFigures& f, double strain_bound) {
 }
 
 // The hardest seconds of each clip at CI size (0.08 m), found by running the whole clips with
-// loom_bench_character_clips (bench/results/characters.txt: the t_* columns give the clip time of the worst
-// strain, speed and depth): 01_01 around 10.5-13 s, 01_03 around 9.4 s (a shipped excerpt of it), Boxing_Toes
-// around 9-10.5 s for the cape.
+// loom_bench_character_clips (bench/results/character_clips.txt: the t_* columns give the clip time of the
+// worst strain, speed and depth): 01_01 around 10.5-13 s, 01_03 around 9.4 s (a shipped excerpt of it),
+// Boxing_Toes around 9-10.5 s for the cape.
 TEST(CharacterClips, CapeOnJumpingCmu_01_01) {
   expect_sane(run_scene("character_cape", 2.0, {"character.start=10.5", "character.garments.0.resolution=0.08"}), 0.5);
 }

@@ -53,7 +53,7 @@ std::map<std::string, std::vector<SweepConfig>> loom_sweep_table(int explicit_st
   append(t["implicit_euler"], grid({1}, "cg_tolerance", {1e-2, 2e-2}, {{"multigrid", 1}}));
   append(t["implicit_euler"], grid({1}, "cg_tolerance", {1e-2, 3e-2}, {{"multigrid", 2}}));
   // The same at 0.02 with the CG capped at 10 or 12 iterations (a step needs 13.4 on average): the fastest within a
-  // point of the reference max strain at N=64 (bench/results/issue3_session5.md).
+  // point of the reference max strain at N=64 (docs/benchmarks.md).
   append(t["implicit_euler"], grid({1}, "cg_max_iterations", {10, 12}, {{"multigrid", 1}, {"cg_tolerance", 2e-2}}));
   t["bdf2"] = grid({1, 2, 4, 8, 16}, "cg_tolerance", {1e-3, 1e-6});
   // Issue 10. IMEX: structural and shear springs implicit, bend springs and gravity explicit (ImplicitSolver.h).

@@ -16,7 +16,7 @@
 // needs no fine-level matrix product, so one application costs a fraction of the PCG's own product, where the
 // multiplicative V-cycle costs two. Measured on the accuracy bench (N=64, 1 substep): 13.4 CG iterations per
 // step at cg_tolerance 0.02 against 8.2 for the V-cycle and 55.8 for block-Jacobi at 0.01, and the least time
-// (bench/results/issue3_multigrid.md).
+// (docs/benchmarks.md).
 // Filter: fixed vertices are in no aggregate and have D⁻¹ = 0, so the cycle maps a filtered residual to a
 // correction that is exactly 0 on them: the operator is S B S with B SPD on the free subspace, as the
 // filtered PCG needs.
