@@ -2,6 +2,7 @@
 
 #include <algorithm>
 #include <chrono>
+#include <cmath>
 #include <cstdio>
 #include <cstdlib>
 #include <filesystem>
@@ -52,7 +53,53 @@ Bounds Recording::bounds() const {
   return b;
 }
 
+Bounds Recording::action_bounds(int f) const {
+  Bounds cloth;
+  for (const auto& x : frames_[f])
+    for (const cloth::Vec3& p : x) cloth.add(p);
+  if (cloth.empty()) return cloth;
+  const cloth::Vec3 reach = 0.5 * (cloth.hi - cloth.lo) + cloth::Vec3::Constant(0.05);
+  Bounds b = cloth;
+  for (const collision::Collider& c : colliders(f)) {
+    Bounds one;
+    gl::add_collider_bounds(one, collision::ColliderSet{c});
+    if (one.empty()) continue;
+    const bool near = (one.lo.array() <= (cloth.hi + reach).array()).all() &&
+                      (one.hi.array() >= (cloth.lo - reach).array()).all();
+    if (near) {
+      b.add(one.lo);
+      b.add(one.hi);
+    }
+  }
+  return b;
+}
+
 namespace {
+
+// Camera for a recording: the direction and field of view of auto_camera, at the largest distance any
+// frame's action needs (no zoom pumping), looking at each frame's action centre smoothed over about
+// 0.3 s (a critically damped follow would lag more; an unsmoothed one shakes with the cloth).
+std::vector<cloth::Vec3> tracked_targets(const Recording& rec, double fps, double aspect, Bounds& widest) {
+  std::vector<cloth::Vec3> targets;
+  double distance = 0.0;
+  const double alpha = 1.0 - std::exp(-1.0 / (0.3 * std::max(fps, 1.0)));
+  for (int f = 0; f < rec.frames(); ++f) {
+    const Bounds b = rec.action_bounds(f);
+    if (b.empty()) {
+      targets.push_back(targets.empty() ? cloth::Vec3::Zero() : targets.back());
+      continue;
+    }
+    const cloth::Vec3 centre = 0.5 * (b.lo + b.hi);
+    targets.push_back(targets.empty() ? centre : targets.back() + alpha * (centre - targets.back()));
+    const Camera c = auto_camera(b, aspect);
+    const double d = (c.eye - c.target).norm();
+    if (d > distance) {
+      distance = d;
+      widest = b;
+    }
+  }
+  return targets;
+}
 
 std::string quote(const std::string& s) {
   std::string q = "'";
@@ -81,8 +128,13 @@ RenderReport render_recording(const std::string& out_dir, const Recording& rec, 
   const auto start = std::chrono::steady_clock::now();
   Renderer r(settings, rec.meshes());
   const collision::ColliderSet first = rec.frames() ? rec.colliders(0) : collision::ColliderSet{};
-  r.frame(rec.bounds(), &first);
+  Bounds widest;
+  const std::vector<cloth::Vec3> targets =
+      tracked_targets(rec, fps, double(settings.width) / settings.height, widest);
+  if (widest.empty()) widest = rec.bounds();
+  r.frame(widest, &first);
   for (int f = 0; f < rec.frames(); ++f) {
+    r.look_at(targets[f]);
     std::vector<const cloth::Vec3s*> x;
     for (const auto& p : rec.positions()[f]) x.push_back(&p);
     char name[32];

@@ -67,6 +67,13 @@ void Renderer::frame(const Bounds& b, const collision::ColliderSet* colliders) {
   if (!settings_.camera) camera_ = auto_camera(seen, double(settings_.width) / settings_.height);
 }
 
+void Renderer::look_at(const Vec3& target) {
+  if (settings_.camera) return;
+  const Vec3 shift = target - camera_.target;
+  camera_.target += shift;
+  camera_.eye += shift;
+}
+
 cloth::Vec2 Renderer::project(const Vec3& p) const {
   const double dist = (camera_.eye - camera_.target).norm();
   const Mat4 pv = gl::perspective(camera_.fov_deg, double(settings_.width) / settings_.height, std::max(1e-3, 0.02 * dist),

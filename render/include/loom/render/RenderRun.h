@@ -28,6 +28,9 @@ class Recording {
   // The colliders at frame f's poses (empty set without colliders).
   collision::ColliderSet colliders(int f) const;
   Bounds bounds() const;
+  // The action at frame f: the cloths' bounds plus every collider that reaches into them (grown by half the
+  // cloths' size on each side), so a character's body shows but a distant floor or wall does not.
+  Bounds action_bounds(int f) const;
 
  private:
   std::vector<RenderMesh> meshes_;

@@ -75,6 +75,9 @@ class Renderer {
   // One image of the meshes at these positions (one pointer per mesh), with the colliders at their `curr`
   // poses (the set's shapes are tessellated on first use and whenever they change).
   Image render(const std::vector<const cloth::Vec3s*>& positions, const collision::ColliderSet* colliders = nullptr);
+  // Moves the camera (eye and target together, same direction and distance) so that it looks at `target`
+  // (m); nothing happens when the settings name a camera. render_recording tracks the action with it.
+  void look_at(const cloth::Vec3& target);
   const Camera& camera() const { return camera_; }
   // Pixel (x right, y down, of the written image) where the world point `p` appears.
   cloth::Vec2 project(const cloth::Vec3& p) const;
