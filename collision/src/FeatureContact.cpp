@@ -20,7 +20,8 @@ ColliderFeatures collider_features(const Collider& c) {
   };
   switch (s.type) {
     case ShapeType::plane:
-    case ShapeType::mesh: break;
+    case ShapeType::mesh:
+      break;
     case ShapeType::sphere:
       f.radius = s.radius;
       add(Vec3::Zero(), Vec3::Zero());
@@ -60,10 +61,12 @@ ColliderFeatures collider_features(const Collider& c) {
       break;
     }
     case ShapeType::convex: {
-      std::shared_ptr<const ColliderGeometry> g = c.geometry ? c.geometry : build_collider_geometry(s, c.name);
+      std::shared_ptr<const ColliderGeometry> g =
+          c.geometry ? c.geometry : build_collider_geometry(s, c.name);
       std::vector<std::pair<int, int>> edges;
       for (const Tri& t : g->hull_triangles)
-        for (int e = 0; e < 3; ++e) edges.emplace_back(std::min(t[e], t[(e + 1) % 3]), std::max(t[e], t[(e + 1) % 3]));
+        for (int e = 0; e < 3; ++e)
+          edges.emplace_back(std::min(t[e], t[(e + 1) % 3]), std::max(t[e], t[(e + 1) % 3]));
       std::sort(edges.begin(), edges.end());
       edges.erase(std::unique(edges.begin(), edges.end()), edges.end());
       for (const auto& [i, j] : edges) add(g->hull_vertices[i], g->hull_vertices[j]);
@@ -81,12 +84,15 @@ struct FeatureContactStage::Grid {
   std::vector<int> vert_start, verts, tri_start, tris;
   double tri_reach = 0.0;  // m, largest centroid-to-corner distance
 
-  int clamp_index(double v, int n) const { return std::clamp(static_cast<int>(std::floor(v / cell)), 0, n - 1); }
+  int clamp_index(double v, int n) const {
+    return std::clamp(static_cast<int>(std::floor(v / cell)), 0, n - 1);
+  }
   int cell_of(const Vec3& p) const {
     const Vec3 q = p - lo;
     return (clamp_index(q.z(), nz) * ny + clamp_index(q.y(), ny)) * nx + clamp_index(q.x(), nx);
   }
-  static void fill(const std::vector<int>& cell_of_item, int cells, std::vector<int>& start, std::vector<int>& items) {
+  static void fill(const std::vector<int>& cell_of_item, int cells, std::vector<int>& start,
+                   std::vector<int>& items) {
     start.assign(cells + 1, 0);
     for (int c : cell_of_item) ++start[c + 1];
     for (int c = 0; c < cells; ++c) start[c + 1] += start[c];
@@ -125,7 +131,8 @@ struct FeatureContactStage::Grid {
   }
   // Items of cells overlapping the box [qlo, qhi].
   template <class F>
-  void query(const Vec3& qlo, const Vec3& qhi, const std::vector<int>& start, const std::vector<int>& items, F&& f) const {
+  void query(const Vec3& qlo, const Vec3& qhi, const std::vector<int>& start, const std::vector<int>& items,
+             F&& f) const {
     const Vec3 a = qlo - lo, b = qhi - lo;
     const int x0 = clamp_index(a.x(), nx), x1 = clamp_index(b.x(), nx);
     const int y0 = clamp_index(a.y(), ny), y1 = clamp_index(b.y(), ny);
@@ -156,7 +163,8 @@ void FeatureContactStage::run(cloth::StageContext& ctx) {
   features_.resize(colliders_->size());
   for (size_t k = 0; k < colliders_->size(); ++k) {
     Collider& c = (*colliders_)[k];
-    if ((c.shape.type == ShapeType::convex || c.shape.type == ShapeType::mesh) && !c.geometry) prepare_collider(c);
+    if ((c.shape.type == ShapeType::convex || c.shape.type == ShapeType::mesh) && !c.geometry)
+      prepare_collider(c);
     features_[k] = settings_.faces ? collider_features(c) : ColliderFeatures{};
   }
   for (auto& cl : ctx.cloths) run_cloth(*cl, ctx.h);
@@ -203,7 +211,8 @@ void FeatureContactStage::run_cloth(cloth::Cloth& cloth, double h) {
       local_bounds(col.shape, geom, llo, lhi);
       blo = Vec3::Constant(HUGE_VAL), bhi = Vec3::Constant(-HUGE_VAL);
       for (int corner = 0; corner < 8; ++corner) {
-        const Vec3 q((corner & 1) ? lhi.x() : llo.x(), (corner & 2) ? lhi.y() : llo.y(), (corner & 4) ? lhi.z() : llo.z());
+        const Vec3 q((corner & 1) ? lhi.x() : llo.x(), (corner & 2) ? lhi.y() : llo.y(),
+                     (corner & 4) ? lhi.z() : llo.z());
         for (const Transform* pose : {&col.prev, &col.curr}) {
           const Vec3 w = *pose * q;
           blo = blo.cwiseMin(w), bhi = bhi.cwiseMax(w);

@@ -1,8 +1,8 @@
 #pragma once
 // Which side of a cloth a body is on, from ray casts (BulletScene::ray_test): the segment from the body's
-// centre c to c + kReach n (n: the cloth's rest normal) crosses the cloth k times; the side is k mod 2. A body
-// changes side only by passing through the cloth or round its border; the scenes tested drop or throw bodies
-// onto the cloth's middle, so every change of side is counted as a body through the cloth.
+// centre c to c + kReach n (n: the cloth's rest normal) crosses the cloth k times; the side is k mod 2. A
+// body changes side only by passing through the cloth or round its border; the scenes tested drop or throw
+// bodies onto the cloth's middle, so every change of side is counted as a body through the cloth.
 #include <vector>
 
 #include "loom/bullet/BulletScene.h"

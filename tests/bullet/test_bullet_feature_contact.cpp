@@ -39,7 +39,8 @@ double corner_first_drop(bullet::BulletClothSettings::Contacts contacts, double*
   }
   const cloth::ClothMesh& mesh = *setup.cloths[0].mesh;
   const cloth::Tri& t = mesh.triangles()[0];
-  const Vec3 centroid = (mesh.rest_positions()[t[0]] + mesh.rest_positions()[t[1]] + mesh.rest_positions()[t[2]]) / 3.0;
+  const Vec3 centroid =
+      (mesh.rest_positions()[t[0]] + mesh.rest_positions()[t[1]] + mesh.rest_positions()[t[2]]) / 3.0;
   // Corner down: the diagonal (1, 1, 1) turned onto -y.
   btBoxShape* shape = new btBoxShape(btVector3(0.03, 0.03, 0.03));
   btRigidBody* box = w.add_body(shape, 0.5, centroid + Vec3(0, 0.12, 0));
@@ -89,7 +90,8 @@ TEST(FeatureContact, MomentumConservedFreeClothFreeBox) {
   box->setWorldTransform(tf);
   box->getMotionState()->setWorldTransform(tf);
   box->setLinearVelocity(btVector3(0, -3, 0));
-  bullet::BulletCloth* c = w.add_cloth(sheet(5, 0.5, Vec3(-0.25, 0.0, -0.25), Vec3::Zero()), feature_settings(4));
+  bullet::BulletCloth* c =
+      w.add_cloth(sheet(5, 0.5, Vec3(-0.25, 0.0, -0.25), Vec3::Zero()), feature_settings(4));
   const Vec3 p0 = 0.5 * eig(box->getLinearVelocity()) + momentum(*c);
   double max_rel = 0.0;
   for (int f = 0; f < 18; ++f) {

@@ -1,8 +1,8 @@
 // Bodies in a Bullet world never pass through a BulletCloth: the toy box (a corner-tied cloth, twelve small
 // boxes, spheres and capsules dropped on it, a kinematic paddle sweeping through them) and the other Bullet
-// scenes, run as `loom run` runs them (BulletScene) with the bridge's default (real-time) settings. Every frame
-// each body's side of the cloth is checked by ray casts (ClothSide.h); the cloth's deepest vertex inside a body
-// and its largest edge strain are tracked.
+// scenes, run as `loom run` runs them (BulletScene) with the bridge's default (real-time) settings. Every
+// frame each body's side of the cloth is checked by ray casts (ClothSide.h); the cloth's deepest vertex
+// inside a body and its largest edge strain are tracked.
 #include <gtest/gtest.h>
 
 #include <chrono>
@@ -21,11 +21,11 @@ namespace {
 struct WorldRun {
   int bodies_through = 0;
   int frames = 0;
-  double max_strain = 0.0;   // 1
-  double max_pen = 0.0;      // m, deepest cloth vertex inside a body at a frame end
-  double thickness = 0.0;    // m, the cloth's contact thickness
-  double cloth_ms = 0.0;     // ms per frame, the cloth pipeline (mean)
-  double worst_ms = 0.0;     // ms, the slowest frame's cloth pipeline
+  double max_strain = 0.0;  // 1
+  double max_pen = 0.0;     // m, deepest cloth vertex inside a body at a frame end
+  double thickness = 0.0;   // m, the cloth's contact thickness
+  double cloth_ms = 0.0;    // ms per frame, the cloth pipeline (mean)
+  double worst_ms = 0.0;    // ms, the slowest frame's cloth pipeline
   bool finite = true;
   std::vector<double> final_y;  // m
 };
@@ -50,7 +50,8 @@ WorldRun run_world(const std::string& name, std::vector<std::string> sets = {}, 
     r.worst_ms = std::max(r.worst_ms, s.total_ms);
     const int before = sides.bodies_through();
     if (sides.update() > 0 && sides.bodies_through() > before)
-      std::printf("%s frame %d: %d bodies through the cloth so far\n", name.c_str(), f, sides.bodies_through());
+      std::printf("%s frame %d: %d bodies through the cloth so far\n", name.c_str(), f,
+                  sides.bodies_through());
   }
   r.cloth_ms /= r.frames;
   if (std::getenv("LOOM_DIAG"))
@@ -62,9 +63,10 @@ WorldRun run_world(const std::string& name, std::vector<std::string> sets = {}, 
   if (std::getenv("LOOM_DIAG")) std::printf("  cloth steps %ld over %d frames\n", bs.cloth_steps(), r.frames);
   r.bodies_through = sides.bodies_through();
   for (size_t b = 0; b < bs.num_bodies(); ++b) r.final_y.push_back(bs.body_position(b).y());
-  std::printf("%s: %d bodies through, max strain %.4f, max penetration %.4f m (thickness %.4f), cloth %.2f ms/frame "
-              "(worst %.1f)\n",
-              name.c_str(), r.bodies_through, r.max_strain, r.max_pen, r.thickness, r.cloth_ms, r.worst_ms);
+  std::printf(
+      "%s: %d bodies through, max strain %.4f, max penetration %.4f m (thickness %.4f), cloth %.2f ms/frame "
+      "(worst %.1f)\n",
+      name.c_str(), r.bodies_through, r.max_strain, r.max_pen, r.thickness, r.cloth_ms, r.worst_ms);
   return r;
 }
 
@@ -76,7 +78,7 @@ void expect_world_invariants(const WorldRun& r) {
 }
 
 // Disabled: these do not hold yet with any contact response or solver the bridge offers (bodies pass through
-// and edges stretch past 10 %: README, "Bullet bridge"). Run them with --gtest_also_run_disabled_tests;
+// and edges stretch past 10 %). Run them with --gtest_also_run_disabled_tests;
 // LOOM_TOY_SET="path=value;..." applies scene overrides (e.g. solver.method=implicit_euler).
 TEST(BulletWorld, DISABLED_ToyBox33NoBodyThrough) { expect_world_invariants(run_world("toy_box.json")); }
 

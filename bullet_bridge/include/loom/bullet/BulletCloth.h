@@ -51,10 +51,10 @@ struct BulletClothSettings {
   // Quality tier of the cloth.
   //   setup (default): the SimulationSetup's own solver, substeps and strain limit, as given.
   //   realtime (NOT validated yet: in the toy box scene bodies still pass through and edges stretch past the
-  //     limit, see README, "Bullet bridge"): the solver, the steps and the strain limit below replace
-  //     setup.solver, setup.substeps and setup.strain_limit: small position-based steps (Macklin et al. 2019,
-  //     "Small steps in physics simulation": one iteration per step, many steps) and edges held to
-  //     1 + max_stretch of their rest length (Provot 1995).
+  //     limit; tests/bullet/test_bullet_toy_box.cpp, disabled): the solver, the steps and the strain limit
+  //     below replace setup.solver, setup.substeps and setup.strain_limit: small position-based steps
+  //     (Macklin et al. 2019, "Small steps in physics simulation": one iteration per step, many steps) and
+  //     edges held to 1 + max_stretch of their rest length (Provot 1995).
   enum class Tier { setup, realtime };
   Tier tier = Tier::setup;
   std::string realtime_solver = "xpbd";  // realtime: any of cloth::solver_names() taking `iterations`
@@ -79,7 +79,8 @@ struct BulletClothSettings {
   //     (corners, edges, capsule axes, sphere centres) against cloth triangles, so a small box corner cannot
   //     pass through a triangle between its vertices; NOT validated yet on the scene tests (the curtain and
   //     flag scenes diverge with it under implicit Euler);
-  //   body_collision: the collision library's BodyCollisionStage (CCD + proximity + edges); NOT validated here
+  //   body_collision: the collision library's BodyCollisionStage (CCD + proximity + edges); NOT validated
+  //     here
   //     (the hammock, pole and box-drop tests failed with it).
   enum class Contacts { vertex, features, body_collision };
   Contacts contacts = Contacts::vertex;

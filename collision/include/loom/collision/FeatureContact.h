@@ -72,7 +72,7 @@ class FeatureContactStage final : public cloth::Stage {
   FeatureContactSettings settings_;
   std::vector<ColliderFeatures> features_;  // per collider, this step
   std::unique_ptr<Grid> grid_;
-  std::vector<int> cand_v_, cand_t_;     // scratch: candidate vertices and triangles of one collider
+  std::vector<int> cand_v_, cand_t_;       // scratch: candidate vertices and triangles of one collider
   std::vector<Vec3> fa_, fb_, fa0_, fb0_;  // scratch: one collider's features in world at curr and prev
   double last_penetration_ = 0.0;
   long vertex_contacts_ = 0, face_contacts_ = 0, swept_vertices_ = 0;
