@@ -8,6 +8,8 @@
 #include "BulletConvert.h"
 #include "ContactStage.h"
 #include "loom/collision/BodyCollisionStage.h"
+#include "loom/collision/ColliderGeometry.h"
+#include "loom/collision/FeatureContact.h"
 #include "loom/cloth/Error.h"
 
 namespace loom::bullet {
@@ -156,10 +158,22 @@ BulletCloth::BulletCloth(cloth::SimulationSetup setup, const BulletClothSettings
   if (settings.cloth_substeps < 1) throw Error("", "bullet.cloth_substeps", "must be >= 1");
   if (settings.max_cloth_substeps > 4096) throw Error("", "bullet.max_cloth_substeps", "must be <= 4096");
   if (!(settings.thickness >= 0.0)) throw Error("", "bullet.thickness", "must be >= 0");
+  if (!(settings.step_motion > 0.0)) throw Error("", "bullet.step_motion", "must be > 0");
   double thickness = settings.thickness;
   for (const cloth::ClothSetup& c : setup.cloths) thickness = std::max(thickness, c.material.thickness);
   setup.frame_dt = settings.fixed_dt;
   setup.substeps = settings.cloth_substeps;
+  if (settings.tier == BulletClothSettings::Tier::realtime) {
+    if (settings.realtime_iterations < 1) throw Error("", "bullet.realtime_iterations", "must be >= 1");
+    if (!(settings.max_stretch > 0.0)) throw Error("", "bullet.max_stretch", "must be > 0");
+    setup.solver = cloth::SolverSettings{};
+    setup.solver.method = settings.realtime_solver;
+    setup.solver.params["iterations"] = settings.realtime_iterations;
+    cloth::StrainLimitSettings sl;
+    sl.max_stretch = settings.max_stretch;
+    sl.iterations = std::max(1, settings.strain_iterations);
+    setup.strain_limit = sl;
+  }
   sim_ = std::make_unique<cloth::Simulation>(std::move(setup));
   auto attach = std::make_unique<AttachStage>(*this);
   AttachStage* attach_ptr = attach.get();
@@ -175,6 +189,14 @@ BulletCloth::BulletCloth(cloth::SimulationSetup setup, const BulletClothSettings
     auto body = std::make_unique<collision::BodyCollisionStage>(colliders_, bs);
     body_ = body.get();
     sim_->add_stage(std::move(body), cloth::Simulation::Slot::after_solve);
+  } else if (settings.contacts == BulletClothSettings::Contacts::features) {
+    collision::FeatureContactSettings fs;
+    fs.thickness = thickness;
+    fs.friction = settings.friction;
+    fs.static_friction = std::max(settings.friction, settings.static_friction);
+    auto features = std::make_unique<collision::FeatureContactStage>(colliders_, fs);
+    features_ = features.get();
+    sim_->add_stage(std::move(features), cloth::Simulation::Slot::after_solve);
   } else {
     auto contacts = std::make_unique<ContactStage>(colliders_, thickness, settings.edge_contacts);
     contacts_ = contacts.get();
@@ -343,6 +365,7 @@ void BulletCloth::updateAction(btCollisionWorld* world, btScalar dt_bt) {
       map_shape(rb->getCollisionShape(), Transform::Identity(), "body" + std::to_string(rb->getBroadphaseHandle() ? rb->getBroadphaseHandle()->m_uniqueId : -1),
                 tr.local, unsupported);
       for (const std::string& u : unsupported) warn(u);
+      for (Collider& c : tr.local) collision::prepare_collider(c);
       tr.local_of = rb->getCollisionShape();
     }
     for (const Collider& c : tr.local) {
@@ -374,7 +397,7 @@ void BulletCloth::updateAction(btCollisionWorld* world, btScalar dt_bt) {
     for (const auto& c : sim_->cloths())
       for (const Vec3& v : c->state().v) v_cloth = std::max(v_cloth, v.squaredNorm());
     motion += std::sqrt(v_cloth) * dt;
-    const double need = std::ceil(motion / (0.5 * contacts_thickness()));
+    const double need = std::ceil(motion / (settings_.step_motion * contacts_thickness()));
     if (need > steps) steps = static_cast<int>(std::min<double>(need, settings_.max_cloth_substeps));
   }
   if (steps != sim_->setup().substeps) sim_->set_substeps(steps);
@@ -382,7 +405,9 @@ void BulletCloth::updateAction(btCollisionWorld* world, btScalar dt_bt) {
   substep_t0_ = sim_->time();
   double pen = 0.0;
   last_stats_ = sim_->step_frame();
-  pen = contacts_ ? contacts_->last_penetration() : std::max(0.0, body_->max_deficit() - thickness_);
+  pen = contacts_   ? contacts_->last_penetration()
+        : features_ ? features_->last_penetration()
+                    : std::max(0.0, body_->max_deficit() - thickness_);
   last_penetration_ = pen;
   ++substeps_;
 

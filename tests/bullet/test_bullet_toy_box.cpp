@@ -1,0 +1,90 @@
+// Bodies in a Bullet world never pass through a BulletCloth: the toy box (a corner-tied cloth, twelve small
+// boxes, spheres and capsules dropped on it, a kinematic paddle sweeping through them) and the other Bullet
+// scenes, run as `loom run` runs them (BulletScene) with the bridge's default (real-time) settings. Every
+// frame each body's side of the cloth is checked by ray casts (ClothSide.h); the cloth's deepest vertex
+// inside a body and its largest edge strain are tracked.
+#include <gtest/gtest.h>
+
+#include <chrono>
+#include <cstdio>
+#include <cstdlib>
+#include <sstream>
+
+#include "ClothSide.h"
+#include "loom/bullet/BulletCloth.h"
+#include "loom/bullet/BulletScene.h"
+#include "loom/scene/Scene.h"
+
+namespace loom::test {
+namespace {
+
+struct WorldRun {
+  int bodies_through = 0;
+  int frames = 0;
+  double max_strain = 0.0;  // 1
+  double max_pen = 0.0;     // m, deepest cloth vertex inside a body at a frame end
+  double thickness = 0.0;   // m, the cloth's contact thickness
+  double cloth_ms = 0.0;    // ms per frame, the cloth pipeline (mean)
+  double worst_ms = 0.0;    // ms, the slowest frame's cloth pipeline
+  bool finite = true;
+  std::vector<double> final_y;  // m
+};
+
+WorldRun run_world(const std::string& name, std::vector<std::string> sets = {}, int frames = -1) {
+  if (const char* e = std::getenv("LOOM_TOY_SET")) {
+    std::stringstream ss(e);
+    for (std::string s; std::getline(ss, s, ';');) sets.push_back(s);
+  }
+  const scene::Scene sc = scene::load_scene(std::string(LOOM_SOURCE_DIR) + "/scenes/" + name, sets);
+  bullet::BulletScene bs(sc.setup, sc.bodies);
+  ClothSideTracker sides(bs, rest_normal(bs.simulation()));
+  WorldRun r;
+  r.thickness = sc.setup.cloths[0].material.thickness;
+  r.frames = frames > 0 ? frames : sc.frames;
+  for (int f = 1; f <= r.frames; ++f) {
+    const cloth::FrameStats s = bs.step_frame();
+    r.finite = r.finite && s.finite;
+    r.max_strain = std::max(r.max_strain, s.max_strain);
+    r.max_pen = std::max(r.max_pen, bs.max_penetration());
+    r.cloth_ms += s.total_ms;
+    r.worst_ms = std::max(r.worst_ms, s.total_ms);
+    const int before = sides.bodies_through();
+    if (sides.update() > 0 && sides.bodies_through() > before)
+      std::printf("%s frame %d: %d bodies through the cloth so far\n", name.c_str(), f,
+                  sides.bodies_through());
+  }
+  r.cloth_ms /= r.frames;
+  if (std::getenv("LOOM_DIAG"))
+    for (const cloth::StageProfile& p : bs.simulation().profile()) {
+      std::printf("  %-28s %9.1f ms", p.name.c_str(), p.total_ms);
+      for (const auto& [k, v] : p.counters) std::printf(" %s=%.0f", k.c_str(), v);
+      std::printf("\n");
+    }
+  if (std::getenv("LOOM_DIAG")) std::printf("  cloth steps %ld over %d frames\n", bs.cloth_steps(), r.frames);
+  r.bodies_through = sides.bodies_through();
+  for (size_t b = 0; b < bs.num_bodies(); ++b) r.final_y.push_back(bs.body_position(b).y());
+  std::printf(
+      "%s: %d bodies through, max strain %.4f, max penetration %.4f m (thickness %.4f), cloth %.2f ms/frame "
+      "(worst %.1f)\n",
+      name.c_str(), r.bodies_through, r.max_strain, r.max_pen, r.thickness, r.cloth_ms, r.worst_ms);
+  return r;
+}
+
+void expect_world_invariants(const WorldRun& r) {
+  EXPECT_TRUE(r.finite);
+  EXPECT_EQ(r.bodies_through, 0);
+  EXPECT_LE(r.max_pen, r.thickness);
+  EXPECT_LE(r.max_strain, 0.10 + 1e-9);
+}
+
+// Disabled: these do not hold yet with any contact response or solver the bridge offers (bodies pass through
+// and edges stretch past 10 %). Run them with --gtest_also_run_disabled_tests;
+// LOOM_TOY_SET="path=value;..." applies scene overrides (e.g. solver.method=implicit_euler).
+TEST(BulletWorld, DISABLED_ToyBox33NoBodyThrough) { expect_world_invariants(run_world("toy_box.json")); }
+
+TEST(BulletWorld, DISABLED_ToyBox17NoBodyThrough) {
+  expect_world_invariants(run_world("toy_box.json", {"cloths.0.mesh.nodes=[17,17]"}));
+}
+
+}  // namespace
+}  // namespace loom::test
