@@ -5,10 +5,8 @@
 
 #include "loom/cloth/Error.h"
 #include "loom/collision/RayCast.h"
-#include "loom/scene/Build.h"
 #ifdef LOOM_HAVE_BULLET
 #include "loom/bullet/BulletScene.h"
-#include "loom/collision/SelfCollisionStage.h"
 #endif
 
 namespace loom::viewer {
@@ -24,32 +22,23 @@ LiveScene::LiveScene(scene::Scene scene) : scene_(std::move(scene)) {
   for (const cloth::ClothSetup& c : scene_.setup.cloths) materials_.push_back(c.material);
   solver_ = scene_.setup.solver.method;
   substeps_ = scene_.setup.substeps;
-  if (!scene_.bodies.empty()) {
-#ifdef LOOM_HAVE_BULLET
-    if (!scene_.colliders.empty())
-      throw Error(scene_.file, "colliders", "cannot be combined with 'bodies' yet: give static shapes as bodies (mass 0)");
-    if (scene_.character) throw Error(scene_.file, "character", "cannot be combined with 'bodies' yet");
-#else
-    throw Error(scene_.file, "bodies", "rigid bodies need the Bullet bridge, and this loom-view was built without it (Debian: libbullet-dev)");
-#endif
-  }
-  build(false);
+  build(false);  // throws what scene::build_pipeline refuses
 }
 
 LiveScene::~LiveScene() = default;
 
 int LiveScene::frame() const {
 #ifdef LOOM_HAVE_BULLET
-  if (bullet_) return bullet_->frame();
+  if (bullet()) return bullet()->frame();
 #endif
-  return sim_->frame();
+  return sim().frame();
 }
 
 double LiveScene::time() const {
 #ifdef LOOM_HAVE_BULLET
-  if (bullet_) return bullet_->time();
+  if (bullet()) return bullet()->time();
 #endif
-  return sim_->time();
+  return sim().time();
 }
 
 scene::Scene LiveScene::edited() const {
@@ -67,45 +56,37 @@ scene::Scene LiveScene::edited() const {
 }
 
 void LiveScene::build(bool keep_state) {
-#ifdef LOOM_HAVE_BULLET
-  if (!scene_.bodies.empty()) {
-    // As `loom run`: the cloths as one BulletCloth in a Bullet world with the bodies. The world's state is
-    // not copied, so this starts from the scene's start (the grab goes with the old cloth).
-    const scene::Scene s = edited();
-    auto fresh = std::make_unique<bullet::BulletScene>(s.setup, s.bodies);  // throws: old run kept
-    if (s.collision && (s.collision->self || s.setup.cloths.size() > 1))
-      fresh->simulation().add_stage(std::make_unique<collision::SelfCollisionStage>(*s.collision));
+  std::unique_ptr<scene::ScenePipeline> fresh = scene::build_pipeline(edited());  // throws: old run kept
+  if (fresh->bullet()) {
+    // The Bullet world's state is not copied: this starts from the scene's start (the grab goes with the
+    // old cloth).
     grab_.reset();
-    bullet_ = std::move(fresh);
-    live_ = &bullet_->simulation();
-    colliders_ = bullet_->body_colliders();
+    run_ = std::move(fresh);
     return;
   }
-#endif
-  collision::ColliderSetPtr colliders;
-  std::unique_ptr<cloth::Simulation> fresh = scene::build_simulation(edited(), &colliders);  // throws: old run kept
-  if (keep_state && sim_) {
-    for (size_t c = 0; c < fresh->cloths().size(); ++c) {
-      const cloth::ClothState& from = sim_->cloths()[c]->state();
-      cloth::ClothState& to = fresh->cloths()[c]->state();
+  if (keep_state && run_ && !run_->bullet()) {
+    const cloth::Simulation& old = run_->simulation();
+    cloth::Simulation& sim = fresh->simulation();
+    for (size_t c = 0; c < sim.cloths().size(); ++c) {
+      const cloth::ClothState& from = old.cloths()[c]->state();
+      cloth::ClothState& to = sim.cloths()[c]->state();
       to.x = from.x;
       to.v = from.v;
       to.x_prev = from.x_prev;
     }
-    fresh->set_frame(sim_->frame());
+    sim.set_frame(old.frame());
     // Colliders continue from their current poses (scene motion resamples them each step anyway).
-    if (colliders_ && colliders)
-      for (size_t k = 0; k < colliders->size() && k < colliders_->size(); ++k)
-        if ((*colliders)[k].name == (*colliders_)[k].name) {
-          (*colliders)[k].prev = (*colliders_)[k].prev;
-          (*colliders)[k].curr = (*colliders_)[k].curr;
-        }
+    const collision::ColliderSetPtr& now = fresh->colliders();
+    const collision::ColliderSetPtr& before = run_->colliders();
+    for (size_t k = 0; k < now->size() && k < before->size(); ++k)
+      if ((*now)[k].name == (*before)[k].name) {
+        (*now)[k].prev = (*before)[k].prev;
+        (*now)[k].curr = (*before)[k].curr;
+      }
   }
-  sim_ = std::move(fresh);
-  live_ = sim_.get();
-  colliders_ = colliders ? colliders : std::make_shared<collision::ColliderSet>();
+  run_ = std::move(fresh);
   if (grab_) {  // the new cloth has its own inverse masses: keep the grabbed vertex kinematic
-    cloth::ClothState& s = sim_->cloths()[grab_->cloth]->state();
+    cloth::ClothState& s = sim().cloths()[grab_->cloth]->state();
     grab_inv_mass_ = s.inv_mass[grab_->vertex];
     s.inv_mass[grab_->vertex] = 0.0;
   }
@@ -122,18 +103,14 @@ cloth::FrameStats LiveScene::step_frame() {
   if (grab_) {
     // Kinematic for this frame (Solver.h contract): every substep moves it by h v, so it ends at the target.
     cloth::ClothState& s = sim().cloths()[grab_->cloth]->state();
-    // In a Bullet scene the cloth steps Bullet substeps inside one scene frame of bullet_->frame_dt().
+    // In a Bullet scene the cloth steps Bullet substeps inside one scene frame of bullet()->frame_dt().
     double dt = sim().setup().frame_dt;
 #ifdef LOOM_HAVE_BULLET
-    if (bullet_) dt = bullet_->frame_dt();
+    if (bullet()) dt = bullet()->frame_dt();
 #endif
     s.v[grab_->vertex] = (target_ - s.x[grab_->vertex]) / dt;
   }
-#ifdef LOOM_HAVE_BULLET
-  cloth::FrameStats stats = bullet_ ? bullet_->step_frame() : sim_->step_frame();
-#else
-  cloth::FrameStats stats = sim_->step_frame();
-#endif
+  cloth::FrameStats stats = run_->step_frame();
   if (grab_) sim().cloths()[grab_->cloth]->state().v[grab_->vertex].setZero();
   return stats;
 }
@@ -142,14 +119,14 @@ bool LiveScene::grab(const cloth::Vec3& origin, const cloth::Vec3& dir) {
   release();
   Grab g;
 #ifdef LOOM_HAVE_BULLET
-  if (bullet_) {
+  if (bullet()) {
     // BulletCloth::ray_test casts a segment: from the origin to past the farthest cloth vertex.
     const double len = dir.norm();
     if (!(len > 0.0)) return false;
     double reach = 0.0;
     for (const auto& c : sim().cloths())
       for (const cloth::Vec3& p : c->state().x) reach = std::max(reach, (p - origin).norm());
-    const bullet::RayHit hit = bullet_->ray_test(origin, origin + (2.0 * reach + 1.0) / len * dir);
+    const bullet::RayHit hit = bullet()->ray_test(origin, origin + (2.0 * reach + 1.0) / len * dir);
     if (!hit.hit) return false;
     int k = 0;
     hit.barycentric.maxCoeff(&k);
@@ -163,8 +140,8 @@ bool LiveScene::grab(const cloth::Vec3& origin, const cloth::Vec3& dir) {
 #endif
   std::optional<collision::RayHit> best;
   int best_cloth = -1;
-  for (size_t c = 0; c < sim_->cloths().size(); ++c) {
-    const cloth::Cloth& cl = *sim_->cloths()[c];
+  for (size_t c = 0; c < sim().cloths().size(); ++c) {
+    const cloth::Cloth& cl = *sim().cloths()[c];
     const auto hit = collision::ray_cast(origin, dir, cl.state().x, cl.mesh().triangles());
     if (hit && (!best || hit->distance < best->distance)) {
       best = hit;
@@ -172,7 +149,7 @@ bool LiveScene::grab(const cloth::Vec3& origin, const cloth::Vec3& dir) {
     }
   }
   if (!best) return false;
-  const cloth::Cloth& cl = *sim_->cloths()[best_cloth];
+  const cloth::Cloth& cl = *sim().cloths()[best_cloth];
   g.cloth = best_cloth;
   g.triangle = best->triangle;
   g.barycentric = best->barycentric;

@@ -1,11 +1,11 @@
 #pragma once
 // loom-view's simulation, without any GL (tested in tests/viewer without a display): the scene's
-// simulation built through scene::build_simulation, effect toggles and material edits applied by
+// pipeline built through scene::build_pipeline (as `loom run` builds it), effect toggles and material edits applied by
 // rebuilding it from an edited copy of the scene while keeping the clock and every cloth's x, v, x_prev
 // (solver history such as BDF2's previous step starts afresh), and dragging a cloth vertex picked with a
 // ray (collision/RayCast.h) as a temporary kinematic pin.
-// A scene with Bullet rigid `bodies` (issue 9; only when built with the Bullet bridge, LOOM_HAVE_BULLET) runs
-// in a bullet::BulletScene as `loom run` does: colliders() are then the bodies at their poses, picking goes
+// A scene with Bullet rigid `bodies` (only when built with the Bullet bridge, LOOM_HAVE_BULLET) runs in a
+// bullet::BulletScene as `loom run` does: colliders() are then the bodies at their poses, picking goes
 // through BulletCloth::ray_test (BulletScene::ray_test) and the grabbed vertex is a kinematic pin on the
 // cloth simulation inside the Bullet world. The Bullet world's state is not copied, so there an edit
 // (rebuild) starts the run again from the scene's start with the new settings.
@@ -17,6 +17,7 @@
 #include "loom/cloth/Simulation.h"
 #include "loom/collision/Collider.h"
 #include "loom/scene/Scene.h"
+#include "loom/scene/ScenePipeline.h"
 
 namespace loom::bullet {
 class BulletScene;
@@ -48,14 +49,14 @@ class LiveScene {
   explicit LiveScene(scene::Scene scene);
   ~LiveScene();
 
-  cloth::Simulation& sim() { return *live_; }
-  const cloth::Simulation& sim() const { return *live_; }
+  cloth::Simulation& sim() { return run_->simulation(); }
+  const cloth::Simulation& sim() const { return run_->simulation(); }
   // The simulation's colliders (never null; empty without any).
-  const collision::ColliderSet& colliders() const { return *colliders_; }
+  const collision::ColliderSet& colliders() const { return *run_->colliders(); }
   const scene::Scene& scene() const { return scene_; }
   // The Bullet world for a scene with `bodies`, else null.
-  bullet::BulletScene* bullet() { return bullet_.get(); }
-  const bullet::BulletScene* bullet() const { return bullet_.get(); }
+  bullet::BulletScene* bullet() { return run_->bullet(); }
+  const bullet::BulletScene* bullet() const { return run_->bullet(); }
   // Scene frames run and scene time (s) (in a Bullet scene sim() counts Bullet substeps).
   int frame() const;
   double time() const;
@@ -93,10 +94,7 @@ class LiveScene {
   std::vector<cloth::Material> materials_;
   std::string solver_;
   int substeps_ = 1;
-  std::unique_ptr<cloth::Simulation> sim_;  // null in a Bullet scene (the BulletScene owns its simulation)
-  std::shared_ptr<bullet::BulletScene> bullet_;  // shared_ptr: complete only where the bridge is linked
-  cloth::Simulation* live_ = nullptr;       // sim_ or bullet_'s simulation
-  collision::ColliderSetPtr colliders_;
+  std::unique_ptr<scene::ScenePipeline> run_;
   std::optional<Grab> grab_;
   double grab_inv_mass_ = 0.0;  // the grabbed vertex's own inverse mass, restored on release
   cloth::Vec3 target_ = cloth::Vec3::Zero();
