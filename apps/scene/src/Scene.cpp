@@ -51,7 +51,8 @@ std::string line_column(const std::string& text, size_t at) {
 // naming its JSON path.
 class DuplicateKeys : public nlohmann::json::json_sax_t {
  public:
-  explicit DuplicateKeys(std::string file) : file_(std::move(file)) {}
+  // `prefix`: the JSON path of the parsed text's root ("" for a whole scene; the PATH of --set PATH=VALUE).
+  DuplicateKeys(std::string file, std::string prefix) : file_(std::move(file)), prefix_(std::move(prefix)) {}
   bool null() override { return value(); }
   bool boolean(bool) override { return value(); }
   bool number_integer(number_integer_t) override { return value(); }
@@ -97,7 +98,7 @@ class DuplicateKeys : public nlohmann::json::json_sax_t {
     return true;
   }
   std::string path() const {  // of the object whose key is read: the enclosing keys and indices
-    std::string p;
+    std::string p = prefix_;
     for (size_t i = 0; i + 1 < frames_.size(); ++i) {
       const Frame& f = frames_[i];
       if (f.object)
@@ -107,7 +108,7 @@ class DuplicateKeys : public nlohmann::json::json_sax_t {
     }
     return p;
   }
-  std::string file_;
+  std::string file_, prefix_;
   std::vector<Frame> frames_;
 };
 
@@ -139,7 +140,7 @@ nlohmann::json read_json_file(const std::string& path) {
     const size_t p = what.find("] ");
     throw Error(path, where, "invalid JSON: " + (p == std::string::npos ? what : what.substr(p + 2)));
   }
-  DuplicateKeys dup(path);
+  DuplicateKeys dup(path, "");
   nlohmann::json::sax_parse(text, &dup);
   return j;
 }
@@ -185,6 +186,10 @@ void apply_override(nlohmann::json& root, const std::string& assignment, const s
     v = nlohmann::json::parse(value);
   } catch (...) {
     v = value;  // a bare word is a string
+  }
+  if (v.is_structured()) {  // a key given twice inside the value
+    DuplicateKeys dup(file, assignment.substr(0, eq));
+    nlohmann::json::sax_parse(value, &dup);
   }
   *node = v;
 }
@@ -368,12 +373,20 @@ std::vector<cloth::PinSpec> parse_pins(const JsonReader& r, const cloth::ClothMe
       path.finish();
     }
     p.finish();
-    // One pin per vertex: a second one (with its own anchor or path) would fight the first.
-    for (size_t k = 0; k < pins.size(); ++k)
-      if (pins[k].vertex == spec.vertex)
-        p.fail("", "pins vertex " + std::to_string(spec.vertex) + ", which an earlier pin (entry " + std::to_string(k) +
-                       " of the expanded list) already holds");
-    pins.push_back(spec);
+    // One pin per vertex: a second one with its own anchor or path would fight the first; the same pin
+    // twice (two grid nodes that coincide on a small grid) is kept once.
+    bool repeated = false;
+    for (size_t k = 0; k < pins.size() && !repeated; ++k) {
+      if (pins[k].vertex != spec.vertex) continue;
+      const bool same = pins[k].anchor.has_value() == spec.anchor.has_value() &&
+                        (!spec.anchor || *pins[k].anchor == *spec.anchor) && pins[k].times == spec.times &&
+                        pins[k].offsets == spec.offsets;
+      if (!same)
+        p.fail("", "pins vertex " + std::to_string(spec.vertex) + " with another anchor or path than an earlier pin " +
+                       "(entry " + std::to_string(k) + " of the expanded list) already holding it");
+      repeated = true;
+    }
+    if (!repeated) pins.push_back(spec);
   }
   return pins;
 }
