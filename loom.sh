@@ -70,7 +70,7 @@ asan_build() {
   cmake --build "$asan_dir" -j2 --target "$@" loom_fuzz_scene loom_fuzz_obj loom_fuzz_bvh loom_fuzz_checkpoint
 }
 # What CI runs under the sanitizers (from `./loom.sh test`): the scene, export and CLI executables (the CLI
-# tests drive the sanitized `loom` binary through the 51-case bad-input table, checkpoints and exports). The
+# tests drive the sanitized `loom` binary through the bad-input table, hostile output folders, checkpoints and exports). The
 # cloth and collision test executables under ASan are `./loom.sh test --sanitize` only: their build and run
 # (about 20 min measured on a loaded 2-core machine) would more than double CI's time.
 asan_ci_targets=(loom_scene_tests loom_export_tests loom_cli_tests)

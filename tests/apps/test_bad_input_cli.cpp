@@ -103,6 +103,15 @@ const BadInput kCases[] = {
      " JOINT Spine\n {\n  OFFSET 0 10 0\n  CHANNELS 3 Zrotation Xrotation Yrotation\n  End Site\n  {\n   OFFSET 0 5 0\n  }\n }\n}\n"
      "MOTION\nFrames: 2\nFrame Time: 0.0333333\n0 90 0 0 0 0 0 0 0\n1e999 90 0 0 0 0 0 0 0\n",
      "motion.bvh", "joint 'Hips'", "position key 1 is not finite"},
+    // A BVH whose frame time or frame count makes no motion.
+    {"bvh_frame_time_zero", nullptr, {"@BVHTEXT"},
+     "HIERARCHY\nROOT Hips\n{\n OFFSET 0 0 0\n CHANNELS 6 Xposition Yposition Zposition Zrotation Xrotation Yrotation\n"
+     " End Site\n {\n  OFFSET 0 5 0\n }\n}\nMOTION\nFrames: 2\nFrame Time: 0\n0 90 0 0 0 0\n1 90 0 0 0 0\n",
+     "motion.bvh", "Frame Time", "positive number of seconds"},
+    {"bvh_frame_time_negative", nullptr, {"@BVHTEXT"},
+     "HIERARCHY\nROOT Hips\n{\n OFFSET 0 0 0\n CHANNELS 6 Xposition Yposition Zposition Zrotation Xrotation Yrotation\n"
+     " End Site\n {\n  OFFSET 0 5 0\n }\n}\nMOTION\nFrames: 2\nFrame Time: -0.03\n0 90 0 0 0 0\n1 90 0 0 0 0\n",
+     "motion.bvh", "Frame Time", "positive number of seconds"},
     // Output folder and checkpoints.
     {"out_under_proc", nullptr, {"--out", "/proc/loom_cannot_write_here"}, nullptr, "/proc/loom_cannot_write_here", "--out", "cannot create output folder"},
     {"out_is_a_file", nullptr, {"--out", "@FILE"}, nullptr, "out", "--out", "cannot create output folder"},
