@@ -103,10 +103,10 @@ asan_build() {
       -DLOOM_BUILD_FUZZ=ON -DLOOM_BUILD_BENCH=OFF -DLOOM_WITH_BULLET=OFF -DLOOM_WITH_VIEWER=OFF \
       -DCMAKE_CXX_FLAGS="-O1 -fsanitize=address,undefined,fuzzer-no-link -fno-sanitize-recover=all -fno-omit-frame-pointer"
   fi
-  cmake --build "$asan_dir" -j2 --target "$@" loom_fuzz_scene loom_fuzz_obj loom_fuzz_bvh
+  cmake --build "$asan_dir" -j2 --target "$@" loom_fuzz_scene loom_fuzz_obj loom_fuzz_bvh loom_fuzz_checkpoint
 }
 # What CI runs under the sanitizers (from `./loom.sh test`): the scene, export and CLI executables (the CLI
-# tests drive the sanitized `loom` binary through the 51-case bad-input table, checkpoints and exports). The
+# tests drive the sanitized `loom` binary through the bad-input table, hostile output folders, checkpoints and exports). The
 # cloth and collision test executables under ASan are `./loom.sh test --sanitize` only: their build and run
 # (about 20 min measured on a loaded 2-core machine) would more than double CI's time.
 asan_ci_targets=(loom_scene_tests loom_export_tests loom_cli_tests)
@@ -118,12 +118,12 @@ sanitize_test() {
     ctest --test-dir "$asan_dir" --output-on-failure -j2 -L "$suites" -E "$asan_exclude"
 }
 
-# libFuzzer targets (tests/fuzz: scene parser, OBJ loader, BVH loader), each run SECONDS from its
-# seed corpus (tests/fuzz/corpus/<target>; new inputs go to build-asan/corpus/<target> so the repository's
+# libFuzzer targets (tests/fuzz: scene parser, OBJ loader, BVH loader, checkpoint readers), each run SECONDS
+# from its seed corpus (tests/fuzz/corpus/<target>; new inputs go to build-asan/corpus/<target> so the repository's
 # seeds stay small). A crash fails with the reproducer's path under build-asan/crashes/<target>/.
 fuzz_run() {
   local seconds="$1"
-  for t in scene obj bvh; do
+  for t in scene obj bvh checkpoint; do
     mkdir -p "$asan_dir/corpus/$t" "$asan_dir/crashes/$t"
     echo "loom.sh: fuzzing the $t target for $seconds s"
     ASAN_OPTIONS=detect_leaks=1 LSAN_OPTIONS="suppressions=$here/tests/lsan.supp" "$asan_dir/tests/fuzz/loom_fuzz_$t" -max_total_time="$seconds" -timeout=10 \
@@ -151,7 +151,11 @@ case "$cmd" in
     install_missing
     configure_and_build demo
     out="${LOOM_OUT:-out/demo}"
-    "$build_dir/apps/loom" run --out "$out" --profile --render
+    # loom run owns its output folder (docs/guarantees.md): out/demo is reused by its manifest; a folder of
+    # the default name left by a loom without manifests is this script's own, so it may be overwritten.
+    overwrite=()
+    if [ -z "${LOOM_OUT:-}" ] && [ -d "$out" ] && [ ! -f "$out/.loom-manifest" ]; then overwrite=(--overwrite); fi
+    "$build_dir/apps/loom" run --out "$out" --profile --render "${overwrite[@]}"
     echo
     echo "loom.sh: the default scene's output is in $out/:"
     echo "  $out/frames/frame_NNNNN.obj   one OBJ per frame (open in Blender, MeshLab, ...)"

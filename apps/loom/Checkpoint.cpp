@@ -1,9 +1,12 @@
 #include "Checkpoint.h"
 
+#include <cmath>
+#include <cctype>
 #include <cstring>
 #include <nlohmann/json.hpp>
 #include <sstream>
 
+#include "OutputFolder.h"
 #include "loom/cloth/Error.h"
 
 namespace fs = std::filesystem;
@@ -11,16 +14,56 @@ namespace fs = std::filesystem;
 namespace loom::app {
 
 namespace {
-constexpr const char* kMagic = "LOOMCKPT1\n";
+constexpr const char* kMagicPrefix = "LOOMCKPT";
+constexpr size_t kMagicBytes = 10;  // "LOOMCKPT" + one digit + "\n"
 fs::path checkpoint_file(const fs::path& out) { return out / "checkpoint" / "checkpoint.bin"; }
+
+std::string hex(std::uint64_t v) {
+  char s[17];
+  std::snprintf(s, sizeof s, "%016llx", static_cast<unsigned long long>(v));
+  return s;
+}
+std::uint64_t unhex(const std::string& s) {
+  if (s.size() != 16 || s.find_first_not_of("0123456789abcdef") != std::string::npos)
+    throw std::invalid_argument("expected 16 hex digits");
+  return std::stoull(s, nullptr, 16);
+}
+void put_u64(std::string& out, std::uint64_t v) { out.append(reinterpret_cast<const char*>(&v), sizeof v); }
 }  // namespace
 
-std::string read_text_file(const std::string& path) {
+std::uint64_t fnv1a(const char* data, size_t n, std::uint64_t h) {
+  for (size_t i = 0; i < n; ++i) {
+    h ^= static_cast<unsigned char>(data[i]);
+    h *= 0x100000001b3ull;
+  }
+  return h;
+}
+
+std::string read_text_file(const std::string& path, std::uint64_t max_bytes) {
+  std::error_code ec;
+  const fs::file_status st = fs::status(path, ec);
+  if (!fs::exists(st)) throw Error(path, "", "cannot open file: no such file");
+  if (!fs::is_regular_file(st)) throw Error(path, "", "is not a regular file (a folder or a device)");
+  const std::uintmax_t size = fs::file_size(path, ec);
+  if (ec) throw Error(path, "", "cannot read the file size: " + ec.message());
+  if (size > max_bytes)
+    throw Error(path, "", "is " + std::to_string(size) + " bytes, more than the " + std::to_string(max_bytes) + " accepted");
   std::ifstream in(path, std::ios::binary);
   if (!in) throw Error(path, "", "cannot open file");
   std::stringstream ss;
   ss << in.rdbuf();
   return ss.str();
+}
+
+InputFile fingerprint(const std::string& path) {
+  InputFile f;
+  std::error_code ec;
+  const fs::path abs = fs::absolute(path, ec);
+  f.path = (ec ? fs::path(path) : abs.lexically_normal()).string();
+  const std::string data = read_text_file(f.path);
+  f.bytes = data.size();
+  f.hash = fnv1a(data);
+  return f;
 }
 
 std::string kept_stats_rows(const fs::path& out, int frame) {
@@ -32,17 +75,22 @@ std::string kept_stats_rows(const fs::path& out, int frame) {
   std::getline(in, line);  // header
   while (std::getline(in, line)) {
     if (line.empty()) continue;
-    if (std::atoi(line.c_str()) > frame) break;
+    if (std::atol(line.c_str()) > frame) break;
     rows += line + "\n";
   }
   return rows;
 }
 
-void write_checkpoint(const fs::path& out, const Checkpoint& c) {
+std::string encode_checkpoint(const Checkpoint& c) {
   nlohmann::json j;
+  j["format"] = kCheckpointFormat;
   j["scene"] = c.scene;
   j["scene_text"] = c.scene_text;
   j["sets"] = c.sets;
+  j["run_id"] = hex(c.run_id);
+  nlohmann::json inputs = nlohmann::json::array();
+  for (const InputFile& f : c.inputs) inputs.push_back({{"path", f.path}, {"bytes", f.bytes}, {"hash", hex(f.hash)}});
+  j["inputs"] = inputs;
   j["frames_total"] = c.frames_total;
   j["threads"] = c.threads;
   j["checkpoint_every"] = c.checkpoint_every;
@@ -52,22 +100,104 @@ void write_checkpoint(const fs::path& out, const Checkpoint& c) {
   j["mean_strain_sum"] = c.mean_strain_sum;
   j["sim_ms"] = c.sim_ms;
   j["logged_frames"] = c.logged_frames;
+  j["log_hash"] = hex(c.log_hash);
   const std::string header = j.dump();
-  const fs::path path = checkpoint_file(out);
-  std::error_code ec;
-  fs::create_directories(path.parent_path(), ec);
-  const fs::path tmp = path.string() + ".tmp";
+  std::string out = std::string(kMagicPrefix) + std::to_string(kCheckpointFormat) + "\n";
+  put_u64(out, header.size());
+  out += header;
+  put_u64(out, c.state.size());
+  out += c.state;
+  put_u64(out, fnv1a(out));
+  return out;
+}
+
+Checkpoint decode_checkpoint(const std::string& data, const std::string& source) {
+  auto bad = [&](const std::string& what) { return Error(source, "", "not a valid checkpoint: " + what); };
+  if (data.size() < kMagicBytes || data.compare(0, 8, kMagicPrefix) != 0 || data[9] != '\n') throw bad("wrong header");
+  if (data[8] != '0' + kCheckpointFormat)
+    throw Error(source, "format", "not a valid checkpoint for this loom: written in checkpoint format " + std::string(1, std::isprint(static_cast<unsigned char>(data[8])) ? data[8] : '?') +
+                                      "; this loom reads format " + std::to_string(kCheckpointFormat) + " only");
+  if (data.size() < kMagicBytes + 3 * sizeof(std::uint64_t)) throw bad("cut short");
+  std::uint64_t sum;
+  std::memcpy(&sum, data.data() + data.size() - sizeof sum, sizeof sum);
+  const size_t end = data.size() - sizeof sum;
+  if (fnv1a(data.data(), end) != sum)
+    throw Error(source, "checksum", "does not match the contents: the checkpoint was changed or damaged after it was written");
+  size_t pos = kMagicBytes;
+  auto u64 = [&](const char* what) {
+    std::uint64_t v;
+    if (end - pos < sizeof v) throw bad(std::string("cut short before the ") + what);
+    std::memcpy(&v, data.data() + pos, sizeof v);
+    pos += sizeof v;
+    return v;
+  };
+  const std::uint64_t hn = u64("header");
+  if (hn > end - pos) throw bad("cut short in the header");
+  Checkpoint c;
+  std::string field;
+  try {
+    const nlohmann::json j = nlohmann::json::parse(data.substr(pos, hn));
+    auto at = [&](const char* key) -> const nlohmann::json& {
+      field = key;
+      return j.at(key);
+    };
+    if (at("format").get<int>() != kCheckpointFormat) throw bad("the header's format differs from the file's");
+    c.scene = at("scene").get<std::string>();
+    c.scene_text = at("scene_text").get<std::string>();
+    c.sets = at("sets").get<std::vector<std::string>>();
+    c.run_id = unhex(at("run_id").get<std::string>());
+    for (const auto& f : at("inputs")) {
+      InputFile in;
+      in.path = f.at("path").get<std::string>();
+      in.bytes = f.at("bytes").get<std::uint64_t>();
+      in.hash = unhex(f.at("hash").get<std::string>());
+      c.inputs.push_back(in);
+    }
+    c.frames_total = at("frames_total").get<int>();
+    c.threads = at("threads").get<int>();
+    c.checkpoint_every = at("checkpoint_every").get<int>();
+    c.render = at("render").get<bool>();
+    c.frame = at("frame").get<int>();
+    c.max_strain = at("max_strain").get<double>();
+    c.mean_strain_sum = at("mean_strain_sum").get<double>();
+    c.sim_ms = at("sim_ms").get<double>();
+    c.logged_frames = at("logged_frames").get<long>();
+    c.log_hash = unhex(at("log_hash").get<std::string>());
+    field.clear();
+  } catch (const Error&) {
+    throw;
+  } catch (const std::exception& e) {
+    throw bad("header" + (field.empty() ? std::string() : " field '" + field + "'") + ": " + e.what());
+  }
+  auto range = [&](const char* key, bool ok) {
+    if (!ok) throw bad(std::string("header field '") + key + "' is out of range");
+  };
+  range("frames_total", c.frames_total >= 0);
+  range("frame", c.frame >= 0 && c.frame <= c.frames_total);
+  range("threads", c.threads >= 1);
+  range("checkpoint_every", c.checkpoint_every >= 0);
+  range("logged_frames", c.logged_frames >= 0 && c.logged_frames <= static_cast<long>(c.frame) + 1);
+  range("max_strain", std::isfinite(c.max_strain));
+  range("mean_strain_sum", std::isfinite(c.mean_strain_sum));
+  range("sim_ms", std::isfinite(c.sim_ms) && c.sim_ms >= 0.0);
+  pos += hn;
+  const std::uint64_t sn = u64("state");
+  if (sn != end - pos) throw bad("the state is cut short or has trailing bytes");
+  c.state = data.substr(pos, sn);
+  return c;
+}
+
+void write_checkpoint(OutputFolder& out, const Checkpoint& c) {
+  out.claim("checkpoint/");
+  const fs::path path = out.claim("checkpoint/checkpoint.bin");
+  const fs::path tmp = out.claim("checkpoint/checkpoint.bin.tmp");
   {
     std::ofstream f(tmp, std::ios::binary | std::ios::trunc);
-    const std::uint64_t hn = header.size(), sn = c.state.size();
-    f << kMagic;
-    f.write(reinterpret_cast<const char*>(&hn), sizeof hn);
-    f << header;
-    f.write(reinterpret_cast<const char*>(&sn), sizeof sn);
-    f << c.state;
+    f << encode_checkpoint(c);
     f.flush();
     if (!f) throw Error(tmp.string(), "", "cannot write checkpoint");
   }
+  std::error_code ec;
   fs::rename(tmp, path, ec);
   if (ec) throw Error(path.string(), "", "cannot move the checkpoint into place: " + ec.message());
 }
@@ -75,75 +205,75 @@ void write_checkpoint(const fs::path& out, const Checkpoint& c) {
 Checkpoint read_checkpoint(const fs::path& out) {
   const fs::path path = checkpoint_file(out);
   if (!fs::exists(path)) throw Error(path.string(), "--resume", "no checkpoint here (write one with --checkpoint-every N)");
-  const std::string data = read_text_file(path.string());
-  const size_t m = std::strlen(kMagic);
-  auto bad = [&](const std::string& what) { return Error(path.string(), "", "not a valid checkpoint: " + what); };
-  if (data.compare(0, m, kMagic) != 0) throw bad("wrong header");
-  size_t pos = m;
-  auto u64 = [&](const char* what) {
-    std::uint64_t v;
-    if (data.size() - pos < sizeof v) throw bad(std::string("cut short before the ") + what);
-    std::memcpy(&v, data.data() + pos, sizeof v);
-    pos += sizeof v;
-    return v;
-  };
-  const std::uint64_t hn = u64("header");
-  if (hn > data.size() - pos) throw bad("cut short in the header");
-  Checkpoint c;
-  try {
-    const nlohmann::json j = nlohmann::json::parse(data.substr(pos, hn));
-    c.scene = j.at("scene").get<std::string>();
-    c.scene_text = j.at("scene_text").get<std::string>();
-    c.sets = j.at("sets").get<std::vector<std::string>>();
-    c.frames_total = j.at("frames_total").get<int>();
-    c.threads = j.at("threads").get<int>();
-    c.checkpoint_every = j.at("checkpoint_every").get<int>();
-    c.render = j.at("render").get<bool>();
-    c.frame = j.at("frame").get<int>();
-    c.max_strain = j.at("max_strain").get<double>();
-    c.mean_strain_sum = j.at("mean_strain_sum").get<double>();
-    c.sim_ms = j.at("sim_ms").get<double>();
-    c.logged_frames = j.at("logged_frames").get<long>();
-  } catch (const nlohmann::json::exception& e) {
-    throw bad(std::string("header: ") + e.what());
-  }
-  pos += hn;
-  const std::uint64_t sn = u64("state");
-  if (sn != data.size() - pos) throw bad("the state is cut short or has trailing bytes");
-  c.state = data.substr(pos);
-  return c;
+  return decode_checkpoint(read_text_file(path.string()), path.string());
 }
 
-FrameLog::FrameLog(const fs::path& out, long keep, const std::vector<std::unique_ptr<cloth::Cloth>>& cloths)
-    : path_(out / "checkpoint" / "frames.bin") {
-  size_t vertices = 0;
-  for (const auto& c : cloths) vertices += c->state().size();
-  entry_bytes_ = sizeof(double) * (2 + 3 * vertices);
-  std::error_code ec;
-  fs::create_directories(path_.parent_path(), ec);
-  if (keep > 0) {
-    const std::string data = read_text_file(path_.string());
-    if (data.size() < entry_bytes_ * static_cast<size_t>(keep))
-      throw Error(path_.string(), "", "frame log is shorter than the checkpoint says (" + std::to_string(keep) + " frames)");
-    size_t pos = 0;
-    for (long e = 0; e < keep; ++e) {
-      double time, flags;
-      std::memcpy(&time, data.data() + pos, sizeof time);
-      pos += sizeof time;
-      std::memcpy(&flags, data.data() + pos, sizeof flags);
-      pos += sizeof flags;
-      std::vector<cloth::Vec3s> xs;
-      for (const auto& c : cloths) {
-        cloth::Vec3s x(c->state().size());
-        for (cloth::Vec3& p : x) {
-          std::memcpy(p.data(), data.data() + pos, 3 * sizeof(double));
-          pos += 3 * sizeof(double);
-        }
-        xs.push_back(std::move(x));
+void check_inputs(const Checkpoint& c) {
+  for (const InputFile& f : c.inputs) {
+    std::error_code ec;
+    if (!fs::exists(f.path, ec)) throw Error(f.path, "--resume", "an input of the checkpointed run is missing");
+    const InputFile now = fingerprint(f.path);
+    if (now.bytes != f.bytes || now.hash != f.hash)
+      throw Error(f.path, "--resume", "this input changed since the checkpoint was written (" + std::to_string(f.bytes) +
+                                          " bytes then, " + std::to_string(now.bytes) + " now): resuming would mix two runs");
+  }
+}
+
+std::vector<FrameLogEntry> parse_frame_log(const std::string& data, long keep, const std::vector<size_t>& vertices,
+                                           const std::string& source) {
+  std::uint64_t points = 0;
+  for (size_t v : vertices) {
+    if (v > (std::uint64_t(1) << 40)) throw Error(source, "", "too many vertices for a frame log");
+    points += v;
+  }
+  const std::uint64_t entry_bytes = sizeof(double) * (2 + 3 * points);
+  // keep * entry_bytes <= data.size(), written as a division so that no product can wrap.
+  if (keep < 0 || static_cast<std::uint64_t>(keep) > data.size() / entry_bytes)
+    throw Error(source, "", "frame log is shorter than the checkpoint says (" + std::to_string(keep) + " frames)");
+  std::vector<FrameLogEntry> out;
+  out.reserve(static_cast<size_t>(keep));
+  size_t pos = 0;
+  for (long e = 0; e < keep; ++e) {
+    double time, flags;
+    std::memcpy(&time, data.data() + pos, sizeof time);
+    pos += sizeof time;
+    std::memcpy(&flags, data.data() + pos, sizeof flags);
+    pos += sizeof flags;
+    if (!std::isfinite(time) || !(flags >= 0.0 && flags <= 3.0) || flags != std::floor(flags))
+      throw Error(source, "entry " + std::to_string(e), "not a frame log entry (time or flags out of range)");
+    FrameLogEntry entry{time, static_cast<int>(flags), {}};
+    for (size_t v : vertices) {
+      cloth::Vec3s x(v);
+      for (cloth::Vec3& p : x) {
+        std::memcpy(p.data(), data.data() + pos, 3 * sizeof(double));
+        pos += 3 * sizeof(double);
+        if (!p.allFinite()) throw Error(source, "entry " + std::to_string(e), "holds a non-finite position");
       }
-      kept_.push_back(Entry{time, static_cast<int>(flags), std::move(xs)});
+      entry.x.push_back(std::move(x));
     }
-    fs::resize_file(path_, entry_bytes_ * static_cast<size_t>(keep), ec);
+    out.push_back(std::move(entry));
+  }
+  return out;
+}
+
+FrameLog::FrameLog(OutputFolder& out, long keep, std::uint64_t hash,
+                   const std::vector<std::unique_ptr<cloth::Cloth>>& cloths) {
+  out.claim("checkpoint/");
+  path_ = out.claim("checkpoint/frames.bin");
+  hash_ = fnv1a(nullptr, 0);
+  if (keep > 0) {
+    std::vector<size_t> vertices;
+    for (const auto& c : cloths) vertices.push_back(c->state().size());
+    const std::string data = read_text_file(path_.string());
+    kept_ = parse_frame_log(data, keep, vertices, path_.string());
+    size_t bytes = 0;
+    for (size_t v : vertices) bytes += v;
+    bytes = sizeof(double) * (2 + 3 * bytes) * static_cast<size_t>(keep);
+    hash_ = fnv1a(data.data(), bytes);
+    if (hash_ != hash)
+      throw Error(path_.string(), "--resume", "the frame log changed since the checkpoint was written (hash mismatch)");
+    std::error_code ec;
+    fs::resize_file(path_, bytes, ec);
     if (ec) throw Error(path_.string(), "", "cannot truncate the frame log: " + ec.message());
     file_.open(path_, std::ios::binary | std::ios::app);
   } else {
@@ -153,12 +283,17 @@ FrameLog::FrameLog(const fs::path& out, long keep, const std::vector<std::unique
   entries_ = keep;
 }
 
+void FrameLog::put(const void* p, size_t n) {
+  file_.write(static_cast<const char*>(p), static_cast<std::streamsize>(n));
+  hash_ = fnv1a(static_cast<const char*>(p), n, hash_);
+}
+
 void FrameLog::append(double time, int flags, const std::vector<std::unique_ptr<cloth::Cloth>>& cloths) {
   const double f = flags;
-  file_.write(reinterpret_cast<const char*>(&time), sizeof time);
-  file_.write(reinterpret_cast<const char*>(&f), sizeof f);
+  put(&time, sizeof time);
+  put(&f, sizeof f);
   for (const auto& c : cloths)
-    for (const cloth::Vec3& p : c->state().x) file_.write(reinterpret_cast<const char*>(p.data()), 3 * sizeof(double));
+    for (const cloth::Vec3& p : c->state().x) put(p.data(), 3 * sizeof(double));
   if (!file_) throw Error(path_.string(), "", "write failed");
   ++entries_;
 }

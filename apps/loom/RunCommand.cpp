@@ -18,8 +18,11 @@
 #include <nlohmann/json.hpp>
 #include <optional>
 #include <sstream>
+#include <thread>
 
 #include "Checkpoint.h"
+#include "OutputFolder.h"
+#include "Terminal.h"
 #include "loom/cloth/Error.h"
 #include "loom/export/Exporters.h"
 #ifdef LOOM_HAVE_RENDER
@@ -66,15 +69,31 @@ void write_obj(const fs::path& path, const std::vector<std::unique_ptr<cloth::Cl
   if (!out) throw Error(path.string(), "", "write failed");
 }
 
-// Writes `text` to `path` through a temporary file and a rename, so a reader never sees half a file.
-void write_atomically(const fs::path& path, const std::string& text) {
-  const fs::path tmp = path.string() + ".tmp";
+// Writes `text` to `path` through a temporary file `tmp` and a rename, so a reader never sees half a file.
+void write_atomically(const fs::path& path, const fs::path& tmp, const std::string& text) {
   {
     std::ofstream out(tmp);
     out << text;
     if (!out) throw Error(path.string(), "", "write failed");
   }
-  fs::rename(tmp, path);
+  std::error_code ec;
+  fs::rename(tmp, path, ec);
+  if (ec) throw Error(path.string(), "", "cannot move into place: " + ec.message());
+}
+
+// The first cloth (by name) with a non-finite position, or an empty string.
+std::string non_finite_cloth(const std::vector<std::unique_ptr<cloth::Cloth>>& cloths) {
+  for (const auto& c : cloths)
+    for (const cloth::Vec3& p : c->state().x)
+      if (!p.allFinite()) return c->name();
+  return "";
+}
+
+// Digits of the frame numbers in file names: at least 5, enough for the last frame so names sort in order.
+int frame_digits(int frames) {
+  int d = 5;
+  for (long v = 100000; v <= frames; v *= 10) ++d;
+  return d;
 }
 
 class ProgressBar {
@@ -125,6 +144,12 @@ int run_command(const RunOptions& options) {
   std::optional<Checkpoint> resume;  // --resume DIR: the run's options and state come from DIR/checkpoint
   if (!o.resume.empty()) {
     resume = read_checkpoint(o.resume);
+    const fs::path ckpt = fs::path(o.resume) / "checkpoint" / "checkpoint.bin";
+    if (read_run_id(o.resume) != resume->run_id)
+      throw Error(ckpt.string(), "run_id",
+                  "belongs to another run's output folder (its run id is not the one in " +
+                      (fs::path(o.resume) / OutputFolder::kManifest).string() + "): resume the folder it was written in");
+    check_inputs(*resume);  // scene, meshes, motion clips: unchanged since the checkpoint, by hash
     o.scene = resume->scene;
     o.sets = resume->sets;
     o.out = o.resume;
@@ -137,7 +162,20 @@ int run_command(const RunOptions& options) {
   }
   const std::string scene_path = o.scene.empty() ? default_scene_path() : o.scene;
   scene::Scene sc = scene::load_scene(scene_path, o.sets);
+  // What a checkpoint records of the inputs (Checkpoint.h): the scene by absolute path, so --resume works from
+  // any folder, and every file the scene read, hashed.
+  const std::string scene_abs = fs::absolute(scene_path).lexically_normal().string();
+  const std::string scene_text = read_text_file(scene_path);
+  std::vector<InputFile> inputs = {fingerprint(scene_path)};
+  for (const std::string& f : sc.inputs) inputs.push_back(fingerprint(f));
   if (o.threads > 0) sc.setup.threads = o.threads;
+  // Threads beyond the machine's only queue on the cores (and thousands exhaust the OpenMP runtime).
+  const int hardware = std::max(1, static_cast<int>(std::thread::hardware_concurrency()));
+  if (sc.setup.threads > hardware) {
+    std::cerr << "loom: warning: " << printable(scene_path) << ": threads " << sc.setup.threads << " capped at the "
+              << hardware << " hardware threads of this machine\n";
+    sc.setup.threads = hardware;
+  }
   // Issue 8: the guard's intersection check is on by default for a scene with cloth-cloth or self-collision
   // (measured: 7-8 % of the step time on character_layers, 1.3 % on layer_stack; README "Reliability"), unless the
   // scene sets `guard.intersections` itself.
@@ -187,32 +225,45 @@ int run_command(const RunOptions& options) {
     if (census_colliders) census_penetration = std::max(census_penetration, collision::max_penetration(in, *census_colliders));
   };
 
-  // Output folder: our files from an earlier run are removed first, so nothing stale passes for new.
+  // The output folder (OutputFolder.h): out/<scene name> by default (the scene layer keeps `name` a plain file
+  // name); a run writes only paths it claims in the folder's manifest and deletes only listed ones.
   const fs::path out = o.out.empty() ? fs::path("out") / sc.name : fs::path(o.out);
-  std::error_code ec;
-  fs::create_directories(out / "frames", ec);
-  if (ec || !fs::is_directory(out / "frames")) throw Error(out.string(), "--out", "cannot create output folder: " + ec.message());
-  {
-    const fs::path probe = out / ".loom_write_test";
-    std::ofstream test(probe);
-    if (!test) throw Error(out.string(), "--out", "output folder is not writable");
-    test.close();
-    fs::remove(probe);
-  }
-  fs::remove(out / "summary.json");
-  // On --resume, the stats rows and OBJ frames up to the checkpoint's frame are kept, later ones dropped.
+  if (o.out.empty() && fs::path(sc.name).filename() != fs::path(sc.name))
+    throw Error(scene_path, "name", "is not a plain file name, so it cannot name the output folder");
+  OutputFolder folder(out, resume ? "--resume" : "--out", o.overwrite, resume.has_value());
   const int first = resume ? resume->frame : 0;
-  std::string kept_rows = resume ? kept_stats_rows(out, first) : "";
-  fs::remove(out / "stats.csv");
-  for (const auto& entry : fs::directory_iterator(out / "frames"))
-    if (entry.path().extension() == ".obj" && entry.path().filename().string().rfind("frame_", 0) == 0 &&
-        (!resume || std::atoi(entry.path().filename().string().c_str() + 6) > first))
-      fs::remove(entry.path());
-  if (!resume) fs::remove_all(out / "checkpoint");
+  // Hybrid detail (issue 10): cloths with `detail` are written and rendered as their curved-face surface.
+  DetailView shown(sc, sim);
+  // Geometry kept in memory by pc2/gltf/--render is logged for --resume (Checkpoint.h; Ctrl-C can come any time).
+  bool in_memory = o.render;
+  for (const std::string& f : sc.output.formats) in_memory = in_memory || f == "pc2" || f == "gltf";
+  // On --resume everything is checked before a file changes: the state, the frame log, the stats rows.
+  std::string kept_rows;
+  if (resume) {
+    cloth::StateReader in(resume->state, (out / "checkpoint" / "checkpoint.bin").string());
+    sim.load_state(in);
+    kept_rows = kept_stats_rows(out, first);
+  }
+  std::unique_ptr<FrameLog> log;
+  if (in_memory)
+    log = std::make_unique<FrameLog>(folder, resume ? resume->logged_frames : 0, resume ? resume->log_hash : 0, shown.cloths());
+  const int digits = frame_digits(frames);
+  auto frame_name = [&](int f) {
+    std::string n = std::to_string(f);
+    if (static_cast<int>(n.size()) < digits) n.insert(0, static_cast<size_t>(digits) - n.size(), '0');
+    return "frames/frame_" + n + ".obj";
+  };
+  folder.claim("frames/");
+  if (resume) {  // the stats rows and OBJ frames up to the checkpoint's frame are kept, later ones dropped
+    for (int f = first + 1; f <= frames; ++f) folder.remove_owned(frame_name(f));
+    folder.remove_owned("summary.json");
+    folder.remove_owned("stats.csv");
+  }
+  auto frame_path = [&](int f) { return folder.claim(frame_name(f)); };
 
   const std::vector<std::string> stage_names = sim.stage_names();
-  const fs::path stats_partial = out / "stats.csv.partial";
-  std::ofstream csv(stats_partial);
+  const fs::path stats_partial = folder.claim("stats.csv.partial");
+  std::ofstream csv(stats_partial, std::ios::trunc);
   if (!csv) throw Error(stats_partial.string(), "", "cannot write");
   csv << std::setprecision(10);
   csv << "frame,time,kinetic_energy,potential_energy,elastic_energy,max_strain,mean_strain,ms_total";
@@ -231,7 +282,7 @@ int run_command(const RunOptions& options) {
 #ifdef LOOM_HAVE_BULLET
     if (!bodies_world) return;
     if (!bodies_csv.is_open()) {
-      bodies_csv.open(out / "bodies.csv");
+      bodies_csv.open(folder.claim("bodies.csv"));
       if (!bodies_csv) throw Error((out / "bodies.csv").string(), "", "cannot write");
       bodies_csv << std::setprecision(10) << "frame,time,body,x,y,z,vx,vy,vz\n";
     }
@@ -244,17 +295,19 @@ int run_command(const RunOptions& options) {
     (void)f;
 #endif
   };
-  fs::remove(out / "bodies.csv");
-  auto frame_path = [&](int f) {
-    char name[32];
-    std::snprintf(name, sizeof name, "frame_%05d.obj", f);
-    return out / "frames" / name;
-  };
-
-  // Hybrid detail (issue 10): cloths with `detail` are written and rendered as their curved-face surface.
-  DetailView shown(sc, sim);
   // output.formats: "obj" below (with output.frames), "pc2" and "gltf" through loom::export.
   const bool obj = sc.output.frames && std::find(sc.output.formats.begin(), sc.output.formats.end(), "obj") != sc.output.formats.end();
+  for (const std::string& f : sc.output.formats) {  // the exporters' files (Exporters.h), claimed first
+    if (f == "pc2") {
+      folder.claim("pc2/");
+      for (const std::string& n : exporter::Exporters::file_names(shown.cloths())) {
+        folder.claim("pc2/" + n + ".obj");
+        folder.claim("pc2/" + n + ".pc2");
+      }
+    } else if (f == "gltf") {
+      for (const char* n : {"animation.gltf", "animation.gltf.tmp", "animation.bin"}) folder.claim(n);
+    }
+  }
   exporter::Exporters exports(out.string(), sc.output.formats, shown.cloths(), sc.output.every);
 #ifdef LOOM_HAVE_RENDER
   std::unique_ptr<render::Recording> recording;  // --render: positions kept, rendered after the run
@@ -263,11 +316,6 @@ int run_command(const RunOptions& options) {
   if (o.render) throw Error("", "--render", "this loom was built without the offscreen renderer (Debian: libosmesa6-dev libstb-dev)");
 #endif
 
-  // Geometry kept in memory by pc2/gltf/--render is logged for --resume (Checkpoint.h; Ctrl-C can come any time).
-  bool in_memory = o.render;
-  for (const std::string& f : sc.output.formats) in_memory = in_memory || f == "pc2" || f == "gltf";
-  std::unique_ptr<FrameLog> log;
-  if (in_memory) log = std::make_unique<FrameLog>(out, resume ? resume->logged_frames : 0, shown.cloths());
   auto keep_frame = [&](bool exported, bool rendered) {
     if (exported) exports.frame(sim.time(), shown.cloths());
 #ifdef LOOM_HAVE_RENDER
@@ -277,9 +325,8 @@ int run_command(const RunOptions& options) {
   };
   double max_strain = 0.0, mean_strain_sum = 0.0, sim_ms = 0.0;
   bool finite = true;
+  std::string error;
   if (resume) {
-    cloth::StateReader in(resume->state, (out / "checkpoint" / "checkpoint.bin").string());
-    sim.load_state(in);
     max_strain = resume->max_strain;
     mean_strain_sum = resume->mean_strain_sum;
     sim_ms = resume->sim_ms;
@@ -293,8 +340,18 @@ int run_command(const RunOptions& options) {
     shown.update();  // the replayed frames left their positions in the shown cloths
   } else {
     cloth::FrameStats s0 = sim.measure();
-    finite = s0.finite;
-    if (finite) {  // NaN is never written (issue 8)
+    finite = s0.finite && non_finite_cloth(shown.cloths()).empty();
+    if (!finite) {
+      const std::string bad = non_finite_cloth(sim.cloths());
+      const std::string shown_bad = non_finite_cloth(shown.cloths());
+      error = !bad.empty() ? "cloth '" + bad + "' starts at a non-finite position"
+              : !shown_bad.empty()
+                  ? "the detail surface of cloth '" + shown_bad + "' is not finite at the start (cloths[].detail)"
+                  : "the start state's energy is not finite (an initial velocity, pin offset or anchor too large "
+                    "for double precision)";
+      error += "; stopped before frame 0, nothing written";
+    }
+    if (finite) {  // NaN is never written
       write_row(s0);
       write_bodies(0);
       run_census();
@@ -304,14 +361,15 @@ int run_command(const RunOptions& options) {
     max_strain = finite ? s0.max_strain : 0.0;
   }
   int done = first;
-  std::string error;
   ProgressBar bar(frames);
   auto save_checkpoint = [&]() {
     csv.flush();
     if (log) log->flush();
     Checkpoint c;
-    c.scene = scene_path;
-    c.scene_text = read_text_file(scene_path);
+    c.scene = scene_abs;
+    c.scene_text = scene_text;
+    c.run_id = folder.run_id();
+    c.inputs = inputs;
     c.sets = o.sets;
     c.frames_total = frames;
     c.threads = sc.setup.threads;
@@ -322,10 +380,11 @@ int run_command(const RunOptions& options) {
     c.mean_strain_sum = mean_strain_sum;
     c.sim_ms = sim_ms;
     c.logged_frames = log ? log->entries() : 0;
+    c.log_hash = log ? log->hash() : 0;
     cloth::StateWriter w;
     sim.save_state(w);
     c.state = w.data();
-    write_checkpoint(out, c);
+    write_checkpoint(folder, c);
   };
   g_interrupted = 0;
   auto old_handler = std::signal(SIGINT, on_sigint);
@@ -345,10 +404,17 @@ int run_command(const RunOptions& options) {
       error = cause + "; stopped, frames up to " + std::to_string(f - 1) + " are valid";
       break;
     }
+    shown.update();
+    if (const std::string bad = non_finite_cloth(shown.cloths()); !bad.empty()) {  // NaN is never written
+      finite = false;
+      error = "the shown surface of cloth '" + bad + "' became non-finite in frame " + std::to_string(f) +
+              (sc.detail.empty() ? "" : " (check cloths[].detail)") + "; stopped, frames up to " +
+              std::to_string(f - 1) + " are valid";
+      break;
+    }
     write_row(s);
     write_bodies(f);
     run_census();
-    shown.update();
     if (obj && f % sc.output.every == 0) write_obj(frame_path(f), shown.cloths());
     max_strain = std::max(max_strain, s.max_strain);
     mean_strain_sum += s.mean_strain;
@@ -373,6 +439,14 @@ int run_command(const RunOptions& options) {
   nlohmann::ordered_json render_summary;
 #ifdef LOOM_HAVE_RENDER
   if (recording && !interrupted) {  // an interrupted run renders when it is resumed and ends
+    folder.claim("render/");
+    for (int f = 0; f < recording->frames(); ++f) {
+      char name[40];
+      std::snprintf(name, sizeof name, "render/frame_%05d.png", f);
+      folder.claim(name);
+    }
+    folder.claim("render.mp4");
+    folder.claim("render.gif");
     render::RenderSettings rs;
     rs.width = sc.output.render.width;
     rs.height = sc.output.render.height;
@@ -386,10 +460,10 @@ int run_command(const RunOptions& options) {
 #endif
   csv.close();
   if (!csv) throw Error(stats_partial.string(), "", "write failed");
-  fs::rename(stats_partial, out / "stats.csv");
+  fs::rename(stats_partial, folder.claim("stats.csv"));
 
   nlohmann::ordered_json j;
-  j["scene"] = scene_path;
+  j["scene"] = scene_abs;
   j["frames"] = done;
   j["sim_seconds"] = done * sc.setup.frame_dt;
   j["wall_seconds"] = std::chrono::duration<double>(std::chrono::steady_clock::now() - wall_start).count();
@@ -444,11 +518,11 @@ int run_command(const RunOptions& options) {
   }
 #endif
   if (!finite) j["error"] = error;
-  write_atomically(out / "summary.json", j.dump(2) + "\n");
+  write_atomically(folder.claim("summary.json"), folder.claim("summary.json.tmp"), j.dump(2) + "\n");
 
   if (o.profile) print_profile(sim, done);
   if (!finite) {
-    std::cerr << "loom: error: " << scene_path << ": " << error << "\n";
+    std::cerr << "loom: error: " << printable(scene_path) << ": " << printable(error) << "\n";
     return 3;
   }
   if (interrupted) {
@@ -458,11 +532,11 @@ int run_command(const RunOptions& options) {
       return 130;
     }
     std::cerr << "loom: interrupted after frame " << done << " of " << frames << "; outputs so far are valid; continue with: loom run --resume "
-              << out.string() << "\n";
+              << printable(out.string()) << "\n";
     return 130;
   }
-  std::cout << "loom: " << done << " frames of " << sc.name << " in " << std::fixed << std::setprecision(2)
-            << (done ? sim_ms / done : 0.0) << " ms/frame -> " << out.string() << "\n";
+  std::cout << "loom: " << done << " frames of " << printable(sc.name) << " in " << std::fixed << std::setprecision(2)
+            << (done ? sim_ms / done : 0.0) << " ms/frame -> " << printable(out.string()) << "\n";
   return 0;
 }
 

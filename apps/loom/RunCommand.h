@@ -1,5 +1,6 @@
 #pragma once
-// `loom run`: loads a scene, runs it and writes DIR/frames/*.obj, DIR/stats.csv and DIR/summary.json.
+// `loom run`: loads a scene, runs it and writes DIR/frames/*.obj, DIR/stats.csv and DIR/summary.json into an
+// output folder it owns (OutputFolder.h, docs/guarantees.md).
 #include <string>
 #include <vector>
 
@@ -16,6 +17,7 @@ struct RunOptions {
   bool census = false;           // --census: intersections and max_penetration in summary.json (issue 5)
   int checkpoint_every = 0;       // --checkpoint-every N: DIR/checkpoint/checkpoint.bin every N frames (0: off)
   std::string resume;             // --resume DIR: continue the run whose checkpoint is in DIR
+  bool overwrite = false;         // --overwrite: write into a non-empty folder without a Loom manifest
 };
 
 // Returns the process exit code: 0 ok, 1 bad input or I/O error, 3 the simulation diverged, 130 interrupted

@@ -3,11 +3,13 @@
 #include <cstring>
 #include <exception>
 #include <iostream>
+#include <new>
 #include <string>
 
 #include "CcdEvalCommand.h"
 #include "FabricTestCommand.h"
 #include "RunCommand.h"
+#include "Terminal.h"
 #ifdef LOOM_HAVE_BENCH_ACCURACY
 #include "loom/eval/AccuracyBench.h"
 #include "CompareCommand.h"
@@ -38,7 +40,7 @@ std::string run_usage() {
   for (const auto& s : loom::cloth::solver_names()) solvers += (solvers.empty() ? "" : ", ") + s;
   for (const auto& p : loom::cloth::material_preset_names()) presets += (presets.empty() ? "" : ", ") + p;
   return "Usage: loom run [SCENE] [--out DIR] [--frames N] [--threads N] [--profile] [--render] [--set PATH=VALUE ...]\n"
-         "                [--checkpoint-every N] [--resume DIR]\n"
+         "                [--checkpoint-every N] [--resume DIR] [--overwrite]\n"
          "\n"
          "Runs SCENE (a JSON file; default: " +
          loom::app::default_scene_path() +
@@ -49,7 +51,10 @@ std::string run_usage() {
          "                              mean_strain, finite (written last: its presence means the run ended)\n"
          "\n"
          "Options:\n"
-         "  --out DIR          output folder (default: out/<scene name>)\n"
+         "  --out DIR          output folder (default: out/<scene name>); loom run owns it through\n"
+         "                     DIR/.loom-manifest: it writes only there and deletes only files it wrote\n"
+         "  --overwrite        write into a non-empty folder that loom run did not create (no manifest):\n"
+         "                     files of the names it writes are replaced, nothing else is deleted\n"
          "  --frames N         number of frames to simulate (default: the scene's duration x fps)\n"
          "  --threads N        OpenMP threads for the per-element loops (default: the scene's, else 1)\n"
          "  --profile          print a table of pipeline stages: total and per-frame milliseconds, counters\n"
@@ -79,6 +84,15 @@ int parse_int(const char* flag, const char* value) {
   return static_cast<int>(v);
 }
 
+// An empty value (an unset shell variable, `--resume "$DIR"`) is an error, never "the default".
+std::string non_empty(const char* flag, const char* value) {
+  if (!*value) {
+    std::fprintf(stderr, "loom: error: %s is an empty string (an unset variable?); give a path\n", flag);
+    std::exit(2);
+  }
+  return value;
+}
+
 int run_main(int argc, char** argv) {
   loom::app::RunOptions o;
   for (int i = 2; i < argc; ++i) {
@@ -94,7 +108,7 @@ int run_main(int argc, char** argv) {
       std::cout << run_usage();
       return 0;
     } else if (a == "--out") {
-      o.out = value();
+      o.out = non_empty("--out", value());
     } else if (a == "--frames") {
       o.frames = parse_int("--frames", value());
     } else if (a == "--threads") {
@@ -106,7 +120,9 @@ int run_main(int argc, char** argv) {
     } else if (a == "--checkpoint-every") {
       o.checkpoint_every = parse_int("--checkpoint-every", value());
     } else if (a == "--resume") {
-      o.resume = value();
+      o.resume = non_empty("--resume", value());
+    } else if (a == "--overwrite") {
+      o.overwrite = true;
     } else if (a == "--profile") {
       o.profile = true;
     } else if (a == "--render") {
@@ -118,17 +134,19 @@ int run_main(int argc, char** argv) {
     } else if (a.rfind("--set=", 0) == 0) {
       o.sets.push_back(a.substr(6));
     } else if (!a.empty() && a[0] == '-') {
-      std::fprintf(stderr, "loom: error: unknown option '%s' (see loom run --help)\n", a.c_str());
+      std::fprintf(stderr, "loom: error: unknown option '%s' (see loom run --help)\n", loom::app::printable(a).c_str());
       return 2;
     } else if (o.scene.empty()) {
-      o.scene = a;
+      o.scene = non_empty("SCENE", a.c_str());
     } else {
-      std::fprintf(stderr, "loom: error: more than one scene given ('%s', '%s')\n", o.scene.c_str(), a.c_str());
+      std::fprintf(stderr, "loom: error: more than one scene given ('%s', '%s')\n", loom::app::printable(o.scene).c_str(),
+                   loom::app::printable(a).c_str());
       return 2;
     }
   }
   if (!o.resume.empty() && !o.scene.empty()) {
-    std::fprintf(stderr, "loom: error: --resume takes the scene from the checkpoint; do not also give one ('%s')\n", o.scene.c_str());
+    std::fprintf(stderr, "loom: error: --resume takes the scene from the checkpoint; do not also give one ('%s')\n",
+                 loom::app::printable(o.scene).c_str());
     return 2;
   }
   return loom::app::run_command(o);
@@ -151,12 +169,15 @@ int main(int argc, char** argv) {
     if (cmd == "ccd-eval") return loom::app::ccd_eval_main(argc, argv);
     if (cmd == "fabric-test") return loom::app::fabric_test_main(argc, argv);
   } catch (const loom::Error& e) {
-    std::cerr << "loom: error: " << e.what() << "\n";
+    std::cerr << "loom: error: " << loom::app::printable(e.what()) << "\n";
+    return 1;
+  } catch (const std::bad_alloc&) {
+    std::cerr << "loom: error: out of memory (the scene asks for more than this machine has)\n";
     return 1;
   } catch (const std::exception& e) {
-    std::cerr << "loom: error: " << e.what() << "\n";
+    std::cerr << "loom: error: " << loom::app::printable(e.what()) << "\n";
     return 1;
   }
-  std::fprintf(stderr, "loom: error: unknown command '%s' (see loom --help)\n", cmd.c_str());
+  std::fprintf(stderr, "loom: error: unknown command '%s' (see loom --help)\n", loom::app::printable(cmd).c_str());
   return 2;
 }

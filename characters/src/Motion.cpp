@@ -52,6 +52,17 @@ Motion Motion::load(const std::string& path, const MotionSettings& settings) {
   std::map<std::string, const aiNodeAnim*> channels;
   if (anim)
     for (unsigned c = 0; c < anim->mNumChannels; ++c) channels[anim->mChannels[c]->mNodeName.C_Str()] = anim->mChannels[c];
+  // A BVH's "Frame Time" is 1 / mTicksPerSecond: zero, negative or non-finite is refused, not defaulted;
+  // "Frames: 0" leaves no keys.
+  const bool bvh = path.size() >= 4 && (path.compare(path.size() - 4, 4, ".bvh") == 0 || path.compare(path.size() - 4, 4, ".BVH") == 0);
+  if (bvh && anim && !(std::isfinite(anim->mTicksPerSecond) && anim->mTicksPerSecond > 0.0 && anim->mTicksPerSecond < 1e6))
+    throw Error(path, "Frame Time", "must be a positive number of seconds (at least 1e-06)");
+  if (bvh) {
+    bool keys = false;
+    for (unsigned c = 0; anim && c < anim->mNumChannels; ++c)
+      keys = keys || anim->mChannels[c]->mNumPositionKeys > 0 || anim->mChannels[c]->mNumRotationKeys > 0;
+    if (!keys) throw Error(path, "Frames", "the MOTION section holds no frame (Frames must be >= 1)");
+  }
   const double tps = anim && anim->mTicksPerSecond > 0.0 ? anim->mTicksPerSecond : 25.0;  // assimp's default
 
   // Depth-first: parents before children.

@@ -1,6 +1,8 @@
 #include "loom/cloth/Material.h"
 
 #include <cmath>
+#include <cstdio>
+#include <string>
 #include <map>
 
 #include "loom/cloth/Error.h"
@@ -8,11 +10,16 @@
 namespace loom::cloth {
 
 void Material::validate(const std::string& file, const std::string& where) const {
+  auto show = [](double v) {  // 9 significant digits: 0.0001, 1e-09, 2
+    char s[32];
+    std::snprintf(s, sizeof s, "%.9g", v);
+    return std::string(s);
+  };
   auto check = [&](const char* field, double value, double min, bool strict) {
     if (!std::isfinite(value)) throw Error(file, where + "." + field, "must be a finite number");
     if (strict ? !(value > min) : !(value >= min))
       throw Error(file, where + "." + field,
-                  "must be " + std::string(strict ? "> " : ">= ") + std::to_string(min) + " (got " + std::to_string(value) + ")");
+                  "must be " + std::string(strict ? "> " : ">= ") + show(min) + " (got " + show(value) + ")");
   };
   check("stretch_weft", stretch_weft, 0.0, true);
   check("stretch_warp", stretch_warp, 0.0, true);

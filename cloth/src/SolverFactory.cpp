@@ -1,4 +1,6 @@
 #include <cmath>
+#include <cstdio>
+#include <string>
 
 #include "loom/cloth/Error.h"
 #include "loom/cloth/ExplicitSolvers.h"
@@ -12,6 +14,15 @@
 
 namespace loom::cloth {
 
+namespace {
+// A bound or value as the user would write it (9 significant digits: 0.0001, 1e-09, 2).
+std::string show(double v) {
+  char s[32];
+  std::snprintf(s, sizeof s, "%.9g", v);
+  return s;
+}
+}  // namespace
+
 double SolverParams::number(const std::string& key, double fallback, double min, double max) {
   read_.insert(key);
   auto it = s_.params.find(key);
@@ -19,7 +30,7 @@ double SolverParams::number(const std::string& key, double fallback, double min,
   const double v = it->second;
   if (!std::isfinite(v) || v < min || v > max)
     throw Error(file_, "solver." + key,
-                "must be in [" + std::to_string(min) + ", " + std::to_string(max) + "] (got " + std::to_string(v) + ")");
+                "must be in [" + show(min) + ", " + show(max) + "] (got " + show(v) + ")");
   return v;
 }
 

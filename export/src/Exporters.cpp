@@ -47,10 +47,7 @@ std::vector<std::string> Exporters::file_names(const std::vector<std::unique_ptr
 Exporters::Exporters(const std::string& out_dir, const std::vector<std::string>& formats,
                      const std::vector<std::unique_ptr<cloth::Cloth>>& cloths, int every) {
   const fs::path out(out_dir);
-  std::error_code ec;
-  fs::remove_all(out / "pc2", ec);
-  fs::remove(out / "animation.gltf", ec);
-  fs::remove(out / "animation.bin", ec);
+  std::error_code ec;  // the caller owns the folder: earlier files are its to remove, not ours
   if (has(formats, "pc2")) {
     fs::create_directories(out / "pc2", ec);
     if (ec) throw Error((out / "pc2").string(), "output.formats", "cannot create folder: " + ec.message());

@@ -118,10 +118,7 @@ void run_ffmpeg(const std::string& args, const std::string& target) {
 RenderReport render_recording(const std::string& out_dir, const Recording& rec, const RenderSettings& settings,
                               double fps, bool video) {
   const fs::path out(out_dir), dir = out / "render";
-  std::error_code ec;
-  fs::remove_all(dir, ec);
-  fs::remove(out / "render.mp4", ec);
-  fs::remove(out / "render.gif", ec);
+  std::error_code ec;  // the caller owns the folder and removes its earlier files (RenderRun.h)
   fs::create_directories(dir, ec);
   if (ec) throw Error(dir.string(), "--render", "cannot create folder: " + ec.message());
 

@@ -1,6 +1,8 @@
 #include "loom/scene/JsonReader.h"
 
 #include <cmath>
+#include <cstdint>
+#include <cstdio>
 #include <sstream>
 
 #include "loom/cloth/Error.h"
@@ -68,12 +70,37 @@ int JsonReader::integer(const std::string& key, std::optional<int> fallback, std
     if (fallback) return *fallback;
     fail(key, "is required");
   }
-  const nlohmann::json& v = at(key);
-  if (!v.is_number_integer()) fail(key, "expected an integer, got " + (v.is_number() ? std::string("a fractional number") : type_name(v)));
+  return static_cast<int>(integer_value(at(key), child(key), min ? *min : -1000000000LL, 1000000000LL));
+}
+
+long long JsonReader::integer_value(const nlohmann::json& v, const std::string& where, long long min,
+                                    long long max) const {
+  if (!v.is_number_integer())
+    throw Error(file_, where, "expected an integer, got " + (v.is_number() ? std::string("a fractional number") : type_name(v)));
+  // Unsigned values are compared unsigned: a value past 2^63 would turn negative as long long.
+  if (v.is_number_unsigned() && v.get<std::uint64_t>() > static_cast<std::uint64_t>(max))
+    throw Error(file_, where, "must be <= " + std::to_string(max) + " (got " + std::to_string(v.get<std::uint64_t>()) + ")");
   const long long i = v.get<long long>();
-  if (i > 1000000000LL || i < -1000000000LL) fail(key, "is out of range");
-  if (min && i < *min) fail(key, "must be >= " + std::to_string(*min) + " (got " + std::to_string(i) + ")");
-  return static_cast<int>(i);
+  if (i < min) throw Error(file_, where, "must be >= " + std::to_string(min) + " (got " + std::to_string(i) + ")");
+  if (i > max) throw Error(file_, where, "must be <= " + std::to_string(max) + " (got " + std::to_string(i) + ")");
+  return i;
+}
+
+bool JsonReader::in_range(const nlohmann::json& v, long long min, long long max) {
+  if (!v.is_number_integer()) return false;
+  if (v.is_number_unsigned()) return max >= 0 && v.get<std::uint64_t>() <= static_cast<std::uint64_t>(max) &&
+                                     static_cast<long long>(v.get<std::uint64_t>()) >= min;
+  const long long i = v.get<long long>();
+  return i >= min && i <= max;
+}
+
+std::vector<long long> JsonReader::integers(const std::string& key, size_t count, long long min, long long max) const {
+  const nlohmann::json& v = raw(key);
+  if (!v.is_array() || v.size() != count)
+    fail(key, "expected " + std::to_string(count) + " integers, got " + (v.is_array() ? std::to_string(v.size()) + " values" : type_name(v)));
+  std::vector<long long> out;
+  for (size_t i = 0; i < count; ++i) out.push_back(integer_value(v[i], child(key) + "[" + std::to_string(i) + "]", min, max));
+  return out;
 }
 
 bool JsonReader::boolean(const std::string& key, std::optional<bool> fallback) const {
@@ -95,6 +122,15 @@ std::string JsonReader::string(const std::string& key, std::optional<std::string
   const nlohmann::json& v = at(key);
   if (!v.is_string()) fail(key, "expected a string, got " + type_name(v));
   std::string s = v.get<std::string>();
+  // Control characters (a newline, a NUL, an escape) would reach output files and terminals as they are.
+  for (size_t i = 0; i < s.size(); ++i) {
+    const unsigned char ch = static_cast<unsigned char>(s[i]);
+    if (ch < 0x20 || ch == 0x7f) {
+      char code[8];
+      std::snprintf(code, sizeof code, "0x%02x", ch);
+      fail(key, std::string("holds a control character (") + code + " at byte " + std::to_string(i) + "): not allowed in scene text");
+    }
+  }
   if (!allowed.empty()) {
     bool ok = false;
     std::string list;

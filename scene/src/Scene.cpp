@@ -2,8 +2,10 @@
 
 #include <algorithm>
 #include <cmath>
+#include <cstdio>
 #include <filesystem>
 #include <fstream>
+#include <set>
 #include <sstream>
 
 #include "loom/cloth/Error.h"
@@ -14,36 +16,133 @@
 #include "loom/scene/SceneCharacter.h"
 #include "loom/scene/SceneCollision.h"
 #include "loom/scene/SceneGuard.h"
+#include "loom/scene/SceneLimits.h"
 
 namespace loom::scene {
 
 using cloth::Vec3;
 
+namespace {
+std::string show(double v) {  // 9 significant digits
+  char s[32];
+  std::snprintf(s, sizeof s, "%.9g", v);
+  return s;
+}
+}  // namespace
+
+namespace {
+
+// "line L, column C" of byte offset `at` of `text`.
+std::string line_column(const std::string& text, size_t at) {
+  at = std::min(at, text.size());
+  int line = 1, col = 1;
+  for (size_t i = 0; i < at; ++i) {
+    if (text[i] == '\n') {
+      ++line;
+      col = 1;
+    } else {
+      ++col;
+    }
+  }
+  return "line " + std::to_string(line) + ", column " + std::to_string(col);
+}
+
+// A SAX pass that refuses a key given twice in one object (the DOM parser would keep the last silently),
+// naming its JSON path.
+class DuplicateKeys : public nlohmann::json::json_sax_t {
+ public:
+  // `prefix`: the JSON path of the parsed text's root ("" for a whole scene; the PATH of --set PATH=VALUE).
+  DuplicateKeys(std::string file, std::string prefix) : file_(std::move(file)), prefix_(std::move(prefix)) {}
+  bool null() override { return value(); }
+  bool boolean(bool) override { return value(); }
+  bool number_integer(number_integer_t) override { return value(); }
+  bool number_unsigned(number_unsigned_t) override { return value(); }
+  bool number_float(number_float_t, const string_t&) override { return value(); }
+  bool string(string_t&) override { return value(); }
+  bool binary(binary_t&) override { return value(); }
+  bool start_object(std::size_t) override {
+    value();
+    frames_.push_back({true, {}, "", 0});
+    return true;
+  }
+  bool key(string_t& k) override {
+    Frame& f = frames_.back();
+    if (!f.keys.insert(k).second) throw Error(file_, path() + (path().empty() ? "" : ".") + k, "key given twice");
+    f.key = k;
+    return true;
+  }
+  bool end_object() override {
+    frames_.pop_back();
+    return true;
+  }
+  bool start_array(std::size_t) override {
+    value();
+    frames_.push_back({false, {}, "", -1});
+    return true;
+  }
+  bool end_array() override {
+    frames_.pop_back();
+    return true;
+  }
+  bool parse_error(std::size_t, const std::string&, const nlohmann::detail::exception&) override { return false; }
+
+ private:
+  struct Frame {
+    bool object;
+    std::set<std::string> keys;
+    std::string key;
+    long index;
+  };
+  bool value() {
+    if (!frames_.empty() && !frames_.back().object) ++frames_.back().index;
+    return true;
+  }
+  std::string path() const {  // of the object whose key is read: the enclosing keys and indices
+    std::string p = prefix_;
+    for (size_t i = 0; i + 1 < frames_.size(); ++i) {
+      const Frame& f = frames_[i];
+      if (f.object)
+        p += (p.empty() ? "" : ".") + f.key;
+      else
+        p += "[" + std::to_string(f.index) + "]";
+    }
+    return p;
+  }
+  std::string file_, prefix_;
+  std::vector<Frame> frames_;
+};
+
+}  // namespace
+
 nlohmann::json read_json_file(const std::string& path) {
-  std::ifstream in(path);
+  check_input_file(path, "", path);  // a folder, /dev/zero or a huge file is refused before reading
+  std::ifstream in(path, std::ios::binary);
   if (!in) throw Error(path, "", "cannot open scene file");
   std::stringstream ss;
   ss << in.rdbuf();
   const std::string text = ss.str();
+  nlohmann::json j;
   try {
-    return nlohmann::json::parse(text);
+    j = nlohmann::json::parse(text);
   } catch (const nlohmann::json::parse_error& e) {
-    // Turn the byte offset into a line and column.
-    const size_t at = std::min<size_t>(e.byte == 0 ? 0 : e.byte - 1, text.size());
-    int line = 1, col = 1;
-    for (size_t i = 0; i < at; ++i) {
-      if (text[i] == '\n') {
-        ++line;
-        col = 1;
-      } else {
-        ++col;
-      }
-    }
     std::string what = e.what();
     const size_t p = what.find("syntax error");
-    throw Error(path, "line " + std::to_string(line) + ", column " + std::to_string(col),
+    throw Error(path, line_column(text, e.byte == 0 ? 0 : e.byte - 1),
                 "invalid JSON: " + (p == std::string::npos ? what : what.substr(p)));
+  } catch (const nlohmann::json::exception& e) {
+    // A number past double range ("number overflow parsing '1e999'"): its first occurrence in the text.
+    std::string what = e.what(), where = "(unknown position)";
+    const size_t q1 = what.find('\''), q2 = q1 == std::string::npos ? q1 : what.find('\'', q1 + 1);
+    if (q2 != std::string::npos) {
+      const size_t at = text.find(what.substr(q1 + 1, q2 - q1 - 1));
+      if (at != std::string::npos) where = line_column(text, at);
+    }
+    const size_t p = what.find("] ");
+    throw Error(path, where, "invalid JSON: " + (p == std::string::npos ? what : what.substr(p + 2)));
   }
+  DuplicateKeys dup(path, "");
+  nlohmann::json::sax_parse(text, &dup);
+  return j;
 }
 
 void apply_override(nlohmann::json& root, const std::string& assignment, const std::string& file) {
@@ -87,6 +186,10 @@ void apply_override(nlohmann::json& root, const std::string& assignment, const s
     v = nlohmann::json::parse(value);
   } catch (...) {
     v = value;  // a bare word is a string
+  }
+  if (v.is_structured()) {  // a key given twice inside the value
+    DuplicateKeys dup(file, assignment.substr(0, eq));
+    nlohmann::json::sax_parse(value, &dup);
   }
   *node = v;
 }
@@ -144,7 +247,8 @@ cloth::Material parse_material(const JsonReader& cloth_reader, const std::string
 
 namespace {
 
-std::shared_ptr<const cloth::ClothMesh> parse_mesh(const JsonReader& r, const std::string& file) {
+std::shared_ptr<const cloth::ClothMesh> parse_mesh(const JsonReader& r, Scene& scene) {
+  const std::string& file = scene.file;
   const std::string type = r.string("type", std::nullopt, {"grid", "obj"});
   // Mesh construction errors name the mesh (or OBJ file and line); the scene path goes in front.
   auto build = [&](auto&& make) {
@@ -159,29 +263,46 @@ std::shared_ptr<const cloth::ClothMesh> parse_mesh(const JsonReader& r, const st
       cloth::GridSpec g;
       const auto size = r.numbers("size", 2);
       for (int k = 0; k < 2; ++k)
-        if (!(size[k] > 0.0)) r.fail("size", "both sizes must be > 0");
+        if (!(size[k] > 0.0) || size[k] > kMaxCoordinate)
+          r.fail("size", "both sizes must be in (0, " + std::to_string(static_cast<long>(kMaxCoordinate)) + "] m");
       g.size_u = size[0];
       g.size_v = size[1];
       const nlohmann::json& nodes = r.raw("nodes");
       if (!nodes.is_array() || nodes.size() != 2 || !nodes[0].is_number_integer() || !nodes[1].is_number_integer())
         r.fail("nodes", "expected two integers [nodes_u, nodes_v]");
+      // Checked as 64-bit values before narrowing: 2^32 + 5 is out of range, not 5.
+      for (int k = 0; k < 2; ++k)
+        if (!JsonReader::in_range(nodes[k], 2, 4096)) r.fail("nodes", "each count must be in [2, 4096] (got " + nodes[k].dump() + ")");
       g.nodes_u = nodes[0].get<int>();
       g.nodes_v = nodes[1].get<int>();
-      if (g.nodes_u < 2 || g.nodes_v < 2 || g.nodes_u > 4096 || g.nodes_v > 4096)
-        r.fail("nodes", "each count must be in [2, 4096]");
+      reserve_vertices(scene, r.path(), static_cast<double>(g.nodes_u) * g.nodes_v);
       const std::string plane = r.string("plane", "xz", {"xy", "xz", "yz"});
       g.plane = plane == "xy" ? cloth::GridPlane::kXY : plane == "yz" ? cloth::GridPlane::kYZ : cloth::GridPlane::kXZ;
       g.origin = r.vec3("origin", Vec3::Zero());
+      if (!(g.origin.cwiseAbs().maxCoeff() <= kMaxCoordinate))
+        r.fail("origin", "coordinates must be within +-" + std::to_string(static_cast<long>(kMaxCoordinate)) + " m");
       r.finish();
       return build([&] { return cloth::ClothMesh::grid(g); });
     }
-    std::string path = r.string("path");
+    const std::string path = r.string("path");
     const double scale = r.number("scale", 1.0, 0.0, true);
     const Vec3 translate = r.vec3("translate", Vec3::Zero());
+    if (scale > kMaxCoordinate) r.fail("scale", "must be <= " + std::to_string(static_cast<long>(kMaxCoordinate)));
+    if (!(translate.cwiseAbs().maxCoeff() <= kMaxCoordinate))
+      r.fail("translate", "coordinates must be within +-" + std::to_string(static_cast<long>(kMaxCoordinate)) + " m");
     r.finish();
     std::filesystem::path p(path);
     if (p.is_relative()) p = std::filesystem::path(file).parent_path() / p;
-    return build([&] { return cloth::ClothMesh::from_obj(p.string(), scale, translate); });
+    std::error_code ec;
+    if (!std::filesystem::exists(p, ec))  // the OBJ loader's own message names the file
+      return build([&] { return cloth::ClothMesh::from_obj(p.string(), scale, translate); });
+    input_file(scene, r.child("path"), p.string());
+    auto mesh = build([&] { return cloth::ClothMesh::from_obj(p.string(), scale, translate); });
+    for (const Vec3& x : mesh->rest_positions())
+      if (!(x.cwiseAbs().maxCoeff() <= kMaxCoordinate))
+        r.fail("scale", "puts a vertex beyond +-" + std::to_string(static_cast<long>(kMaxCoordinate)) + " m");
+    reserve_vertices(scene, r.path(), mesh->num_vertices());
+    return mesh;
   }
 }
 
@@ -216,6 +337,9 @@ std::vector<cloth::PinSpec> parse_pins(const JsonReader& r, const cloth::ClothMe
       const nlohmann::json& g = p.raw("grid");
       if (!g.is_array() || g.size() != 2 || !g[0].is_number_integer() || !g[1].is_number_integer())
         p.fail("grid", "expected [iu, iv] (negative counts from the far side)");
+      const int nu = mesh.grid_nodes_u(), nv = mesh.grid_nodes_v();
+      if (!JsonReader::in_range(g[0], -nu, nu - 1) || !JsonReader::in_range(g[1], -nv, nv - 1))
+        p.fail("grid", "node is outside the " + std::to_string(nu) + "x" + std::to_string(nv) + " grid");
       int iu = g[0].get<int>(), iv = g[1].get<int>();
       if (iu < 0) iu += mesh.grid_nodes_u();
       if (iv < 0) iv += mesh.grid_nodes_v();
@@ -223,7 +347,11 @@ std::vector<cloth::PinSpec> parse_pins(const JsonReader& r, const cloth::ClothMe
         p.fail("grid", "node is outside the " + std::to_string(mesh.grid_nodes_u()) + "x" + std::to_string(mesh.grid_nodes_v()) + " grid");
       spec.vertex = mesh.grid_index(iu, iv);
     }
-    if (p.has("anchor")) spec.anchor = p.vec3("anchor");
+    if (p.has("anchor")) {
+      spec.anchor = p.vec3("anchor");
+      if (!(spec.anchor->cwiseAbs().maxCoeff() <= kMaxCoordinate))
+        p.fail("anchor", "coordinates must be within +-" + std::to_string(static_cast<long>(kMaxCoordinate)) + " m");
+    }
     if (p.has("path")) {
       const JsonReader path = p.object("path");
       spec.times = path.numbers("times");
@@ -235,7 +363,9 @@ std::vector<cloth::PinSpec> parse_pins(const JsonReader& r, const cloth::ClothMe
         if (!o.is_array() || o.size() != 3 || !o[0].is_number() || !o[1].is_number() || !o[2].is_number())
           path.fail("offsets", "entry " + std::to_string(k) + " must be [x, y, z]");
         Vec3 v(o[0].get<double>(), o[1].get<double>(), o[2].get<double>());
-        if (!v.allFinite()) path.fail("offsets", "entry " + std::to_string(k) + " is not finite");
+        if (!(v.cwiseAbs().maxCoeff() <= kMaxCoordinate))
+          path.fail("offsets", "entry " + std::to_string(k) + " must be finite and within +-" +
+                                   std::to_string(static_cast<long>(kMaxCoordinate)) + " m");
         spec.offsets.push_back(v);
       }
       for (size_t k = 1; k < spec.times.size(); ++k)
@@ -243,7 +373,20 @@ std::vector<cloth::PinSpec> parse_pins(const JsonReader& r, const cloth::ClothMe
       path.finish();
     }
     p.finish();
-    pins.push_back(spec);
+    // One pin per vertex: a second one with its own anchor or path would fight the first; the same pin
+    // twice (two grid nodes that coincide on a small grid) is kept once.
+    bool repeated = false;
+    for (size_t k = 0; k < pins.size() && !repeated; ++k) {
+      if (pins[k].vertex != spec.vertex) continue;
+      const bool same = pins[k].anchor.has_value() == spec.anchor.has_value() &&
+                        (!spec.anchor || *pins[k].anchor == *spec.anchor) && pins[k].times == spec.times &&
+                        pins[k].offsets == spec.offsets;
+      if (!same)
+        p.fail("", "pins vertex " + std::to_string(spec.vertex) + " with another anchor or path than an earlier pin " +
+                       "(entry " + std::to_string(k) + " of the expanded list) already holding it");
+      repeated = true;
+    }
+    if (!repeated) pins.push_back(spec);
   }
   return pins;
 }
@@ -260,6 +403,11 @@ cloth::DetailSettings parse_detail(const JsonReader& d) {
     ds.wrinkles.enabled = true;
     ds.wrinkles.amplitude = w.number("amplitude", ds.wrinkles.amplitude, 0.0);
     ds.wrinkles.wavelength = w.number("wavelength", ds.wrinkles.wavelength, 0.0, true);
+    // Below 0.1 mm the phase 2 pi x / wavelength overflows for scene-sized coordinates (a denormal
+    // wavelength gives inf, then NaN positions); above 1 m a "wrinkle" is the garment's own shape.
+    if (ds.wrinkles.wavelength < 1e-4 || ds.wrinkles.wavelength > 1.0)
+      w.fail("wavelength", "must be in [0.0001, 1] m");
+    if (ds.wrinkles.amplitude > 1.0) w.fail("amplitude", "must be <= 1 m");
     w.finish();
   }
   d.finish();
@@ -271,14 +419,24 @@ Scene parse_scene(const nlohmann::json& root, const std::string& file) {
   Scene scene;
   scene.file = file;
   scene.name = r.string("name", std::filesystem::path(file).stem().string());
+  // The name is the default output folder out/<name>: a plain file name, never a path.
+  if (scene.name.empty() || scene.name == "." || scene.name == ".." || scene.name.size() > 200 ||
+      scene.name.find_first_of("/\\") != std::string::npos)
+    r.fail("name", "must be a plain file name of 1 to 200 characters without '/' or '\\' and not '.' or '..' "
+                   "(it names the default output folder out/<name>; got '" + scene.name + "')");
   if (r.has("description")) r.string("description");
   scene.duration = r.number("duration", 1.0, 0.0, true);
   const double fps = r.number("fps", 60.0, 0.0, true);
   if (fps > 100000.0) r.fail("fps", "must be <= 100000");
   scene.setup.frame_dt = 1.0 / fps;
+  // Checked in double before the conversion to int (a huge duration would overflow it).
+  if (scene.duration * fps > static_cast<double>(kMaxFrames))
+    r.fail(r.has("duration") ? "duration" : "fps",
+           "gives " + show(scene.duration * fps) + " frames (duration x fps); at most " + std::to_string(kMaxFrames));
   scene.frames = std::max(1, static_cast<int>(std::lround(scene.duration * fps)));
   scene.setup.gravity = r.vec3("gravity", Vec3(0.0, -9.81, 0.0));
   scene.setup.threads = r.integer("threads", 1, 1);
+  if (scene.setup.threads > 4096) r.fail("threads", "must be <= 4096 (got " + std::to_string(scene.setup.threads) + ")");
   parse_guard(r, scene.setup.guard);  // issue 8: non-finite / explosion guard (SceneGuard.cpp)
 
   if (r.has("solver")) {
@@ -289,6 +447,9 @@ Scene parse_scene(const nlohmann::json& root, const std::string& file) {
     if (s.has("dt")) {
       const double dt = s.number("dt", std::nullopt, 0.0, true);
       if (dt > scene.setup.frame_dt * (1.0 + 1e-12)) s.fail("dt", "must not exceed the frame time 1/fps");
+      if (scene.setup.frame_dt / dt > static_cast<double>(kMaxSubsteps))
+        s.fail("dt", "gives " + show(scene.setup.frame_dt / dt) + " steps per frame (1/fps / dt); at most " +
+                         std::to_string(kMaxSubsteps));
       scene.setup.substeps = static_cast<int>(std::ceil(scene.setup.frame_dt / dt - 1e-9));
     } else {
       scene.setup.substeps = s.integer("substeps", 1, 1);
@@ -353,10 +514,16 @@ Scene parse_scene(const nlohmann::json& root, const std::string& file) {
   for (const JsonReader& c : cloths) {
     cloth::ClothSetup cs;
     cs.name = c.string("name", "cloth" + std::to_string(scene.setup.cloths.size()));
-    cs.mesh = parse_mesh(c.object("mesh"), file);
+    cs.mesh = parse_mesh(c.object("mesh"), scene);
     cs.material = parse_material(c, file);
     cs.model = c.string("model", "springs", cloth::model_names());
-    if (c.has("mass")) cs.material.areal_density = c.number("mass", std::nullopt, 0.0, true) / cs.mesh->total_area();
+    if (c.has("mass")) {
+      const double mass = c.number("mass", std::nullopt, 0.0, true);
+      cs.material.areal_density = mass / cs.mesh->total_area();
+      if (!std::isfinite(cs.material.areal_density) || !(cs.material.areal_density >= 1e-6) || cs.material.areal_density > 1e4)
+        c.fail("mass", "gives an areal density of " + show(cs.material.areal_density) + " kg/m^2 over the mesh's " +
+                           show(cs.mesh->total_area()) + " m^2; it must be in [1e-06, 10000]");
+    }
     cs.initial_velocity = c.vec3("velocity", Vec3::Zero());
     cs.pins = parse_pins(c, *cs.mesh);
     if (c.has("detail"))  // issue 10: hybrid detail (CurvedFaces.h)

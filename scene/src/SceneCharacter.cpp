@@ -1,5 +1,7 @@
 #include "loom/scene/SceneCharacter.h"
 
+#include <algorithm>
+#include <cmath>
 #include <filesystem>
 #include <map>
 
@@ -7,6 +9,7 @@
 #include "loom/cloth/Model.h"
 #include "loom/scene/JsonReader.h"
 #include "loom/scene/Scene.h"
+#include "loom/scene/SceneLimits.h"
 
 #ifdef LOOM_HAVE_CHARACTERS
 #include "loom/characters/Character.h"
@@ -33,7 +36,10 @@ void parse_character(const JsonReader& root, Scene& scene) {
   namespace ch = loom::characters;
   const JsonReader c = root.object("character");
   ch::MotionSettings ms;
-  const std::string motion_path = resolve(c.string("bvh"), file);
+  std::string motion_path = resolve(c.string("bvh"), file);
+  std::error_code exists_ec;
+  if (std::filesystem::exists(motion_path, exists_ec))  // a missing clip: the loader's message names it
+    motion_path = input_file(scene, c.child("bvh"), c.string("bvh"));
   if (c.has("scale")) {
     const nlohmann::json& s = c.raw("scale");
     if (s.is_string() && s.get<std::string>() == "auto") {
@@ -87,9 +93,18 @@ void parse_character(const JsonReader& root, Scene& scene) {
       spec.clearance = g.number("clearance", spec.clearance, 0.0);
       spec.length = g.number("length", spec.length, 0.0);
       if (spec.type == "cape") spec.width = g.number("width", spec.width, 0.0);
+      if (spec.length > 100.0) g.fail("length", "must be <= 100 m");
+      if (spec.width > 100.0) g.fail("width", "must be <= 100 m");
+      if (spec.type != "obj") {
+        // Vertices of a generated garment, before it is made: its area over an equilateral triangle's
+        // (sqrt(3)/4 r^2) per vertex pair; the area is bounded by a 2.5 m x 2.5 m human-sized sheet unless
+        // length and width say more.
+        const double area = std::max(6.25, std::max(spec.length, 2.5) * std::max(spec.width, 2.5));
+        reserve_vertices(scene, g.child("resolution"), 2.0 * area / (std::sqrt(3.0) * spec.resolution * spec.resolution));
+      }
       if (spec.type == "skirt") spec.flare = g.number("flare", spec.flare, 0.0, true);
       if (spec.type == "obj") {
-        spec.path = resolve(g.string("path"), file);
+        spec.path = input_file(scene, g.child("path"), g.string("path"));
         spec.scale = g.number("scale", 1.0, 0.0, true);
         spec.translate = g.vec3("translate", cloth::Vec3::Zero());
         const nlohmann::json& aj = g.raw("attach");

@@ -8,6 +8,7 @@
 
 #include "loom/cloth/Error.h"
 #include "loom/collision/ColliderGeometry.h"
+#include "loom/scene/SceneLimits.h"
 
 namespace loom::scene {
 
@@ -20,15 +21,24 @@ using collision::Transform;
 
 constexpr double kDeg = 3.14159265358979323846 / 180.0;
 
+// The unit vector along `key` of `o`: scaled by its largest component first, so an axis whose length
+// overflows double (or underflows to 0) still has its direction.
+Vec3 unit_axis(const JsonReader& o, const std::string& key) {
+  Vec3 axis = o.vec3(key);
+  const double largest = axis.cwiseAbs().maxCoeff();
+  if (!(largest > 0.0)) o.fail(key, "must not be zero");
+  axis /= largest;
+  return axis.normalized();
+}
+
 // `rotation`: {"axis": [x, y, z], "degrees": a} (right-handed about the axis).
 Eigen::Matrix3d parse_rotation(const JsonReader& r, const std::string& key) {
   if (!r.has(key)) return Eigen::Matrix3d::Identity();
   const JsonReader o = r.object(key);
-  const Vec3 axis = o.vec3("axis");
-  if (!(axis.norm() > 0.0)) o.fail("axis", "must not be zero");
+  const Vec3 axis = unit_axis(o, "axis");
   const double degrees = o.number("degrees");
   o.finish();
-  return Eigen::AngleAxisd(degrees * kDeg, axis.normalized()).toRotationMatrix();
+  return Eigen::AngleAxisd(std::fmod(degrees, 360.0) * kDeg, axis).toRotationMatrix();
 }
 
 Transform parse_pose(const JsonReader& r) {
@@ -125,9 +135,7 @@ std::function<Transform(double)> parse_motion(const JsonReader& m, const Transfo
   double rate = 0.0;
   if (m.has("spin")) {
     const JsonReader s = m.object("spin");
-    axis = s.vec3("axis");
-    if (!(axis.norm() > 0.0)) s.fail("axis", "must not be zero");
-    axis.normalize();
+    axis = unit_axis(s, "axis");
     rate = s.number("rate");
     centre = s.vec3("centre", centre);
     s.finish();
@@ -172,8 +180,7 @@ void parse_colliders(const JsonReader& root, Scene& scene) {
       s.type = shape == "convex" ? ShapeType::convex : ShapeType::mesh;
       if (r.has("vertices") == r.has("obj")) r.fail("", "give either 'vertices' or 'obj'");
       if (r.has("obj")) {
-        std::filesystem::path p(r.string("obj"));
-        if (p.is_relative()) p = std::filesystem::path(scene.file).parent_path() / p;
+        const std::filesystem::path p = input_file(scene, r.child("obj"), r.string("obj"));
         const double scale = r.number("scale", 1.0, 0.0, true);
         try {
           read_obj(p.string(), scale, s.vertices, s.triangles);
@@ -190,7 +197,12 @@ void parse_colliders(const JsonReader& root, Scene& scene) {
             const std::string where = "triangles[" + std::to_string(k) + "]";
             if (!e.is_array() || e.size() != 3 || !e[0].is_number_integer() || !e[1].is_number_integer() || !e[2].is_number_integer())
               r.fail(where, "expected [i, j, k]");
-            s.triangles.push_back({e[0].get<int>(), e[1].get<int>(), e[2].get<int>()});
+            // Checked as 64-bit values before narrowing: 2^32 + 1 is out of range, not 1.
+            const long long last = static_cast<long long>(s.vertices.size()) - 1;
+            cloth::Tri tri;
+            for (int j = 0; j < 3; ++j)
+              tri[j] = static_cast<int>(r.integer_value(e[j], r.child(where) + "[" + std::to_string(j) + "]", 0, last));
+            s.triangles.push_back(tri);
           }
         }
       }

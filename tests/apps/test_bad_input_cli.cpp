@@ -103,11 +103,55 @@ const BadInput kCases[] = {
      " JOINT Spine\n {\n  OFFSET 0 10 0\n  CHANNELS 3 Zrotation Xrotation Yrotation\n  End Site\n  {\n   OFFSET 0 5 0\n  }\n }\n}\n"
      "MOTION\nFrames: 2\nFrame Time: 0.0333333\n0 90 0 0 0 0 0 0 0\n1e999 90 0 0 0 0 0 0 0\n",
      "motion.bvh", "joint 'Hips'", "position key 1 is not finite"},
+    // A BVH whose frame time or frame count makes no motion.
+    {"bvh_frame_time_zero", nullptr, {"@BVHTEXT"},
+     "HIERARCHY\nROOT Hips\n{\n OFFSET 0 0 0\n CHANNELS 6 Xposition Yposition Zposition Zrotation Xrotation Yrotation\n"
+     " End Site\n {\n  OFFSET 0 5 0\n }\n}\nMOTION\nFrames: 2\nFrame Time: 0\n0 90 0 0 0 0\n1 90 0 0 0 0\n",
+     "motion.bvh", "Frame Time", "positive number of seconds"},
+    {"bvh_frame_time_negative", nullptr, {"@BVHTEXT"},
+     "HIERARCHY\nROOT Hips\n{\n OFFSET 0 0 0\n CHANNELS 6 Xposition Yposition Zposition Zrotation Xrotation Yrotation\n"
+     " End Site\n {\n  OFFSET 0 5 0\n }\n}\nMOTION\nFrames: 2\nFrame Time: -0.03\n0 90 0 0 0 0\n1 90 0 0 0 0\n",
+     "motion.bvh", "Frame Time", "positive number of seconds"},
     // Output folder and checkpoints.
     {"out_under_proc", nullptr, {"--out", "/proc/loom_cannot_write_here"}, nullptr, "/proc/loom_cannot_write_here", "--out", "cannot create output folder"},
     {"out_is_a_file", nullptr, {"--out", "@FILE"}, nullptr, "out", "--out", "cannot create output folder"},
     {"resume_without_checkpoint", nullptr, {"--resume", "@EMPTY"}, nullptr, "checkpoint.bin", "--resume", "no checkpoint here"},
     {"resume_broken_checkpoint", nullptr, {"--resume", "@BROKEN"}, nullptr, "checkpoint.bin", "checkpoint.bin", "not a valid checkpoint"},
+    // Integers past 32 (or 64) bits: refused by value, never wrapped to a small one.
+    {"nodes_past_32_bits", nullptr, {"--set", "cloths[0].mesh.nodes=[4294967301,5]"}, nullptr, "scene", "cloths[0].mesh.nodes", "[2, 4096] (got 4294967301)"},
+    {"nodes_past_64_bits", nullptr, {"--set", "cloths[0].mesh.nodes=[18446744073709551621,5]"}, nullptr, "scene", "cloths[0].mesh.nodes", "two integers"},
+    {"pin_grid_past_32_bits", nullptr, {"--set", "cloths[0].pins=[{\"grid\":[4294967296,0]}]"}, nullptr, "scene", "cloths[0].pins[0].grid", "outside the 5x5 grid"},
+    {"pin_vertex_past_64_bits", nullptr, {"--set", "cloths[0].pins=[{\"vertex\":18446744073709551615}]"}, nullptr, "scene", "cloths[0].pins[0].vertex", "must be <="},
+    {"collider_index_past_32_bits", nullptr, {"--set", "colliders=[{\"shape\":\"mesh\",\"vertices\":[[0,0,0],[1,0,0],[0,0,1]],\"triangles\":[[0,1,4294967298]]}]"},
+     nullptr, "scene", "colliders[0].triangles[0][2]", "must be <= 2"},
+    {"threads_past_int", nullptr, {"--set", "threads=4294967297"}, nullptr, "scene", "threads", "must be <="},
+    // Frame and step counts that would overflow int.
+    {"duration_huge", nullptr, {"--set", "duration=1e300"}, nullptr, "scene", "duration", "frames (duration x fps)"},
+    {"fps_makes_too_many_frames", nullptr, {"--set", "duration=1e6", "--set", "fps=100000"}, nullptr, "scene", "duration", "at most 10000000"},
+    {"dt_tiny", nullptr, {"--set", "solver={\"method\":\"symplectic_euler\",\"dt\":1e-300}"}, nullptr, "scene", "solver.dt", "steps per frame"},
+    // Messages that name the field and show the numbers as written.
+    {"number_past_double_range", "{\n  \"duration\": 1e999\n}\n", {}, nullptr, "scene", "line 2, column", "number overflow"},
+    {"mesh_size_huge", nullptr, {"--set", "cloths[0].mesh.size=[1e300,1]"}, nullptr, "scene", "cloths[0].mesh.size", "must be in (0"},
+    {"mesh_origin_huge", nullptr, {"--set", "cloths[0].mesh.origin=[1e300,0,0]"}, nullptr, "scene", "cloths[0].mesh.origin", "within"},
+    {"mass_over_tiny_density", nullptr, {"--set", "cloths[0].mass=1e-300"}, nullptr, "scene", "cloths[0].mass", "areal density"},
+    {"pbd_stiffness_shown_as_written", nullptr, {"--set", "solver.method=pbd", "--set", "solver.stiffness=2"}, nullptr, "scene", "solver.stiffness", "must be in [0, 1] (got 2)"},
+    {"mesh_is_a_folder", nullptr, {"--set", "cloths[0].mesh={\"type\":\"obj\",\"path\":\"/tmp\"}", "--set", "cloths[0].pins=[]"}, nullptr, "scene", "cloths[0].mesh.path", "is a folder"},
+    {"mesh_is_dev_zero", nullptr, {"--set", "cloths[0].mesh={\"type\":\"obj\",\"path\":\"/dev/zero\"}", "--set", "cloths[0].pins=[]"}, nullptr, "scene", "cloths[0].mesh.path", "not a regular file"},
+    {"collider_obj_is_a_folder", nullptr, {"--set", "colliders=[{\"shape\":\"mesh\",\"obj\":\"/tmp\"}]"}, nullptr, "scene", "colliders[0].obj", "is a folder"},
+    // Output injection: control characters in any scene string.
+    {"newline_in_cloth_name", nullptr, {"--set", "cloths[0].name=\"a\\nv 1 2 3\""}, nullptr, "scene", "cloths[0].name", "control character (0x0a"},
+    {"nul_in_scene_name", nullptr, {"--set", "name=\"a\\u0000b\""}, nullptr, "scene", "name", "control character (0x00"},
+    {"escape_in_collider_name", nullptr, {"--set", "colliders=[{\"shape\":\"plane\",\"name\":\"\\u001b[2J\"}]"}, nullptr, "scene", "colliders[0].name", "control character (0x1b"},
+    // The scene name is a file name, never a path (it names the default folder out/<name>).
+    {"name_is_absolute_path", nullptr, {"--set", "name=/tmp/loom_name_path"}, nullptr, "scene", "name", "plain file name"},
+    {"name_climbs_out", nullptr, {"--set", "name=../../x"}, nullptr, "scene", "name", "plain file name"},
+    {"name_is_dot_dot", nullptr, {"--set", "name=\"..\""}, nullptr, "scene", "name", "plain file name"},
+    // Silent nonsense.
+    {"duplicate_key", "{\"duration\": 0.05, \"duration\": 5,\n \"cloths\": [{\"mesh\": {\"type\": \"grid\", \"size\": [1, 1], \"nodes\": [3, 3]}}]}",
+     {}, nullptr, "scene", "duration", "key given twice"},
+    {"duplicate_nested_key", nullptr, {"--set", "cloths[0].mesh={\"type\":\"grid\",\"type\":\"grid\",\"size\":[1,1],\"nodes\":[5,5]}"}, nullptr, "scene", "cloths[0].mesh.type", "key given twice"},
+    {"vertex_pinned_twice", nullptr, {"--set", "cloths[0].pins=[{\"grid\":[0,0]},{\"vertex\":0,\"anchor\":[0,2,0]}]"}, nullptr, "scene", "cloths[0].pins[1]", "another anchor or path"},
+    {"wrinkle_wavelength_denormal", nullptr, {"--set", "cloths[0].detail={\"wrinkles\":{\"wavelength\":1e-320}}"}, nullptr, "scene", "cloths[0].detail.wrinkles.wavelength", "must be in [0.0001, 1] m"},
 };
 
 class BadInputCli : public ::testing::TestWithParam<BadInput> {};
@@ -187,6 +231,6 @@ TEST_P(BadInputCli, NonZeroExitNamedMessageNoCompleteOutput) {
 INSTANTIATE_TEST_SUITE_P(Table, BadInputCli, ::testing::ValuesIn(kCases),
                          [](const ::testing::TestParamInfo<BadInput>& info) { return std::string(info.param.name); });
 
-TEST(BadInputCli, TableHasAtLeastThirtyCases) { EXPECT_GE(sizeof(kCases) / sizeof(kCases[0]), 30u); }
+TEST(BadInputCli, TableHasAtLeastSeventyCases) { EXPECT_GE(sizeof(kCases) / sizeof(kCases[0]), 75u); }
 
 }  // namespace

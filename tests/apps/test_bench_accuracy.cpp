@@ -136,3 +136,14 @@ TEST(BenchAccuracy, BadOptionsExitWithTwo) {
   EXPECT_EQ(run("bench nothing", dir).code, 2);
   EXPECT_EQ(run("bench --help", dir).code, 0);
 }
+
+TEST(BenchAccuracy, UnknownMethodIsAnErrorNotAnEmptyPass) {
+  const fs::path dir = loom::test::test_dir();
+  const Result r = run("bench accuracy --quick --methods xpbd,nosuch --out " + (dir / "out").string(), dir);
+  if (r.err.find("unknown command") != std::string::npos) GTEST_SKIP() << "built without the Bullet bridge";
+  EXPECT_EQ(r.code, 2) << r.out << r.err;
+  EXPECT_NE(r.err.find("--methods"), std::string::npos) << r.err;
+  EXPECT_NE(r.err.find("'nosuch'"), std::string::npos) << r.err;
+  EXPECT_FALSE(fs::exists(dir / "out" / "accuracy.csv"));
+  EXPECT_EQ(r.out.find("PASSED"), std::string::npos) << r.out;
+}

@@ -116,7 +116,7 @@ TEST(Cli, BadInputExitsNonZeroWithAClearMessageAndNoOutput) {
   EXPECT_FALSE(fs::exists(out));  // nothing is created before the scene is valid
   r = run("run /nonexistent/scene.json");
   EXPECT_EQ(r.code, 1);
-  EXPECT_NE(r.err.find("cannot open scene file"), std::string::npos) << r.err;
+  EXPECT_NE(r.err.find("/nonexistent/scene.json: no such file"), std::string::npos) << r.err;
   r = run("run --frames abc");
   EXPECT_EQ(r.code, 2);
   r = run("run --bogus");

@@ -52,4 +52,29 @@ TEST(FabricTestCli, TextOutputAndErrors) {
   EXPECT_NE(r.out.find("--overhang-ratio"), std::string::npos);
 }
 
+TEST(FabricTestCli, CountsAreWholeNumbersInRange) {
+  for (const char* bad : {"0", "5.9", "-3", "1e9", "ten", "99999999999999999999"}) {
+    const Result r = run(std::string("fabric-test catenary --resolution ") + bad);
+    EXPECT_EQ(r.code, 1) << bad;
+    EXPECT_NE(r.err.find("--resolution"), std::string::npos) << r.err;
+    EXPECT_NE(r.err.find("whole number"), std::string::npos) << r.err;
+  }
+  const Result r = run("fabric-test catenary --solver verlet --settle-frames 2.5");
+  EXPECT_EQ(r.code, 1);
+  EXPECT_NE(r.err.find("--settle-frames"), std::string::npos) << r.err;
+}
+
+// The cantilever's default model is one validated against the elastica (within 1.5 degrees); the springs
+// model, whose bending does not follow it, runs only when asked for, with a warning.
+TEST(FabricTestCli, CantileverDefaultsToAValidatedModel) {
+  const Result r = run("fabric-test cantilever --json --out " + (loom::test::test_dir() / "c").string());
+  ASSERT_EQ(r.code, 0) << r.err;
+  const auto j = nlohmann::json::parse(r.out);
+  EXPECT_EQ(j["model"], "choi_ko");
+  EXPECT_LT(std::abs(j["error"].get<double>()), 1.5) << r.out;
+  EXPECT_EQ(r.err.find("warning"), std::string::npos) << r.err;
+  const Result s = run("fabric-test cantilever --model springs --resolution 9 --json --out " + (loom::test::test_dir() / "s").string());
+  EXPECT_NE(s.err.find("warning: --model springs"), std::string::npos) << s.err;
+}
+
 }  // namespace

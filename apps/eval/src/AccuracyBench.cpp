@@ -758,6 +758,16 @@ int bench_main(int argc, char** argv) {
              return out;
            }(value()))
         o.methods.insert(m);
+      // An unknown name would select nothing and pass with an empty table.
+      std::vector<std::string> known = cloth::solver_names();
+      for (const char* extra : {"bullet_classic", "bullet_deformable", "hybrid"}) known.push_back(extra);
+      for (const std::string& m : o.methods)
+        if (std::find(known.begin(), known.end(), m) == known.end()) {
+          std::string list;
+          for (const auto& k : known) list += (list.empty() ? "" : ", ") + k;
+          std::fprintf(stderr, "loom: error: --methods: unknown method '%s' (known: %s)\n", m.c_str(), list.c_str());
+          return 2;
+        }
     } else if (a == "--configs") {
       o.configs = value();
     } else if (a == "--out") {

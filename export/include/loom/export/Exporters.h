@@ -16,8 +16,9 @@ namespace loom::exporter {
 
 class Exporters {
  public:
-  // Removes this writer's files of an earlier run in `out`, then opens the writers of `formats` (unknown
-  // names and "obj" are ignored). `every`: frames between samples.
+  // Opens the writers of `formats` in `out` (unknown names and "obj" are ignored); deletes nothing: files
+  // of an earlier run are the folder owner's to remove. Writes pc2/<file_names()[i]>.obj and .pc2,
+  // animation.gltf (through animation.gltf.tmp) and animation.bin. `every`: frames between samples.
   Exporters(const std::string& out, const std::vector<std::string>& formats,
             const std::vector<std::unique_ptr<cloth::Cloth>>& cloths, int every);
   // Call for every written frame (frame 0 first); `time` in s.

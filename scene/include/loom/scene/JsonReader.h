@@ -29,6 +29,13 @@ class JsonReader {
                      const std::vector<std::string>& allowed = {}) const;
   cloth::Vec3 vec3(const std::string& key, std::optional<cloth::Vec3> fallback = std::nullopt) const;
   std::vector<double> numbers(const std::string& key, size_t count = 0) const;  // count 0: any length >= 1
+  // An integer JSON value `v` (at JSON path `where`) in [min, max], checked before any narrowing: a value
+  // past 64 bits, or past int, is an error, never a wrapped small number.
+  long long integer_value(const nlohmann::json& v, const std::string& where, long long min, long long max) const;
+  // True for an integer JSON value in [min, max], compared without narrowing (unsigned values unsigned).
+  static bool in_range(const nlohmann::json& v, long long min, long long max);
+  // `key` as exactly `count` integers, each in [min, max].
+  std::vector<long long> integers(const std::string& key, size_t count, long long min, long long max) const;
   JsonReader object(const std::string& key) const;
   std::vector<JsonReader> objects(const std::string& key) const;  // an array of objects
   const nlohmann::json& raw(const std::string& key) const;        // marks as read, no type check

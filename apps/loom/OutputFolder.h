@@ -1,0 +1,49 @@
+#pragma once
+// The output folder of `loom run`, owned through its manifest DIR/.loom-manifest: the list of every file and
+// folder the runs that used DIR wrote there, one path relative to DIR a line (no absolute path, no "..").
+// Contract (docs/guarantees.md):
+//   - a run writes only inside DIR, and only to paths it first adds to the manifest (claim());
+//   - a run deletes only paths listed in the manifest (never follows a symbolic link to do so);
+//   - DIR is used when it does not exist (it is created), is empty, or holds a manifest; a non-empty folder
+//     without one is refused unless the user passes --overwrite (files of the same names are then replaced,
+//     nothing else is deleted);
+//   - a path inside DIR that is a symbolic link is never written through.
+// The manifest's first line holds a run id that checkpoints record, so a checkpoint copied from another
+// folder is refused on --resume.
+#include <cstdint>
+#include <filesystem>
+#include <fstream>
+#include <set>
+#include <string>
+
+namespace loom::app {
+
+class OutputFolder {
+ public:
+  // `flag` names the option the folder came from ("--out", "--resume") in error messages. `resume`: keep the
+  // listed files (the run continues); otherwise the files listed by an earlier run are deleted first.
+  OutputFolder(const std::filesystem::path& dir, const std::string& flag, bool overwrite, bool resume);
+  const std::filesystem::path& dir() const { return dir_; }
+  std::uint64_t run_id() const { return run_id_; }
+  // Adds `relative` (a file or, ending in '/', a folder) to the manifest before it is written and returns
+  // DIR/relative. Refuses a path that is a symbolic link or, for a file, a folder.
+  std::filesystem::path claim(const std::string& relative);
+  bool owns(const std::string& relative) const { return listed_.count(relative) != 0; }
+  // Deletes a listed file (no-op for a path not listed or already gone).
+  void remove_owned(const std::string& relative);
+
+  static constexpr const char* kManifest = ".loom-manifest";
+
+ private:
+  void append(const std::string& line);
+  std::filesystem::path dir_;
+  std::string flag_;
+  std::uint64_t run_id_ = 0;
+  std::set<std::string> listed_;
+  std::ofstream manifest_;
+};
+
+// Reads the run id of DIR/.loom-manifest (0 without a manifest).
+std::uint64_t read_run_id(const std::filesystem::path& dir);
+
+}  // namespace loom::app

@@ -1,0 +1,35 @@
+#pragma once
+// The one place that bounds what a scene may ask for before anything is allocated or read: input files
+// (regular files of bounded size), coordinates, frame and step counts, and the memory of the cloth
+// vertices against what the machine has. Every refusal names the scene file, the field and the figure.
+#include <cstdint>
+#include <string>
+
+namespace loom::scene {
+
+struct Scene;
+
+constexpr std::uint64_t kMaxInputBytes = std::uint64_t(1) << 30;  // a scene, mesh or motion file: 1 GiB
+constexpr double kMaxCoordinate = 1e6;         // m, |x| of a mesh size, origin, translation, anchor
+constexpr long long kMaxFrames = 10000000;     // frames of one run (duration x fps)
+constexpr long long kMaxSubsteps = 1000000;    // solver steps per frame (frame time / solver.dt)
+// Bytes per cloth vertex of a simulation: the peak resident memory of implicit runs (the heaviest solvers)
+// above the process's own, over the vertex count, rounded up (measured: docs/guarantees.md).
+constexpr std::uint64_t kBytesPerVertex = 8192;
+
+// Refuses (naming `file`, `field`) a path that is missing, not a regular file (a folder, a device such as
+// /dev/zero, a pipe) or larger than kMaxInputBytes.
+void check_input_file(const std::string& file, const std::string& field, const std::string& path);
+// Resolves `path` as written in the scene (relative: to the scene file's folder), checks it as above and
+// records it in scene.inputs (checkpoints hash every input).
+std::string input_file(Scene& scene, const std::string& field, const std::string& path);
+// Memory a run may use, in bytes: MemAvailable of /proc/meminfo, or LOOM_MEMORY_LIMIT (bytes) when set and
+// smaller; the largest 64-bit value when neither is known.
+std::uint64_t memory_budget();
+// Adds `vertices` cloth vertices (of the cloth at JSON path `field`) to the scene's count and refuses when
+// the estimate kBytesPerVertex x count exceeds memory_budget().
+void reserve_vertices(Scene& scene, const std::string& field, double vertices);
+// "1.5 GB": a byte count for messages.
+std::string show_bytes(double bytes);
+
+}  // namespace loom::scene

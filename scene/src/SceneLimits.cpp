@@ -1,0 +1,79 @@
+#include "loom/scene/SceneLimits.h"
+
+#include <cstdio>
+#include <cstdlib>
+#include <filesystem>
+#include <fstream>
+#include <limits>
+
+#include "loom/cloth/Error.h"
+#include "loom/scene/Scene.h"
+
+namespace fs = std::filesystem;
+
+namespace loom::scene {
+
+void check_input_file(const std::string& file, const std::string& field, const std::string& path) {
+  std::error_code ec;
+  const fs::file_status st = fs::status(path, ec);
+  const std::string what = path == file ? "" : path + ": ";
+  if (!fs::exists(st)) throw Error(file, field, what + "no such file");
+  if (fs::is_directory(st)) throw Error(file, field, what + "is a folder, not a file");
+  if (!fs::is_regular_file(st)) throw Error(file, field, what + "is not a regular file (a device, pipe or socket)");
+  const std::uintmax_t size = fs::file_size(path, ec);
+  if (ec) throw Error(file, field, what + "cannot read its size: " + ec.message());
+  if (size > kMaxInputBytes)
+    throw Error(file, field, what + "is " + show_bytes(static_cast<double>(size)) + ", more than the " +
+                                 show_bytes(static_cast<double>(kMaxInputBytes)) + " Loom reads");
+}
+
+std::string input_file(Scene& scene, const std::string& field, const std::string& path) {
+  fs::path p(path);
+  if (p.is_relative()) p = fs::path(scene.file).parent_path() / p;
+  check_input_file(scene.file, field, p.string());
+  scene.inputs.push_back(p.string());
+  return p.string();
+}
+
+std::uint64_t memory_budget() {
+  std::uint64_t budget = std::numeric_limits<std::uint64_t>::max();
+  std::ifstream in("/proc/meminfo");
+  std::string key;
+  std::uint64_t kb = 0;
+  std::string unit;
+  while (in >> key >> kb >> unit)
+    if (key == "MemAvailable:") budget = kb * 1024;
+  if (const char* env = std::getenv("LOOM_MEMORY_LIMIT")) {
+    char* end = nullptr;
+    const unsigned long long v = std::strtoull(env, &end, 10);
+    if (end != env && *end == '\0' && v < budget) budget = v;
+  }
+  return budget;
+}
+
+std::string show_bytes(double bytes) {
+  char s[48];
+  if (bytes >= 1e9)
+    std::snprintf(s, sizeof s, "%.3g GB", bytes / 1e9);
+  else if (bytes >= 1e6)
+    std::snprintf(s, sizeof s, "%.3g MB", bytes / 1e6);
+  else
+    std::snprintf(s, sizeof s, "%.0f bytes", bytes);
+  return s;
+}
+
+void reserve_vertices(Scene& scene, const std::string& field, double vertices) {
+  scene.vertices += vertices;
+  const double need = scene.vertices * static_cast<double>(kBytesPerVertex);
+  const double budget = static_cast<double>(memory_budget());
+  if (need > budget) {
+    char count[32];
+    std::snprintf(count, sizeof count, "%.3g", scene.vertices);
+    throw Error(scene.file, field,
+                "the scene's cloths would have about " + std::string(count) + " vertices, which need about " +
+                    show_bytes(need) + " of memory (" + std::to_string(kBytesPerVertex) + " bytes per vertex); " +
+                    show_bytes(budget) + " is available: use fewer nodes or a coarser resolution");
+  }
+}
+
+}  // namespace loom::scene
