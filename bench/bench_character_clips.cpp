@@ -19,7 +19,7 @@
 #include "loom/characters/Character.h"
 #include "loom/characters/ClipProbe.h"
 #include "loom/cloth/Error.h"
-#include "loom/scene/Build.h"
+#include "loom/scene/ScenePipeline.h"
 #include "loom/scene/Scene.h"
 
 namespace fs = std::filesystem;
@@ -102,7 +102,8 @@ int main(int argc, char** argv) {
         sets.push_back("duration=" + std::to_string(duration));
         loom::scene::Scene sc = loom::scene::load_scene(scene_file, sets);
         sc.setup.threads = threads;
-        auto sim = loom::scene::build_simulation(sc);
+        auto pipeline = loom::scene::build_pipeline(sc);
+        loom::cloth::Simulation* sim = &pipeline->simulation();
         auto probe = std::make_unique<loom::characters::ClipProbe>(sc.character, census_every);
         const loom::characters::ClipProbe* p = probe.get();
         sim->add_stage(std::move(probe));

@@ -13,7 +13,7 @@
 #include <vector>
 
 #include "loom/collision/MultiClothCensus.h"
-#include "loom/scene/Build.h"
+#include "loom/scene/ScenePipeline.h"
 #include "loom/scene/Scene.h"
 
 namespace {
@@ -38,7 +38,8 @@ void run(benchmark::State& state, const std::string& scene_name, std::vector<std
   const int threads = static_cast<int>(state.range(0));
   overrides.push_back("threads=" + std::to_string(threads));
   const scene::Scene sc = scene::load_scene(std::string(LOOM_SOURCE_DIR) + "/" + scene_name, overrides);
-  auto sim = scene::build_simulation(sc);
+  auto pipeline = scene::build_pipeline(sc);
+  cloth::Simulation* sim = &pipeline->simulation();
   auto census = std::make_unique<CensusStage>();
   CensusStage* c = census.get();
   sim->add_stage(std::move(census));

@@ -8,7 +8,7 @@
 
 #include "loom/bullet/CharacterCompare.h"
 #include "loom/characters/Character.h"
-#include "loom/scene/Build.h"
+#include "loom/scene/ScenePipeline.h"
 
 namespace loom::app {
 
@@ -79,7 +79,8 @@ int compare_character(const scene::Scene& sc, int frames, const std::string& out
   in.frames = frames > 0 ? frames : sc.frames;
   in.thickness = sc.character->thickness > 0.0 ? sc.character->thickness
                                                : (sc.setup.cloths.empty() ? 0.001 : sc.setup.cloths[0].material.thickness);
-  auto sim = scene::build_simulation(sc);
+  auto pipeline = scene::build_pipeline(sc);
+  cloth::Simulation* sim = &pipeline->simulation();
   const bullet::CharacterMetrics loom = bullet::run_loom_character(*sim, in);
   const bullet::CharacterMetrics classic = bullet::run_bullet_character(in);
   const std::string deformable_note =

@@ -32,8 +32,7 @@
 #include "loom/bullet/BulletScene.h"
 #endif
 #include "loom/collision/MultiClothCensus.h"
-#include "loom/collision/SelfCollisionStage.h"
-#include "loom/scene/Build.h"
+#include "loom/scene/ScenePipeline.h"
 #include "loom/scene/Scene.h"
 
 namespace fs = std::filesystem;
@@ -176,44 +175,21 @@ int run_command(const RunOptions& options) {
               << hardware << " hardware threads of this machine\n";
     sc.setup.threads = hardware;
   }
-  // Issue 8: the guard's intersection check is on by default for a scene with cloth-cloth or self-collision
-  // (measured: 7-8 % of the step time on character_layers, 1.3 % on layer_stack; README "Reliability"), unless the
-  // scene sets `guard.intersections` itself.
-  if (!sc.setup.guard.intersections_set && sc.collision && (sc.collision->self || sc.setup.cloths.size() > 1))
-    sc.setup.guard.intersections = true;
   const int frames = o.frames >= 0 ? o.frames : sc.frames;
-  collision::ColliderSetPtr census_colliders;  // --census: the simulation's colliders, for max_penetration
-  // A scene with rigid `bodies` (issue 9) runs in a Bullet world, its cloths as one BulletCloth; the
-  // colliders drawn and censused are then the bodies at their poses.
-  std::unique_ptr<cloth::Simulation> sim_ptr;
+  if (!sc.bodies.empty() && (resume || o.checkpoint_every > 0))
+    throw Error(scene_path, "bodies",
+                "--checkpoint-every / --resume do not save the Bullet world: not available for scenes with rigid bodies");
+  // What the scene runs, with the scene-level defaults (ScenePipeline.h); validates before any output. The
+  // colliders drawn and censused are the scene's colliders and a rig's capsules, or a Bullet world's bodies.
+  const std::unique_ptr<scene::ScenePipeline> pipeline = scene::build_pipeline(sc);
+  sc = pipeline->scene();
+  cloth::Simulation& sim = pipeline->simulation();
+  auto step_frame = [&]() { return pipeline->step_frame(); };
+  const collision::ColliderSetPtr& census_colliders = pipeline->colliders();
 #ifdef LOOM_HAVE_BULLET
-  std::unique_ptr<bullet::BulletScene> bodies_world;
+  const bullet::BulletScene* bodies_world = pipeline->bullet();
 #endif
-  if (!sc.bodies.empty()) {
-#ifdef LOOM_HAVE_BULLET
-    if (!sc.colliders.empty())
-      throw Error(scene_path, "colliders", "cannot be combined with 'bodies' yet: give static shapes as bodies (mass 0)");
-    if (sc.character) throw Error(scene_path, "character", "cannot be combined with 'bodies' yet");
-    if (resume || o.checkpoint_every > 0)
-      throw Error(scene_path, "bodies", "--checkpoint-every / --resume do not save the Bullet world: not available for scenes with rigid bodies");
-    bodies_world = std::make_unique<bullet::BulletScene>(sc.setup, sc.bodies);
-    if (sc.collision && (sc.collision->self || sc.setup.cloths.size() > 1))
-      bodies_world->simulation().add_stage(std::make_unique<collision::SelfCollisionStage>(*sc.collision));
-    census_colliders = bodies_world->body_colliders();
-#else
-    throw Error(scene_path, "bodies", "rigid bodies need the Bullet bridge, and this loom was built without it (Debian: libbullet-dev)");
-#endif
-  } else {
-    sim_ptr = scene::build_simulation(sc, &census_colliders);  // validates before any output
-  }
-#ifdef LOOM_HAVE_BULLET
-  cloth::Simulation& sim = bodies_world ? bodies_world->simulation() : *sim_ptr;
-  auto step_frame = [&]() { return bodies_world ? bodies_world->step_frame() : sim.step_frame(); };
-#else
-  cloth::Simulation& sim = *sim_ptr;
-  auto step_frame = [&]() { return sim.step_frame(); };
-#endif
-  // --census (issue 5): exact count of intersecting triangle pairs (self, non-adjacent, and between cloths)
+  // --census: exact count of intersecting triangle pairs (self, non-adjacent, and between cloths)
   // and the deepest vertex inside a collider, after every frame; summary.json gets the largest of each.
   long census_intersections = 0;
   double census_penetration = 0.0;
