@@ -15,8 +15,8 @@ using cloth::Vec3;
 using cloth::Vec3s;
 using Iso = Eigen::Isometry3d;
 
-void check_range(double value, double lo, double hi, bool inf_ok, const std::string& source, const char* field,
-                 const char* what) {
+void check_range(double value, double lo, double hi, bool inf_ok, const std::string& source,
+                 const char* field, const char* what) {
   const bool ok = value >= lo && value <= hi && (inf_ok || std::isfinite(value));
   if (!ok) throw Error(source, field, std::to_string(value) + " " + what);
 }
@@ -38,8 +38,9 @@ Iso rigid_part(const Affine& a) {
 
 }  // namespace
 
-GarmentInstance::GarmentInstance(const Vec3s& bind_positions, const std::vector<cloth::Tri>& triangles, Skin skin,
-                                 GarmentSettings settings, const std::vector<Affine>& pose, const std::string& source)
+GarmentInstance::GarmentInstance(const Vec3s& bind_positions, const std::vector<cloth::Tri>& triangles,
+                                 Skin skin, GarmentSettings settings, const std::vector<Affine>& pose,
+                                 const std::string& source)
     : source_(source),
       settings_(std::move(settings)),
       skin_(std::move(skin)),
@@ -47,17 +48,20 @@ GarmentInstance::GarmentInstance(const Vec3s& bind_positions, const std::vector<
       tris_(triangles),
       constraints_(settings_.constraints, static_cast<int>(bind_positions.size()), source) {
   check_range(settings_.fixed_dt, 1e-6, 1.0, false, source, "fixed_dt", "must be in [1e-6, 1] s");
-  if (settings_.iterations < 1) throw Error(source, "iterations", std::to_string(settings_.iterations) + " must be >= 1");
+  if (settings_.iterations < 1)
+    throw Error(source, "iterations", std::to_string(settings_.iterations) + " must be >= 1");
   check_range(settings_.linear_inertia, 0.0, 1.0, false, source, "linear_inertia", "must be in [0, 1]");
   check_range(settings_.angular_inertia, 0.0, 1.0, false, source, "angular_inertia", "must be in [0, 1]");
   check_range(settings_.teleport_distance, 1e-9, HUGE_VAL, true, source, "teleport_distance", "must be > 0");
   check_range(settings_.teleport_rotation, 1e-9, HUGE_VAL, true, source, "teleport_rotation", "must be > 0");
   if (settings_.max_steps_per_frame < 1)
-    throw Error(source, "max_steps_per_frame", std::to_string(settings_.max_steps_per_frame) + " must be >= 1");
+    throw Error(source, "max_steps_per_frame",
+                std::to_string(settings_.max_steps_per_frame) + " must be >= 1");
   if (!settings_.gravity.allFinite()) throw Error(source, "gravity", "must be finite");
   if (skin_.num_vertices() != static_cast<int>(bind_.size()))
-    throw Error(source, "skin", "skins " + std::to_string(skin_.num_vertices()) + " vertices, the mesh has " +
-                                    std::to_string(bind_.size()));
+    throw Error(source, "skin",
+                "skins " + std::to_string(skin_.num_vertices()) + " vertices, the mesh has " +
+                    std::to_string(bind_.size()));
   settings_.material.validate(source, "material");
   auto mesh = cloth::ClothMesh::from_triangles(bind_, tris_, {}, source);
   cloth_ = std::make_unique<cloth::Cloth>("garment", mesh, settings_.material);
@@ -65,7 +69,8 @@ GarmentInstance::GarmentInstance(const Vec3s& bind_positions, const std::vector<
     cloth_->add_term(std::make_unique<cloth::GravityTerm>(cloth_->state().mass, settings_.gravity));
   cloth::add_model_terms(*cloth_, settings_.model, source, "model");
   if (settings_.wind)
-    cloth_->add_term(std::make_unique<cloth::AirDragTerm>(*settings_.wind, mesh->triangles(), mesh->vertex_areas()));
+    cloth_->add_term(
+        std::make_unique<cloth::AirDragTerm>(*settings_.wind, mesh->triangles(), mesh->vertex_areas()));
   cloth::SolverSettings solver;
   solver.method = "xpbd";
   solver.params["iterations"] = settings_.iterations;
@@ -119,8 +124,8 @@ void GarmentInstance::step(double frame_dt) {
     clock_ = time() + due * h;  // the clock slips: the excess frame time is not simulated
   }
   const double span = clock_ - clock_prev_;
-  // Three poses (T_{k-2}, T_{k-1}, T_k) give a quadratic in time (Lagrange weights w0, w1, w2) when both intervals
-  // are long enough; otherwise the path is linear between the last two.
+  // Three poses (T_{k-2}, T_{k-1}, T_k) give a quadratic in time (Lagrange weights w0, w1, w2) when both
+  // intervals are long enough; otherwise the path is linear between the last two.
   const bool quadratic = span > 1e-6 && clock_prev_ - clock_prev2_ > 1e-6;
   for (long k = 0; k < due; ++k) {
     const double t_end = static_cast<double>(steps_ + 1) * h;
@@ -132,7 +137,8 @@ void GarmentInstance::step(double frame_dt) {
       w1 = (t - a) * (t - c) / ((b - a) * (b - c));
       w2 = (t - a) * (t - b) / ((c - a) * (c - b));
     }
-    // Rotation: R_{k-1} exp(w0 r0 + w2 r2), r_j = log(R_{k-1}ᵀ R_j) (rotation vectors relative to the middle pose).
+    // Rotation: R_{k-1} exp(w0 r0 + w2 r2), r_j = log(R_{k-1}ᵀ R_j) (rotation vectors relative to the middle
+    // pose).
     const Eigen::AngleAxisd r0(frame_prev_.linear().transpose() * frame_prev2_.linear());
     const Eigen::AngleAxisd r2(frame_prev_.linear().transpose() * frame_curr_.linear());
     const Vec3 rv = w0 * r0.angle() * r0.axis() + w2 * r2.angle() * r2.axis();
@@ -143,7 +149,8 @@ void GarmentInstance::step(double frame_dt) {
     frame.translation() =
         w0 * frame_prev2_.translation() + w1 * frame_prev_.translation() + w2 * frame_curr_.translation();
     const int n = num_vertices();
-    for (int i = 0; i < n; ++i) target_[i] = frame * (w0 * local_prev2_[i] + w1 * local_prev_[i] + w2 * local_curr_[i]);
+    for (int i = 0; i < n; ++i)
+      target_[i] = frame * (w0 * local_prev2_[i] + w1 * local_prev_[i] + w2 * local_curr_[i]);
     render_prev_ = cloth_->state().x;
     if (settings_.linear_inertia < 1.0 || settings_.angular_inertia < 1.0)
       carry(frame_sim_, frame, 1.0 - settings_.linear_inertia, 1.0 - settings_.angular_inertia);
@@ -206,7 +213,9 @@ void GarmentInstance::reset() {
   solver_->reset();
 }
 
-void GarmentInstance::set_max_distance_multiplier(double s) { constraints_.set_max_distance_multiplier(s, source_); }
+void GarmentInstance::set_max_distance_multiplier(double s) {
+  constraints_.set_max_distance_multiplier(s, source_);
+}
 
 void GarmentInstance::write_positions(float* dst, size_t stride) const {
   const double a = std::clamp((clock_ - time()) / settings_.fixed_dt, 0.0, 1.0);

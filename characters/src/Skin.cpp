@@ -25,8 +25,9 @@ Skin::Skin(std::vector<std::string> bone_names, std::vector<Affine> inverse_bind
            const std::vector<std::vector<BoneInfluence>>& influences, const std::string& source)
     : bone_names_(std::move(bone_names)), inverse_bind_(std::move(inverse_bind)) {
   if (inverse_bind_.size() != bone_names_.size())
-    throw Error(source, "bones", std::to_string(bone_names_.size()) + " names but " +
-                                     std::to_string(inverse_bind_.size()) + " inverse bind matrices");
+    throw Error(source, "bones",
+                std::to_string(bone_names_.size()) + " names but " + std::to_string(inverse_bind_.size()) +
+                    " inverse bind matrices");
   for (size_t b = 0; b < inverse_bind_.size(); ++b)
     if (!inverse_bind_[b].matrix().allFinite())
       throw Error(source, "bones[" + std::to_string(b) + "].inverse_bind", "is not finite");
@@ -36,16 +37,17 @@ Skin::Skin(std::vector<std::string> bone_names, std::vector<Affine> inverse_bind
   for (size_t i = 0; i < influences.size(); ++i) {
     const auto& inf = influences[i];
     if (inf.size() > static_cast<size_t>(kMaxInfluences))
-      throw Error(source, vertex_field(i),
-                  std::to_string(inf.size()) + " bone influences (at most " + std::to_string(kMaxInfluences) + ")");
+      throw Error(
+          source, vertex_field(i),
+          std::to_string(inf.size()) + " bone influences (at most " + std::to_string(kMaxInfluences) + ")");
     bones_[i].fill(-1);
     weights_[i].fill(0.0);
     double sum = 0.0;
     for (size_t k = 0; k < inf.size(); ++k) {
       if (inf[k].bone < 0 || inf[k].bone >= nb)
         throw Error(source, vertex_field(i) + ".bones[" + std::to_string(k) + "]",
-                    "bone " + std::to_string(inf[k].bone) + " does not exist (the skin has " + std::to_string(nb) +
-                        " bones)");
+                    "bone " + std::to_string(inf[k].bone) + " does not exist (the skin has " +
+                        std::to_string(nb) + " bones)");
       if (!(inf[k].weight >= 0.0 && inf[k].weight <= 1.0))
         throw Error(source, vertex_field(i) + ".weights[" + std::to_string(k) + "]",
                     "weight " + std::to_string(inf[k].weight) + " is not in [0, 1]");
@@ -90,8 +92,10 @@ Skin Skin::automatic(const cloth::Vec3s& positions, std::vector<std::string> bon
   std::vector<std::vector<BoneInfluence>> inf(positions.size());
   std::vector<std::pair<double, int>> dist(nb);
   for (size_t i = 0; i < positions.size(); ++i) {
-    if (!positions[i].allFinite()) throw Error(source, "positions[" + std::to_string(i) + "]", "is not finite");
-    for (size_t b = 0; b < nb; ++b) dist[b] = {segment_distance(positions[i], head[b], tail[b]), static_cast<int>(b)};
+    if (!positions[i].allFinite())
+      throw Error(source, "positions[" + std::to_string(i) + "]", "is not finite");
+    for (size_t b = 0; b < nb; ++b)
+      dist[b] = {segment_distance(positions[i], head[b], tail[b]), static_cast<int>(b)};
     std::partial_sort(dist.begin(), dist.begin() + keep, dist.end());
     double sum = 0.0;
     for (int k = 0; k < keep; ++k) {
@@ -115,11 +119,13 @@ int Skin::find(const std::string& name) const {
 void Skin::skinning_matrices(const std::vector<Affine>& pose, std::vector<Affine>& out,
                              const std::string& source) const {
   if (pose.size() != inverse_bind_.size())
-    throw Error(source, "pose", std::to_string(pose.size()) + " bone transforms for a skin of " +
-                                    std::to_string(inverse_bind_.size()) + " bones");
+    throw Error(source, "pose",
+                std::to_string(pose.size()) + " bone transforms for a skin of " +
+                    std::to_string(inverse_bind_.size()) + " bones");
   out.resize(pose.size());
   for (size_t b = 0; b < pose.size(); ++b) {
-    if (!pose[b].matrix().allFinite()) throw Error(source, "pose[" + std::to_string(b) + "]", "is not finite");
+    if (!pose[b].matrix().allFinite())
+      throw Error(source, "pose[" + std::to_string(b) + "]", "is not finite");
     out[b] = pose[b] * inverse_bind_[b];
   }
 }

@@ -28,8 +28,8 @@ Affine rescale(Affine a, double scale) {
 }
 
 const aiScene* read(Assimp::Importer& importer, const std::string& path) {
-  const unsigned flags = aiProcess_Triangulate | aiProcess_JoinIdenticalVertices | aiProcess_LimitBoneWeights |
-                         aiProcess_SortByPType;
+  const unsigned flags = aiProcess_Triangulate | aiProcess_JoinIdenticalVertices |
+                         aiProcess_LimitBoneWeights | aiProcess_SortByPType;
   const aiScene* scene = importer.ReadFile(path, flags);
   if (!scene || !scene->mRootNode)
     throw Error(path, "", std::string("cannot read the mesh: ") + importer.GetErrorString());
@@ -57,8 +57,9 @@ void read_geometry(const aiMesh* m, double scale, const Affine& transform, const
 const aiMesh* pick(const aiScene* scene, int mesh, bool need_bones, const std::string& path) {
   if (mesh >= 0) {
     if (mesh >= static_cast<int>(scene->mNumMeshes))
-      throw Error(path, "mesh", std::to_string(mesh) + " is out of range (the file has " +
-                                    std::to_string(scene->mNumMeshes) + " meshes)");
+      throw Error(path, "mesh",
+                  std::to_string(mesh) + " is out of range (the file has " +
+                      std::to_string(scene->mNumMeshes) + " meshes)");
     if (need_bones && scene->mMeshes[mesh]->mNumBones == 0)
       throw Error(path, "mesh", "mesh " + std::to_string(mesh) + " has no skin (no bones)");
     return scene->mMeshes[mesh];
@@ -111,7 +112,7 @@ SkinnedMesh load_skinned_mesh(const std::string& path, int mesh, double scale) {
   out.bone_parent.assign(names.size(), -1);
   out.rest_pose.assign(names.size(), Affine::Identity());
   std::function<void(const aiNode*, const Affine&, int)> walk = [&](const aiNode* node, const Affine& parent,
-                                                                     int parent_bone) {
+                                                                    int parent_bone) {
     const Affine global = parent * to_affine(node->mTransformation);
     int bone = parent_bone;
     auto it = bone_index.find(node->mName.C_Str());

@@ -13,7 +13,8 @@ void check_map(const std::vector<double>& map, int n, const std::string& name, b
                const std::string& source) {
   if (map.empty()) return;
   if (static_cast<int>(map.size()) != n)
-    throw Error(source, name, "has " + std::to_string(map.size()) + " values for " + std::to_string(n) + " vertices");
+    throw Error(source, name,
+                "has " + std::to_string(map.size()) + " values for " + std::to_string(n) + " vertices");
   for (size_t i = 0; i < map.size(); ++i) {
     const double d = map[i];
     const bool ok = allow_inf ? d >= 0.0 : std::isfinite(d);
@@ -100,7 +101,8 @@ long SkinConstraints::apply(const Vec3s& p, const Vec3s& n, double h, Vec3s& x, 
           Vec3 z = c + R * dir;
           if ((z - p[i]).norm() > d) {
             // The closest point on the circle where the backstop sphere meets the max-distance sphere, in the
-            // plane of the axis and y. Along the axis from c: a = (R² - d² + D²) / (2D), radius sqrt(R² - a²).
+            // plane of the axis and y. Along the axis from c: a = (R² - d² + D²) / (2D), radius sqrt(R² -
+            // a²).
             const double D = b + R;
             const double a = (R * R - d * d + D * D) / (2.0 * D);
             const double rho2 = R * R - a * a;

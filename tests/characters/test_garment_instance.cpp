@@ -1,4 +1,5 @@
-// GarmentInstance: the game-loop facade (skinned garment, fixed-step accumulator, teleports, inertia, buffers).
+// GarmentInstance: the game-loop facade (skinned garment, fixed-step accumulator, teleports, inertia,
+// buffers).
 #include <gtest/gtest.h>
 
 #include <cmath>
@@ -46,9 +47,9 @@ Cape make_cape() {
     c.settings.constraints.max_distance.push_back(0.5 * (1.6 - p.y()));
     c.settings.constraints.backstop_distance.push_back(0.02);
   }
-  // A coat fabric (bending 1e-4 N m, damping 0.05 s). The default thin fabric (1e-5 N m) buckles at the grid's
-  // scale when the cape is compressed, and buckling amplifies any difference (even rounding) by about 10x per
-  // 0.1 s: comparisons between runs need a garment that is not chaotic over the clip.
+  // A coat fabric (bending 1e-4 N m, damping 0.05 s). The default thin fabric (1e-5 N m) buckles at the
+  // grid's scale when the cape is compressed, and buckling amplifies any difference (even rounding) by about
+  // 10x per 0.1 s: comparisons between runs need a garment that is not chaotic over the clip.
   c.settings.material.bend_weft = c.settings.material.bend_warp = 1e-4;
   c.settings.material.damping = 0.05;
   return c;
@@ -78,7 +79,8 @@ std::vector<float> positions_of(const GarmentInstance& g) {
 
 // Plays the clip with the given frame times (s) and samples the render positions whenever the clock reaches
 // one of `samples` (s).
-std::vector<std::vector<float>> play(const std::vector<double>& frame_dts, const std::vector<double>& samples) {
+std::vector<std::vector<float>> play(const std::vector<double>& frame_dts,
+                                     const std::vector<double>& samples) {
   Cape c = make_cape();
   GarmentInstance g(c.bind, c.tris, c.skin, c.settings, pose_at(c, clip_frame(0), clip_bend(0)), "cape");
   std::vector<std::vector<float>> out;
@@ -88,7 +90,8 @@ std::vector<std::vector<float>> play(const std::vector<double>& frame_dts, const
     t += dt;
     g.set_pose(pose_at(c, clip_frame(t), clip_bend(t)));
     g.step(dt);
-    if (next < samples.size() && std::abs(g.clock() - samples[next]) < 1e-9) out.push_back(positions_of(g)), ++next;
+    if (next < samples.size() && std::abs(g.clock() - samples[next]) < 1e-9)
+      out.push_back(positions_of(g)), ++next;
   }
   return out;
 }
@@ -117,7 +120,8 @@ TEST(GarmentInstance, ConstraintsHoldAtEveryStepOfAClip) {
       if (c.settings.constraints.max_distance[i] == 0.0) {
         EXPECT_LE(d, 1e-9);
       }
-      worst_behind = std::max(worst_behind, g.constraints().backstop_depth(i, x[i], g.targets()[i], g.target_normals()[i]));
+      worst_behind = std::max(worst_behind,
+                              g.constraints().backstop_depth(i, x[i], g.targets()[i], g.target_normals()[i]));
       free_motion = std::max(free_motion, d);
     }
     ASSERT_TRUE(std::all_of(x.begin(), x.end(), [](const Vec3& p) { return p.allFinite(); }));
@@ -142,7 +146,9 @@ TEST(GarmentInstance, ZeroMultiplierIsTheSkinnedMesh) {
 TEST(GarmentInstance, FrameRateIndependent) {
   std::vector<double> samples;
   for (int k = 1; k <= 12; ++k) samples.push_back(k / 6.0);  // common times of 30, 60 and 144 Hz
-  auto fixed = [](double hz) { return std::vector<double>(static_cast<size_t>(std::lround(2.0 * hz)), 1.0 / hz); };
+  auto fixed = [](double hz) {
+    return std::vector<double>(static_cast<size_t>(std::lround(2.0 * hz)), 1.0 / hz);
+  };
   std::vector<double> jitter;
   std::mt19937 rng(11);
   std::uniform_real_distribution<double> u(1.0 / 200.0, 1.0 / 25.0);
@@ -225,7 +231,8 @@ TEST(GarmentInstance, ZeroInertiaIsSimulationInTheCharactersFrame) {
     a1.set_pose(pose_at(w, clip_frame(t), clip_bend(t)));
     a1.step(1.0 / 60.0);
   }
-  for (int i = 0; i < a1.num_vertices(); ++i) differs = std::max(differs, (a1.positions()[i] - a.positions()[i]).norm());
+  for (int i = 0; i < a1.num_vertices(); ++i)
+    differs = std::max(differs, (a1.positions()[i] - a.positions()[i]).norm());
   EXPECT_GT(differs, 0.01);
 }
 
@@ -244,7 +251,8 @@ TEST(GarmentInstance, WritesIntoTheCallersBufferWithStride) {
     EXPECT_EQ(v[6], -7.0f);
     EXPECT_EQ(v[7], -7.0f);
   }
-  // Between steps the positions are interpolated: a 0.1 s frame on 1/240 s steps leaves clock - time = 0 here.
+  // Between steps the positions are interpolated: a 0.1 s frame on 1/240 s steps leaves clock - time = 0
+  // here.
   EXPECT_NEAR(g.time(), 0.1, 1e-9);
 }
 
@@ -261,18 +269,23 @@ TEST(GarmentInstance, RejectsBadArgumentsNamingThem) {
   auto with = [&](auto edit) {
     Cape k = make_cape();
     edit(k.settings);
-    return message([&] { GarmentInstance(k.bind, k.tris, k.skin, k.settings, pose_at(k, Iso::Identity()), "cape"); });
+    return message(
+        [&] { GarmentInstance(k.bind, k.tris, k.skin, k.settings, pose_at(k, Iso::Identity()), "cape"); });
   };
-  EXPECT_NE(with([](GarmentSettings& s) { s.constraints.max_distance[3] = -0.1; }).find("cape: max_distance[3]"),
-            std::string::npos);
+  EXPECT_NE(
+      with([](GarmentSettings& s) { s.constraints.max_distance[3] = -0.1; }).find("cape: max_distance[3]"),
+      std::string::npos);
   EXPECT_NE(with([](GarmentSettings& s) { s.fixed_dt = 0; }).find("fixed_dt"), std::string::npos);
   EXPECT_NE(with([](GarmentSettings& s) { s.linear_inertia = 2; }).find("linear_inertia"), std::string::npos);
-  EXPECT_NE(with([](GarmentSettings& s) { s.angular_inertia = NAN; }).find("angular_inertia"), std::string::npos);
-  EXPECT_NE(with([](GarmentSettings& s) { s.teleport_distance = -1; }).find("teleport_distance"), std::string::npos);
+  EXPECT_NE(with([](GarmentSettings& s) { s.angular_inertia = NAN; }).find("angular_inertia"),
+            std::string::npos);
+  EXPECT_NE(with([](GarmentSettings& s) { s.teleport_distance = -1; }).find("teleport_distance"),
+            std::string::npos);
   GarmentInstance g(c.bind, c.tris, c.skin, c.settings, pose_at(c, Iso::Identity()), "cape");
   auto bad = pose_at(c, Iso::Identity());
   bad[1].matrix()(0, 3) = NAN;
   EXPECT_NE(message([&] { g.set_pose(bad); }).find("cape: pose[1]: is not finite"), std::string::npos);
   EXPECT_NE(message([&] { g.step(-1.0); }).find("frame_dt"), std::string::npos);
-  EXPECT_NE(message([&] { g.set_max_distance_multiplier(-1.0); }).find("max_distance_multiplier"), std::string::npos);
+  EXPECT_NE(message([&] { g.set_max_distance_multiplier(-1.0); }).find("max_distance_multiplier"),
+            std::string::npos);
 }

@@ -17,7 +17,7 @@ namespace {
 const char* kSimpleSkin = "/usr/share/assimp/models/glTF2/simple_skin/simple_skin.gltf";
 const char* kFbxSkin = "/usr/share/assimp/models/FBX/animation_with_skeleton.fbx";
 
-#define SKIP_WITHOUT(path)                                                                   \
+#define SKIP_WITHOUT(path) \
   if (!std::filesystem::exists(path)) GTEST_SKIP() << path << " missing (Debian package assimp-testmodels)"
 
 // Expects `f` to throw loom::Error whose message contains `field` and `problem`.
@@ -60,17 +60,28 @@ TEST(Skin, LinearBlendOfTwoBones) {
 
 TEST(Skin, RejectsBadSkinsNamingTheField) {
   expect_error([] { two_bone_skin({{{0, 0.5}, {1, 0.4}}}); }, "vertices[0].weights", "sum to 0.9");
-  expect_error([] { two_bone_skin({{{0, 0.5}, {2, 0.5}}}); }, "vertices[0].bones[1]", "bone 2 does not exist");
+  expect_error(
+      [] {
+        two_bone_skin({{{0, 0.5}, {2, 0.5}}});
+      },
+      "vertices[0].bones[1]", "bone 2 does not exist");
   expect_error([] { two_bone_skin({{{0, 1.0}}, {}}); }, "vertices[1].weights", "sum to 0");
   expect_error([] { two_bone_skin({{{0, 1.5}, {1, -0.5}}}); }, "vertices[0].weights[0]", "not in [0, 1]");
   expect_error([] { two_bone_skin({{{0, NAN}, {1, 1.0}}}); }, "vertices[0].weights[0]", "not in [0, 1]");
-  expect_error([] { two_bone_skin({{{0, 0.2}, {1, 0.2}, {0, 0.2}, {1, 0.2}, {0, 0.2}}}); }, "vertices[0]",
-               "5 bone influences (at most 4)");
+  expect_error(
+      [] {
+        two_bone_skin({{{0, 0.2}, {1, 0.2}, {0, 0.2}, {1, 0.2}, {0, 0.2}}});
+      },
+      "vertices[0]", "5 bone influences (at most 4)");
   Skin ok = two_bone_skin({{{0, 0.25}, {1, 0.75}}});
   std::vector<Affine> m;
   Affine nan_pose = Affine::Identity();
   nan_pose.translation().x() = NAN;
-  expect_error([&] { ok.skinning_matrices({Affine::Identity(), nan_pose}, m, "game"); }, "pose[1]", "not finite");
+  expect_error(
+      [&] {
+        ok.skinning_matrices({Affine::Identity(), nan_pose}, m, "game");
+      },
+      "pose[1]", "not finite");
   expect_error([&] { ok.skinning_matrices({Affine::Identity()}, m, "game"); }, "pose", "1 bone transforms");
 }
 
@@ -100,7 +111,8 @@ TEST(Skin, AutomaticWeightsFollowTheNearestBone) {
   Vec3s out;
   skin.apply(m, pts, out);
   for (size_t i = 0; i < pts.size(); ++i) EXPECT_NEAR((out[i] - turn * pts[i]).norm(), 0.0, 1e-12);
-  expect_error([&] { Skin::automatic(pts, {"a"}, {Affine::Identity()}, {-1}, 5, "auto"); }, "influences", "[1, 4]");
+  expect_error([&] { Skin::automatic(pts, {"a"}, {Affine::Identity()}, {-1}, 5, "auto"); }, "influences",
+               "[1, 4]");
 }
 
 TEST(SkinnedMesh, ReadsTheGltfSimpleSkinAndFollowsItsAnimation) {
@@ -138,7 +150,8 @@ TEST(SkinnedMesh, ReadsTheGltfSimpleSkinAndFollowsItsAnimation) {
   for (int i = 0; i < 10; ++i) {
     if (mesh.positions[i].y() != 2.0) continue;
     const double x = mesh.positions[i].x();
-    EXPECT_NEAR((out[i] - Vec3(-1.0, 0.5 + x, 0.0)).norm(), 0.0, 1e-6) << "vertex " << i << ": " << out[i].transpose();
+    EXPECT_NEAR((out[i] - Vec3(-1.0, 0.5 + x, 0.0)).norm(), 0.0, 1e-6)
+        << "vertex " << i << ": " << out[i].transpose();
     ++checked;
   }
   EXPECT_EQ(checked, 2);
@@ -191,7 +204,8 @@ TEST(SkinnedMesh, ReadsAColladaSkin) {
   mesh.skin.skinning_matrices({moved}, m);
   Vec3s out;
   mesh.skin.apply(m, mesh.positions, out);
-  for (size_t i = 0; i < out.size(); ++i) EXPECT_NEAR((out[i] - mesh.positions[i] - Vec3(0.1, -0.2, 0.3)).norm(), 0, 1e-9);
+  for (size_t i = 0; i < out.size(); ++i)
+    EXPECT_NEAR((out[i] - mesh.positions[i] - Vec3(0.1, -0.2, 0.3)).norm(), 0, 1e-9);
 }
 
 TEST(SkinnedMesh, RejectsFilesWithoutSkinNamingThem) {

@@ -58,8 +58,8 @@ class Skin {
   int find(const std::string& name) const;
 
   // Skinning matrices G_b B_b⁻¹ of a pose (one global transform per bone). Throws loom::Error(source,
-  // "pose", ...) when the pose has the wrong number of bones, and (source, "pose[b]", ...) for a transform that
-  // is not finite.
+  // "pose", ...) when the pose has the wrong number of bones, and (source, "pose[b]", ...) for a transform
+  // that is not finite.
   void skinning_matrices(const std::vector<Affine>& pose, std::vector<Affine>& out,
                          const std::string& source = "") const;
   // x_i = Σ w (G B⁻¹) r_i for every vertex; `rest` has num_vertices() entries (bind space).

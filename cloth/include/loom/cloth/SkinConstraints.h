@@ -1,14 +1,14 @@
 #pragma once
 // Skin constraints: a constraint pass that ties each simulated vertex to its skinned position (the garment
-// mesh deformed by the skeleton, computed by the caller and passed as plain arrays). Applied after the solver,
-// at the end of each step [t, t + h], against the skinned targets p_i and unit normals n_i at t + h:
+// mesh deformed by the skeleton, computed by the caller and passed as plain arrays). Applied after the
+// solver, at the end of each step [t, t + h], against the skinned targets p_i and unit normals n_i at t + h:
 //   1. animation drive: x_i += (1 - exp(-k h)) (p_i - x_i), k the drive stiffness (1/s); 0 = off.
 //   2. max distance:    |x_i - p_i| <= s d_i, d_i the vertex's max distance (m), s the global multiplier;
 //                       s d_i = 0 puts the vertex exactly on p_i (fully skinned), d_i = ∞ leaves it free.
 //   3. backstop:        with radius R = 0, the half-space (x_i - p_i)·n_i >= -b_i (a plane b_i behind the
-//                       skinned position along its normal); with R > 0, outside the sphere of radius R centred
-//                       at p_i - (b_i + R) n_i. A vertex behind it is moved to the closest allowed point; with a
-//                       sphere that point also keeps the max distance when the two sets meet.
+//                       skinned position along its normal); with R > 0, outside the sphere of radius R
+//                       centred at p_i - (b_i + R) n_i. A vertex behind it is moved to the closest allowed
+//                       point; with a sphere that point also keeps the max distance when the two sets meet.
 // Each correction Δx also changes the velocity by Δx / h, so the next step does not undo it (position-based
 // dynamics). The order (drive, max distance, backstop) makes the backstop hold at the end of every step.
 // Jolt's skinned constraints (max distance, backstop distance and radius) and Unreal Chaos Cloth's
