@@ -1,7 +1,7 @@
 # ctest consumer_package: install the build tree into a fresh temporary prefix, then configure, build and run
 # tests/consumer in a fresh build folder against that prefix only (the source tree is not on any path).
 #   cmake -DLOOM_BUILD_DIR=... -DWORK_DIR=... -DCONSUMER_SOURCE=... [-DEXECUTABLE=consumer] [-DBUILD_TYPE=Release]
-#         -P run_consumer.cmake
+#         [-DARGS=arg1;arg2] -P run_consumer.cmake
 foreach(v LOOM_BUILD_DIR WORK_DIR CONSUMER_SOURCE)
   if(NOT DEFINED ${v})
     message(FATAL_ERROR "run_consumer.cmake: -D${v}=... is required")
@@ -36,5 +36,5 @@ endforeach()
 step("configure" ${CMAKE_COMMAND} -S ${CONSUMER_SOURCE} -B ${build} -DCMAKE_BUILD_TYPE=${BUILD_TYPE}
      -DCMAKE_PREFIX_PATH=${prefix} -DCMAKE_FIND_PACKAGE_NO_PACKAGE_REGISTRY=ON)
 step("build" ${CMAKE_COMMAND} --build ${build} -j2)
-step("run" ${build}/${EXECUTABLE})
+step("run" ${build}/${EXECUTABLE} ${ARGS})
 message(STATUS "${step_output}")

@@ -1,0 +1,127 @@
+#pragma once
+// GarmentInstance: the engine-facing facade of a skinned garment, for a game loop:
+//   GarmentInstance g(mesh.positions, mesh.triangles, mesh.skin, settings, bind_pose);
+//   each frame:  g.set_pose(bone_globals);  g.step(frame_dt);  g.write_positions(vertex_buffer, stride);
+// The cloth is simulated with fixed steps of `fixed_dt` behind an accumulator (Fiedler 2004, "Fix your
+// timestep!"): any frame time (30, 60, 144 Hz, jittering) runs the same steps at the same simulated times,
+// with skinned targets interpolated between the poses of the frames around each step: the skinned mesh in the
+// character's frame, the frame's origin and its rotation (as rotation vectors relative to the middle pose) by
+// the quadratic through the last three poses in time (linear after a reset or a zero-length frame). The
+// positions handed out are those at (frame time - fixed_dt), interpolated between the last two steps, so a
+// frame rate changes nothing but the sampling.
+//
+// One fixed step [t, t + h]:
+//   1. inertia: the character's frame F moves from F(t) to F(t + h) (origin o, rotation R). The cloth is
+//   carried
+//      by (1 - linear_inertia) of the origin's motion and (1 - angular_inertia) of the rotation's angle about
+//      the origin, velocities turned with it. 1 = world-space simulation; 0 = simulation in the character's
+//      frame (the cloth feels the frame's motion only through its skinned targets and gravity).
+//   2. skinned targets p(t + h) and normals n(t + h); vertices whose max distance is 0 become kinematic (pins
+//      with velocity (p - x) / h, Solver.h's contract); the others keep their mass.
+//   3. solver: XPBD (Macklin, Müller, Chentanez 2016) with `iterations` sweeps, gravity, the model's springs
+//   and
+//      optional wind drag (AirDragTerm.h).
+//   4. SkinConstraints (drive, max distance, backstop; SkinConstraints.h).
+// Teleports: when the frame's origin moves farther than `teleport_distance` or turns by more than
+// `teleport_rotation` between two set_pose calls (or after teleport()), the whole cloth state is carried
+// rigidly by that frame change and the step interpolates only the pose's motion relative to the frame.
+#include <memory>
+#include <optional>
+#include <string>
+#include <vector>
+
+#include "loom/characters/Skin.h"
+#include "loom/cloth/AirDragTerm.h"
+#include "loom/cloth/Cloth.h"
+#include "loom/cloth/SkinConstraints.h"
+#include "loom/cloth/Solver.h"
+
+namespace loom::characters {
+
+struct GarmentSettings {
+  cloth::Material material;                   // fabric (Material.h)
+  std::string model = "springs";              // elastic model (Model.h)
+  double fixed_dt = 1.0 / 240.0;              // s, simulation step
+  int iterations = 4;                         // XPBD sweeps per step
+  cloth::Vec3 gravity{0.0, -9.81, 0.0};       // m/s²
+  cloth::SkinConstraintSettings constraints;  // per-vertex maps over the garment's vertices
+  double linear_inertia = 1.0;                // 1, in [0, 1]
+  double angular_inertia = 1.0;               // 1, in [0, 1]
+  double teleport_distance = 1.0;             // m per frame, > 0 (∞: never)
+  double teleport_rotation = 1.0;             // rad per frame, > 0 (∞: never)
+  int max_steps_per_frame = 32;               // >= 1; a longer frame drops the excess time (the clock slips)
+  std::optional<cloth::DragSettings> wind;    // air drag with wind; absent = no drag term
+};
+
+class GarmentInstance {
+ public:
+  // `bind_positions` (m, the skin's bind space) and `triangles` make the cloth's rest shape; the cloth starts
+  // on the skinned mesh at `pose` (one global transform per skin bone). The character's frame is the rigid
+  // part of bone 0 unless set_pose is given one. Throws loom::Error(source, field, problem) for invalid
+  // settings (fixed_dt, iterations, linear_inertia, angular_inertia, teleport_distance, teleport_rotation,
+  // max_steps_per_frame, the constraint maps), a skin of another vertex count, an invalid mesh or pose.
+  GarmentInstance(const cloth::Vec3s& bind_positions, const std::vector<cloth::Tri>& triangles, Skin skin,
+                  GarmentSettings settings, const std::vector<Affine>& pose,
+                  const std::string& source = "garment");
+
+  // The pose at the end of the next step() call: bone global transforms (world, m) and the character's frame
+  // (rigid). Throws loom::Error(source, "pose[b]", ...) for a non-finite transform or a wrong bone count.
+  void set_pose(const std::vector<Affine>& bones);
+  void set_pose(const std::vector<Affine>& bones, const Eigen::Isometry3d& frame);
+  // Advances the clock by frame_dt (s, >= 0, finite) and runs the fixed steps that fall within it.
+  void step(double frame_dt);
+  // The next set_pose carries the cloth rigidly with the frame, whatever the thresholds.
+  void teleport() { teleport_requested_ = true; }
+  // Puts the cloth on the skinned mesh of the current pose, at rest.
+  void reset();
+  // Global multiplier of the max distances (SkinConstraintSettings): 0 fully skinned, ∞ fully simulated.
+  void set_max_distance_multiplier(double s);
+
+  int num_vertices() const { return static_cast<int>(bind_.size()); }
+  // Writes the render positions (xyz as floats) into dst[i * stride + 0..2]; stride >= 3 floats. No
+  // allocation.
+  void write_positions(float* dst, size_t stride) const;
+  // Writes unit area-weighted vertex normals of the render positions, as write_positions. No allocation after
+  // the first call (uses an internal buffer: not for concurrent calls on one instance).
+  void write_normals(float* dst, size_t stride) const;
+
+  const cloth::Vec3s& positions() const { return cloth_->state().x; }  // m, state after the last step
+  const cloth::Vec3s& skinned() const { return skinned_curr_; }        // m, skinned mesh at the last set_pose
+  const cloth::Vec3s& targets() const { return target_; }              // m, skinned targets of the last step
+  const cloth::Vec3s& target_normals() const { return target_normal_; }
+  const cloth::SkinConstraints& constraints() const { return constraints_; }
+  double time() const { return static_cast<double>(steps_) * settings_.fixed_dt; }  // s, simulated
+  double clock() const { return clock_; }                                           // s, frame time
+  long steps() const { return steps_; }
+  long teleports() const { return teleports_; }
+
+ private:
+  void fixed_step();
+  void carry(const Eigen::Isometry3d& from, const Eigen::Isometry3d& to, double linear, double angular);
+  static void vertex_normals(const std::vector<cloth::Tri>& tris, const cloth::Vec3s& x, cloth::Vec3s& n);
+
+  std::string source_;
+  GarmentSettings settings_;
+  Skin skin_;
+  cloth::Vec3s bind_;
+  std::vector<cloth::Tri> tris_;
+  std::unique_ptr<cloth::Cloth> cloth_;
+  std::unique_ptr<cloth::Solver> solver_;
+  cloth::SkinConstraints constraints_;
+  std::vector<Affine> matrices_;
+  cloth::Vec3s skinned_curr_;  // m, world skinned mesh at the last set_pose
+  // m, skinned mesh in the character's frame at clock_prev2_, clock_prev_ and clock_
+  cloth::Vec3s local_prev2_, local_prev_, local_curr_;
+  cloth::Vec3s target_, target_normal_, render_prev_;
+  mutable cloth::Vec3s scratch_, scratch_normals_;
+  std::vector<double> mass_;
+  Eigen::Isometry3d frame_prev2_ = Eigen::Isometry3d::Identity(), frame_prev_ = Eigen::Isometry3d::Identity();
+  Eigen::Isometry3d frame_curr_ = Eigen::Isometry3d::Identity();
+  Eigen::Isometry3d frame_sim_ = Eigen::Isometry3d::Identity();  // frame at time()
+  double clock_prev2_ = 0.0, clock_prev_ = 0.0, clock_ = 0.0;    // s, frame times of the last three poses
+  long steps_ = 0;
+  long teleports_ = 0;
+  bool teleport_requested_ = false;
+};
+
+}  // namespace loom::characters

@@ -1,0 +1,258 @@
+#include "loom/characters/GarmentInstance.h"
+
+#include <algorithm>
+#include <cmath>
+
+#include "loom/cloth/Error.h"
+#include "loom/cloth/GravityTerm.h"
+#include "loom/cloth/Model.h"
+
+namespace loom::characters {
+
+namespace {
+
+using cloth::Vec3;
+using cloth::Vec3s;
+using Iso = Eigen::Isometry3d;
+
+void check_range(double value, double lo, double hi, bool inf_ok, const std::string& source,
+                 const char* field, const char* what) {
+  const bool ok = value >= lo && value <= hi && (inf_ok || std::isfinite(value));
+  if (!ok) throw Error(source, field, std::to_string(value) + " " + what);
+}
+
+// The rigid part of an affine map: its rotation by polar decomposition, its translation.
+Iso rigid_part(const Affine& a) {
+  Eigen::JacobiSVD<Eigen::Matrix3d> svd(a.linear(), Eigen::ComputeFullU | Eigen::ComputeFullV);
+  Eigen::Matrix3d r = svd.matrixU() * svd.matrixV().transpose();
+  if (r.determinant() < 0.0) {
+    Eigen::Matrix3d u = svd.matrixU();
+    u.col(2) *= -1.0;
+    r = u * svd.matrixV().transpose();
+  }
+  Iso out = Iso::Identity();
+  out.linear() = r;
+  out.translation() = a.translation();
+  return out;
+}
+
+}  // namespace
+
+GarmentInstance::GarmentInstance(const Vec3s& bind_positions, const std::vector<cloth::Tri>& triangles,
+                                 Skin skin, GarmentSettings settings, const std::vector<Affine>& pose,
+                                 const std::string& source)
+    : source_(source),
+      settings_(std::move(settings)),
+      skin_(std::move(skin)),
+      bind_(bind_positions),
+      tris_(triangles),
+      constraints_(settings_.constraints, static_cast<int>(bind_positions.size()), source) {
+  check_range(settings_.fixed_dt, 1e-6, 1.0, false, source, "fixed_dt", "must be in [1e-6, 1] s");
+  if (settings_.iterations < 1)
+    throw Error(source, "iterations", std::to_string(settings_.iterations) + " must be >= 1");
+  check_range(settings_.linear_inertia, 0.0, 1.0, false, source, "linear_inertia", "must be in [0, 1]");
+  check_range(settings_.angular_inertia, 0.0, 1.0, false, source, "angular_inertia", "must be in [0, 1]");
+  check_range(settings_.teleport_distance, 1e-9, HUGE_VAL, true, source, "teleport_distance", "must be > 0");
+  check_range(settings_.teleport_rotation, 1e-9, HUGE_VAL, true, source, "teleport_rotation", "must be > 0");
+  if (settings_.max_steps_per_frame < 1)
+    throw Error(source, "max_steps_per_frame",
+                std::to_string(settings_.max_steps_per_frame) + " must be >= 1");
+  if (!settings_.gravity.allFinite()) throw Error(source, "gravity", "must be finite");
+  if (skin_.num_vertices() != static_cast<int>(bind_.size()))
+    throw Error(source, "skin",
+                "skins " + std::to_string(skin_.num_vertices()) + " vertices, the mesh has " +
+                    std::to_string(bind_.size()));
+  settings_.material.validate(source, "material");
+  auto mesh = cloth::ClothMesh::from_triangles(bind_, tris_, {}, source);
+  cloth_ = std::make_unique<cloth::Cloth>("garment", mesh, settings_.material);
+  if (settings_.gravity.squaredNorm() > 0.0)
+    cloth_->add_term(std::make_unique<cloth::GravityTerm>(cloth_->state().mass, settings_.gravity));
+  cloth::add_model_terms(*cloth_, settings_.model, source, "model");
+  if (settings_.wind)
+    cloth_->add_term(
+        std::make_unique<cloth::AirDragTerm>(*settings_.wind, mesh->triangles(), mesh->vertex_areas()));
+  cloth::SolverSettings solver;
+  solver.method = "xpbd";
+  solver.params["iterations"] = settings_.iterations;
+  solver_ = cloth::make_solver(solver, source);
+  solver_->check(*cloth_);
+  mass_ = cloth_->state().mass;
+
+  skin_.skinning_matrices(pose, matrices_, source_);
+  skin_.apply(matrices_, bind_, skinned_curr_);
+  frame_curr_ = rigid_part(pose[0]);
+  local_curr_.resize(bind_.size());
+  for (size_t i = 0; i < bind_.size(); ++i) local_curr_[i] = frame_curr_.inverse() * skinned_curr_[i];
+  reset();
+}
+
+void GarmentInstance::set_pose(const std::vector<Affine>& bones) {
+  if (bones.empty()) throw Error(source_, "pose", "no bone transforms");
+  set_pose(bones, rigid_part(bones[0]));
+}
+
+void GarmentInstance::set_pose(const std::vector<Affine>& bones, const Iso& frame) {
+  if (!frame.matrix().allFinite()) throw Error(source_, "frame", "is not finite");
+  skin_.skinning_matrices(bones, matrices_, source_);
+  skin_.apply(matrices_, bind_, skinned_curr_);
+  frame_curr_ = frame;
+  const Iso to_local = frame_curr_.inverse();
+  for (size_t i = 0; i < local_curr_.size(); ++i) local_curr_[i] = to_local * skinned_curr_[i];
+  // Frame change since the pose at clock(): a teleport carries the cloth rigidly by it.
+  const Iso delta = frame_curr_ * frame_prev_.inverse();
+  const double moved = (frame_curr_.translation() - frame_prev_.translation()).norm();
+  const double turned = Eigen::AngleAxisd(delta.linear()).angle();
+  if (teleport_requested_ || moved > settings_.teleport_distance || turned > settings_.teleport_rotation) {
+    carry(frame_prev_, frame_curr_, 1.0, 1.0);
+    for (Vec3& p : render_prev_) p = delta * p;
+    frame_sim_ = delta * frame_sim_;
+    frame_prev2_ = delta * frame_prev2_;
+    frame_prev_ = frame_curr_;
+    ++teleports_;
+    teleport_requested_ = false;
+  }
+}
+
+void GarmentInstance::step(double frame_dt) {
+  if (!(frame_dt >= 0.0) || !std::isfinite(frame_dt))
+    throw Error(source_, "frame_dt", std::to_string(frame_dt) + " must be finite and >= 0");
+  const double h = settings_.fixed_dt;
+  clock_ += frame_dt;
+  long due = static_cast<long>(std::floor((clock_ - time()) / h + 1e-9));
+  if (due > settings_.max_steps_per_frame) {
+    due = settings_.max_steps_per_frame;
+    clock_ = time() + due * h;  // the clock slips: the excess frame time is not simulated
+  }
+  const double span = clock_ - clock_prev_;
+  // Three poses (T_{k-2}, T_{k-1}, T_k) give a quadratic in time (Lagrange weights w0, w1, w2) when both
+  // intervals are long enough; otherwise the path is linear between the last two.
+  const bool quadratic = span > 1e-6 && clock_prev_ - clock_prev2_ > 1e-6;
+  for (long k = 0; k < due; ++k) {
+    const double t_end = static_cast<double>(steps_ + 1) * h;
+    const double s = span > 0.0 ? std::clamp((t_end - clock_prev_) / span, 0.0, 1.0) : 1.0;
+    double w0 = 0.0, w1 = 1.0 - s, w2 = s;
+    if (quadratic) {
+      const double t = std::min(t_end, clock_), a = clock_prev2_, b = clock_prev_, c = clock_;
+      w0 = (t - b) * (t - c) / ((a - b) * (a - c));
+      w1 = (t - a) * (t - c) / ((b - a) * (b - c));
+      w2 = (t - a) * (t - b) / ((c - a) * (c - b));
+    }
+    // Rotation: R_{k-1} exp(w0 r0 + w2 r2), r_j = log(R_{k-1}ᵀ R_j) (rotation vectors relative to the middle
+    // pose).
+    const Eigen::AngleAxisd r0(frame_prev_.linear().transpose() * frame_prev2_.linear());
+    const Eigen::AngleAxisd r2(frame_prev_.linear().transpose() * frame_curr_.linear());
+    const Vec3 rv = w0 * r0.angle() * r0.axis() + w2 * r2.angle() * r2.axis();
+    Iso frame = Iso::Identity();
+    frame.linear() = frame_prev_.linear() *
+                     (rv.norm() > 0.0 ? Eigen::AngleAxisd(rv.norm(), rv / rv.norm()).toRotationMatrix()
+                                      : Eigen::Matrix3d::Identity());
+    frame.translation() =
+        w0 * frame_prev2_.translation() + w1 * frame_prev_.translation() + w2 * frame_curr_.translation();
+    const int n = num_vertices();
+    for (int i = 0; i < n; ++i)
+      target_[i] = frame * (w0 * local_prev2_[i] + w1 * local_prev_[i] + w2 * local_curr_[i]);
+    render_prev_ = cloth_->state().x;
+    if (settings_.linear_inertia < 1.0 || settings_.angular_inertia < 1.0)
+      carry(frame_sim_, frame, 1.0 - settings_.linear_inertia, 1.0 - settings_.angular_inertia);
+    frame_sim_ = frame;
+    fixed_step();
+  }
+  if (span > 0.0) {
+    local_prev2_ = local_prev_;
+    frame_prev2_ = frame_prev_;
+    clock_prev2_ = clock_prev_;
+  }
+  local_prev_ = local_curr_;
+  frame_prev_ = frame_curr_;
+  clock_prev_ = clock_;
+}
+
+void GarmentInstance::fixed_step() {
+  const double h = settings_.fixed_dt;
+  cloth::ClothState& st = cloth_->state();
+  vertex_normals(tris_, target_, target_normal_);
+  const int n = num_vertices();
+  for (int i = 0; i < n; ++i) {
+    if (constraints_.settings().effective_max_distance(i) == 0.0) {
+      st.inv_mass[i] = 0.0;
+      st.v[i] = (target_[i] - st.x[i]) / h;
+    } else {
+      st.inv_mass[i] = 1.0 / mass_[i];
+    }
+  }
+  solver_->step(*cloth_, time(), h, 1);
+  constraints_.apply(target_, target_normal_, h, st.x, st.v);
+  ++steps_;
+}
+
+void GarmentInstance::carry(const Iso& from, const Iso& to, double linear, double angular) {
+  const Vec3 oa = from.translation();
+  const Vec3 shift = linear * (to.translation() - from.translation());
+  const Eigen::AngleAxisd turn(to.linear() * from.linear().transpose());
+  const Eigen::Matrix3d r = Eigen::AngleAxisd(angular * turn.angle(), turn.axis()).toRotationMatrix();
+  cloth::ClothState& st = cloth_->state();
+  for (int i = 0; i < st.size(); ++i) {
+    st.x[i] = oa + shift + r * (st.x[i] - oa);
+    st.x_prev[i] = oa + shift + r * (st.x_prev[i] - oa);
+    st.v[i] = r * st.v[i];
+  }
+}
+
+void GarmentInstance::reset() {
+  cloth::ClothState& st = cloth_->state();
+  st.x = skinned_curr_;
+  st.x_prev = st.x;
+  std::fill(st.v.begin(), st.v.end(), Vec3::Zero());
+  render_prev_ = st.x;
+  local_prev_ = local_prev2_ = local_curr_;
+  target_ = skinned_curr_;
+  vertex_normals(tris_, target_, target_normal_);
+  frame_prev_ = frame_prev2_ = frame_curr_;
+  frame_sim_ = frame_curr_;
+  clock_prev2_ = clock_prev_ = clock_ = time();
+  solver_->reset();
+}
+
+void GarmentInstance::set_max_distance_multiplier(double s) {
+  constraints_.set_max_distance_multiplier(s, source_);
+}
+
+void GarmentInstance::write_positions(float* dst, size_t stride) const {
+  const double a = std::clamp((clock_ - time()) / settings_.fixed_dt, 0.0, 1.0);
+  const Vec3s& x = cloth_->state().x;
+  for (int i = 0; i < num_vertices(); ++i) {
+    const Vec3 p = render_prev_[i] + a * (x[i] - render_prev_[i]);
+    float* d = dst + static_cast<size_t>(i) * stride;
+    d[0] = static_cast<float>(p.x());
+    d[1] = static_cast<float>(p.y());
+    d[2] = static_cast<float>(p.z());
+  }
+}
+
+void GarmentInstance::write_normals(float* dst, size_t stride) const {
+  const double a = std::clamp((clock_ - time()) / settings_.fixed_dt, 0.0, 1.0);
+  const Vec3s& x = cloth_->state().x;
+  scratch_.resize(x.size());
+  for (size_t i = 0; i < x.size(); ++i) scratch_[i] = render_prev_[i] + a * (x[i] - render_prev_[i]);
+  vertex_normals(tris_, scratch_, scratch_normals_);
+  for (int i = 0; i < num_vertices(); ++i) {
+    float* d = dst + static_cast<size_t>(i) * stride;
+    d[0] = static_cast<float>(scratch_normals_[i].x());
+    d[1] = static_cast<float>(scratch_normals_[i].y());
+    d[2] = static_cast<float>(scratch_normals_[i].z());
+  }
+}
+
+void GarmentInstance::vertex_normals(const std::vector<cloth::Tri>& tris, const Vec3s& x, Vec3s& n) {
+  n.assign(x.size(), Vec3::Zero());
+  for (const cloth::Tri& t : tris) {
+    const Vec3 a = (x[t[1]] - x[t[0]]).cross(x[t[2]] - x[t[0]]);  // twice the area times the unit normal
+    for (int v : t) n[v] += a;
+  }
+  for (Vec3& v : n) {
+    const double len = v.norm();
+    v = len > 0.0 ? Vec3(v / len) : Vec3::Zero();
+  }
+}
+
+}  // namespace loom::characters
