@@ -134,12 +134,13 @@ fuzz_run() {
 
 usage() {
   cat <<'USAGE'
-Usage: ./loom.sh demo | test | fuzz | format | gallery
+Usage: ./loom.sh demo | test | bench | fuzz | format | gallery
   demo   install missing Debian packages, build (Release, -j2), run the default scene
   test   install missing Debian packages, build, run the whole test suite (ctest); then (what CI runs)
          the ASan + UBSan build (clang-14, build-asan), the fast tests under it and 15 s of each fuzz target
   test --sanitize  only the ASan + UBSan build and the fast tests under it
   fuzz [SECONDS]   build the libFuzzer targets (build-asan) and run each for SECONDS (60)
+  bench [NAME...|--docs]  run the benchmarks (all or NAMEd) into bench/results/, update docs/benchmarks.md
   format [--check] [FILES]  apply (or check) .clang-format on every tracked C++ file or FILES
   gallery  render every scene in scenes/ small (GIF + last frame) into docs/gallery/ (README images)
 USAGE
@@ -188,6 +189,15 @@ case "$cmd" in
     install_missing
     asan_build
     fuzz_run "${2:-60}"
+    ;;
+  bench)
+    # ./loom.sh bench [NAME... | --docs]: run the benchmarks into bench/results/ and splice them into
+    # docs/benchmarks.md (bench/regenerate.sh).
+    packages+=("${test_packages[@]}")
+    install_missing
+    shift
+    [ "${1:-}" = --docs ] || configure_and_build test
+    bash bench/regenerate.sh "$@"
     ;;
   format)
     # ./loom.sh format [--check] [FILES...]: apply .clang-format to every tracked C++ file (or FILES), or check.
