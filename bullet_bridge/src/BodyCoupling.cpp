@@ -90,7 +90,8 @@ class BodyCoupling::Solve final : public cloth::Stage {
     for (CoupledBody& b : o_.bodies) {
       if (!b.dynamic()) continue;
       b.v = (b.pose.translation() - b.pose0.translation()) / ctx.h;
-      Eigen::Quaterniond dq = Eigen::Quaterniond(b.pose.linear()) * Eigen::Quaterniond(b.pose0.linear()).conjugate();
+      Eigen::Quaterniond dq =
+          Eigen::Quaterniond(b.pose.linear()) * Eigen::Quaterniond(b.pose0.linear()).conjugate();
       if (dq.w() < 0.0) dq.coeffs() = -dq.coeffs();
       b.w = 2.0 * dq.vec() / ctx.h;
     }
@@ -187,7 +188,7 @@ void BodyCoupling::solve(cloth::Cloth& cloth, size_t index, double h) {
   w.curr.resize(nc);
   auto body_of = [&](int k) -> CoupledBody* {
     return k < static_cast<int>(collider_body.size()) && collider_body[k] >= 0 ? &bodies[collider_body[k]]
-                                                                              : nullptr;
+                                                                               : nullptr;
   };
   auto pose_of = [&](int k) -> Transform {
     const CoupledBody* b = body_of(k);
@@ -225,7 +226,8 @@ void BodyCoupling::solve(cloth::Cloth& cloth, size_t index, double h) {
     for (int i = 0; i < n; ++i) {
       const Vec3& x = s.x[i];
       if ((x.array() < flo.array()).any() || (x.array() > fhi.array()).any()) continue;
-      if ((x.array() >= nlo.array()).all() && (x.array() <= nhi.array()).all()) w.vertex_pairs.emplace_back(i, k);
+      if ((x.array() >= nlo.array()).all() && (x.array() <= nhi.array()).all())
+        w.vertex_pairs.emplace_back(i, k);
       if (w.features[k].a.empty()) continue;
       for (int t : cd.vertex_tris[i])
         if (w.stamp[t] != k) w.stamp[t] = k, w.tri_pairs.emplace_back(t, k);

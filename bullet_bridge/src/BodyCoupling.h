@@ -16,7 +16,7 @@
 //         x_v += w_v dlambda n,  the body gets the positional impulse -dlambda n at the contact point;
 //       body features (sphere centres, capsule axes, box and hull edges; FeatureContact.h) against cloth
 //       triangles likewise, the triangle's point weighted by barycentric coordinates (Bridson et al. 2002);
-//     tethers (Kim, Tang, Chentanez 2012, "Long range attachments"): every free vertex stays within
+//     tethers (Kim, Chentanez, Müller-Fischer 2012, "Long range attachments"): each free vertex stays within
 //       (1 + max_stretch) of its rest distance to each of its nearest pinned vertices;
 //     strain limit (Provot 1995): structural and shear edges no longer than (1 + max_stretch) L.
 //     In tethers and edges a vertex in contact that would move into its body moves the body with it: along
@@ -55,12 +55,12 @@ struct CoupledBody {
 };
 
 struct BodyCouplingSettings {
-  double thickness = 0.005;   // m, contact offset
-  double max_stretch = 0.1;   // 1, edges and tethers at most (1 + max_stretch) times their rest length
-  int iterations = 2;         // alternations of contacts, tethers and edges per cloth step
-  int tether_anchors = 4;     // pinned vertices each free vertex is tethered to (nearest at rest); 0: none
-  bool features = true;       // body features against cloth triangles
-  double friction = 0.3;      // 1, kinetic
+  double thickness = 0.005;      // m, contact offset
+  double max_stretch = 0.1;      // 1, edges and tethers at most (1 + max_stretch) times their rest length
+  int iterations = 2;            // alternations of contacts, tethers and edges per cloth step
+  int tether_anchors = 4;        // pinned vertices each free vertex is tethered to (nearest at rest); 0: none
+  bool features = true;          // body features against cloth triangles
+  double friction = 0.3;         // 1, kinetic
   double static_friction = 0.4;  // 1
 };
 

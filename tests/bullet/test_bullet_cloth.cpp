@@ -74,7 +74,8 @@ TEST(BulletCloth, CoupledSolveConservesMomentum) {
     const Vec3 inertia_local(1.0 / box->getInvInertiaDiagLocal().x(), 1.0 / box->getInvInertiaDiagLocal().y(),
                              1.0 / box->getInvInertiaDiagLocal().z());
     linear = m * vb + cloth_momentum(*c);
-    angular = xb.cross(m * vb) + R * inertia_local.asDiagonal() * R.transpose() * eig(box->getAngularVelocity());
+    const Vec3 wb = eig(box->getAngularVelocity());
+    angular = xb.cross(m * vb) + R * inertia_local.asDiagonal() * R.transpose() * wb;
     const cloth::ClothState& st = c->simulation().cloths()[0]->state();
     for (int i = 0; i < st.size(); ++i) angular += st.x[i].cross(st.mass[i] * st.v[i]);
   };
