@@ -5,6 +5,7 @@
 #include <algorithm>
 #include <cmath>
 
+#include "BodyCoupling.h"
 #include "BulletConvert.h"
 #include "ContactStage.h"
 #include "loom/collision/BodyCollisionStage.h"
@@ -168,18 +169,29 @@ BulletCloth::BulletCloth(cloth::SimulationSetup setup, const BulletClothSettings
     if (!(settings.max_stretch > 0.0)) throw Error("", "bullet.max_stretch", "must be > 0");
     setup.solver = cloth::SolverSettings{};
     setup.solver.method = settings.realtime_solver;
+    if (settings.realtime_substeps < 1) throw Error("", "bullet.realtime_substeps", "must be >= 1");
+    if (settings.coupling_iterations < 1) throw Error("", "bullet.coupling_iterations", "must be >= 1");
     setup.solver.params["iterations"] = settings.realtime_iterations;
-    cloth::StrainLimitSettings sl;
-    sl.max_stretch = settings.max_stretch;
-    sl.iterations = std::max(1, settings.strain_iterations);
-    setup.strain_limit = sl;
+    setup.strain_limit.reset();  // BodyCoupling limits edges and tethers
+    setup.substeps = std::max(setup.substeps, settings.realtime_substeps);
   }
   sim_ = std::make_unique<cloth::Simulation>(std::move(setup));
   auto attach = std::make_unique<AttachStage>(*this);
   AttachStage* attach_ptr = attach.get();
   sim_->add_stage(std::make_unique<PoseStage>(*this), cloth::Simulation::Slot::before_solve);
   sim_->add_stage(std::move(attach), cloth::Simulation::Slot::before_solve);
-  if (settings.contacts == BulletClothSettings::Contacts::body_collision) {
+  if (settings.tier == BulletClothSettings::Tier::realtime) {
+    BodyCouplingSettings bs;
+    bs.thickness = thickness;
+    bs.max_stretch = settings.max_stretch;
+    bs.iterations = settings.coupling_iterations;
+    bs.tether_anchors = settings.tether_anchors;
+    bs.friction = settings.friction;
+    bs.static_friction = std::max(settings.friction, settings.static_friction);
+    coupling_ = std::make_unique<BodyCoupling>(colliders_, bs);
+    sim_->add_stage(coupling_->make_predict_stage(), cloth::Simulation::Slot::before_solve);
+    sim_->add_stage(coupling_->make_solve_stage(), cloth::Simulation::Slot::after_solve);
+  } else if (settings.contacts == BulletClothSettings::Contacts::body_collision) {
     // The collision library's stage (CCD, proximity, friction, edges, reaction impulses).
     collision::BodyCollisionSettings bs;
     bs.thickness = thickness;
@@ -318,6 +330,12 @@ void BulletCloth::updateAction(btCollisionWorld* world, btScalar dt_bt) {
   colliders_->clear();
   collider_body_.clear();
   collider_local_.clear();
+  std::vector<btRigidBody*> coupled;  // Tier::realtime: dynamic bodies solved with the cloth
+  if (coupling_) {
+    coupling_->bodies.clear();
+    coupling_->collider_body.clear();
+    coupling_->collider_local.clear();
+  }
   for (btRigidBody* rb : bodies) {
     BodyTrack& tr = track(rb);
     const Transform now = to_eigen(rb->getWorldTransform());
@@ -368,7 +386,26 @@ void BulletCloth::updateAction(btCollisionWorld* world, btScalar dt_bt) {
       for (Collider& c : tr.local) collision::prepare_collider(c);
       tr.local_of = rb->getCollisionShape();
     }
+    int coupled_index = -1;
+    if (coupling_ && !rb->isStaticOrKinematicObject() && rb->getInvMass() > 0 &&
+        std::none_of(attachments_.begin(), attachments_.end(), [rb](const Attachment& a) { return a.body == rb; })) {
+      CoupledBody cb;
+      cb.inv_mass = rb->getInvMass();
+      cb.inv_inertia_local = to_eigen(rb->getInvInertiaDiagLocal());
+      cb.pose = cb.pose0 = tr.start;
+      cb.v = to_eigen(rb->getLinearVelocity());
+      cb.w = to_eigen(rb->getAngularVelocity());
+      const Eigen::Matrix3d R = tr.start.linear();
+      cb.inv_inertia = R * cb.inv_inertia_local.asDiagonal() * R.transpose();
+      coupled_index = static_cast<int>(coupling_->bodies.size());
+      coupling_->bodies.push_back(cb);
+      coupled.push_back(rb);
+    }
     for (const Collider& c : tr.local) {
+      if (coupling_) {
+        coupling_->collider_body.push_back(coupled_index);
+        coupling_->collider_local.push_back(c.curr);
+      }
       Collider w = c;
       w.friction = settings_.friction;
       w.static_friction = std::max(w.static_friction, w.friction);
@@ -383,7 +420,7 @@ void BulletCloth::updateAction(btCollisionWorld* world, btScalar dt_bt) {
   }
 
   // 3. Step the cloth over [t0, t0 + dt], in as many steps as the relative motion needs (settings).
-  int steps = settings_.cloth_substeps;
+  int steps = coupling_ ? std::max(settings_.cloth_substeps, settings_.realtime_substeps) : settings_.cloth_substeps;
   if (settings_.max_cloth_substeps > steps && !colliders_->empty()) {
     double motion = 0.0;  // m
     for (btRigidBody* rb : bodies) {
@@ -405,9 +442,24 @@ void BulletCloth::updateAction(btCollisionWorld* world, btScalar dt_bt) {
   substep_t0_ = sim_->time();
   double pen = 0.0;
   last_stats_ = sim_->step_frame();
-  pen = contacts_   ? contacts_->last_penetration()
+  pen = coupling_   ? coupling_->last_penetration()
+        : contacts_ ? contacts_->last_penetration()
         : features_ ? features_->last_penetration()
                     : std::max(0.0, body_->max_deficit() - thickness_);
+  // Tier::realtime: the bodies the cloth moved take their pose and velocity from the coupled solve.
+  for (size_t b = 0; b < coupled.size(); ++b) {
+    const CoupledBody& cb = coupling_->bodies[b];
+    if (!cb.touched) continue;
+    btRigidBody* rb = coupled[b];
+    BodyTrack& tr = *tracks_.at(rb);
+    const Vec3 dp = (cb.v - to_eigen(rb->getLinearVelocity())) / rb->getInvMass();
+    tr.applied += dp;
+    tr.end = cb.pose;
+    rb->activate();
+    rb->setCenterOfMassTransform(to_bt(cb.pose));
+    rb->setLinearVelocity(to_bt(cb.v));
+    rb->setAngularVelocity(to_bt(cb.w));
+  }
   last_penetration_ = pen;
   ++substeps_;
 

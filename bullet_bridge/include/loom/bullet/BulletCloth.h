@@ -35,6 +35,7 @@ class btIDebugDraw;
 
 namespace loom::bullet {
 class ContactStage;
+class BodyCoupling;
 }  // namespace loom::bullet
 namespace loom::collision {
 class BodyCollisionStage;
@@ -49,18 +50,23 @@ struct BulletClothSettings {
   double query_margin = 0.1;      // m, inflation of the cloth AABB for the broad-phase query
 
   // Quality tier of the cloth.
-  //   setup (default): the SimulationSetup's own solver, substeps and strain limit, as given.
-  //   realtime (NOT validated yet: in the toy box scene bodies still pass through and edges stretch past the
-  //     limit; tests/bullet/test_bullet_toy_box.cpp, disabled): the solver, the steps and the strain limit
-  //     below replace setup.solver, setup.substeps and setup.strain_limit: small position-based steps
-  //     (Macklin et al. 2019, "Small steps in physics simulation": one iteration per step, many steps) and
-  //     edges held to 1 + max_stretch of their rest length (Provot 1995).
+  //   setup (default): the SimulationSetup's own solver, substeps and strain limit, as given; the bodies are
+  //     kinematic inside the cloth step and receive the summed reaction impulse after it (`contacts`).
+  //   realtime (NOT validated yet: in the toy box scene bodies still leave the cloth and edges stretch past
+  //     the limit; tests/bullet/test_bullet_toy_box.cpp, disabled): cloth and the dynamic bodies near it
+  //     solved together in small XPBD steps (the bridge's BodyCoupling.h; docs/bullet.md, "Coupled
+  //     solve"): contacts corrected with the generalized inverse masses of vertex and body, tethers and
+  //     edges held to 1 + max_stretch of their rest length, a vertex pressed into a body moving the body
+  //     with it; the bodies' new poses and velocities are handed back to Bullet. The solver and the strain
+  //     limit below replace setup.solver and setup.strain_limit, and `contacts` is not used.
   enum class Tier { setup, realtime };
   Tier tier = Tier::setup;
   std::string realtime_solver = "xpbd";  // realtime: any of cloth::solver_names() taking `iterations`
   int realtime_iterations = 1;            // realtime: solver iterations per cloth step
-  double max_stretch = 0.1;               // 1, realtime: strain limit l/L - 1 of structural and shear edges
-  int strain_iterations = 2;              // realtime: strain-limit sweeps per cloth step
+  int realtime_substeps = 2;              // realtime: cloth steps per Bullet substep, at least
+  int coupling_iterations = 2;            // realtime: contact, tether and edge sweeps per cloth step
+  int tether_anchors = 4;                 // realtime: pinned vertices each vertex is tethered to (0: none)
+  double max_stretch = 0.1;               // 1, realtime: strain limit l/L - 1 of edges and tethers
 
   // Adaptive cloth steps: a Bullet substep runs n = ceil(relative motion / (step_motion * thickness)) cloth
   // steps, cloth_substeps <= n <= max_cloth_substeps, where the relative motion (m) is the farthest any point
@@ -72,7 +78,7 @@ struct BulletClothSettings {
   int max_cloth_substeps = 16;
   double friction = 0.3;          // 1, kinetic Coulomb coefficient cloth vs bodies
   double static_friction = 0.4;   // 1, static coefficient (>= friction)
-  // Contact response:
+  // Contact response of Tier::setup:
   //   vertex (default): the bridge's vertex projection and cloth-edge pass (ContactStage.h), the one the
   //     bridge tests validate;
   //   features: collision/FeatureContact.h, cloth vertices against collider surfaces and collider features
@@ -174,6 +180,7 @@ class BulletCloth : public btActionInterface {
   ContactStage* contacts_ = nullptr;                     // owned by sim_ (Contacts::vertex)
   collision::FeatureContactStage* features_ = nullptr;  // owned by sim_ (Contacts::features)
   collision::BodyCollisionStage* body_ = nullptr;   // owned by sim_ (Contacts::body_collision)
+  std::unique_ptr<BodyCoupling> coupling_;          // Tier::realtime
   double thickness_ = 0.0;                          // m, the contact thickness in use
   double substep_t0_ = 0.0;                  // s, cloth time at the current Bullet substep's start
   double last_penetration_ = 0.0;

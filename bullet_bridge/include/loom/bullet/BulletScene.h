@@ -21,6 +21,7 @@ class BulletCloth;
 
 struct BulletSceneOptions {
   int bullet_substeps = 4;  // Bullet fixed steps per scene frame (1/240 s at 60 fps)
+  bool realtime = false;    // BulletClothSettings::Tier::realtime (the coupled solve) instead of setup
 };
 
 class BulletScene {
