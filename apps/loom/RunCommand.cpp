@@ -137,317 +137,397 @@ std::string default_scene_path() {
   return (fs::path(LOOM_SOURCE_DIR) / "scenes" / kDefaultScene).string();
 }
 
-int run_command(const RunOptions& options) {
-  const auto wall_start = std::chrono::steady_clock::now();
-  RunOptions o = options;
-  std::optional<Checkpoint> resume;  // --resume DIR: the run's options and state come from DIR/checkpoint
-  if (!o.resume.empty()) {
-    resume = read_checkpoint(o.resume);
-    const fs::path ckpt = fs::path(o.resume) / "checkpoint" / "checkpoint.bin";
-    if (read_run_id(o.resume) != resume->run_id)
-      throw Error(ckpt.string(), "run_id",
-                  "belongs to another run's output folder (its run id is not the one in " +
-                      (fs::path(o.resume) / OutputFolder::kManifest).string() + "): resume the folder it was written in");
-    check_inputs(*resume);  // scene, meshes, motion clips: unchanged since the checkpoint, by hash
-    o.scene = resume->scene;
-    o.sets = resume->sets;
-    o.out = o.resume;
-    o.render = resume->render;
-    if (o.frames < 0) o.frames = resume->frames_total;
-    if (o.threads < 0) o.threads = resume->threads;
-    if (o.checkpoint_every <= 0) o.checkpoint_every = resume->checkpoint_every;
-    if (read_text_file(o.scene) != resume->scene_text)
-      throw Error(o.scene, "--resume", "the scene file changed since the checkpoint was written");
-  }
-  const std::string scene_path = o.scene.empty() ? default_scene_path() : o.scene;
-  scene::Scene sc = scene::load_scene(scene_path, o.sets);
-  // What a checkpoint records of the inputs (Checkpoint.h): the scene by absolute path, so --resume works from
-  // any folder, and every file the scene read, hashed.
-  const std::string scene_abs = fs::absolute(scene_path).lexically_normal().string();
-  const std::string scene_text = read_text_file(scene_path);
-  std::vector<InputFile> inputs = {fingerprint(scene_path)};
-  for (const std::string& f : sc.inputs) inputs.push_back(fingerprint(f));
-  if (o.threads > 0) sc.setup.threads = o.threads;
+namespace {
+
+// --resume DIR: the run's options come from DIR's checkpoint, after its run id and every input it read
+// (scene, meshes, motion clips) are checked against what the checkpoint recorded.
+std::optional<Checkpoint> apply_resume(RunOptions& o) {
+  if (o.resume.empty()) return std::nullopt;
+  Checkpoint resume = read_checkpoint(o.resume);
+  const fs::path ckpt = fs::path(o.resume) / "checkpoint" / "checkpoint.bin";
+  if (read_run_id(o.resume) != resume.run_id)
+    throw Error(ckpt.string(), "run_id",
+                "belongs to another run's output folder (its run id is not the one in " +
+                    (fs::path(o.resume) / OutputFolder::kManifest).string() + "): resume the folder it was written in");
+  check_inputs(resume);
+  o.scene = resume.scene;
+  o.sets = resume.sets;
+  o.out = o.resume;
+  o.render = resume.render;
+  if (o.frames < 0) o.frames = resume.frames_total;
+  if (o.threads < 0) o.threads = resume.threads;
+  if (o.checkpoint_every <= 0) o.checkpoint_every = resume.checkpoint_every;
+  if (read_text_file(o.scene) != resume.scene_text)
+    throw Error(o.scene, "--resume", "the scene file changed since the checkpoint was written");
+  return resume;
+}
+
+// One `loom run`: the scene's pipeline, the output folder it owns and what it writes there, frame by frame.
+// The constructor validates everything (scene, resume state, output folder) before any file changes.
+class SceneRun {
+ public:
+  explicit SceneRun(const RunOptions& options);
+  // Frame 0 (or, on --resume, the frames kept in memory replayed from the log), then every frame asked for.
+  void run();
+  // Renders the recording (--render), closes stats.csv, writes summary.json; returns the exit code.
+  int finish();
+
+ private:
+  void open_outputs();
+  void start();
+  void step_frames();
+  void render_video();
+  nlohmann::ordered_json summary() const;
+  void write_row(const cloth::FrameStats& s);
+  void write_bodies(int f);
+  void run_census();
+  std::string frame_name(int f) const;
+  void keep_frame(bool exported, bool rendered);
+  void save_checkpoint();
+  // Stops the run at frame f with `why` when the simulation or the shown surface is not finite.
+  bool stopped_non_finite(const cloth::FrameStats& s, int f);
+
+  const std::chrono::steady_clock::time_point wall_start_ = std::chrono::steady_clock::now();
+  RunOptions o_;
+  std::optional<Checkpoint> resume_;
+  std::string scene_path_, scene_abs_, scene_text_;
+  std::vector<InputFile> inputs_;  // what a checkpoint records of the inputs: every file the scene read, hashed
+  scene::Scene sc_;
+  int frames_ = 0;
+  std::unique_ptr<scene::ScenePipeline> pipeline_;
+  cloth::Simulation* sim_ = nullptr;
+  const bullet::BulletScene* bodies_world_ = nullptr;  // a scene with rigid bodies: its Bullet world
+  fs::path out_;
+  std::unique_ptr<OutputFolder> folder_;
+  int first_ = 0;
+  std::unique_ptr<DetailView> shown_;  // cloths with `detail` are written and rendered as their surface
+  std::unique_ptr<FrameLog> log_;      // frames pc2/gltf/--render keep in memory, logged for --resume
+  int digits_ = 5;
+  bool obj_ = false;
+  fs::path stats_partial_;
+  std::ofstream csv_, bodies_csv_;
+  std::unique_ptr<exporter::Exporters> exports_;
+#ifdef LOOM_HAVE_RENDER
+  std::unique_ptr<render::Recording> recording_;  // --render: positions kept, rendered after the run
+#endif
+  nlohmann::ordered_json render_summary_;
+  long census_intersections_ = 0;
+  double census_penetration_ = 0.0;
+  double max_strain_ = 0.0, mean_strain_sum_ = 0.0, sim_ms_ = 0.0;
+  bool finite_ = true, interrupted_ = false, resumable_ = true;
+  std::string error_;
+  int done_ = 0;
+};
+
+SceneRun::SceneRun(const RunOptions& options) : o_(options) {
+  resume_ = apply_resume(o_);
+  scene_path_ = o_.scene.empty() ? default_scene_path() : o_.scene;
+  sc_ = scene::load_scene(scene_path_, o_.sets);
+  // The scene by absolute path, so --resume works from any folder.
+  scene_abs_ = fs::absolute(scene_path_).lexically_normal().string();
+  scene_text_ = read_text_file(scene_path_);
+  inputs_ = {fingerprint(scene_path_)};
+  for (const std::string& f : sc_.inputs) inputs_.push_back(fingerprint(f));
+  if (o_.threads > 0) sc_.setup.threads = o_.threads;
   // Threads beyond the machine's only queue on the cores (and thousands exhaust the OpenMP runtime).
   const int hardware = std::max(1, static_cast<int>(std::thread::hardware_concurrency()));
-  if (sc.setup.threads > hardware) {
-    std::cerr << "loom: warning: " << printable(scene_path) << ": threads " << sc.setup.threads << " capped at the "
-              << hardware << " hardware threads of this machine\n";
-    sc.setup.threads = hardware;
+  if (sc_.setup.threads > hardware) {
+    std::cerr << "loom: warning: " << printable(scene_path_) << ": threads " << sc_.setup.threads
+              << " capped at the " << hardware << " hardware threads of this machine\n";
+    sc_.setup.threads = hardware;
   }
-  const int frames = o.frames >= 0 ? o.frames : sc.frames;
-  if (!sc.bodies.empty() && (resume || o.checkpoint_every > 0))
-    throw Error(scene_path, "bodies",
-                "--checkpoint-every / --resume do not save the Bullet world: not available for scenes with rigid bodies");
-  // What the scene runs, with the scene-level defaults (ScenePipeline.h); validates before any output. The
-  // colliders drawn and censused are the scene's colliders and a rig's capsules, or a Bullet world's bodies.
-  const std::unique_ptr<scene::ScenePipeline> pipeline = scene::build_pipeline(sc);
-  sc = pipeline->scene();
-  cloth::Simulation& sim = pipeline->simulation();
-  auto step_frame = [&]() { return pipeline->step_frame(); };
-  const collision::ColliderSetPtr& census_colliders = pipeline->colliders();
+  frames_ = o_.frames >= 0 ? o_.frames : sc_.frames;
+  if (!sc_.bodies.empty() && (resume_ || o_.checkpoint_every > 0))
+    throw Error(scene_path_, "bodies",
+                "--checkpoint-every / --resume do not save the Bullet world: not available for scenes with rigid "
+                "bodies");
+  // What the scene runs, with the scene-level defaults (ScenePipeline.h); validates before any output.
+  pipeline_ = scene::build_pipeline(sc_);
+  sc_ = pipeline_->scene();
+  sim_ = &pipeline_->simulation();
 #ifdef LOOM_HAVE_BULLET
-  const bullet::BulletScene* bodies_world = pipeline->bullet();
+  bodies_world_ = pipeline_->bullet();
+  resumable_ = !bodies_world_;
 #endif
-  // --census: exact count of intersecting triangle pairs (self, non-adjacent, and between cloths)
-  // and the deepest vertex inside a collider, after every frame; summary.json gets the largest of each.
-  long census_intersections = 0;
-  double census_penetration = 0.0;
-  auto run_census = [&] {
-    if (!o.census) return;
-    std::vector<collision::CensusInput> in;
-    for (const auto& c : sim.cloths()) in.push_back({&c->mesh(), &c->state().x});
-    census_intersections = std::max(census_intersections, collision::count_all_intersections(in, sc.setup.threads));
-    if (census_colliders) census_penetration = std::max(census_penetration, collision::max_penetration(in, *census_colliders));
-  };
+  open_outputs();
+}
 
-  // The output folder (OutputFolder.h): out/<scene name> by default (the scene layer keeps `name` a plain file
-  // name); a run writes only paths it claims in the folder's manifest and deletes only listed ones.
-  const fs::path out = o.out.empty() ? fs::path("out") / sc.name : fs::path(o.out);
-  if (o.out.empty() && fs::path(sc.name).filename() != fs::path(sc.name))
-    throw Error(scene_path, "name", "is not a plain file name, so it cannot name the output folder");
-  OutputFolder folder(out, resume ? "--resume" : "--out", o.overwrite, resume.has_value());
-  const int first = resume ? resume->frame : 0;
-  // Hybrid detail (issue 10): cloths with `detail` are written and rendered as their curved-face surface.
-  DetailView shown(sc, sim);
-  // Geometry kept in memory by pc2/gltf/--render is logged for --resume (Checkpoint.h; Ctrl-C can come any time).
-  bool in_memory = o.render;
-  for (const std::string& f : sc.output.formats) in_memory = in_memory || f == "pc2" || f == "gltf";
-  // On --resume everything is checked before a file changes: the state, the frame log, the stats rows.
+// The output folder (OutputFolder.h): out/<scene name> by default (the scene layer keeps `name` a plain file
+// name); a run writes only paths it claims in the folder's manifest and deletes only listed ones. On --resume
+// everything is checked before a file changes: the state, the frame log, the stats rows.
+void SceneRun::open_outputs() {
+  out_ = o_.out.empty() ? fs::path("out") / sc_.name : fs::path(o_.out);
+  if (o_.out.empty() && fs::path(sc_.name).filename() != fs::path(sc_.name))
+    throw Error(scene_path_, "name", "is not a plain file name, so it cannot name the output folder");
+  folder_ = std::make_unique<OutputFolder>(out_, resume_ ? "--resume" : "--out", o_.overwrite, resume_.has_value());
+  first_ = resume_ ? resume_->frame : 0;
+  shown_ = std::make_unique<DetailView>(sc_, *sim_);
+  bool in_memory = o_.render;
+  for (const std::string& f : sc_.output.formats) in_memory = in_memory || f == "pc2" || f == "gltf";
   std::string kept_rows;
-  if (resume) {
-    cloth::StateReader in(resume->state, (out / "checkpoint" / "checkpoint.bin").string());
-    sim.load_state(in);
-    kept_rows = kept_stats_rows(out, first);
+  if (resume_) {
+    cloth::StateReader in(resume_->state, (out_ / "checkpoint" / "checkpoint.bin").string());
+    sim_->load_state(in);
+    kept_rows = kept_stats_rows(out_, first_);
   }
-  std::unique_ptr<FrameLog> log;
   if (in_memory)
-    log = std::make_unique<FrameLog>(folder, resume ? resume->logged_frames : 0, resume ? resume->log_hash : 0, shown.cloths());
-  const int digits = frame_digits(frames);
-  auto frame_name = [&](int f) {
-    std::string n = std::to_string(f);
-    if (static_cast<int>(n.size()) < digits) n.insert(0, static_cast<size_t>(digits) - n.size(), '0');
-    return "frames/frame_" + n + ".obj";
-  };
-  folder.claim("frames/");
-  if (resume) {  // the stats rows and OBJ frames up to the checkpoint's frame are kept, later ones dropped
-    for (int f = first + 1; f <= frames; ++f) folder.remove_owned(frame_name(f));
-    folder.remove_owned("summary.json");
-    folder.remove_owned("stats.csv");
+    log_ = std::make_unique<FrameLog>(*folder_, resume_ ? resume_->logged_frames : 0, resume_ ? resume_->log_hash : 0,
+                                      shown_->cloths());
+  digits_ = frame_digits(frames_);
+  folder_->claim("frames/");
+  if (resume_) {  // the stats rows and OBJ frames up to the checkpoint's frame are kept, later ones dropped
+    for (int f = first_ + 1; f <= frames_; ++f) folder_->remove_owned(frame_name(f));
+    folder_->remove_owned("summary.json");
+    folder_->remove_owned("stats.csv");
   }
-  auto frame_path = [&](int f) { return folder.claim(frame_name(f)); };
-
-  const std::vector<std::string> stage_names = sim.stage_names();
-  const fs::path stats_partial = folder.claim("stats.csv.partial");
-  std::ofstream csv(stats_partial, std::ios::trunc);
-  if (!csv) throw Error(stats_partial.string(), "", "cannot write");
-  csv << std::setprecision(10);
-  csv << "frame,time,kinetic_energy,potential_energy,elastic_energy,max_strain,mean_strain,ms_total";
-  for (const auto& n : stage_names) csv << ",ms_" << n;
-  csv << "\n";
-  csv << kept_rows;
-  auto write_row = [&](const cloth::FrameStats& s) {
-    csv << s.frame << ',' << s.time << ',' << s.kinetic << ',' << s.potential << ',' << s.elastic << ','
-        << s.max_strain << ',' << s.mean_strain << ',' << s.total_ms;
-    for (double ms : s.stage_ms) csv << ',' << ms;
-    csv << "\n";
-  };
-  // Scenes with bodies: DIR/bodies.csv, one row per body per frame (centre of mass, velocity).
-  std::ofstream bodies_csv;
-  auto write_bodies = [&](int f) {
-#ifdef LOOM_HAVE_BULLET
-    if (!bodies_world) return;
-    if (!bodies_csv.is_open()) {
-      bodies_csv.open(folder.claim("bodies.csv"));
-      if (!bodies_csv) throw Error((out / "bodies.csv").string(), "", "cannot write");
-      bodies_csv << std::setprecision(10) << "frame,time,body,x,y,z,vx,vy,vz\n";
-    }
-    for (size_t k = 0; k < bodies_world->num_bodies(); ++k) {
-      const cloth::Vec3 p = bodies_world->body_position(k), v = bodies_world->body_velocity(k);
-      bodies_csv << f << ',' << f * sc.setup.frame_dt << ',' << sc.bodies[k].name << ',' << p.x() << ',' << p.y() << ','
-                 << p.z() << ',' << v.x() << ',' << v.y() << ',' << v.z() << "\n";
-    }
-#else
-    (void)f;
-#endif
-  };
+  stats_partial_ = folder_->claim("stats.csv.partial");
+  csv_.open(stats_partial_, std::ios::trunc);
+  if (!csv_) throw Error(stats_partial_.string(), "", "cannot write");
+  csv_ << std::setprecision(10);
+  csv_ << "frame,time,kinetic_energy,potential_energy,elastic_energy,max_strain,mean_strain,ms_total";
+  for (const auto& n : sim_->stage_names()) csv_ << ",ms_" << n;
+  csv_ << "\n" << kept_rows;
   // output.formats: "obj" below (with output.frames), "pc2" and "gltf" through loom::export.
-  const bool obj = sc.output.frames && std::find(sc.output.formats.begin(), sc.output.formats.end(), "obj") != sc.output.formats.end();
-  for (const std::string& f : sc.output.formats) {  // the exporters' files (Exporters.h), claimed first
+  obj_ = sc_.output.frames &&
+         std::find(sc_.output.formats.begin(), sc_.output.formats.end(), "obj") != sc_.output.formats.end();
+  for (const std::string& f : sc_.output.formats) {  // the exporters' files (Exporters.h), claimed first
     if (f == "pc2") {
-      folder.claim("pc2/");
-      for (const std::string& n : exporter::Exporters::file_names(shown.cloths())) {
-        folder.claim("pc2/" + n + ".obj");
-        folder.claim("pc2/" + n + ".pc2");
+      folder_->claim("pc2/");
+      for (const std::string& n : exporter::Exporters::file_names(shown_->cloths())) {
+        folder_->claim("pc2/" + n + ".obj");
+        folder_->claim("pc2/" + n + ".pc2");
       }
     } else if (f == "gltf") {
-      for (const char* n : {"animation.gltf", "animation.gltf.tmp", "animation.bin"}) folder.claim(n);
+      for (const char* n : {"animation.gltf", "animation.gltf.tmp", "animation.bin"}) folder_->claim(n);
     }
   }
-  exporter::Exporters exports(out.string(), sc.output.formats, shown.cloths(), sc.output.every);
+  exports_ = std::make_unique<exporter::Exporters>(out_.string(), sc_.output.formats, shown_->cloths(),
+                                                   sc_.output.every);
 #ifdef LOOM_HAVE_RENDER
-  std::unique_ptr<render::Recording> recording;  // --render: positions kept, rendered after the run
-  if (o.render) recording = std::make_unique<render::Recording>(shown.cloths(), census_colliders);
+  if (o_.render) recording_ = std::make_unique<render::Recording>(shown_->cloths(), pipeline_->colliders());
 #else
-  if (o.render) throw Error("", "--render", "this loom was built without the offscreen renderer (Debian: libosmesa6-dev libstb-dev)");
+  if (o_.render)
+    throw Error("", "--render", "this loom was built without the offscreen renderer (Debian: libosmesa6-dev libstb-dev)");
 #endif
+}
 
-  auto keep_frame = [&](bool exported, bool rendered) {
-    if (exported) exports.frame(sim.time(), shown.cloths());
-#ifdef LOOM_HAVE_RENDER
-    if (recording && rendered) recording->add(shown.cloths());
+void SceneRun::write_row(const cloth::FrameStats& s) {
+  csv_ << s.frame << ',' << s.time << ',' << s.kinetic << ',' << s.potential << ',' << s.elastic << ','
+       << s.max_strain << ',' << s.mean_strain << ',' << s.total_ms;
+  for (double ms : s.stage_ms) csv_ << ',' << ms;
+  csv_ << "\n";
+}
+
+// Scenes with bodies: DIR/bodies.csv, one row per body per frame (centre of mass, velocity).
+void SceneRun::write_bodies(int f) {
+#ifdef LOOM_HAVE_BULLET
+  if (!bodies_world_) return;
+  if (!bodies_csv_.is_open()) {
+    bodies_csv_.open(folder_->claim("bodies.csv"));
+    if (!bodies_csv_) throw Error((out_ / "bodies.csv").string(), "", "cannot write");
+    bodies_csv_ << std::setprecision(10) << "frame,time,body,x,y,z,vx,vy,vz\n";
+  }
+  for (size_t k = 0; k < bodies_world_->num_bodies(); ++k) {
+    const cloth::Vec3 p = bodies_world_->body_position(k), v = bodies_world_->body_velocity(k);
+    bodies_csv_ << f << ',' << f * sc_.setup.frame_dt << ',' << sc_.bodies[k].name << ',' << p.x() << ',' << p.y()
+                << ',' << p.z() << ',' << v.x() << ',' << v.y() << ',' << v.z() << "\n";
+  }
+#else
+  (void)f;
 #endif
-    if (log && (exported || rendered)) log->append(sim.time(), (exported ? 1 : 0) | (rendered ? 2 : 0), shown.cloths());
-  };
-  double max_strain = 0.0, mean_strain_sum = 0.0, sim_ms = 0.0;
-  bool finite = true;
-  std::string error;
-  if (resume) {
-    max_strain = resume->max_strain;
-    mean_strain_sum = resume->mean_strain_sum;
-    sim_ms = resume->sim_ms;
-    if (log)  // the frames pc2/gltf/--render hold in memory, back from the log
-      log->replay(shown.cloths(), [&](double time, int flags) {
-        if (flags & 1) exports.frame(time, shown.cloths());
+}
+
+// --census: exact count of intersecting triangle pairs (self, non-adjacent, and between cloths) and the
+// deepest vertex inside a collider, after every frame; summary.json gets the largest of each.
+void SceneRun::run_census() {
+  if (!o_.census) return;
+  std::vector<collision::CensusInput> in;
+  for (const auto& c : sim_->cloths()) in.push_back({&c->mesh(), &c->state().x});
+  census_intersections_ =
+      std::max(census_intersections_, collision::count_all_intersections(in, sc_.setup.threads));
+  if (pipeline_->colliders())
+    census_penetration_ = std::max(census_penetration_, collision::max_penetration(in, *pipeline_->colliders()));
+}
+
+std::string SceneRun::frame_name(int f) const {
+  std::string n = std::to_string(f);
+  if (static_cast<int>(n.size()) < digits_) n.insert(0, static_cast<size_t>(digits_) - n.size(), '0');
+  return "frames/frame_" + n + ".obj";
+}
+
+void SceneRun::keep_frame(bool exported, bool rendered) {
+  if (exported) exports_->frame(sim_->time(), shown_->cloths());
 #ifdef LOOM_HAVE_RENDER
-        if (recording && (flags & 2)) recording->add(shown.cloths());
+  if (recording_ && rendered) recording_->add(shown_->cloths());
+#endif
+  if (log_ && (exported || rendered))
+    log_->append(sim_->time(), (exported ? 1 : 0) | (rendered ? 2 : 0), shown_->cloths());
+}
+
+void SceneRun::save_checkpoint() {
+  csv_.flush();
+  if (log_) log_->flush();
+  Checkpoint c;
+  c.scene = scene_abs_;
+  c.scene_text = scene_text_;
+  c.run_id = folder_->run_id();
+  c.inputs = inputs_;
+  c.sets = o_.sets;
+  c.frames_total = frames_;
+  c.threads = sc_.setup.threads;
+  c.checkpoint_every = o_.checkpoint_every;
+  c.render = o_.render;
+  c.frame = done_;
+  c.max_strain = max_strain_;
+  c.mean_strain_sum = mean_strain_sum_;
+  c.sim_ms = sim_ms_;
+  c.logged_frames = log_ ? log_->entries() : 0;
+  c.log_hash = log_ ? log_->hash() : 0;
+  cloth::StateWriter w;
+  sim_->save_state(w);
+  c.state = w.data();
+  write_checkpoint(*folder_, c);
+}
+
+// Frame 0 is written only when it is finite (NaN is never written); a resumed run replays the frames
+// pc2/gltf/--render hold in memory from the log instead.
+void SceneRun::start() {
+  if (resume_) {
+    max_strain_ = resume_->max_strain;
+    mean_strain_sum_ = resume_->mean_strain_sum;
+    sim_ms_ = resume_->sim_ms;
+    if (log_)
+      log_->replay(shown_->cloths(), [&](double time, int flags) {
+        if (flags & 1) exports_->frame(time, shown_->cloths());
+#ifdef LOOM_HAVE_RENDER
+        if (recording_ && (flags & 2)) recording_->add(shown_->cloths());
 #endif
       });
-    shown.update();  // the replayed frames left their positions in the shown cloths
-  } else {
-    cloth::FrameStats s0 = sim.measure();
-    finite = s0.finite && non_finite_cloth(shown.cloths()).empty();
-    if (!finite) {
-      const std::string bad = non_finite_cloth(sim.cloths());
-      const std::string shown_bad = non_finite_cloth(shown.cloths());
-      error = !bad.empty() ? "cloth '" + bad + "' starts at a non-finite position"
-              : !shown_bad.empty()
-                  ? "the detail surface of cloth '" + shown_bad + "' is not finite at the start (cloths[].detail)"
-                  : "the start state's energy is not finite (an initial velocity, pin offset or anchor too large "
-                    "for double precision)";
-      error += "; stopped before frame 0, nothing written";
-    }
-    if (finite) {  // NaN is never written
-      write_row(s0);
-      write_bodies(0);
-      run_census();
-      if (obj) write_obj(frame_path(0), shown.cloths());
-      keep_frame(true, true);
-    }
-    max_strain = finite ? s0.max_strain : 0.0;
+    shown_->update();  // the replayed frames left their positions in the shown cloths
+    done_ = first_;
+    return;
   }
-  int done = first;
-  ProgressBar bar(frames);
-  auto save_checkpoint = [&]() {
-    csv.flush();
-    if (log) log->flush();
-    Checkpoint c;
-    c.scene = scene_abs;
-    c.scene_text = scene_text;
-    c.run_id = folder.run_id();
-    c.inputs = inputs;
-    c.sets = o.sets;
-    c.frames_total = frames;
-    c.threads = sc.setup.threads;
-    c.checkpoint_every = o.checkpoint_every;
-    c.render = o.render;
-    c.frame = done;
-    c.max_strain = max_strain;
-    c.mean_strain_sum = mean_strain_sum;
-    c.sim_ms = sim_ms;
-    c.logged_frames = log ? log->entries() : 0;
-    c.log_hash = log ? log->hash() : 0;
-    cloth::StateWriter w;
-    sim.save_state(w);
-    c.state = w.data();
-    write_checkpoint(folder, c);
-  };
+  const cloth::FrameStats s0 = sim_->measure();
+  finite_ = s0.finite && non_finite_cloth(shown_->cloths()).empty();
+  if (!finite_) {
+    const std::string bad = non_finite_cloth(sim_->cloths());
+    const std::string shown_bad = non_finite_cloth(shown_->cloths());
+    error_ = !bad.empty() ? "cloth '" + bad + "' starts at a non-finite position"
+             : !shown_bad.empty()
+                 ? "the detail surface of cloth '" + shown_bad + "' is not finite at the start (cloths[].detail)"
+                 : "the start state's energy is not finite (an initial velocity, pin offset or anchor too large "
+                   "for double precision)";
+    error_ += "; stopped before frame 0, nothing written";
+    return;
+  }
+  write_row(s0);
+  write_bodies(0);
+  run_census();
+  if (obj_) write_obj(folder_->claim(frame_name(0)), shown_->cloths());
+  keep_frame(true, true);
+  max_strain_ = s0.max_strain;
+  done_ = first_;
+}
+
+bool SceneRun::stopped_non_finite(const cloth::FrameStats& s, int f) {
+  const std::string valid = "; stopped, frames up to " + std::to_string(f - 1) + " are valid";
+  if (!s.finite) {
+    error_ = (sim_->failure().empty() ? "the state became non-finite in frame " + std::to_string(f) +
+                                            " (t = " + std::to_string(s.time) + " s)"
+                                      : sim_->failure()) +
+             valid;
+    return true;
+  }
+  shown_->update();
+  if (const std::string bad = non_finite_cloth(shown_->cloths()); !bad.empty()) {  // NaN is never written
+    error_ = "the shown surface of cloth '" + bad + "' became non-finite in frame " + std::to_string(f) +
+             (sc_.detail.empty() ? "" : " (check cloths[].detail)") + valid;
+    return true;
+  }
+  return false;
+}
+
+// Ctrl-C (SIGINT) stops the loop at the next frame boundary; the run then writes a checkpoint and valid outputs.
+void SceneRun::step_frames() {
+  ProgressBar bar(frames_);
   g_interrupted = 0;
   auto old_handler = std::signal(SIGINT, on_sigint);
-  bool interrupted = false;
-  for (int f = first + 1; f <= frames && finite; ++f) {
+  for (int f = first_ + 1; f <= frames_ && finite_; ++f) {
     if (g_interrupted) {
-      interrupted = true;
+      interrupted_ = true;
       break;
     }
-    cloth::FrameStats s = step_frame();
-    sim_ms += s.total_ms;
-    if (!s.finite) {
-      finite = false;
-      const std::string cause = sim.failure().empty() ? "the state became non-finite in frame " + std::to_string(f) +
-                                                            " (t = " + std::to_string(s.time) + " s)"
-                                                      : sim.failure();
-      error = cause + "; stopped, frames up to " + std::to_string(f - 1) + " are valid";
-      break;
-    }
-    shown.update();
-    if (const std::string bad = non_finite_cloth(shown.cloths()); !bad.empty()) {  // NaN is never written
-      finite = false;
-      error = "the shown surface of cloth '" + bad + "' became non-finite in frame " + std::to_string(f) +
-              (sc.detail.empty() ? "" : " (check cloths[].detail)") + "; stopped, frames up to " +
-              std::to_string(f - 1) + " are valid";
+    const cloth::FrameStats s = pipeline_->step_frame();
+    sim_ms_ += s.total_ms;
+    if (stopped_non_finite(s, f)) {
+      finite_ = false;
       break;
     }
     write_row(s);
     write_bodies(f);
     run_census();
-    if (obj && f % sc.output.every == 0) write_obj(frame_path(f), shown.cloths());
-    max_strain = std::max(max_strain, s.max_strain);
-    mean_strain_sum += s.mean_strain;
-    done = f;
+    if (obj_ && f % sc_.output.every == 0) write_obj(folder_->claim(frame_name(f)), shown_->cloths());
+    max_strain_ = std::max(max_strain_, s.max_strain);
+    mean_strain_sum_ += s.mean_strain;
+    done_ = f;
     bool rendered = false;
 #ifdef LOOM_HAVE_RENDER
-    rendered = f % sc.output.render.every == 0;
+    rendered = f % sc_.output.render.every == 0;
 #endif
-    keep_frame(f % sc.output.every == 0, rendered);
-    if (o.checkpoint_every > 0 && f % o.checkpoint_every == 0 && f < frames) save_checkpoint();
-    bar.update(done - first, sim_ms / std::max(1, done - first));
+    keep_frame(f % sc_.output.every == 0, rendered);
+    if (o_.checkpoint_every > 0 && f % o_.checkpoint_every == 0 && f < frames_) save_checkpoint();
+    bar.update(done_ - first_, sim_ms_ / std::max(1, done_ - first_));
   }
-  if (g_interrupted) interrupted = done < frames;
+  if (g_interrupted) interrupted_ = done_ < frames_;
   std::signal(SIGINT, old_handler);
-  bool resumable = true;
-#ifdef LOOM_HAVE_BULLET
-  resumable = !bodies_world;
-#endif
-  if (interrupted && resumable) save_checkpoint();
+  if (interrupted_ && resumable_) save_checkpoint();
   bar.finish();
-  exports.finish();
-  nlohmann::ordered_json render_summary;
-#ifdef LOOM_HAVE_RENDER
-  if (recording && !interrupted) {  // an interrupted run renders when it is resumed and ends
-    folder.claim("render/");
-    for (int f = 0; f < recording->frames(); ++f) {
-      char name[40];
-      std::snprintf(name, sizeof name, "render/frame_%05d.png", f);
-      folder.claim(name);
-    }
-    folder.claim("render.mp4");
-    folder.claim("render.gif");
-    render::RenderSettings rs;
-    rs.width = sc.output.render.width;
-    rs.height = sc.output.render.height;
-    if (sc.output.render.camera) rs.camera = render::Camera{sc.output.render.eye, sc.output.render.target, sc.output.render.fov};
-    const render::RenderReport rep =
-        render::render_recording(out.string(), *recording, rs, 1.0 / (sc.setup.frame_dt * sc.output.render.every));
-    render_summary = {{"frames", rep.frames}, {"ms_per_frame", rep.ms_per_frame}, {"width", rs.width}, {"height", rs.height}};
-    std::cout << "loom: rendered " << rep.frames << " frames (" << std::fixed << std::setprecision(1) << rep.ms_per_frame
-              << " ms/frame) -> " << (out / "render").string() << "/, " << rep.mp4 << ", " << rep.gif << "\n";
-  }
-#endif
-  csv.close();
-  if (!csv) throw Error(stats_partial.string(), "", "write failed");
-  fs::rename(stats_partial, folder.claim("stats.csv"));
+}
 
+void SceneRun::run() {
+  start();
+  if (finite_) step_frames();
+  exports_->finish();
+}
+
+// An interrupted run renders when it is resumed and ends.
+void SceneRun::render_video() {
+#ifdef LOOM_HAVE_RENDER
+  if (!recording_ || interrupted_) return;
+  folder_->claim("render/");
+  for (int f = 0; f < recording_->frames(); ++f) {
+    char name[40];
+    std::snprintf(name, sizeof name, "render/frame_%05d.png", f);
+    folder_->claim(name);
+  }
+  folder_->claim("render.mp4");
+  folder_->claim("render.gif");
+  render::RenderSettings rs;
+  rs.width = sc_.output.render.width;
+  rs.height = sc_.output.render.height;
+  if (sc_.output.render.camera)
+    rs.camera = render::Camera{sc_.output.render.eye, sc_.output.render.target, sc_.output.render.fov};
+  const render::RenderReport rep =
+      render::render_recording(out_.string(), *recording_, rs, 1.0 / (sc_.setup.frame_dt * sc_.output.render.every));
+  render_summary_ = {{"frames", rep.frames}, {"ms_per_frame", rep.ms_per_frame}, {"width", rs.width}, {"height", rs.height}};
+  std::cout << "loom: rendered " << rep.frames << " frames (" << std::fixed << std::setprecision(1)
+            << rep.ms_per_frame << " ms/frame) -> " << (out_ / "render").string() << "/, " << rep.mp4 << ", "
+            << rep.gif << "\n";
+#endif
+}
+
+// summary.json: completed = every frame asked for was simulated; interrupted = stopped by Ctrl-C (resumable).
+nlohmann::ordered_json SceneRun::summary() const {
   nlohmann::ordered_json j;
-  j["scene"] = scene_abs;
-  j["frames"] = done;
-  j["sim_seconds"] = done * sc.setup.frame_dt;
-  j["wall_seconds"] = std::chrono::duration<double>(std::chrono::steady_clock::now() - wall_start).count();
-  j["ms_per_frame"] = done ? sim_ms / done : 0.0;
+  j["scene"] = scene_abs_;
+  j["frames"] = done_;
+  j["sim_seconds"] = done_ * sc_.setup.frame_dt;
+  j["wall_seconds"] = std::chrono::duration<double>(std::chrono::steady_clock::now() - wall_start_).count();
+  j["ms_per_frame"] = done_ ? sim_ms_ / done_ : 0.0;
   nlohmann::ordered_json stages, per_frame, counters;
-  for (const cloth::StageProfile& p : sim.profile()) {
+  for (const cloth::StageProfile& p : sim_->profile()) {
     stages[p.name] = p.total_ms;
-    per_frame[p.name] = done ? p.total_ms / done : 0.0;
+    per_frame[p.name] = done_ ? p.total_ms / done_ : 0.0;
     nlohmann::ordered_json c = nlohmann::ordered_json::object();
     for (const auto& [k, v] : p.counters) c[k] = v;
     counters[p.name] = c;
@@ -455,65 +535,78 @@ int run_command(const RunOptions& options) {
   j["stages"] = stages;
   j["stages_ms_per_frame"] = per_frame;
   j["counters"] = counters;
-  j["max_strain"] = max_strain;
-  j["mean_strain"] = done ? mean_strain_sum / done : 0.0;
-  j["finite"] = finite;
-  if (o.census) {
-    j["intersections"] = census_intersections;
-    j["max_penetration"] = census_penetration;
+  j["max_strain"] = max_strain_;
+  j["mean_strain"] = done_ ? mean_strain_sum_ / done_ : 0.0;
+  j["finite"] = finite_;
+  if (o_.census) {
+    j["intersections"] = census_intersections_;
+    j["max_penetration"] = census_penetration_;
   }
-  // Issue 8: completed = every frame asked for was simulated; interrupted = stopped by Ctrl-C (resumable).
-  j["completed"] = finite && !interrupted && done == frames;
-  if (interrupted) j["interrupted"] = true;
-  if (resume) j["resumed_from_frame"] = first;
-  j["rollbacks"] = sim.rollbacks();
-  j["solver"] = sc.setup.solver.method;
-  j["substeps"] = sc.setup.substeps;
-  j["dt"] = sim.step_size();
-  j["threads"] = sc.setup.threads;
+  j["completed"] = finite_ && !interrupted_ && done_ == frames_;
+  if (interrupted_) j["interrupted"] = true;
+  if (resume_) j["resumed_from_frame"] = first_;
+  j["rollbacks"] = sim_->rollbacks();
+  j["solver"] = sc_.setup.solver.method;
+  j["substeps"] = sc_.setup.substeps;
+  j["dt"] = sim_->step_size();
+  j["threads"] = sc_.setup.threads;
   int vertices = 0, triangles = 0;
-  for (const auto& c : sim.cloths()) {
+  for (const auto& c : sim_->cloths()) {
     vertices += c->state().size();
     triangles += c->mesh().num_triangles();
   }
   j["vertices"] = vertices;
   j["triangles"] = triangles;
-  if (!render_summary.is_null()) j["render"] = render_summary;
+  if (!render_summary_.is_null()) j["render"] = render_summary_;
 #ifdef LOOM_HAVE_BULLET
-  if (bodies_world) {  // issue 9: the rigid bodies' end state; the trajectories are in bodies.csv
+  if (bodies_world_) {  // the rigid bodies' end state; the trajectories are in bodies.csv
     nlohmann::ordered_json bj = nlohmann::ordered_json::array();
-    for (size_t k = 0; k < bodies_world->num_bodies(); ++k) {
-      const cloth::Vec3 p = bodies_world->body_position(k), v = bodies_world->body_velocity(k);
-      bj.push_back({{"name", sc.bodies[k].name}, {"position", {p.x(), p.y(), p.z()}}, {"velocity", {v.x(), v.y(), v.z()}}});
+    for (size_t k = 0; k < bodies_world_->num_bodies(); ++k) {
+      const cloth::Vec3 p = bodies_world_->body_position(k), v = bodies_world_->body_velocity(k);
+      bj.push_back({{"name", sc_.bodies[k].name}, {"position", {p.x(), p.y(), p.z()}}, {"velocity", {v.x(), v.y(), v.z()}}});
     }
     j["bodies"] = bj;
     j["bodies_file"] = "bodies.csv";
-    j["bullet_substeps"] = bodies_world->bullet_substeps();
-    j["cloth_steps"] = bodies_world->cloth_steps();
-    if (!bodies_world->warnings().empty()) j["unsupported_shapes"] = bodies_world->warnings();
+    j["bullet_substeps"] = bodies_world_->bullet_substeps();
+    j["cloth_steps"] = bodies_world_->cloth_steps();
+    if (!bodies_world_->warnings().empty()) j["unsupported_shapes"] = bodies_world_->warnings();
   }
 #endif
-  if (!finite) j["error"] = error;
-  write_atomically(folder.claim("summary.json"), folder.claim("summary.json.tmp"), j.dump(2) + "\n");
+  if (!finite_) j["error"] = error_;
+  return j;
+}
 
-  if (o.profile) print_profile(sim, done);
-  if (!finite) {
-    std::cerr << "loom: error: " << printable(scene_path) << ": " << printable(error) << "\n";
+int SceneRun::finish() {
+  render_video();
+  csv_.close();
+  if (!csv_) throw Error(stats_partial_.string(), "", "write failed");
+  fs::rename(stats_partial_, folder_->claim("stats.csv"));
+  write_atomically(folder_->claim("summary.json"), folder_->claim("summary.json.tmp"), summary().dump(2) + "\n");
+  if (o_.profile) print_profile(*sim_, done_);
+  if (!finite_) {
+    std::cerr << "loom: error: " << printable(scene_path_) << ": " << printable(error_) << "\n";
     return 3;
   }
-  if (interrupted) {
-    if (!resumable) {
-      std::cerr << "loom: interrupted after frame " << done << " of " << frames
-                << "; outputs so far are valid (a scene with rigid bodies cannot be resumed)\n";
-      return 130;
-    }
-    std::cerr << "loom: interrupted after frame " << done << " of " << frames << "; outputs so far are valid; continue with: loom run --resume "
-              << printable(out.string()) << "\n";
+  if (interrupted_) {
+    std::cerr << "loom: interrupted after frame " << done_ << " of " << frames_ << "; outputs so far are valid";
+    if (!resumable_)
+      std::cerr << " (a scene with rigid bodies cannot be resumed)\n";
+    else
+      std::cerr << "; continue with: loom run --resume " << printable(out_.string()) << "\n";
     return 130;
   }
-  std::cout << "loom: " << done << " frames of " << printable(sc.name) << " in " << std::fixed << std::setprecision(2)
-            << (done ? sim_ms / done : 0.0) << " ms/frame -> " << printable(out.string()) << "\n";
+  std::cout << "loom: " << done_ << " frames of " << printable(sc_.name) << " in " << std::fixed
+            << std::setprecision(2) << (done_ ? sim_ms_ / done_ : 0.0) << " ms/frame -> " << printable(out_.string())
+            << "\n";
   return 0;
+}
+
+}  // namespace
+
+int run_command(const RunOptions& options) {
+  SceneRun run(options);
+  run.run();
+  return run.finish();
 }
 
 }  // namespace loom::app

@@ -468,7 +468,6 @@ TEST(ImplicitSolvers, AdaptiveStepRejectsAndGrowsBack) {
   EXPECT_GT(s.stats().cg_iterations, 0);
 }
 
-double total_energy(const FrameStats& f) { return f.kinetic + f.potential + f.elastic; }
 
 // Runs `frames` frames; returns the largest total energy seen, and fails on any non-finite frame.
 // A solver counter of the "solve" stage (ImplicitSolver::counters()), -1 if absent.

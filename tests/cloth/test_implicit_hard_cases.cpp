@@ -22,6 +22,8 @@ SolverSettings solver(const std::string& method, std::map<std::string, double> p
   return s;
 }
 
+double total_energy(const FrameStats& f) { return f.kinetic + f.potential + f.elastic; }
+
 long counter(const Simulation& sim, const std::string& name) {
   for (const StageProfile& p : sim.profile())
     for (const auto& [key, value] : p.counters)
