@@ -1,5 +1,5 @@
 #pragma once
-// Checkpoints of `loom run` (issue 8): `--checkpoint-every N` writes DIR/checkpoint/checkpoint.bin every N
+// Checkpoints of `loom run`: `--checkpoint-every N` writes DIR/checkpoint/checkpoint.bin every N
 // frames (and on Ctrl-C), atomically (temp file + rename); `--resume DIR` continues from it bit-identically
 // to an uninterrupted run. The file holds a JSON header (the run: scene text, --set overrides, frames, the
 // totals of the outputs so far) and the simulation's state archive (cloth::Simulation::save_state).
@@ -48,8 +48,8 @@ class FrameLog {
   void append(double time, int flags, const std::vector<std::unique_ptr<cloth::Cloth>>& cloths);
   void flush() { file_.flush(); }
   long entries() const { return entries_; }
-  // Calls fn(time, flags) for each kept entry with the cloths' positions set to the logged ones, then puts the
-  // positions back.
+  // Calls fn(time, flags) for each kept entry with the cloths' positions set to the logged ones, then puts
+  // the positions back.
   template <class Fn>
   void replay(std::vector<std::unique_ptr<cloth::Cloth>>& cloths, Fn fn) const;
 

@@ -39,7 +39,7 @@ namespace loom::app {
 
 namespace {
 
-// The default scene (issue 6): a mocap character in a skirt and a cape; builds without loom::characters
+// The default scene: a mocap character in a skirt and a cape; builds without loom::characters
 // fall back to the hanging cloth.
 #ifdef LOOM_HAVE_CHARACTERS
 constexpr const char* kDefaultScene = "character_layers.json";
@@ -47,7 +47,7 @@ constexpr const char* kDefaultScene = "character_layers.json";
 constexpr const char* kDefaultScene = "hanging_cloth.json";
 #endif
 
-// Ctrl-C (SIGINT): the run stops at the next frame boundary, writes a checkpoint and valid outputs (issue 8).
+// Ctrl-C (SIGINT): the run stops at the next frame boundary, writes a checkpoint and valid outputs.
 volatile std::sig_atomic_t g_interrupted = 0;
 extern "C" void on_sigint(int) { g_interrupted = 1; }
 
@@ -138,14 +138,13 @@ int run_command(const RunOptions& options) {
   const std::string scene_path = o.scene.empty() ? default_scene_path() : o.scene;
   scene::Scene sc = scene::load_scene(scene_path, o.sets);
   if (o.threads > 0) sc.setup.threads = o.threads;
-  // Issue 8: the guard's intersection check is on by default for a scene with cloth-cloth or self-collision
-  // (measured: 7-8 % of the step time on character_layers, 1.3 % on layer_stack; README "Reliability"), unless the
-  // scene sets `guard.intersections` itself.
+  // The guard's intersection check is on by default for a scene with cloth-cloth or self-collision
+  // (its cost: docs/validation.md, "Guard"), unless the scene sets `guard.intersections` itself.
   if (!sc.setup.guard.intersections_set && sc.collision && (sc.collision->self || sc.setup.cloths.size() > 1))
     sc.setup.guard.intersections = true;
   const int frames = o.frames >= 0 ? o.frames : sc.frames;
   collision::ColliderSetPtr census_colliders;  // --census: the simulation's colliders, for max_penetration
-  // A scene with rigid `bodies` (issue 9) runs in a Bullet world, its cloths as one BulletCloth; the
+  // A scene with rigid `bodies` runs in a Bullet world, its cloths as one BulletCloth; the
   // colliders drawn and censused are then the bodies at their poses.
   std::unique_ptr<cloth::Simulation> sim_ptr;
 #ifdef LOOM_HAVE_BULLET
@@ -175,7 +174,7 @@ int run_command(const RunOptions& options) {
   cloth::Simulation& sim = *sim_ptr;
   auto step_frame = [&]() { return sim.step_frame(); };
 #endif
-  // --census (issue 5): exact count of intersecting triangle pairs (self, non-adjacent, and between cloths)
+  // --census: exact count of intersecting triangle pairs (self, non-adjacent, and between cloths)
   // and the deepest vertex inside a collider, after every frame; summary.json gets the largest of each.
   long census_intersections = 0;
   double census_penetration = 0.0;
@@ -251,7 +250,7 @@ int run_command(const RunOptions& options) {
     return out / "frames" / name;
   };
 
-  // Hybrid detail (issue 10): cloths with `detail` are written and rendered as their curved-face surface.
+  // Hybrid detail: cloths with `detail` are written and rendered as their curved-face surface.
   DetailView shown(sc, sim);
   // output.formats: "obj" below (with output.frames), "pc2" and "gltf" through loom::export.
   const bool obj = sc.output.frames && std::find(sc.output.formats.begin(), sc.output.formats.end(), "obj") != sc.output.formats.end();
@@ -263,7 +262,8 @@ int run_command(const RunOptions& options) {
   if (o.render) throw Error("", "--render", "this loom was built without the offscreen renderer (Debian: libosmesa6-dev libstb-dev)");
 #endif
 
-  // Geometry kept in memory by pc2/gltf/--render is logged for --resume (Checkpoint.h; Ctrl-C can come any time).
+  // Geometry kept in memory by pc2/gltf/--render is logged for --resume (Checkpoint.h; Ctrl-C can come any
+  // time).
   bool in_memory = o.render;
   for (const std::string& f : sc.output.formats) in_memory = in_memory || f == "pc2" || f == "gltf";
   std::unique_ptr<FrameLog> log;
@@ -294,7 +294,7 @@ int run_command(const RunOptions& options) {
   } else {
     cloth::FrameStats s0 = sim.measure();
     finite = s0.finite;
-    if (finite) {  // NaN is never written (issue 8)
+    if (finite) {  // NaN is never written
       write_row(s0);
       write_bodies(0);
       run_census();
@@ -412,7 +412,7 @@ int run_command(const RunOptions& options) {
     j["intersections"] = census_intersections;
     j["max_penetration"] = census_penetration;
   }
-  // Issue 8: completed = every frame asked for was simulated; interrupted = stopped by Ctrl-C (resumable).
+  // Completed = every frame asked for was simulated; interrupted = stopped by Ctrl-C (resumable).
   j["completed"] = finite && !interrupted && done == frames;
   if (interrupted) j["interrupted"] = true;
   if (resume) j["resumed_from_frame"] = first;
@@ -430,7 +430,7 @@ int run_command(const RunOptions& options) {
   j["triangles"] = triangles;
   if (!render_summary.is_null()) j["render"] = render_summary;
 #ifdef LOOM_HAVE_BULLET
-  if (bodies_world) {  // issue 9: the rigid bodies' end state; the trajectories are in bodies.csv
+  if (bodies_world) {  // The rigid bodies' end state; the trajectories are in bodies.csv
     nlohmann::ordered_json bj = nlohmann::ordered_json::array();
     for (size_t k = 0; k < bodies_world->num_bodies(); ++k) {
       const cloth::Vec3 p = bodies_world->body_position(k), v = bodies_world->body_velocity(k);

@@ -4,7 +4,7 @@
 // rebuilding it from an edited copy of the scene while keeping the clock and every cloth's x, v, x_prev
 // (solver history such as BDF2's previous step starts afresh), and dragging a cloth vertex picked with a
 // ray (collision/RayCast.h) as a temporary kinematic pin.
-// A scene with Bullet rigid `bodies` (issue 9; only when built with the Bullet bridge, LOOM_HAVE_BULLET) runs
+// A scene with Bullet rigid `bodies` (only when built with the Bullet bridge, LOOM_HAVE_BULLET) runs
 // in a bullet::BulletScene as `loom run` does: colliders() are then the bodies at their poses, picking goes
 // through BulletCloth::ray_test (BulletScene::ray_test) and the grabbed vertex is a kinematic pin on the
 // cloth simulation inside the Bullet world. The Bullet world's state is not copied, so there an edit

@@ -215,8 +215,8 @@ Garment make_garment(const GarmentSpec& spec, const Motion& motion, const Capsul
     // inside a lifted arm it would squeeze the free cloth next to it, as a thigh does to a skirt's waist).
     const auto samples = motion_samples(motion);
     // The whole top row hangs from one frame, the chest (the neck's parent joint): attached to the nearest of
-    // the neck and clavicle bones, neighbouring pins on different bones pulled the edge between them to
-    // +58 % when the shoulders moved against the neck (the default scene's max strain).
+    // the neck and clavicle bones, neighbouring pins on different bones would stretch the edge between them
+    // whenever the shoulders move against the neck.
     const int chest = motion.joints()[need("Neck")].parent;
     if (chest < 0) throw Error(source, where, "the neck has no parent joint in " + motion.source());
     double static_depth = -1.0;
@@ -294,10 +294,10 @@ Garment make_garment(const GarmentSpec& spec, const Motion& motion, const Capsul
     }
     const int trial = 96;
     const auto samples = skirt ? motion_samples(motion) : std::vector<std::vector<Transform>>{};
-    // Scale of each ring in each of the `trial` directions. A shirt's rings are ellipses (one scale per ring);
-    // a skirt's are star-shaped, each direction only as far out as it needs: a round ring as wide as the
-    // widest direction needs (the belly side when the spine bends forward over it in CMU 01_03) sat where the
-    // arms hang at the sides (the upper arm 2.3 cm inside the pinned ring at 28.45 s of 01_03).
+    // Scale of each ring in each of the `trial` directions. A shirt's rings are ellipses (one scale per
+    // ring); a skirt's are star-shaped, each direction only as far out as it needs: a round ring as wide as
+    // the widest direction needs (the belly side when the spine bends forward over it) would sit where the
+    // arms hang at the sides, inside the upper arms.
     std::vector<std::vector<double>> scale(nv, std::vector<double>(trial, 1.0));
     for (int j = 0; j < nv; ++j) {
       const double s = static_cast<double>(j) / (nv - 1);
@@ -336,8 +336,8 @@ Garment make_garment(const GarmentSpec& spec, const Motion& motion, const Capsul
         need[i] = std::max(need[i], (last + 0.002) / base);
       }
       if (skirt) {
-        // Smooth rings (edges must not cut capsules): the largest need within +-22.5 degrees, then the mean over
-        // the same window (never below any need within it).
+        // Smooth rings (edges must not cut capsules): the largest need within +-22.5 degrees, then the mean
+        // over the same window (never below any need within it).
         const int w = trial / 16;
         std::vector<double> wide(trial, 0.0);
         for (int i = 0; i < trial; ++i)

@@ -70,9 +70,9 @@ std::vector<T> join_chunks(std::vector<std::vector<T>>& parts) {
   return out;
 }
 
-// Runs body(begin, end, out) over contiguous chunks of [0, n) in parallel, each chunk appending to its own list,
-// and returns the lists joined in chunk order: the serial order whatever the thread count. Below `serial_below`
-// one chunk; else `per_thread` chunks per thread (dynamic schedule: chunks of uneven cost).
+// Runs body(begin, end, out) over contiguous chunks of [0, n) in parallel, each chunk appending to its own
+// list, and returns the lists joined in chunk order: the serial order whatever the thread count. Below
+// `serial_below` one chunk; else `per_thread` chunks per thread (dynamic schedule: chunks of uneven cost).
 template <class T, class Body>
 std::vector<T> in_chunks(long n, int threads, long serial_below, int per_thread, Body body) {
   const int chunks = n < serial_below ? 1 : std::max(1, threads) * per_thread;
@@ -179,8 +179,8 @@ void SelfCollisionStage::setup(loom::cloth::StageContext& ctx) {
   std::vector<int> fill(vtx_tri_start_.begin(), vtx_tri_start_.end() - 1);
   for (int t = 0; t < static_cast<int>(tris_.size()); ++t)
     for (int k = 0; k < 3; ++k) vtx_tri_[fill[tris_[t][k]]++] = t;
-  // Owner masks: bit k (k < 3) = the triangle is its vertex k's owner (the lowest-numbered triangle holding it),
-  // bit 3 + k = the owner of its edge k (extract_features).
+  // Owner masks: bit k (k < 3) = the triangle is its vertex k's owner (the lowest-numbered triangle holding
+  // it), bit 3 + k = the owner of its edge k (extract_features).
   tri_owns_.assign(tris_.size(), 0);
   for (int t = 0; t < static_cast<int>(tris_.size()); ++t)
     for (int k = 0; k < 3; ++k) {
@@ -190,15 +190,16 @@ void SelfCollisionStage::setup(loom::cloth::StageContext& ctx) {
   setup_rest_neighbours(ctx);
 }
 
-// Rest neighbours: when a mesh's edges are about its thickness (twisting sheet at 225x113 nodes: 2.2 mm edges,
-// 2 mm thickness), features that share no vertex but are neighbours in the rest mesh (a vertex and the triangle
-// across the diagonal of its quad: 1.6 mm apart) lie within the thickness at rest, so they would be "in contact"
-// for good: a repulsion impulse against the cloth's own elasticity every step on every such feature, vertices
-// moved everywhere, every triangle pair searched again. Such a pair is one patch of cloth, not two surfaces
-// touching; its pair thickness is capped at half its rest distance (min(thickness, d_rest / 2): continuous in
-// d_rest, so only features closer than twice the thickness at rest are affected). Like every feature it stays
-// in the continuous passes and the impact zones, with the capped (non-zero) separation, so it can never cross:
-// no intersection is given up. Pairs between cloths are never capped (no rest relation between two cloths).
+// Rest neighbours: when a mesh's edges are about its thickness (twisting sheet at 225x113 nodes: 2.2 mm
+// edges, 2 mm thickness), features that share no vertex but are neighbours in the rest mesh (a vertex and the
+// triangle across the diagonal of its quad: 1.6 mm apart) lie within the thickness at rest, so they would be
+// "in contact" for good: a repulsion impulse against the cloth's own elasticity every step on every such
+// feature, vertices moved everywhere, every triangle pair searched again. Such a pair is one patch of cloth,
+// not two surfaces touching; its pair thickness is capped at half its rest distance (min(thickness, d_rest /
+// 2): continuous in d_rest, so only features closer than twice the thickness at rest are affected). Like
+// every feature it stays in the continuous passes and the impact zones, with the capped (non-zero)
+// separation, so it can never cross: no intersection is given up. Pairs between cloths are never capped (no
+// rest relation between two cloths).
 void SelfCollisionStage::setup_rest_neighbours(const loom::cloth::StageContext& ctx) {
   struct Near {
     int a, b;
@@ -282,8 +283,8 @@ void SelfCollisionStage::update_bvhs(int threads, bool full_update) {
 }
 
 // I-Cloth's Td x (Td u Ts): triangles with a dirty vertex, queried against every cloth's refitted tree.
-// The dirty triangles' queries run in parallel over contiguous chunks of the dirty list, joined in chunk order,
-// then sorted: the same pairs for any thread count.
+// The dirty triangles' queries run in parallel over contiguous chunks of the dirty list, joined in chunk
+// order, then sorted: the same pairs for any thread count.
 std::vector<TrianglePair> SelfCollisionStage::triangle_pairs_touching(const std::vector<char>& dirty, int threads) {
   PhaseTimer timer(pairs_ms_);
   std::vector<char> td(tris_.size(), 0);
@@ -319,11 +320,11 @@ std::vector<TrianglePair> SelfCollisionStage::triangle_pairs_touching(const std:
 
 // Features of the candidate triangle pairs, each exactly once: a vertex-face pair (v, f) comes only from the
 // pair (owner(v), f) and an edge-edge pair only from (owner(ea), owner(eb)), owner = the lowest-numbered
-// triangle holding the vertex or edge (tri_owns_). That pair is always a candidate when the feature can be: the
-// feature's swept box lies inside its owner's leaf box. Feature-level filter: swept boxes of the two features
-// (vertex_boxes), inflated by the pair thickness, must overlap (covers the proximity distance at x0 and the
-// continuous test's separation, which is smaller); rest neighbours (rest_cap) are checked again with their
-// capped thickness.
+// triangle holding the vertex or edge (tri_owns_). That pair is always a candidate when the feature can be:
+// the feature's swept box lies inside its owner's leaf box. Feature-level filter: swept boxes of the two
+// features (vertex_boxes), inflated by the pair thickness, must overlap (covers the proximity distance at x0
+// and the continuous test's separation, which is smaller); rest neighbours (rest_cap) are checked again with
+// their capped thickness.
 void SelfCollisionStage::extract_features(const TrianglePair* pairs, long n, const std::vector<char>* dirty,
                                           std::vector<Feature>& out) const {
   auto is_dirty = [&](int v) { return !dirty || (*dirty)[v]; };
@@ -418,11 +419,11 @@ std::vector<SelfCollisionStage::Feature> SelfCollisionStage::extract_in_chunks(c
                             });
 }
 
-// The step's search over all pairs, features straight from the traversal: the self pairs of each cloth (normal-
-// cone culled when enabled) go to extract_features task by task as the tree yields them (ClothBvh::
-// self_pair_tasks: the same tasks and order for any thread count), never stored, sorted or joined whole; pairs
-// between every two cloths (never culled: layers lie on each other, flat, and must always be tested) are
-// searched and extracted as before.
+// The step's search over all pairs, features straight from the traversal: the self pairs of each cloth
+// (normal- cone culled when enabled) go to extract_features task by task as the tree yields them (ClothBvh::
+// self_pair_tasks: the same tasks and order for any thread count), never stored, sorted or joined whole;
+// pairs between every two cloths (never culled: layers lie on each other, flat, and must always be tested)
+// are searched and extracted as before.
 std::vector<SelfCollisionStage::Feature> SelfCollisionStage::all_features(int threads) {
   PhaseTimer timer(pairs_ms_);
   vertex_boxes(threads);
@@ -495,17 +496,16 @@ double SelfCollisionStage::pair_thickness(const Contact& c) const {
 }
 
 // Shares beta_k of a contact's velocity change dv per vertex (vertex k changes by beta_k dv), with
-// sum_k w_k beta_k = 1 so the contact's relative velocity changes by dv. Bridson et al. 2002, Sec. 7.1 take the
-// least mass-weighted change, beta_k = lambda w_k m_k^-1 with lambda = 1 / sum_j w_j^2 m_j^-1 (m^-1 = the
+// sum_k w_k beta_k = 1 so the contact's relative velocity changes by dv. Bridson et al. 2002, Sec. 7.1 take
+// the least mass-weighted change, beta_k = lambda w_k m_k^-1 with lambda = 1 / sum_j w_j^2 m_j^-1 (m^-1 = the
 // stage's inverse masses `im`). The same least change under the bound |beta_k| <= cap: beta_k =
 // sign(w_k) min(cap, lambda |w_k| m_k^-1), with lambda raised until the constraint holds again (the vertices
 // over the bound are capped one round at a time; once capped, a vertex stays capped as lambda only grows).
 // Without the bound, a contact point next to a vertex the body stage left near a collider (1000 times heavier
-// here) was moved by flicking the feature's far vertex at 1/w_k times the contact's change (layers 01_01 at
-// 6.24 s: 52.9 m/s). Where only vertices that cannot move (m^-1 = 0) could take the rest, every vertex that can
-// move takes the bound and the rest of the change is left to the next pass and the impact zones: Bridson's
-// unbounded shares there flicked a free vertex at 14 times the contact's change (layers 01_03 at 25.64 s: edge
-// 45-46 against 64-65, the contact 95 % at vertices the collider round had just held, 2 m/s -> 33 m/s).
+// here) is moved by flicking the feature's far vertex at 1/w_k times the contact's change. Where only
+// vertices that cannot move (m^-1 = 0) could take the rest, every vertex that can move takes the bound and
+// the rest of the change is left to the next pass and the impact zones (Bridson's unbounded shares would
+// flick a free vertex at many times the contact's change there).
 bool capped_shares(const double w[4], const double im[4], int first, double cap, double beta[4]) {
   double denom = 0.0;
   for (int k = 0; k < 4; ++k) denom += w[k] * w[k] * im[k];
@@ -519,11 +519,11 @@ bool capped_shares(const double w[4], const double im[4], int first, double cap,
       if (capped[k]) rest -= cap * std::abs(w[k]);
       else free_denom += w[k] * w[k] * im[k];
     }
-    // Infeasible: every movable vertex of the contact is at the bound (or, by rounding, the capped ones already
-    // give the whole change). Every movable vertex of both features takes the bound on its feature's side,
-    // those with w_k = 0 too (a contact on a triangle's edge): each feature moves as a block and keeps its shape.
-    // Moving only the w_k != 0 vertices sheared the features: the 30 cm box with PBD then failed with 65 new
-    // intersecting triangle pairs (tests/stability, crushed_in_shrinking_box_to_30_cm_pbd).
+    // Infeasible: every movable vertex of the contact is at the bound (or, by rounding, the capped ones
+    // already give the whole change). Every movable vertex of both features takes the bound on its feature's
+    // side, those with w_k = 0 too (a contact on a triangle's edge): each feature moves as a block and keeps
+    // its shape. Moving only the w_k != 0 vertices sheared the features: the 30 cm box with PBD then failed
+    // with 65 new intersecting triangle pairs (tests/stability, crushed_in_shrinking_box_to_30_cm_pbd).
     if (!(free_denom > 0.0) || !(rest > 0.0)) {
       for (int k = 0; k < 4; ++k) beta[k] = im[k] > 0.0 ? (k < first ? cap : -cap) : 0.0;
       return true;
@@ -538,8 +538,8 @@ bool capped_shares(const double w[4], const double im[4], int first, double cap,
   }
 }
 
-// Per-contact velocity changes dv[4] (m/s) are applied per vertex: averaged over the vertex's contacts, in the
-// contacts' (sorted) order, so the result does not depend on the thread count.
+// Per-contact velocity changes dv[4] (m/s) are applied per vertex: averaged over the vertex's contacts, in
+// the contacts' (sorted) order, so the result does not depend on the thread count.
 namespace {
 
 struct Impulse {  // a contact's velocity changes (m/s) of its four vertices; inactive: a hit without one
@@ -548,8 +548,8 @@ struct Impulse {  // a contact's velocity changes (m/s) of its four vertices; in
   bool active = false;
 };
 
-// Runs body(i, out) for every feature i in [0, n) (in_chunks): the impulses in the order of i whatever the thread
-// count, with no per-feature storage (most features give nothing).
+// Runs body(i, out) for every feature i in [0, n) (in_chunks): the impulses in the order of i whatever the
+// thread count, with no per-feature storage (most features give nothing).
 template <class Body>
 std::vector<Impulse> collect_impulses(long n, int threads, Body body) {
   return in_chunks<Impulse>(n, threads, 4096, 8, [&](long begin, long end, std::vector<Impulse>& out) {
@@ -713,10 +713,11 @@ bool SelfCollisionStage::ccd_pass(const std::vector<Feature>& fs, int threads, s
       if (d0 > bound) return;
       at_start = d0 <= sep;
     }
-    // A pair closer than the separation at the step's start is a contact at t = 0: reported as a hit with time
-    // of impact 0 without the continuous test, whose answer could only be a hit with a time of impact near 0,
-    // found after refining its boxes down to the tolerance (a hit cost 200-270 boxes, a miss 8, on the
-    // Sphere at 50k triangles). A hit is always allowed (conservative), so nothing can be missed this way.
+    // A pair closer than the separation at the step's start is a contact at t = 0: reported as a hit with
+    // time of impact 0 without the continuous test, whose answer could only be a hit with a time of impact
+    // near 0, found after refining its boxes down to the tolerance (a hit cost 200-270 boxes, a miss 8, on
+    // the Sphere at 50k triangles). A hit is always allowed (conservative), so nothing can be missed this
+    // way.
     CcdResult r;
     if (at_start) {
       r.hit = true;
@@ -784,8 +785,8 @@ bool SelfCollisionStage::ccd_pass(const std::vector<Feature>& fs, int threads, s
 // Provot 1997 rigid impact zone: velocities (x1 - x0) / h of the zone's vertices replaced by the rigid motion
 // with the same linear and angular momentum about the centre of mass at x0 (linearised rotation).
 // With kinematic (pinned) vertices: those keep their end positions; the others follow the pinned vertices'
-// best-fit rotation and translation (Kabsch 1976), translation only when fewer than three non-collinear pinned
-// vertices leave the rotation undetermined. That case is not guaranteed.
+// best-fit rotation and translation (Kabsch 1976), translation only when fewer than three non-collinear
+// pinned vertices leave the rotation undetermined. That case is not guaranteed.
 void SelfCollisionStage::apply_rigid_zone(const std::vector<int>& verts_in) {
   std::vector<int> pinned, free;
   for (int v : verts_in) {
@@ -838,8 +839,8 @@ void SelfCollisionStage::apply_rigid_zone(const std::vector<int>& verts_in) {
 // (the relative position along the contact normal at the end of the step at least a small gap past the one at
 // the time of impact), which cancels the approach along the normals but keeps tangential (sliding) motion.
 // Solved by projected Gauss-Seidel on the multipliers (lambda_c >= 0) in constraint order, so the result does
-// not depend on the thread count. Kinematic vertices (inverse mass 0) do not move. Returns false if it did not
-// converge (the constraints can be infeasible, e.g. a layer squeezed between two others); the caller then
+// not depend on the thread count. Kinematic vertices (inverse mass 0) do not move. Returns false if it did
+// not converge (the constraints can be infeasible, e.g. a layer squeezed between two others); the caller then
 // restores the zone and moves it rigidly.
 bool SelfCollisionStage::project_zone(const std::vector<int>& constraints) {
   const int nc = static_cast<int>(constraints.size());
@@ -866,9 +867,9 @@ bool SelfCollisionStage::project_zone(const std::vector<int>& constraints) {
   return false;
 }
 
-// Impact-zone fail-safe: test pairs touching `dirty` vertices (continuous, separation 0); vertices of hits are
-// merged into zones (union-find); every changed zone is first handled by inelastic projection over all the
-// contacts it has collected this step (project_zone); a zone that still collides after `kProjections`
+// Impact-zone fail-safe: test pairs touching `dirty` vertices (continuous, separation 0); vertices of hits
+// are merged into zones (union-find); every changed zone is first handled by inelastic projection over all
+// the contacts it has collected this step (project_zone); a zone that still collides after `kProjections`
 // projections, or that merges with a rigid one, moves rigidly from then on (Provot's rigid impact zone, the
 // last resort, apply_rigid_zone). Repeat until no hit. Pairs inside one rigid zone are skipped (it moves
 // affinely from its intersection-free start). Returns false if the iteration cap forced one global zone.

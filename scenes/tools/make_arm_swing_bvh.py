@@ -1,5 +1,5 @@
 #!/usr/bin/env python3
-"""Writes tests/data/mocap/arm_swing.bvh (issue 6, the armpit / pinch-point scene character_shirt.json).
+"""Writes tests/data/mocap/arm_swing.bvh (the armpit / pinch-point scene character_shirt.json).
 
 The skeleton is the CMU one of 01_01.bvh (its HIERARCHY section copied unchanged: T-pose rest, arms along
 +-x). The motion is synthetic: the body stands still; both arms start raised sideways (40 degrees below horizontal,

@@ -1,5 +1,5 @@
 #!/usr/bin/env python3
-"""Writes the self-collision stress scenes (issue 5) into scenes/:
+"""Writes the self-collision stress scenes into scenes/:
   twisting_cloth.json   a sheet whose two short edges are pinned and turned in opposite directions about the
                         sheet's long axis (I-Cloth's "Twisting"), while the ends move towards each other, so
                         the cloth wraps onto itself;

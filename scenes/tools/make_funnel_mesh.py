@@ -1,6 +1,6 @@
 #!/usr/bin/env python3
 """Writes scenes/meshes/funnel.obj: an open funnel (a cone from radius 0.35 m at y = 0.5 down to 0.07 m at
-y = 0.15, then a spout cylinder down to y = 0), 48 segments, used by scenes/funnel.json (issue 5)."""
+y = 0.15, then a spout cylinder down to y = 0), 48 segments, used by scenes/funnel.json."""
 import math, os
 
 SEG = 48

@@ -1,4 +1,4 @@
-// `loom run` with rigid `bodies` (issue 9): the scene runs in a Bullet world with its cloth as a
+// `loom run` with rigid `bodies`: the scene runs in a Bullet world with its cloth as a
 // BulletCloth. The trampoline's box falls onto the sheet and bounces back (its height rises again after the
 // impact); bodies.csv and the summary's bodies keys are written; without the Bullet bridge the scene is
 // refused with an error naming the `bodies` field.

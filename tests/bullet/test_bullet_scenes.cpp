@@ -1,4 +1,4 @@
-// The issue-9 scenes (trampoline, hammock, flag_on_pole, curtain_and_balls) run as `loom run` runs them
+// The Bullet-world scenes (trampoline, hammock, flag_on_pole, curtain_and_balls) run as `loom run` runs them
 // (BulletScene): the cloth's strain stays bounded under the heavy contacts, and the bodies do what the scene
 // says.
 #include <gtest/gtest.h>

@@ -1,4 +1,4 @@
-// Garments fitted to the skeleton and attached to its bones (issue 6).
+// Garments fitted to the skeleton and attached to its bones.
 #include <gtest/gtest.h>
 
 #include <fstream>

@@ -1,7 +1,7 @@
-// Collision stress scenes (issue 5 acceptance) at a CI-sized resolution, each checked after EVERY pipeline step
-// (a stage appended after the collision stages): the exact census finds 0 intersecting triangle pairs (self
-// pairs sharing no vertex, and pairs between cloths), every position and velocity is finite, no free vertex
-// is inside a collider by more than the collider's thickness, and the kinetic energy stays bounded.
+// Collision stress scenes at a CI-sized resolution, each checked after EVERY pipeline
+// step (a stage appended after the collision stages): the exact census finds 0 intersecting triangle pairs
+// (self pairs sharing no vertex, and pairs between cloths), every position and velocity is finite, no free
+// vertex is inside a collider by more than the collider's thickness, and the kinetic energy stays bounded.
 #include <gtest/gtest.h>
 
 #include <cmath>
@@ -158,7 +158,7 @@ TEST(CollisionScenes, SqueezedBetweenWalls) {
 TEST(CollisionScenes, DrapedLayers) { expect_clean(run_scene("draped_layers", {"duration=0.5"}), 60, 5.0); }
 
 // The body stage leaves contact normals (ClothState::contact_normal) only for a solver that reads them
-// (`solver.contact_filter`, issue 6); other scenes pay nothing for them. Cloth on the spinning sphere, 10 frames.
+// (`solver.contact_filter`); other scenes pay nothing for them. Cloth on the spinning sphere, 10 frames.
 TEST(CollisionScenes, ContactNormalsOnlyForASolverThatHoldsContacts) {
   for (const bool filter : {false, true}) {
     std::vector<std::string> overrides = {"duration=0.1667"};

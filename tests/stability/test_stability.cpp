@@ -1,4 +1,4 @@
-// The stability suite (issue 8): every solver against the hard cases, invariants checked after every frame.
+// The stability suite: every solver against the hard cases, invariants checked after every frame.
 //   - all positions finite (a frame the guard rejects is never handed out: the simulation keeps the last
 //     good frame and reports the failure with its cause);
 //   - energy: E(t) = E_kin + E_el + E_pot(t) - E_pot(0) never above 10 max(E(0), m|g|L) + W(t), where W(t)

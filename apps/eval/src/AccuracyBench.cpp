@@ -33,12 +33,12 @@ constexpr double kFrameDt = 1.0 / 60.0;  // s
 constexpr double kSize = 1.0;            // m, side of the square
 constexpr double kMass = 0.2;            // kg
 // Reference: Verlet (velocity form, reference()) at h_bound / (2 kRefFactor), checked against
-// h_bound / kRefFactor (methods.md §2.4 proposes h_crit / 20; h_bound is already below h_crit). The finest
+// h_bound / kRefFactor (docs/benchmarks.md proposes h_crit / 20; h_bound is already below h_crit). The finest
 // Verlet of the sweep runs at h_bound, so for a second-order scheme the check ratio is about
 // (3/4) / kRefFactor² = 0.3%.
 constexpr int kRefFactor = 16;
 
-// The hanging-cloth scene (issue 3): 1 m square of the cotton preset, 0.2 kg, horizontal, pinned at the
+// The hanging-cloth scene: 1 m square of the cotton preset, 0.2 kg, horizontal, pinned at the
 // two corners of one edge, damping off (so energy drift is meaningful).
 struct Scene {
   int n = 0;
@@ -53,7 +53,7 @@ struct Scene {
 };
 
 // Conservative explicit stability bound h = 2 / ω_max with ω_max² bounded by Gershgorin's theorem on
-// M^-1/2 K M^-1/2 (row i: Σ_j k_ij / m_i + Σ_j k_ij / sqrt(m_i m_j)); methods.md §2.1.
+// M^-1/2 K M^-1/2 (row i: Σ_j k_ij / m_i + Σ_j k_ij / sqrt(m_i m_j)); docs/references.md, "Time integration".
 double explicit_bound(const Scene& s) {
   const int nv = static_cast<int>(s.mass.size());
   std::vector<double> row(nv, 0.0);
@@ -129,7 +129,7 @@ struct Row {
 // Per-frame metrics of one run, the same code for Loom and Bullet positions.
 class Metrics {
  public:
-  // `own`: a Loom cloth whose model is not the scene's springs; its own elastic energy is used (issue 10).
+  // `own`: a Loom cloth whose model is not the scene's springs; its own elastic energy is used.
   Metrics(const Scene& s, const Vec3s& x0, const Cloth* own = nullptr)
       : s_(s), x0_(x0), energy_term_(static_cast<int>(x0.size()), s.springs), own_(own) {
     const Vec3s v0(x0.size(), Vec3::Zero());
@@ -238,10 +238,9 @@ void set_start(Simulation& sim, const Scene& s) {
 //   v += h/2 M⁻¹ f(x),  x += h v,  v += h/2 M⁻¹ f(x).
 // Its positions are those of position Verlet x+ = 2x - x- + h² M⁻¹ f (the `verlet` solver, same start) in
 // exact arithmetic, but it keeps v explicitly: position Verlet stores the velocity as x - x-, a difference of
-// two nearly equal positions whose rounding error, ulp(x) / h in velocity, grows as h shrinks. Measured on
-// this scene (reference_check.csv, README): at h_bound/16 vs /32 position Verlet changed by 2.4e-8 m (N=32)
-// and 1.1e-5 m (N=64: the buckling sheet amplifies it), i.e. did not converge; the velocity form changes by
-// 4.9e-9 m and 5.5e-9 m, a quarter of the previous halving's change (second order).
+// two nearly equal positions whose rounding error, ulp(x) / h in velocity, grows as h shrinks. On this scene
+// position Verlet does not converge under step halving (the buckling sheet amplifies the rounding), while
+// the velocity form changes by a quarter per halving, second order (reference_check.csv; docs/benchmarks.md).
 std::vector<Vec3s> reference(const Scene& s, int substeps, int threads) {
   SweepConfig c;
   c.substeps = substeps;
@@ -303,10 +302,10 @@ Row run_loom(const Scene& s, const std::string& method, const SweepConfig& c, in
   return r;
 }
 
-// Hybrid detail (issue 10, Oshita & Makinouchi 2001): the same scene simulated on a coarse grid of
+// Hybrid detail (Oshita & Makinouchi 2001): the same scene simulated on a coarse grid of
 // (N - 1)/4 + 1 nodes per side with `c`, shown as its curved-face surface refined twice (CurvedFaces.h), and
-// compared with the N x N reference at the reference's nodes (the shown surface bilinearly interpolated on its
-// fine grid at each node's material point). Time: coarse step + surface rebuild.
+// compared with the N x N reference at the reference's nodes (the shown surface bilinearly interpolated on
+// its fine grid at each node's material point). Time: coarse step + surface rebuild.
 Row run_hybrid(const Scene& s, const std::string& method, SweepConfig c, const std::vector<Vec3s>& ref, double duration,
                double perturbation) {
   const int nc = (s.n - 1) / 4 + 1;
@@ -411,10 +410,11 @@ void print_row(const Row& r) {
   std::fflush(stdout);
 }
 
-// Static scenes (issue 10): the catenary strip (methods.md §3.2; S = 1 m, spans 0.5, 0.8, 0.9 m; B ≈ 0) for the
-// solvers that give a shape rather than a motion: weil (geometric drape) and static (energy minimisation).
-// Row: size = nodes along the strip, config "scene=catenary span=D", ms_per_frame = wall time to the shape,
-// rms_error_max = rms_error_end = |sag - analytic sag| (m), strains of the shape, energy_drift 0.
+// Static scenes: the catenary strip (Weil 1986; docs/validation.md; S = 1 m, spans 0.5, 0.8, 0.9 m; B ≈ 0)
+// for the solvers that give a shape rather than a motion: weil (geometric drape) and static (energy
+// minimisation). Row: size = nodes along the strip, config "scene=catenary span=D", ms_per_frame = wall time
+// to the shape, rms_error_max = rms_error_end = |sag - analytic sag| (m), strains of the shape, energy_drift
+// 0.
 void run_static_scenes(const AccuracyOptions& o, const std::vector<std::string>& registered, std::vector<Row>& rows) {
   const std::vector<std::pair<double, double>> spans =
       o.quick ? std::vector<std::pair<double, double>>{{0.8, 0.26544}}
@@ -523,7 +523,7 @@ int bench_accuracy(const AccuracyOptions& o) {
     std::printf("loom bench accuracy: N=%d (%d vertices, %zu springs), %d frames of 1/60 s, explicit bound h=%.3g s "
                 "(%d steps/frame)\n", n, s.cloth.mesh->num_vertices(), s.springs.size(), s.frames, s.h_bound,
                 s.explicit_steps);
-    // Reference and its dt-halving check (methods.md §2.4).
+    // Reference and its dt-halving check (docs/benchmarks.md).
     int ref_steps = kRefFactor * s.explicit_steps;  // the check; the reference itself runs at twice this
     const int threads_ref = 1;  // small meshes: OpenMP overhead exceeds the gain; results are identical
     auto t0 = Clock::now();
@@ -532,7 +532,7 @@ int bench_accuracy(const AccuracyOptions& o) {
     const std::vector<Vec3s> ref = reference(s, ref_steps, threads_ref);
     double change = 0.0;
     for (int f = 0; f < s.frames; ++f) change = std::max(change, rms(s.mass, coarse[f], ref[f]));
-    // The reference's own largest structural stretch over the run (the strain target of issue 3).
+    // The reference's own largest structural stretch over the run (the strain target).
     double ref_max_strain = 0.0;
     for (const Vec3s& x : ref)
       for (int k : s.cloth.mesh->strain_springs()) {
@@ -608,7 +608,7 @@ int bench_accuracy(const AccuracyOptions& o) {
           }
       }
     }
-    // Issue 10: the hybrid (coarse simulation + curved-face detail) with backward Euler and IMEX.
+    // The hybrid (coarse simulation + curved-face detail) with backward Euler and IMEX.
     if ((s.n - 1) / 4 + 1 >= 3)
       for (const char* method : {"implicit_euler", "imex"}) {
         if (!o.methods.empty() && !o.methods.count(method) && !o.methods.count("hybrid")) continue;

@@ -1,6 +1,6 @@
 #pragma once
-// BulletCloth: a Loom cloth living in a Bullet world, coupled both ways (issue 9; DESIGN.md, "Bullet";
-// reference/bullet.md §1). Add it to any btDynamicsWorld (btDiscreteDynamicsWorld, btSoftRigidDynamicsWorld,
+// BulletCloth: a Loom cloth living in a Bullet world, coupled both ways (docs/architecture.md, "Bullet";
+// docs/bullet.md). Add it to any btDynamicsWorld (btDiscreteDynamicsWorld, btSoftRigidDynamicsWorld,
 // btDeformableMultiBodyDynamicsWorld) with add_to(world). Each Bullet substep (updateAction, after
 // integrateTransforms) it
 //   1. queries the broad phase for rigid bodies overlapping its AABB (inflated by query_margin),
@@ -50,16 +50,14 @@ struct BulletClothSettings {
   // Adaptive cloth steps: a Bullet substep runs n = ceil(relative motion / (thickness / 2)) cloth steps,
   // cloth_substeps <= n <= max_cloth_substeps, where the relative motion (m) is the farthest any point of a
   // nearby body moves in the substep plus the fastest cloth vertex's v dt. Contacts are found by proximity
-  // after each step, so a body must not move deeper than the contact offset per step: a box moving 13 mm
-  // per 1/240 s step against a 5 mm offset left vertices nearer its side than its bottom, and they were
-  // pushed out sideways (edges stretched 3-10x in the trampoline and hammock scenes).
+  // after each step, so a body must not move deeper than the contact offset per step: a body that moves
+  // farther leaves vertices nearer its side than its face, and they are pushed out sideways.
   int max_cloth_substeps = 16;
   double friction = 0.3;          // 1, kinetic Coulomb coefficient cloth vs bodies
   double static_friction = 0.4;   // 1, static coefficient (>= friction)
   // Contact response: the bridge's vertex projection (ContactStage.h, default: the one the bridge tests
   // validate) or the collision library's BodyCollisionStage (CCD + proximity + edges). The latter is wired
-  // but NOT validated here: with it the hammock, pole and box-drop tests failed (attached vertices moved,
-  // 4 mm penetration) at the time of writing — see README, "Bullet bridge".
+  // but NOT validated here: the hammock, pole and box-drop tests do not pass with it (docs/bullet.md).
   enum class Contacts { vertex, body_collision };
   Contacts contacts = Contacts::vertex;
   bool edge_contacts = true;  // Contacts::vertex: also the cloth-edge pass (ContactStage.cpp)
