@@ -517,8 +517,8 @@ SimulationSetup hanging(const std::string& method, int nodes, double fps, double
 TEST(ImplicitHardCases, StiffClothAtThirtyHertz) {
   // 17x17 cloth, k = 1e5 N/m, h = 1/30 s (h ω_max ≈ 10³). Every configuration — the default linearised step
   // (with its energy safeguard), Newton with line search, the adaptive step — must stay within 10x the start
-  // energy. Without the safeguard the linearised springs step reached 10.3x (docs/references.md, "Time
-  // integration": large rotations), so the safeguard must have corrected steps there.
+  // energy. Without the safeguard the linearised springs step exceeds that (large rotations,
+  // ImplicitSolver.h), so the safeguard must have corrected steps there.
   const std::vector<std::pair<const char*, std::map<std::string, double>>> configs = {
       {"linearised", {}}, {"newton", {{"newton_iterations", 3}}}, {"adaptive", {{"adaptive", 1}}}};
   for (const char* method : {"implicit_euler", "bdf2"})

@@ -148,9 +148,8 @@ double roller_drag(double mu, double rate) {
   return mean_x() - x0;
 }
 
-// A vertex the swept test catches used to end at the contact point carried with the body: full stick whatever
-// the friction coefficient. Frictionless, the roller dragged the patch 2.5 cm at 3 m/s and threw it 1.5 m off
-// at 9 m/s; with μ = 0.1 it went 6.8 cm and 1.5 m. Now the slide from that point follows Coulomb's law.
+// A vertex the swept test catches slides from the contact point carried with the body by Coulomb's law
+// (ending at the carried point always would be full stick whatever the friction coefficient).
 TEST(BodyCollision, SweptHitsOnASpinningSphereFollowCoulombFriction) {
   // No friction: the surface cannot drag the cloth at all.
   EXPECT_LT(std::abs(roller_drag(0.0, 10.0)), 1e-3);
@@ -158,7 +157,7 @@ TEST(BodyCollision, SweptHitsOnASpinningSphereFollowCoulombFriction) {
   // Kinetic friction: the drag does not depend on the surface speed (the patch stays far slower than the
   // surface), and it is what μ_k g gives in 0.3 s, ½ μ g t² = 4.4 cm, plus the downhill pull once the patch
   // leaves the top: a point mass on the roller's top (radius R = 0.305 m with the thickness) follows
-  // x'' = μ g + g x / R, so x(t) = μ R (cosh(sqrt(g / R) t) - 1) = 5.6 cm. Measured 4.5 cm (old code 6.8).
+  // x'' = μ g + g x / R, so x(t) = μ R (cosh(sqrt(g / R) t) - 1) = 5.6 cm, the upper bound.
   const double g = 9.81, mu = 0.1, t = 0.3, r = 0.305;
   const double lower = 0.5 * mu * g * t * t, upper = mu * r * (std::cosh(std::sqrt(g / r) * t) - 1.0);
   const double slow = roller_drag(mu, 10.0), fast = roller_drag(mu, 30.0);
@@ -281,9 +280,9 @@ double run_once(std::vector<std::unique_ptr<cloth::Cloth>>& cloths, const std::s
 
 // A capsule threaded through a cloth triangle (a hand through a coarse skirt): inside the triangle (v0 v1 v2)
 // near its 45-degree corner v0, touching both edges v0-v1 and v0-v2 from inside. Corrected, the two edges
-// went to opposite sides and pulled v1 and v2 apart (skirt on Boxing_Toes: strain 2.5, then 25-48 m/s from
-// the solver). They are left alone (counter threaded_edges) and no edge gets longer. The same capsule
-// under the sheet, where the edges cross it from one side (cloth draped over a limb), is still corrected.
+// would go to opposite sides and pull v1 and v2 apart. They are left alone (counter threaded_edges) and no
+// edge gets longer. The same capsule under the sheet, where the edges cross it from one side (cloth draped
+// over a limb), is still corrected.
 TEST(BodyCollision, CapsuleThreadedThroughATriangleDoesNotTearItsEdgesApart) {
   for (bool threaded : {true, false}) {
     auto mesh = cloth::ClothMesh::from_triangles(
@@ -369,10 +368,9 @@ TEST(BodyCollision, DISABLED_ThreadedCapsuleIsFoundBehindAnotherCollidersEdge) {
 
 // One vertex (P) on three edges that cross a capsule below the sheet at different depths, each of its three
 // partners (Q1-Q3) on that one corrected edge only; Q3, on the deepest, also holds a hem edge Q3-R that
-// touches nothing. Scaled per end, Q3 took its whole inverse-mass share of a 1.6 cm deficit while P took the
-// mean, and Q3 alone jumped away from R (layers on Boxing_Toes at 3.33 s: a skirt vertex moved 8.9 cm in one
-// substep, its hem edge went to strain 0.87 and the implicit step threw the hem vertex at 18.4 m/s). Both
-// ends of an edge now take the same fraction: the edge is moved along the normal, not swung about P.
+// touches nothing. Scaled per end, Q3 would take its whole inverse-mass share of a 1.6 cm deficit while P
+// took the mean, and Q3 alone would jump away from R. Both ends of an edge take the same fraction: the edge
+// is moved along the normal, not swung about P.
 TEST(BodyCollision, EdgeCorrectionMovesBothEndsAlikeAndSparesTheirOtherEdges) {
   const Vec3 p(0, 0, 0), q1(0, 0, 0.1), q2(0.1, 0, 0.1), q3(-0.1, 0, 0.1), r(-0.2, 0, 0.15);
   auto mesh = cloth::ClothMesh::from_triangles({p, q1, q2, q3, r}, {{0, 2, 1}, {0, 1, 3}, {3, 1, 4}}, {}, "fan");

@@ -148,8 +148,8 @@ TEST(StaticSolver, CantileverAndCatenaryAgreeWithSettledDynamicsAndTheory) {
     const FabricTestResult s = run_fabric_test(o);
     EXPECT_TRUE(s.settled) << test;
     for (const char* dynamic : {"implicit_euler", "bdf2"}) {
-      // BDF2 on the springs catenary keeps a slow residual motion above 1e-6 m/s for 3000 frames (measured:
-      // sag 0.26581 m against 0.265724 m static): only implicit Euler settles it.
+      // BDF2 on the springs catenary keeps a slow residual motion above 1e-6 m/s for 3000 frames, a
+      // sag just off the static one: only implicit Euler settles it.
       if (!cantilever && std::string(dynamic) == "bdf2") continue;
       o.solver = dynamic;
       o.settle_frames = 3000;
