@@ -60,7 +60,7 @@ struct SelfCollisionSettings {
   int max_zone_iterations = 200;   // fail-safe rounds before every vertex goes into one zone
   double near_body_mass = 1e3;     // 1, mass factor of vertices the body stage left near a collider
   // 1, the largest velocity change a cloth-cloth impulse gives one vertex, as a multiple of the contact's
-  // relative velocity change (capped_shares in the .cpp); <= 0 or infinite: Bridson's shares unbounded
+  // relative velocity change (capped_shares, SelfProximity.cpp); <= 0 or infinite: Bridson's shares unbounded
   double max_share = 1.0;
 };
 
@@ -155,6 +155,14 @@ class SelfCollisionStage final : public loom::cloth::Stage {
   };
   bool project_zone(const std::vector<int>& constraints);
   void apply_rigid_zone(const std::vector<int>& verts);
+  // The three parts of one impact-zone round (ImpactZones.cpp).
+  void zone_hits(const std::vector<Feature>& fs, const std::vector<int>& zone_rounds, int threads,
+                 std::vector<char>& hit, std::vector<ZoneConstraint>& found);
+  bool merge_zone_hits(const std::vector<Feature>& fs, const std::vector<char>& hit,
+                       const std::vector<ZoneConstraint>& found, std::vector<int>& zone_rounds,
+                       std::vector<int>& roots_changed);
+  void move_changed_zones(const std::vector<int>& roots_changed, std::vector<int>& zone_rounds,
+                          std::vector<char>& dirty);
 
   SelfCollisionSettings settings_;
   BodyCollisionStage* body_ = nullptr;
