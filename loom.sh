@@ -94,8 +94,8 @@ format_check() {
 # minus the slow ones below.
 asan_dir="${LOOM_ASAN_DIR:-build-asan}"
 asan_suites='loom_(cloth|collision|scene|export|cli)_tests'
-# Tests that take more than a few seconds under ASan (measured: README, "Reliability"); they run in the
-# normal (Release) suite.
+# Tests that take more than a few seconds under ASan (docs/validation.md, "Bad input, sanitizers, fuzzing");
+# they run in the normal (Release) suite.
 asan_exclude='Fabric|Buckling|Refinement|ImplicitHardCases|StaticSolver|BendingEnergyIsResolution|StrainLimitedRun|TethersHold|PinnedVerticesFollowTheirPath|FixedPointIsTheBackwardEulerStep|ChebyshevReaches|HangingSheetSettles|Xpbd|PinsFollowTheirTargetsExactly|ResultsDoNotDependOnTheThreadCount|Accuracy|CollisionScenes|Census|Compare|Sigint|ResumeIsBitIdentical|consumer_package'
 asan_build() {
   if [ ! -f "$asan_dir/CMakeCache.txt" ]; then
@@ -200,7 +200,8 @@ case "$cmd" in
     bash bench/regenerate.sh "$@"
     ;;
   format)
-    # ./loom.sh format [--check] [FILES...]: apply .clang-format to every tracked C++ file (or FILES), or check.
+    # ./loom.sh format [--check] [FILES...]: apply .clang-format to every tracked C++ file (or FILES), or
+    # check.
     shift
     if [ "${1:-}" = --check ]; then
       shift

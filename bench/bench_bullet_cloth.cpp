@@ -1,4 +1,4 @@
-// What a Loom cloth costs in a Bullet world (issue 9): ms per Bullet step (stepSimulation of one 1/240 s
+// What a Loom cloth costs in a Bullet world: ms per Bullet step (stepSimulation of one 1/240 s
 // substep) of a world with a few rigid bodies (ground, 8 boxes, a sphere), without and with a BulletCloth
 // action (N x N sheet, 1.2 m, implicit Euler, adaptive cloth steps: BulletClothSettings' defaults) released
 // 0.1 m above the sphere. Two phases, one second (240 Bullet steps) each, from the release:

@@ -1,4 +1,4 @@
-// loom_bench_character_clips (issue 6): whole motion-capture clips, start to end, with the shipped character
+// loom_bench_character_clips: whole motion-capture clips, start to end, with the shipped character
 // scenes, every acceptance check measured at every pipeline step by characters::ClipProbe (NaN, strain,
 // vertex speed, depth inside a capsule, attachment tracking, and the exact census on layered scenes), plus
 // wall ms per frame. Too long for ctest (a clip is 23-38 s of motion); tests/characters/test_clips.cpp runs

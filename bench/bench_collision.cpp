@@ -1,10 +1,10 @@
-// Collision-handling cost per triangle per step (issue 5), on I-Cloth's Sphere, Twisting and Funnel scenes at
-// 20k-50k triangles, 1 and 2 threads. One benchmark iteration = one frame of the scene; the manual time is the
-// frame's body_collision + self_collision stage time (the solver and the census are not counted). After every
-// step an exact census counts intersecting triangle pairs (`intersections`, the largest count seen).
+// Collision-handling cost per triangle per step, on I-Cloth's Sphere, Twisting and Funnel scenes at
+// 20k-50k triangles, 1 and 2 threads. One benchmark iteration = one frame of the scene; the manual time is
+// the frame's body_collision + self_collision stage time (the solver and the census are not counted). After
+// every step an exact census counts intersecting triangle pairs (`intersections`, the largest count seen).
 //   build/bench/loom_bench_collision --benchmark_counters_tabular=true
 // I-Cloth (Tang et al. 2018, GTX 1080) for comparison: 0.33-3 us per triangle per step (collision handling
-// 0.066-0.654 s per step at 90k-215k triangles, reference/collision.md Sec. 1.1).
+// 0.066-0.654 s per step at 90k-215k triangles, Tang et al. 2018, Table 2).
 #include <benchmark/benchmark.h>
 
 #include <algorithm>

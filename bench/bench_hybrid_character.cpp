@@ -1,4 +1,4 @@
-// loom_bench_hybrid_character (issue 10): the hybrid detail on a character scene at full size — a coarse
+// loom_bench_hybrid_character: the hybrid detail on a character scene at full size — a coarse
 // cape on CMU 01_01 (held still in the clip's last pose, leaning back 30°: the cape lies on the back) shown
 // with `levels` levels of curved faces against a full simulation at the refined resolution, both settled;
 // distance, CPU cost and continuity. The measurement is

@@ -93,8 +93,8 @@ class FrameLog {
   void flush() { file_.flush(); }
   long entries() const { return entries_; }
   std::uint64_t hash() const { return hash_; }
-  // Calls fn(time, flags) for each kept entry with the cloths' positions set to the logged ones, then puts the
-  // positions back.
+  // Calls fn(time, flags) for each kept entry with the cloths' positions set to the logged ones, then puts
+  // the positions back.
   template <class Fn>
   void replay(std::vector<std::unique_ptr<cloth::Cloth>>& cloths, Fn fn) const;
 

@@ -84,7 +84,7 @@ int compare_character(const scene::Scene& sc, int frames, const std::string& out
   const bullet::CharacterMetrics loom = bullet::run_loom_character(*sim, in);
   const bullet::CharacterMetrics classic = bullet::run_bullet_character(in);
   const std::string deformable_note =
-      "the deformable world is not run on characters (reference/bullet.md §3: NaN nodes against rigid bodies)";
+      "the deformable world is not run on characters (docs/bullet.md: NaN nodes against rigid bodies)";
 
   std::filesystem::create_directories(out);
   nlohmann::json j;

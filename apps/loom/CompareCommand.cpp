@@ -89,7 +89,7 @@ int compare_main(int argc, char** argv) {
   }
   const scene::Scene sc = scene::load_scene(scene_path, sets);
 #ifdef LOOM_HAVE_CHARACTER_COMPARE
-  if (sc.character) return compare_character(sc, frames, out);  // issue 6: character scenes
+  if (sc.character) return compare_character(sc, frames, out);  // Character scenes
 #endif
   bullet::CompareInput in;
   in.setup = sc.setup;

@@ -1,5 +1,5 @@
 #pragma once
-// Hybrid detail in outputs (issue 10): the cloths a run writes (OBJ frames, pc2/glTF exports, --render). A
+// Hybrid detail in outputs: the cloths a run writes (OBJ frames, pc2/glTF exports, --render). A
 // cloth with `detail` in its scene is shown as its curved-face surface (loom/cloth/CurvedFaces.h), rebuilt
 // from the simulated coarse positions after every frame; the others as simulated. Without any detail the
 // simulation's own cloths are shown, nothing is copied.

@@ -41,7 +41,7 @@ namespace loom::app {
 
 namespace {
 
-// The default scene (issue 6): a mocap character in a skirt and a cape; builds without loom::characters
+// The default scene: a mocap character in a skirt and a cape; builds without loom::characters
 // fall back to the hanging cloth.
 #ifdef LOOM_HAVE_CHARACTERS
 constexpr const char* kDefaultScene = "character_layers.json";
@@ -49,7 +49,7 @@ constexpr const char* kDefaultScene = "character_layers.json";
 constexpr const char* kDefaultScene = "hanging_cloth.json";
 #endif
 
-// Ctrl-C (SIGINT): the run stops at the next frame boundary, writes a checkpoint and valid outputs (issue 8).
+// Ctrl-C (SIGINT): the run stops at the next frame boundary, writes a checkpoint and valid outputs.
 volatile std::sig_atomic_t g_interrupted = 0;
 extern "C" void on_sigint(int) { g_interrupted = 1; }
 

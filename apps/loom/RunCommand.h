@@ -14,7 +14,7 @@ struct RunOptions {
   bool profile = false;
   bool render = false;           // --render: DIR/render/*.png, DIR/render.mp4, DIR/render.gif
   std::vector<std::string> sets;  // --set PATH=VALUE
-  bool census = false;           // --census: intersections and max_penetration in summary.json (issue 5)
+  bool census = false;           // --census: intersections and max_penetration in summary.json
   int checkpoint_every = 0;       // --checkpoint-every N: DIR/checkpoint/checkpoint.bin every N frames (0: off)
   std::string resume;             // --resume DIR: continue the run whose checkpoint is in DIR
   bool overwrite = false;         // --overwrite: write into a non-empty folder without a Loom manifest

@@ -20,7 +20,7 @@ using collision::Transform;
 
 namespace {
 
-// The cloth's broad-phase citizen: a user-type collision object (bullet.md §1, CO_USER_TYPE).
+// The cloth's broad-phase citizen: a user-type collision object (docs/bullet.md, CO_USER_TYPE).
 class ClothObject final : public btCollisionObject {
  public:
   explicit ClothObject(BulletCloth* owner) {
@@ -62,7 +62,8 @@ Transform slerp(const Transform& a, const Transform& b, double f) {
 struct BulletCloth::BodyTrack {
   Transform start = Transform::Identity(), end = Transform::Identity();
   // Kinematic bodies: Bullet holds the pose that saveKinematicState read for the whole stepSimulation call;
-  // we move from `from` to `target` over `span` seconds instead (constant velocity, as Bullet's own velocity).
+  // we move from `from` to `target` over `span` seconds instead (constant velocity, as Bullet's own
+  // velocity).
   bool initialised = false;
   Transform from = Transform::Identity(), target = Transform::Identity();
   double tau = 0.0, span = 0.0;  // s

@@ -1,6 +1,6 @@
 #pragma once
 // The bridge's own cloth-vs-collider contact response (private). It stands in for the collision library's
-// body-collision stage until that one lands (issue 5); same contract: reads the ColliderSet's prev/curr
+// body-collision stage until that one lands; same contract: reads the ColliderSet's prev/curr
 // poses, pushes cloth vertices out to `thickness` from each collider at curr, removes the approaching
 // relative normal velocity (inelastic), applies Coulomb friction to the tangential part, and sums minus the
 // impulse given to the cloth into each collider's reaction_impulse / reaction_angular_impulse (moment about

@@ -170,236 +170,328 @@ std::map<std::string, std::vector<int>> read_obj_groups(const std::string& path)
   return out;
 }
 
-Garment make_garment(const GarmentSpec& spec, const Motion& motion, const CapsuleRig& rig, const std::string& source,
-                     const std::string& where, const cloth::Vec3s& outside) {
-  if (!(spec.resolution > 0.0)) throw Error(source, where + ".resolution", "must be > 0");
-  if (!(spec.clearance >= 0.0)) throw Error(source, where + ".clearance", "must be >= 0");
-  std::vector<Transform> pose;
-  std::vector<Segment> caps = segments_at_start(motion, rig, pose);
-  for (const Vec3& p : outside) caps.push_back({p, p, 0.0, -1});  // earlier layers: points to clear
-  auto need = [&](const std::string& canonical) {
+namespace {
+
+// What every garment builder reads: the spec, the motion and rig at t = 0 (`pose`, `caps`: the capsules as
+// world segments plus the earlier layers' points to clear), and where errors are reported.
+struct GarmentFit {
+  GarmentFit(const GarmentSpec& s, const Motion& m, const CapsuleRig& r, const std::string& src,
+             const std::string& w)
+      : spec(s), motion(m), rig(r), source(src), where(w) {}
+
+  // The joint of the bone `canonical`; throws naming the garment when the skeleton has none.
+  int need(const std::string& canonical) const {
     const int j = joint_of(rig, canonical);
     if (j < 0) throw Error(source, where, "a " + spec.type + " needs a '" + canonical + "' bone in " + motion.source());
     return j;
-  };
-  auto bone_radius = [&](const std::string& canonical) { return rig.bones()[rig.find(canonical)].radius; };
-  const Vec3 up = Vec3::UnitY();
-  Garment g;
-  auto mesh_of = [&](const cloth::Vec3s& x, int nu, int nv, bool wrap) {
+  }
+  double bone_radius(const std::string& canonical) const { return rig.bones()[rig.find(canonical)].radius; }
+  // The grid mesh of x (grid_mesh), its errors reported at the garment's path.
+  std::shared_ptr<const cloth::ClothMesh> mesh_of(const cloth::Vec3s& x, int nu, int nv, bool wrap) const {
     try {
       return grid_mesh(x, nu, nv, wrap, spec.type);
     } catch (const Error& e) {
       throw Error(source, where, e.what());
     }
-  };
+  }
 
-  if (spec.type == "cape") {
-    const Vec3 ls = pose[need("LeftArm")].translation(), rs = pose[need("RightArm")].translation();
-    const Vec3 knee = pose[need("LeftLeg")].translation();
-    Vec3 right = rs - ls;
-    right.y() = 0.0;
-    if (right.norm() < 1e-9) throw Error(source, where, "the shoulders coincide at t = 0");
-    right.normalize();
-    const Vec3 forward = up.cross(right);
-    const double top = std::max(ls.y(), rs.y());
-    Vec3 centre = 0.5 * (ls + rs);
-    centre.y() = top;
-    const double width = spec.width > 0.0 ? spec.width : (rs - ls).norm() + 0.2;
-    const double length = spec.length > 0.0 ? spec.length : top - knee.y();
-    if (!(length > 0.0)) throw Error(source, where + ".length", "the knees are above the shoulders at t = 0");
-    const int nu = std::max(3, static_cast<int>(std::ceil(width / spec.resolution)) + 1);
-    const int nv = std::max(3, static_cast<int>(std::ceil(length / spec.resolution)) + 1);
-    cloth::Vec3s x(nu * nv);
-    // One vertical plane behind the back, as close as the capsules allow; its attached top row must also
-    // clear every capsule at every pose of the motion (an attached vertex cannot be pushed out by contacts:
-    // inside a lifted arm it would squeeze the free cloth next to it, as a thigh does to a skirt's waist).
-    const auto samples = motion_samples(motion);
-    // The whole top row hangs from one frame, the chest (the neck's parent joint): attached to the nearest of
-    // the neck and clavicle bones, neighbouring pins on different bones pulled the edge between them to
-    // +58 % when the shoulders moved against the neck (the default scene's max strain).
-    const int chest = motion.joints()[need("Neck")].parent;
-    if (chest < 0) throw Error(source, where, "the neck has no parent joint in " + motion.source());
-    double static_depth = -1.0;
-    for (double depth = 0.0;; depth += 0.002) {
-      bool clear = true;
-      for (int j = 0; j < nv && clear; ++j)
-        for (int i = 0; i < nu && clear; ++i) {
-          x[j * nu + i] = centre + (-0.5 * width + width * i / (nu - 1)) * right - (length * j / (nv - 1)) * up - depth * forward;
-          clear = clearance_of(x[j * nu + i], caps) >= spec.clearance;
+  const GarmentSpec& spec;
+  const Motion& motion;
+  const CapsuleRig& rig;
+  const std::string& source;
+  const std::string& where;
+  std::vector<Transform> pose;  // the motion's global joint transforms at t = 0
+  std::vector<Segment> caps;    // the rig's capsules at t = 0, then the points of earlier layers (radius 0)
+};
+
+const Vec3 kUp = Vec3::UnitY();
+
+// A cape: one vertical plane behind the back, its top row attached to the chest.
+Garment make_cape(const GarmentFit& f) {
+  const GarmentSpec& spec = f.spec;
+  const std::vector<Transform>& pose = f.pose;
+  Garment g;
+  const Vec3 ls = pose[f.need("LeftArm")].translation(), rs = pose[f.need("RightArm")].translation();
+  const Vec3 knee = pose[f.need("LeftLeg")].translation();
+  Vec3 right = rs - ls;
+  right.y() = 0.0;
+  if (right.norm() < 1e-9) throw Error(f.source, f.where, "the shoulders coincide at t = 0");
+  right.normalize();
+  const Vec3 forward = kUp.cross(right);
+  const double top = std::max(ls.y(), rs.y());
+  Vec3 centre = 0.5 * (ls + rs);
+  centre.y() = top;
+  const double width = spec.width > 0.0 ? spec.width : (rs - ls).norm() + 0.2;
+  const double length = spec.length > 0.0 ? spec.length : top - knee.y();
+  if (!(length > 0.0)) throw Error(f.source, f.where + ".length", "the knees are above the shoulders at t = 0");
+  const int nu = std::max(3, static_cast<int>(std::ceil(width / spec.resolution)) + 1);
+  const int nv = std::max(3, static_cast<int>(std::ceil(length / spec.resolution)) + 1);
+  cloth::Vec3s x(nu * nv);
+  // One vertical plane behind the back, as close as the capsules allow; its attached top row must also
+  // clear every capsule at every pose of the motion (an attached vertex cannot be pushed out by contacts:
+  // inside a lifted arm it would squeeze the free cloth next to it, as a thigh does to a skirt's waist).
+  const auto samples = motion_samples(f.motion);
+  // The whole top row hangs from one frame, the chest (the neck's parent joint): attached to the nearest of
+  // the neck and clavicle bones, neighbouring pins on different bones would stretch the edge between them
+  // whenever the shoulders move against the neck.
+  const int chest = f.motion.joints()[f.need("Neck")].parent;
+  if (chest < 0) throw Error(f.source, f.where, "the neck has no parent joint in " + f.motion.source());
+  double static_depth = -1.0;
+  for (double depth = 0.0;; depth += 0.002) {
+    bool clear = true;
+    for (int j = 0; j < nv && clear; ++j)
+      for (int i = 0; i < nu && clear; ++i) {
+        x[j * nu + i] = centre + (-0.5 * width + width * i / (nu - 1)) * right - (length * j / (nv - 1)) * kUp -
+                        depth * forward;
+        clear = clearance_of(x[j * nu + i], f.caps) >= spec.clearance;
+      }
+    if (clear && static_depth < 0.0) static_depth = depth;
+    for (int i = 0; i < nu && clear && depth < static_depth + 0.3; ++i)
+      clear = carried_gap(x[i], chest, pose, f.rig, samples) >= spec.clearance;
+    if (clear || depth > 2.0 || (static_depth >= 0.0 && depth >= static_depth + 0.3)) break;
+  }
+  g.mesh = f.mesh_of(x, nu, nv, false);
+  for (int i = 0; i < nu; ++i) {
+    g.attached_vertices.push_back(i);
+    g.attached_joints.push_back(chest);
+  }
+  return g;
+}
+
+// The top ring and extent of a tube garment (skirt or shirt) at t = 0.
+struct TubeFrame {
+  double top = 0.0, bottom = 0.0;  // m, heights of the top and bottom rings
+  double a = 0.0, b = 0.0;         // m, semi-axes of the top ring (a along `right`, b along forward)
+  Vec3 centre = Vec3::Zero();      // the axis passes through it (vertical)
+  Vec3 right = Vec3::UnitX();      // horizontal unit vector, left to right
+};
+
+// A skirt's frame: the waist ring above the thighs' capsules where they leave the pelvis, down to the knees.
+TubeFrame skirt_frame(const GarmentFit& f) {
+  const std::vector<Transform>& pose = f.pose;
+  const int root = f.motion.root();
+  const Vec3 hips = pose[root].translation();
+  TubeFrame t;
+  const Vec3 knee = pose[f.need("LeftLeg")].translation();
+  // The waist ring sits above the thighs' capsules where they leave the pelvis, so that a raised knee
+  // does not sweep through the pinned ring (Biovision hips are level with the root, CMU's 12 cm below).
+  double lift = 0.0;  // m, above the root
+  for (const char* leg : {"LeftUpLeg", "RightUpLeg"}) {
+    f.need(leg);
+    const Bone& thigh = f.rig.bones()[f.rig.find(leg)];
+    const double hip = (pose[root].inverse() * pose[thigh.joint].translation()).y();
+    lift = std::max(lift, hip + thigh.radius + kRingClearance);
+  }
+  t.top = hips.y() + lift;
+  t.bottom = f.spec.length > 0.0 ? t.top - f.spec.length : knee.y();
+  t.centre = hips;
+  t.a = t.b = 0.1;
+  Vec3 right = pose[f.need("RightUpLeg")].translation() - pose[f.need("LeftUpLeg")].translation();
+  right.y() = 0.0;
+  t.right = right.norm() > 1e-9 ? right.normalized() : Vec3::UnitX();
+  return t;
+}
+
+// A shirt's frame: the shoulder ring (as wide as the shoulders plus the upper arm), down to the hips.
+TubeFrame shirt_frame(const GarmentFit& f) {
+  const std::vector<Transform>& pose = f.pose;
+  const Vec3 hips = pose[f.motion.root()].translation();
+  TubeFrame t;
+  const Vec3 ls = pose[f.need("LeftArm")].translation(), rs = pose[f.need("RightArm")].translation();
+  Vec3 right = rs - ls;
+  right.y() = 0.0;
+  if (right.norm() < 1e-9) throw Error(f.source, f.where, "the shoulders coincide at t = 0");
+  right.normalize();
+  t.right = right;
+  t.top = std::max(ls.y(), rs.y());
+  t.bottom = f.spec.length > 0.0 ? t.top - f.spec.length : hips.y();
+  t.centre = 0.5 * (ls + rs);
+  t.a = 0.5 * (rs - ls).norm() + f.bone_radius("LeftArm") + f.spec.clearance;
+  t.b = 0.12;
+  return t;
+}
+
+// How far (m) the ray axis + r dir, r in [0, 1.5), runs within `gap` of the `avoid` capsules: the farthest r
+// still too close. For the pinned ring (`ring`), further out until the point, carried rigidly by the root,
+// also clears the torso by `gap` at every sampled pose (a spine bending forward over it).
+double ray_reach(const GarmentFit& f, const Vec3& axis, const Vec3& dir, const std::vector<Segment>& avoid, double gap,
+                 bool ring, const std::vector<Segment>& torso, const std::vector<std::vector<Transform>>& samples) {
+  const int root = f.motion.root();
+  double last = 0.0;  // m, farthest point of the ray still within clearance of the body
+  for (double r = 0.0; r < 1.5; r += 0.002)
+    if (clearance_of(axis + r * dir, avoid) < gap) last = r;
+  while (ring && last < 1.5) {
+    const Vec3 local = f.pose[root].inverse() * (axis + (last + 0.002) * dir);
+    bool clear = true;
+    for (size_t k = 0; k < samples.size() && clear; ++k)
+      for (const Segment& c : torso)
+        if (c.bone >= 0) {
+          const Bone& bone = f.rig.bones()[c.bone];
+          const std::vector<Transform>& p = samples[k];
+          if (segment_distance(p[root] * local, p[bone.joint].translation(), p[bone.child].translation()) -
+                  bone.radius <
+              gap) {
+            clear = false;
+            break;
+          }
         }
-      if (clear && static_depth < 0.0) static_depth = depth;
-      for (int i = 0; i < nu && clear && depth < static_depth + 0.3; ++i)
-        clear = carried_gap(x[i], chest, pose, rig, samples) >= spec.clearance;
-      if (clear || depth > 2.0 || (static_depth >= 0.0 && depth >= static_depth + 0.3)) break;
+    if (clear) break;
+    last += 0.002;
+  }
+  return last;
+}
+
+// Smooth rings (edges must not cut capsules): the largest need within +-22.5 degrees, then the mean over the
+// same window (never below any need within it).
+void smooth_ring(std::vector<double>& need) {
+  const int trial = static_cast<int>(need.size());
+  const int w = trial / 16;
+  std::vector<double> wide(trial, 0.0);
+  for (int i = 0; i < trial; ++i)
+    for (int m = -w; m <= w; ++m) wide[i] = std::max(wide[i], need[(i + m + trial) % trial]);
+  for (int i = 0; i < trial; ++i) {
+    double sum = 0.0;
+    for (int m = -w; m <= w; ++m) sum += wide[(i + m + trial) % trial];
+    need[i] = sum / (2 * w + 1);
+  }
+}
+
+// A skirt or a shirt: rings from the top ring down, each the top ellipse scaled about the axis (ring_scales),
+// the top ring attached (a skirt's to the root, a shirt's to the nearest upper-torso bone).
+Garment make_tube(const GarmentFit& f) {
+  const GarmentSpec& spec = f.spec;
+  const bool skirt = spec.type == "skirt";
+  const int root = f.motion.root();
+  const TubeFrame fr = skirt ? skirt_frame(f) : shirt_frame(f);
+  const double top = fr.top, bottom = fr.bottom, a = fr.a, b = fr.b;
+  const Vec3 centre = fr.centre, right = fr.right;
+  if (!(top - bottom > 0.0)) throw Error(f.source, f.where + ".length", "the garment has no length at t = 0");
+  const Vec3 forward = kUp.cross(right);
+  const std::set<std::string>& set = skirt ? kSkirtBody : kShirtBody;
+  const int nv = std::max(3, static_cast<int>(std::ceil((top - bottom) / spec.resolution)) + 1);
+  // Each ring is the top ellipse scaled about the axis: by `flare` towards the hem (skirt), and at least so
+  // far that every ray from the axis has left the body's capsules (the garment's set) `clearance` before
+  // the ring; a ring is never smaller than the one above it. Smooth rings, so edges do not cut capsules.
+  // ... plus any other capsule with an end inside the garment's height (hanging hands, a boxer's forearms).
+  // The attached top ring of a skirt clears the pelvis and thighs only, and closely (`ring_clearance`):
+  // the arms swing past the hips (CapsuleRig::fit_to_motion keeps them capsule_gap away from the body), and
+  // a pinned ring pushed out around the hanging hands at t = 0 would sit where the arms pass.
+  std::vector<Segment> body, torso;
+  auto within = [&](const Vec3& p) { return p.y() > bottom && p.y() < top - 0.05; };
+  for (const Segment& c : f.caps) {
+    const bool own = c.bone < 0 || set.count(f.rig.bones()[c.bone].canonical);
+    // A skirt's rows go inside the arms (CapsuleRig::fit_to_motion leaves room between arms and body).
+    if (own || (!skirt && (within(c.a) || within(c.b)))) body.push_back(c);
+    if (own) torso.push_back(c);
+  }
+  const int trial = 96;
+  const auto samples = skirt ? motion_samples(f.motion) : std::vector<std::vector<Transform>>{};
+  // Scale of each ring in each of the `trial` directions. A shirt's rings are ellipses (one scale per
+  // ring); a skirt's are star-shaped, each direction only as far out as it needs: a round ring as wide as
+  // the widest direction needs (the belly side when the spine bends forward over it) would sit where the
+  // arms hang at the sides, inside the upper arms.
+  std::vector<std::vector<double>> scale(nv, std::vector<double>(trial, 1.0));
+  for (int j = 0; j < nv; ++j) {
+    const double s = static_cast<double>(j) / (nv - 1);
+    const Vec3 axis(centre.x(), top - s * (top - bottom), centre.z());
+    const double flare = skirt ? 1.0 + (spec.flare - 1.0) * s : 1.0;
+    std::vector<double> need(trial, flare);
+    const bool ring = skirt && j == 0;
+    const std::vector<Segment>& avoid = ring ? torso : body;
+    // m; 5 mm for the chords; a skirt stays within 1.5 cm of the body, inside the arms hanging 2 cm away
+    const double gap = ring ? std::min(spec.clearance, kRingClearance)
+                            : (skirt ? std::min(spec.clearance, 0.01) : spec.clearance) + 0.005;
+    for (int i = 0; i < trial; ++i) {
+      const double th = 2.0 * kPi * i / trial;
+      const Vec3 dir = std::cos(th) * right + std::sin(th) * forward;
+      const double base = std::hypot(a * std::cos(th), b * std::sin(th));
+      const double last = ray_reach(f, axis, dir, avoid, gap, ring, torso, samples);
+      need[i] = std::max(need[i], (last + 0.002) / base);
     }
-    g.mesh = mesh_of(x, nu, nv, false);
-    for (int i = 0; i < nu; ++i) {
-      g.attached_vertices.push_back(i);
-      g.attached_joints.push_back(chest);
-    }
-  } else if (spec.type == "skirt" || spec.type == "shirt") {
-    const bool skirt = spec.type == "skirt";
-    const int root = motion.root();
-    const Vec3 hips = pose[root].translation();
-    double top, bottom, a, b;  // m: heights of the top and bottom rings; semi-axes of the top ring
-    Vec3 centre, right;
     if (skirt) {
-      const Vec3 knee = pose[need("LeftLeg")].translation();
-      // The waist ring sits above the thighs' capsules where they leave the pelvis, so that a raised knee
-      // does not sweep through the pinned ring (Biovision hips are level with the root, CMU's 12 cm below).
-      double lift = 0.0;  // m, above the root
-      for (const char* leg : {"LeftUpLeg", "RightUpLeg"}) {
-        need(leg);
-        const Bone& thigh = rig.bones()[rig.find(leg)];
-        const double hip = (pose[root].inverse() * pose[thigh.joint].translation()).y();
-        lift = std::max(lift, hip + thigh.radius + kRingClearance);
-      }
-      top = hips.y() + lift;
-      bottom = spec.length > 0.0 ? top - spec.length : knee.y();
-      centre = hips;
-      a = b = 0.1;
-      right = pose[need("RightUpLeg")].translation() - pose[need("LeftUpLeg")].translation();
-      right.y() = 0.0;
-      right = right.norm() > 1e-9 ? right.normalized() : Vec3::UnitX();
+      smooth_ring(need);
     } else {
-      const Vec3 ls = pose[need("LeftArm")].translation(), rs = pose[need("RightArm")].translation();
-      right = rs - ls;
-      right.y() = 0.0;
-      if (right.norm() < 1e-9) throw Error(source, where, "the shoulders coincide at t = 0");
-      right.normalize();
-      top = std::max(ls.y(), rs.y());
-      bottom = spec.length > 0.0 ? top - spec.length : hips.y();
-      centre = 0.5 * (ls + rs);
-      a = 0.5 * (rs - ls).norm() + bone_radius("LeftArm") + spec.clearance;
-      b = 0.12;
+      need.assign(trial, *std::max_element(need.begin(), need.end()));
     }
-    if (!(top - bottom > 0.0)) throw Error(source, where + ".length", "the garment has no length at t = 0");
-    const Vec3 forward = up.cross(right);
-    const std::set<std::string>& set = skirt ? kSkirtBody : kShirtBody;
-    const int nv = std::max(3, static_cast<int>(std::ceil((top - bottom) / spec.resolution)) + 1);
-    // Each ring is the top ellipse scaled about the axis: by `flare` towards the hem (skirt), and at least so
-    // far that every ray from the axis has left the body's capsules (the garment's set) `clearance` before
-    // the ring; a ring is never smaller than the one above it. Smooth rings, so edges do not cut capsules.
-    // ... plus any other capsule with an end inside the garment's height (hanging hands, a boxer's forearms).
-    // The attached top ring of a skirt clears the pelvis and thighs only, and closely (`ring_clearance`):
-    // the arms swing past the hips (CapsuleRig::fit_to_motion keeps them capsule_gap away from the body), and
-    // a pinned ring pushed out around the hanging hands at t = 0 would sit where the arms pass.
-    std::vector<Segment> body, torso;
-    auto within = [&](const Vec3& p) { return p.y() > bottom && p.y() < top - 0.05; };
-    for (const Segment& c : caps) {
-      const bool own = c.bone < 0 || set.count(rig.bones()[c.bone].canonical);
-      // A skirt's rows go inside the arms (CapsuleRig::fit_to_motion leaves room between arms and body).
-      if (own || (!skirt && (within(c.a) || within(c.b)))) body.push_back(c);
-      if (own) torso.push_back(c);
+    for (int i = 0; i < trial; ++i) scale[j][i] = j == 0 ? need[i] : std::max(need[i], scale[j - 1][i]);
+  }
+  // Scale at angle th, interpolated between the trial directions.
+  auto scale_at = [&](int j, double th) {
+    const double u0 = th / (2.0 * kPi) * trial;
+    const int i0 = static_cast<int>(std::floor(u0)) % trial;
+    const double u = u0 - std::floor(u0);
+    return (1.0 - u) * scale[j][i0] + u * scale[j][(i0 + 1) % trial];
+  };
+  auto ring_point = [&](int j, double th) {
+    return scale_at(j, th) * (a * std::cos(th) * right + b * std::sin(th) * forward);
+  };
+  // Points around from the longest ring, so edges are about `resolution` long.
+  double perimeter = 0.0;
+  for (int i = 0; i < trial; ++i)
+    perimeter +=
+        (ring_point(nv - 1, 2.0 * kPi * (i + 1) / trial) - ring_point(nv - 1, 2.0 * kPi * i / trial)).norm();
+  const int nu = std::max(8, static_cast<int>(std::ceil(perimeter / spec.resolution)));
+  cloth::Vec3s x(nu * nv);
+  for (int j = 0; j < nv; ++j) {
+    const double y = top - (static_cast<double>(j) / (nv - 1)) * (top - bottom);
+    for (int i = 0; i < nu; ++i) x[j * nu + i] = Vec3(centre.x(), y, centre.z()) + ring_point(j, 2.0 * kPi * i / nu);
+  }
+  Garment g;
+  g.mesh = f.mesh_of(x, nu, nv, true);
+  for (int i = 0; i < nu; ++i) {
+    g.attached_vertices.push_back(i);
+    g.attached_joints.push_back(skirt ? root : nearest_joint(x[i], f.caps, f.rig, kUpperTorso));
+  }
+  return g;
+}
+
+// A garment from an OBJ file, its vertex groups attached to named bones (or each vertex to the nearest).
+Garment make_obj_garment(const GarmentFit& f) {
+  const GarmentSpec& spec = f.spec;
+  Garment g;
+  try {
+    g.mesh = cloth::ClothMesh::from_obj(spec.path, spec.scale, spec.translate);
+  } catch (const Error& e) {
+    throw Error(f.source, f.where, e.what());
+  }
+  const auto groups = read_obj_groups(spec.path);
+  const std::vector<std::string> canon = canonical_joint_names(f.motion);
+  for (const auto& [group, bone] : spec.attach) {
+    auto it = groups.find(group);
+    if (it == groups.end())
+      throw Error(f.source, f.where + ".attach." + group, "no group '" + group + "' in " + spec.path);
+    int joint = -1;
+    if (bone != "nearest") {
+      for (int k = 0; k < f.motion.num_joints() && joint < 0; ++k)
+        if (f.motion.joints()[k].name == bone || canon[k] == bone) joint = k;
+      if (joint < 0)
+        throw Error(f.source, f.where + ".attach." + group, "no bone '" + bone + "' in " + f.motion.source());
     }
-    const int trial = 96;
-    const auto samples = skirt ? motion_samples(motion) : std::vector<std::vector<Transform>>{};
-    // Scale of each ring in each of the `trial` directions. A shirt's rings are ellipses (one scale per ring);
-    // a skirt's are star-shaped, each direction only as far out as it needs: a round ring as wide as the
-    // widest direction needs (the belly side when the spine bends forward over it in CMU 01_03) sat where the
-    // arms hang at the sides (the upper arm 2.3 cm inside the pinned ring at 28.45 s of 01_03).
-    std::vector<std::vector<double>> scale(nv, std::vector<double>(trial, 1.0));
-    for (int j = 0; j < nv; ++j) {
-      const double s = static_cast<double>(j) / (nv - 1);
-      const Vec3 axis(centre.x(), top - s * (top - bottom), centre.z());
-      const double flare = skirt ? 1.0 + (spec.flare - 1.0) * s : 1.0;
-      std::vector<double> need(trial, flare);
-      const bool ring = skirt && j == 0;
-      const std::vector<Segment>& avoid = ring ? torso : body;
-      // m; 5 mm for the chords; a skirt stays within 1.5 cm of the body, inside the arms hanging 2 cm away
-      const double gap = ring ? std::min(spec.clearance, kRingClearance)
-                              : (skirt ? std::min(spec.clearance, 0.01) : spec.clearance) + 0.005;
-      for (int i = 0; i < trial; ++i) {
-        const double th = 2.0 * kPi * i / trial;
-        const Vec3 dir = std::cos(th) * right + std::sin(th) * forward;
-        const double base = std::hypot(a * std::cos(th), b * std::sin(th));
-        double last = 0.0;  // m, farthest point of the ray still within clearance of the body
-        for (double r = 0.0; r < 1.5; r += 0.002)
-          if (clearance_of(axis + r * dir, avoid) < gap) last = r;
-        // The pinned ring also clears the torso over the whole motion (a spine bending forward over it).
-        while (ring && last < 1.5) {
-          const Vec3 local = pose[root].inverse() * (axis + (last + 0.002) * dir);
-          bool clear = true;
-          for (size_t k = 0; k < samples.size() && clear; ++k)
-            for (const Segment& c : torso)
-              if (c.bone >= 0) {
-                const Bone& bone = rig.bones()[c.bone];
-                const std::vector<Transform>& p = samples[k];
-                if (segment_distance(p[root] * local, p[bone.joint].translation(), p[bone.child].translation()) - bone.radius < gap) {
-                  clear = false;
-                  break;
-                }
-              }
-          if (clear) break;
-          last += 0.002;
-        }
-        need[i] = std::max(need[i], (last + 0.002) / base);
-      }
-      if (skirt) {
-        // Smooth rings (edges must not cut capsules): the largest need within +-22.5 degrees, then the mean over
-        // the same window (never below any need within it).
-        const int w = trial / 16;
-        std::vector<double> wide(trial, 0.0);
-        for (int i = 0; i < trial; ++i)
-          for (int m = -w; m <= w; ++m) wide[i] = std::max(wide[i], need[(i + m + trial) % trial]);
-        for (int i = 0; i < trial; ++i) {
-          double sum = 0.0;
-          for (int m = -w; m <= w; ++m) sum += wide[(i + m + trial) % trial];
-          need[i] = sum / (2 * w + 1);
-        }
-      } else {
-        need.assign(trial, *std::max_element(need.begin(), need.end()));
-      }
-      for (int i = 0; i < trial; ++i) scale[j][i] = j == 0 ? need[i] : std::max(need[i], scale[j - 1][i]);
+    for (int v : it->second) {
+      if (std::find(g.attached_vertices.begin(), g.attached_vertices.end(), v) != g.attached_vertices.end()) continue;
+      g.attached_vertices.push_back(v);
+      g.attached_joints.push_back(joint >= 0 ? joint : nearest_joint(g.mesh->rest_positions()[v], f.caps, f.rig, {}));
     }
-    // Scale at angle th, interpolated between the trial directions.
-    auto scale_at = [&](int j, double th) {
-      const double f = th / (2.0 * kPi) * trial;
-      const int i0 = static_cast<int>(std::floor(f)) % trial;
-      const double u = f - std::floor(f);
-      return (1.0 - u) * scale[j][i0] + u * scale[j][(i0 + 1) % trial];
-    };
-    auto ring_point = [&](int j, double th) {
-      return scale_at(j, th) * (a * std::cos(th) * right + b * std::sin(th) * forward);
-    };
-    // Points around from the longest ring, so edges are about `resolution` long.
-    double perimeter = 0.0;
-    for (int i = 0; i < trial; ++i)
-      perimeter += (ring_point(nv - 1, 2.0 * kPi * (i + 1) / trial) - ring_point(nv - 1, 2.0 * kPi * i / trial)).norm();
-    const int nu = std::max(8, static_cast<int>(std::ceil(perimeter / spec.resolution)));
-    cloth::Vec3s x(nu * nv);
-    for (int j = 0; j < nv; ++j) {
-      const double y = top - (static_cast<double>(j) / (nv - 1)) * (top - bottom);
-      for (int i = 0; i < nu; ++i) x[j * nu + i] = Vec3(centre.x(), y, centre.z()) + ring_point(j, 2.0 * kPi * i / nu);
-    }
-    g.mesh = mesh_of(x, nu, nv, true);
-    for (int i = 0; i < nu; ++i) {
-      g.attached_vertices.push_back(i);
-      g.attached_joints.push_back(skirt ? root : nearest_joint(x[i], caps, rig, kUpperTorso));
-    }
+  }
+  return g;
+}
+
+}  // namespace
+
+Garment make_garment(const GarmentSpec& spec, const Motion& motion, const CapsuleRig& rig, const std::string& source,
+                     const std::string& where, const cloth::Vec3s& outside) {
+  if (!(spec.resolution > 0.0)) throw Error(source, where + ".resolution", "must be > 0");
+  if (!(spec.clearance >= 0.0)) throw Error(source, where + ".clearance", "must be >= 0");
+  GarmentFit f(spec, motion, rig, source, where);
+  f.caps = segments_at_start(motion, rig, f.pose);
+  for (const Vec3& p : outside) f.caps.push_back({p, p, 0.0, -1});  // earlier layers: points to clear
+  Garment g;
+  if (spec.type == "cape") {
+    g = make_cape(f);
+  } else if (spec.type == "skirt" || spec.type == "shirt") {
+    g = make_tube(f);
   } else if (spec.type == "obj") {
-    try {
-      g.mesh = cloth::ClothMesh::from_obj(spec.path, spec.scale, spec.translate);
-    } catch (const Error& e) {
-      throw Error(source, where, e.what());
-    }
-    const auto groups = read_obj_groups(spec.path);
-    const std::vector<std::string> canon = canonical_joint_names(motion);
-    for (const auto& [group, bone] : spec.attach) {
-      auto it = groups.find(group);
-      if (it == groups.end()) throw Error(source, where + ".attach." + group, "no group '" + group + "' in " + spec.path);
-      int joint = -1;
-      if (bone != "nearest") {
-        for (int k = 0; k < motion.num_joints() && joint < 0; ++k)
-          if (motion.joints()[k].name == bone || canon[k] == bone) joint = k;
-        if (joint < 0) throw Error(source, where + ".attach." + group, "no bone '" + bone + "' in " + motion.source());
-      }
-      for (int v : it->second) {
-        if (std::find(g.attached_vertices.begin(), g.attached_vertices.end(), v) != g.attached_vertices.end()) continue;
-        g.attached_vertices.push_back(v);
-        g.attached_joints.push_back(joint >= 0 ? joint : nearest_joint(g.mesh->rest_positions()[v], caps, rig, {}));
-      }
-    }
+    g = make_obj_garment(f);
   } else {
     throw Error(source, where + ".type", "unknown garment '" + spec.type + "' (known: cape, skirt, shirt, obj)");
   }

@@ -82,7 +82,7 @@ void BaraffWitkinTerm::add_forces(const EvalContext& c, Vec3s& f) const {
       Vec3* out = &corner_force_[3 * k];
       for (int m = 0; m < 3; ++m) out[m].setZero();
       if (kind_ == Kind::kStretch) {
-        // f_m = -(k C + k_d Ċ) ∂C/∂x_m, ∂C_u/∂x_m = α a_m ŵ_u (methods.md §1.4)
+        // f_m = -(k C + k_d Ċ) ∂C/∂x_m, ∂C_u/∂x_m = α a_m ŵ_u (Baraff & Witkin 1998 §4)
         auto stretch = [&](const Vec3& w, const Vec3& w_dot, const std::array<double, 3>& coef, double k) {
           const double l = w.norm();
           if (!(l > 0.0)) return;

@@ -518,8 +518,9 @@ std::unique_ptr<ChoiKoTerm> make_choi_ko_term(const ClothMesh& mesh, const Mater
         s.i = d.i;
         s.j = d.j;
         s.rest_length = d.rest_length;
-        // The dihedral hinge's energy (B/2) |e|²/(A1 + A2) θ² (methods.md §4.5) matched to the spring's arc
-        // energy: a fold θ across the edge shortens the chord by h_i h_j θ² / (2 l_u).
+        // The dihedral hinge's energy (B/2) |e|²/(A1 + A2) θ² (Bridson, Marino & Fedkiw 2003;
+        // docs/references.md) matched to the spring's arc energy: a fold θ across the edge shortens the chord
+        // by h_i h_j θ² / (2 l_u).
         const Vec3 e = x[h.e1] - x[h.e0];
         const double elen = e.norm(), hi = e.cross(x[d.i] - x[h.e0]).norm() / elen,
                      hj = e.cross(x[d.j] - x[h.e0]).norm() / elen, L3 = d.rest_length * d.rest_length * d.rest_length;

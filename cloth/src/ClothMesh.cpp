@@ -241,7 +241,7 @@ void ClothMesh::build_frames(const std::vector<std::array<Vec2, 3>>& corner_uvs)
 
 void ClothMesh::build_mesh_springs() {
   // Edge springs carry the area and the material direction of their triangles; hinge springs join the two
-  // vertices opposite an interior edge (methods.md §1.1).
+  // vertices opposite an interior edge (docs/references.md, "Cloth models").
   std::vector<std::vector<int>> vertex_tris(num_vertices());
   for (size_t t = 0; t < triangles_.size(); ++t)
     for (int v : triangles_[t]) vertex_tris[v].push_back(static_cast<int>(t));

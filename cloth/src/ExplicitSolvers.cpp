@@ -6,7 +6,8 @@
 
 namespace loom::cloth {
 
-// Reference/methods.md §1.2 for each scheme. Kinematic vertices (inverse mass 0) move by x += h v.
+// docs/references.md, "Time integration" for each scheme. Kinematic vertices (inverse mass 0) move by x += h
+// v.
 
 void ExplicitEuler::step(Cloth& cloth, double t, double h, int threads) {
   ClothState& s = cloth.state();
@@ -42,7 +43,8 @@ void Verlet::step(Cloth& cloth, double t, double h, int threads) {
   // History is the state's x_prev, so corrections made by later stages (constraints, collisions) carry
   // into the next step as Verlet expects.
   if (h_prev_ <= 0.0 || static_cast<int>(s.x_prev.size()) != n) {
-    // Start from (x, v): x_{-1} = x - h v + h²/2 a makes the first step x + h v + h²/2 a (exact for constant a).
+    // Start from (x, v): x_{-1} = x - h v + h²/2 a makes the first step x + h v + h²/2 a (exact for constant
+    // a).
     s.x_prev.resize(n);
     for (int i = 0; i < n; ++i) s.x_prev[i] = s.x[i] - h * s.v[i] + 0.5 * h * h * s.inv_mass[i] * f_[i];
   } else if (h != h_prev_) {

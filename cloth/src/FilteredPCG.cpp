@@ -131,7 +131,7 @@ PcgResult FilteredPCG::solve(const BlockMatrix& A, const Vec3s& b, const std::ve
       partial_[ch] = acc;
     }
     const double cq = total();
-    if (!(cq > 0.0)) break;  // A not positive definite along c: stop with what we have (methods.md §1.4)
+    if (!(cq > 0.0)) break;  // A not positive definite along c: stop with what we have
     const double alpha = delta / cq;
     // Δv += α c, r -= α q, s = P⁻¹ r, rᵀs
     const double delta_old = delta;

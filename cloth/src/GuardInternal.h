@@ -1,5 +1,5 @@
 #pragma once
-// Helpers of the guard shared by Simulation.cpp and SimulationState.cpp (issue 8); not installed.
+// Helpers of the guard shared by Simulation.cpp and SimulationState.cpp; not installed.
 #include "loom/cloth/Simulation.h"
 
 namespace loom::cloth {

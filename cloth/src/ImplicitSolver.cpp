@@ -136,10 +136,11 @@ void ImplicitSolver::assemble(Cloth& cloth, const Vec3s& x, const Vec3s& v, doub
   bool symmetric = true;
   for (const Term* term : jac_terms_) symmetric = symmetric && term->symmetric_jacobians(o);
   if (symmetric) {
-    // Every term mirrors its blocks bit for bit (Term::symmetric_jacobians): raw(j, i) = raw(i, j)ᵀ exactly, so
-    // (raw + rawᵀ)/2 = raw exactly and one pass over the blocks, without the transposed reads, gives the same A.
-    // K y is summed in the same pass, row by row in column order as multiply() does (the same bits).
-    // The PCG's block-Jacobi inverses too (FilteredPCG::diagonal_inverse), where the diagonal block is written.
+    // Every term mirrors its blocks bit for bit (Term::symmetric_jacobians): raw(j, i) = raw(i, j)ᵀ exactly,
+    // so (raw + rawᵀ)/2 = raw exactly and one pass over the blocks, without the transposed reads, gives the
+    // same A. K y is summed in the same pass, row by row in column order as multiply() does (the same bits).
+    // The PCG's block-Jacobi inverses too (FilteredPCG::diagonal_inverse), where the diagonal block is
+    // written.
     if (ky) ky->resize(n_);
     dinv_.resize(n_);
 #pragma omp parallel for num_threads(threads) if (threads > 1) schedule(static)
@@ -233,7 +234,7 @@ bool ImplicitSolver::substep(Cloth& cloth, double t, double h, int threads) {
   Vec3s& vplus = vk_;
   vplus.resize(n);
   if (p_.newton_iterations <= 1) {
-    // Linearised step (Baraff & Witkin 1998 eq. 18; methods.md §1.6 for BDF2).
+    // Linearised step (Baraff & Witkin 1998 eq. 18; Choi & Ko 2002 for BDF2).
     cloth.compute_forces(s.x, s.v, t, threads, f_);
     y_.resize(n);
 #pragma omp parallel for num_threads(threads) if (par) schedule(static)
@@ -263,8 +264,8 @@ bool ImplicitSolver::substep(Cloth& cloth, double t, double h, int threads) {
     if (excessive) {
       energy_cache_valid_ = false;
       // The linearised step created energy that no external work explains (large rotations of stiff
-      // cloth, methods.md §2.2): correct this step by Newton with line search, from the better of the
-      // linearised result and the start.
+      // cloth, docs/references.md, "Time integration"): correct this step by Newton with line search, from
+      // the better of the linearised result and the start.
       ++counters_.safeguard_corrections;
       vtry_.resize(n);
       for (int i = 0; i < n; ++i) vtry_[i] = fixed_[i] ? vplus[i] : s.v[i];
@@ -332,14 +333,15 @@ bool ImplicitSolver::energy_gain_excessive(Cloth& cloth, double t, double h, int
   // trapezoid rule with the end-of-step forces too before a step with moving pins is called excessive) and
   // W_in = h Σ_free max(0, f_nc,i·v+_i) an upper bound of what non-conservative terms (drag in wind) can
   // feed in. Damping only dissipates. An exactly solved backward Euler step of a conservative system
-  // dissipates; the linearised step can gain energy only through the linearisation (methods.md §2.2).
+  // dissipates; the linearised step can gain energy only through the linearisation (docs/references.md, "Time
+  // integration").
   const ClothState& s = cloth.state();
   const int n = n_;
   const Vec3s& vplus = vk_;
   xk_.resize(n);
   for (int i = 0; i < n; ++i) xk_[i] = xb_[i] + gamma_ * vplus[i];
-  // The start's term energies are the last check's end energies when the step starts where that one ended (the
-  // same positions bit for bit, the same terms): conservative energies depend on x alone (Term.h).
+  // The start's term energies are the last check's end energies when the step starts where that one ended
+  // (the same positions bit for bit, the same terms): conservative energies depend on x alone (Term.h).
   const bool reuse = energy_cache_valid_ && energy_cache_terms_ == term_list(cloth) && s.x == energy_cache_x_;
   const double k0 = mechanical_energy(cloth, s.x, s.v, t, threads, e_start_, reuse);
   if (reuse) e_start_ = e_end_;
@@ -397,8 +399,8 @@ PcgResult ImplicitSolver::solve_with_contacts(const Cloth& cloth, Vec3s& x, bool
   counters_.contact_constraints += constrained;
   PcgResult r =
       pcg_.solve(A_, rhs_, fixed_, x, p_.cg_tolerance, p_.cg_max_iterations, threads, warm_start, &normals_, &dinv_);
-  // Release the contacts that hold their vertex against the body: the constraint impulse λ n = (A x - b) along n
-  // (n points out of the body) is negative there. One more solve from this result, without them.
+  // Release the contacts that hold their vertex against the body: the constraint impulse λ n = (A x - b)
+  // along n (n points out of the body) is negative there. One more solve from this result, without them.
   multiply(A_, x, tmp_, threads);
   int released = 0;
   for (int i = 0; i < n_; ++i) {

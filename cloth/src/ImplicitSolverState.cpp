@@ -1,4 +1,4 @@
-// Save and restore of ImplicitSolver's history (non-finite guard, checkpoints; issue 8): everything a step
+// Save and restore of ImplicitSolver's history (non-finite guard, checkpoints): everything a step
 // reads that an earlier step wrote, so a restored solver continues bit-identically.
 #include "loom/cloth/ImplicitSolver.h"
 

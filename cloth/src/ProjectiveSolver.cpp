@@ -191,7 +191,7 @@ namespace {
 // Deformation gradient of triangle t (3x2) and its projection onto the strain band (SVD clamp).
 Eigen::Matrix<double, 3, 2> clamp_strain(const Eigen::Matrix<double, 3, 2>& f, double tau) {
   // Full U (3x3) and its first two columns: Eigen allows thin U/V only for a dynamic column count (with
-  // fixed sizes it asserts in debug builds and leaves U's shape undefined without asserts; issue 8, ASan build).
+  // fixed sizes it asserts in debug builds and leaves U's shape undefined without asserts).
   Eigen::JacobiSVD<Eigen::Matrix<double, 3, 2>> svd(f, Eigen::ComputeFullU | Eigen::ComputeFullV);
   Vec2 sigma = svd.singularValues();
   for (int k = 0; k < 2; ++k) sigma[k] = std::clamp(sigma[k], 1.0 - tau, 1.0 + tau);

@@ -69,7 +69,7 @@ class SolveStage final : public Stage {
       }
     return out;
   }
-  // Each cloth's solver history (Solver.h; issue 8).
+  // Each cloth's solver history (Solver.h).
   void save_state(StateWriter& out) const override {
     for (const auto& s : solvers_) s->save_state(out);
   }
@@ -332,7 +332,8 @@ FrameStats Simulation::measure() const {
 }
 
 namespace {
-// Per-chunk partial results of the frame statistics, combined in chunk order: the same bits for any thread count.
+// Per-chunk partial results of the frame statistics, combined in chunk order: the same bits for any thread
+// count.
 struct StatChunk {
   double kinetic = 0.0, potential = 0.0, strain_sum = 0.0, max_strain = 0.0;
 };

@@ -1,4 +1,4 @@
-// Simulation state save/restore, the step change and the guard's energy scale (issue 8).
+// Simulation state save/restore, the step change and the guard's energy scale.
 #include <algorithm>
 #include <cmath>
 

@@ -58,7 +58,7 @@ void SpringTerm::add_jacobians(const EvalContext& c, const JacobianOptions& o, B
     const Vec3 n = d / l;
     const Mat3 nn = n * n.transpose();
     if (dfdx) {
-      // K = d f_i / d x_j = k [x̂x̂ᵀ + (1 - L/l)(I - x̂x̂ᵀ)]  (methods.md §1.1)
+      // K = d f_i / d x_j = k [x̂x̂ᵀ + (1 - L/l)(I - x̂x̂ᵀ)]  (docs/references.md, "Cloth models")
       const Mat3 transverse = Mat3::Identity() - nn;
       double ratio = 1.0 - s.rest_length / l;
       if (o.clamp_compression) ratio = std::max(ratio, 0.0);

@@ -145,8 +145,9 @@ void BodyCollisionStage::run_cloth(cloth::Cloth& cloth, int cloth_index, double 
         if (d < 2.0 * pairs[k].thickness) near[i] = 1;
         if (d - pairs[k].thickness < closest_gap) closest_gap = d - pairs[k].thickness, closest = k;
       }
-      // Held against the closest collider in the next solve (ClothState::contact_normal), if it is near and not
-      // leaving it (relative normal velocity <= 0: resting, or approaching; a vertex leaving keeps gravity's pull).
+      // Held against the closest collider in the next solve (ClothState::contact_normal), if it is near and
+      // not leaving it (relative normal velocity <= 0: resting, or approaching; a vertex leaving keeps
+      // gravity's pull).
       if (settings_.contact_normals && near[i] && closest >= 0) {
         Vec3 nrm;
         signed_distance(set[closest], set[closest].curr, x, &nrm);
@@ -196,19 +197,18 @@ int BodyCollisionStage::respond_vertex(const std::vector<int>& mine, const std::
       if (hit.hit) {
         // The contact point carried with the body to the end of the step is where the vertex ends if it
         // sticks; Coulomb friction decides how far it slides from there along the surface towards where it
-        // was going. (Ending at the carried point always, as before, was infinite friction: on a sphere
-        // spinning at 3 rad/s under a 159x159 sheet the surface moves 7.5 mm per step against 6.3 mm edges,
-        // the caught vertices were dragged away from their neighbours, and the sheet tore to 130-360 % strain
-        // and piled up.) A triangle mesh keeps the carried point: on a concave part (the inside of a funnel)
-        // the tangent plane runs into the surface, and a thin shell could be crossed there.
+        // was going. (Ending at the carried point always would be infinite friction: where the surface moves
+        // more than an edge length per step, the caught vertices are dragged away from their neighbours and
+        // the sheet tears.) A triangle mesh keeps the carried point: on a concave part (the inside of a
+        // funnel) the tangent plane runs into the surface, and a thin shell could be crossed there.
         const Vec3 stuck = c.curr * hit.local;
         x = c.shape.type == ShapeType::mesh
                 ? stuck
                 : Vec3(stuck + coulomb_tangent(x - stuck, c.curr.linear() * hit.normal, pr.mu_s, pr.mu_k));
       // The velocity becomes what the vertex did, (x - x_prev) / h (then the inward part relative to the
       // surface is removed below): a vertex that springs keep pulling along a curved surface is caught by
-      // the swept test at every step and hardly moves, so keeping the velocity it had let it gather
-      // speed without bound (40 m/s on a forearm moving at 2 m/s).
+      // the swept test at every step and hardly moves; keeping the velocity it had would let it gather
+      // speed without bound.
       const Vec3 v_did = (x - x0) / h;
       out.push_back({k, m * (v_did - v), x});  // its reaction, as every velocity change's
       v = v_did;
@@ -250,11 +250,11 @@ int BodyCollisionStage::respond_vertex(const std::vector<int>& mine, const std::
 }
 
 // A vertex in the crease of two overlapping capsules (the back of a bent knee, where thigh and shin capsules
-// overlap; an armpit) is pushed into one by the projection out of the other, and the passes end with it inside
-// whichever came first (a skirt's hem 1.6 cm inside the thigh, on the shin's surface, in Boxing_Toes' high
-// knees). It leaves the union instead: along the sum of the normals of the colliders it is within the
-// thickness of (or touches), by the largest deficit over that normal's share (signed distances are 1-Lipschitz, so a few
-// steps), then the inward velocity relative to each of their surfaces is removed.
+// overlap; an armpit) is pushed into one by the projection out of the other, and the passes end with it
+// inside whichever came first (on the surface of the other). It leaves the union instead: along the sum of
+// the normals of the colliders it is within the thickness of (or touches), by the largest deficit over that
+// normal's share (signed distances are 1-Lipschitz, so a few steps), then the inward velocity relative to
+// each of their surfaces is removed.
 void BodyCollisionStage::exit_pinch(const std::vector<int>& mine, const std::vector<Pair>& pairs, Vec3& x, Vec3& v,
                                     double m, double h, std::vector<Reaction>& out, long& contacts) const {
   const ColliderSet& set = *colliders_;
@@ -267,7 +267,8 @@ void BodyCollisionStage::exit_pinch(const std::vector<int>& mine, const std::vec
       Vec3 n;
       const double d = signed_distance(set[k], set[k].curr, x, &n);
       const double deficit = pairs[k].thickness - d;
-      // Touching (within 1% of the thickness past it) counts too: the collider the last pass projected out of.
+      // Touching (within 1% of the thickness past it) counts too: the collider the last pass projected out
+      // of.
       if (deficit <= -0.01 * pairs[k].thickness) continue;
       // Capsules only (the joints of a character rig): between walls closing in (a shrinking box) there is no
       // way out of the union, and moving there fed energy into a crushed cloth (the stability suite).
@@ -416,14 +417,14 @@ void BodyCollisionStage::run_edges(cloth::Cloth& cloth, double h, int threads, s
     }
     if (found == 0) break;
     // A capsule threaded through the cloth: two edges of one vertex corrected against the same capsule from
-    // opposite sides (normals more than 90 degrees apart) have the capsule between them, through a triangle of
-    // the fan, which no edge correction can undo (faces are not tested). Pushing both edges to their own sides
-    // pulled the vertex's neighbours apart every step (skirt on Boxing_Toes at 29.05 s: a 1-2.5 cm correction
-    // each way per pass, strain 2.5, and the implicit step then threw the vertex back at 25-48 m/s). Those
-    // edges get no correction: the cloth slides off the limb; the vertex phase still keeps every vertex out of
-    // every collider. Capsules only: cloth wrapped around the edge of a thin box (a tablecloth on a table) has
-    // opposite normals too and is corrected as before. (Testing whether the capsule's axis crosses the
-    // vertex's triangle with the two edges instead missed the skirt on Boxing_Toes: 2.78 / 36 m/s.)
+    // opposite sides (normals more than 90 degrees apart) have the capsule between them, through a triangle
+    // of the fan, which no edge correction can undo (faces are not tested). Pushing both edges to their own
+    // sides would pull the vertex's neighbours apart every step, and the solver would throw the stretched
+    // vertex back. Those edges get no correction: the cloth slides off the limb; the vertex phase still keeps
+    // every vertex out of every collider. Capsules only: cloth wrapped around the edge of a thin box (a
+    // tablecloth on a table) has opposite normals too and is corrected. (Testing instead whether the
+    // capsule's axis crosses the vertex's triangle misses threaded capsules that the opposite edge normals
+    // catch.)
     std::vector<int> first_collider(s.size(), -1);
     std::vector<Vec3> first_normal(s.size());
     std::vector<char> threaded(s.size(), 0);
@@ -453,10 +454,9 @@ void BodyCollisionStage::run_edges(cloth::Cloth& cloth, double h, int threads, s
     // Jacobi: a vertex on several corrected edges gets the mean of their corrections, not the sum (summed,
     // the 4-6 edges of a vertex on one capsule push it 4-6 times too far and too fast). Both ends of an edge
     // take the same fraction, 1 / the larger of their counts, so the edge point moves along the normal as the
-    // inverse-mass split intends: scaled per end, the end on one corrected edge took its whole share while its
-    // partner on four took a quarter, and the edge swung about the partner (layers on Boxing_Toes at 3.33 s: a
-    // skirt vertex moved 8.9 cm in one substep on a 6.6 cm edge deficit, its hem edge went from strain 0.14 to
-    // 0.87 and the implicit step threw the hem vertex at 18.4 m/s).
+    // inverse-mass split intends (scaled per end, the end on one corrected edge would take its whole share
+    // while its partner on four took a quarter, and the edge would swing about the partner, moving the first
+    // end farther than the edge's deficit).
     std::vector<int> hits(s.size(), 0);
     for (int e = 0; e < ne; ++e)
       if (corr[e].collider >= 0) ++hits[edges[e].i], ++hits[edges[e].j];
@@ -469,8 +469,9 @@ void BodyCollisionStage::run_edges(cloth::Cloth& cloth, double h, int threads, s
       cr.dxa *= f, cr.dva *= f, cr.dxb *= f, cr.dvb *= f;
       s.x[a] += cr.dxa, s.x[b] += cr.dxb;
       s.v[a] += cr.dva, s.v[b] += cr.dvb;
-      // Both free ends are held along the contact normal in the next solve (ClothState::contact_normal; the vertex
-      // phase replaces it for a vertex that ends near a collider itself), unless the edge point leaves the surface.
+      // Both free ends are held along the contact normal in the next solve (ClothState::contact_normal; the
+      // vertex phase replaces it for a vertex that ends near a collider itself), unless the edge point leaves
+      // the surface.
       if (settings_.contact_normals && !cr.leaving) {
         if (s.inv_mass[a] > 0.0) s.contact_normal[a] = cr.normal;
         if (s.inv_mass[b] > 0.0) s.contact_normal[b] = cr.normal;

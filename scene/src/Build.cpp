@@ -16,11 +16,11 @@ std::unique_ptr<cloth::Simulation> build_simulation(const Scene& scene, collisio
   // here; the stages that read or move them share it, and the caller (renderer, viewer) draws it.
   const auto colliders = std::make_shared<collision::ColliderSet>(scene.colliders);
 #ifdef LOOM_HAVE_CHARACTERS
-  // Character (issue 6): its capsules join the set, its stage moves them and the attached garment vertices.
+  // Character: its capsules join the set, its stage moves them and the attached garment vertices.
   if (scene.character) characters::add_character(*sim, scene.character, colliders);
 #endif
   // Effects from other modules add their stages here, each only when the scene names it.
-  // Body collision (issue 5): only when there is something to collide with (scene colliders, rig capsules).
+  // Body collision: only when there is something to collide with (scene colliders, rig capsules).
   collision::BodyCollisionStage* body_stage = nullptr;
   if (!colliders->empty()) {
     collision::BodyCollisionSettings body;
@@ -30,7 +30,7 @@ std::unique_ptr<cloth::Simulation> build_simulation(const Scene& scene, collisio
     body_stage = stage.get();
     sim->add_stage(std::move(stage), cloth::Simulation::Slot::after_solve);
   }
-  // Self- and cloth-cloth collision (issue 5), after body collision: only with a `collision` object that asks
+  // Self- and cloth-cloth collision, after body collision: only with a `collision` object that asks
   // for self-collision or has more than one cloth to collide. It sees which vertices the body stage left near
   // a collider (those count heavier in cloth-cloth responses).
   const bool cloth_collision = scene.collision && (scene.collision->self || scene.setup.cloths.size() > 1);
@@ -39,12 +39,12 @@ std::unique_ptr<cloth::Simulation> build_simulation(const Scene& scene, collisio
     stage->set_body_stage(body_stage);
     sim->add_stage(std::move(stage));
   }
-  // The guard's contact check and the colliders' work (issue 8, Guard.h), last: only when the scene's `guard`
+  // The guard's contact check and the colliders' work (Guard.h), last: only when the scene's `guard`
   // asks for a penetration limit or an energy budget and there are colliders.
   const cloth::GuardSettings& guard = scene.setup.guard;
   if (!colliders->empty() && guard.enabled && (guard.max_penetration > 0.0 || guard.energy_bound > 0.0))
     sim->add_stage(std::make_unique<collision::ContactGuardStage>(colliders, guard.max_penetration));
-  // The guard's intersection check (issue 8), very last: with `guard.intersections` and cloth collision on
+  // The guard's intersection check, very last: with `guard.intersections` and cloth collision on
   // (without it nothing keeps the cloths apart). The pairs of the start state are allowed in the first step.
   if (cloth_collision && guard.enabled && guard.intersections) {
     auto stage = std::make_unique<collision::IntersectionGuardStage>();

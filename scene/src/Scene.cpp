@@ -437,7 +437,7 @@ Scene parse_scene(const nlohmann::json& root, const std::string& file) {
   scene.setup.gravity = r.vec3("gravity", Vec3(0.0, -9.81, 0.0));
   scene.setup.threads = r.integer("threads", 1, 1);
   if (scene.setup.threads > 4096) r.fail("threads", "must be <= 4096 (got " + std::to_string(scene.setup.threads) + ")");
-  parse_guard(r, scene.setup.guard);  // issue 8: non-finite / explosion guard (SceneGuard.cpp)
+  parse_guard(r, scene.setup.guard);  // non-finite / explosion guard (SceneGuard.cpp)
 
   if (r.has("solver")) {
     const JsonReader s = r.object("solver");
@@ -508,7 +508,7 @@ Scene parse_scene(const nlohmann::json& root, const std::string& file) {
     k.finish();
   }
 
-  parse_character(r, scene);  // issue 6: mocap character; its garments are the first cloths (SceneCharacter.cpp)
+  parse_character(r, scene);  // Mocap character; its garments are the first cloths (SceneCharacter.cpp)
   const auto cloths = r.has("cloths") || scene.setup.cloths.empty() ? r.objects("cloths") : std::vector<JsonReader>{};
   if (cloths.empty() && scene.setup.cloths.empty()) r.fail("cloths", "a scene needs at least one cloth");
   for (const JsonReader& c : cloths) {
@@ -526,14 +526,14 @@ Scene parse_scene(const nlohmann::json& root, const std::string& file) {
     }
     cs.initial_velocity = c.vec3("velocity", Vec3::Zero());
     cs.pins = parse_pins(c, *cs.mesh);
-    if (c.has("detail"))  // issue 10: hybrid detail (CurvedFaces.h)
+    if (c.has("detail"))  // Hybrid detail (CurvedFaces.h)
       scene.detail[static_cast<int>(scene.setup.cloths.size())] = parse_detail(c.object("detail"));
     c.finish();
     scene.setup.cloths.push_back(std::move(cs));
   }
-  parse_bodies(r, scene);  // issue 9: Bullet rigid bodies (SceneBodies.cpp)
-  parse_colliders(r, scene);  // issue 5: rigid colliders and their motion (SceneColliders.cpp)
-  parse_collision(r, scene);  // issue 5: self- and cloth-cloth collision, friction pairs (SceneCollision.cpp)
+  parse_bodies(r, scene);  // Bullet rigid bodies (SceneBodies.cpp)
+  parse_colliders(r, scene);  // Rigid colliders and their motion (SceneColliders.cpp)
+  parse_collision(r, scene);  // Self- and cloth-cloth collision, friction pairs (SceneCollision.cpp)
 
   if (r.has("output")) {
     const JsonReader o = r.object("output");

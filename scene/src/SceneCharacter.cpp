@@ -119,7 +119,7 @@ void parse_character(const JsonReader& root, Scene& scene) {
       const ch::Garment garment = ch::make_garment(spec, character->motion, character->rig, file, g.path(), layers);
       layers.insert(layers.end(), garment.mesh->rest_positions().begin(), garment.mesh->rest_positions().end());
       if (g.has("mass")) material.areal_density = g.number("mass", std::nullopt, 0.0, true) / garment.mesh->total_area();
-      if (g.has("detail"))  // issue 10: the garment shown as its curved-face surface
+      if (g.has("detail"))  // The garment shown as its curved-face surface
         scene.detail[static_cast<int>(scene.setup.cloths.size())] = parse_detail(g.object("detail"));
       g.finish();
       character->add_garment(scene.setup, garment, name, material, model);

@@ -1,11 +1,12 @@
-// Bad input through `loom run` end to end (issue 8): a table of malformed inputs — JSON syntax errors, wrong
+// Bad input through `loom run` end to end: a table of malformed inputs — JSON syntax errors, wrong
 // types, unknown keys, out-of-range values, missing files, OBJ files with bad indices or lines, non-manifold
 // and degenerate meshes, unwritable output folders, broken checkpoints. Every case asserts
 //   - a non-zero exit (1: bad input or I/O error),
 //   - a message naming the file, the field (JSON path) or line, and the problem,
 //   - no output passed off as complete: no summary.json (or one marked "completed": false) and no stats.csv.
-// The parser-level table of the same kind is tests/scene/test_scene_errors.cpp (it also covers the messages of
-// cases not repeated here). BVH files (loom::characters' motion loader) cut short: skipped in builds without it.
+// The parser-level table of the same kind is tests/scene/test_scene_errors.cpp (it also covers the messages
+// of cases not repeated here). BVH files (loom::characters' motion loader) cut short: skipped in builds
+// without it.
 #include <gtest/gtest.h>
 
 #include "CliRunner.h"

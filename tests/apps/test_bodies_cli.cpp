@@ -1,4 +1,4 @@
-// `loom run` with rigid `bodies` (issue 9): the scene runs in a Bullet world with its cloth as a
+// `loom run` with rigid `bodies`: the scene runs in a Bullet world with its cloth as a
 // BulletCloth. The trampoline's box falls onto the sheet and bounces back (its height rises again after the
 // impact); bodies.csv and the summary's bodies keys are written; without the Bullet bridge the scene is
 // refused with an error naming the `bodies` field.
@@ -59,7 +59,7 @@ TEST(BodiesCli, TrampolineBoxBouncesBack) {
   EXPECT_NEAR(s["bodies"][0]["position"][1].get<double>(), y.back(), 1e-6);
   EXPECT_EQ(s["bullet_substeps"], 4);
   EXPECT_GE(s["cloth_steps"].get<long>(), 200);  // 50 frames x 4 Bullet substeps, more during the impact
-  EXPECT_LT(s["max_strain"].get<double>(), 0.5);  // bounded under the impact (was 2.1 before edge contacts)
+  EXPECT_LT(s["max_strain"].get<double>(), 0.5);  // bounded under the impact
   EXPECT_TRUE(s["stages"].contains("bullet_contacts"));
   // The usual outputs: stats rows for frames 0..50, OBJ frames.
   std::istringstream stats(slurp(dir / "stats.csv"));

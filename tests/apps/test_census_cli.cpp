@@ -1,4 +1,4 @@
-// `loom run --census` (issue 5): intersections and max_penetration in summary.json; the `collision` key.
+// `loom run --census`: intersections and max_penetration in summary.json; the `collision` key.
 #include <gtest/gtest.h>
 
 #include <fstream>

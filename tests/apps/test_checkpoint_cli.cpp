@@ -1,4 +1,4 @@
-// Checkpoint and resume through `loom run` (issue 8):
+// Checkpoint and resume through `loom run`:
 //   - `--checkpoint-every N` then `--resume DIR` gives the same frames (OBJ text), the same stats rows and the
 //     same PC2 cache as one uninterrupted run;
 //   - Ctrl-C (SIGINT to a running `loom run`) stops at a frame boundary with exit 130, valid outputs

@@ -136,7 +136,7 @@ TEST(Cli, DivergedRunIsReportedNotPassedOffAsWhole) {
   const fs::path out = fresh_dir("diverged");
   const Result r = run(kScenes + "hanging_cloth.json --frames 200 --set solver.substeps=1 --out " + out.string());
   EXPECT_EQ(r.code, 3) << r.err;
-  // The guard (issue 8) names the cause: non-finite, or an explosion caught before it.
+  // The guard names the cause: non-finite, or an explosion caught before it.
   EXPECT_TRUE(r.err.find("non-finite") != std::string::npos || r.err.find("exploded") != std::string::npos) << r.err;
   const auto j = nlohmann::json::parse(slurp(out / "summary.json"));
   EXPECT_FALSE(j["finite"].get<bool>());

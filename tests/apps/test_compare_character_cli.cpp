@@ -1,6 +1,7 @@
-// `loom compare` on a character scene (issue 6): a coarse cape on a short excerpt of the CMU 01_01 clip runs
-// in Loom and as Bullet's classic soft body anchored to kinematic capsules; both rows carry the issue-9
-// metrics, the JSON adds penetration counts and attachment errors, and everything but timings repeats.
+// `loom compare` on a character scene: a coarse cape on a short excerpt of the CMU 01_01 clip runs
+// in Loom and as Bullet's classic soft body anchored to kinematic capsules; both rows carry the `loom
+// compare` metrics, the JSON adds penetration counts and attachment errors, and everything but timings
+// repeats.
 #include <gtest/gtest.h>
 
 #include <nlohmann/json.hpp>

@@ -1,4 +1,4 @@
-// `loom compare` end to end (issue 9): small trampoline and hanging-cloth runs write compare.csv and
+// `loom compare` end to end: small trampoline and hanging-cloth runs write compare.csv and
 // compare.json with the three systems, and everything but the timings is identical run to run.
 #include <gtest/gtest.h>
 

@@ -1,4 +1,4 @@
-// `loom run` with hybrid detail (issue 10): OBJ frames and pc2 exports carry the curved-face surface (65 x 65
+// `loom run` with hybrid detail: OBJ frames and pc2 exports carry the curved-face surface (65 x 65
 // vertices for a 17 x 17 coarse grid at 2 levels), which passes through the simulated coarse vertices; the
 // weil example scene runs and writes its one frame.
 #include <gtest/gtest.h>

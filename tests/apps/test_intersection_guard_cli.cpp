@@ -1,8 +1,8 @@
-// `loom run` and the guard's intersection check (issue 8, `guard.intersections`): on by default for a scene
-// with cloth collision. A pinned vertex of one sheet is driven (pin path) up through another sheet whose every
-// vertex is pinned: no collision stage can move kinematic vertices, so the sheets must intersect. The guard
-// must stop the run with exit 3 naming the cause and the last valid frame; with `guard.intersections` false
-// the run goes on and the census finds the pairs; a start that is already tangled is allowed.
+// `loom run` and the guard's intersection check (`guard.intersections`): on by default for a scene
+// with cloth collision. A pinned vertex of one sheet is driven (pin path) up through another sheet whose
+// every vertex is pinned: no collision stage can move kinematic vertices, so the sheets must intersect. The
+// guard must stop the run with exit 3 naming the cause and the last valid frame; with `guard.intersections`
+// false the run goes on and the census finds the pairs; a start that is already tangled is allowed.
 #include <gtest/gtest.h>
 
 #include <cstdio>

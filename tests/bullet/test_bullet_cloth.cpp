@@ -1,4 +1,4 @@
-// BulletCloth (issue 9): two-way coupling of a Loom cloth with Bullet rigid bodies.
+// BulletCloth: two-way coupling of a Loom cloth with Bullet rigid bodies.
 #include <gtest/gtest.h>
 
 #include <cmath>

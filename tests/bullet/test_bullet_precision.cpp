@@ -1,4 +1,4 @@
-// Which Bullet a test executable runs on (issue 9: float and double builds). loom_bullet_tests links the
+// Which Bullet a test executable runs on (float and double builds). loom_bullet_tests links the
 // float libraries, loom_bullet_double_tests the *-float64 ones with BT_USE_DOUBLE_PRECISION; a header and
 // library that disagree on btScalar would corrupt every Bullet object silently, so check both the headers
 // and the arithmetic done inside the linked library.

@@ -1,4 +1,4 @@
-// BulletCloth::ray_test (issue 9): picking through a draped cloth agrees with an independent brute-force
+// BulletCloth::ray_test: picking through a draped cloth agrees with an independent brute-force
 // segment-triangle test (plane intersection + inside test by signed areas) on thousands of random rays.
 #include <gtest/gtest.h>
 

@@ -1,4 +1,4 @@
-// The issue-9 scenes (trampoline, hammock, flag_on_pole, curtain_and_balls) run as `loom run` runs them
+// The Bullet-world scenes (trampoline, hammock, flag_on_pole, curtain_and_balls) run as `loom run` runs them
 // (BulletScene): the cloth's strain stays bounded under the heavy contacts, and the bodies do what the scene
 // says.
 #include <gtest/gtest.h>
@@ -57,9 +57,8 @@ SceneRun run_scene(const std::string& name, int frames = -1) {
   return r;
 }
 
-// Bounds: measured max edge strain (stats' strain edges) with cloth-edge contacts and adaptive cloth steps,
-// over the frames run here; before them (vertex contacts, one cloth step per Bullet substep) the same
-// scenes reached 2.13 (trampoline), 10.0 (hammock), 2.65 (curtain), 1.17 (flag).
+// Bounds: max edge strain (stats' strain edges) with cloth-edge contacts and adaptive cloth steps, over the
+// frames run here.
 TEST(BulletScenes, TrampolineStrainBounded) {
   const SceneRun r = run_scene("trampoline.json", 40);  // the impact and the bounce (max at frame 15)
   EXPECT_LT(r.max_strain, 0.3);

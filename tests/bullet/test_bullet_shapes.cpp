@@ -1,4 +1,4 @@
-// map_shape (issue 9): every supported Bullet shape becomes the matching Loom collider with the body's
+// map_shape: every supported Bullet shape becomes the matching Loom collider with the body's
 // transform — checked against Bullet's own support mapping in random directions — and unsupported shapes are
 // reported once, by name.
 #include <gtest/gtest.h>

@@ -1,15 +1,15 @@
 #pragma once
-// Hybrid detail on a character scene (issue 10), shared by the test (CI size) and the bench (full size):
+// Hybrid detail on a character scene, shared by the test (CI size) and the bench (full size):
 // the cape (0.625 m x 0.75 m, attached along the shoulders) on the CMU 01_01 character held still (the clip
 // starts past its end, so its last pose is held) with gravity tilted 30° towards the character's front — the
 // character leaning back — so the cape falls onto the back and hips and settles there in contact (air
 // drag), simulated (a) coarse and shown as its curved-face surface with `levels` levels, and (b) as a full
 // simulation at the refined mesh's resolution (the coarse edge / 2^levels). Distance: point to surface, both
 // ways: every fine-simulation vertex to the detail surface and every detail vertex to the fine simulation's
-// surface (RMS over both sets, and the max). Also measured: the cost of each (process CPU time: steps plus, for (a), the detail
-// surface after every frame), the largest per-frame move of the detail surface over the largest per-frame
-// move of the coarse mesh (popping shows as a large ratio), and the largest vertex speed of each over the
-// last frame (settled).
+// surface (RMS over both sets, and the max). Also measured: the cost of each (process CPU time: steps plus,
+// for (a), the detail surface after every frame), the largest per-frame move of the detail surface over the
+// largest per-frame move of the coarse mesh (popping shows as a large ratio), and the largest vertex speed of
+// each over the last frame (settled).
 #include <algorithm>
 #include <cmath>
 #include <ctime>

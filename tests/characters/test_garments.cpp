@@ -1,4 +1,4 @@
-// Garments fitted to the skeleton and attached to its bones (issue 6).
+// Garments fitted to the skeleton and attached to its bones.
 #include <gtest/gtest.h>
 
 #include <fstream>
@@ -90,8 +90,8 @@ class TrackingCheck final : public loom::cloth::Stage {
   std::vector<Transform> pose_;
 };
 
-// The fit samples the clip's poses; a slow playback must give the same garment, not more samples (speed
-// 1e-6 used to ask for 3e7 poses per clip second and hung the process).
+// The fit samples the clip's poses; a slow playback must give the same garment, not more samples (a
+// sampling rate that scaled with 1/speed would ask for billions of poses at speed 1e-6).
 TEST(Garments, FitDoesNotDependOnPlaybackSpeed) {
   GarmentSpec spec;
   spec.type = "cape";

@@ -1,8 +1,8 @@
-// Hybrid detail on a character scene (issue 10): a coarse cape shown as its curved-face surface stays close
+// Hybrid detail on a character scene: a coarse cape shown as its curved-face surface stays close
 // to a full simulation at the refined resolution once both have settled, costs a fraction of it, and the
 // detail surface moves continuously with the coarse mesh. CI size: the cape at 0.125 m edges (6 x 7 nodes)
 // with 1 level against 0.0625 m (11 x 13); the full size (2 levels against 0.03125 m, 21 x 25) is
-// `build/bench/loom_bench_hybrid_character` (README, issue 10).
+// `build/bench/loom_bench_hybrid_character`.
 #include <gtest/gtest.h>
 
 #include <cstdio>

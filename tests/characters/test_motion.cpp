@@ -1,4 +1,4 @@
-// Skeleton and animation loading (issue 6): sampling against assimp's own data, evaluated independently.
+// Skeleton and animation loading: sampling against assimp's own data, evaluated independently.
 #include <assimp/scene.h>
 #include <gtest/gtest.h>
 

@@ -1,4 +1,4 @@
-// Capsule rig (issue 6): capsule endpoints at joint positions, radii from the body-proportion table.
+// Capsule rig: capsule endpoints at joint positions, radii from the body-proportion table.
 #include <gtest/gtest.h>
 
 #include "CharacterTestUtil.h"
@@ -108,8 +108,8 @@ double closest_arm_body_gap(const Motion& m, const CapsuleRig& rig, bool skip_fl
   return gap;
 }
 
-// Mocap arms pass through the table's capsules (forearm into pelvis, hand into thigh); the fit shrinks radii so
-// that arm and body capsules stay 2 cm apart over the clip, and leaves overridden radii alone.
+// Mocap arms pass through the table's capsules (forearm into pelvis, hand into thigh); the fit shrinks radii
+// so that arm and body capsules stay 2 cm apart over the clip, and leaves overridden radii alone.
 TEST(CapsuleRig, RadiiFittedToTheMotionKeepArmsOffTheBody) {
   for (const char* clip : {"01_01.bvh", "Boxing_Toes.bvh"}) {
     const Motion m = Motion::load(loom::test::mocap(clip));

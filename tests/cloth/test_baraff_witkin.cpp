@@ -184,7 +184,7 @@ TEST(BaraffWitkin, ShearingGivesTheShearModulus) {
 
 TEST(BaraffWitkin, CylinderBendingEnergyUsesTheDirectionalRigidity) {
   // A 33x33 grid rolled on a cylinder of curvature κ, axis along warp (curvature along the weft) or
-  // along weft: E = 1/2 B κ² A for axis-aligned bends (methods.md §4.5).
+  // along weft: E = 1/2 B κ² A for axis-aligned bends (Bridson, Marino & Fedkiw 2003; docs/references.md).
   GridSpec g;
   g.nodes_u = 33;
   g.nodes_v = 33;

@@ -1,15 +1,15 @@
-// Issue 4 acceptance, immediate buckling: a strip compressed end to end by 5% buckles out of plane within a
+// Immediate buckling (Choi & Ko 2002): a strip compressed end to end by 5% buckles out of plane within a
 // few steps under Choi-Ko, with no compression stored in its sequential (type-1) springs, while the linear
 // spring model stores compression; both stay finite at dt = 1/30 s under BDF2.
 //
-// Which linear-spring set-up stores compression (measured, README "Fabric tests"): a linear spring pushes
-// back under compression as hard as it pulls, so the flat compressed strip is an equilibrium, unstable
+// Which linear-spring set-up stores compression (docs/validation.md, "Immediate buckling"): a linear spring
+// pushes back under compression as hard as it pulls, so the flat compressed strip is an equilibrium, unstable
 // (buckling). Whether a step leaves it depends on how the implicit step treats that instability:
 //  - the linearised BDF2 step with the exact spring Jacobian (Baraff & Witkin 1998 publish the exact K;
 //    solver.clamp_compression = 0): for γ²|λ| > m the step maps the growing buckling mode back onto the flat
 //    state, so the strip stays flat and keeps the whole 5% (the rubber-like response Choi & Ko describe:
 //    "the instability caused by buckling ... cannot be avoided by simply employing a semi-implicit method");
-//  - the clamped Jacobian (Blender's, methods.md §1.1, our default) drops the compressed springs' negative
+//  - the clamped Jacobian (Blender's, our default) drops the compressed springs' negative
 //    transverse stiffness from A, so their transverse push acts explicitly: growth ~ h² k ε / m ~ 10⁴ per
 //    step, the strip buckles within one step (overshooting to ~27 N at the ends without the safeguard);
 //  - an exactly solved step (Newton) minimises the incremental potential and leaves the saddle as well.

@@ -1,4 +1,4 @@
-// Constraint passes after the solver: Provot strain limiting and long-range tethers (issue 3).
+// Constraint passes after the solver: Provot strain limiting and long-range tethers.
 #include <gtest/gtest.h>
 
 #include <algorithm>

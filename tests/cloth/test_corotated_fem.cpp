@@ -1,7 +1,7 @@
-// Co-rotated linear FEM membrane (issue 10): force = -grad E, exact Jacobians against central finite
-// differences, the solvers' co-rotational stiffness (symmetric, negative semi-definite, exact at zero strain),
-// rigid rotations of a stretched sheet, patch tests for the warp, weft and shear moduli on an irregular mesh,
-// and the model under implicit_euler.
+// Co-rotated linear FEM membrane: force = -grad E, exact Jacobians against central finite
+// differences, the solvers' co-rotational stiffness (symmetric, negative semi-definite, exact at zero
+// strain), rigid rotations of a stretched sheet, patch tests for the warp, weft and shear moduli on an
+// irregular mesh, and the model under implicit_euler.
 #include <gtest/gtest.h>
 
 #include <Eigen/Eigenvalues>

@@ -1,4 +1,4 @@
-// Hybrid detail, curved faces (issue 10): the PN-triangle surface interpolates the coarse vertices, is exact on
+// Hybrid detail, curved faces: the PN-triangle surface interpolates the coarse vertices, is exact on
 // flat cloth, follows a curved sheet far better than the flat facets, moves continuously with the coarse mesh
 // (no popping), and on the settled hanging cloth stays close to a full fine-resolution simulation.
 #include <gtest/gtest.h>

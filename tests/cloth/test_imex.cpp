@@ -1,4 +1,4 @@
-// IMEX integration (issue 10): stiff in-plane terms linearised backward Euler, bending and the rest explicit.
+// IMEX integration: stiff in-plane terms linearised backward Euler, bending and the rest explicit.
 // Stable on the hanging cloth at 60 Hz with one step per frame, first-order convergence to a fine reference,
 // identical to implicit_euler when there is nothing explicit to split off, parameter errors.
 #include <gtest/gtest.h>

@@ -168,9 +168,10 @@ TEST(BlockGather, SpringJacobiansEqualASerialAssemblyForAnyThreadCountAndPattern
 
 TEST(ElementJacobians, EveryTermsBlocksHaveTheSameBitsOnOneAndTwoThreads) {
   // The element terms (triangles: stretch, shear, co-rotated FEM; hinges: dihedral bending) assemble on one
-  // thread by scattering each element's blocks in turn and on more by computing them in parallel and gathering
-  // them row by row (ElementJacobians.h): both must give the same bits, df/dx and df/dv (damped material), exact
-  // and clamped Jacobians, on a deformed 48x48 sheet (more elements than kParallelMinVertices).
+  // thread by scattering each element's blocks in turn and on more by computing them in parallel and
+  // gathering them row by row (ElementJacobians.h): both must give the same bits, df/dx and df/dv (damped
+  // material), exact and clamped Jacobians, on a deformed 48x48 sheet (more elements than
+  // kParallelMinVertices).
   std::mt19937 rng(31);
   GridSpec g;
   g.nodes_u = g.nodes_v = 48;
@@ -209,9 +210,10 @@ TEST(ElementJacobians, EveryTermsBlocksHaveTheSameBitsOnOneAndTwoThreads) {
 
 TEST(SpringTerm, JacobianBlocksAreMirroredBitForBitWhenItSaysSo) {
   // ImplicitSolver::assemble skips symmetrising A when every term's symmetric_jacobians() holds, which is
-  // exact only if block (j, i) is bit for bit the transpose of block (i, j) and diagonal blocks are symmetric.
-  // Random damped/undamped springs, both orientations of some pairs, stretched and compressed, with and without
-  // the compression clamp: the claim must hold whenever the term makes it, on 1 and 2 threads.
+  // exact only if block (j, i) is bit for bit the transpose of block (i, j) and diagonal blocks are
+  // symmetric. Random damped/undamped springs, both orientations of some pairs, stretched and compressed,
+  // with and without the compression clamp: the claim must hold whenever the term makes it, on 1 and 2
+  // threads.
   std::mt19937 rng(7);
   std::uniform_real_distribution<double> u(-1.0, 1.0);
   std::uniform_int_distribution<int> pick(0, 299);
@@ -255,8 +257,8 @@ TEST(SpringTerm, JacobianBlocksAreMirroredBitForBitWhenItSaysSo) {
       }
     }
   EXPECT_GT(checked, 2 * 2 * 2 * 3000);  // 2 mirrored option sets x 2 thread counts x 2 matrices x > 3000 blocks
-  // The damped set with the damping position term is not mirrored: the flag must say so (checked above), and an
-  // undamped set stays mirrored with it.
+  // The damped set with the damping position term is not mirrored: the flag must say so (checked above), and
+  // an undamped set stays mirrored with it.
   std::vector<Spring> undamped = springs;
   for (Spring& s : undamped) s.c = 0.0;
   JacobianOptions o;
@@ -378,7 +380,7 @@ TEST(ImplicitSolvers, PinnedVertexTracksItsMovingTargetExactly) {
     }
 }
 
-// Contacts as constraints (issue 6): a vertex with a contact normal n gets the filter S = I - n nᵀ, so its Δv
+// Contacts as constraints: a vertex with a contact normal n gets the filter S = I - n nᵀ, so its Δv
 // has no component along n and its other two rows are solved.
 TEST(FilteredPCG, ContactNormalKeepsTheNormalComponentAndSolvesTheTangentRows) {
   std::mt19937 rng(5);
@@ -414,9 +416,9 @@ TEST(FilteredPCG, ContactNormalKeepsTheNormalComponentAndSolvesTheTangentRows) {
   }
 }
 
-// ClothState::contact_normal in the implicit solve: a contact the step pushes against is kept (the vertex keeps its
-// normal velocity), a contact the step pulls away from is released (Baraff & Witkin 1998 Sec. 5.3), with
-// solver.contact_filter = 1; without it (the default) they are ignored.
+// ClothState::contact_normal in the implicit solve: a contact the step pushes against is kept (the vertex
+// keeps its normal velocity), a contact the step pulls away from is released (Baraff & Witkin 1998 Sec. 5.3),
+// with solver.contact_filter = 1; without it (the default) they are ignored.
 TEST(ImplicitSolvers, ContactNormalsHoldPushingContactsAndReleasePullingOnes) {
   for (const char* method : {"implicit_euler", "bdf2"})
     for (int variant = 0; variant < 4; ++variant) {
@@ -488,8 +490,8 @@ TEST(ImplicitSolvers, ResultsAreBitIdenticalForOneAndTwoThreads) {
     }
 }
 
-// The springs of a SpringTerm without its claim that the Jacobian blocks are mirrored: implicit solvers then take
-// the general assembly (symmetrising pass over transposed blocks, K y by a separate product).
+// The springs of a SpringTerm without its claim that the Jacobian blocks are mirrored: implicit solvers then
+// take the general assembly (symmetrising pass over transposed blocks, K y by a separate product).
 class UndeclaredSprings final : public Term {
  public:
   UndeclaredSprings(int n, std::vector<Spring> springs) : t_(n, std::move(springs)) {}
@@ -508,11 +510,11 @@ class UndeclaredSprings final : public Term {
 };
 
 TEST(ImplicitSolvers, FastPathsOnALargeClothEqualTheGeneralPathBitForBit) {
-  // Issue 3's speed paths on a cloth above the parallel threshold (48x48 = 2304 vertices >= 2048): the one-pass
-  // symmetric assembly with K y summed in the same pass, the step's parallel per-vertex loops and the multigrid
-  // working in place on the PCG's vectors. Against the general assembly (a term that does not declare mirrored
-  // blocks) on 1 thread: the same bits after three steps, for 1 and 2 threads, backward Euler and BDF2 (whose
-  // history is swapped in, not copied), block-Jacobi and both multigrid cycles.
+  // The speed paths on a cloth above the parallel threshold (48x48 = 2304 vertices >= 2048): the
+  // one-pass symmetric assembly with K y summed in the same pass, the step's parallel per-vertex loops and
+  // the multigrid working in place on the PCG's vectors. Against the general assembly (a term that does not
+  // declare mirrored blocks) on 1 thread: the same bits after three steps, for 1 and 2 threads, backward
+  // Euler and BDF2 (whose history is swapped in, not copied), block-Jacobi and both multigrid cycles.
   GridSpec g;
   g.nodes_u = g.nodes_v = 48;
   g.plane = GridPlane::kXZ;

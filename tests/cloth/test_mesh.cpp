@@ -85,7 +85,7 @@ TEST(Grid, PlaneAndOriginPlaceTheNodes) {
 TEST(Springs, InPlaneModulusIsResolutionIndependentOnGrids) {
   // A grid's modulus along the weft is C11 = k_s + k_d + 4 k_bend (structural, both diagonals, and the two
   // bend springs crossing every cut): it must equal the material's modulus at every resolution, and the
-  // shear modulus C33 = k_d (methods.md §4.3).
+  // shear modulus C33 = k_d (docs/references.md, "Fabric measurement").
   Material mat = material_preset("cotton");
   for (int n : {9, 33, 129}) {
     GridSpec g;

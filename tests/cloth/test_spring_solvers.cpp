@@ -1,4 +1,4 @@
-// The spring-based solvers of issue 3: pbd, xpbd, projective (Liu 2013 / projective dynamics, with
+// The spring-based solvers: pbd, xpbd, projective (Liu 2013 / projective dynamics, with
 // Chebyshev acceleration) and desbrun. Their fixed points, monotonicity, pins and hard cases.
 #include <gtest/gtest.h>
 

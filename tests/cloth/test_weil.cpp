@@ -1,5 +1,5 @@
-// Weil 1986 geometric drape (issue 10): the catenary construction, a strip hung from two points against the
-// analytic catenary sag (REFERENCES.md: S = 1 m, spans 0.5, 0.8, 0.9 m), a square hung from its four corners
+// Weil 1986 geometric drape: the catenary construction, a strip hung from two points against the
+// analytic catenary sag (Weil 1986; S = 1 m, spans 0.5, 0.8, 0.9 m), a square hung from its four corners
 // is symmetric, refusals of what it cannot do.
 #include <gtest/gtest.h>
 
@@ -58,7 +58,8 @@ SimulationSetup strip(double d) {
 }
 
 TEST(Weil, StripMatchesTheAnalyticCatenarySag) {
-  // REFERENCES.md, catenary of length 1 m: sag 0.39819 m (d = 0.5), 0.26544 m (0.8), 0.19071 m (0.9).
+  // Catenary of length 1 m, y = a cosh(x/a) with S = 2a sinh(d/2a): sag 0.39819 m (d = 0.5), 0.26544 m (0.8),
+  // 0.19071 m (0.9).
   for (const auto& [d, sag] : {std::pair<double, double>{0.5, 0.39819}, {0.8, 0.26544}, {0.9, 0.19071}}) {
     Simulation sim(strip(d));
     const auto t0 = std::chrono::steady_clock::now();

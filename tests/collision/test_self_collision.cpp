@@ -1,4 +1,4 @@
-// SelfCollisionStage (issue 5): continuous response, impact zones, thread-count determinism, normal-cone
+// SelfCollisionStage: continuous response, impact zones, thread-count determinism, normal-cone
 // culling (flat sheets culled, pairs between layers never), friction per material pair, the profile counters.
 #include <gtest/gtest.h>
 
@@ -167,9 +167,9 @@ std::shared_ptr<const ClothMesh> flat_sheet(double size, int nodes, double y) {
   return ClothMesh::grid(g);
 }
 
-// Two flat sheets (two cloths, layers) 1 mm apart; the upper one is thrown 5 mm down through the lower one. Each
-// sheet alone is flat, so normal cones cull its self pairs whole; the pairs between the layers must never be
-// culled: the stage keeps them apart.
+// Two flat sheets (two cloths, layers) 1 mm apart; the upper one is thrown 5 mm down through the lower one.
+// Each sheet alone is flat, so normal cones cull its self pairs whole; the pairs between the layers must
+// never be culled: the stage keeps them apart.
 TEST(SelfCollision, NormalConesCullFlatSheetsButNeverPairsBetweenLayers) {
   Cloths cloths;
   cloths.push_back(std::make_unique<Cloth>("lower", flat_sheet(0.2, 9, 0.0), loom::cloth::Material()));
@@ -188,12 +188,13 @@ TEST(SelfCollision, NormalConesCullFlatSheetsButNeverPairsBetweenLayers) {
   EXPECT_GE(counter(stage, "passes"), 1.0);
 }
 
-// A sheet whose edges (2.2 mm) are about its thickness (2 mm), as the 50k-triangle twisting bench: a vertex and
-// the triangle across its quad's diagonal are 1.6 mm apart at rest. Such rest neighbours are one patch of cloth,
-// not a contact: compressing the flat sheet by 5% gives no impulse and leaves every vertex where the solver put
-// it (before their thickness was capped, every one of them got a repulsion impulse every step). The same sheet
-// folded onto itself, 1.2 mm between the halves (far apart in the rest mesh), does get its contacts: repulsion
-// pushes the halves apart, nothing intersects. Normal cones off: the flat sheet would otherwise be culled whole.
+// A sheet whose edges (2.2 mm) are about its thickness (2 mm), as the 50k-triangle twisting bench: a vertex
+// and the triangle across its quad's diagonal are 1.6 mm apart at rest. Such rest neighbours are one patch of
+// cloth, not a contact: compressing the flat sheet by 5% gives no impulse and leaves every vertex where the
+// solver put it (before their thickness was capped, every one of them got a repulsion impulse every step).
+// The same sheet folded onto itself, 1.2 mm between the halves (far apart in the rest mesh), does get its
+// contacts: repulsion pushes the halves apart, nothing intersects. Normal cones off: the flat sheet would
+// otherwise be culled whole.
 TEST(SelfCollision, RestNeighboursAreNoContactButAFoldOfTheSameSheetIs) {
   const int nodes = 17;
   const double edge = 0.0022, size = edge * (nodes - 1), mid = 0.5 * size;
@@ -239,9 +240,10 @@ TEST(SelfCollision, RestNeighboursAreNoContactButAFoldOfTheSameSheetIs) {
   }
 }
 
-// Cloth-cloth friction per material pair: a small sheet resting on a pinned sheet, gravity tilted by theta with
-// tan(theta) = 0.45. The pair's coefficients (mu_s = 0.5) hold it; the same scene with a slippery pair
-// (0.05) slides it down nearly freely (a = g (sin - 0.05 cos)), whatever the global coefficients say (0.9/1.0).
+// Cloth-cloth friction per material pair: a small sheet resting on a pinned sheet, gravity tilted by theta
+// with tan(theta) = 0.45. The pair's coefficients (mu_s = 0.5) hold it; the same scene with a slippery pair
+// (0.05) slides it down nearly freely (a = g (sin - 0.05 cos)), whatever the global coefficients say
+// (0.9/1.0).
 double cloth_incline(double mu_k, double mu_s) {
   Cloths cloths;
   cloths.push_back(std::make_unique<Cloth>("base", flat_sheet(0.4, 9, 0.0), loom::cloth::Material()));
@@ -283,14 +285,14 @@ TEST(SelfCollision, FrictionPerMaterialPair) {
   EXPECT_NEAR(cloth_incline(0.05, 0.05), free_slide, 0.15 * free_slide);
 }
 
-// A pinned vertex (a garment's attached waist) moving at 2.4 m/s into a free triangle of another cloth, next to
-// the triangle's vertex b0 that rests on a floor (the body stage leaves it near a collider, so the self stage
-// counts it 1000 times heavier). The contact point is 90 % at b0: sharing the velocity change by those
+// A pinned vertex (a garment's attached waist) moving at 2.4 m/s into a free triangle of another cloth, next
+// to the triangle's vertex b0 that rests on a floor (the body stage leaves it near a collider, so the self
+// stage counts it 1000 times heavier). The contact point is 90 % at b0: sharing the velocity change by those
 // weights inside the triangle moved the point by flicking the two far vertices at ~9x the contact's speed
 // (20.7 m/s with Bridson's shares unbounded, max_share 0). With the shares capped at max_share (1: no vertex
 // changes faster than the contact) the triangle gives way as a whole: no vertex of it is faster than the pin,
-// nothing passes through, b0 does not go into the floor. Both the proximity impulse (start gap 0.5 mm) and the
-// continuous pass (2 mm).
+// nothing passes through, b0 does not go into the floor. Both the proximity impulse (start gap 0.5 mm) and
+// the continuous pass (2 mm).
 // The bounded shares: the constraint sum_k w_k beta_k = 1 holds wherever some movable vertex is below the
 // bound, and no share exceeds it. Where held vertices leave the movable ones at the bound, the features move
 // as blocks: a vertex with w_k = 0 (closest point on a triangle's edge) moves with its feature, on its

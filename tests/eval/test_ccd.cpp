@@ -121,7 +121,7 @@ TEST(CcdSampleQueries, ReaderErrorsNameFileAndLine) {
   EXPECT_THROW(le::read_ccd_queries((loom::test::test_dir() / "no-type.csv").string()), loom::Error);
 }
 
-// A vertex falling through the centre of a triangle: FCL misses this at 1 mm scale (reference/collision.md).
+// A vertex falling through the centre of a triangle: FCL's mesh CCD misses this at 1 mm scale.
 TEST(Ccd, VertexThroughTriangleAtEveryScale) {
   for (int k = -40; k <= 20; k += 5) {
     const double s = std::ldexp(1.0, k);

@@ -12,7 +12,7 @@ namespace loom::eval {
 namespace {
 
 TEST(FabricTheory, ElasticaMatchesTheReferenceTable) {
-  // REFERENCES.md: exact inextensible elastica, tip chord angle against l/c.
+  // The exact inextensible elastica (Peirce 1930; docs/validation.md), tip chord angle against l/c.
   const double ratio[] = {1.0, 1.5, 2.0, 2.5, 3.0}, angle[] = {7.10, 22.18, 41.49, 56.89, 66.96};
   for (int k = 0; k < 5; ++k) {
     EXPECT_NEAR(elastica_chord_angle(ratio[k]), angle[k], 0.006) << "l/c = " << ratio[k];
@@ -81,7 +81,7 @@ TEST(FabricTests, CantileverDeflectsMoreWithLongerOverhang) {
 }
 
 TEST(FabricTests, DihedralCantileverMatchesTheElasticaAndResolution) {
-  // Issue 4 acceptance for the dihedral bending model: tip chord angle within 1.5° of the exact elastica at
+  // The dihedral bending model: tip chord angle within 1.5° of the exact elastica at
   // l/c = 1 ... 3, changing by < 1° when the strip is refined 2x.
   for (double ratio : {1.0, 1.5, 2.0, 2.5, 3.0}) {
     double angle[2];
@@ -98,9 +98,9 @@ TEST(FabricTests, DihedralCantileverMatchesTheElasticaAndResolution) {
 }
 
 TEST(FabricTests, ChoiKoCantileverMatchesTheElasticaAndResolution) {
-  // Issue 4 acceptance for the Choi-Ko bending model (hinge-pair buckling springs on the equilateral strip):
+  // The Choi-Ko bending model (hinge-pair buckling springs on the equilateral strip):
   // tip chord angle within 1.5° of the exact elastica at l/c = 1 ... 3 (9 nodes), and < 1° change when the
-  // strip is refined 2x (17 nodes; l/c = 1 and 3 to keep the test short; 4x is in the README table).
+  // strip is refined 2x (17 nodes; l/c = 1 and 3 to keep the test short; 4x: docs/validation.md).
   for (double ratio : {1.0, 1.5, 2.0, 2.5, 3.0}) {
     double angle[2] = {0.0, 0.0};
     const bool refine = ratio == 1.0 || ratio == 3.0;
@@ -119,7 +119,7 @@ TEST(FabricTests, ChoiKoCantileverMatchesTheElasticaAndResolution) {
 }
 
 TEST(StaticSolver, AgreesWithASettledDynamicSolver) {
-  // The same cantilever, minimised directly and settled by damped implicit Euler (issue 10: static and
+  // The same cantilever, minimised directly and settled by damped implicit Euler (static and
   // dynamic agree; the static one needs a fraction of the time).
   FabricTestOptions o = options("cantilever", "springs");
   o.resolution = 9;
@@ -134,10 +134,11 @@ TEST(StaticSolver, AgreesWithASettledDynamicSolver) {
 }
 
 TEST(StaticSolver, CantileverAndCatenaryAgreeWithSettledDynamicsAndTheory) {
-  // Issue 10: the static solver's cantilever (dihedral bending, l/c = 2) and catenary (springs, span 0.8 m)
-  // agree with damped implicit Euler (and BDF2, cantilever) settled until every vertex is slower than 1e-6 m/s, and both with
-  // theory within the fabric-test tolerances (cantilever 1.5°, catenary sag 1 %). Times: README (the
-  // full-size ratio is measured by `loom fabric-test ... --solver`, not asserted here).
+  // The static solver's cantilever (dihedral bending, l/c = 2) and catenary (springs, span 0.8 m)
+  // agree with damped implicit Euler (and BDF2, cantilever) settled until every vertex is slower than 1e-6
+  // m/s, and both with theory within the fabric-test tolerances (cantilever 1.5°, catenary sag 1 %). Times:
+  // docs/validation.md (the full-size ratio is measured by `loom fabric-test ... --solver`, not asserted
+  // here).
   for (const char* test : {"cantilever", "catenary"}) {
     const bool cantilever = std::string(test) == "cantilever";
     FabricTestOptions o = options(test, cantilever ? "baraff_witkin" : "springs");
@@ -147,8 +148,8 @@ TEST(StaticSolver, CantileverAndCatenaryAgreeWithSettledDynamicsAndTheory) {
     const FabricTestResult s = run_fabric_test(o);
     EXPECT_TRUE(s.settled) << test;
     for (const char* dynamic : {"implicit_euler", "bdf2"}) {
-      // BDF2 on the springs catenary keeps a slow residual motion above 1e-6 m/s for 3000 frames (measured:
-      // sag 0.26581 m against 0.265724 m static): only implicit Euler settles it.
+      // BDF2 on the springs catenary keeps a slow residual motion above 1e-6 m/s for 3000 frames, a
+      // sag just off the static one: only implicit Euler settles it.
       if (!cantilever && std::string(dynamic) == "bdf2") continue;
       o.solver = dynamic;
       o.settle_frames = 3000;

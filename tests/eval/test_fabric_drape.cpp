@@ -1,8 +1,9 @@
-// Cusick drape test (issue 4): a 30 cm disc on an 18 cm support. No published drape coefficients exist for
-// the measured presets (REFERENCES §3.3), so the test checks what the physics fixes: the coefficient lies in
-// (0, 100), grows with the bending length, folds form on a soft fabric, and the value changes by < 2 points
-// between two resolutions (the issue's acceptance), measured here for the soft knit, whose folds make it the
-// hardest case (the support edge is at the same radius at every resolution: FabricTests.cpp, disc_mesh).
+// Cusick drape test: a 30 cm disc on an 18 cm support. No published drape coefficients exist for
+// the measured presets (docs/validation.md, "Drape (Cusick)"), so the test checks what the physics fixes: the
+// coefficient lies in (0, 100), grows with the bending length, folds form on a soft fabric, and the value
+// changes by < 2 points between two resolutions (the acceptance bound), checked here for the soft knit,
+// whose folds make it the hardest case (the support edge is at the same radius at every resolution:
+// FabricTests.cpp, disc_mesh).
 #include <gtest/gtest.h>
 
 #include <cmath>

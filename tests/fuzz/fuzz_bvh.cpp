@@ -1,4 +1,4 @@
-// libFuzzer target: the mocap loader (loom::characters::Motion::load, BVH through assimp), issue 8. Any input
+// libFuzzer target: the mocap loader (loom::characters::Motion::load, BVH through assimp). Any input
 // must either load or throw loom::Error naming the file; anything else (crash, sanitizer report, another
 // exception) is a bug. A clip that loads must pose finitely at any time, looped or not: a non-finite joint
 // transform would reach the capsule colliders and the garments' pins, so it is a bug here too (trap).

@@ -1,4 +1,4 @@
-// libFuzzer target: the OBJ loader (loom::cloth::ClothMesh::from_obj), issue 8. Any input must either load
+// libFuzzer target: the OBJ loader (loom::cloth::ClothMesh::from_obj). Any input must either load
 // or throw loom::Error naming the file and line; anything else is a bug. The loader reads a path, so each
 // input is written to a per-process temporary file first.
 #include <unistd.h>

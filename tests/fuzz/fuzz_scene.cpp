@@ -1,7 +1,8 @@
-// libFuzzer target: the scene parser (JSON text -> loom::scene::parse_scene), issue 8. Any input must either
+// libFuzzer target: the scene parser (JSON text -> loom::scene::parse_scene). Any input must either
 // parse or throw loom::Error; any other exception, crash or sanitizer report is a bug.
-// The harness keeps the run bounded: mesh "path" and character "bvh" values are replaced by a missing file (the OBJ loader has its
-// own target) and grids above 64x64 nodes are skipped (a valid large grid is slow, not wrong).
+// The harness keeps the run bounded: mesh "path" and character "bvh" values are replaced by a missing file
+// (the OBJ loader has its own target) and grids above 64x64 nodes are skipped (a valid large grid is slow,
+// not wrong).
 #include <cstddef>
 #include <cstdint>
 #include <nlohmann/json.hpp>

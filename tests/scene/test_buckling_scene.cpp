@@ -1,6 +1,6 @@
-// scenes/buckling_wrinkles.json (issue 4): a cotton sheet pushed together by 20% between two moving edges.
+// scenes/buckling_wrinkles.json: a cotton sheet pushed together by 20% between two moving edges.
 // Run with Choi-Ko and with linear springs: both stay finite at the scene's BDF2 step and fold out of plane;
-// the measured in-plane compression of the structural springs is printed for the README.
+// the measured in-plane compression of the structural springs is printed (docs/validation.md).
 #include <gtest/gtest.h>
 
 #include <algorithm>

@@ -1,7 +1,7 @@
-// Collision stress scenes (issue 5 acceptance) at a CI-sized resolution, each checked after EVERY pipeline step
-// (a stage appended after the collision stages): the exact census finds 0 intersecting triangle pairs (self
-// pairs sharing no vertex, and pairs between cloths), every position and velocity is finite, no free vertex
-// is inside a collider by more than the collider's thickness, and the kinetic energy stays bounded.
+// Collision stress scenes at a CI-sized resolution, each checked after EVERY pipeline
+// step (a stage appended after the collision stages): the exact census finds 0 intersecting triangle pairs
+// (self pairs sharing no vertex, and pairs between cloths), every position and velocity is finite, no free
+// vertex is inside a collider by more than the collider's thickness, and the kinetic energy stays bounded.
 #include <gtest/gtest.h>
 
 #include <cmath>
@@ -125,9 +125,8 @@ TEST(CollisionScenes, CapsuleShot) {
   expect_clean(run_scene("capsule_shot", {"cloths[0].mesh.nodes=[13,13]", "duration=0.1"}), 24, 150.0);
 }
 // The pulled edge drags the cloth over the table's edge; with self-collision on, the cloth-cloth responses
-// used to push vertices near the edge up to 2 cm into the table (0.0198 m at t = 0.54 s, 13x13 nodes, and a
-// mean speed of 11 m/s). The self-collision stage now hands such vertices back to the body stage (step 5 in
-// SelfCollisionStage.h). The bound on the speed: 3x the 3.2 m/s of the pulled edge.
+// could push vertices near the edge into the table; the self-collision stage hands such vertices back to the
+// body stage (step 5 in SelfCollisionStage.h). The bound on the speed: 3x the 3.2 m/s of the pulled edge.
 TEST(CollisionScenes, TableclothPull) {
   expect_clean(run_scene("tablecloth_pull", {"cloths[0].mesh.nodes=[13,13]", "duration=0.8"}), 192, 10.0);
 }
@@ -135,9 +134,8 @@ TEST(CollisionScenes, TableclothPull) {
 // over 0.8 s: it buckles into folds pressed between the walls and against itself, vertices near two or three
 // colliders at once, the walls' edges included. Beyond the usual checks, no free vertex ends any step inside
 // a collider at all (the self-collision stage hands back to the body stage every vertex it moved closer than
-// half the thickness). Before that hand-back a vertex ended 0.90 m below the floor (pushed through it by the
-// cloth-cloth responses). The speed bound is loose: the crushed folds still throw single vertices (measured
-// peak of the mean speed 9.6 m/s at frame 54, strain spikes up to 5x; an open energy gap of the responses).
+// half the thickness; without it the cloth-cloth responses could push a vertex through the floor). The speed
+// bound is loose: the crushed folds still throw single vertices (an open energy gap of the responses).
 TEST(CollisionScenes, SqueezedBetweenWalls) {
   const nlohmann::json root = nlohmann::json::parse(R"({
     "duration": 1.0, "fps": 60, "solver": {"method": "implicit_euler", "substeps": 4},
@@ -158,7 +156,7 @@ TEST(CollisionScenes, SqueezedBetweenWalls) {
 TEST(CollisionScenes, DrapedLayers) { expect_clean(run_scene("draped_layers", {"duration=0.5"}), 60, 5.0); }
 
 // The body stage leaves contact normals (ClothState::contact_normal) only for a solver that reads them
-// (`solver.contact_filter`, issue 6); other scenes pay nothing for them. Cloth on the spinning sphere, 10 frames.
+// (`solver.contact_filter`); other scenes pay nothing for them. Cloth on the spinning sphere, 10 frames.
 TEST(CollisionScenes, ContactNormalsOnlyForASolverThatHoldsContacts) {
   for (const bool filter : {false, true}) {
     std::vector<std::string> overrides = {"duration=0.1667"};

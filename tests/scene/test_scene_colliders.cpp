@@ -1,5 +1,6 @@
-// Scene colliders (issue 5): the `colliders` key's error paths and motion sampling. The stress scenes with
-// colliders (sphere_spin, funnel, capsule_shot, tablecloth_pull, layer_stack) run in test_collision_scenes.cpp.
+// Scene colliders: the `colliders` key's error paths and motion sampling. The stress scenes with
+// colliders (sphere_spin, funnel, capsule_shot, tablecloth_pull, layer_stack) run in
+// test_collision_scenes.cpp.
 #include <gtest/gtest.h>
 
 #include <cmath>
@@ -54,8 +55,8 @@ TEST(SceneColliders, ErrorsNameFilePathAndProblem) {
   EXPECT_TRUE(has(e, "colliders[0].colour")) << e;
 }
 
-// collision.friction_pairs: names resolve to cloth / collider indices; bad names and static < kinetic are errors
-// naming the file and the JSON path.
+// collision.friction_pairs: names resolve to cloth / collider indices; bad names and static < kinetic are
+// errors naming the file and the JSON path.
 TEST(SceneColliders, FrictionPairsResolveNamesAndReportErrors) {
   auto scene_with = [](const char* pairs) {
     nlohmann::json root = nlohmann::json::parse(R"({"cloths": [

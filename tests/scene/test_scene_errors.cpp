@@ -102,7 +102,7 @@ const Case kCases[] = {
     {"output_every", {"output={\"every\": 0}"}, "output.every", "must be >= 1"},
     {"set_bad_index", {"cloths[3].mass=1"}, "--set cloths[3].mass=1", "not an index"},
     {"set_no_equals", {"duration"}, "--set duration", "PATH=VALUE"},
-    // The guard (issue 8).
+    // The guard.
     {"guard_not_object", {"guard=3"}, "guard", "expected an object"},
     {"guard_unknown_key", {"guard={\"retries\": 2}"}, "guard.retries", "unknown key"},
     {"guard_halvings", {"guard={\"max_halvings\": 21}"}, "guard.max_halvings", "must be <= 20"},

@@ -1,4 +1,4 @@
-// The guard's contact check and the colliders' work (issue 8; collision::ContactGuardStage, cloth/Guard.h):
+// The guard's contact check and the colliders' work (collision::ContactGuardStage, cloth/Guard.h):
 // a sheet squeezed between the floor and a lid that comes down below the floor cannot be resolved; the run
 // must stop with "could not resolve contacts: vertex V of cloth C is D mm inside collider K", the last good
 // frame kept, after the guard has retried the frame with smaller steps.

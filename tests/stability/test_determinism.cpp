@@ -1,4 +1,4 @@
-// Determinism, state save/restore and the guard (issue 8), per solver on the cloth API:
+// Determinism, state save/restore and the guard, per solver on the cloth API:
 //   - the same setup and thread count gives bit-identical frames (FNV-1a hash of every frame's x and v);
 //   - 1 and 2 threads give the same hash (all reductions are per element, then gathered in fixed order);
 //   - save_state after k frames, load into a fresh simulation, continue: bit-identical to not stopping;
@@ -68,7 +68,8 @@ std::uint64_t run_hash(const SimulationSetup& setup, int frames, long* rollbacks
 
 class Determinism : public ::testing::TestWithParam<std::string> {};
 
-// Explicit Euler gains energy every step (methods.md §2.1): a few frames only, before the guard steps in.
+// Explicit Euler gains energy every step (docs/references.md, "Time integration"): a few frames only, before
+// the guard steps in.
 int frames_for(const std::string& solver, int frames) { return solver == "explicit_euler" ? 2 : frames; }
 
 TEST_P(Determinism, SameThreadsSameHash) {

@@ -1,4 +1,4 @@
-// Determinism and save/restore with collisions and characters (issue 8), on shipped scenes made small with
+// Determinism and save/restore with collisions and characters, on shipped scenes made small with
 // overrides (the same path as `loom run --set`):
 //   - sphere_spin (a sheet on a spinning sphere, body collision) with self-collision on, 13x13 nodes;
 //   - character_cape (a cape on the CMU jump, capsule rig, tethers) at 0.08 m resolution, self-collision on;

@@ -1,8 +1,8 @@
-// The guard's intersection check (issue 8; collision::IntersectionGuardStage, scene key
+// The guard's intersection check (collision::IntersectionGuardStage, scene key
 // `guard.intersections`): two sheets 5 cm apart with cloth-cloth collision; a test stage before the solver
 // pushes a vertex of the upper sheet 10 cm down through the lower one in a given frame, an intersection no
-// collision stage can undo (the step starts from it). The guard must find the new pairs (the same pairs as the
-// census), roll the frame back and retry it; a push on every try stops the run with "cloth intersections:
+// collision stage can undo (the step starts from it). The guard must find the new pairs (the same pairs as
+// the census), roll the frame back and retry it; a push on every try stops the run with "cloth intersections:
 // ..." naming the cloths and triangles, the last good frame kept; a push on the first try only is survived.
 #include <gtest/gtest.h>
 

@@ -1,6 +1,6 @@
-// The stability suite's hard cases with collisions on (issue 8): a collider spinning at 50 rad/s, a cloth
-// crushed in a shrinking box (two sizes), a character clip played at 3x speed. Each is a scene (JSON below, built with
-// loom::scene like `loom run`), self-collision on, run with every solver; invariants:
+// The stability suite's hard cases with collisions on: a collider spinning at 50 rad/s, a cloth
+// crushed in a shrinking box (two sizes), a character clip played at 3x speed. Each is a scene (JSON below,
+// built with loom::scene like `loom run`), self-collision on, run with every solver; invariants:
 //   - after every pipeline step (a stage after the collision stages; rolled-back steps are forgotten with the
 //     guard's snapshot): the exact census (loom::collision::count_all_intersections) finds 0 intersecting
 //     triangle pairs, and every position is finite;
@@ -15,9 +15,9 @@
 // work, 1 mm penetration via collision::ContactGuardStage, no new intersecting pair after any step via
 // collision::IntersectionGuardStage: `guard.intersections`), so a solver that cannot hold a case is rolled
 // back, retried with smaller steps and stopped with a named cause instead of handing out a bad frame.
-// Table kExpected says, per solver, whether it must survive every frame (S) or stop with a clean, named failure
-// (F: the guard's cause, the last good frame kept, nothing non-finite handed out, every frame handed out
-// within every invariant, the census included). Every row runs in ctest.
+// Table kExpected says, per solver, whether it must survive every frame (S) or stop with a clean, named
+// failure (F: the guard's cause, the last good frame kept, nothing non-finite handed out, every frame handed
+// out within every invariant, the census included). Every row runs in ctest.
 #include <gtest/gtest.h>
 
 #include <algorithm>
@@ -204,7 +204,8 @@ Outcome run_case(const CollisionCase& cc, const std::string& solver, bool strict
   nlohmann::json root = nlohmann::json::parse(text);
   // The guard enforces the invariants below (Guard.h): the strain bound, the energy budget 10x start + work
   // (its own estimate of the work: per step, from the colliders' reaction impulses) and the penetration bound
-  // (collision::ContactGuardStage), so a solver that breaks one stops cleanly instead of handing the frame out.
+  // (collision::ContactGuardStage), so a solver that breaks one stops cleanly instead of handing the frame
+  // out.
   root["guard"] = {{"max_strain", cc.max_strain}, {"energy_bound", 10.0}, {"max_penetration", cc.max_depth}, {"intersections", true},
                    {"max_halvings", solver == "explicit_euler" ? std::min(cc.max_halvings, 1) : cc.max_halvings}};
   const scene::Scene sc = scene::parse_scene(root, cc.name + ".json");
@@ -307,45 +308,8 @@ TEST_P(StabilityWithCollisions, SurvivesOrFailsCleanly) {
 
 int num_cases() { return static_cast<int>(collision_cases().size()); }
 
-// Measured (Release, 2026-11-24, machine shared with other builds: times are 2-4x an idle run;
-// `build/tests/loom_stability_tests --gtest_filter='*WithCollisions*'`, all 36 rows 244 s wall, 121 s CPU), per
-// row: outcome, max E / (10x start + work) over the frames handed out, time. Every S row ends with the census
-// at 0 after every step; F rows name their cause.
-// - collider_spinning_50_rad_s: explicit_euler F frame 5, energy (its 100 substeps, one retry at 200, do not
-//   hold the cotton sheet even before contact), 4.3 s; symplectic_euler S 0.21 5.6 s; verlet S 0.14 5.4 s;
-//   implicit_euler S 0.15 0.7 s; bdf2 S 0.30 0.6 s; pbd S 0.01 0.7 s; xpbd S 0.48 1.0 s; projective S 0.24
-//   1.3 s; desbrun S 0.995 (the energy budget makes the guard retry its frames) 2.9 s.
-// - crushed_in_shrinking_box_to_50_cm: explicit_euler F frame 5, strain 2.8, 3.7 s; symplectic_euler S 0.80
-//   11 s; verlet S 0.98 14 s; implicit_euler S 0.78 0.8 s; bdf2 S 0.95 1.2 s; pbd S 0.99 (retried frames: 280
-//   steps instead of 192; without the intersection guard 10 pairs, then a strain stop at frame 29) 10 s; xpbd S 0.87
-//   1.4 s; projective S 0.97 1.9 s; desbrun S 0.997 6.8 s (the last table, before the
-//   collision merge: F, a vertex 14 mm inside 'floor').
-// - crushed_in_shrinking_box_to_30_cm: explicit_euler F frame 5, strain 4.7, 2.8 s; symplectic_euler S 0.77
-//   52 s; verlet S 0.86 47 s; implicit_euler S 0.83 23 s; bdf2 S 0.95 16 s; pbd F frame 33 strain 1.32, also
-//   with 128 substeps, 46 s; xpbd S 0.98 25 s; projective S 0.985 11 s; desbrun S 1.00 29 s. The guard's
-//   retries are what let these survive: with 1 retry (max_halvings 1, the last table's setting) implicit
-//   Euler stopped at frame 33 ("cloth intersections: 72 intersecting triangle pairs the step start did not
-//   have (cloth 'sheet': triangles 16 and 63)"), xpbd at frame 35 (2 new pairs), desbrun at frame 24 (strain),
-//   pbd at frame 15 (energy); without the intersection guard implicit Euler had 301 pairs, bdf2 58, xpbd 259.
-// - character_clip_at_3x (60 frames, 3 s of the clip): explicit_euler F frame 22 energy, 10 s; symplectic_euler
-//   S 0.20 4.7 s; verlet S 0.21 4.3 s (without the guard 1 pair at step 2309, 73 s); implicit_euler S 0.16
-//   0.9 s; bdf2 S 0.15 0.9 s; pbd S 0.16 0.7 s; xpbd S 0.74 1.0 s (without it 10 pairs at step 208);
-//   projective S 0.15 0.6 s; desbrun F frame 31 "1 intersecting triangle pair ... (cloth 'cape': triangles 15
-//   and 79)", also with 128 substeps, 4.2 s (without it 26 pairs).
-// After merging the issue-5 collision speed work and the issue-6 capsule crease exit with the guard (ctest,
-// 2 threads, idle machine): box to 30 cm pbd F -> S (census 0 over 356 steps, strain 0.999 of the 1.0 bound,
-// E/bound 0.99: a narrow survival), 48 s; every other row as above.
-// With the cloth-cloth impulse shares capped (SelfCollisionSettings::max_share, issue 6; `--gtest_filter=
-// '*crushed*:*Collision*'`, 313 s wall, load ~2): character_clip_at_3x desbrun F -> S (census 0 over 252 steps,
-// strain 0.929, E/bound 0.37); every other row as above.
-// With the impact zones' continuous tests capped at 4096 boxes (a query that has not settled by then is a
-// hit; SelfCollisionStage::impact_zones; session 11, idle machine,
-// `--gtest_filter='*crushed*:*collider_spinning*:*character_clip_at_3x*'`, one process: 247 -> 109 s): box
-// to 30 cm desbrun 135 -> 16 s, pbd 24 -> 8.7 s, box to 50 cm pbd 4.4 -> 1.5 s; every row's outcome and
-// figures as before but box to 30 cm pbd (S, 384 -> 328 steps, strain 0.979 -> 0.924, E/bound 0.997 both).
-// Before the intersection guard the table took 482 s wall (280 s CPU) for the 23 rows then in ctest: the rows
-// that tangled spent it in the self-collision stage of a tangled sheet (50 cm pbd alone 257 s).
-// Engine gaps the F rows show: explicit Euler does not hold cotton at 100-200 substeps.
+// The outcome of each row is table kExpected's. The F rows show an engine limit: explicit Euler does not
+// hold cotton at 100-200 substeps.
 std::string row_name(const std::tuple<int, int>& row) {
   static const std::vector<CollisionCase> cases = collision_cases();
   return cases[std::get<0>(row)].name + "_" + kSolvers[std::get<1>(row)];

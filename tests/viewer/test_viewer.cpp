@@ -58,7 +58,7 @@ TEST(Viewer, XvfbScreenshotShowsColliders) {
   EXPECT_GT(collider, w * h / 200) << "the screenshot shows too little of the sphere collider";
 }
 
-// A scene with Bullet rigid bodies (issue 9): loom-view runs it in a Bullet world and draws the box as a
+// A scene with Bullet rigid bodies: loom-view runs it in a Bullet world and draws the box as a
 // collider (slate-teal) on the red sheet. Only when built with the Bullet bridge.
 #ifdef LOOM_HAVE_BULLET
 TEST(Viewer, XvfbRunsBulletBodiesSceneAndShowsTheBox) {

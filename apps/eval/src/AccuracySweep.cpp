@@ -39,8 +39,8 @@ std::map<std::string, std::vector<SweepConfig>> loom_sweep_table(int explicit_st
   const int e = std::max(1, explicit_steps);
   auto times = [&](double f) { return std::max(1, static_cast<int>(std::lround(e * f))); };
   std::map<std::string, std::vector<SweepConfig>> t;
-  // Explicit schemes (methods.md §1.2, §2.1): around the stability bound; explicit Euler is unstable for
-  // undamped springs at any step, so it is swept only at and below the bound.
+  // Explicit schemes (docs/references.md, "Time integration"): around the stability bound; explicit
+  // Euler is unstable for undamped springs at any step, so it is swept only at and below the bound.
   t["explicit_euler"] = grid({times(1), times(2), times(4)}, "", {0});
   t["symplectic_euler"] = grid({times(0.5), times(1), times(2), times(4)}, "", {0});
   t["verlet"] = grid({times(0.5), times(1)}, "", {0});
@@ -48,18 +48,18 @@ std::map<std::string, std::vector<SweepConfig>> loom_sweep_table(int explicit_st
   t["implicit_euler"] = grid({1, 2, 4, 8, 16}, "cg_tolerance", {1e-2, 1e-4, 1e-6});
   append(t["implicit_euler"], grid({1, 4}, "newton_iterations", {3}, {{"cg_tolerance", 1e-6}}));
   append(t["implicit_euler"], grid({1, 4}, "adaptive", {1}, {{"cg_tolerance", 1e-4}}));
-  // The aggregation multigrid preconditioner (AggregationMultigrid.h): 1 = additive finest level, 2 = V-cycle; one
-  // substep at the loosest tolerances that keep the max strain (README, "Multigrid preconditioner").
+  // The aggregation multigrid preconditioner (AggregationMultigrid.h): 1 = additive finest level, 2 =
+  // V-cycle; one substep at the loosest tolerances that keep the max strain (docs/benchmarks.md).
   append(t["implicit_euler"], grid({1}, "cg_tolerance", {1e-2, 2e-2}, {{"multigrid", 1}}));
   append(t["implicit_euler"], grid({1}, "cg_tolerance", {1e-2, 3e-2}, {{"multigrid", 2}}));
-  // The same at 0.02 with the CG capped at 10 or 12 iterations (a step needs 13.4 on average): the fastest within a
-  // point of the reference max strain at N=64 (docs/benchmarks.md).
+  // The same at 0.02 with the CG capped at 10 or 12 iterations (a step needs 13.4 on average): the fastest
+  // within a point of the reference max strain at N=64 (docs/benchmarks.md).
   append(t["implicit_euler"], grid({1}, "cg_max_iterations", {10, 12}, {{"multigrid", 1}, {"cg_tolerance", 2e-2}}));
   t["bdf2"] = grid({1, 2, 4, 8, 16}, "cg_tolerance", {1e-3, 1e-6});
-  // Issue 10. IMEX: structural and shear springs implicit, bend springs and gravity explicit (ImplicitSolver.h).
+  // IMEX: structural and shear springs implicit, bend springs and gravity explicit (ImplicitSolver.h).
   t["imex"] = grid({1, 2, 4, 8, 16}, "cg_tolerance", {1e-4});
-  // The co-rotated FEM membrane (+ dihedral bending) model under backward Euler and IMEX: a different model of
-  // the same material, so its error against the springs reference includes the model difference.
+  // The co-rotated FEM membrane (+ dihedral bending) model under backward Euler and IMEX: a different model
+  // of the same material, so its error against the springs reference includes the model difference.
   append(t["implicit_euler"], grid({1, 4, 16}, "cg_tolerance", {1e-4}, {}, "corotated_fem"));
   append(t["imex"], grid({1, 4, 16}, "cg_tolerance", {1e-4}, {}, "corotated_fem"));
   t["desbrun"] = grid({1, 2, 4, 8, 16}, "", {0});
@@ -94,9 +94,9 @@ bool static_only(const std::string& method) { return method == "weil"; }
 
 std::map<std::string, std::vector<SweepConfig>> bullet_sweep_table(bool quick) {
   std::map<std::string, std::vector<SweepConfig>> t;
-  // Classic btSoftBody: piterations x substeps (bullet.md §3a: works from piterations 10 at 1/240 s).
+  // Classic btSoftBody: piterations x substeps (docs/bullet.md: works from piterations 10 at 1/240 s).
   t["bullet_classic"] = grid({1, 4}, "iterations", {4, 10, 20});
-  // Deformable world: implicit + projection; substeps x Newton iterations (bullet.md §3b: 1/240 s needed).
+  // Deformable world: implicit + projection; substeps x Newton iterations (docs/bullet.md: 1/240 s needed).
   t["bullet_deformable"] = grid({1, 4, 8}, "iterations", {1});
   append(t["bullet_deformable"], grid({4}, "iterations", {3}));
   if (quick) {

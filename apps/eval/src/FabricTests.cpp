@@ -66,7 +66,8 @@ struct Strip {
   int nu = 0, nv = 0;
 };
 
-// A strip along x in the horizontal XZ plane: nu x nv nodes with square cells of side d, node (0, 0) at origin.
+// A strip along x in the horizontal XZ plane: nu x nv nodes with square cells of side d, node (0, 0) at
+// origin.
 Strip grid_strip(int nu, int nv, double d, const Vec3& origin) {
   GridSpec g;
   g.nodes_u = nu;
@@ -81,8 +82,8 @@ Strip grid_strip(int nu, int nv, double d, const Vec3& origin) {
 // A strip of equilateral triangles along x in the XZ plane: rows i at x = origin.x + i h (h = √3/2 d),
 // nv nodes across at z = origin.z + j d, odd rows shifted by d/2. Right-triangle grids make dihedral and
 // hinge bending anisotropic, with soft modes that creases along the cheaper direction exploit
-// (methods.md §4.5); equilateral meshes do not. Nodes are numbered like a grid (index = j nu + i), so
-// centre() and pin_row() work unchanged.
+// (Bridson, Marino & Fedkiw 2003; docs/references.md); equilateral meshes do not. Nodes are numbered like a
+// grid (index = j nu + i), so centre() and pin_row() work unchanged.
 Strip equilateral_strip(int nu, int nv, double d, const Vec3& origin) {
   const double h = 0.5 * std::sqrt(3.0) * d;
   Vec3s x(static_cast<size_t>(nu) * nv);
@@ -349,11 +350,11 @@ FabricTestResult catenary(const FabricTestOptions& o) {
 // A disc of radius R in the XZ plane at y = 0, centre at the origin: a centre node and `rings` rings, ring k
 // with 6k nodes, triangulated between neighbouring rings by angle (nearly equilateral triangles, no preferred
 // direction beyond the 6-fold ring start). The support edge r_s falls half a ring spacing h inside the last
-// held ring ks = round(rings r_s / R): the first bending element sits on ring ks and stands for the cloth from
-// r_s = r_ks - h/2 outwards (as the cantilever's clamp, row 0.5), so the skirt bends from r_s at every
+// held ring ks = round(rings r_s / R): the first bending element sits on ring ks and stands for the cloth
+// from r_s = r_ks - h/2 outwards (as the cantilever's clamp, row 0.5), so the skirt bends from r_s at every
 // resolution. Rings evenly spaced inside r_ks and at spacing h outside. (With rings at kR/rings the last
-// held ring fell at 87.5, 84.4 and 90 mm for 12, 16 and 20 rings, and the soft knit's drape coefficient
-// followed: 54.4%, 50.8%, 59.8%.) `held_radius`: r_ks, every node within it is held.
+// held ring would move with the ring count, and the drape coefficient with it.) `held_radius`: r_ks, every
+// node within it is held.
 std::shared_ptr<const ClothMesh> disc_mesh(double radius, int rings, double support_radius, double& held_radius) {
   const int ks = std::clamp(static_cast<int>(std::lround(rings * support_radius / radius)), 1, rings - 1);
   const double h = (radius - support_radius) / (rings - ks + 0.5);
@@ -501,7 +502,7 @@ FabricTestResult drape(const FabricTestOptions& o) {
   r.quantity = "drape coefficient";
   r.unit = "%";
   r.measured = (As - Ad) / (AD - Ad) * 100.0;
-  r.theory = std::numeric_limits<double>::quiet_NaN();  // no published DC for these fabrics (REFERENCES §3.3)
+  r.theory = std::numeric_limits<double>::quiet_NaN();  // no published DC for these fabrics
   r.error = std::numeric_limits<double>::quiet_NaN();
   r.fields = {{"nodes", nodes},
               {"shadow_area_m2", As},

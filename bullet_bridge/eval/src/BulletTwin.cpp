@@ -217,7 +217,7 @@ BulletTwin::BulletTwin(TwinKind kind, const TwinCloth& c, const TwinSettings& s)
     b.m_cfg.kDP = btScalar(s.damping);
     m.classic_world->addSoftBody(&b);
   } else {
-    // Deformable set-up as in examples/DeformableDemo (bullet.md §2) with implicit + projection (§3).
+    // Deformable set-up as in examples/DeformableDemo (docs/bullet.md) with implicit + projection.
     b.m_cfg.kKHR = 1;
     b.m_cfg.kCHR = 1;
     b.m_cfg.kDF = 0;
@@ -241,7 +241,8 @@ void BulletTwin::step_frame() {
   const btScalar fixed = btScalar(s.frame_dt / s.substeps);
   btDiscreteDynamicsWorld* w = impl_->classic_world ? static_cast<btDiscreteDynamicsWorld*>(impl_->classic_world.get())
                                                     : static_cast<btDiscreteDynamicsWorld*>(impl_->deformable_world.get());
-  // maxSubSteps one above the nominal count so float round-off in m_localTime never drops time (bullet.md §1).
+  // maxSubSteps one above the nominal count so float round-off in m_localTime never drops time
+  // (docs/bullet.md).
   w->stepSimulation(btScalar(s.frame_dt), s.substeps + 1, fixed);
 }
 

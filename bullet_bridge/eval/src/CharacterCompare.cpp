@@ -121,7 +121,7 @@ CharacterMetrics run_loom_character(cloth::Simulation& sim, const CharacterCompa
 
 CharacterMetrics run_bullet_character(const CharacterCompareInput& in) {
   // Each garment is a classic twin (its own btSoftRigidDynamicsWorld: Bullet's classic soft bodies do not
-  // collide with each other through vertex-face tests, bullet.md §2) with every capsule in its world.
+  // collide with each other through vertex-face tests, docs/bullet.md) with every capsule in its world.
   cloth::Simulation sim(in.setup);  // the Loom cloths: masses, springs, start positions
   struct Garment {
     std::unique_ptr<BulletTwin> twin;
@@ -148,7 +148,7 @@ CharacterMetrics run_bullet_character(const CharacterCompareInput& in) {
     g->twin = std::make_unique<BulletTwin>(TwinKind::kClassic, tc, ts);
     btSoftBody* body = TwinAccess::body(*g->twin);
     btDiscreteDynamicsWorld* world = TwinAccess::world(*g->twin);
-    // bullet.md §3: the settings under which the classic soft body collides accurately at all.
+    // The settings under which the classic soft body collides accurately at all (docs/bullet.md).
     body->getCollisionShape()->setMargin(btScalar(std::max(0.005, in.thickness)));
     body->m_cfg.kKHR = 1;
     body->m_cfg.kCHR = 1;

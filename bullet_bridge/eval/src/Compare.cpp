@@ -129,7 +129,7 @@ SystemMetrics run_bullet_twin(const CompareInput& in, TwinKind kind) {
   m.system = system_name(kind);
   if (kind == TwinKind::kDeformable && !in.bodies.empty()) {
     m.available = false;
-    m.note = "the deformable twin is not coupled to rigid bodies here (reference/bullet.md §3: it produced "
+    m.note = "the deformable twin is not coupled to rigid bodies here (docs/bullet.md: it produced "
              "NaN nodes against a rigid sphere)";
     return m;
   }
@@ -143,7 +143,7 @@ SystemMetrics run_bullet_twin(const CompareInput& in, TwinKind kind) {
   btDiscreteDynamicsWorld* world = TwinAccess::world(twin);
   btSoftBody* body = TwinAccess::body(twin);
   if (kind == TwinKind::kClassic) {
-    // bullet.md §3: the settings under which the classic soft body collides accurately at all.
+    // The settings under which the classic soft body collides accurately at all (docs/bullet.md, "Twins").
     body->getCollisionShape()->setMargin(btScalar(std::max(0.005, in.setup.cloths[0].material.thickness)));
     body->m_cfg.kKHR = 1;
     body->m_cfg.kCHR = 1;

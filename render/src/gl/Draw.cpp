@@ -103,14 +103,10 @@ Textures create_textures() {
   return Textures{make_texture(check_texture(64), 64), make_texture(ground_texture(64), 64)};
 }
 
-void draw_scene(const DrawParams& p, const Textures& t, const std::vector<RenderMesh>& meshes,
-                const std::vector<const cloth::Vec3s*>& positions, const std::vector<collision::ColliderMesh>& colliders) {
-  glViewport(0, 0, p.viewport_w, p.viewport_h);
-  glClearColor(kHorizon[0], kHorizon[1], kHorizon[2], 1.0f);
-  glClearStencil(0);
-  glClear(GL_COLOR_BUFFER_BIT | GL_DEPTH_BUFFER_BIT | GL_STENCIL_BUFFER_BIT);
+namespace {
 
-  // Sky gradient (screen space, no depth).
+// Sky gradient (screen space, no depth).
+void draw_sky() {
   glDisable(GL_DEPTH_TEST);
   glDisable(GL_LIGHTING);
   glDisable(GL_TEXTURE_2D);
@@ -126,7 +122,10 @@ void draw_scene(const DrawParams& p, const Textures& t, const std::vector<Render
   glVertex2f(1, 1);
   glVertex2f(-1, 1);
   glEnd();
+}
 
+// Projection and view of `p.camera`; depth test on. Returns the camera's distance to its target (m).
+double set_camera(const DrawParams& p) {
   const double dist = (p.camera.eye - p.camera.target).norm();
   const double far = dist + 8.0 * p.extent, near = std::max(1e-3, 0.02 * dist);
   const Mat4 proj = perspective(p.camera.fov_deg, p.aspect, near, far);
@@ -138,15 +137,21 @@ void draw_scene(const DrawParams& p, const Textures& t, const std::vector<Render
   glEnable(GL_DEPTH_TEST);
   glDepthFunc(GL_LEQUAL);
 
-  // Fog towards the horizon colour so the ground's far edge fades out.
+  return dist;
+}
+
+// Fog towards the horizon colour so the ground's far edge fades out.
+void set_fog(const DrawParams& p, double dist) {
   glEnable(GL_FOG);
   glFogi(GL_FOG_MODE, GL_LINEAR);
   const float fog_color[4] = {kHorizon[0], kHorizon[1], kHorizon[2], 1.0f};
   glFogfv(GL_FOG_COLOR, fog_color);
   glFogf(GL_FOG_START, static_cast<float>(dist + 0.5 * p.extent));
   glFogf(GL_FOG_END, static_cast<float>(dist + 4.0 * p.extent));
+}
 
-  // Ground: a checkered square (0.5 m checks) under the scene; marks stencil 1.
+// Ground: a checkered square (0.5 m checks) under the scene; marks stencil 1.
+void draw_ground(const DrawParams& p, const Textures& t) {
   const double half = 6.0 * p.extent, g = p.ground;
   glEnable(GL_STENCIL_TEST);
   glStencilFunc(GL_ALWAYS, 1, 0xff);
@@ -168,9 +173,20 @@ void draw_scene(const DrawParams& p, const Textures& t, const std::vector<Render
   glVertex3d(x1, g, z0);
   glEnd();
   glDisable(GL_TEXTURE_2D);
+}
 
-  // Per-corner arrays of every cloth: positions, smooth vertex normals, material coordinates.
-  std::vector<std::vector<float>> P(meshes.size()), C(meshes.size()), T(meshes.size());
+// Per-corner arrays of every cloth: positions, colours (two-sided Lambert) and material coordinates.
+struct ClothArrays {
+  std::vector<std::vector<float>> P, C, T;
+};
+
+ClothArrays cloth_arrays(const DrawParams& p, const std::vector<RenderMesh>& meshes,
+                         const std::vector<const cloth::Vec3s*>& positions) {
+  ClothArrays a;
+  std::vector<std::vector<float>>& P = a.P;
+  std::vector<std::vector<float>>& C = a.C;
+  std::vector<std::vector<float>>& T = a.T;
+  P.resize(meshes.size()), C.resize(meshes.size()), T.resize(meshes.size());
   for (size_t m = 0; m < meshes.size(); ++m) {
     const cloth::Vec3s& x = *positions[m];
     const RenderMesh& mesh = meshes[m];
@@ -206,9 +222,13 @@ void draw_scene(const DrawParams& p, const Textures& t, const std::vector<Render
       }
     }
   }
-  // Colliders: per-corner positions and colours, lit like the cloth with the shape's own normals (flipped
-  // on faces seen from behind: open meshes and tilted planes are two-sided).
-  std::vector<float> CP, CC;
+  return a;
+}
+
+// Colliders: per-corner positions (CP) and colours (CC), lit like the cloth with the shape's own normals
+// (flipped on faces seen from behind: open meshes and tilted planes are two-sided).
+void collider_arrays(const DrawParams& p, const std::vector<collision::ColliderMesh>& colliders,
+                     std::vector<float>& CP, std::vector<float>& CC) {
   const Vec3 collider_color(kColliderColor[0], kColliderColor[1], kColliderColor[2]);
   for (const collision::ColliderMesh& m : colliders)
     for (const cloth::Tri& t : m.triangles) {
@@ -225,9 +245,12 @@ void draw_scene(const DrawParams& p, const Textures& t, const std::vector<Render
         }
       }
     }
-  glEnableClientState(GL_VERTEX_ARRAY);
+}
 
-  // Shadow: the cloth flattened onto the ground along the light, drawn once per ground pixel.
+// Shadow: the cloths and colliders flattened onto the ground (height g) along the light, drawn once per
+// ground pixel.
+void draw_shadows(const DrawParams& p, double g, const ClothArrays& cloths, const std::vector<float>& CP) {
+  const std::vector<std::vector<float>>& P = cloths.P;
   glStencilFunc(GL_EQUAL, 1, 0xff);
   glStencilOp(GL_KEEP, GL_KEEP, GL_INCR);
   glDisable(GL_DEPTH_TEST);
@@ -238,7 +261,7 @@ void draw_scene(const DrawParams& p, const Textures& t, const std::vector<Render
   glPushMatrix();
   const Mat4 sm = shadow_matrix(kToLight, g + 1e-4 * p.extent);
   glMultMatrixd(sm.data());
-  for (size_t m = 0; m < meshes.size(); ++m) {
+  for (size_t m = 0; m < P.size(); ++m) {
     glVertexPointer(3, GL_FLOAT, 0, P[m].data());
     glDrawArrays(GL_TRIANGLES, 0, static_cast<GLsizei>(P[m].size() / 3));
   }
@@ -251,6 +274,28 @@ void draw_scene(const DrawParams& p, const Textures& t, const std::vector<Render
   glDisable(GL_STENCIL_TEST);
   glEnable(GL_DEPTH_TEST);
   glEnable(GL_FOG);
+}
+
+}  // namespace
+
+void draw_scene(const DrawParams& p, const Textures& t, const std::vector<RenderMesh>& meshes,
+                const std::vector<const cloth::Vec3s*>& positions, const std::vector<collision::ColliderMesh>& colliders) {
+  glViewport(0, 0, p.viewport_w, p.viewport_h);
+  glClearColor(kHorizon[0], kHorizon[1], kHorizon[2], 1.0f);
+  glClearStencil(0);
+  glClear(GL_COLOR_BUFFER_BIT | GL_DEPTH_BUFFER_BIT | GL_STENCIL_BUFFER_BIT);
+  draw_sky();
+  const double dist = set_camera(p);
+  set_fog(p, dist);
+  draw_ground(p, t);
+  const ClothArrays cloths = cloth_arrays(p, meshes, positions);
+  const std::vector<std::vector<float>>& P = cloths.P;
+  const std::vector<std::vector<float>>& C = cloths.C;
+  const std::vector<std::vector<float>>& T = cloths.T;
+  std::vector<float> CP, CC;
+  collider_arrays(p, colliders, CP, CC);
+  glEnableClientState(GL_VERTEX_ARRAY);
+  draw_shadows(p, p.ground, cloths, CP);
 
   // Colliders: Gouraud, untextured.
   glEnableClientState(GL_COLOR_ARRAY);

@@ -1,6 +1,6 @@
 #pragma once
-// BulletCloth: a Loom cloth living in a Bullet world, coupled both ways (issue 9; DESIGN.md, "Bullet";
-// reference/bullet.md §1). Add it to any btDynamicsWorld (btDiscreteDynamicsWorld, btSoftRigidDynamicsWorld,
+// BulletCloth: a Loom cloth living in a Bullet world, coupled both ways (docs/architecture.md, "Bullet";
+// docs/bullet.md). Add it to any btDynamicsWorld (btDiscreteDynamicsWorld, btSoftRigidDynamicsWorld,
 // btDeformableMultiBodyDynamicsWorld) with add_to(world). Each Bullet substep (updateAction, after
 // integrateTransforms) it
 //   1. queries the broad phase for rigid bodies overlapping its AABB (inflated by query_margin),
@@ -52,8 +52,8 @@ struct BulletClothSettings {
   // Quality tier of the cloth.
   //   setup (default): the SimulationSetup's own solver, substeps and strain limit, as given; the bodies are
   //     kinematic inside the cloth step and receive the summed reaction impulse after it (`contacts`).
-  //   realtime (NOT validated yet: in the toy box scene bodies still leave the cloth and edges stretch past
-  //     the limit; tests/bullet/test_bullet_toy_box.cpp, disabled): cloth and the dynamic bodies near it
+  //   realtime (not validated: the toy box acceptance tests in tests/bullet/test_bullet_toy_box.cpp are
+  //     disabled): cloth and the dynamic bodies near it
   //     solved together in small XPBD steps (the bridge's BodyCoupling.h; docs/bullet.md, "Coupled
   //     solve"): contacts corrected with the generalized inverse masses of vertex and body, tethers and
   //     edges held to 1 + max_stretch of their rest length, a vertex pressed into a body moving the body
@@ -71,9 +71,8 @@ struct BulletClothSettings {
   // Adaptive cloth steps: a Bullet substep runs n = ceil(relative motion / (step_motion * thickness)) cloth
   // steps, cloth_substeps <= n <= max_cloth_substeps, where the relative motion (m) is the farthest any point
   // of a nearby body moves in the substep plus the fastest cloth vertex's v dt. Vertex contacts are found by
-  // proximity after each step, so a body must not move deeper than the contact offset per step: a box moving
-  // 13 mm per 1/240 s step against a 5 mm offset left vertices nearer its side than its bottom, and they were
-  // pushed out sideways (edges stretched 3-10x in the trampoline and hammock scenes).
+  // proximity after each step, so a body must not move deeper than the contact offset per step: a body that
+  // moves farther leaves vertices nearer its side than its face, and they are pushed out sideways.
   double step_motion = 0.5;  // 1, relative motion per cloth step in thicknesses
   int max_cloth_substeps = 16;
   double friction = 0.3;          // 1, kinetic Coulomb coefficient cloth vs bodies
@@ -83,11 +82,9 @@ struct BulletClothSettings {
   //     bridge tests validate;
   //   features: collision/FeatureContact.h, cloth vertices against collider surfaces and collider features
   //     (corners, edges, capsule axes, sphere centres) against cloth triangles, so a small box corner cannot
-  //     pass through a triangle between its vertices; NOT validated yet on the scene tests (the curtain and
-  //     flag scenes diverge with it under implicit Euler);
-  //   body_collision: the collision library's BodyCollisionStage (CCD + proximity + edges); NOT validated
-  //     here
-  //     (the hammock, pole and box-drop tests failed with it).
+  //     pass through a triangle between its vertices; not validated on the scene tests (docs/bullet.md);
+  //   body_collision: the collision library's BodyCollisionStage (CCD + proximity + edges); not validated
+  //     here (docs/bullet.md).
   enum class Contacts { vertex, features, body_collision };
   Contacts contacts = Contacts::vertex;
   bool edge_contacts = true;  // Contacts::vertex: also the cloth-edge pass (ContactStage.cpp)

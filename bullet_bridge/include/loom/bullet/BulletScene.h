@@ -1,6 +1,6 @@
 #pragma once
 // BulletScene: a scene's cloths and `bodies` (RigidBodySpec) in one btDiscreteDynamicsWorld, the cloths as
-// one BulletCloth (issue 9). `loom run` uses it for scenes with rigid bodies; the scene tests use it.
+// one BulletCloth. `loom run` uses it for scenes with rigid bodies; the scene tests use it.
 // Bullet-free header (pimpl): include it from code that links loom::bullet.
 //
 // One frame = world.stepSimulation(frame_dt, bullet_substeps + 1, frame_dt / bullet_substeps) after the

@@ -1,5 +1,5 @@
 #pragma once
-// Ray (segment) casts against a cloth's triangles (issue 9: picking, bullets, line of sight). Bullet-free.
+// Ray (segment) casts against a cloth's triangles (picking, bullets, line of sight). Bullet-free.
 // The triangle test is Möller & Trumbore (1997, "Fast, minimum storage ray/triangle intersection") in double,
 // two-sided; the nearest hit wins, ties go to the lower triangle index. ClothRayCaster culls with the cloth
 // BVH (collision/ClothBvh.h) along the segment and runs the same exact test on the candidates, so it returns

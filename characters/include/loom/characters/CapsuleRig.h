@@ -1,5 +1,5 @@
 #pragma once
-// CapsuleRig: one capsule per bone of a Motion's skeleton (issue 6). A bone runs from a joint to one of its
+// CapsuleRig: one capsule per bone of a Motion's skeleton. A bone runs from a joint to one of its
 // children; its capsule's segment joins the two joints' positions (Collider.h: local y axis, from
 // -half_height to +half_height) and its radius comes from a body-proportion table keyed by common bone
 // names (canonical names below; other naming conventions are mapped onto them), scaled with the figure's
@@ -52,7 +52,7 @@ class CapsuleRig {
   // One Collider per bone (shape capsule), named "character/<bone>", with the poses at `global`.
   std::vector<collision::Collider> make_colliders(const std::vector<Transform>& global) const;
   // Fits the table radii to the motion: mocap limbs pass through the table's round capsules (a forearm
-  // swinging past the hip overlaps the pelvis capsule by 1-2 cm in CMU 01_01 and Boxing_Toes), and cloth
+  // swinging past the hip overlaps the pelvis capsule), and cloth
   // caught between two overlapping capsules cannot be outside both. For every pair of an arm bone
   // (upper arm, forearm, hand, finger base) and a torso or leg bone (pelvis, spine, chest, hips, thighs,
   // shins), the closest approach of the two axes over the played motion (sampled at `rate` Hz) is measured;

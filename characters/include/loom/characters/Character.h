@@ -1,6 +1,6 @@
 #pragma once
 // Character: a Motion, its CapsuleRig and the garment vertices attached to its bones, plus the pipeline
-// stage that moves them (issue 6; DESIGN.md, "One step"). The stage runs before the solver ("character",
+// stage that moves them (docs/architecture.md, "One step"). The stage runs before the solver ("character",
 // Simulation::Slot::before_solve) at every substep [t, t + h]:
 //   - each capsule collider gets prev = its pose at t and curr = its pose at t + h (swept contacts);
 //   - each attached vertex (a pin: inverse mass 0) gets v = (target(t + h) - x) / h, so the solver's

@@ -1,5 +1,5 @@
 #pragma once
-// ClipProbe: the acceptance checks of issue 6 measured at every pipeline step of a character run (tests,
+// ClipProbe: the character checks measured at every pipeline step of a character run (tests,
 // `loom_bench_character_clips`). Add it last (Simulation::Slot::after_solve, after the collision stages);
 // at the end of each step [t, t + h] it records
 //   - whether every position and velocity is finite,

@@ -1,5 +1,5 @@
 #pragma once
-// Garments fitted to a skeleton's measurements at its pose at t = 0 (issue 6):
+// Garments fitted to a skeleton's measurements at its pose at t = 0:
 //   cape   a rectangle hanging behind the back from the shoulder line (shoulder width, shoulders to knees),
 //          its whole top row attached to the chest joint (the neck's parent), placed clear of every capsule over the motion;
 //   skirt  a flared tube from the waist (root height, or above the thighs' capsules) to the knees, its waist ring

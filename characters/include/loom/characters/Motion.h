@@ -1,6 +1,6 @@
 #pragma once
 // Motion: a skeleton (joint hierarchy with rest transforms) and its animation, loaded with assimp from BVH
-// or any format assimp reads (issue 6). Sampling at any time: rotations slerped, positions lerped between
+// or any format assimp reads. Sampling at any time: rotations slerped, positions lerped between
 // keys; units converted to metres; root motion on or off; looping; playback speed.
 //
 // Conventions: y is up (BVH). A joint's local transform is T(position) R(rotation), assimp's key order

@@ -1,5 +1,5 @@
 #pragma once
-// Aggregation multigrid preconditioner for FilteredPCG (issue 3): one cycle per application, P⁻¹ ≈ A⁻¹ on
+// Aggregation multigrid preconditioner for FilteredPCG: one cycle per application, P⁻¹ ≈ A⁻¹ on
 // the free vertices. Unsmoothed aggregation on 3x3 blocks (Vaněk, Mandel & Brezina 1996 "Algebraic multigrid
 // by smoothed aggregation" §3 for the aggregation; Notay 2010 "An aggregation-based algebraic multigrid
 // method" for plain aggregates under a Krylov method): vertices are grouped into aggregates along strong
@@ -14,17 +14,17 @@
 // the coarse correction are added instead of applied in turn (a two-level additive Schwarz / BPX-type
 // operator, Bramble, Pasciak & Xu 1990), B = ω_a D⁻¹ + P B_c Pᵀ, symmetric and SPD on the free subspace. It
 // needs no fine-level matrix product, so one application costs a fraction of the PCG's own product, where the
-// multiplicative V-cycle costs two. Measured on the accuracy bench (N=64, 1 substep): 13.4 CG iterations per
-// step at cg_tolerance 0.02 against 8.2 for the V-cycle and 55.8 for block-Jacobi at 0.01, and the least time
-// (docs/benchmarks.md).
+// multiplicative V-cycle costs two. On the accuracy bench it takes more CG iterations than the V-cycle and
+// far fewer than block-Jacobi, in the least time (docs/benchmarks.md).
 // Filter: fixed vertices are in no aggregate and have D⁻¹ = 0, so the cycle maps a filtered residual to a
 // correction that is exactly 0 on them: the operator is S B S with B SPD on the free subspace, as the
 // filtered PCG needs.
 // The aggregates, coarse patterns and the lists that sum fine blocks into coarse ones are built when A's
 // pattern (BlockMatrix::pattern_id) or the fixed set changes; setup() refreshes the values only (one pass
 // over A's blocks, the diagonal inverses, the coarsest factorisation). Every loop is per vertex or per coarse
-// block with its sums in a fixed order: results are bit-identical for any thread count. A loop runs on several
-// threads when the level it reads has >= 2048 vertices (the coarse sums and restrictions read the finer level).
+// block with its sums in a fixed order: results are bit-identical for any thread count. A loop runs on
+// several threads when the level it reads has >= 2048 vertices (the coarse sums and restrictions read the
+// finer level).
 #include <Eigen/Cholesky>
 #include <cstdint>
 #include <vector>
@@ -55,12 +55,12 @@ class AggregationMultigrid {
   // Hierarchy for A restricted to the free vertices (fixed[i] == 0). A must outlive the following apply()
   // calls.
   // `fine_dinv`, if given, is (A_ii)⁻¹ of the finest level as the caller already computed it (0 on fixed
-  // vertices, identity where A_ii is singular): read in place (it must outlive the apply() calls too) instead of
-  // inverted again.
+  // vertices, identity where A_ii is singular): read in place (it must outlive the apply() calls too) instead
+  // of inverted again.
   void setup(const BlockMatrix& A, const std::vector<char>& fixed, int threads,
              const std::vector<Mat3>* fine_dinv = nullptr);
-  // z = B r (one V-cycle from zero); z is 0 on fixed vertices, r is read on free vertices only. r and z must be
-  // distinct; the finest level works on them in place (no copies).
+  // z = B r (one V-cycle from zero); z is 0 on fixed vertices, r is read on free vertices only. r and z must
+  // be distinct; the finest level works on them in place (no copies).
   void apply(const Vec3s& r, Vec3s& z, int threads);
   int levels() const { return static_cast<int>(levels_.size()); }
   int vertices(int level) const { return levels_[level].n; }
@@ -83,7 +83,8 @@ class AggregationMultigrid {
   void build_pattern(const BlockMatrix& A, const std::vector<char>& fixed);
   void aggregate(const Level& l, std::vector<int>& agg) const;
   void coarse_values(int level, int threads);  // level's blocks from the finer level's
-  // One cycle on `level` for the right-hand side b into x (level 0: the caller's r and z; coarser: the level's own).
+  // One cycle on `level` for the right-hand side b into x (level 0: the caller's r and z; coarser: the
+  // level's own).
   void cycle(int level, const Vec3s& b, Vec3s& x, int threads);
   static void residual(Level& l, const Vec3s& b, const Vec3s& x, int threads);  // l.res = b - A x (0 on fixed)
   static void restrict_to_coarser(const Level& l, const Vec3s& v, Level& c, int threads);  // c.b = Pᵀ v

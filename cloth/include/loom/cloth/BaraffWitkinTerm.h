@@ -1,12 +1,12 @@
 #pragma once
-// Baraff & Witkin 1998 triangle stretch and shear as condition functions (reference/methods.md §1.4).
+// Baraff & Witkin 1998 §4: triangle stretch and shear as condition functions.
 // Per triangle, with rest (u, v) from TriangleFrame::rest_uv (metres; u = weft, v = warp):
 //   w_u = sum_m a_m x_m, w_v = sum_m b_m x_m  (the deformation gradient's columns; a, b from the rest uv)
 //   stretch: C = α (|w_u| - 1, |w_v| - 1),  E = k_u/2 C_u² + k_v/2 C_v²   (k_u = stretch_weft, k_v =
 //   stretch_warp) shear:   C = α w_u·w_v,                   E = k_s/2 C²                 (k_s = shear)
 // α = sqrt(rest area), so E = k/2 A ε²: k is a 2D modulus in N/m and refinement does not change the
-// material (methods.md §1.4, "Area weight"). Damping is stiffness-proportional: d = -k_d (∂C/∂x)ᵀ Ċ with
-// k_d = material.damping * k (methods.md §4.7).
+// material (Baraff & Witkin 1998 §4). Damping is stiffness-proportional: d = -k_d (∂C/∂x)ᵀ Ċ with
+// k_d = material.damping * k (docs/references.md, "Fabric measurement").
 // Jacobians: exact by default (what the finite-difference tests check). JacobianOptions:
 //   clamp_compression:      stretch: (|w| - 1)/|w| in the transverse term clamped to >= 0 (as for springs);
 //                           shear: the C ∂²C term, indefinite for any C, is dropped (Gauss-Newton).

@@ -1,5 +1,5 @@
 #pragma once
-// Choi & Ko 2002, "Stable but responsive cloth" (reference/methods.md §1.6): fabric has no compression
+// Choi & Ko 2002, "Stable but responsive cloth", §3-4: fabric has no compression
 // resistance and buckles at once.
 //  - Type 1, sequential springs (structural + shear on grids, edges on meshes): Hooke springs in tension
 //    only, E = k/2 (l - L)² for l >= L, 0 below; damping c along the spring.
@@ -8,14 +8,14 @@
 //    circular-arc model evaluated exactly (no polynomial fit):
 //        l / L = sinc(y),  κ = 2y / L,  f_b = k_b κ² / (cos y - sinc y),  E_arc = 2 k_b y² / L,
 //    limits f_b -> -12 k_b/L² (l -> L) and -4π² k_b/L² (l -> 0).
-// Bending and membrane compression are measured apart [derived; measured in issue 4]. Let l_u be the
+// Bending and membrane compression are measured apart [derived]. Let l_u be the
 // unfolded chord: the length of the path i -> middle -> j on grids, the distance of i and j with the two
 // hinge triangles laid flat on meshes (from the five edge lengths). Then
 //  - bending ratio r = l / l_u <= 1 (= 1 exactly when flat, whatever the in-plane strain): the spring stores
 //    the exact arc energy E_arc(r L), with no linear branch. Its gradient vanishes when flat, so there is
 //    no force jump, and gentle bends get the full ½ B κ² (the chord-based measure with a linear branch
-//    below a crossover curvature left them with E ∝ κ⁴, and a membrane stretched by the finite
-//    f_b(L⁻) hid the bend: the Choi-Ko cantilever was 4.5-10° too soft);
+//    below a crossover curvature leaves them with E ∝ κ⁴, and a membrane stretched by the finite
+//    f_b(L⁻) hides the bend: the cantilever comes out too soft);
 //  - membrane ratio m = w / (1 + φ(w - 1)), w = l_u / l_u0 (φ(z) = z for z >= z0, 0 for z <= 0, C¹ between):
 //    in-plane compression (m < 1) is resisted by the Choi-Ko force on the length m L, with the linear branch
 //    f* = max(f_b, c_b (l - L)), c_b = 12 k_b / (ε* L³) (Blender's fbstar) that removes the jump at l = L.
@@ -127,7 +127,8 @@ class ChoiKoTerm final : public Term {
 //     arc's L (κL)²/24 (3/4 of it): hence 8/9 = 4/3 x the arc mapping's 2/3;
 //   mesh (hinge pairs): a fold θ across the edge e shortens the chord by h_i h_j θ² / (2 l_u) (h: the heights
 //     of i and j over e), and k_b = B(φ) |e| L³ / (6 h_i h_j (h_i + h_j)) makes the spring's energy the
-//     dihedral hinge's (B/2) |e|²/(A1 + A2) θ² (methods.md §4.5), exact in every direction on equilateral meshes.
+//     dihedral hinge's (B/2) |e|²/(A1 + A2) θ² (DihedralBendingTerm.h), exact in every direction on
+//     equilateral meshes.
 std::unique_ptr<ChoiKoTerm> make_choi_ko_term(const ClothMesh& mesh, const Material& material);
 
 }  // namespace loom::cloth

@@ -1,6 +1,6 @@
 #pragma once
-// ClothMesh: immutable, shareable topology and rest geometry of one cloth (DESIGN.md, "The cloth core").
-// Built once from a grid or an OBJ file, validated once; the runtime never changes it.
+// ClothMesh: immutable, shareable topology and rest geometry of one cloth (docs/architecture.md, "The cloth
+// core"). Built once from a grid or an OBJ file, validated once; the runtime never changes it.
 #include <memory>
 #include <string>
 
@@ -9,7 +9,7 @@
 namespace loom::cloth {
 
 // Which role a spring plays. Structural/shear/bend come from the Provot grid topology; edge/hinge from
-// arbitrary triangle meshes (methods.md §1.1).
+// arbitrary triangle meshes (docs/references.md, "Cloth models").
 enum class SpringKind { kStructural, kShear, kBend, kEdge, kHinge };
 const char* to_string(SpringKind kind);
 
@@ -54,8 +54,8 @@ class ClothMesh {
   // topology: structural (i±1), shear (both diagonals), bend (i±2). Warp runs along v, weft along u.
   static std::shared_ptr<const ClothMesh> grid(const GridSpec& spec);
   // An arbitrary triangle mesh. `corner_uvs` (texture coordinates per triangle corner, so seams are fine)
-  // give the warp/weft directions: weft along +u, warp along +v. Empty `corner_uvs`: the frame comes from the mesh's best-fit plane (PCA), weft
-  // along its first axis. Throws loom::Error naming `source` on degenerate
+  // give the warp/weft directions: weft along +u, warp along +v. Empty `corner_uvs`: the frame comes from the
+  // mesh's best-fit plane (PCA), weft along its first axis. Throws loom::Error naming `source` on degenerate
   // triangles, non-manifold edges, out-of-range indices or non-finite coordinates.
   static std::shared_ptr<const ClothMesh> from_triangles(Vec3s positions, std::vector<Tri> triangles,
                                                          std::vector<std::array<Vec2, 3>> corner_uvs,

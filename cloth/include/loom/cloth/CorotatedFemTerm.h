@@ -16,8 +16,8 @@
 // co-rotated force -R K (Rᵀx - X); for an orthotropic one it also carries the term from the rotation's
 // dependence on x (σ and S do not commute), so forces stay conservative (the static solver and Newton
 // line searches use the energy).
-// Damping: stiffness-proportional (methods.md §4.7), d = -damping R K₀ Rᵀ v per triangle.
-// Jacobians (JacobianOptions):
+// Damping: stiffness-proportional (docs/references.md, "Fabric measurement"), d = -damping R K₀ Rᵀ v per
+// triangle. Jacobians (JacobianOptions):
 //   clamp_compression = false: exact df/dx (forward-mode AutoDiff of the analytic gradient, as the dihedral
 //     term does), exact df/dv; what the finite-difference tests check.
 //   clamp_compression = true (implicit solvers): the exact Hessian projected per triangle onto the negative

@@ -1,6 +1,6 @@
 #pragma once
-// Desbrun, Schröder & Barr 1999, "Interactive animation of structured deformable objects" (reference/
-// methods.md §1.5): an approximate implicit step with a constant filter.
+// Desbrun, Schröder & Barr 1999, "Interactive animation of structured deformable objects",
+// Graphics Interface: an approximate implicit step with a constant filter.
 // clang-format off
 //   H = the springs' linear part (zero rest length): H_ij = k_ij I, H_ii = -Σ_j k_ij I, so M - h² H = M + h² L.
 //   Predictor:  (M + h² L + h L_c) Δv = h f(x_n, v_n)   (all forces, nonlinear), v+ = v + Δv, x+ = x + h v+,
@@ -14,7 +14,7 @@
 // W h f_int does; a rigid rotation Δv_i -= ω × (x_i - x_c) of the free vertices, I ω = Σ m_i (x_i - x_c) ×
 // (W h f_int)_i, removes it (one extra solve). Torques of gravity, drag and springs to kinematic vertices
 // are genuine and kept.
-// Heavily damped by design (methods.md §2.3).
+// Heavily damped by design (docs/references.md, "Time integration").
 #include <vector>
 
 #include "loom/cloth/PairGather.h"

@@ -1,5 +1,5 @@
 #pragma once
-// Dihedral-angle bending on the hinges of a triangle mesh (reference/methods.md §1.4 "Bend", §4.5).
+// Dihedral-angle bending on the hinges of a triangle mesh (Bridson, Marino & Fedkiw 2003).
 // Hinge stencil (x1, x2 opposite vertices; x3 -> x4 the shared edge):
 //
 //          x1
@@ -8,7 +8,7 @@
 //         \  /
 //          x2
 //
-//   E_e = (B(φ)/2) |e|²/(A1 + A2) (θ - θ̄)²   (methods.md §4.5; |e|, A1, A2, θ̄ at rest)
+//   E_e = (B(φ)/2) |e|²/(A1 + A2) (θ - θ̄)²   (|e|, A1, A2, θ̄ at rest)
 // which reproduces 1/2 B κ² per unit area for axis-aligned bends on grids and for any bend on equilateral
 // meshes. B(φ) = bend_weft d_u² + bend_warp d_v², d the in-plane unit direction across the edge in material
 // space (curvature along the weft costs bend_weft). The gradient of θ is Bridson, Marino & Fedkiw 2003

@@ -1,6 +1,6 @@
 #pragma once
 // loom::Error: the one exception type thrown at the boundary (scene, mesh and file loading). The message
-// always names where the problem is (file, field or line) and what it is (STYLE.md, "Errors").
+// always names where the problem is (file, field or line) and what it is.
 #include <stdexcept>
 #include <string>
 

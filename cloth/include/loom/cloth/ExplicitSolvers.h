@@ -1,5 +1,6 @@
 #pragma once
-// The explicit family (reference/methods.md §1.2); stability limits in §2.1:
+// The explicit family (docs/references.md, "Time integration"), with their
+// stability limits (ω_max: the stiffest mode):
 //  - explicit Euler:   x+ = x + h v,  v+ = v + h M⁻¹ f(x, v). Unstable on an undamped oscillator for any h.
 //  - symplectic Euler: v+ = v + h M⁻¹ f(x, v), then x+ = x + h v+. Stable iff h ω_max < 2.
 //  - position Verlet:  x+ = 2x - x- + h² M⁻¹ f(x, v), v+ = (x+ - x)/h + h/2 M⁻¹ f. Stable iff h ω_max < 2.

@@ -1,6 +1,6 @@
 #pragma once
 // Filtered (projected) preconditioned conjugate gradients for A Δv = b with per-vertex constraints
-// (Baraff & Witkin 1998 §5.3, modified PCG; reference/methods.md §1.4, written with a consistent
+// (Baraff & Witkin 1998 §5.3, modified PCG, written with a consistent
 // preconditioner P⁻¹ ≈ A⁻¹). Each vertex has a filter S_i: I (free) or 0 (pinned: Δv_i is prescribed,
 // z_i). The solution satisfies S(b - AΔv) ≈ 0 and (I - S)Δv = z exactly: a pinned vertex gets exactly
 // its prescribed velocity. With S_i in {0, I}, MPCG is the exact PCG of the system restricted to the free
@@ -39,11 +39,12 @@ class FilteredPCG {
   // fixed[i] != 0: vertex i is constrained (S_i = 0). `dv` holds z (prescribed values) on entry for fixed
   // vertices and, with warm_start, the initial guess on free ones (otherwise they start at 0); the
   // solution on exit. Stops when rᵀP⁻¹r <= tol² bᵀP⁻¹b (filtered b) or after max_iterations.
-  // `normals` (optional, per vertex; a zero vector: none): a free vertex with a unit normal n_i gets the filter
-  // S_i = I - n_i n_iᵀ with z_i = 0 along n_i (Baraff & Witkin 1998 Sec. 5.3: a contact constrains one
+  // `normals` (optional, per vertex; a zero vector: none): a free vertex with a unit normal n_i gets the
+  // filter S_i = I - n_i n_iᵀ with z_i = 0 along n_i (Baraff & Witkin 1998 Sec. 5.3: a contact constrains one
   // direction): its Δv keeps no component along n_i, the other two are solved for.
-  // `diag_inverse` (optional): the block-Jacobi inverses as the caller already computed them, exactly as solve()
-  // would: 0 on fixed vertices, (A_ii)⁻¹ on free ones (identity where A_ii is singular or the inverse not finite).
+  // `diag_inverse` (optional): the block-Jacobi inverses as the caller already computed them, exactly as
+  // solve() would: 0 on fixed vertices, (A_ii)⁻¹ on free ones (identity where A_ii is singular or the inverse
+  // not finite).
   PcgResult solve(const BlockMatrix& A, const Vec3s& b, const std::vector<char>& fixed, Vec3s& dv, double tol,
                   int max_iterations, int threads, bool warm_start = false, const Vec3s* normals = nullptr,
                   const std::vector<Mat3>* diag_inverse = nullptr);

@@ -1,5 +1,5 @@
 #pragma once
-// The non-finite / explosion guard (issue 8). Simulation saves the whole changing state at the start of every
+// The non-finite / explosion guard. Simulation saves the whole changing state at the start of every
 // frame (StateArchive.h: every cloth's x, v, x_prev, solver and stage history). A frame whose end state is
 // non-finite or exploding is rolled back to that snapshot and run again with twice the substeps, up to
 // `max_halvings` times; if the last try fails too, the state stays at the last good frame and the frame is

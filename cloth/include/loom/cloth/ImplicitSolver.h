@@ -1,5 +1,6 @@
 #pragma once
-// Implicit integrators (reference/methods.md §1.4 "Step", §1.6 "BDF2", §2.2):
+// Implicit integrators (Baraff & Witkin 1998 §3; Choi & Ko 2002 for BDF2;
+// docs/references.md, "Time integration"):
 //  - implicit_euler: Baraff & Witkin 1998 backward Euler, M(v+ - v) = h f(x+, v+), x+ = x + h v+.
 //  - bdf2:           Choi & Ko 2002 second-order BDF, x+ - 4/3 x + 1/3 x- = 2h/3 v+ and
 //                    v+ - 4/3 v + 1/3 v- = 2h/3 M⁻¹ f+; variable-step coefficients when h changes
@@ -9,7 +10,7 @@
 //   M (v+ - v_b) = γ f(x_b + γ v+, v+),   x+ = x_b + γ v+.
 // newton_iterations = 1 (default): the linearised step, f(x+, v+) ≈ f + K (x+ - x) + D (v+ - v), i.e.
 //   (M - γD - γ²K) Δv = M (v_b - v) + γ (f + K (x_b - x + γ v)),  v+ = v + Δv
-// which is Baraff-Witkin's (M - hD - h²K) Δv = h (f + h K v) for backward Euler and methods.md §1.6's
+// which is Baraff-Witkin's (M - hD - h²K) Δv = h (f + h K v) for backward Euler and Choi & Ko 2002's
 // linearised BDF2. newton_iterations > 1: Newton on the optimisation form (Gast et al. 2015 style), from
 // v+ = v, minimising the incremental potential
 //   Φ(v+) = 1/2 (v+ - v_b)ᵀ M (v+ - v_b) + E(x_b + γ v+) + γ Ψ(v+)
@@ -17,41 +18,37 @@
 // dissipation potential about the current iterate, Ψ = -f_ncᵀ δ - 1/2 δᵀ D δ), with a backtracking
 // (Armijo) line search; it stops early when |g|_M⁻¹ <= cg_tolerance |g_0|_M⁻¹.
 // Safeguard (safeguard = 1, default; linearised step only): the linearised step is not unconditionally
-// stable under large rotations of stiff cloth (methods.md §2.2). x+ = x + γ v+ moves each vertex along a
-// straight line, while the linearised K of a spring at rest length has no transverse stiffness, so a
-// rotation by θ per step stretches the spring by about θ²/2 that the solve never saw: at k = 1e5 N/m,
-// h = 1/30 s this pumped the structural springs to 13 % strain and the energy to 10x the start. After each
-// linearised step the energy balance is checked (kinetic energy of the free vertices + every conservative
-// term, gravity included): a gain beyond the work of the kinematic vertices, an upper bound of what
-// non-conservative terms can feed in, and safeguard_tolerance times the energy exchanged in the step
-// (energy_gain_excessive()) makes the step be redone by up to safeguard_newton_iterations Newton iterations
-// with line search (below), from the linearised result or the start, whichever has the lower Φ. The
-// correction must converge: with 4 iterations, a strip compressed 5 % by its pins in 5 BDF2 steps of 1/30 s
-// (test_buckling.cpp) buckled to 0.020 m (Choi-Ko) and 0.025 m (springs) against 0.028 / 0.006 m of a
-// converged Newton solve; with 20 (stopping early at cg_tolerance), 0.0235 / 0.0061 m. Steps that
-// balance cost two energy evaluations (counter safeguard_ms). The default tolerance 0.2 separates the two
-// regimes measured: the failing stiff case gains more than half the exchanged energy in every step, benign
-// linearisation and CG-truncation gains on the accuracy bench reach 8.5 % (N=64, cg_tolerance 0.01, 2nd
-// step). A correction there (tolerance 0.01) replaced that step by a more dissipative, better-converged
-// backward Euler step and raised the row's error from 1.9 to 2.7 cm: the check is a guard against blow-up,
-// not an accuracy control.
+// stable under large rotations of stiff cloth (docs/references.md, "Time integration"). x+ = x + γ v+ moves
+// each vertex along a straight line, while the linearised K of a spring at rest length has no transverse
+// stiffness, so a rotation by θ per step stretches the spring by about θ²/2 that the solve never saw, and
+// stiff cloth at large steps gains energy step after step. After each linearised step the energy balance is
+// checked (kinetic energy of the free vertices + every conservative term, gravity included): a gain beyond
+// the work of the kinematic vertices, an upper bound of what non-conservative terms can feed in, and
+// safeguard_tolerance times the energy exchanged in the step (energy_gain_excessive()) makes the step be
+// redone by up to safeguard_newton_iterations Newton iterations with line search (below), from the linearised
+// result or the start, whichever has the lower Φ. The correction must converge (enough Newton iterations;
+// they stop early at cg_tolerance). Steps that balance cost two energy evaluations (counter safeguard_ms).
+// The default tolerance 0.2 lies between the two regimes: a failing stiff step gains more than half the
+// exchanged energy, while the benign gains of linearisation and CG truncation stay well below it. A tighter
+// tolerance would replace accurate steps by more dissipative, better-converged backward Euler steps: the
+// check is a guard against blow-up, not an accuracy control (docs/validation.md).
 // Matrix: A = M - γD - γ²K with M on the left, symmetric: K and D from JacobianOptions{clamp_compression,
 // no damping position terms} (springs: clamped transverse term; Baraff-Witkin: clamped stretch, Gauss-Newton
 // shear and bending). Non-conservative terms (drag) contribute only their velocity Jacobian D (their
 // position dependence is explicit), and A is symmetrised ((A + Aᵀ)/2) after assembly.
 // clamp_compression = 0 (parameter, default 1) assembles the exact Jacobians instead (Baraff & Witkin 1998
 // publish the exact K): a compressed spring keeps its transverse k (1 - L/l) < 0 and A can be indefinite.
-// Measured on the 5 %-compressed strip (test_buckling.cpp): the linearised step then keeps a linear spring
+// On a compressed strip (test_buckling.cpp) the linearised step then keeps a linear spring
 // model flat and compressed (for γ²|λ| > m it maps the growing buckling mode back onto the unstable flat
 // state), where the clamp leaves that transverse push explicit and the strip buckles at once.
-// Linear solve: FilteredPCG (block-Jacobi; multigrid = 1 or 2: aggregation multigrid). Kinematic vertices (inverse mass 0) are constrained in the
-// filter (S = 0) with the prescribed velocity that makes x+ = x + h v exactly (Solver.h contract).
-// imex (issue 10): implicit-explicit split (Eberhardt, Etzmuß & Hauth 2000, "Implicit-explicit schemes for
-// fast animation with particle systems"; Bridson, Marino & Fedkiw 2003 treat the stiff part implicitly and the
-// rest explicitly in the same spirit). Only the stiff in-plane terms are linearised — Baraff-Witkin stretch
-// and shear, the co-rotated FEM membrane, Choi-Ko's term, and of the "springs" term its structural, shear
-// and edge springs — and every other force (bending: dihedral hinges, grid bend and hinge springs; gravity,
-// drag, loads) enters explicitly at (x, v):
+// Linear solve: FilteredPCG (block-Jacobi; multigrid = 1 or 2: aggregation multigrid). Kinematic vertices
+// (inverse mass 0) are constrained in the filter (S = 0) with the prescribed velocity that makes x+ = x + h v
+// exactly (Solver.h contract). imex: implicit-explicit split (Eberhardt, Etzmuß & Hauth 2000,
+// "Implicit-explicit schemes for fast animation with particle systems"; Bridson, Marino & Fedkiw 2003 treat
+// the stiff part implicitly and the rest explicitly in the same spirit). Only the stiff in-plane terms are
+// linearised — Baraff-Witkin stretch and shear, the co-rotated FEM membrane, Choi-Ko's term, and of the
+// "springs" term its structural, shear and edge springs — and every other force (bending: dihedral hinges,
+// grid bend and hinge springs; gravity, drag, loads) enters explicitly at (x, v):
 //   (M - h D_s - h² K_s) Δv = h (f(x, v) + h K_s v),  v+ = v + Δv,  x+ = x + h v+
 // i.e. linearised backward Euler on the stiff terms and symplectic Euler on the rest. The linear system is
 // smaller-banded than implicit_euler's only for springs (bend springs leave it); the gain is the explicit
@@ -75,15 +72,14 @@ struct ImplicitParams {
   double safeguard_tolerance = 0.2;    // 1, allowed gain relative to the energy exchanged in the step
   int safeguard_newton_iterations = 20;  // most Newton iterations of a correction (stops at cg_tolerance)
   bool clamp_compression = true;  // false: exact Jacobians (compressed springs keep k (1 - L/l) transverse)
-  // PCG preconditioner (AggregationMultigrid.h): 0 block-Jacobi, 1 aggregation multigrid with an additive finest
-  // level, 2 aggregation multigrid V-cycle (multiplicative on every level).
+  // PCG preconditioner (AggregationMultigrid.h): 0 block-Jacobi, 1 aggregation multigrid with an additive
+  // finest level, 2 aggregation multigrid V-cycle (multiplicative on every level).
   int multigrid = 0;
-  // Contacts as constraints (issue 6): vertices a collision stage left against a body (ClothState::contact_normal)
-  // keep their normal velocity through the linear solves (filtered PCG), so the step cannot drive them into the
-  // body for the collision stage to push them back (a period-2 oscillation of skirts on thighs, 40-68 m/s).
-  // Off by default: the body stage's Coulomb friction is scaled by the approach it removes, which a held contact
-  // no longer has, so resting cloth slides (a cape held still on a leaning back kept moving at 0.39 m/s). The
-  // character scenes turn it on (`solver.contact_filter: 1`).
+  // Contacts as constraints: vertices a collision stage left against a body (ClothState::contact_normal)
+  // keep their normal velocity through the linear solves (filtered PCG), so the step cannot drive them into
+  // the body for the collision stage to push them back (a period-2 oscillation). Off by default: the body
+  // stage's Coulomb friction is scaled by the approach it removes, which a held contact no longer has, so
+  // resting cloth slides. The character scenes turn it on (`solver.contact_filter: 1`).
   bool contact_filter = false;
 };
 
@@ -118,7 +114,7 @@ class ImplicitSolver final : public Solver {
     has_history_ = false;
     energy_cache_valid_ = false;
   }
-  // BDF2 history, adaptive substep and the PCG warm start (ImplicitSolverState.cpp, issue 8).
+  // BDF2 history, adaptive substep and the PCG warm start (ImplicitSolverState.cpp).
   void save_state(StateWriter& out) const override;
   void load_state(StateReader& in, const Cloth& cloth) override;
   const ImplicitCounters& stats() const { return counters_; }
@@ -129,8 +125,8 @@ class ImplicitSolver final : public Solver {
  private:
   void prepare(const Cloth& cloth);
   bool substep(Cloth& cloth, double t, double h, int threads);
-  // K, D and A at (x, v). With `ky` (and y), also ky = K y (the same sums as multiply(K_, y, ky)), formed in the pass
-  // that writes A when it can (one pass over K less).
+  // K, D and A at (x, v). With `ky` (and y), also ky = K y (the same sums as multiply(K_, y, ky)), formed in
+  // the pass that writes A when it can (one pass over K less).
   void assemble(Cloth& cloth, const Vec3s& x, const Vec3s& v, double t, double gamma, int threads,
                 const Vec3s* y = nullptr, Vec3s* ky = nullptr);
   void multiply(const BlockMatrix& m, const Vec3s& x, Vec3s& y, int threads) const;
@@ -175,7 +171,8 @@ class ImplicitSolver final : public Solver {
   // Scratch.
   Vec3s f_, fc_, xb_, vb_, rhs_, dv_, y_, tmp_, vk_, xk_, g_, p_dir_, vtry_;
   std::vector<double> e_start_, e_end_;  // J, per conservative term (safeguard)
-  // The last check's end positions and terms: e_end_ holds their energies while valid (the next start reuses them).
+  // The last check's end positions and terms: e_end_ holds their energies while valid (the next start reuses
+  // them).
   Vec3s energy_cache_x_;
   std::vector<const Term*> energy_cache_terms_;
   bool energy_cache_valid_ = false;

@@ -1,6 +1,7 @@
 #pragma once
-// Material: a fabric in physical units only (DESIGN.md; reference/methods.md §4). Per-element stiffnesses
-// are derived from it by resolution-independent mappings (SpringSet.h), never stored here.
+// Material: a fabric in physical units only (docs/architecture.md; docs/references.md, "Fabric measurement").
+// Per-element stiffnesses are derived from it by resolution-independent mappings (SpringSet.h), never stored
+// here.
 #include <string>
 #include <vector>
 
@@ -22,10 +23,10 @@ struct Material {
   void validate(const std::string& file, const std::string& where) const;
 };
 
-// A Clo3D / Marvelous Designer-style parameter set (the fields those tools expose, methods.md §4), in
-// stated physical units. CLO's slider values (0-99) have no documented units, so they are not accepted
-// raw: convert them with the fabric's physical measurements (CLO's Fabric Kit reports these quantities) or
-// calibrate with `loom fabric-test cantilever` / `tensile`.
+// A Clo3D / Marvelous Designer-style parameter set (the fields those tools expose, docs/references.md,
+// "Fabric measurement"), in stated physical units. CLO's slider values (0-99) have no documented units, so
+// they are not accepted raw: convert them with the fabric's physical measurements (CLO's Fabric Kit reports
+// these quantities) or calibrate with `loom fabric-test cantilever` / `tensile`.
 struct CloStyleParameters {
   double weight = 200.0;           // g/m²            -> areal_density = weight / 1000 kg/m²
   double thickness = 1.0;          // mm              -> thickness / 1000 m (collision offset only)
@@ -35,7 +36,7 @@ struct CloStyleParameters {
   double bending_weft = 10.0;      // µN·m            -> bend_weft = 1e-6 bending_weft N·m
   double bending_warp = 10.0;      // µN·m            -> bend_warp
   double friction = 0.3;           // 1               -> friction
-  double internal_damping = 0.0;   // s               -> damping (stiffness-proportional, methods.md §4.7)
+  double internal_damping = 0.0;   // s               -> damping (stiffness-proportional, docs/references.md)
 };
 Material from_clo_style(const CloStyleParameters& p, const std::string& name = "clo_style");
 

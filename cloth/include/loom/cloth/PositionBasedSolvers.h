@@ -1,11 +1,11 @@
 #pragma once
-// Position-based solvers on the cloth's springs (constraint C = l - L per spring), reference/methods.md §1.7.
-// One step: predict p = x + h v + h² M⁻¹ f_ext (f_ext: gravity, drag), project the constraints Gauss-Seidel
-// style for `iterations` sweeps, then v = (p - x)/h, x = p. Springs are coloured so that no two springs of
-// one colour share a vertex; a colour is projected in parallel, with results independent of the thread
-// count. Kinematic vertices (inverse mass 0) have weight 0, so they move by exactly x += h v.
-// Sub-stepping with one iteration per substep (Macklin et al. 2019, "Small steps") is `iterations: 1` with
-// more `substeps`.
+// Position-based solvers on the cloth's springs (constraint C = l - L per spring), Müller et al. 2007;
+// Macklin et al. 2016. One step: predict p = x + h v + h² M⁻¹ f_ext (f_ext: gravity, drag), project the
+// constraints Gauss-Seidel style for `iterations` sweeps, then v = (p - x)/h, x = p. Springs are coloured so
+// that no two springs of one colour share a vertex; a colour is projected in parallel, with results
+// independent of the thread count. Kinematic vertices (inverse mass 0) have weight 0, so they move by exactly
+// x += h v. Sub-stepping with one iteration per substep (Macklin et al. 2019, "Small steps") is `iterations:
+// 1` with more `substeps`.
 #include <vector>
 
 #include "loom/cloth/Solver.h"

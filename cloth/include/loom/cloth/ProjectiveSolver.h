@@ -1,6 +1,6 @@
 #pragma once
 // Liu et al. 2013, "Fast simulation of mass-spring systems" = projective dynamics on springs (Bouaziz et al.
-// 2014), reference/methods.md §1.8. One backward Euler step minimises
+// 2014), Liu et al. 2013 §4. One backward Euler step minimises
 //   g(x) = ½ (x - y)ᵀ M (x - y) + h² Σ_s ½ k_s (|x_j - x_i| - L_s)² + (h/2) Σ_s c_s |Δ_s(x - x_n)|²,
 //   y = x_n + h v_n + h² M⁻¹ f_ext  (f_ext: gravity, drag at the start of the step),
 // by alternating
@@ -75,8 +75,8 @@ class ProjectiveSolver final : public Solver {
   std::vector<Spring> springs_;
   PairGather gather_;                // per-vertex sums of per-spring terms
   std::vector<int> index_;           // free index per vertex, -1 for kinematic
-  // Triangle strain projection (when strain_limit > 0): per triangle the corner weights g_m (1/m, F = Σ x_m g_mᵀ)
-  // and w A (N·m).
+  // Triangle strain projection (when strain_limit > 0): per triangle the corner weights g_m (1/m, F = Σ x_m
+  // g_mᵀ) and w A (N·m).
   std::vector<Tri> triangles_;
   std::vector<std::array<Vec2, 3>> tri_g_;
   std::vector<double> tri_weight_;

@@ -73,7 +73,7 @@ class Simulation {
  public:
   explicit Simulation(SimulationSetup setup, const std::string& file = "");
 
-  // Where a stage added from outside goes (DESIGN.md, "One step"):
+  // Where a stage added from outside goes (docs/architecture.md, "One step"):
   //   before_solve: after pins, before the solver (attachments to bones/bodies set their targets' velocities,
   //                 colliders read their poses for t and t+h);
   //   after_solve:  after the constraint passes, in the order added (collision stages), before "stats".
@@ -97,7 +97,7 @@ class Simulation {
     t_ = frame * setup_.frame_dt;
   }
 
-  // Issue 8. The whole changing state: time, frame, every cloth's x, v, x_prev, every stage's and solver's
+  // The whole changing state: time, frame, every cloth's x, v, x_prev, every stage's and solver's
   // history. load_state restores it bit-identically (checkpoints; the guard's per-frame snapshot).
   void save_state(StateWriter& out) const;
   void load_state(StateReader& in);
@@ -114,8 +114,8 @@ class Simulation {
 
  private:
   void fill_stats(FrameStats& s) const;
-  // n pipeline steps of frame_dt / n from frame_ (time by counting steps). With `stop_on_violation`, the first
-  // step after which a stage reports Stage::violation() ends the loop early and its cause is returned.
+  // n pipeline steps of frame_dt / n from frame_ (time by counting steps). With `stop_on_violation`, the
+  // first step after which a stage reports Stage::violation() ends the loop early and its cause is returned.
   std::string run_substeps(int n, bool stop_on_violation = false);
   // Guard's energy budget (Guard.h, energy_bound): "" or why the frame just run breaks it; *pin_work (J)
   // receives the kinematic vertices' work of this frame.

@@ -1,6 +1,6 @@
 #pragma once
-// Solver: one time integrator behind one interface (DESIGN.md). Every solver consumes the cloth's terms
-// only through Term; a solver that cannot use a term says so in check(), at set-up time.
+// Solver: one time integrator behind one interface (docs/architecture.md). Every solver consumes the cloth's
+// terms only through Term; a solver that cannot use a term says so in check(), at set-up time.
 // Contract for kinematic vertices (inverse mass 0): their velocity was set by the pin stage to reach the
 // target at t + h, and the solver moves them by x += h v, whatever its scheme.
 #include <functional>
@@ -20,8 +20,8 @@ struct SolverSettings {
   // Solver-specific knobs by name (iterations, tolerance, ...): every key of the scene's `solver` object
   // other than method/substeps/dt. Each solver reads its own through SolverParams; others are errors.
   std::map<std::string, double> params;
-  // True when the solver holds body contacts in its linear solve (`contact_filter` on, implicit solvers): only
-  // then does a body-collision stage leave ClothState::contact_normal for it.
+  // True when the solver holds body contacts in its linear solve (`contact_filter` on, implicit solvers):
+  // only then does a body-collision stage leave ClothState::contact_normal for it.
   bool holds_contacts() const {
     const auto it = params.find("contact_filter");
     return it != params.end() && it->second != 0.0;
@@ -55,7 +55,7 @@ class Solver {
   // Forget any history (multistep state); called when the step size or the state changes from outside.
   virtual void reset() {}
   // History kept between steps (multistep state, step sizes, warm starts), saved at each frame start by the
-  // non-finite guard and in checkpoints, so a restored solver continues bit-identically (issue 8). Solvers
+  // non-finite guard and in checkpoints, so a restored solver continues bit-identically. Solvers
   // whose step depends only on the cloth state keep the defaults.
   virtual void save_state(StateWriter& out) const { (void)out; }
   virtual void load_state(StateReader& in, const Cloth& cloth) { (void)in, (void)cloth; }

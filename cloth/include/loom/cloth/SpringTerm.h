@@ -1,5 +1,5 @@
 #pragma once
-// Hooke springs with damping along the spring (reference/methods.md §1.1):
+// Hooke springs with damping along the spring (docs/references.md, "Cloth models"):
 //   f_i = k (l - L) x̂ + c (x̂·(v_j - v_i)) x̂,  f_j = -f_i,  x̂ = (x_j - x_i) / l,  E = k/2 (l - L)².
 // Forces are computed per spring in parallel, then gathered per vertex in a fixed order, so the result is
 // bit-identical for any thread count. Jacobians likewise: per-spring blocks in parallel, then added block by
@@ -27,8 +27,8 @@ class SpringTerm final : public Term {
   void add_jacobians(const EvalContext& c, const JacobianOptions& o, BlockMatrix* dfdx,
                      BlockMatrix* dfdv) const override;
   bool has_velocity_jacobian() const override { return damped_; }
-  // K_s = k [n̂n̂ᵀ + r (I - n̂n̂ᵀ)] and c n̂n̂ᵀ are symmetric element by element and go to (i, j) and (j, i) in spring
-  // order; only the damping position term (non-symmetric) breaks that.
+  // K_s = k [n̂n̂ᵀ + r (I - n̂n̂ᵀ)] and c n̂n̂ᵀ are symmetric element by element and go to (i, j) and (j, i)
+  // in spring order; only the damping position term (non-symmetric) breaks that.
   bool symmetric_jacobians(const JacobianOptions& o) const override { return !(o.damping_position_terms && damped_); }
   long work_items() const override { return static_cast<long>(springs_.size()); }
   const std::vector<Spring>& springs() const { return springs_; }

@@ -1,6 +1,6 @@
 #pragma once
-// Stage: one step of the pipeline (DESIGN.md, "One step"). The pipeline is built from the scene once and
-// holds only the stages the scene needs; each stage reports its time and work counters.
+// Stage: one step of the pipeline (docs/architecture.md, "One step"). The pipeline is built from the scene
+// once and holds only the stages the scene needs; each stage reports its time and work counters.
 #include <memory>
 #include <string>
 #include <utility>
@@ -27,7 +27,7 @@ class Stage {
   virtual std::vector<std::pair<std::string, double>> counters() const { return {}; }
   // State kept across steps (contact caches, collider poses, rig state), saved at each frame start by the
   // non-finite guard (restored when a frame is rolled back and retried with smaller steps) and written into
-  // checkpoints (`loom run --checkpoint-every`). Stateless stages keep the defaults (issue 8).
+  // checkpoints (`loom run --checkpoint-every`). Stateless stages keep the defaults.
   virtual void save_state(StateWriter& out) const { (void)out; }
   virtual void load_state(StateReader& in) { (void)in; }
   // Guard (Guard.h): "" or why the step this stage has just run left a state the run must not keep (e.g.

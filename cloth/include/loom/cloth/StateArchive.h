@@ -1,5 +1,5 @@
 #pragma once
-// StateArchive: the byte image of a simulation's changing state (issue 8). The non-finite guard keeps one in
+// StateArchive: the byte image of a simulation's changing state. The non-finite guard keeps one in
 // memory per frame to roll a failed frame back; checkpoints write one to disk (DIR/checkpoint/state.bin).
 // Values are stored raw (native doubles, little-endian 64-bit integers on the machines we build for), so a
 // restored state is bit-identical to the saved one. A reader that runs out of bytes or meets the wrong tag

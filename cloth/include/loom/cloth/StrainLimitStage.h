@@ -1,6 +1,6 @@
 #pragma once
-// Provot 1995, "Deformation constraints in a mass-spring model to describe rigid cloth behavior"
-// (reference/methods.md §1.3), as a pipeline stage after the solver, usable with any solver.
+// Provot 1995, "Deformation constraints in a mass-spring model to describe rigid cloth behavior",
+// Graphics Interface 1995, as a pipeline stage after the solver, usable with any solver.
 // Every structural and shear spring (edges on meshes) stretched beyond (1 + τ) L is shortened to exactly
 // (1 + τ) L by moving its ends along the spring, in inverse-mass proportion (half each for equal masses,
 // all of it to the free end if the other is kinematic). Gauss-Seidel sweeps alternate their order

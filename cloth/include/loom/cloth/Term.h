@@ -1,7 +1,7 @@
 #pragma once
 // Term: one piece of physics (gravity, springs, drag, ...). Every term gives its energy, its forces and its
-// 3x3 Jacobian blocks; solvers consume terms only through this interface (DESIGN.md, "terms"). Virtual
-// dispatch happens per term, never per element.
+// 3x3 Jacobian blocks; solvers consume terms only through this interface (docs/architecture.md, "terms").
+// Virtual dispatch happens per term, never per element.
 #include <algorithm>
 #include <utility>
 #include <vector>
@@ -22,12 +22,12 @@ struct EvalContext {
 // How Jacobians are formed. Defaults give the exact derivatives (what the finite-difference tests check);
 // implicit solvers ask for the symmetric, positive-definite-friendly variants.
 struct JacobianOptions {
-  bool clamp_compression = false;      // springs: clamp (1 - L/l) to >= 0 (methods.md §1.1)
+  bool clamp_compression = false;      // springs: clamp (1 - L/l) to >= 0 (as Blender does)
   bool damping_position_terms = true;  // include d(damping force)/dx (non-symmetric; usually dropped)
 };
 
-// Per-vertex loops shorter than this run on one thread: the fork/join costs more than the work (results do not
-// depend on it: such loops are independent per vertex).
+// Per-vertex loops shorter than this run on one thread: the fork/join costs more than the work (results do
+// not depend on it: such loops are independent per vertex).
 constexpr int kParallelMinVertices = 2048;
 
 // Σ_{k<n} f(k), deterministically: the terms are added in fixed chunks of `Chunk`, then the chunk sums in
@@ -63,8 +63,8 @@ class Term {
  public:
   virtual ~Term() = default;
   virtual const char* name() const = 0;
-  // Conservative terms have force = -grad(energy), a function of the positions alone (not of v or t: the implicit
-  // safeguard reuses the energies of unchanged positions); the others (drag) return energy 0.
+  // Conservative terms have force = -grad(energy), a function of the positions alone (not of v or t: the
+  // implicit safeguard reuses the energies of unchanged positions); the others (drag) return energy 0.
   virtual bool conservative() const { return true; }
   virtual double energy(const EvalContext& c) const = 0;       // J
   virtual void add_forces(const EvalContext& c, Vec3s& f) const = 0;  // N, accumulated into f

@@ -1,5 +1,5 @@
 #pragma once
-// Basic numeric types of the cloth core. `double` throughout (DESIGN.md, "Numbers and threads").
+// Basic numeric types of the cloth core. `double` throughout (docs/architecture.md, "Numbers and threads").
 #include <Eigen/Core>
 #include <Eigen/Geometry>
 #include <array>

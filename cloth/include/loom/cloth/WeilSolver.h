@@ -12,13 +12,13 @@
 //      until nothing changes.
 //   3. What is left (outside every catenary: below the constraint points) hangs straight down from the nearest
 //      placed vertex of its column or row, at its rest distance.
-// Catenary through a and b of length S, horizontal span d, rise h (methods.md §3.2): y = α cosh((x - x0)/α) + c
-// with sqrt(S² - h²) = 2α sinh(d/2α) (solved for α by Newton's method on the log), taut (a straight segment)
-// when S <= |b - a|. "Down" is the direction of the cloth's gravity term (-y without one).
-// It is honest about what it cannot do: check() refuses cloths that need motion or forces it does not model
-// (drag or wind, moving pins, an initial velocity, no pins, a non-grid mesh), naming the scene field; the scene
-// loader refuses colliders, rigid bodies, characters and collision for it. The first step places the cloth;
-// later steps keep it (velocities zero).
+// Catenary through a and b of length S, horizontal span d, rise h (Weil 1986; docs/validation.md): y = α
+// cosh((x - x0)/α) + c with sqrt(S² - h²) = 2α sinh(d/2α) (solved for α by Newton's method on the log), taut
+// (a straight segment) when S <= |b - a|. "Down" is the direction of the cloth's gravity term (-y without
+// one). It is honest about what it cannot do: check() refuses cloths that need motion or forces it does not
+// model (drag or wind, moving pins, an initial velocity, no pins, a non-grid mesh), naming the scene field;
+// the scene loader refuses colliders, rigid bodies, characters and collision for it. The first step places
+// the cloth; later steps keep it (velocities zero).
 #include "loom/cloth/Solver.h"
 
 namespace loom::cloth {
@@ -38,7 +38,8 @@ class WeilSolver final : public Solver {
   double last_ms_ = 0.0;
 };
 
-// The drape of `cloth` with its constraint points at `pins` (vertex, position); free vertices get their place.
+// The drape of `cloth` with its constraint points at `pins` (vertex, position); free vertices get their
+// place.
 void weil_drape(const Cloth& cloth, const std::vector<std::pair<int, Vec3>>& pins, const Vec3& down, Vec3s& x);
 
 }  // namespace loom::cloth

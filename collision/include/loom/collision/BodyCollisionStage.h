@@ -1,5 +1,5 @@
 #pragma once
-// BodyCollisionStage: cloth against rigid colliders (issue 5; reference/collision.md Sec. 4 steps 1-2 and 7),
+// BodyCollisionStage: cloth against rigid colliders (docs/collision.md, "Colliders"),
 // the pipeline stage "body_collision" (after the solver). Each step:
 //   1. colliders with a scene `motion` are sampled at t and t + h into prev/curr (others are moved by their
 //      owner: a character rig, the Bullet bridge);
@@ -41,8 +41,9 @@ struct BodyCollisionSettings {
   int max_passes = 4;                     // passes per vertex (and of the edge phase) per step
   double ccd_separation = 0.5;            // 1; the swept test's separation, as a fraction of the thickness
   bool edges = true;                      // cloth edges vs capsule axes and box edges
-  // Leave ClothState::contact_normal for the vertices held against a collider in the next solve: only when the
-  // solver reads them (implicit solvers with `solver.contact_filter`); else it stays empty and costs nothing.
+  // Leave ClothState::contact_normal for the vertices held against a collider in the next solve: only when
+  // the solver reads them (implicit solvers with `solver.contact_filter`); else it stays empty and costs
+  // nothing.
   bool contact_normals = false;
   std::vector<FrictionPair> friction_pairs;  // per (cloth, collider) pair (entries with collider >= 0): win
                                              // over the collider's and the two above

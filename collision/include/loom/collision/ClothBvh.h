@@ -1,6 +1,6 @@
 #pragma once
-// ClothBvh: the cloth's bounding-volume hierarchy for self- and cloth-cloth collision (issue 5, reference/
-// collision.md Sec. 4 step 4). An AABB tree over the triangles, built in material (rest) space as in PSCC
+// ClothBvh: the cloth's bounding-volume hierarchy for self- and cloth-cloth collision
+// (docs/collision.md). An AABB tree over the triangles, built in material (rest) space as in PSCC
 // (Tang et al., I3D 2018), so grouping stays patch-coherent under deformation; leaves are swept boxes of
 // x_t and x_t+1 inflated by the thickness; refit every step (leaves in parallel, then parents bottom-up);
 // rebuilt from the current positions when its summed node surface area grows past `rebuild_ratio` times the

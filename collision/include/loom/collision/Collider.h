@@ -1,9 +1,9 @@
 #pragma once
-// Colliders: the rigid side of collision (issue 5; DESIGN.md, "Collision"). A collider is a shape with two
+// Colliders: the rigid side of collision (docs/architecture.md, "Collision"). A collider is a shape with two
 // poses per step, `prev` at the step's start and `curr` at its end, so swept tests are exact for kinematic
 // motion (a body's velocity within a step is what takes prev to curr). Who moves a collider:
 //   - a scene's keyframed or spinning motion (`motion`, sampled by the body-collision stage each step),
-//   - a character rig (issue 6) or a Bullet world (issue 9), which write prev/curr before each step.
+//   - a character rig or a Bullet world, which write prev/curr before each step.
 // Contacts push the cloth; the reaction (minus the impulse given to the cloth) is summed per collider so a
 // two-way coupling (BulletCloth) can hand it back to a dynamic body.
 //

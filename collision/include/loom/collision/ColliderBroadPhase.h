@@ -1,9 +1,10 @@
 #pragma once
-// ColliderBroadPhase: which colliders can touch a region this step (issue 5; reference/collision.md Sec. 4
-// step 1). FCL's dynamic AABB tree (fcl::DynamicAABBTreeCollisionManager) over each collider's swept box:
-// the world boxes at prev and curr (plus, for a rotating collider, the ball its local box sweeps about the
-// moving origin), inflated by a margin; recomputed from the poses at every update (the manager is refitted
-// with update(), never left with stale boxes — Sec. 2.3 item 8). Planes are unbounded and always returned.
+// ColliderBroadPhase: which colliders can touch a region this step (docs/collision.md). FCL's dynamic AABB
+// tree (fcl::DynamicAABBTreeCollisionManager) over each collider's swept box: the world boxes at prev and
+// curr (plus, for a rotating collider, the ball its local box sweeps about the moving origin), inflated by a
+// margin; recomputed from the poses at every update (the manager is refitted with update(), never left with
+// stale boxes: FCL's manager misses moved objects whose box was not recomputed). Planes are unbounded and
+// always returned.
 #include <memory>
 #include <vector>
 

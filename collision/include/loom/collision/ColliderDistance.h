@@ -1,5 +1,5 @@
 #pragma once
-// Signed distance from a point to a collider (issue 5): negative inside, with the outward unit normal (the
+// Signed distance from a point to a collider: negative inside, with the outward unit normal (the
 // distance's gradient). Closed forms for plane, sphere, capsule, box and cylinder (the exact Euclidean
 // signed distance of each solid; e.g. Quilez, "distance functions", and Ericson 2005, "Real-Time Collision
 // Detection", Sec. 5.1); convex hulls: outside by GJK through FCL/libccd (Gilbert, Johnson, Keerthi 1988),

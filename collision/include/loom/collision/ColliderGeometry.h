@@ -1,10 +1,10 @@
 #pragma once
-// ColliderGeometry: what a convex or mesh collider needs beyond its Shape, built once (issue 5).
+// ColliderGeometry: what a convex or mesh collider needs beyond its Shape, built once.
 //   convex: the hull of Shape::vertices (Qhull, Barber et al. 1996, "The Quickhull algorithm for convex
 //           hulls"), as outward face planes (the signed distance inside is the largest plane distance) and
 //           as an fcl::Convex (GJK through libccd for the distance outside);
 //   mesh:   an fcl::BVHModel<OBBRSS> of the triangles in the local frame, never refitted (the mesh is rigid;
-//           reference/collision.md Sec. 2.3 item 2: refitted OBBRSS trees give wrong distances).
+//           FCL's refitted OBBRSS trees give wrong distances).
 // Both carry the local bounding box. The FCL objects are behind FclShape (src/FclShape.h), so including this
 // header does not pull in FCL.
 #include <Eigen/Core>

@@ -1,5 +1,5 @@
 #pragma once
-// ContactGuardStage: the contact side of the non-finite / explosion guard (issue 8; cloth/Guard.h). The
+// ContactGuardStage: the contact side of the non-finite / explosion guard (cloth/Guard.h). The
 // pipeline stage "contact_guard", after the collision stages (the scene builder adds it when the scene's
 // `guard` asks for `max_penetration` or `energy_bound`). After every step it
 //   - measures the deepest free cloth vertex inside a collider at its end pose (`curr`), by the collider's

@@ -1,7 +1,8 @@
 #pragma once
-// Coulomb coefficients of one material pair (issue 5): a cloth against another cloth (self-collision stage) or
-// against a collider (body-collision stage); they win over the defaults (the cloth materials' / the collider's
-// coefficients). Within one cloth (self-contact): other_cloth == cloth. Scene key `collision.friction_pairs`.
+// Coulomb coefficients of one material pair: a cloth against another cloth (self-collision stage) or
+// against a collider (body-collision stage); they win over the defaults (the cloth materials' / the
+// collider's coefficients). Within one cloth (self-contact): other_cloth == cloth. Scene key
+// `collision.friction_pairs`.
 
 namespace loom::collision {
 

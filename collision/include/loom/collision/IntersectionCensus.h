@@ -1,5 +1,5 @@
 #pragma once
-// The exact intersection census (issue 5): how many pairs of non-adjacent triangles (sharing no vertex)
+// The exact intersection census: how many pairs of non-adjacent triangles (sharing no vertex)
 // intersect, touching included, with exact predicates (ExactPredicates.h). Candidates come from a ClothBvh
 // built on the given positions; the count is independent of the thread count.
 #include "loom/cloth/ClothMesh.h"

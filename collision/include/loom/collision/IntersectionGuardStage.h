@@ -1,5 +1,5 @@
 #pragma once
-// IntersectionGuardStage: the intersection side of the non-finite / explosion guard (issue 8; cloth/Guard.h,
+// IntersectionGuardStage: the intersection side of the non-finite / explosion guard (cloth/Guard.h,
 // scene key `guard.intersections`). The pipeline stage "intersection_guard", last (after body and self
 // collision and the contact guard). After every step it finds every intersecting triangle pair of the cloths
 // at the step's end (`x`): within each cloth the pairs sharing no vertex, between cloths all pairs; exact

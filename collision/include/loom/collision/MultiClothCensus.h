@@ -1,5 +1,5 @@
 #pragma once
-// The exact intersection census over several cloths (issue 5, `loom run --census`): the self census of each
+// The exact intersection census over several cloths (`loom run --census`): the self census of each
 // cloth (IntersectionCensus.h: intersecting pairs of triangles sharing no vertex) plus, for every pair of
 // cloths, the count of intersecting triangle pairs between them (all pairs: two cloths share no vertex).
 // Exact predicates (ExactPredicates.h); the count is independent of the thread count.
@@ -20,8 +20,9 @@ struct CensusInput {
 long count_intersecting_pairs_between(const CensusInput& a, const CensusInput& b, int threads = 1);
 // Self census of every cloth plus every cloth pair.
 long count_all_intersections(const std::vector<CensusInput>& cloths, int threads = 1);
-// One intersecting triangle pair: triangle tri_a of cloth cloth_a and triangle tri_b of cloth cloth_b (indices
-// into the census input), (cloth_a, tri_a) < (cloth_b, tri_b); within one cloth the two share no vertex.
+// One intersecting triangle pair: triangle tri_a of cloth cloth_a and triangle tri_b of cloth cloth_b
+// (indices into the census input), (cloth_a, tri_a) < (cloth_b, tri_b); within one cloth the two share no
+// vertex.
 struct IntersectingPair {
   int cloth_a = 0, tri_a = 0, cloth_b = 0, tri_b = 0;
   bool operator<(const IntersectingPair& o) const;

@@ -1,5 +1,5 @@
 #pragma once
-// RigidBodySpec: a rigid body of a scene's `bodies` array (issue 9), as plain data — no Bullet types, so
+// RigidBodySpec: a rigid body of a scene's `bodies` array, as plain data — no Bullet types, so
 // loom::scene can hold it; the Bullet bridge (loom::bullet) turns it into a btRigidBody.
 #include <functional>
 #include <string>

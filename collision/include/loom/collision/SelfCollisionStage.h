@@ -1,8 +1,8 @@
 #pragma once
 // SelfCollisionStage: self-collision of each cloth and collision between cloths (multi-layer garments), as
-// one pipeline stage after the solver (issue 5; reference/collision.md Sec. 4). The solver's step moved every
-// vertex from x_prev (intersection-free) to a candidate x; this stage changes x (and v by the same amount / h)
-// so that the straight path x_prev -> x is free of intersections:
+// one pipeline stage after the solver (docs/collision.md). The solver's step moved every
+// vertex from x_prev (intersection-free) to a candidate x; this stage changes x (and v by the same amount /
+// h) so that the straight path x_prev -> x is free of intersections:
 //   1. BVH update: one ClothBvh per cloth (material space, leaves = swept boxes inflated by half the cloth's
 //      thickness); candidate triangle pairs = self pairs of each cloth (with `self`) + cross pairs of every
 //      two cloths. Self pairs of a node whose patch is a flat-enough disk are culled by normal cones
@@ -60,17 +60,17 @@ struct SelfCollisionSettings {
   int max_zone_iterations = 200;   // fail-safe rounds before every vertex goes into one zone
   double near_body_mass = 1e3;     // 1, mass factor of vertices the body stage left near a collider
   // 1, the largest velocity change a cloth-cloth impulse gives one vertex, as a multiple of the contact's
-  // relative velocity change (capped_shares in the .cpp); <= 0 or infinite: Bridson's shares unbounded
+  // relative velocity change (capped_shares, SelfProximity.cpp); <= 0 or infinite: Bridson's shares unbounded
   double max_share = 1.0;
 };
 
-// Shares beta_k (k = the contact's four vertices) of a cloth-cloth contact's velocity change: vertex k changes by
-// beta_k dv, with sum_k w_k beta_k = 1 for the barycentric weights w_k, the least mass-weighted change under
-// |beta_k| <= cap (cap <= 0 or infinite: Bridson et al. 2002's unbounded shares); im = inverse masses. The first
-// `first` vertices are one feature (w_k >= 0: the point of a vertex-face pair, first = 1, or an edge, first = 2),
-// the others the second (w_k <= 0). Where no movable vertex is left below the bound, every movable vertex takes
-// the bound on its feature's side, w_k = 0 included (each feature moves as a block), and the rest is left to the
-// next pass. Returns false when no vertex can move.
+// Shares beta_k (k = the contact's four vertices) of a cloth-cloth contact's velocity change: vertex k
+// changes by beta_k dv, with sum_k w_k beta_k = 1 for the barycentric weights w_k, the least mass-weighted
+// change under |beta_k| <= cap (cap <= 0 or infinite: Bridson et al. 2002's unbounded shares); im = inverse
+// masses. The first `first` vertices are one feature (w_k >= 0: the point of a vertex-face pair, first = 1,
+// or an edge, first = 2), the others the second (w_k <= 0). Where no movable vertex is left below the bound,
+// every movable vertex takes the bound on its feature's side, w_k = 0 included (each feature moves as a
+// block), and the rest is left to the next pass. Returns false when no vertex can move.
 bool capped_shares(const double w[4], const double im[4], int first, double cap, double beta[4]);
 
 class BodyCollisionStage;
@@ -89,10 +89,15 @@ class SelfCollisionStage final : public loom::cloth::Stage {
   // candidate_pairs (triangle pairs from the BVHs), features (their vertex-face and edge-edge features that
   // passed the box filter), culled_nodes (normal-cone culls), contacts (proximity +
   // continuous contacts given impulses), passes (continuous-test passes), impact_zones (zones formed),
-  // zone_iterations, projections (inelastic projections of a zone), rigid_zones (zones that went rigid), bvh_rebuilds, ccd_tests and ccd_boxes (continuous tests in the passes, inclusion boxes), ccd_start_hits (pairs of the passes closer than the separation at the step's start: hits at t = 0 without a continuous test), unresolved (steps that ended with a forced global zone), collider_fixes (vertices handed back to the body stage), collider_rounds, zone_ccd_cut (the impact zones' continuous tests that ran out of their 4096-box budget and so count as hits); all since the start. Phase
-  // wall times (ms since the start): bvh_ms, pairs_ms (the step's first search, all_features, includes its
-  // feature extraction), features_ms (the other searches' extraction), proximity_ms, ccd_ms, zones_ms (the zones'
-  // own searches counted in it and in their phases).
+  // zone_iterations, projections (inelastic projections of a zone), rigid_zones (zones that went rigid),
+  // bvh_rebuilds, ccd_tests and ccd_boxes (continuous tests in the passes, inclusion boxes), ccd_start_hits
+  // (pairs of the passes closer than the separation at the step's start: hits at t = 0 without a continuous
+  // test), unresolved (steps that ended with a forced global zone), collider_fixes (vertices handed back to
+  // the body stage), collider_rounds, zone_ccd_cut (the impact zones' continuous tests that ran out of their
+  // 4096-box budget and so count as hits); all since the start. Phase wall times (ms since the start):
+  // bvh_ms, pairs_ms (the step's first search, all_features, includes its feature extraction), features_ms
+  // (the other searches' extraction), proximity_ms, ccd_ms, zones_ms (the zones' own searches counted in it
+  // and in their phases).
   std::vector<std::pair<std::string, double>> counters() const override;
 
  private:
@@ -100,8 +105,8 @@ class SelfCollisionStage final : public loom::cloth::Stage {
     int type = 0;    // 0 VF, 1 EE
     int a = 0, b = 0;
     float cap = HUGE_VALF;  // m, the pair thickness' cap for rest neighbours (rest_cap), else infinite
-    // m, a lower bound on the two features' distance at x0 (fixed during the step), left by the proximity phase
-    // for the continuous passes; < 0: unknown.
+    // m, a lower bound on the two features' distance at x0 (fixed during the step), left by the proximity
+    // phase for the continuous passes; < 0: unknown.
     float d0 = -1.0f;
     bool operator<(const Feature& o) const { return type != o.type ? type < o.type : a != o.a ? a < o.a : b < o.b; }
     bool operator==(const Feature& o) const { return type == o.type && a == o.a && b == o.b; }
@@ -126,12 +131,12 @@ class SelfCollisionStage final : public loom::cloth::Stage {
   Contact contact_of(const Feature& f) const;
   // m: the mean of the two cloths' thicknesses, capped for rest neighbours (Contact::cap).
   double pair_thickness(const Contact& c) const;
-  // Rest neighbours (setup_rest_neighbours): features of one cloth closer than twice its thickness in the rest
-  // mesh. Returns the cap of their pair thickness, half their rest distance (m), or infinity.
+  // Rest neighbours (setup_rest_neighbours): features of one cloth closer than twice its thickness in the
+  // rest mesh. Returns the cap of their pair thickness, half their rest distance (m), or infinity.
   float rest_cap(const Feature& f) const;
   void setup_rest_neighbours(const loom::cloth::StageContext& ctx);
-  // Proximity impulses over `fs` (all features); marks the vertices it moved in `moved`, and leaves in each feature
-  // a lower bound on its distance at x0 (Feature::d0).
+  // Proximity impulses over `fs` (all features); marks the vertices it moved in `moved`, and leaves in each
+  // feature a lower bound on its distance at x0 (Feature::d0).
   void proximity(std::vector<Feature>& fs, int threads, std::vector<char>& moved);
   void first_pass_features(std::vector<Feature>& fs, const std::vector<char>& moved, int threads);
   // One continuous pass over `fs`; returns whether any pair hit, marks moved/hit vertices in `dirty`.
@@ -150,6 +155,14 @@ class SelfCollisionStage final : public loom::cloth::Stage {
   };
   bool project_zone(const std::vector<int>& constraints);
   void apply_rigid_zone(const std::vector<int>& verts);
+  // The three parts of one impact-zone round (ImpactZones.cpp).
+  void zone_hits(const std::vector<Feature>& fs, const std::vector<int>& zone_rounds, int threads,
+                 std::vector<char>& hit, std::vector<ZoneConstraint>& found);
+  bool merge_zone_hits(const std::vector<Feature>& fs, const std::vector<char>& hit,
+                       const std::vector<ZoneConstraint>& found, std::vector<int>& zone_rounds,
+                       std::vector<int>& roots_changed);
+  void move_changed_zones(const std::vector<int>& roots_changed, std::vector<int>& zone_rounds,
+                          std::vector<char>& dirty);
 
   SelfCollisionSettings settings_;
   BodyCollisionStage* body_ = nullptr;

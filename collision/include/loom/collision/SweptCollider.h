@@ -1,5 +1,5 @@
 #pragma once
-// Swept tests against a moving collider (issue 5). Within a step a collider moves from `prev` to `curr` by
+// Swept tests against a moving collider. Within a step a collider moves from `prev` to `curr` by
 // the screw-free interpolation T(t) = (slerp(R0, R1, t), lerp(c0, c1, t)), t in [0, 1]; a cloth vertex moves
 // linearly from p0 to p1. The earliest t at which the point comes within `separation` of the surface is found
 // by conservative advancement (Mirtich 1996, "Impulse-based dynamic simulation of rigid body systems",

@@ -1,8 +1,9 @@
 #pragma once
 // Builds the simulation a scene describes: the cloth pipeline (Simulation) plus the stages of the effects
-// the scene names and nothing else (DESIGN.md, "only the effects a scene calls for"): body collision only
-// with colliders, self-collision only when asked, a character rig only with a character. Every command
-// that runs a scene (`loom run`, `loom compare`, the viewer) builds it here, so they all run the same thing.
+// the scene names and nothing else (docs/architecture.md, "only the effects a scene calls for"): body
+// collision only with colliders, self-collision only when asked, a character rig only with a character. Every
+// command that runs a scene (`loom run`, `loom compare`, the viewer) builds it here, so they all run the same
+// thing.
 #include <memory>
 
 #include "loom/cloth/Simulation.h"

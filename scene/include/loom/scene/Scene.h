@@ -1,6 +1,6 @@
 #pragma once
-// A scene: one JSON file naming cloths, solver, effects, duration and outputs (DESIGN.md, "Scenes").
-// The format is documented in README.md ("Scene format").
+// A scene: one JSON file naming cloths, solver, effects, duration and outputs (docs/architecture.md,
+// "Scenes"). The format: docs/scene-format.md.
 #include <map>
 #include <memory>
 #include <nlohmann/json.hpp>
@@ -15,7 +15,7 @@
 #include "loom/collision/RigidBodySpec.h"
 
 namespace loom::characters {
-struct Character;  // loom/characters/Character.h (issue 6)
+struct Character;  // loom/characters/Character.h
 }
 
 namespace loom::scene {
@@ -48,16 +48,16 @@ struct Scene {
   int frames = 60;        // frames to simulate (duration * fps, rounded)
   OutputSettings output;
   std::optional<collision::SelfCollisionSettings> collision;  // `collision` (SceneCollision.cpp); absent: none
-  std::vector<collision::RigidBodySpec> bodies;  // `bodies` (SceneBodies.cpp): Bullet rigid bodies (issue 9)
+  std::vector<collision::RigidBodySpec> bodies;  // `bodies` (SceneBodies.cpp): Bullet rigid bodies
   std::vector<collision::Collider> colliders;  // `colliders` (SceneColliders.cpp): rigid shapes, kinematic motion
   std::shared_ptr<characters::Character> character;  // `character` (SceneCharacter.cpp); null without one
-  // `cloths[i].detail` (issue 10, hybrid detail): cloth index -> its curved-face surface settings; the cloths
+  // `cloths[i].detail` (hybrid detail): cloth index -> its curved-face surface settings; the cloths
   // listed are shown (OBJ frames, exports, renders) as their refined surface instead of the simulated mesh.
   std::map<int, cloth::DetailSettings> detail;
 };
 
 class JsonReader;
-// `detail` of a cloth or of a character garment (issue 10): {"method", "levels", "wrinkles"}.
+// `detail` of a cloth or of a character garment: {"method", "levels", "wrinkles"}.
 cloth::DetailSettings parse_detail(const JsonReader& d);
 
 // Reads a JSON file; syntax errors name the file, line and column.

@@ -1,6 +1,6 @@
 #pragma once
-// The scene's top-level `bodies` array (issue 9; README "Rigid bodies"): Bullet rigid bodies the cloth lives
-// with, two-way coupled through the Bullet bridge (`loom compare`). Plain data (RigidBodySpec.h).
+// The scene's top-level `bodies` array (docs/scene-format.md, docs/bullet.md): Bullet rigid bodies the cloth
+// lives with, two-way coupled through the Bullet bridge (`loom compare`). Plain data (RigidBodySpec.h).
 #include "loom/scene/JsonReader.h"
 #include "loom/scene/Scene.h"
 

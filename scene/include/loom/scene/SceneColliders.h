@@ -1,7 +1,7 @@
 #pragma once
-// The scene's top-level `colliders` array (issue 5; README "Colliders"): rigid shapes the cloth collides
-// with, with optional kinematic motion. Parsed into Scene::colliders; build_simulation puts them in the
-// shared ColliderSet and adds the body_collision stage when the set is not empty.
+// The scene's top-level `colliders` array (docs/scene-format.md, docs/collision.md): rigid shapes the cloth
+// collides with, with optional kinematic motion. Parsed into Scene::colliders; build_simulation puts them in
+// the shared ColliderSet and adds the body_collision stage when the set is not empty.
 #include "loom/scene/JsonReader.h"
 #include "loom/scene/Scene.h"
 

@@ -1,5 +1,5 @@
 #pragma once
-// Scene key `collision` (issue 5): self-collision and collision between cloths (SelfCollisionStage.h).
+// Scene key `collision`: self-collision and collision between cloths (SelfCollisionStage.h).
 //   "collision": {"self": true, "thickness": 0.002, "friction": 0.3, "static_friction": 0.4, "passes": 4,
 //                 "separation": 0.25, "repulsion": 0.1, "normal_cones": true, "layers": [0.002, 0.003],
 //                 "friction_pairs": [{"a": "shirt", "b": "coat", "friction": 0.2, "static_friction": 0.3},

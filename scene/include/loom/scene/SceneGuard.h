@@ -1,5 +1,5 @@
 #pragma once
-// Scene key `guard` (issue 8): the non-finite / explosion guard's settings (cloth/Guard.h).
+// Scene key `guard`: the non-finite / explosion guard's settings (cloth/Guard.h).
 //   "guard": {"enabled": true, "max_halvings": 5, "max_strain": 10, "energy_growth": 100,
 //             "energy_bound": 0, "max_penetration": 0, "intersections": false}
 //   (energy_bound, max_penetration: 0 = off; intersections: needs `collision` with self-collision or several

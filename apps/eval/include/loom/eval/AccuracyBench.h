@@ -1,5 +1,5 @@
 #pragma once
-// `loom bench accuracy`: the accuracy-vs-time benchmark of issue 3 (reference/methods.md §2.4) on the
+// `loom bench accuracy`: the accuracy-vs-time benchmark (docs/benchmarks.md) on the
 // hanging-cloth scene — every registered Loom solver over its knob sweep and both Bullet twins, against a
 // converged reference, written to DIR/accuracy.csv and plotted to DIR/accuracy.png.
 #include <set>
@@ -12,7 +12,7 @@ struct AccuracyOptions {
   std::vector<int> sizes{32, 64};  // nodes per side of the 1 m square
   std::string out = "out/bench_accuracy";
   bool quick = false;              // tiny run for tests: N=8, 0.25 s, one configuration per method
-  double duration = 0.25;          // s of simulated time (60 Hz frames); README: why not 1 s
+  double duration = 0.25;          // s of simulated time (60 Hz frames; docs/benchmarks.md)
   double perturbation = 1e-3;      // m, out-of-plane start bump (AccuracyBench.cpp, make_scene)
   std::vector<int> threads{1, 2};  // thread counts for the Loom solvers (Bullet runs single-threaded)
   std::set<std::string> methods;   // empty: all; else solver names and/or bullet_classic, bullet_deformable

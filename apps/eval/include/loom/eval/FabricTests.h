@@ -1,6 +1,6 @@
 #pragma once
 // Virtual fabric tests: the standard textile measurements run in simulation and compared with theory
-// (reference/methods.md §3, REFERENCES.md "Physical targets"):
+// (docs/validation.md, "Fabric tests"):
 //  - cantilever (ASTM D1388 / FAST-2): a 25 mm strip clamped at one end and bent by its weight; tip chord angle
 //    against the exact inextensible elastica θ'' = -(l/c)³ (1 - s) cos θ, θ(0) = 0, θ'(1) = 0, with the bending
 //    length c = (B / (ρ_A g))^(1/3); the measured angle, inverted through the elastica, gives c and B.
@@ -13,7 +13,7 @@
 //  - drape (Cusick, BS 5058): a 30 cm disc (concentric-ring mesh, `resolution` rings, the support edge half a
 //    ring spacing inside the last held ring) held on an 18 cm support; drape coefficient DC = (A_s - A_d)/(A_D - A_d) x 100 from the projected shadow area (point
 //    sampled at 0.5 mm) and the number of nodes (rim radius peaks >= 3 mm prominent). No published DC
-//    exists for the presets (REFERENCES §3.3): theory and error are NaN (null in --json).
+//    exists for the presets (docs/validation.md): theory and error are NaN (null in --json).
 // Static measurements use the static (energy-minimisation) solver; each test reports measured, theory,
 // error, and its own fields.
 #include <string>
@@ -35,7 +35,8 @@ struct FabricTestOptions {
   int threads = 1;
   // "static" (energy minimisation, the default) or any dynamic solver, which then runs frames of
   // `settle_dt` seconds with damping until it has settled — the largest vertex speed over a frame below
-  // `settle_speed` — or `settle_frames` frames have passed, so the result can be compared with the static one.
+  // `settle_speed` — or `settle_frames` frames have passed, so the result can be compared with the static
+  // one.
   std::string solver = "static";
   int settle_frames = 400;
   double settle_dt = 0.01;      // s

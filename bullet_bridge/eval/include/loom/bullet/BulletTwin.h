@@ -1,10 +1,10 @@
 #pragma once
 // BulletTwin: the same cloth as a Loom cloth (mesh, node masses, springs, pins, gravity), built inside Bullet
-// for side-by-side runs (DESIGN.md, "Bullet"; issue 3, "Bullet twins"). Two systems:
+// for side-by-side runs (docs/bullet.md). Two systems:
 //   kClassic    — a btSoftBody in a btSoftRigidDynamicsWorld (position-based links, Gauss-Seidel).
 //   kDeformable — a body of a btDeformableMultiBodyDynamicsWorld with a btDeformableMassSpringForce whose
 //                 per-link stiffness is Loom's spring k (N/m), backward Euler (implicit) + projection (CG).
-// Settings under which each works at all: reference/bullet.md §3 (classic: piterations >= 10 and 1/240
+// Settings under which each works at all: docs/bullet.md (classic: piterations >= 10 and 1/240
 // steps; deformable: implicit with projection, 1/240 steps). Bullet headers stay inside src/.
 #include <memory>
 #include <string>
@@ -37,7 +37,7 @@ struct TwinCloth {
 // attachments are not bridged).
 TwinCloth make_twin_cloth(const cloth::Cloth& cloth, const cloth::Vec3& gravity);
 
-// Knobs. Defaults are the settings under which each system works at all (bullet.md §3).
+// Knobs. Defaults are the settings under which each system works at all (docs/bullet.md).
 struct TwinSettings {
   double frame_dt = 1.0 / 60.0;  // s, one step_frame() call
   int substeps = 4;              // Bullet fixed steps per frame: fixedTimeStep = frame_dt / substeps
@@ -47,7 +47,8 @@ struct TwinSettings {
   // classic: kLST of the structural links (0, 1]; shear and bend links get kLST * k_link / k_structural.
   // deformable: factor on every Loom spring stiffness (1 = the same N/m as Loom).
   double stiffness = 1.0;
-  // deformable only: damping along the springs, N·s/m (btDeformableMassSpringForce's d); classic: kDP in [0,1].
+  // deformable only: damping along the springs, N·s/m (btDeformableMassSpringForce's d); classic: kDP in
+  // [0,1].
   double damping = 0.0;
   bool implicit = true;          // deformable only: backward Euler (true, with projection) or explicit
 };
@@ -61,7 +62,8 @@ class BulletTwin {
   BulletTwin& operator=(const BulletTwin&) = delete;
 
   TwinKind kind() const { return kind_; }
-  // Advances one frame (frame_dt) through btDynamicsWorld::stepSimulation(frame_dt, substeps + 1, frame_dt / substeps).
+  // Advances one frame (frame_dt) through btDynamicsWorld::stepSimulation(frame_dt, substeps + 1, frame_dt /
+  // substeps).
   void step_frame();
   int num_nodes() const;
   int num_links() const;
@@ -70,7 +72,7 @@ class BulletTwin {
   double node_mass(int i) const;           // kg, Bullet's 1 / m_im (0 for pinned nodes, whose m_im is 0)
   bool is_pinned(int i) const;             // Bullet's inverse mass is 0
   // False once Bullet switched the body off (btCollisionWorld::updateSingleAabb sets DISABLE_SIMULATION when
-  // the AABB explodes, bullet.md §3): the run has diverged even if the positions look finite.
+  // the AABB explodes, docs/bullet.md): the run has diverged even if the positions look finite.
   bool simulating() const;
 
  private:

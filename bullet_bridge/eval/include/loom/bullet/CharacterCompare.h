@@ -1,10 +1,10 @@
 #pragma once
-// `loom compare` on character scenes (issue 6): the same character and garments run
+// `loom compare` on character scenes: the same character and garments run
 //   - in Loom: the scene's own simulation (character stage, swept capsule contacts, self-collision), and
-//   - in Bullet: each garment a classic btSoftBody (BulletTwin, tuned as in reference/bullet.md §3) in a
+//   - in Bullet: each garment a classic btSoftBody (BulletTwin, tuned as in docs/bullet.md) in a
 //     btSoftRigidDynamicsWorld together with the character's capsules as kinematic btRigidBody objects
 //     driven by the clip (btMotionState at every frame end: Bullet takes kinematic poses once per
-//     stepSimulation call, bullet.md §1), the garment's attached vertices anchored (appendAnchor) to the body
+//     stepSimulation call), the garment's attached vertices anchored (appendAnchor) to the body
 //     of their bone.
 // Both are measured the same way after every frame: strain over every garment's structural springs, the
 // deepest vertex inside a capsule and the number of vertices inside one, and the largest distance of an

@@ -1,7 +1,7 @@
 #pragma once
-// Side-by-side runs for `loom compare` (issue 9): one scene's cloth (and rigid bodies) run as a Loom cloth in
+// Side-by-side runs for `loom compare`: one scene's cloth (and rigid bodies) run as a Loom cloth in
 // a Bullet world (BulletCloth, two-way coupled), as Bullet's classic btSoftBody (BulletTwin, tuned as in
-// reference/bullet.md §3: piterations 10, 1/240 s steps, margin = cloth thickness, kKHR 1, SDF voxel 0.05 m)
+// docs/bullet.md: piterations 10, 1/240 s steps, margin = cloth thickness, kKHR 1, SDF voxel 0.05 m)
 // and, when the scene has no rigid bodies, as a deformable-world body. Bullet-free header.
 #include <string>
 #include <vector>

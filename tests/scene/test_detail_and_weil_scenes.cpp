@@ -1,4 +1,4 @@
-// Scene fields of issue 10: `cloths[i].detail` (hybrid detail) and the refusals of `solver.method: "weil"`,
+// Scene fields `cloths[i].detail` (hybrid detail) and the refusals of `solver.method: "weil"`,
 // each naming the file, the JSON path and the problem; the shipped example scenes load.
 #include <gtest/gtest.h>
 
@@ -41,7 +41,7 @@ std::string error_of(const std::string& name, const std::string& text) {
   return "(no error)";
 }
 
-TEST(Issue10Scenes, DetailIsParsed) {
+TEST(DetailAndWeilScenes, DetailIsParsed) {
   const std::string path = write_scene("detail.json", scene_text(R"({"method": "implicit_euler"})",
                                                                   R"(, "detail": {"method": "curved_faces", "levels": 3})", ""));
   const Scene s = load_scene(path);
@@ -51,7 +51,7 @@ TEST(Issue10Scenes, DetailIsParsed) {
   EXPECT_TRUE(load_scene(write_scene("nodetail.json", scene_text(R"({"method": "implicit_euler"})", "", ""))).detail.empty());
 }
 
-TEST(Issue10Scenes, DetailErrorsNameThePath) {
+TEST(DetailAndWeilScenes, DetailErrorsNameThePath) {
   const std::string solver = R"({"method": "implicit_euler"})";
   std::string m = error_of("levels.json", scene_text(solver, R"(, "detail": {"levels": 9})", ""));
   EXPECT_NE(m.find("cloths[0].detail.levels"), std::string::npos) << m;
@@ -64,7 +64,7 @@ TEST(Issue10Scenes, DetailErrorsNameThePath) {
   EXPECT_NE(m.find("levles"), std::string::npos) << m;
 }
 
-TEST(Issue10Scenes, WrinklesAreParsedAndCheckedByPath) {
+TEST(DetailAndWeilScenes, WrinklesAreParsedAndCheckedByPath) {
   const std::string solver = R"({"method": "implicit_euler"})";
   const Scene s = load_scene(write_scene(
       "wrinkles.json", scene_text(solver, R"(, "detail": {"levels": 2, "wrinkles": {"amplitude": 0.004, "wavelength": 0.03}})", "")));
@@ -83,7 +83,7 @@ TEST(Issue10Scenes, WrinklesAreParsedAndCheckedByPath) {
   EXPECT_NE(m.find("height"), std::string::npos) << m;
 }
 
-TEST(Issue10Scenes, WeilRefusesWhatNeedsMotionOrCollision) {
+TEST(DetailAndWeilScenes, WeilRefusesWhatNeedsMotionOrCollision) {
   const std::string weil = R"({"method": "weil"})";
   const double one_frame = 1.0 / 60.0;
   // One frame, pins, a grid: accepted.
@@ -106,7 +106,7 @@ TEST(Issue10Scenes, WeilRefusesWhatNeedsMotionOrCollision) {
   EXPECT_NE(m.find("pins[0].path"), std::string::npos) << m;
 }
 
-TEST(Issue10Scenes, ExampleScenesLoad) {
+TEST(DetailAndWeilScenes, ExampleScenesLoad) {
   for (const char* name : {"hanging_cloth_detail.json", "weil_square.json", "hanging_cloth_imex.json"}) {
     const fs::path p = fs::path(LOOM_SOURCE_DIR) / "scenes" / name;
     Scene s = load_scene(p.string());
