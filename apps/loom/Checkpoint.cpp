@@ -3,6 +3,8 @@
 #include <cmath>
 #include <cctype>
 #include <cstring>
+#include <limits>
+#include <stdexcept>
 #include <nlohmann/json.hpp>
 #include <sstream>
 
@@ -29,6 +31,15 @@ std::uint64_t unhex(const std::string& s) {
   return std::stoull(s, nullptr, 16);
 }
 void put_u64(std::string& out, std::uint64_t v) { out.append(reinterpret_cast<const char*>(&v), sizeof v); }
+// An integer JSON value in [lo, hi], checked before any conversion (a float or a wider value is refused).
+long long integer_in(const nlohmann::json& v, long long lo, long long hi) {
+  if (!v.is_number_integer()) throw std::invalid_argument("expected an integer");
+  if (v.is_number_unsigned() ? v.get<std::uint64_t>() > static_cast<std::uint64_t>(hi) : v.get<long long>() > hi)
+    throw std::out_of_range("too large");
+  if (!v.is_number_unsigned() && v.get<long long>() < lo) throw std::out_of_range("too small");
+  return v.is_number_unsigned() ? static_cast<long long>(v.get<std::uint64_t>()) : v.get<long long>();
+}
+constexpr long long kIntMax = 2147483647;
 }  // namespace
 
 std::uint64_t fnv1a(const char* data, size_t n, std::uint64_t h) {
@@ -141,7 +152,7 @@ Checkpoint decode_checkpoint(const std::string& data, const std::string& source)
       field = key;
       return j.at(key);
     };
-    if (at("format").get<int>() != kCheckpointFormat) throw bad("the header's format differs from the file's");
+    if (integer_in(at("format"), 0, kIntMax) != kCheckpointFormat) throw bad("the header's format differs from the file's");
     c.scene = at("scene").get<std::string>();
     c.scene_text = at("scene_text").get<std::string>();
     c.sets = at("sets").get<std::vector<std::string>>();
@@ -149,19 +160,19 @@ Checkpoint decode_checkpoint(const std::string& data, const std::string& source)
     for (const auto& f : at("inputs")) {
       InputFile in;
       in.path = f.at("path").get<std::string>();
-      in.bytes = f.at("bytes").get<std::uint64_t>();
+      in.bytes = static_cast<std::uint64_t>(integer_in(f.at("bytes"), 0, std::numeric_limits<long long>::max()));
       in.hash = unhex(f.at("hash").get<std::string>());
       c.inputs.push_back(in);
     }
-    c.frames_total = at("frames_total").get<int>();
-    c.threads = at("threads").get<int>();
-    c.checkpoint_every = at("checkpoint_every").get<int>();
+    c.frames_total = static_cast<int>(integer_in(at("frames_total"), 0, kIntMax));
+    c.threads = static_cast<int>(integer_in(at("threads"), 1, kIntMax));
+    c.checkpoint_every = static_cast<int>(integer_in(at("checkpoint_every"), 0, kIntMax));
     c.render = at("render").get<bool>();
-    c.frame = at("frame").get<int>();
+    c.frame = static_cast<int>(integer_in(at("frame"), 0, kIntMax));
     c.max_strain = at("max_strain").get<double>();
     c.mean_strain_sum = at("mean_strain_sum").get<double>();
     c.sim_ms = at("sim_ms").get<double>();
-    c.logged_frames = at("logged_frames").get<long>();
+    c.logged_frames = static_cast<long>(integer_in(at("logged_frames"), 0, std::numeric_limits<long>::max()));
     c.log_hash = unhex(at("log_hash").get<std::string>());
     field.clear();
   } catch (const Error&) {

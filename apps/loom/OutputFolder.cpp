@@ -49,7 +49,8 @@ Manifest read_manifest(const fs::path& file, const std::string& flag) {
     ++number;
     if (number == 1) {
       const std::string h(kHeader);
-      if (line.compare(0, h.size(), h) != 0 || line.size() != h.size() + 16)
+      if (line.compare(0, h.size(), h) != 0 || line.size() != h.size() + 16 ||
+          line.find_first_not_of("0123456789abcdef", h.size()) != std::string::npos)
         throw Error(file.string(), "line 1", "not a Loom manifest (expected '" + h + "<16 hex digits>')");
       m.run_id = std::stoull(line.substr(h.size()), nullptr, 16);
       continue;
