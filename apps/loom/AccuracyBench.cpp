@@ -765,7 +765,8 @@ int bench_main(int argc, char** argv) {
         if (std::find(known.begin(), known.end(), m) == known.end()) {
           std::string list;
           for (const auto& k : known) list += (list.empty() ? "" : ", ") + k;
-          std::fprintf(stderr, "loom: error: --methods: unknown method '%s' (known: %s)\n", m.c_str(), list.c_str());
+          std::fprintf(stderr, "loom: error: --methods: unknown method '%s' (known: %s)\n", m.c_str(),
+                       list.c_str());
           return 2;
         }
     } else if (a == "--configs") {

@@ -1,13 +1,11 @@
 #include "RunCommand.h"
 
-#include "DetailView.h"
-
 #include <unistd.h>
 
 #include <algorithm>
 #include <chrono>
-#include <csignal>
 #include <cmath>
+#include <csignal>
 #include <cstdio>
 #include <cstdlib>
 #include <filesystem>
@@ -21,6 +19,7 @@
 #include <thread>
 
 #include "Checkpoint.h"
+#include "DetailView.h"
 #include "OutputFolder.h"
 #include "Terminal.h"
 #include "loom/cloth/Error.h"
@@ -148,7 +147,8 @@ int run_command(const RunOptions& options) {
     if (read_run_id(o.resume) != resume->run_id)
       throw Error(ckpt.string(), "run_id",
                   "belongs to another run's output folder (its run id is not the one in " +
-                      (fs::path(o.resume) / OutputFolder::kManifest).string() + "): resume the folder it was written in");
+                      (fs::path(o.resume) / OutputFolder::kManifest).string() +
+                      "): resume the folder it was written in");
     check_inputs(*resume);  // scene, meshes, motion clips: unchanged since the checkpoint, by hash
     o.scene = resume->scene;
     o.sets = resume->sets;
@@ -162,8 +162,8 @@ int run_command(const RunOptions& options) {
   }
   const std::string scene_path = o.scene.empty() ? default_scene_path() : o.scene;
   scene::Scene sc = scene::load_scene(scene_path, o.sets);
-  // What a checkpoint records of the inputs (Checkpoint.h): the scene by absolute path, so --resume works from
-  // any folder, and every file the scene read, hashed.
+  // What a checkpoint records of the inputs (Checkpoint.h): the scene by absolute path, so --resume works
+  // from any folder, and every file the scene read, hashed.
   const std::string scene_abs = fs::absolute(scene_path).lexically_normal().string();
   const std::string scene_text = read_text_file(scene_path);
   std::vector<InputFile> inputs = {fingerprint(scene_path)};
@@ -172,8 +172,8 @@ int run_command(const RunOptions& options) {
   // Threads beyond the machine's only queue on the cores (and thousands exhaust the OpenMP runtime).
   const int hardware = std::max(1, static_cast<int>(std::thread::hardware_concurrency()));
   if (sc.setup.threads > hardware) {
-    std::cerr << "loom: warning: " << printable(scene_path) << ": threads " << sc.setup.threads << " capped at the "
-              << hardware << " hardware threads of this machine\n";
+    std::cerr << "loom: warning: " << printable(scene_path) << ": threads " << sc.setup.threads
+              << " capped at the " << hardware << " hardware threads of this machine\n";
     sc.setup.threads = hardware;
   }
   // Issue 8: the guard's intersection check is on by default for a scene with cloth-cloth or self-collision
@@ -225,8 +225,8 @@ int run_command(const RunOptions& options) {
     if (census_colliders) census_penetration = std::max(census_penetration, collision::max_penetration(in, *census_colliders));
   };
 
-  // The output folder (OutputFolder.h): out/<scene name> by default (the scene layer keeps `name` a plain file
-  // name); a run writes only paths it claims in the folder's manifest and deletes only listed ones.
+  // The output folder (OutputFolder.h): out/<scene name> by default (the scene layer keeps `name` a plain
+  // file name); a run writes only paths it claims in the folder's manifest and deletes only listed ones.
   const fs::path out = o.out.empty() ? fs::path("out") / sc.name : fs::path(o.out);
   if (o.out.empty() && fs::path(sc.name).filename() != fs::path(sc.name))
     throw Error(scene_path, "name", "is not a plain file name, so it cannot name the output folder");
@@ -234,7 +234,8 @@ int run_command(const RunOptions& options) {
   const int first = resume ? resume->frame : 0;
   // Hybrid detail (issue 10): cloths with `detail` are written and rendered as their curved-face surface.
   DetailView shown(sc, sim);
-  // Geometry kept in memory by pc2/gltf/--render is logged for --resume (Checkpoint.h; Ctrl-C can come any time).
+  // Geometry kept in memory by pc2/gltf/--render is logged for --resume (Checkpoint.h; Ctrl-C can come any
+  // time).
   bool in_memory = o.render;
   for (const std::string& f : sc.output.formats) in_memory = in_memory || f == "pc2" || f == "gltf";
   // On --resume everything is checked before a file changes: the state, the frame log, the stats rows.
@@ -246,7 +247,8 @@ int run_command(const RunOptions& options) {
   }
   std::unique_ptr<FrameLog> log;
   if (in_memory)
-    log = std::make_unique<FrameLog>(folder, resume ? resume->logged_frames : 0, resume ? resume->log_hash : 0, shown.cloths());
+    log = std::make_unique<FrameLog>(folder, resume ? resume->logged_frames : 0,
+                                     resume ? resume->log_hash : 0, shown.cloths());
   const int digits = frame_digits(frames);
   auto frame_name = [&](int f) {
     std::string n = std::to_string(f);
@@ -344,11 +346,12 @@ int run_command(const RunOptions& options) {
     if (!finite) {
       const std::string bad = non_finite_cloth(sim.cloths());
       const std::string shown_bad = non_finite_cloth(shown.cloths());
-      error = !bad.empty() ? "cloth '" + bad + "' starts at a non-finite position"
-              : !shown_bad.empty()
-                  ? "the detail surface of cloth '" + shown_bad + "' is not finite at the start (cloths[].detail)"
-                  : "the start state's energy is not finite (an initial velocity, pin offset or anchor too large "
-                    "for double precision)";
+      error =
+          !bad.empty() ? "cloth '" + bad + "' starts at a non-finite position"
+          : !shown_bad.empty()
+              ? "the detail surface of cloth '" + shown_bad + "' is not finite at the start (cloths[].detail)"
+              : "the start state's energy is not finite (an initial velocity, pin offset or anchor too large "
+                "for double precision)";
       error += "; stopped before frame 0, nothing written";
     }
     if (finite) {  // NaN is never written
@@ -531,12 +534,14 @@ int run_command(const RunOptions& options) {
                 << "; outputs so far are valid (a scene with rigid bodies cannot be resumed)\n";
       return 130;
     }
-    std::cerr << "loom: interrupted after frame " << done << " of " << frames << "; outputs so far are valid; continue with: loom run --resume "
-              << printable(out.string()) << "\n";
+    std::cerr << "loom: interrupted after frame " << done << " of " << frames
+              << "; outputs so far are valid; continue with: loom run --resume " << printable(out.string())
+              << "\n";
     return 130;
   }
-  std::cout << "loom: " << done << " frames of " << printable(sc.name) << " in " << std::fixed << std::setprecision(2)
-            << (done ? sim_ms / done : 0.0) << " ms/frame -> " << printable(out.string()) << "\n";
+  std::cout << "loom: " << done << " frames of " << printable(sc.name) << " in " << std::fixed
+            << std::setprecision(2) << (done ? sim_ms / done : 0.0) << " ms/frame -> "
+            << printable(out.string()) << "\n";
   return 0;
 }
 

@@ -68,7 +68,8 @@ TEST(FabricTestCli, CountsAreWholeNumbersInRange) {
 // model, whose bending does not follow it, runs only when asked for, with a warning.
 TEST(FabricTestCli, CantileverDefaultsToAValidatedModel) {
   // 9 nodes keep the test short; the validated models hold the 1.5 degree tolerance from 9 nodes up.
-  const Result r = run("fabric-test cantilever --resolution 9 --json --out " + (loom::test::test_dir() / "c").string());
+  const Result r =
+      run("fabric-test cantilever --resolution 9 --json --out " + (loom::test::test_dir() / "c").string());
   ASSERT_EQ(r.code, 0) << r.err;
   const auto j = nlohmann::json::parse(r.out);
   EXPECT_EQ(j["model"], "choi_ko");

@@ -10,9 +10,9 @@
 //   3: a header and a state (the first 2 bytes: the header's length) framed as a checkpoint with a correct
 //      checksum, so the header's JSON reaches the field checks (as mode 0).
 // Anything else (a crash, a sanitizer report, another exception) is a bug.
+#include <algorithm>
 #include <cstddef>
 #include <cstdint>
-#include <algorithm>
 #include <cstring>
 #include <memory>
 #include <nlohmann/json.hpp>
@@ -50,8 +50,12 @@ extern "C" int LLVMFuzzerTestOneInput(const std::uint8_t* data, std::size_t size
     if (mode == 0 || mode == 3) {
       std::string file = bytes;
       if (mode == 3) {  // magic | u64 header bytes | header | u64 state bytes | state | checksum
-        const size_t hn = bytes.size() >= 2 ? std::min<size_t>(bytes.size() - 2, (std::uint8_t(bytes[0]) << 8) | std::uint8_t(bytes[1])) : 0;
-        const std::string header = bytes.size() >= 2 ? bytes.substr(2, hn) : "", state = bytes.size() >= 2 ? bytes.substr(2 + hn) : "";
+        const size_t hn =
+            bytes.size() >= 2
+                ? std::min<size_t>(bytes.size() - 2, (std::uint8_t(bytes[0]) << 8) | std::uint8_t(bytes[1]))
+                : 0;
+        const std::string header = bytes.size() >= 2 ? bytes.substr(2, hn) : "",
+                          state = bytes.size() >= 2 ? bytes.substr(2 + hn) : "";
         file = "LOOMCKPT" + std::to_string(loom::app::kCheckpointFormat) + "\n";
         const std::uint64_t h = header.size(), n = state.size();
         file.append(reinterpret_cast<const char*>(&h), sizeof h).append(header);
@@ -61,9 +65,10 @@ extern "C" int LLVMFuzzerTestOneInput(const std::uint8_t* data, std::size_t size
       }
       const loom::app::Checkpoint c = loom::app::decode_checkpoint(file, "fuzz.bin");
       if (c.frame < 0 || c.frame > c.frames_total || c.logged_frames < 0 || c.threads < 1) __builtin_trap();
-      const loom::app::Checkpoint d = loom::app::decode_checkpoint(loom::app::encode_checkpoint(c), "again.bin");
-      if (d.frame != c.frame || d.logged_frames != c.logged_frames || d.state != c.state || d.scene != c.scene ||
-          d.inputs.size() != c.inputs.size() || d.run_id != c.run_id)
+      const loom::app::Checkpoint d =
+          loom::app::decode_checkpoint(loom::app::encode_checkpoint(c), "again.bin");
+      if (d.frame != c.frame || d.logged_frames != c.logged_frames || d.state != c.state ||
+          d.scene != c.scene || d.inputs.size() != c.inputs.size() || d.run_id != c.run_id)
         __builtin_trap();
     } else if (mode == 1) {
       long keep = 0;
