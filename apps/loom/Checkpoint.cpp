@@ -1,10 +1,12 @@
 #include "Checkpoint.h"
 
-#include <cmath>
 #include <cctype>
+#include <cmath>
 #include <cstring>
+#include <limits>
 #include <nlohmann/json.hpp>
 #include <sstream>
+#include <stdexcept>
 
 #include "OutputFolder.h"
 #include "loom/cloth/Error.h"
@@ -29,6 +31,16 @@ std::uint64_t unhex(const std::string& s) {
   return std::stoull(s, nullptr, 16);
 }
 void put_u64(std::string& out, std::uint64_t v) { out.append(reinterpret_cast<const char*>(&v), sizeof v); }
+// An integer JSON value in [lo, hi], checked before any conversion (a float or a wider value is refused).
+long long integer_in(const nlohmann::json& v, long long lo, long long hi) {
+  if (!v.is_number_integer()) throw std::invalid_argument("expected an integer");
+  if (v.is_number_unsigned() ? v.get<std::uint64_t>() > static_cast<std::uint64_t>(hi)
+                             : v.get<long long>() > hi)
+    throw std::out_of_range("too large");
+  if (!v.is_number_unsigned() && v.get<long long>() < lo) throw std::out_of_range("too small");
+  return v.is_number_unsigned() ? static_cast<long long>(v.get<std::uint64_t>()) : v.get<long long>();
+}
+constexpr long long kIntMax = 2147483647;
 }  // namespace
 
 std::uint64_t fnv1a(const char* data, size_t n, std::uint64_t h) {
@@ -47,7 +59,9 @@ std::string read_text_file(const std::string& path, std::uint64_t max_bytes) {
   const std::uintmax_t size = fs::file_size(path, ec);
   if (ec) throw Error(path, "", "cannot read the file size: " + ec.message());
   if (size > max_bytes)
-    throw Error(path, "", "is " + std::to_string(size) + " bytes, more than the " + std::to_string(max_bytes) + " accepted");
+    throw Error(
+        path, "",
+        "is " + std::to_string(size) + " bytes, more than the " + std::to_string(max_bytes) + " accepted");
   std::ifstream in(path, std::ios::binary);
   if (!in) throw Error(path, "", "cannot open file");
   std::stringstream ss;
@@ -89,7 +103,8 @@ std::string encode_checkpoint(const Checkpoint& c) {
   j["sets"] = c.sets;
   j["run_id"] = hex(c.run_id);
   nlohmann::json inputs = nlohmann::json::array();
-  for (const InputFile& f : c.inputs) inputs.push_back({{"path", f.path}, {"bytes", f.bytes}, {"hash", hex(f.hash)}});
+  for (const InputFile& f : c.inputs)
+    inputs.push_back({{"path", f.path}, {"bytes", f.bytes}, {"hash", hex(f.hash)}});
   j["inputs"] = inputs;
   j["frames_total"] = c.frames_total;
   j["threads"] = c.threads;
@@ -113,16 +128,20 @@ std::string encode_checkpoint(const Checkpoint& c) {
 
 Checkpoint decode_checkpoint(const std::string& data, const std::string& source) {
   auto bad = [&](const std::string& what) { return Error(source, "", "not a valid checkpoint: " + what); };
-  if (data.size() < kMagicBytes || data.compare(0, 8, kMagicPrefix) != 0 || data[9] != '\n') throw bad("wrong header");
+  if (data.size() < kMagicBytes || data.compare(0, 8, kMagicPrefix) != 0 || data[9] != '\n')
+    throw bad("wrong header");
   if (data[8] != '0' + kCheckpointFormat)
-    throw Error(source, "format", "not a valid checkpoint for this loom: written in checkpoint format " + std::string(1, std::isprint(static_cast<unsigned char>(data[8])) ? data[8] : '?') +
-                                      "; this loom reads format " + std::to_string(kCheckpointFormat) + " only");
+    throw Error(source, "format",
+                "not a valid checkpoint for this loom: written in checkpoint format " +
+                    std::string(1, std::isprint(static_cast<unsigned char>(data[8])) ? data[8] : '?') +
+                    "; this loom reads format " + std::to_string(kCheckpointFormat) + " only");
   if (data.size() < kMagicBytes + 3 * sizeof(std::uint64_t)) throw bad("cut short");
   std::uint64_t sum;
   std::memcpy(&sum, data.data() + data.size() - sizeof sum, sizeof sum);
   const size_t end = data.size() - sizeof sum;
   if (fnv1a(data.data(), end) != sum)
-    throw Error(source, "checksum", "does not match the contents: the checkpoint was changed or damaged after it was written");
+    throw Error(source, "checksum",
+                "does not match the contents: the checkpoint was changed or damaged after it was written");
   size_t pos = kMagicBytes;
   auto u64 = [&](const char* what) {
     std::uint64_t v;
@@ -141,7 +160,8 @@ Checkpoint decode_checkpoint(const std::string& data, const std::string& source)
       field = key;
       return j.at(key);
     };
-    if (at("format").get<int>() != kCheckpointFormat) throw bad("the header's format differs from the file's");
+    if (integer_in(at("format"), 0, kIntMax) != kCheckpointFormat)
+      throw bad("the header's format differs from the file's");
     c.scene = at("scene").get<std::string>();
     c.scene_text = at("scene_text").get<std::string>();
     c.sets = at("sets").get<std::vector<std::string>>();
@@ -149,19 +169,20 @@ Checkpoint decode_checkpoint(const std::string& data, const std::string& source)
     for (const auto& f : at("inputs")) {
       InputFile in;
       in.path = f.at("path").get<std::string>();
-      in.bytes = f.at("bytes").get<std::uint64_t>();
+      in.bytes =
+          static_cast<std::uint64_t>(integer_in(f.at("bytes"), 0, std::numeric_limits<long long>::max()));
       in.hash = unhex(f.at("hash").get<std::string>());
       c.inputs.push_back(in);
     }
-    c.frames_total = at("frames_total").get<int>();
-    c.threads = at("threads").get<int>();
-    c.checkpoint_every = at("checkpoint_every").get<int>();
+    c.frames_total = static_cast<int>(integer_in(at("frames_total"), 0, kIntMax));
+    c.threads = static_cast<int>(integer_in(at("threads"), 1, kIntMax));
+    c.checkpoint_every = static_cast<int>(integer_in(at("checkpoint_every"), 0, kIntMax));
     c.render = at("render").get<bool>();
-    c.frame = at("frame").get<int>();
+    c.frame = static_cast<int>(integer_in(at("frame"), 0, kIntMax));
     c.max_strain = at("max_strain").get<double>();
     c.mean_strain_sum = at("mean_strain_sum").get<double>();
     c.sim_ms = at("sim_ms").get<double>();
-    c.logged_frames = at("logged_frames").get<long>();
+    c.logged_frames = static_cast<long>(integer_in(at("logged_frames"), 0, std::numeric_limits<long>::max()));
     c.log_hash = unhex(at("log_hash").get<std::string>());
     field.clear();
   } catch (const Error&) {
@@ -204,23 +225,26 @@ void write_checkpoint(OutputFolder& out, const Checkpoint& c) {
 
 Checkpoint read_checkpoint(const fs::path& out) {
   const fs::path path = checkpoint_file(out);
-  if (!fs::exists(path)) throw Error(path.string(), "--resume", "no checkpoint here (write one with --checkpoint-every N)");
+  if (!fs::exists(path))
+    throw Error(path.string(), "--resume", "no checkpoint here (write one with --checkpoint-every N)");
   return decode_checkpoint(read_text_file(path.string()), path.string());
 }
 
 void check_inputs(const Checkpoint& c) {
   for (const InputFile& f : c.inputs) {
     std::error_code ec;
-    if (!fs::exists(f.path, ec)) throw Error(f.path, "--resume", "an input of the checkpointed run is missing");
+    if (!fs::exists(f.path, ec))
+      throw Error(f.path, "--resume", "an input of the checkpointed run is missing");
     const InputFile now = fingerprint(f.path);
     if (now.bytes != f.bytes || now.hash != f.hash)
-      throw Error(f.path, "--resume", "this input changed since the checkpoint was written (" + std::to_string(f.bytes) +
-                                          " bytes then, " + std::to_string(now.bytes) + " now): resuming would mix two runs");
+      throw Error(f.path, "--resume",
+                  "this input changed since the checkpoint was written (" + std::to_string(f.bytes) +
+                      " bytes then, " + std::to_string(now.bytes) + " now): resuming would mix two runs");
   }
 }
 
-std::vector<FrameLogEntry> parse_frame_log(const std::string& data, long keep, const std::vector<size_t>& vertices,
-                                           const std::string& source) {
+std::vector<FrameLogEntry> parse_frame_log(const std::string& data, long keep,
+                                           const std::vector<size_t>& vertices, const std::string& source) {
   std::uint64_t points = 0;
   for (size_t v : vertices) {
     if (v > (std::uint64_t(1) << 40)) throw Error(source, "", "too many vertices for a frame log");
@@ -229,7 +253,8 @@ std::vector<FrameLogEntry> parse_frame_log(const std::string& data, long keep, c
   const std::uint64_t entry_bytes = sizeof(double) * (2 + 3 * points);
   // keep * entry_bytes <= data.size(), written as a division so that no product can wrap.
   if (keep < 0 || static_cast<std::uint64_t>(keep) > data.size() / entry_bytes)
-    throw Error(source, "", "frame log is shorter than the checkpoint says (" + std::to_string(keep) + " frames)");
+    throw Error(source, "",
+                "frame log is shorter than the checkpoint says (" + std::to_string(keep) + " frames)");
   std::vector<FrameLogEntry> out;
   out.reserve(static_cast<size_t>(keep));
   size_t pos = 0;
@@ -271,7 +296,8 @@ FrameLog::FrameLog(OutputFolder& out, long keep, std::uint64_t hash,
     bytes = sizeof(double) * (2 + 3 * bytes) * static_cast<size_t>(keep);
     hash_ = fnv1a(data.data(), bytes);
     if (hash_ != hash)
-      throw Error(path_.string(), "--resume", "the frame log changed since the checkpoint was written (hash mismatch)");
+      throw Error(path_.string(), "--resume",
+                  "the frame log changed since the checkpoint was written (hash mismatch)");
     std::error_code ec;
     fs::resize_file(path_, bytes, ec);
     if (ec) throw Error(path_.string(), "", "cannot truncate the frame log: " + ec.message());

@@ -24,11 +24,13 @@ const char* kFabricUsage =
     "Usage: loom fabric-test {cantilever,tensile,shear,catenary,drape} [options]\n"
     "\n"
     "Runs a standard textile test in simulation and prints measured against theory:\n"
-    "  cantilever  ASTM D1388 / FAST-2: tip chord angle against the exact elastica; bending length and rigidity\n"
+    "  cantilever  ASTM D1388 / FAST-2: tip chord angle against the exact elastica; bending length and "
+    "rigidity\n"
     "  tensile     FAST-3: extension at 5, 20, 100 gf/cm; stretch modulus recovered at 5 gf/cm\n"
     "  shear       bias extension: shear modulus from the 45° strip's modulus\n"
     "  catenary    a 1 m strip hung at a span: sag against the analytic catenary\n"
-    "  drape       Cusick: a 30 cm disc on an 18 cm support; drape coefficient (%) and node count (no published\n"
+    "  drape       Cusick: a 30 cm disc on an 18 cm support; drape coefficient (%) and node count (no "
+    "published\n"
     "              value for these fabrics: theory and error are null; --resolution = rings, default 20)\n"
     "\n"
     "Options:\n"
@@ -41,9 +43,11 @@ const char* kFabricUsage =
     "  --solver S            static (default) or a dynamic solver that settles the strip\n"
     "  --settle-frames N     dynamic solvers: at most N frames of 0.01 s (default 400)\n"
     "  --settle-speed V      dynamic solvers: settled when every vertex is slower than V m/s (default 1e-6)\n"
-    "  --json                print one JSON object (test, material, model, resolution, measured, theory, error,\n"
+    "  --json                print one JSON object (test, material, model, resolution, measured, theory, "
+    "error,\n"
     "                        and the test's own fields) instead of text\n"
-    "  --out DIR             report folder (default: out/fabric-test/<test>): report.md, curve.csv, plot.png\n";
+    "  --out DIR             report folder (default: out/fabric-test/<test>): report.md, curve.csv, "
+    "plot.png\n";
 
 double parse_number(const std::string& flag, const char* v) {
   char* end = nullptr;
@@ -108,7 +112,9 @@ int parse_count(const std::string& flag, const std::string& text, long lo, long 
   errno = 0;
   const long v = std::strtol(text.c_str(), &end, 10);
   if (text.empty() || *end || errno == ERANGE || v < lo || v > hi)
-    throw Error("", flag, "expects a whole number in [" + std::to_string(lo) + ", " + std::to_string(hi) + "], got '" + text + "'");
+    throw Error("", flag,
+                "expects a whole number in [" + std::to_string(lo) + ", " + std::to_string(hi) + "], got '" +
+                    text + "'");
   return static_cast<int>(v);
 }
 
@@ -166,8 +172,10 @@ int fabric_test_main(int argc, char** argv) {
   // bending springs do not follow it (README, "Fabric tests"), so it is not the default there.
   if (o.test == "cantilever" && !model_given) o.model = "choi_ko";
   if (o.test == "cantilever" && o.model == "springs")
-    std::fprintf(stderr, "loom: warning: --model springs: the springs model's bending does not follow the elastica and its "
-                         "cantilever angle is far off (use choi_ko or baraff_witkin for a validated result)\n");
+    std::fprintf(
+        stderr,
+        "loom: warning: --model springs: the springs model's bending does not follow the elastica and its "
+        "cantilever angle is far off (use choi_ko or baraff_witkin for a validated result)\n");
   o.material = cloth::material_preset(material);
   bool known_model = false;
   for (const auto& m : cloth::model_names()) known_model = known_model || m == o.model;

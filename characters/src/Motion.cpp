@@ -54,8 +54,10 @@ Motion Motion::load(const std::string& path, const MotionSettings& settings) {
     for (unsigned c = 0; c < anim->mNumChannels; ++c) channels[anim->mChannels[c]->mNodeName.C_Str()] = anim->mChannels[c];
   // A BVH's "Frame Time" is 1 / mTicksPerSecond: zero, negative or non-finite is refused, not defaulted;
   // "Frames: 0" leaves no keys.
-  const bool bvh = path.size() >= 4 && (path.compare(path.size() - 4, 4, ".bvh") == 0 || path.compare(path.size() - 4, 4, ".BVH") == 0);
-  if (bvh && anim && !(std::isfinite(anim->mTicksPerSecond) && anim->mTicksPerSecond > 0.0 && anim->mTicksPerSecond < 1e6))
+  const bool bvh = path.size() >= 4 && (path.compare(path.size() - 4, 4, ".bvh") == 0 ||
+                                        path.compare(path.size() - 4, 4, ".BVH") == 0);
+  if (bvh && anim &&
+      !(std::isfinite(anim->mTicksPerSecond) && anim->mTicksPerSecond > 0.0 && anim->mTicksPerSecond < 1e6))
     throw Error(path, "Frame Time", "must be a positive number of seconds (at least 1e-06)");
   if (bvh) {
     bool keys = false;

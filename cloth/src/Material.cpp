@@ -2,8 +2,8 @@
 
 #include <cmath>
 #include <cstdio>
-#include <string>
 #include <map>
+#include <string>
 
 #include "loom/cloth/Error.h"
 

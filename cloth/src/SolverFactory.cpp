@@ -2,10 +2,10 @@
 #include <cstdio>
 #include <string>
 
+#include "loom/cloth/DesbrunSolver.h"
 #include "loom/cloth/Error.h"
 #include "loom/cloth/ExplicitSolvers.h"
 #include "loom/cloth/ImplicitSolver.h"
-#include "loom/cloth/DesbrunSolver.h"
 #include "loom/cloth/PositionBasedSolvers.h"
 #include "loom/cloth/ProjectiveSolver.h"
 #include "loom/cloth/Solver.h"

@@ -12,8 +12,8 @@
 #include "loom/cloth/Model.h"
 #include "loom/scene/JsonReader.h"
 #include "loom/scene/SceneBodies.h"
-#include "loom/scene/SceneColliders.h"
 #include "loom/scene/SceneCharacter.h"
+#include "loom/scene/SceneColliders.h"
 #include "loom/scene/SceneCollision.h"
 #include "loom/scene/SceneGuard.h"
 #include "loom/scene/SceneLimits.h"
@@ -67,7 +67,8 @@ class DuplicateKeys : public nlohmann::json::json_sax_t {
   }
   bool key(string_t& k) override {
     Frame& f = frames_.back();
-    if (!f.keys.insert(k).second) throw Error(file_, path() + (path().empty() ? "" : ".") + k, "key given twice");
+    if (!f.keys.insert(k).second)
+      throw Error(file_, path() + (path().empty() ? "" : ".") + k, "key given twice");
     f.key = k;
     return true;
   }
@@ -84,7 +85,9 @@ class DuplicateKeys : public nlohmann::json::json_sax_t {
     frames_.pop_back();
     return true;
   }
-  bool parse_error(std::size_t, const std::string&, const nlohmann::detail::exception&) override { return false; }
+  bool parse_error(std::size_t, const std::string&, const nlohmann::detail::exception&) override {
+    return false;
+  }
 
  private:
   struct Frame {
@@ -264,7 +267,8 @@ std::shared_ptr<const cloth::ClothMesh> parse_mesh(const JsonReader& r, Scene& s
       const auto size = r.numbers("size", 2);
       for (int k = 0; k < 2; ++k)
         if (!(size[k] > 0.0) || size[k] > kMaxCoordinate)
-          r.fail("size", "both sizes must be in (0, " + std::to_string(static_cast<long>(kMaxCoordinate)) + "] m");
+          r.fail("size",
+                 "both sizes must be in (0, " + std::to_string(static_cast<long>(kMaxCoordinate)) + "] m");
       g.size_u = size[0];
       g.size_v = size[1];
       const nlohmann::json& nodes = r.raw("nodes");
@@ -272,7 +276,8 @@ std::shared_ptr<const cloth::ClothMesh> parse_mesh(const JsonReader& r, Scene& s
         r.fail("nodes", "expected two integers [nodes_u, nodes_v]");
       // Checked as 64-bit values before narrowing: 2^32 + 5 is out of range, not 5.
       for (int k = 0; k < 2; ++k)
-        if (!JsonReader::in_range(nodes[k], 2, 4096)) r.fail("nodes", "each count must be in [2, 4096] (got " + nodes[k].dump() + ")");
+        if (!JsonReader::in_range(nodes[k], 2, 4096))
+          r.fail("nodes", "each count must be in [2, 4096] (got " + nodes[k].dump() + ")");
       g.nodes_u = nodes[0].get<int>();
       g.nodes_v = nodes[1].get<int>();
       reserve_vertices(scene, r.path(), static_cast<double>(g.nodes_u) * g.nodes_v);
@@ -280,16 +285,19 @@ std::shared_ptr<const cloth::ClothMesh> parse_mesh(const JsonReader& r, Scene& s
       g.plane = plane == "xy" ? cloth::GridPlane::kXY : plane == "yz" ? cloth::GridPlane::kYZ : cloth::GridPlane::kXZ;
       g.origin = r.vec3("origin", Vec3::Zero());
       if (!(g.origin.cwiseAbs().maxCoeff() <= kMaxCoordinate))
-        r.fail("origin", "coordinates must be within +-" + std::to_string(static_cast<long>(kMaxCoordinate)) + " m");
+        r.fail("origin",
+               "coordinates must be within +-" + std::to_string(static_cast<long>(kMaxCoordinate)) + " m");
       r.finish();
       return build([&] { return cloth::ClothMesh::grid(g); });
     }
     const std::string path = r.string("path");
     const double scale = r.number("scale", 1.0, 0.0, true);
     const Vec3 translate = r.vec3("translate", Vec3::Zero());
-    if (scale > kMaxCoordinate) r.fail("scale", "must be <= " + std::to_string(static_cast<long>(kMaxCoordinate)));
+    if (scale > kMaxCoordinate)
+      r.fail("scale", "must be <= " + std::to_string(static_cast<long>(kMaxCoordinate)));
     if (!(translate.cwiseAbs().maxCoeff() <= kMaxCoordinate))
-      r.fail("translate", "coordinates must be within +-" + std::to_string(static_cast<long>(kMaxCoordinate)) + " m");
+      r.fail("translate",
+             "coordinates must be within +-" + std::to_string(static_cast<long>(kMaxCoordinate)) + " m");
     r.finish();
     std::filesystem::path p(path);
     if (p.is_relative()) p = std::filesystem::path(file).parent_path() / p;
@@ -350,7 +358,8 @@ std::vector<cloth::PinSpec> parse_pins(const JsonReader& r, const cloth::ClothMe
     if (p.has("anchor")) {
       spec.anchor = p.vec3("anchor");
       if (!(spec.anchor->cwiseAbs().maxCoeff() <= kMaxCoordinate))
-        p.fail("anchor", "coordinates must be within +-" + std::to_string(static_cast<long>(kMaxCoordinate)) + " m");
+        p.fail("anchor",
+               "coordinates must be within +-" + std::to_string(static_cast<long>(kMaxCoordinate)) + " m");
     }
     if (p.has("path")) {
       const JsonReader path = p.object("path");
@@ -382,8 +391,9 @@ std::vector<cloth::PinSpec> parse_pins(const JsonReader& r, const cloth::ClothMe
                         (!spec.anchor || *pins[k].anchor == *spec.anchor) && pins[k].times == spec.times &&
                         pins[k].offsets == spec.offsets;
       if (!same)
-        p.fail("", "pins vertex " + std::to_string(spec.vertex) + " with another anchor or path than an earlier pin " +
-                       "(entry " + std::to_string(k) + " of the expanded list) already holding it");
+        p.fail("", "pins vertex " + std::to_string(spec.vertex) +
+                       " with another anchor or path than an earlier pin " + "(entry " + std::to_string(k) +
+                       " of the expanded list) already holding it");
       repeated = true;
     }
     if (!repeated) pins.push_back(spec);
@@ -422,8 +432,10 @@ Scene parse_scene(const nlohmann::json& root, const std::string& file) {
   // The name is the default output folder out/<name>: a plain file name, never a path.
   if (scene.name.empty() || scene.name == "." || scene.name == ".." || scene.name.size() > 200 ||
       scene.name.find_first_of("/\\") != std::string::npos)
-    r.fail("name", "must be a plain file name of 1 to 200 characters without '/' or '\\' and not '.' or '..' "
-                   "(it names the default output folder out/<name>; got '" + scene.name + "')");
+    r.fail("name",
+           "must be a plain file name of 1 to 200 characters without '/' or '\\' and not '.' or '..' "
+           "(it names the default output folder out/<name>; got '" +
+               scene.name + "')");
   if (r.has("description")) r.string("description");
   scene.duration = r.number("duration", 1.0, 0.0, true);
   const double fps = r.number("fps", 60.0, 0.0, true);
@@ -431,8 +443,9 @@ Scene parse_scene(const nlohmann::json& root, const std::string& file) {
   scene.setup.frame_dt = 1.0 / fps;
   // Checked in double before the conversion to int (a huge duration would overflow it).
   if (scene.duration * fps > static_cast<double>(kMaxFrames))
-    r.fail(r.has("duration") ? "duration" : "fps",
-           "gives " + show(scene.duration * fps) + " frames (duration x fps); at most " + std::to_string(kMaxFrames));
+    r.fail(r.has("duration") ? "duration" : "fps", "gives " + show(scene.duration * fps) +
+                                                       " frames (duration x fps); at most " +
+                                                       std::to_string(kMaxFrames));
   scene.frames = std::max(1, static_cast<int>(std::lround(scene.duration * fps)));
   scene.setup.gravity = r.vec3("gravity", Vec3(0.0, -9.81, 0.0));
   scene.setup.threads = r.integer("threads", 1, 1);
@@ -520,9 +533,11 @@ Scene parse_scene(const nlohmann::json& root, const std::string& file) {
     if (c.has("mass")) {
       const double mass = c.number("mass", std::nullopt, 0.0, true);
       cs.material.areal_density = mass / cs.mesh->total_area();
-      if (!std::isfinite(cs.material.areal_density) || !(cs.material.areal_density >= 1e-6) || cs.material.areal_density > 1e4)
-        c.fail("mass", "gives an areal density of " + show(cs.material.areal_density) + " kg/m^2 over the mesh's " +
-                           show(cs.mesh->total_area()) + " m^2; it must be in [1e-06, 10000]");
+      if (!std::isfinite(cs.material.areal_density) || !(cs.material.areal_density >= 1e-6) ||
+          cs.material.areal_density > 1e4)
+        c.fail("mass", "gives an areal density of " + show(cs.material.areal_density) +
+                           " kg/m^2 over the mesh's " + show(cs.mesh->total_area()) +
+                           " m^2; it must be in [1e-06, 10000]");
     }
     cs.initial_velocity = c.vec3("velocity", Vec3::Zero());
     cs.pins = parse_pins(c, *cs.mesh);

@@ -100,7 +100,8 @@ void parse_character(const JsonReader& root, Scene& scene) {
         // (sqrt(3)/4 r^2) per vertex pair; the area is bounded by a 2.5 m x 2.5 m human-sized sheet unless
         // length and width say more.
         const double area = std::max(6.25, std::max(spec.length, 2.5) * std::max(spec.width, 2.5));
-        reserve_vertices(scene, g.child("resolution"), 2.0 * area / (std::sqrt(3.0) * spec.resolution * spec.resolution));
+        reserve_vertices(scene, g.child("resolution"),
+                         2.0 * area / (std::sqrt(3.0) * spec.resolution * spec.resolution));
       }
       if (spec.type == "skirt") spec.flare = g.number("flare", spec.flare, 0.0, true);
       if (spec.type == "obj") {

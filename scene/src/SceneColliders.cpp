@@ -201,7 +201,8 @@ void parse_colliders(const JsonReader& root, Scene& scene) {
             const long long last = static_cast<long long>(s.vertices.size()) - 1;
             cloth::Tri tri;
             for (int j = 0; j < 3; ++j)
-              tri[j] = static_cast<int>(r.integer_value(e[j], r.child(where) + "[" + std::to_string(j) + "]", 0, last));
+              tri[j] = static_cast<int>(
+                  r.integer_value(e[j], r.child(where) + "[" + std::to_string(j) + "]", 0, last));
             s.triangles.push_back(tri);
           }
         }

@@ -104,6 +104,9 @@ const BadInput kCases[] = {
      " JOINT Spine\n {\n  OFFSET 0 10 0\n  CHANNELS 3 Zrotation Xrotation Yrotation\n  End Site\n  {\n   OFFSET 0 5 0\n  }\n }\n}\n"
      "MOTION\nFrames: 2\nFrame Time: 0.0333333\n0 90 0 0 0 0 0 0 0\n1e999 90 0 0 0 0 0 0 0\n",
      "motion.bvh", "joint 'Hips'", "position key 1 is not finite"},
+    // A garment resolution that would allocate without bound: estimated and refused before it is made.
+    {"garment_resolution_tiny", nullptr, {"@BVH:100000", "--set", "character.garments=[{\"type\":\"cape\",\"resolution\":0.0001}]"},
+     nullptr, "scene", "character.garments[0].resolution", "of memory"},
     // A BVH whose frame time or frame count makes no motion.
     {"bvh_frame_time_zero", nullptr, {"@BVHTEXT"},
      "HIERARCHY\nROOT Hips\n{\n OFFSET 0 0 0\n CHANNELS 6 Xposition Yposition Zposition Zrotation Xrotation Yrotation\n"

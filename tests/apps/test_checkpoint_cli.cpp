@@ -152,7 +152,8 @@ TEST(Checkpoint, SigintStopsAtAFrameBoundaryAndResumesBitIdentically) {
   if (pid == 0) {
     const std::string log = (dir / "child.txt").string();
     if (!freopen(log.c_str(), "w", stdout) || !freopen(log.c_str(), "a", stderr)) _exit(99);
-    execl(LOOM_BINARY, LOOM_BINARY, "run", scene.c_str(), "--frames", "99999", "--out", out.string().c_str(), (char*)nullptr);
+    execl(LOOM_BINARY, LOOM_BINARY, "run", scene.c_str(), "--frames", "99999", "--out", out.string().c_str(),
+          (char*)nullptr);
     _exit(98);
   }
   // Wait for frame 5 on disk, then Ctrl-C.

@@ -6,8 +6,11 @@
 //      input's first 8 bytes (any 64-bit count, the wrapping ones included): it either returns `keep` entries
 //      of finite positions or throws loom::Error;
 //   2: a simulation state archive (Simulation::load_state) for a small two-cloth scene: it either loads or
-//      throws loom::Error.
+//      throws loom::Error;
+//   3: a header and a state (the first 2 bytes: the header's length) framed as a checkpoint with a correct
+//      checksum, so the header's JSON reaches the field checks (as mode 0).
 // Anything else (a crash, a sanitizer report, another exception) is a bug.
+#include <algorithm>
 #include <cstddef>
 #include <cstdint>
 #include <cstring>
@@ -41,15 +44,31 @@ loom::cloth::Simulation& simulation() {
 
 extern "C" int LLVMFuzzerTestOneInput(const std::uint8_t* data, std::size_t size) {
   if (size < 1 || size > 256 * 1024) return 0;
-  const int mode = data[0] % 3;
+  const int mode = data[0] % 4;
   const std::string bytes(reinterpret_cast<const char*>(data + 1), size - 1);
   try {
-    if (mode == 0) {
-      const loom::app::Checkpoint c = loom::app::decode_checkpoint(bytes, "fuzz.bin");
+    if (mode == 0 || mode == 3) {
+      std::string file = bytes;
+      if (mode == 3) {  // magic | u64 header bytes | header | u64 state bytes | state | checksum
+        const size_t hn =
+            bytes.size() >= 2
+                ? std::min<size_t>(bytes.size() - 2, (std::uint8_t(bytes[0]) << 8) | std::uint8_t(bytes[1]))
+                : 0;
+        const std::string header = bytes.size() >= 2 ? bytes.substr(2, hn) : "",
+                          state = bytes.size() >= 2 ? bytes.substr(2 + hn) : "";
+        file = "LOOMCKPT" + std::to_string(loom::app::kCheckpointFormat) + "\n";
+        const std::uint64_t h = header.size(), n = state.size();
+        file.append(reinterpret_cast<const char*>(&h), sizeof h).append(header);
+        file.append(reinterpret_cast<const char*>(&n), sizeof n).append(state);
+        const std::uint64_t sum = loom::app::fnv1a(file);
+        file.append(reinterpret_cast<const char*>(&sum), sizeof sum);
+      }
+      const loom::app::Checkpoint c = loom::app::decode_checkpoint(file, "fuzz.bin");
       if (c.frame < 0 || c.frame > c.frames_total || c.logged_frames < 0 || c.threads < 1) __builtin_trap();
-      const loom::app::Checkpoint d = loom::app::decode_checkpoint(loom::app::encode_checkpoint(c), "again.bin");
-      if (d.frame != c.frame || d.logged_frames != c.logged_frames || d.state != c.state || d.scene != c.scene ||
-          d.inputs.size() != c.inputs.size() || d.run_id != c.run_id)
+      const loom::app::Checkpoint d =
+          loom::app::decode_checkpoint(loom::app::encode_checkpoint(c), "again.bin");
+      if (d.frame != c.frame || d.logged_frames != c.logged_frames || d.state != c.state ||
+          d.scene != c.scene || d.inputs.size() != c.inputs.size() || d.run_id != c.run_id)
         __builtin_trap();
     } else if (mode == 1) {
       long keep = 0;

@@ -131,13 +131,16 @@ TEST(SceneColliders, HugeRotationAxisIsUsedByItsDirection) {
   for (const char* axis : {"[1e300, 1e300, 0]", "[1e-320, 1e-320, 0]", "[1, 1, 0]"}) {
     nlohmann::json root = base_scene();
     root["colliders"] = nlohmann::json::parse(std::string(R"([{"shape": "box", "half_extents": [1, 1, 1],
-        "rotation": {"axis": )") + axis + R"(, "degrees": 90}, "motion": {"spin": {"axis": )" + axis + R"(, "rate": 1}}}])");
+        "rotation": {"axis": )") + axis + R"(, "degrees": 90}, "motion": {"spin": {"axis": )" +
+                                              axis + R"(, "rate": 1}}}])");
     const Scene s = parse_scene(root, "scene.json");
     ASSERT_EQ(s.colliders.size(), 1u);
     for (double t : {0.0, 0.5}) {
       const auto pose = s.colliders[0].motion(t);
       EXPECT_TRUE(pose.matrix().allFinite()) << axis;
-      EXPECT_NEAR((pose.linear() * pose.linear().transpose() - Eigen::Matrix3d::Identity()).norm(), 0.0, 1e-12) << axis;
+      EXPECT_NEAR((pose.linear() * pose.linear().transpose() - Eigen::Matrix3d::Identity()).norm(), 0.0,
+                  1e-12)
+          << axis;
       // A quarter turn about (1, 1, 0)/sqrt(2) maps x to (1/2, 1/2, -1/sqrt(2)) (at t = 0, before the spin).
       if (t == 0.0) {
         const cloth::Vec3 x = pose.linear() * cloth::Vec3::UnitX();

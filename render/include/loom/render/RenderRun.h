@@ -46,8 +46,9 @@ struct RenderReport {
 };
 
 // Renders `rec` into `out` (see above): out/render/frame_NNNNN.png (frame 0 to rec.frames() - 1),
-// out/render.mp4 and out/render.gif. Deletes nothing: the caller owns `out` and its earlier files. `fps`: frames per second of the video (the rendered frames'
-// rate). `video`: also run ffmpeg (throws loom::Error when ffmpeg is missing or fails).
+// out/render.mp4 and out/render.gif. Deletes nothing: the caller owns `out` and its earlier files. `fps`:
+// frames per second of the video (the rendered frames' rate). `video`: also run ffmpeg (throws loom::Error
+// when ffmpeg is missing or fails).
 RenderReport render_recording(const std::string& out, const Recording& rec, const RenderSettings& settings,
                               double fps, bool video = true);
 

@@ -31,7 +31,8 @@ class JsonReader {
   std::vector<double> numbers(const std::string& key, size_t count = 0) const;  // count 0: any length >= 1
   // An integer JSON value `v` (at JSON path `where`) in [min, max], checked before any narrowing: a value
   // past 64 bits, or past int, is an error, never a wrapped small number.
-  long long integer_value(const nlohmann::json& v, const std::string& where, long long min, long long max) const;
+  long long integer_value(const nlohmann::json& v, const std::string& where, long long min,
+                          long long max) const;
   // True for an integer JSON value in [min, max], compared without narrowing (unsigned values unsigned).
   static bool in_range(const nlohmann::json& v, long long min, long long max);
   // `key` as exactly `count` integers, each in [min, max].

@@ -41,7 +41,7 @@ struct OutputSettings {
 struct Scene {
   std::string file;  // path it was read from
   std::vector<std::string> inputs;  // every other file the scene read (meshes, motion clips), as opened
-  double vertices = 0.0;  // cloth vertices asked for so far (SceneLimits.h, reserve_vertices)
+  double vertices = 0.0;            // cloth vertices asked for so far (SceneLimits.h, reserve_vertices)
   std::string name;
   cloth::SimulationSetup setup;
   double duration = 1.0;  // s
