@@ -141,7 +141,9 @@ int run_command(const RunOptions& options) {
   // Issue 8: the guard's intersection check is on by default for a scene with cloth-cloth or self-collision
   // (measured: 7-8 % of the step time on character_layers, 1.3 % on layer_stack; README "Reliability"), unless the
   // scene sets `guard.intersections` itself.
-  if (!sc.setup.guard.intersections_set && sc.collision && (sc.collision->self || sc.setup.cloths.size() > 1))
+  // The real-time tiers' proximity collision samples its checks instead (`--census`).
+  if (!sc.setup.guard.intersections_set && sc.collision && !sc.proximity &&
+      (sc.collision->self || sc.setup.cloths.size() > 1))
     sc.setup.guard.intersections = true;
   const int frames = o.frames >= 0 ? o.frames : sc.frames;
   collision::ColliderSetPtr census_colliders;  // --census: the simulation's colliders, for max_penetration

@@ -13,6 +13,8 @@
 #include "loom/collision/SelfCollisionStage.h"
 #include "loom/collision/Collider.h"
 #include "loom/collision/RigidBodySpec.h"
+#include "loom/collision/RealtimeSelfCollision.h"
+#include "loom/scene/SceneQuality.h"
 
 namespace loom::characters {
 struct Character;  // loom/characters/Character.h (issue 6)
@@ -46,6 +48,11 @@ struct Scene {
   int frames = 60;        // frames to simulate (duration * fps, rounded)
   OutputSettings output;
   std::optional<collision::SelfCollisionSettings> collision;  // `collision` (SceneCollision.cpp); absent: none
+  QualityTier quality;  // `quality` (SceneQuality.h): the tier the defaults below came from
+  // Cloth-cloth collision by proximity (RealtimeSelfCollisionStage) instead of the exact stage: set with
+  // `collision` when the tier or `collision.method: "proximity"` asks for it.
+  std::optional<collision::RealtimeSelfSettings> proximity;
+  bool realtime_contact = false;  // body contact by RealtimeBodyContactStage (the tier or `body_contact`)
   std::vector<collision::RigidBodySpec> bodies;  // `bodies` (SceneBodies.cpp): Bullet rigid bodies (issue 9)
   std::vector<collision::Collider> colliders;  // `colliders` (SceneColliders.cpp): rigid shapes, kinematic motion
   std::shared_ptr<characters::Character> character;  // `character` (SceneCharacter.cpp); null without one
