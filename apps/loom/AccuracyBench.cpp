@@ -15,6 +15,7 @@
 
 #include "AccuracyPlot.h"
 #include "AccuracySweep.h"
+#include "RealtimeBench.h"
 #include "loom/bullet/BulletTwin.h"
 #include "loom/cloth/Error.h"
 #include "loom/cloth/Material.h"
@@ -674,7 +675,8 @@ namespace {
 
 // clang-format off
 const char* kBenchUsage =
-    "Usage: loom bench accuracy [--sizes 32,64,128] [--out DIR] [--quick] [--duration S] [--threads 1,2]\n"
+    "Usage: loom bench realtime [options]  (tiers vs Bullet on the character and sheet: loom bench realtime --help)\n"
+    "       loom bench accuracy [--sizes 32,64,128] [--out DIR] [--quick] [--duration S] [--threads 1,2]\n"
     "                           [--methods LIST] [--configs TEXT] [--repeats R]\n"
     "\n"
     "The accuracy-vs-time benchmark on the hanging-cloth scene (1 m cotton square, 0.2 kg, two corners pinned,\n"
@@ -718,6 +720,7 @@ int bench_main(int argc, char** argv) {
     std::cout << kBenchUsage;
     return argc < 3 ? 2 : 0;
   }
+  if (std::strcmp(argv[2], "realtime") == 0) return bench_realtime(argc, argv);
   if (std::strcmp(argv[2], "accuracy") != 0) {
     std::fprintf(stderr, "loom: error: unknown benchmark '%s' (see loom bench --help)\n", argv[2]);
     return 2;

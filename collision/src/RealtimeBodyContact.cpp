@@ -220,7 +220,7 @@ void RealtimeBodyContactStage::run_cloth(cloth::Cloth& cloth, double h) {
     Vec3 nrm;
     // Step 3: the swept test, only where the motion relative to the collider exceeds its thickness and the
     // vertex started outside within reach.
-    if (settings_.continuous)
+    if (settings_.continuous && !settings_.positions_only)
       for (int q = 0; q < nc; ++q) {
         const Collider& c = set[cand[q]];
         const Prepared& pc = prepared_[cand[q]];
@@ -244,9 +244,18 @@ void RealtimeBodyContactStage::run_cloth(cloth::Cloth& cloth, double h) {
         const Prepared& pc = prepared_[cand[q]];
         const double d = distance(c, pc, true, x, &nrm);
         if (d >= pc.thickness) continue;
-        x += (pc.thickness - d) * nrm;
+        const double push = pc.thickness - d;
+        x += push * nrm;
         moved = true;
         ++contacts_;
+        if (settings_.positions_only) continue;
+        // Position-level Coulomb friction on the step's motion relative to the surface, the push standing for
+        // the normal impulse (Macklin et al. 2014, "Unified particle physics for real-time applications",
+        // Sec. 6.1): the tangential slip is undone when within μ_s of the push, else shortened by μ_k of it.
+        const Vec3 rel = (x - x0) - (c.curr * (c.prev.inverse() * x0) - x0);
+        const Vec3 slip = rel - rel.dot(nrm) * nrm;
+        const double len = slip.norm();
+        if (len > 0.0) x -= len <= pc.mu_s * push ? slip : Vec3(slip * std::min(1.0, pc.mu_k * push / len));
         const Vec3 vs = surface_velocity(c.prev, c.curr, h, x);
         const Vec3 vr = v - vs;
         if (vr.dot(nrm) >= 0.0) continue;  // separating: position only

@@ -30,8 +30,15 @@ std::unique_ptr<cloth::Simulation> build_simulation(const Scene& scene, collisio
     sim->add_stage(std::make_unique<collision::RealtimeSelfCollisionStage>(*scene.proximity));
   collision::BodyCollisionStage* body_stage = nullptr;
   if (!colliders->empty() && scene.realtime_contact) {
-    sim->add_stage(std::make_unique<collision::RealtimeBodyContactStage>(colliders),
-                   cloth::Simulation::Slot::after_solve);
+    sim->add_stage(std::make_unique<collision::RealtimeBodyContactStage>(colliders));
+    // The tier's strain limiting after contact, then contact again (positions only): strain limiting has
+    // the last word on the stretch a contact caused, body contact on penetration.
+    if (scene.strain_limit_after_contact) {
+      sim->add_stage(std::make_unique<cloth::StrainLimitStage>(*scene.strain_limit_after_contact));
+      collision::RealtimeContactSettings last;
+      last.positions_only = true;
+      sim->add_stage(std::make_unique<collision::RealtimeBodyContactStage>(colliders, last));
+    }
   } else if (!colliders->empty()) {
     collision::BodyCollisionSettings body;
     if (scene.collision) body.friction_pairs = scene.collision->friction_pairs;  // the (cloth, collider) entries
@@ -48,6 +55,8 @@ std::unique_ptr<cloth::Simulation> build_simulation(const Scene& scene, collisio
     stage->set_body_stage(body_stage);
     sim->add_stage(std::move(stage));
   }
+  if (scene.strain_limit_after_contact && !(!colliders->empty() && scene.realtime_contact))
+    sim->add_stage(std::make_unique<cloth::StrainLimitStage>(*scene.strain_limit_after_contact));
   // The guard's contact check and the colliders' work (issue 8, Guard.h), last: only when the scene's `guard`
   // asks for a penetration limit or an energy budget and there are colliders.
   const cloth::GuardSettings& guard = scene.setup.guard;

@@ -362,7 +362,7 @@ Scene parse_scene(const nlohmann::json& root, const std::string& file) {
     k.finish();
   }
   // The tier's constraint passes, where the scene names none of that kind.
-  if (tier.strain_limit && !scene.setup.strain_limit) scene.setup.strain_limit = cloth::StrainLimitSettings{0.1, 1};
+  if (tier.strain_limit && !scene.setup.strain_limit) scene.strain_limit_after_contact = cloth::StrainLimitSettings{0.1, 2};
   if (tier.tethers && !scene.setup.tethers) scene.setup.tethers = cloth::TetherSettings{0.1, true};
   scene.realtime_contact =
       r.string("body_contact", tier.realtime_contact ? "realtime" : "exact", {"realtime", "exact"}) == "realtime";

@@ -18,7 +18,7 @@ std::optional<QualityTier> quality_tier(const std::string& name) {
   }
   if (name == "balanced") {
     t.method = "fast_xpbd";
-    t.iterations = 2;
+    t.iterations = 1;
     t.substeps = 32;
     t.strain_limit = t.tethers = true;
     t.realtime_self = true;

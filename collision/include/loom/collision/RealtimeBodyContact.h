@@ -37,12 +37,17 @@ struct RealtimeContactSettings {
   double static_friction = -1.0;  // 1; static coefficient for every collider (< 0: the collider's own)
   int passes = 3;                 // discrete passes per vertex per step (overlapping colliders)
   bool continuous = true;         // the swept test of step 3
+  // Positions only (steps 1, 2 and 4's projection; no velocity change, no friction, no reactions, no swept
+  // test): a last pass after a constraint pass that may have moved vertices into a collider.
+  bool positions_only = false;
 };
 
 class RealtimeBodyContactStage final : public cloth::Stage {
  public:
   RealtimeBodyContactStage(ColliderSetPtr colliders, RealtimeContactSettings settings = {});
-  const char* name() const override { return "realtime_contact"; }
+  const char* name() const override {
+    return settings_.positions_only ? "realtime_contact_final" : "realtime_contact";
+  }
   void run(cloth::StageContext& ctx) override;
   // candidates (vertex-collider tests past the culling), contacts (responses), ccd_tests, ccd_hits,
   // unresolved (vertices left inside a collider after the passes, summed over steps).

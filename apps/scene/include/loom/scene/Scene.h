@@ -53,6 +53,9 @@ struct Scene {
   // `collision` when the tier or `collision.method: "proximity"` asks for it.
   std::optional<collision::RealtimeSelfSettings> proximity;
   bool realtime_contact = false;  // body contact by RealtimeBodyContactStage (the tier or `body_contact`)
+  // The tier's strain limiting, run after body contact (then contact again, positions only) instead of
+  // right after the solver: absent when the scene names `constraints.strain_limit` or the tier has none.
+  std::optional<cloth::StrainLimitSettings> strain_limit_after_contact;
   std::vector<collision::RigidBodySpec> bodies;  // `bodies` (SceneBodies.cpp): Bullet rigid bodies (issue 9)
   std::vector<collision::Collider> colliders;  // `colliders` (SceneColliders.cpp): rigid shapes, kinematic motion
   std::shared_ptr<characters::Character> character;  // `character` (SceneCharacter.cpp); null without one
