@@ -76,7 +76,8 @@ Run run(const scene::Scene& sc, int frames, int sheet_n, int repeats) {
         all.insert(all.end(), c->state().x.begin(), c->state().x.end());
         in.push_back({&c->mesh(), &c->state().x});
       }
-      if (colliders && !colliders->empty()) out.depth = std::max(out.depth, collision::max_penetration(in, *colliders));
+      if (colliders && !colliders->empty())
+        out.depth = std::max(out.depth, collision::max_penetration(in, *colliders));
       out.frames.push_back(std::move(all));
     }
     out.ms = out.frames.empty() ? 0.0 : ms / out.frames.size();
@@ -91,23 +92,27 @@ double rms(const Run& a, const Run& ref) {
   double sum = 0.0;
   long count = 0;
   for (size_t f = 0; f < a.frames.size(); ++f)
-    for (size_t i = 0; i < a.frames[f].size(); ++i, ++count) sum += (a.frames[f][i] - ref.frames[f][i]).squaredNorm();
+    for (size_t i = 0; i < a.frames[f].size(); ++i, ++count)
+      sum += (a.frames[f][i] - ref.frames[f][i]).squaredNorm();
   return count ? std::sqrt(sum / count) : NAN;
 }
 
-scene::Scene with(const std::string& path, const std::vector<std::string>& sets) { return scene::load_scene(path, sets); }
+scene::Scene with(const std::string& path, const std::vector<std::string>& sets) {
+  return scene::load_scene(path, sets);
+}
 
-void write(const std::string& dir, const std::string& name, const std::string& title, const std::vector<Row>& rows) {
+void write(const std::string& dir, const std::string& name, const std::string& title,
+           const std::vector<Row>& rows) {
   std::ofstream csv(dir + "/" + name + ".csv");
   csv << "system,ms_per_frame,rms_error_m,max_penetration_m,max_strain,finite\n";
   std::vector<PlotPoint> points;
   for (const Row& r : rows) {
     char line[256];
-    std::snprintf(line, sizeof line, "%s,%.6g,%.6g,%.6g,%.6g,%d\n", r.system.c_str(), r.ms, r.rms, r.depth, r.strain,
-                  r.finite ? 1 : 0);
+    std::snprintf(line, sizeof line, "%s,%.6g,%.6g,%.6g,%.6g,%d\n", r.system.c_str(), r.ms, r.rms, r.depth,
+                  r.strain, r.finite ? 1 : 0);
     csv << line;
-    std::printf("%-30s %10.3f ms %12.5g m rms %12.5g m deep %10.4f strain%s\n", r.system.c_str(), r.ms, r.rms, r.depth,
-                r.strain, r.finite ? "" : "  (stopped)");
+    std::printf("%-30s %10.3f ms %12.5g m rms %12.5g m deep %10.4f strain%s\n", r.system.c_str(), r.ms, r.rms,
+                r.depth, r.strain, r.finite ? "" : "  (stopped)");
     if (std::isfinite(r.rms) && r.rms > 0.0) points.push_back({r.system, r.ms, r.rms});
   }
   plot_accuracy(points, title, dir + "/" + name + ".png");
@@ -116,12 +121,16 @@ void write(const std::string& dir, const std::string& name, const std::string& t
 const char* kUsage =
     "Usage: loom bench realtime [--out DIR] [--seconds S] [--sheet N] [--repeats R] [--quick]\n"
     "\n"
-    "Every quality tier (realtime, balanced, reference) of the character scene (scenes/character_layers.json)\n"
-    "and of the hanging sheet (1 m cotton, 0.2 kg, two corners pinned, N x N nodes), and Bullet classic's twin\n"
-    "of the character, as time per frame (1 thread, the pipeline's own timing, fastest of R runs) against the\n"
+    "Every quality tier (realtime, balanced, reference) of the character scene "
+    "(scenes/character_layers.json)\n"
+    "and of the hanging sheet (1 m cotton, 0.2 kg, two corners pinned, N x N nodes), and Bullet classic's "
+    "twin\n"
+    "of the character, as time per frame (1 thread, the pipeline's own timing, fastest of R runs) against "
+    "the\n"
     "error from a converged reference run of the same scene: the character's reference variant at twice its\n"
     "substeps, the sheet at implicit Euler with 64 substeps. Errors: RMS vertex distance over all frames,\n"
-    "deepest penetration into a collider and max strain. Writes DIR/character_realtime.csv, DIR/sheet_realtime.csv\n"
+    "deepest penetration into a collider and max strain. Writes DIR/character_realtime.csv, "
+    "DIR/sheet_realtime.csv\n"
     "and a PNG of each (RMS error against ms per frame).\n"
     "\n"
     "Options:\n"
@@ -187,12 +196,14 @@ int bench_realtime(int argc, char** argv) {
   {
     const std::string ref_path = scenes + "character_layers_reference.json";
     const int ref_substeps = scene::load_scene(ref_path).setup.substeps;
-    const Run ref = run(with(ref_path, {"solver.substeps=" + std::to_string(2 * ref_substeps)}), frames, 0, 1);
+    const Run ref =
+        run(with(ref_path, {"solver.substeps=" + std::to_string(2 * ref_substeps)}), frames, 0, 1);
     std::vector<Row> rows;
     for (const std::string& t : tiers) {
       // realtime / balanced: the tier's own solver (the reference variant names implicit Euler explicitly).
-      const std::vector<std::string> sets =
-          t == "reference" ? std::vector<std::string>{} : std::vector<std::string>{"quality=" + t, "solver={}"};
+      const std::vector<std::string> sets = t == "reference"
+                                                ? std::vector<std::string>{}
+                                                : std::vector<std::string>{"quality=" + t, "solver={}"};
       const scene::Scene sc = with(ref_path, sets);
       const Run r = run(sc, frames, 0, repeats);
       rows.push_back({"loom:" + t, r.ms, rms(r, ref), r.depth, r.max_strain, r.finite});
@@ -206,7 +217,8 @@ int bench_realtime(int argc, char** argv) {
       in.thickness = sc.setup.cloths.empty() ? 0.001 : sc.setup.cloths[0].material.thickness;
       in.bodies = character_bodies(sc.character);
       const bullet::CharacterMetrics m = bullet::run_bullet_character(in);
-      rows.push_back({"bullet_classic", m.m.ms_per_frame, NAN, m.m.max_penetration, m.m.max_strain, !m.m.diverged});
+      rows.push_back(
+          {"bullet_classic", m.m.ms_per_frame, NAN, m.m.max_penetration, m.m.max_strain, !m.m.diverged});
     }
 #endif
     std::printf("# character_layers, %d frames, 1 thread\n", frames);
@@ -226,7 +238,8 @@ int bench_realtime(int argc, char** argv) {
       for (auto it = extra.begin(); it != extra.end(); ++it) root[it.key()] = it.value();
       return scene::parse_scene(root, "sheet.json");
     };
-    const Run ref = run(sheet({{"solver", {{"method", "implicit_euler"}, {"substeps", 64}}}}), frames, sheet_n, 1);
+    const Run ref =
+        run(sheet({{"solver", {{"method", "implicit_euler"}, {"substeps", 64}}}}), frames, sheet_n, 1);
     std::vector<Row> rows;
     for (const std::string& t : tiers) {
       nlohmann::json extra = {{"quality", t}};
@@ -236,9 +249,10 @@ int bench_realtime(int argc, char** argv) {
     }
     // More points of the real-time solver: substeps at one iteration.
     for (int sub : {8, 16, 24, 32, 48}) {
-      const Run r = run(sheet({{"quality", "realtime"}, {"solver", {{"substeps", sub}}}}), frames, sheet_n, repeats);
-      rows.push_back({"loom:fast_xpbd substeps=" + std::to_string(sub), r.ms, rms(r, ref), r.depth, r.max_strain,
-                      r.finite});
+      const Run r =
+          run(sheet({{"quality", "realtime"}, {"solver", {{"substeps", sub}}}}), frames, sheet_n, repeats);
+      rows.push_back({"loom:fast_xpbd substeps=" + std::to_string(sub), r.ms, rms(r, ref), r.depth,
+                      r.max_strain, r.finite});
     }
     std::printf("# hanging sheet N=%d, %d frames, 1 thread\n", sheet_n, frames);
     write(out, "sheet_realtime", "hanging sheet: RMS error vs time per frame", rows);

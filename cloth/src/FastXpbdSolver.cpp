@@ -82,7 +82,8 @@ void FastXpbdSolver::update_denominators(const ClothState& s, double h) {
 }
 
 // Macklin 2016 eq. (18) for C = l - L, ∇_j C = -∇_i C = n = d / l, with damping γ ∇C·(p - x_n):
-//   Δλ = (-C - α̃ λ - γ n·((p_j - x_j) - (p_i - x_i))) / ((1 + γ)(w_i + w_j) + α̃),  p_i -= w_i Δλ n, p_j += w_j Δλ n.
+//   Δλ = (-C - α̃ λ - γ n·((p_j - x_j) - (p_i - x_i))) / ((1 + γ)(w_i + w_j) + α̃),  p_i -= w_i Δλ n, p_j +=
+//   w_j Δλ n.
 // With one iteration λ = 0 at the start, so the α̃ λ term vanishes. The scalar and the SSE forms run the same
 // float operations in the same order, so a spring's result does not depend on which form projects it.
 void FastXpbdSolver::project_scalar(int begin, int end) {
@@ -164,10 +165,10 @@ void FastXpbdSolver::project(int begin, int end) {
       __m128 b0x = _mm_load_ps(&x0[j[0]].x), b0y = _mm_load_ps(&x0[j[1]].x), b0z = _mm_load_ps(&x0[j[2]].x),
              b0w = _mm_load_ps(&x0[j[3]].x);
       _MM_TRANSPOSE4_PS(b0x, b0y, b0z, b0w);
-      const __m128 rate = _mm_add_ps(
-          _mm_add_ps(_mm_mul_ps(_mm_sub_ps(_mm_sub_ps(bx, b0x), _mm_sub_ps(ax, a0x)), dx),
-                     _mm_mul_ps(_mm_sub_ps(_mm_sub_ps(by, b0y), _mm_sub_ps(ay, a0y)), dy)),
-          _mm_mul_ps(_mm_sub_ps(_mm_sub_ps(bz, b0z), _mm_sub_ps(az, a0z)), dz));
+      const __m128 rate =
+          _mm_add_ps(_mm_add_ps(_mm_mul_ps(_mm_sub_ps(_mm_sub_ps(bx, b0x), _mm_sub_ps(ax, a0x)), dx),
+                                _mm_mul_ps(_mm_sub_ps(_mm_sub_ps(by, b0y), _mm_sub_ps(ay, a0y)), dy)),
+                     _mm_mul_ps(_mm_sub_ps(_mm_sub_ps(bz, b0z), _mm_sub_ps(az, a0z)), dz));
       num = _mm_sub_ps(num, _mm_mul_ps(_mm_loadu_ps(&gamma_[k]), _mm_mul_ps(rate, inv_l)));
     }
     const __m128 s = _mm_and_ps(ok, _mm_mul_ps(_mm_mul_ps(num, _mm_loadu_ps(&inv_denom_[k])), inv_l));
@@ -217,7 +218,8 @@ void FastXpbdSolver::step(Cloth& cloth, double t, double h, int threads) {
       const Vec3 q = pred_[i] - origin_, q0 = s.x[i] - origin_;
       p_[i] = Point{static_cast<float>(q.x()), static_cast<float>(q.y()), static_cast<float>(q.z()),
                     static_cast<float>(w)};
-      x0_[i] = Point{static_cast<float>(q0.x()), static_cast<float>(q0.y()), static_cast<float>(q0.z()), 0.0f};
+      x0_[i] =
+          Point{static_cast<float>(q0.x()), static_cast<float>(q0.y()), static_cast<float>(q0.z()), 0.0f};
     }
     for (int it = 0; it < iterations_; ++it)
       for (int c = 0; c < num_colors; ++c) {
@@ -234,9 +236,10 @@ void FastXpbdSolver::step(Cloth& cloth, double t, double h, int threads) {
     for (int i = 0; i < n; ++i) {
       // x_new = p_pred + (p_f - p_f0): only the corrections pass through float.
       const Vec3 q0 = pred_[i] - origin_;
-      const Vec3 q = pred_[i] + Vec3(static_cast<double>(p_[i].x) - static_cast<double>(static_cast<float>(q0.x())),
-                                     static_cast<double>(p_[i].y) - static_cast<double>(static_cast<float>(q0.y())),
-                                     static_cast<double>(p_[i].z) - static_cast<double>(static_cast<float>(q0.z())));
+      const Vec3 q =
+          pred_[i] + Vec3(static_cast<double>(p_[i].x) - static_cast<double>(static_cast<float>(q0.x())),
+                          static_cast<double>(p_[i].y) - static_cast<double>(static_cast<float>(q0.y())),
+                          static_cast<double>(p_[i].z) - static_cast<double>(static_cast<float>(q0.z())));
       s.x_prev[i] = s.x[i];
       if (s.inv_mass[i] > 0.0) s.v[i] = (q - s.x[i]) / h;
       s.x[i] = s.inv_mass[i] > 0.0 ? q : pred_[i];

@@ -17,17 +17,23 @@ namespace {
 
 constexpr double kInf = std::numeric_limits<double>::infinity();
 constexpr int kMaxCandidates = 64;  // colliders tested per vertex
-constexpr double kGridCell = 0.1;    // m, target cell size of the per-step collider grid
-constexpr int kMaxGridDim = 32;      // cells per axis at most
+constexpr int kPinchRounds = 8;     // rounds of the pinch exit
+constexpr double kGridCell = 0.1;   // m, target cell size of the per-step collider grid
+constexpr int kMaxGridDim = 32;     // cells per axis at most
 
 // Radius (m) of a sphere about the shape's origin that holds the whole shape (infinite for a plane).
 double bounding_radius(const Shape& s) {
   switch (s.type) {
-    case ShapeType::plane: return kInf;
-    case ShapeType::sphere: return s.radius;
-    case ShapeType::capsule: return s.half_height + s.radius;
-    case ShapeType::box: return s.half_extents.norm();
-    case ShapeType::cylinder: return std::hypot(s.radius, s.half_height);
+    case ShapeType::plane:
+      return kInf;
+    case ShapeType::sphere:
+      return s.radius;
+    case ShapeType::capsule:
+      return s.half_height + s.radius;
+    case ShapeType::box:
+      return s.half_extents.norm();
+    case ShapeType::cylinder:
+      return std::hypot(s.radius, s.half_height);
     default: {
       double r = 0.0;
       for (const Vec3& v : s.vertices) r = std::max(r, v.norm());
@@ -46,8 +52,9 @@ Vec3 coulomb_tangent(const Vec3& rel, const Vec3& n, double mu_s, double mu_k) {
   return st * std::max(0.0, 1.0 - mu_k * push / len);
 }
 
-// Signed distance (m) from p to collider c at its step-end pose (end) or step-start pose, outward normal in n.
-// Plane, sphere and capsule in closed form on the prepared world data; the rest through ColliderDistance.h.
+// Signed distance (m) from p to collider c at its step-end pose (end) or step-start pose, outward normal in
+// n. Plane, sphere and capsule in closed form on the prepared world data; the rest through
+// ColliderDistance.h.
 double distance(const Collider& c, const Prepared& pc, bool end, const Vec3& p, Vec3* n) {
   switch (c.shape.type) {
     case ShapeType::sphere:
@@ -71,7 +78,8 @@ double distance(const Collider& c, const Prepared& pc, bool end, const Vec3& p, 
       *n = pose.linear().col(1);
       return (p - pose.translation()).dot(*n);
     }
-    default: return signed_distance(c, end ? c.curr : c.prev, p, n);
+    default:
+      return signed_distance(c, end ? c.curr : c.prev, p, n);
   }
 }
 
@@ -129,7 +137,8 @@ void RealtimeBodyContactStage::run_cloth(cloth::Cloth& cloth, double h) {
     Prepared& pc = prepared_[k];
     pc.thickness = thickness(c, material_thickness);
     pc.mu_k = settings_.friction >= 0.0 ? settings_.friction : c.friction;
-    pc.mu_s = std::max(pc.mu_k, settings_.static_friction >= 0.0 ? settings_.static_friction : c.static_friction);
+    pc.mu_s =
+        std::max(pc.mu_k, settings_.static_friction >= 0.0 ? settings_.static_friction : c.static_friction);
     const double extent = bounding_radius(c.shape);
     const Vec3 c0 = c.prev.translation(), c1 = c.curr.translation();
     const double theta = rotation_angle(c.prev, c.curr);
@@ -152,9 +161,14 @@ void RealtimeBodyContactStage::run_cloth(cloth::Cloth& cloth, double h) {
     // (the axis of a sphere or capsule, a box's smallest half extent); for other shapes, past the thickness.
     switch (c.shape.type) {
       case ShapeType::sphere:
-      case ShapeType::capsule: pc.swept_threshold = std::max(pc.thickness, pc.radius); break;
-      case ShapeType::box: pc.swept_threshold = std::max(pc.thickness, c.shape.half_extents.minCoeff()); break;
-      default: pc.swept_threshold = pc.thickness;
+      case ShapeType::capsule:
+        pc.swept_threshold = std::max(pc.thickness, pc.radius);
+        break;
+      case ShapeType::box:
+        pc.swept_threshold = std::max(pc.thickness, c.shape.half_extents.minCoeff());
+        break;
+      default:
+        pc.swept_threshold = pc.thickness;
     }
     pc.active = (pc.lo.array() <= hi.array()).all() && (pc.hi.array() >= lo.array()).all();
     if (pc.active) active_.push_back(static_cast<int>(k));
@@ -192,7 +206,9 @@ void RealtimeBodyContactStage::run_cloth(cloth::Cloth& cloth, double h) {
           }
     }
   }
-  auto cell_index = [&](const Vec3& p) { return (cell_of(p, 2) * dims[1] + cell_of(p, 1)) * dims[0] + cell_of(p, 0); };
+  auto cell_index = [&](const Vec3& p) {
+    return (cell_of(p, 2) * dims[1] + cell_of(p, 1)) * dims[0] + cell_of(p, 0);
+  };
 
   int cand[kMaxCandidates];
   for (int i = 0; i < n; ++i) {
@@ -266,6 +282,21 @@ void RealtimeBodyContactStage::run_cloth(cloth::Cloth& cloth, double h) {
         c.reaction_angular_impulse -= (x - c.curr.translation()).cross(impulse);
         v = v_new;
       }
+    }
+    // A pinch (the passes push the vertex from one collider into another, e.g. an arm pressed against the
+    // torso): move it along the sum of the normals of the colliders it is inside, by the deepest depth,
+    // until it is outside all of them (a few rounds); what remains is counted.
+    for (int round = 0; moved && round < kPinchRounds; ++round) {
+      Vec3 sum = Vec3::Zero();
+      double deepest = 0.0;
+      for (int q = 0; q < nc; ++q) {
+        const double d = distance(set[cand[q]], prepared_[cand[q]], true, x, &nrm);
+        if (d < 0.0) sum += nrm, deepest = std::max(deepest, -d + prepared_[cand[q]].thickness);
+      }
+      if (deepest == 0.0) break;
+      const double len = sum.norm();
+      if (!(len > 1e-12)) break;
+      x += deepest * (sum / len);
     }
     if (moved)
       for (int q = 0; q < nc; ++q)

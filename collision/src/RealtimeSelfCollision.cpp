@@ -23,7 +23,8 @@ bool barycentric(const Vec3& a, const Vec3& b, const Vec3& c, const Vec3& p, dou
   return true;
 }
 
-constexpr double kInsideTolerance = 0.02;  // 1, barycentric slack: a vertex over a shared edge sees both faces
+constexpr double kInsideTolerance =
+    0.02;  // 1, barycentric slack: a vertex over a shared edge sees both faces
 
 bool inside_triangle(const double bw[3]) {
   return bw[0] >= -kInsideTolerance && bw[1] >= -kInsideTolerance && bw[2] >= -kInsideTolerance;
@@ -55,7 +56,8 @@ void RealtimeSelfCollisionStage::load_state(cloth::StateReader& in) {
 
 long RealtimeSelfCollisionStage::cell_key(int x, int y, int z) const {
   // Teschner et al. 2003: (x p1 xor y p2 xor z p3) mod table size.
-  const unsigned long h = (static_cast<unsigned long>(x) * 73856093ul) ^ (static_cast<unsigned long>(y) * 19349663ul) ^
+  const unsigned long h = (static_cast<unsigned long>(x) * 73856093ul) ^
+                          (static_cast<unsigned long>(y) * 19349663ul) ^
                           (static_cast<unsigned long>(z) * 83492791ul);
   return static_cast<long>(h & static_cast<unsigned long>(bucket_start_.size() - 2));
 }
@@ -106,7 +108,8 @@ void RealtimeSelfCollisionStage::run(cloth::StageContext& ctx) {
   xs.resize(n), vs.resize(n), w.resize(n);
   for (int c = 0; c < nc; ++c) {
     cloth::ClothState& s = ctx.cloths[c]->state();
-    for (int i = 0; i < s.size(); ++i) xs[offset_[c] + i] = &s.x[i], vs[offset_[c] + i] = &s.v[i], w[offset_[c] + i] = s.inv_mass[i];
+    for (int i = 0; i < s.size(); ++i)
+      xs[offset_[c] + i] = &s.x[i], vs[offset_[c] + i] = &s.v[i], w[offset_[c] + i] = s.inv_mass[i];
   }
   const double t_between = settings_.thickness, t_self = settings_.self_fraction * settings_.thickness;
   const double t = t_between, inv_cell = 1.0 / cell_;
@@ -118,7 +121,8 @@ void RealtimeSelfCollisionStage::run(cloth::StageContext& ctx) {
   tri_lo_.resize(nt), tri_hi_.resize(nt), tri_n_.resize(nt);
   for (int q = 0; q < nt; ++q) {
     const Vec3 &a = *xs[tri_[q][0]], &b = *xs[tri_[q][1]], &c = *xs[tri_[q][2]];
-    const Vec3 lo = a.cwiseMin(b).cwiseMin(c) - Vec3::Constant(t), hi = a.cwiseMax(b).cwiseMax(c) + Vec3::Constant(t);
+    const Vec3 lo = a.cwiseMin(b).cwiseMin(c) - Vec3::Constant(t),
+               hi = a.cwiseMax(b).cwiseMax(c) + Vec3::Constant(t);
     tri_lo_[q] = lo, tri_hi_[q] = hi;
     const Vec3 nq = (b - a).cross(c - a);
     const double len = nq.norm();
@@ -146,7 +150,8 @@ void RealtimeSelfCollisionStage::run(cloth::StageContext& ctx) {
     for (int it = bucket_start_[key]; it < bucket_start_[key + 1]; ++it) {
       const int q = bucket_items_[it];
       const Vec3 &lo = tri_lo_[q], &hi = tri_hi_[q];
-      if (p.x() < lo.x() || p.x() > hi.x() || p.y() < lo.y() || p.y() > hi.y() || p.z() < lo.z() || p.z() > hi.z())
+      if (p.x() < lo.x() || p.x() > hi.x() || p.y() < lo.y() || p.y() > hi.y() || p.z() < lo.z() ||
+          p.z() > hi.z())
         continue;
       const auto& tri = tri_[q];
       if (tri[0] == g || tri[1] == g || tri[2] == g) continue;

@@ -22,8 +22,10 @@ struct Figures {
 
 // `max_census`: intersecting pairs allowed at a frame end (0 but where the tier's proximity collision is
 // known to give way).
-Figures run(const std::string& name, const std::vector<std::string>& sets, int threads = 1, long max_census = 0) {
-  loom::scene::Scene sc = loom::scene::load_scene(std::string(LOOM_SOURCE_DIR) + "/scenes/" + name + ".json", sets);
+Figures run(const std::string& name, const std::vector<std::string>& sets, int threads = 1,
+            long max_census = 0) {
+  loom::scene::Scene sc =
+      loom::scene::load_scene(std::string(LOOM_SOURCE_DIR) + "/scenes/" + name + ".json", sets);
   sc.setup.threads = threads;
   EXPECT_EQ(sc.quality.name, "realtime");
   loom::collision::ColliderSetPtr colliders;
@@ -81,7 +83,8 @@ TEST(RealtimeCharacter, ResultsDoNotDependOnTheThreadCount) {
   const Figures a = run("character_layers", sets, 1), b = run("character_layers", sets, 2);
   ASSERT_EQ(a.last.size(), b.last.size());
   for (size_t c = 0; c < a.last.size(); ++c)
-    for (size_t i = 0; i < a.last[c].size(); ++i) ASSERT_EQ(a.last[c][i], b.last[c][i]) << "cloth " << c << " vertex " << i;
+    for (size_t i = 0; i < a.last[c].size(); ++i)
+      ASSERT_EQ(a.last[c][i], b.last[c][i]) << "cloth " << c << " vertex " << i;
 }
 
 }  // namespace

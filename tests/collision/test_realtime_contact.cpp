@@ -64,7 +64,8 @@ double worst_gap(const cloth::ClothState& s, const ColliderSet& set, double thic
   for (int i = 0; i < s.size(); ++i) {
     EXPECT_TRUE(s.x[i].allFinite());
     if (s.inv_mass[i] == 0.0) continue;
-    for (const Collider& c : set) worst = std::min(worst, signed_distance(c, c.curr, s.x[i], nullptr) - thickness);
+    for (const Collider& c : set)
+      worst = std::min(worst, signed_distance(c, c.curr, s.x[i], nullptr) - thickness);
   }
   return worst;
 }

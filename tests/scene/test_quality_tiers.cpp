@@ -30,7 +30,9 @@ std::vector<std::string> stage_names(const Scene& sc) {
   return sim->stage_names();
 }
 
-bool has(const std::vector<std::string>& v, const std::string& s) { return std::find(v.begin(), v.end(), s) != v.end(); }
+bool has(const std::vector<std::string>& v, const std::string& s) {
+  return std::find(v.begin(), v.end(), s) != v.end();
+}
 
 TEST(QualityTiers, WithoutTheKeyASceneIsWhatItNames) {
   const Scene sc = parse(nlohmann::json::object());
@@ -67,7 +69,9 @@ TEST(QualityTiers, RealtimePicksSolverContactAndChecksTogether) {
   EXPECT_TRUE(sc.setup.tethers);
   // Order: solver, tethers, cloth-cloth proximity, body contact, strain limit, body contact (positions).
   const auto names = stage_names(sc);
-  const auto at = [&](const std::string& s) { return std::find(names.begin(), names.end(), s) - names.begin(); };
+  const auto at = [&](const std::string& s) {
+    return std::find(names.begin(), names.end(), s) - names.begin();
+  };
   EXPECT_LT(at("solve"), at("realtime_self_collision"));
   EXPECT_LT(at("realtime_self_collision"), at("realtime_contact"));
   EXPECT_LT(at("realtime_contact"), at("strain_limit"));
@@ -103,7 +107,8 @@ TEST(QualityTiers, ExplicitValuesWin) {
     EXPECT_EQ(sc.setup.solver.params.at("iterations"), 3.0);
   }
   {  // explicit collision method, body contact and strain limiting
-    nlohmann::json extra = {{"quality", "realtime"}, {"body_contact", "exact"},
+    nlohmann::json extra = {{"quality", "realtime"},
+                            {"body_contact", "exact"},
                             {"constraints", {{"strain_limit", {{"max_stretch", 0.05}}}}}};
     extra["collision"] = {{"self", true}, {"method", "exact"}};
     const Scene sc = parse(extra);
@@ -114,7 +119,8 @@ TEST(QualityTiers, ExplicitValuesWin) {
     EXPECT_FALSE(sc.strain_limit_after_contact);
   }
   {  // proximity asked for in the reference tier
-    nlohmann::json extra = {{"collision", {{"self", true}, {"method", "proximity"}, {"thickness", 0.01}, {"every", 3}}}};
+    nlohmann::json extra = {
+        {"collision", {{"self", true}, {"method", "proximity"}, {"thickness", 0.01}, {"every", 3}}}};
     const Scene sc = parse(extra);
     ASSERT_TRUE(sc.proximity);
     EXPECT_EQ(sc.proximity->thickness, 0.01);

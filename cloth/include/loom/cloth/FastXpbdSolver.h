@@ -2,7 +2,8 @@
 // FastXpbdSolver ("fast_xpbd"): the real-time tier's solver. XPBD (Macklin, Müller, Chentanez 2016, eq. 18
 // with its damping term) on the cloth's springs, C = l - L, compliance α = scale / k, run as many small
 // substeps with one iteration each (Macklin et al. 2019, "Small steps in physics simulation": with one
-// iteration λ starts at 0 and is not stored). The same physics as XpbdSolver with its data laid out for speed:
+// iteration λ starts at 0 and is not stored). The same physics as XpbdSolver with its data laid out for
+// speed:
 //   - springs as structure of arrays (vertex indices, and per spring in float: rest length, γ and the inverse
 //     denominator 1 / ((1 + γ)(w_i + w_j) + α̃), recomputed only when h or the inverse masses change);
 //   - predicted positions in float, relative to a per-step origin (the cloth's first vertex), padded to
@@ -11,7 +12,8 @@
 //     Only the constraint corrections pass through float: x_new = p_pred + (p_f - p_f0) with p_pred in
 //     double, so gravity's per-substep increment (h² g, 19 µm at 1.4 ms) is kept exactly and the corrections
 //     carry a rounding of about 1e-7 of the cloth's size;
-//   - springs grouped by colour (no shared vertex within a colour) and sorted by lower vertex index, so a colour
+//   - springs grouped by colour (no shared vertex within a colour) and sorted by lower vertex index, so a
+//   colour
 //     can be split over threads with results independent of the thread count.
 // One step: p = x + h v + h² M⁻¹ f_ext (f_ext: gravity, drag), `iterations` Gauss-Seidel sweeps over the
 // colours, v = (p - x) / h, x = p. Kinematic vertices (inverse mass 0) move by exactly x += h v.

@@ -1,13 +1,14 @@
 #pragma once
 // RealtimeBodyContactStage ("realtime_contact"): the real-time tier's cloth-vs-body contact, for any set of
-// generic colliders (Collider.h: a character's capsules, a scene's shapes, a Bullet world's bodies). Run after
-// the solver at every (small) substep, it is discrete with cheap culling and continuous only where needed:
+// generic colliders (Collider.h: a character's capsules, a scene's shapes, a Bullet world's bodies). Run
+// after the solver at every (small) substep, it is discrete with cheap culling and continuous only where
+// needed:
 //   1. colliders with a scene `motion` are sampled at t and t + h into prev/curr; each collider gets a world
 //      bounding box over both poses, inflated by its contact thickness (per bone for a rig), and a bound on
 //      how far any of its surface points moves in the step;
 //   2. culling: colliders whose box misses the cloth's box are skipped; the others are listed in the cells of
-//      a coarse grid over the cloth's box (about 10 cm cells); a vertex is tested against the colliders of its
-//      cell, and only when it lies inside the collider's box;
+//      a coarse grid over the cloth's box (about 10 cm cells); a vertex is tested against the colliders of
+//      its cell, and only when it lies inside the collider's box;
 //   3. continuous, only where the motion relative to the collider (a bound: the vertex's step plus the
 //      collider's motion bound) could carry the vertex past the collider's middle, where the discrete test
 //      would push it out on the wrong side (sphere and capsule: the radius; box: its smallest half extent;
@@ -15,14 +16,16 @@
 //      x_prev -> x against the moving collider (swept_point, conservative advancement, SweptCollider.h); on a
 //      hit the vertex is put at the contact point carried with the body to the step's end;
 //   4. discrete: up to `passes` passes over the vertex's candidate colliders; a vertex closer than the
-//      thickness t to a collider at curr is projected to distance t along the outward normal (closed forms for
-//      plane, sphere and capsule, ColliderDistance.h for the others); its inward velocity relative to the
+//      thickness t to a collider at curr is projected to distance t along the outward normal (closed forms
+//      for plane, sphere and capsule, ColliderDistance.h for the others); its inward velocity relative to the
 //      surface (incl. the collider's rotation) is removed and Coulomb friction acts on the tangential part
-//      (Bridson, Fedkiw, Anderson 2002, Sec. 7.2: stick if |v_t| <= μ_s Δv_n, else v_t *= 1 - μ_k Δv_n/|v_t|).
+//      (Bridson, Fedkiw, Anderson 2002, Sec. 7.2: stick if |v_t| <= μ_s Δv_n, else v_t *= 1 - μ_k
+//      Δv_n/|v_t|).
 //   5. the reaction -m Δv of every velocity change, and its moment about curr's origin, is added to the
 //      collider's reaction_impulse / reaction_angular_impulse (two-way coupling).
-// Postcondition: a vertex that ends a step inside a collider is one caught between colliders closer than
-// twice the thickness for all `passes` (counted in `unresolved`). Vertices are visited in index order on one
+// Postcondition: a vertex left inside colliders after the passes (a pinch between two) is moved along the
+// sum of their normals until outside all of them; one still inside after 8 rounds is counted in
+// `unresolved`. Vertices are visited in index order on one
 // thread: results do not depend on the thread count.
 #include <vector>
 
@@ -32,7 +35,7 @@
 namespace loom::collision {
 
 struct RealtimeContactSettings {
-  double thickness = 0.0;  // m; contact offset where a collider gives none (0: the cloth material's)
+  double thickness = 0.0;         // m; contact offset where a collider gives none (0: the cloth material's)
   double friction = -1.0;         // 1; kinetic coefficient for every collider (< 0: the collider's own)
   double static_friction = -1.0;  // 1; static coefficient for every collider (< 0: the collider's own)
   int passes = 3;                 // discrete passes per vertex per step (overlapping colliders)
@@ -56,14 +59,14 @@ class RealtimeBodyContactStage final : public cloth::Stage {
 
   // What one collider is this step (world data for the closed-form distances); public for the helpers.
   struct Prepared {
-    Vec3 lo, hi;           // m, world box over prev and curr, inflated by the thickness
-    Vec3 a0, b0, a1, b1;   // m, capsule axis ends (sphere: a = b = centre) at prev and curr
-    double radius = 0.0;   // m, sphere and capsule
-    double motion = 0.0;   // m, bound on any surface point's displacement over the step
-    double thickness = 0.0;  // m
-    double swept_threshold = 0.0;  // m, relative motion above which step 3 runs
+    Vec3 lo, hi;                    // m, world box over prev and curr, inflated by the thickness
+    Vec3 a0, b0, a1, b1;            // m, capsule axis ends (sphere: a = b = centre) at prev and curr
+    double radius = 0.0;            // m, sphere and capsule
+    double motion = 0.0;            // m, bound on any surface point's displacement over the step
+    double thickness = 0.0;         // m
+    double swept_threshold = 0.0;   // m, relative motion above which step 3 runs
     double mu_s = 0.0, mu_k = 0.0;  // 1
-    bool active = false;   // the box meets the cloth's box
+    bool active = false;            // the box meets the cloth's box
   };
 
  private:
@@ -74,7 +77,8 @@ class RealtimeBodyContactStage final : public cloth::Stage {
   RealtimeContactSettings settings_;
   std::vector<Prepared> prepared_;
   std::vector<int> active_;  // scratch: indices of active colliders
-  std::vector<int> grid_start_, grid_items_, grid_fill_;  // scratch: the per-step collider grid (counting sort)
+  std::vector<int> grid_start_, grid_items_,
+      grid_fill_;  // scratch: the per-step collider grid (counting sort)
   long candidates_ = 0, contacts_ = 0, ccd_tests_ = 0, ccd_hits_ = 0, unresolved_ = 0;
 };
 
