@@ -64,6 +64,7 @@ void StepVerlet(benchmark::State& s) { run(s, "verlet"); }
 void StepExplicitEuler(benchmark::State& s) { run(s, "explicit_euler"); }
 void StepPbd(benchmark::State& s) { run(s, "pbd"); }
 void StepXpbd(benchmark::State& s) { run(s, "xpbd"); }
+void StepFastXpbd(benchmark::State& s) { run(s, "fast_xpbd"); }
 
 // The hanging cloth's global matrix at a 60 Hz step, and three random right-hand sides.
 struct GlobalSystem {
@@ -172,4 +173,5 @@ BENCHMARK(StepVerlet)->ArgsProduct({{33, 65, 129}, {1, 2}, {0}, {0}})->Unit(benc
 BENCHMARK(StepExplicitEuler)->ArgsProduct({{33, 65, 129}, {1, 2}, {0}, {0}})->Unit(benchmark::kMicrosecond)->UseManualTime();
 BENCHMARK(StepPbd)->ArgsProduct({{65, 129}, {1, 2}, {1, 10}, {0, 16}})->Unit(benchmark::kMicrosecond)->UseManualTime();
 BENCHMARK(StepXpbd)->ArgsProduct({{65, 129}, {1, 2}, {1, 10}, {0, 16}})->Unit(benchmark::kMicrosecond)->UseManualTime();
+BENCHMARK(StepFastXpbd)->ArgsProduct({{65, 129}, {1, 2}, {1, 10}, {0, 16}})->Unit(benchmark::kMicrosecond)->UseManualTime();
 BENCHMARK_MAIN();

@@ -12,8 +12,6 @@
 
 namespace loom::app {
 
-namespace {
-
 // The character's capsules (one kinematic body per bone, in rig order) and, for attachment joints that start
 // no capsule (a root with zero-length bones), an anchor-only body following the joint.
 std::vector<bullet::KinematicBody> character_bodies(const std::shared_ptr<const characters::Character>& ch) {
@@ -56,6 +54,8 @@ std::vector<bullet::KinematicBody> character_bodies(const std::shared_ptr<const 
   }
   return bodies;
 }
+
+namespace {
 
 nlohmann::json to_json(const bullet::CharacterMetrics& r) {
   nlohmann::json j;

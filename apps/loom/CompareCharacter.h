@@ -5,9 +5,14 @@
 // `penetrating_vertices` and `max_attachment_error` in the JSON.
 #include <string>
 
+#include "loom/bullet/CharacterCompare.h"
 #include "loom/scene/Scene.h"
 
 namespace loom::app {
+
+// The character's capsules (one kinematic body per bone, in rig order) and anchor-only bodies for
+// attachment joints that start no capsule: the Bullet twin's view of the rig.
+std::vector<bullet::KinematicBody> character_bodies(const std::shared_ptr<const characters::Character>& ch);
 
 int compare_character(const scene::Scene& scene, int frames, const std::string& out);
 

@@ -28,6 +28,7 @@ const char* kUsage =
     "  loom ccd-eval FILE.csv...    evaluate the continuous collision test on CCD sample queries\n"
     "  loom fabric-test TEST [opts] virtual fabric tests: cantilever, tensile, shear, catenary\n"
     "  loom bench accuracy [opts]   accuracy-vs-time benchmark, Loom solvers and Bullet (loom bench --help)\n"
+    "  loom bench realtime [opts]   quality tiers and Bullet classic on the character and the sheet (--help)\n"
     "  loom compare SCENE [--out D] a scene in Loom, Bullet classic and deformable side by side\n"
     "  loom --help                  this text\n"
     "  loom run --help              the options of `run`\n"
@@ -163,6 +164,9 @@ int main(int argc, char** argv) {
   try {
     if (cmd == "run") return run_main(argc, argv);
 #ifdef LOOM_HAVE_BENCH_ACCURACY
+#ifdef LOOM_HAVE_BENCH_REALTIME
+    if (cmd == "bench" && argc > 2 && std::string(argv[2]) == "realtime") return loom::app::bench_realtime(argc, argv);
+#endif
     if (cmd == "bench") return loom::eval::bench_main(argc, argv);
     if (cmd == "compare") return loom::app::compare_main(argc, argv);
 #endif

@@ -5,6 +5,7 @@
 #include "loom/cloth/DesbrunSolver.h"
 #include "loom/cloth/Error.h"
 #include "loom/cloth/ExplicitSolvers.h"
+#include "loom/cloth/FastXpbdSolver.h"
 #include "loom/cloth/ImplicitSolver.h"
 #include "loom/cloth/PositionBasedSolvers.h"
 #include "loom/cloth/ProjectiveSolver.h"
@@ -94,6 +95,12 @@ const std::vector<Entry>& registry() {
        [](SolverParams& p) {
          const int iterations = p.integer("iterations", 10, 1, 100000);
          return std::make_unique<XpbdSolver>(iterations, p.number("compliance_scale", 1.0, 0.0, 1e12));
+       }},
+      // The real-time tier's XPBD: small steps, one iteration, structure-of-arrays data (FastXpbdSolver.h).
+      {"fast_xpbd",
+       [](SolverParams& p) {
+         const int iterations = p.integer("iterations", 1, 1, 100000);
+         return std::make_unique<FastXpbdSolver>(iterations, p.number("compliance_scale", 1.0, 0.0, 1e12));
        }},
       {"projective",
        [](SolverParams& p) {

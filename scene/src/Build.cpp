@@ -3,6 +3,8 @@
 #include "loom/collision/BodyCollisionStage.h"
 #include "loom/collision/ContactGuardStage.h"
 #include "loom/collision/IntersectionGuardStage.h"
+#include "loom/collision/RealtimeBodyContact.h"
+#include "loom/collision/RealtimeSelfCollision.h"
 
 #ifdef LOOM_HAVE_CHARACTERS
 #include "loom/characters/Character.h"
@@ -21,8 +23,23 @@ std::unique_ptr<cloth::Simulation> build_simulation(const Scene& scene, collisio
 #endif
   // Effects from other modules add their stages here, each only when the scene names it.
   // Body collision: only when there is something to collide with (scene colliders, rig capsules).
+  const bool cloth_collision = scene.collision && (scene.collision->self || scene.setup.cloths.size() > 1);
+  // Cloth-cloth by proximity (the realtime and balanced tiers) runs before body contact, so the body stage
+  // has the last word at each step's end: no vertex is left inside a collider by a cloth-cloth push.
+  if (cloth_collision && scene.proximity)
+    sim->add_stage(std::make_unique<collision::RealtimeSelfCollisionStage>(*scene.proximity));
   collision::BodyCollisionStage* body_stage = nullptr;
-  if (!colliders->empty()) {
+  if (!colliders->empty() && scene.realtime_contact) {
+    sim->add_stage(std::make_unique<collision::RealtimeBodyContactStage>(colliders));
+    // The tier's strain limiting after contact, then contact again (positions only): strain limiting has
+    // the last word on the stretch a contact caused, body contact on penetration.
+    if (scene.strain_limit_after_contact) {
+      sim->add_stage(std::make_unique<cloth::StrainLimitStage>(*scene.strain_limit_after_contact));
+      collision::RealtimeContactSettings last;
+      last.positions_only = true;
+      sim->add_stage(std::make_unique<collision::RealtimeBodyContactStage>(colliders, last));
+    }
+  } else if (!colliders->empty()) {
     collision::BodyCollisionSettings body;
     if (scene.collision) body.friction_pairs = scene.collision->friction_pairs;  // the (cloth, collider) entries
     body.contact_normals = scene.setup.solver.holds_contacts();  // only a solver that reads them
@@ -33,12 +50,13 @@ std::unique_ptr<cloth::Simulation> build_simulation(const Scene& scene, collisio
   // Self- and cloth-cloth collision, after body collision: only with a `collision` object that asks
   // for self-collision or has more than one cloth to collide. It sees which vertices the body stage left near
   // a collider (those count heavier in cloth-cloth responses).
-  const bool cloth_collision = scene.collision && (scene.collision->self || scene.setup.cloths.size() > 1);
-  if (cloth_collision) {
+  if (cloth_collision && !scene.proximity) {
     auto stage = std::make_unique<collision::SelfCollisionStage>(*scene.collision);
     stage->set_body_stage(body_stage);
     sim->add_stage(std::move(stage));
   }
+  if (scene.strain_limit_after_contact && !(!colliders->empty() && scene.realtime_contact))
+    sim->add_stage(std::make_unique<cloth::StrainLimitStage>(*scene.strain_limit_after_contact));
   // The guard's contact check and the colliders' work (Guard.h), last: only when the scene's `guard`
   // asks for a penetration limit or an energy budget and there are colliders.
   const cloth::GuardSettings& guard = scene.setup.guard;

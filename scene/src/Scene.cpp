@@ -452,10 +452,24 @@ Scene parse_scene(const nlohmann::json& root, const std::string& file) {
   if (scene.setup.threads > 4096) r.fail("threads", "must be <= 4096 (got " + std::to_string(scene.setup.threads) + ")");
   parse_guard(r, scene.setup.guard);  // non-finite / explosion guard (SceneGuard.cpp)
 
+  // The quality tier (SceneQuality.h) gives the defaults of the solver, constraints and collision below.
+  scene.quality = parse_quality(r);
+  const QualityTier& tier = scene.quality;
+  const std::string default_method = tier.method.empty() ? "symplectic_euler" : tier.method;
+  // The tier's substeps and iterations go with its solver only.
+  auto tier_solver = [&](const std::string& method, bool substeps_given, bool iterations_given) {
+    if (method != tier.method) return;
+    if (!substeps_given && tier.substeps > 0) scene.setup.substeps = tier.substeps;
+    if (!iterations_given && tier.iterations > 0) scene.setup.solver.params["iterations"] = tier.iterations;
+  };
+  if (!r.has("solver")) {
+    scene.setup.solver.method = default_method;
+    tier_solver(default_method, false, false);
+  }
   if (r.has("solver")) {
     const JsonReader s = r.object("solver");
     const nlohmann::json& s_json = root.at("solver");
-    scene.setup.solver.method = s.string("method", "symplectic_euler");
+    scene.setup.solver.method = s.string("method", default_method);
     if (s.has("substeps") && s.has("dt")) s.fail("", "give either 'substeps' or 'dt', not both");
     if (s.has("dt")) {
       const double dt = s.number("dt", std::nullopt, 0.0, true);
@@ -477,6 +491,7 @@ Scene parse_scene(const nlohmann::json& root, const std::string& file) {
         scene.setup.solver.params[key] = s.number(key);
       }
     }
+    tier_solver(scene.setup.solver.method, s.has("substeps") || s.has("dt"), s.has("iterations"));
     if (scene.setup.substeps > 1000000) s.fail("substeps", "must be <= 1000000");
     s.finish();
   }
@@ -520,6 +535,11 @@ Scene parse_scene(const nlohmann::json& root, const std::string& file) {
     }
     k.finish();
   }
+  // The tier's constraint passes, where the scene names none of that kind.
+  if (tier.strain_limit && !scene.setup.strain_limit) scene.strain_limit_after_contact = cloth::StrainLimitSettings{0.1, 2};
+  if (tier.tethers && !scene.setup.tethers) scene.setup.tethers = cloth::TetherSettings{0.1, true};
+  scene.realtime_contact =
+      r.string("body_contact", tier.realtime_contact ? "realtime" : "exact", {"realtime", "exact"}) == "realtime";
 
   parse_character(r, scene);  // Mocap character; its garments are the first cloths (SceneCharacter.cpp)
   const auto cloths = r.has("cloths") || scene.setup.cloths.empty() ? r.objects("cloths") : std::vector<JsonReader>{};

@@ -36,6 +36,18 @@ void parse_collision(const JsonReader& root, Scene& scene) {
   s.repulsion = c.number("repulsion", s.repulsion, 0.0);
   if (s.repulsion > 1.0) c.fail("repulsion", "must be <= 1");
   s.normal_cones = c.boolean("normal_cones", s.normal_cones);
+  // `method`: "exact" (SelfCollisionStage) or "proximity" (RealtimeSelfCollisionStage; `thickness` is then
+  // the proximity kept between cloths, default 2 cm, half of it within one cloth; `every` its budget in
+  // substeps).
+  const QualityTier& tier = scene.quality;
+  const std::string method = c.string("method", tier.realtime_self ? "proximity" : "exact", {"exact", "proximity"});
+  if (method == "proximity") {
+    collision::RealtimeSelfSettings p;
+    p.self = s.self;
+    p.thickness = c.number("thickness", p.thickness, 0.0, true);
+    p.every = c.integer("every", tier.self_every, 1);
+    scene.proximity = p;
+  }
   if (c.has("friction_pairs")) {
     const std::vector<JsonReader> fps = c.objects("friction_pairs");
     for (const JsonReader& f : fps) {

@@ -17,7 +17,10 @@ bool cloth_collision(const Scene& s) { return s.collision && (s.collision->self 
 }  // namespace
 
 void apply_scene_defaults(Scene& scene) {
-  if (!scene.setup.guard.intersections_set && cloth_collision(scene)) scene.setup.guard.intersections = true;
+  // Exact cloth-cloth collision gets the guard's per-step intersection check; the tiers' proximity collision
+  // samples its checks instead (`loom run --census`).
+  if (!scene.setup.guard.intersections_set && cloth_collision(scene) && !scene.proximity)
+    scene.setup.guard.intersections = true;
 }
 
 ScenePipeline::~ScenePipeline() = default;

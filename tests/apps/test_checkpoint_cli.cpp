@@ -105,7 +105,7 @@ TEST(Checkpoint, ResumeWithCharacterCollidersAndSelfCollisionIsBitIdentical) {
   const fs::path whole = dir / "whole", parts = dir / "parts";
   fs::remove_all(whole);
   fs::remove_all(parts);
-  const std::string scene = std::string(LOOM_SOURCE_DIR) + "/scenes/character_cape.json";
+  const std::string scene = std::string(LOOM_SOURCE_DIR) + "/scenes/character_cape_reference.json";
   const std::string set = " --set 'character.garments[0].resolution=0.1' --set 'collision={\"self\":true}' --set output.every=1 ";
   auto r = loom::test::run_loom("run " + scene + set + "--frames 10 --out " + whole.string());
   if (r.err.find("this build has no loom::characters") != std::string::npos) GTEST_SKIP() << "no loom::characters";

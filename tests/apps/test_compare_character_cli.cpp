@@ -14,7 +14,7 @@ namespace {
 nlohmann::json run_character_compare(const std::string& sub) {
   const auto dir = test_dir() / sub;
   const CliResult r = run_loom("compare " + std::string(LOOM_SOURCE_DIR) +
-                               "/scenes/character_cape.json --frames 20 --set character.garments.0.resolution=0.1 --out " +
+                               "/scenes/character_cape_reference.json --frames 20 --set character.garments.0.resolution=0.1 --out " +
                                dir.string());
   if (r.code == 2 && r.err.find("unknown command") != std::string::npos) return nullptr;
   if (r.code == 1 && r.err.find("no loom::characters") != std::string::npos) return nullptr;

@@ -75,18 +75,18 @@ void expect_sane(const RunFigures& f, double strain_bound) {
 // worst strain, speed and depth): 01_01 around 10.5-13 s, 01_03 around 9.4 s (a shipped excerpt of it),
 // Boxing_Toes around 9-10.5 s for the cape.
 TEST(CharacterClips, CapeOnJumpingCmu_01_01) {
-  expect_sane(run_scene("character_cape", 2.0, {"character.start=10.5", "character.garments.0.resolution=0.08"}), 0.5);
+  expect_sane(run_scene("character_cape_reference", 2.0, {"character.start=10.5", "character.garments.0.resolution=0.08"}), 0.5);
 }
 
 TEST(CharacterClips, SkirtOnJumpingCmu_01_01) {
-  expect_sane(run_scene("character_skirt", 2.5, {"character.start=10.5", "character.garments.0.resolution=0.08"}), 0.5);
+  expect_sane(run_scene("character_skirt_reference", 2.5, {"character.start=10.5", "character.garments.0.resolution=0.08"}), 0.5);
 }
 
 // CMU 01_03 from 8.5 s to 11 s (tests/data/mocap/01_03_8.5s_to_11s.bvh): the subject bends over the skirt's
 // waist ring (the spine capsule came 3 cm inside the pinned ring before the ring cleared the torso over the
 // whole motion).
 TEST(CharacterClips, SkirtOnCmu_01_03_BendingOver) {
-  expect_sane(run_scene("character_skirt", 2.4, {"character.bvh=../tests/data/mocap/01_03_8.5s_to_11s.bvh", "character.start=0",
+  expect_sane(run_scene("character_skirt_reference", 2.4, {"character.bvh=../tests/data/mocap/01_03_8.5s_to_11s.bvh", "character.start=0",
                                                  "character.garments.0.resolution=0.08"}),
               0.5);
 }
@@ -96,13 +96,13 @@ TEST(CharacterClips, SkirtOnCmu_01_03_BendingOver) {
 // rigidly attached to their joint frames (Bone::turn): the Biovision legs point along -y, where the
 // shortest-arc rotation computed every substep flipped its twist, so the thigh's surface spun at ~50 m/s.
 TEST(CharacterClips, CapeOnBoxing) {
-  expect_sane(run_scene("character_cape", 2.0, {"character.bvh=../tests/data/mocap/Boxing_Toes.bvh", "character.start=8.8",
+  expect_sane(run_scene("character_cape_reference", 2.0, {"character.bvh=../tests/data/mocap/Boxing_Toes.bvh", "character.start=8.8",
                                                 "character.garments.0.resolution=0.08"}),
               0.5);
 }
 
 TEST(CharacterClips, SkirtOnBoxing) {
-  expect_sane(run_scene("character_skirt", 2.0, {"character.bvh=../tests/data/mocap/Boxing_Toes.bvh", "character.start=2.0",
+  expect_sane(run_scene("character_skirt_reference", 2.0, {"character.bvh=../tests/data/mocap/Boxing_Toes.bvh", "character.start=2.0",
                                                  "character.garments.0.resolution=0.08"}),
               0.5);
 }
@@ -111,7 +111,7 @@ TEST(CharacterClips, SkirtOnBoxing) {
 // at its own start, where the left knee is raised, and the left elbow lies inside the pinned ring there, so
 // the attached-depth bound fails (docs/characters.md).
 TEST(CharacterClips, DISABLED_SkirtOnBoxingHighKnees) {
-  expect_sane(run_scene("character_skirt", 1.5, {"character.bvh=../tests/data/mocap/Boxing_Toes.bvh", "character.start=23.8",
+  expect_sane(run_scene("character_skirt_reference", 1.5, {"character.bvh=../tests/data/mocap/Boxing_Toes.bvh", "character.start=23.8",
                                                  "character.garments.0.resolution=0.08"}),
               0.5);
 }
@@ -123,10 +123,10 @@ TEST(CharacterClips, DISABLED_SkirtOnBoxingHighKnees) {
 // (whole-clip run).
 TEST(CharacterClips, AttachedVerticesClearEveryCapsuleOverWholeClips) {
   for (const char* clip : {"01_01.bvh", "Boxing_Toes.bvh"})
-    for (const char* name : {"character_skirt", "character_cape", "character_layers"}) {
+    for (const char* name : {"character_skirt_reference", "character_cape_reference", "character_layers_reference"}) {
       std::vector<std::string> sets = {std::string("character.bvh=../tests/data/mocap/") + clip, "character.start=0.008333",
                                        "character.garments.0.resolution=0.08"};
-      if (std::string(name) == "character_layers") sets.push_back("character.garments.1.resolution=0.08");
+      if (std::string(name) == "character_layers_reference") sets.push_back("character.garments.1.resolution=0.08");
       const loom::scene::Scene scene =
           loom::scene::load_scene(std::string(LOOM_SOURCE_DIR) + "/scenes/" + name + ".json", sets);
       const Character& c = *scene.character;
@@ -153,7 +153,7 @@ TEST(CharacterClips, AttachedVerticesClearEveryCapsuleOverWholeClips) {
 
 // Skirt + cape as layers with self- and cloth-cloth collision: the exact census after every pipeline step.
 TEST(CharacterClips, LayersOnJumpingCmu_01_01_CensusEveryStep) {
-  const RunFigures f = run_scene("character_layers", 1.5, {"character.start=13.0", "character.garments.0.resolution=0.08",
+  const RunFigures f = run_scene("character_layers_reference", 1.5, {"character.start=13.0", "character.garments.0.resolution=0.08",
                                                            "character.garments.1.resolution=0.08"}, 1);
   expect_sane(f, 0.5);
   EXPECT_EQ(f.probe.census_steps, f.probe.steps);
@@ -164,7 +164,7 @@ TEST(CharacterClips, LayersOnJumpingCmu_01_01_CensusEveryStep) {
 // synthetic clip tests/data/mocap/arm_swing.bvh), census after every step: no intersection, no explosion,
 // no vertex pushed inside the arm or torso capsules.
 TEST(CharacterClips, ShirtArmSwingPinch) {
-  const RunFigures f = run_scene("character_shirt", 4.25, {"character.garments.0.resolution=0.08"}, 1);
+  const RunFigures f = run_scene("character_shirt_reference", 4.25, {"character.garments.0.resolution=0.08"}, 1);
   expect_sane(f, 0.5);
   EXPECT_EQ(f.probe.max_intersections, 0);
   EXPECT_GT(f.probe.census_steps, 1000);

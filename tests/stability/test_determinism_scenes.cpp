@@ -33,7 +33,7 @@ std::vector<SceneCase> scene_cases() {
   };
 #ifdef LOOM_HAVE_CHARACTERS
   c.push_back({"character_cape_self",
-               "character_cape.json",
+               "character_cape_reference.json",
                {"character.garments[0].resolution=0.08", "collision={\"self\":true}"},
                10,
                false});

@@ -13,6 +13,8 @@
 #include "loom/collision/SelfCollisionStage.h"
 #include "loom/collision/Collider.h"
 #include "loom/collision/RigidBodySpec.h"
+#include "loom/collision/RealtimeSelfCollision.h"
+#include "loom/scene/SceneQuality.h"
 
 namespace loom::characters {
 struct Character;  // loom/characters/Character.h
@@ -48,6 +50,14 @@ struct Scene {
   int frames = 60;        // frames to simulate (duration * fps, rounded)
   OutputSettings output;
   std::optional<collision::SelfCollisionSettings> collision;  // `collision` (SceneCollision.cpp); absent: none
+  QualityTier quality;  // `quality` (SceneQuality.h): the tier the defaults below came from
+  // Cloth-cloth collision by proximity (RealtimeSelfCollisionStage) instead of the exact stage: set with
+  // `collision` when the tier or `collision.method: "proximity"` asks for it.
+  std::optional<collision::RealtimeSelfSettings> proximity;
+  bool realtime_contact = false;  // body contact by RealtimeBodyContactStage (the tier or `body_contact`)
+  // The tier's strain limiting, run after body contact (then contact again, positions only) instead of
+  // right after the solver: absent when the scene names `constraints.strain_limit` or the tier has none.
+  std::optional<cloth::StrainLimitSettings> strain_limit_after_contact;
   std::vector<collision::RigidBodySpec> bodies;  // `bodies` (SceneBodies.cpp): Bullet rigid bodies
   std::vector<collision::Collider> colliders;  // `colliders` (SceneColliders.cpp): rigid shapes, kinematic motion
   std::shared_ptr<characters::Character> character;  // `character` (SceneCharacter.cpp); null without one

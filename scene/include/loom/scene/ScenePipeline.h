@@ -16,7 +16,7 @@ class BulletScene;
 
 namespace loom::scene {
 
-// Defaults that depend on the scene as a whole: the guard's intersection check is on for a scene with
+// Defaults that depend on the scene as a whole: the guard's intersection check is on for a scene with exact
 // self- or cloth-cloth collision unless the scene sets `guard.intersections` itself.
 void apply_scene_defaults(Scene& scene);
 

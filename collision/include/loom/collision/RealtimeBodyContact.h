@@ -1,0 +1,85 @@
+#pragma once
+// RealtimeBodyContactStage ("realtime_contact"): the real-time tier's cloth-vs-body contact, for any set of
+// generic colliders (Collider.h: a character's capsules, a scene's shapes, a Bullet world's bodies). Run
+// after the solver at every (small) substep, it is discrete with cheap culling and continuous only where
+// needed:
+//   1. colliders with a scene `motion` are sampled at t and t + h into prev/curr; each collider gets a world
+//      bounding box over both poses, inflated by its contact thickness (per bone for a rig), and a bound on
+//      how far any of its surface points moves in the step;
+//   2. culling: colliders whose box misses the cloth's box are skipped; the others are listed in the cells of
+//      a coarse grid over the cloth's box (about 10 cm cells); a vertex is tested against the colliders of
+//      its cell, and only when it lies inside the collider's box;
+//   3. continuous, only where the motion relative to the collider (a bound: the vertex's step plus the
+//      collider's motion bound) could carry the vertex past the collider's middle, where the discrete test
+//      would push it out on the wrong side (sphere and capsule: the radius; box: its smallest half extent;
+//      other shapes: the thickness), and the vertex started outside within reach: the path
+//      x_prev -> x against the moving collider (swept_point, conservative advancement, SweptCollider.h); on a
+//      hit the vertex is put at the contact point carried with the body to the step's end;
+//   4. discrete: up to `passes` passes over the vertex's candidate colliders; a vertex closer than the
+//      thickness t to a collider at curr is projected to distance t along the outward normal (closed forms
+//      for plane, sphere and capsule, ColliderDistance.h for the others); its inward velocity relative to the
+//      surface (incl. the collider's rotation) is removed and Coulomb friction acts on the tangential part
+//      (Bridson, Fedkiw, Anderson 2002, Sec. 7.2: stick if |v_t| <= μ_s Δv_n, else v_t *= 1 - μ_k
+//      Δv_n/|v_t|).
+//   5. the reaction -m Δv of every velocity change, and its moment about curr's origin, is added to the
+//      collider's reaction_impulse / reaction_angular_impulse (two-way coupling).
+// Postcondition: a vertex left inside colliders after the passes (a pinch between two) is moved along the
+// sum of their normals until outside all of them; one still inside after 8 rounds is counted in
+// `unresolved`. Vertices are visited in index order on one
+// thread: results do not depend on the thread count.
+#include <vector>
+
+#include "loom/cloth/Stage.h"
+#include "loom/collision/Collider.h"
+
+namespace loom::collision {
+
+struct RealtimeContactSettings {
+  double thickness = 0.0;         // m; contact offset where a collider gives none (0: the cloth material's)
+  double friction = -1.0;         // 1; kinetic coefficient for every collider (< 0: the collider's own)
+  double static_friction = -1.0;  // 1; static coefficient for every collider (< 0: the collider's own)
+  int passes = 3;                 // discrete passes per vertex per step (overlapping colliders)
+  bool continuous = true;         // the swept test of step 3
+  // Positions only (steps 1, 2 and 4's projection; no velocity change, no friction, no reactions, no swept
+  // test): a last pass after a constraint pass that may have moved vertices into a collider.
+  bool positions_only = false;
+};
+
+class RealtimeBodyContactStage final : public cloth::Stage {
+ public:
+  RealtimeBodyContactStage(ColliderSetPtr colliders, RealtimeContactSettings settings = {});
+  const char* name() const override {
+    return settings_.positions_only ? "realtime_contact_final" : "realtime_contact";
+  }
+  void run(cloth::StageContext& ctx) override;
+  // candidates (vertex-collider tests past the culling), contacts (responses), ccd_tests, ccd_hits,
+  // unresolved (vertices left inside a collider after the passes, summed over steps).
+  std::vector<std::pair<std::string, double>> counters() const override;
+  const ColliderSetPtr& colliders() const { return colliders_; }
+
+  // What one collider is this step (world data for the closed-form distances); public for the helpers.
+  struct Prepared {
+    Vec3 lo, hi;                    // m, world box over prev and curr, inflated by the thickness
+    Vec3 a0, b0, a1, b1;            // m, capsule axis ends (sphere: a = b = centre) at prev and curr
+    double radius = 0.0;            // m, sphere and capsule
+    double motion = 0.0;            // m, bound on any surface point's displacement over the step
+    double thickness = 0.0;         // m
+    double swept_threshold = 0.0;   // m, relative motion above which step 3 runs
+    double mu_s = 0.0, mu_k = 0.0;  // 1
+    bool active = false;            // the box meets the cloth's box
+  };
+
+ private:
+  void run_cloth(cloth::Cloth& cloth, double h);
+  double thickness(const Collider& c, double material_thickness) const;
+
+  ColliderSetPtr colliders_;
+  RealtimeContactSettings settings_;
+  std::vector<Prepared> prepared_;
+  std::vector<int> active_;  // scratch: indices of active colliders
+  std::vector<int> grid_start_, grid_items_,
+      grid_fill_;  // scratch: the per-step collider grid (counting sort)
+  long candidates_ = 0, contacts_ = 0, ccd_tests_ = 0, ccd_hits_ = 0, unresolved_ = 0;
+};
+
+}  // namespace loom::collision

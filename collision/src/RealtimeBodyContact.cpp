@@ -1,0 +1,312 @@
+#include "loom/collision/RealtimeBodyContact.h"
+
+#include <algorithm>
+#include <cmath>
+#include <limits>
+
+#include "loom/collision/ColliderDistance.h"
+#include "loom/collision/ColliderGeometry.h"
+#include "loom/collision/SweptCollider.h"
+
+namespace loom::collision {
+
+using cloth::ClothState;
+using Prepared = RealtimeBodyContactStage::Prepared;
+
+namespace {
+
+constexpr double kInf = std::numeric_limits<double>::infinity();
+constexpr int kMaxCandidates = 64;  // colliders tested per vertex
+constexpr int kPinchRounds = 8;     // rounds of the pinch exit
+constexpr double kGridCell = 0.1;   // m, target cell size of the per-step collider grid
+constexpr int kMaxGridDim = 32;     // cells per axis at most
+
+// Radius (m) of a sphere about the shape's origin that holds the whole shape (infinite for a plane).
+double bounding_radius(const Shape& s) {
+  switch (s.type) {
+    case ShapeType::plane:
+      return kInf;
+    case ShapeType::sphere:
+      return s.radius;
+    case ShapeType::capsule:
+      return s.half_height + s.radius;
+    case ShapeType::box:
+      return s.half_extents.norm();
+    case ShapeType::cylinder:
+      return std::hypot(s.radius, s.half_height);
+    default: {
+      double r = 0.0;
+      for (const Vec3& v : s.vertices) r = std::max(r, v.norm());
+      return r;
+    }
+  }
+}
+
+// Coulomb friction (Bridson et al. 2002, Sec. 7.2) on the velocity relative to the surface, `rel`, with
+// outward normal n: the tangential part after friction, the inward normal part standing for the impulse.
+Vec3 coulomb_tangent(const Vec3& rel, const Vec3& n, double mu_s, double mu_k) {
+  const double sn = rel.dot(n);
+  const Vec3 st = rel - sn * n;
+  const double len = st.norm(), push = std::max(0.0, -sn);
+  if (len <= mu_s * push) return Vec3::Zero();
+  return st * std::max(0.0, 1.0 - mu_k * push / len);
+}
+
+// Signed distance (m) from p to collider c at its step-end pose (end) or step-start pose, outward normal in
+// n. Plane, sphere and capsule in closed form on the prepared world data; the rest through
+// ColliderDistance.h.
+double distance(const Collider& c, const Prepared& pc, bool end, const Vec3& p, Vec3* n) {
+  switch (c.shape.type) {
+    case ShapeType::sphere:
+    case ShapeType::capsule: {
+      const Vec3& a = end ? pc.a1 : pc.a0;
+      const Vec3 ab = (end ? pc.b1 : pc.b0) - a;
+      const double len2 = ab.squaredNorm();
+      const double s = len2 > 0.0 ? std::clamp((p - a).dot(ab) / len2, 0.0, 1.0) : 0.0;
+      const Vec3 d = p - (a + s * ab);
+      const double l = d.norm();
+      if (l > 1e-12) {
+        *n = d / l;
+      } else {  // on the axis: any direction normal to it
+        const Transform& pose = end ? c.curr : c.prev;
+        *n = pose.linear().col(0);
+      }
+      return l - pc.radius;
+    }
+    case ShapeType::plane: {
+      const Transform& pose = end ? c.curr : c.prev;
+      *n = pose.linear().col(1);
+      return (p - pose.translation()).dot(*n);
+    }
+    default:
+      return signed_distance(c, end ? c.curr : c.prev, p, n);
+  }
+}
+
+bool inside(const Prepared& pc, const Vec3& x) {
+  return x.x() >= pc.lo.x() && x.x() <= pc.hi.x() && x.y() >= pc.lo.y() && x.y() <= pc.hi.y() &&
+         x.z() >= pc.lo.z() && x.z() <= pc.hi.z();
+}
+
+}  // namespace
+
+RealtimeBodyContactStage::RealtimeBodyContactStage(ColliderSetPtr colliders, RealtimeContactSettings settings)
+    : colliders_(std::move(colliders)), settings_(settings) {
+  if (!colliders_) colliders_ = std::make_shared<ColliderSet>();
+  settings_.passes = std::max(1, settings_.passes);
+}
+
+double RealtimeBodyContactStage::thickness(const Collider& c, double material_thickness) const {
+  if (c.thickness > 0.0) return c.thickness;
+  return settings_.thickness > 0.0 ? settings_.thickness : material_thickness;
+}
+
+std::vector<std::pair<std::string, double>> RealtimeBodyContactStage::counters() const {
+  return {{"candidates", static_cast<double>(candidates_)},
+          {"contacts", static_cast<double>(contacts_)},
+          {"ccd_tests", static_cast<double>(ccd_tests_)},
+          {"ccd_hits", static_cast<double>(ccd_hits_)},
+          {"unresolved", static_cast<double>(unresolved_)}};
+}
+
+void RealtimeBodyContactStage::run(cloth::StageContext& ctx) {
+  for (Collider& c : *colliders_) {
+    if (c.motion) c.prev = c.motion(ctx.t), c.curr = c.motion(ctx.t + ctx.h);
+    if (c.shape.type == ShapeType::convex || c.shape.type == ShapeType::mesh) prepare_collider(c);
+  }
+  for (auto& cl : ctx.cloths) run_cloth(*cl, ctx.h);
+}
+
+void RealtimeBodyContactStage::run_cloth(cloth::Cloth& cloth, double h) {
+  ColliderSet& set = *colliders_;
+  ClothState& s = cloth.state();
+  const int n = s.size();
+  if (n == 0 || set.empty()) return;
+  if (static_cast<int>(s.x_prev.size()) != n) s.x_prev = s.x;
+  // The cloth's box over the step (start and end positions).
+  Vec3 lo = Vec3::Constant(kInf), hi = Vec3::Constant(-kInf);
+  for (int i = 0; i < n; ++i) {
+    lo = lo.cwiseMin(s.x[i]).cwiseMin(s.x_prev[i]);
+    hi = hi.cwiseMax(s.x[i]).cwiseMax(s.x_prev[i]);
+  }
+  const double material_thickness = cloth.material().thickness;
+  prepared_.resize(set.size());
+  active_.clear();
+  for (size_t k = 0; k < set.size(); ++k) {
+    const Collider& c = set[k];
+    Prepared& pc = prepared_[k];
+    pc.thickness = thickness(c, material_thickness);
+    pc.mu_k = settings_.friction >= 0.0 ? settings_.friction : c.friction;
+    pc.mu_s =
+        std::max(pc.mu_k, settings_.static_friction >= 0.0 ? settings_.static_friction : c.static_friction);
+    const double extent = bounding_radius(c.shape);
+    const Vec3 c0 = c.prev.translation(), c1 = c.curr.translation();
+    const double theta = rotation_angle(c.prev, c.curr);
+    pc.motion = (c1 - c0).norm() + (theta > 0.0 ? theta * extent : 0.0);
+    if (c.shape.type == ShapeType::sphere || c.shape.type == ShapeType::capsule) {
+      const Vec3 axis = Vec3(0.0, c.shape.type == ShapeType::capsule ? c.shape.half_height : 0.0, 0.0);
+      pc.a0 = c.prev * (-axis), pc.b0 = c.prev * axis, pc.a1 = c.curr * (-axis), pc.b1 = c.curr * axis;
+      pc.radius = c.shape.radius;
+      const double r = pc.radius + pc.thickness;
+      pc.lo = pc.a0.cwiseMin(pc.b0).cwiseMin(pc.a1).cwiseMin(pc.b1) - Vec3::Constant(r);
+      pc.hi = pc.a0.cwiseMax(pc.b0).cwiseMax(pc.a1).cwiseMax(pc.b1) + Vec3::Constant(r);
+    } else if (std::isinf(extent)) {
+      pc.lo = Vec3::Constant(-kInf), pc.hi = Vec3::Constant(kInf);
+    } else {
+      const double r = extent + pc.thickness;
+      pc.lo = c0.cwiseMin(c1) - Vec3::Constant(r);
+      pc.hi = c0.cwiseMax(c1) + Vec3::Constant(r);
+    }
+    // A discrete test goes wrong only when the relative motion can carry a vertex past the collider's middle
+    // (the axis of a sphere or capsule, a box's smallest half extent); for other shapes, past the thickness.
+    switch (c.shape.type) {
+      case ShapeType::sphere:
+      case ShapeType::capsule:
+        pc.swept_threshold = std::max(pc.thickness, pc.radius);
+        break;
+      case ShapeType::box:
+        pc.swept_threshold = std::max(pc.thickness, c.shape.half_extents.minCoeff());
+        break;
+      default:
+        pc.swept_threshold = pc.thickness;
+    }
+    pc.active = (pc.lo.array() <= hi.array()).all() && (pc.hi.array() >= lo.array()).all();
+    if (pc.active) active_.push_back(static_cast<int>(k));
+  }
+  if (active_.empty()) return;
+
+  // A coarse grid over the cloth's box: each cell lists the active colliders whose box meets it, so a vertex
+  // tests the boxes of a few colliders (a character's neighbouring bones), not of all of them.
+  const Vec3 extent = (hi - lo).cwiseMax(Vec3::Constant(1e-9));
+  int dims[3];
+  for (int a = 0; a < 3; ++a) dims[a] = std::clamp(static_cast<int>(extent[a] / kGridCell), 1, kMaxGridDim);
+  const Vec3 inv_cell(dims[0] / extent.x(), dims[1] / extent.y(), dims[2] / extent.z());
+  auto cell_of = [&](const Vec3& p, int a) {
+    return std::clamp(static_cast<int>((p[a] - lo[a]) * inv_cell[a]), 0, dims[a] - 1);
+  };
+  const int num_cells = dims[0] * dims[1] * dims[2];
+  grid_start_.assign(num_cells + 1, 0);
+  for (int pass = 0; pass < 2; ++pass) {
+    if (pass == 1) {
+      for (int c = 0; c < num_cells; ++c) grid_start_[c + 1] += grid_start_[c];
+      grid_items_.resize(grid_start_[num_cells]);
+      grid_fill_.assign(grid_start_.begin(), grid_start_.end() - 1);
+    }
+    for (int k : active_) {
+      const Prepared& pc = prepared_[k];
+      const Vec3 blo = pc.lo.cwiseMax(lo), bhi = pc.hi.cwiseMin(hi);
+      for (int z = cell_of(blo, 2); z <= cell_of(bhi, 2); ++z)
+        for (int y = cell_of(blo, 1); y <= cell_of(bhi, 1); ++y)
+          for (int x = cell_of(blo, 0); x <= cell_of(bhi, 0); ++x) {
+            const int c = (z * dims[1] + y) * dims[0] + x;
+            if (pass == 0)
+              ++grid_start_[c + 1];
+            else
+              grid_items_[grid_fill_[c]++] = k;
+          }
+    }
+  }
+  auto cell_index = [&](const Vec3& p) {
+    return (cell_of(p, 2) * dims[1] + cell_of(p, 1)) * dims[0] + cell_of(p, 0);
+  };
+
+  int cand[kMaxCandidates];
+  for (int i = 0; i < n; ++i) {
+    const double m = s.mass[i];
+    if (!(s.inv_mass[i] > 0.0)) continue;
+    Vec3 x = s.x[i];
+    const Vec3 x0 = s.x_prev[i];
+    int nc = 0;
+    const int c1 = cell_index(x), c0 = cell_index(x0);
+    for (int it = grid_start_[c1]; it < grid_start_[c1 + 1]; ++it) {
+      const int k = grid_items_[it];
+      if (nc < kMaxCandidates && (inside(prepared_[k], x) || inside(prepared_[k], x0))) cand[nc++] = k;
+    }
+    if (c0 != c1)  // the start's cell: colliders not met at the end
+      for (int it = grid_start_[c0]; it < grid_start_[c0 + 1]; ++it) {
+        const int k = grid_items_[it];
+        if (nc < kMaxCandidates && std::find(cand, cand + nc, k) == cand + nc &&
+            (inside(prepared_[k], x) || inside(prepared_[k], x0)))
+          cand[nc++] = k;
+      }
+    if (nc == 0) continue;
+    candidates_ += nc;
+    Vec3 v = s.v[i];
+    const double step = (x - x0).norm();
+    Vec3 nrm;
+    // Step 3: the swept test, only where the motion relative to the collider exceeds its thickness and the
+    // vertex started outside within reach.
+    if (settings_.continuous && !settings_.positions_only)
+      for (int q = 0; q < nc; ++q) {
+        const Collider& c = set[cand[q]];
+        const Prepared& pc = prepared_[cand[q]];
+        const double reach = step + pc.motion;
+        if (reach <= pc.swept_threshold) continue;
+        const double d0 = distance(c, pc, false, x0, &nrm);
+        if (d0 <= 0.0 || d0 > reach + pc.thickness) continue;
+        ++ccd_tests_;
+        const SweptHit hit = swept_point(c, x0, x, 0.5 * pc.thickness);
+        if (!hit.hit) continue;
+        ++ccd_hits_;
+        x = c.curr * hit.local;  // carried with the body from the contact to the step's end
+        break;
+      }
+    // Step 4: discrete projection and the velocity response.
+    bool moved = true;
+    for (int pass = 0; pass < settings_.passes && moved; ++pass) {
+      moved = false;
+      for (int q = 0; q < nc; ++q) {
+        Collider& c = set[cand[q]];
+        const Prepared& pc = prepared_[cand[q]];
+        const double d = distance(c, pc, true, x, &nrm);
+        if (d >= pc.thickness) continue;
+        const double push = pc.thickness - d;
+        x += push * nrm;
+        moved = true;
+        ++contacts_;
+        if (settings_.positions_only) continue;
+        // Position-level Coulomb friction on the step's motion relative to the surface, the push standing for
+        // the normal impulse (Macklin et al. 2014, "Unified particle physics for real-time applications",
+        // Sec. 6.1): the tangential slip is undone when within μ_s of the push, else shortened by μ_k of it.
+        const Vec3 rel = (x - x0) - (c.curr * (c.prev.inverse() * x0) - x0);
+        const Vec3 slip = rel - rel.dot(nrm) * nrm;
+        const double len = slip.norm();
+        if (len > 0.0) x -= len <= pc.mu_s * push ? slip : Vec3(slip * std::min(1.0, pc.mu_k * push / len));
+        const Vec3 vs = surface_velocity(c.prev, c.curr, h, x);
+        const Vec3 vr = v - vs;
+        if (vr.dot(nrm) >= 0.0) continue;  // separating: position only
+        const Vec3 v_new = vs + coulomb_tangent(vr, nrm, pc.mu_s, pc.mu_k);
+        // Step 5: the reaction on the collider.
+        const Vec3 impulse = m * (v_new - v);
+        c.reaction_impulse -= impulse;
+        c.reaction_angular_impulse -= (x - c.curr.translation()).cross(impulse);
+        v = v_new;
+      }
+    }
+    // A pinch (the passes push the vertex from one collider into another, e.g. an arm pressed against the
+    // torso): move it along the sum of the normals of the colliders it is inside, by the deepest depth,
+    // until it is outside all of them (a few rounds); what remains is counted.
+    for (int round = 0; moved && round < kPinchRounds; ++round) {
+      Vec3 sum = Vec3::Zero();
+      double deepest = 0.0;
+      for (int q = 0; q < nc; ++q) {
+        const double d = distance(set[cand[q]], prepared_[cand[q]], true, x, &nrm);
+        if (d < 0.0) sum += nrm, deepest = std::max(deepest, -d + prepared_[cand[q]].thickness);
+      }
+      if (deepest == 0.0) break;
+      const double len = sum.norm();
+      if (!(len > 1e-12)) break;
+      x += deepest * (sum / len);
+    }
+    if (moved)
+      for (int q = 0; q < nc; ++q)
+        if (distance(set[cand[q]], prepared_[cand[q]], true, x, &nrm) < 0.0) {
+          ++unresolved_;
+          break;
+        }
+    s.x[i] = x;
+    s.v[i] = v;
+  }
+}
+
+}  // namespace loom::collision

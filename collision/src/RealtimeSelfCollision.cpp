@@ -1,0 +1,212 @@
+#include "loom/collision/RealtimeSelfCollision.h"
+
+#include <algorithm>
+#include <cmath>
+
+namespace loom::collision {
+
+using cloth::Vec3;
+using cloth::Vec3s;
+
+namespace {
+
+// Barycentric weights (u, v, w) of p's projection onto the plane of (a, b, c), Ericson 2005, "Real-Time
+// Collision Detection", Sec. 3.4; false for a degenerate triangle.
+bool barycentric(const Vec3& a, const Vec3& b, const Vec3& c, const Vec3& p, double bw[3]) {
+  const Vec3 e0 = b - a, e1 = c - a, e2 = p - a;
+  const double d00 = e0.dot(e0), d01 = e0.dot(e1), d11 = e1.dot(e1), d20 = e2.dot(e0), d21 = e2.dot(e1);
+  const double den = d00 * d11 - d01 * d01;
+  if (!(den > 1e-30)) return false;
+  bw[1] = (d11 * d20 - d01 * d21) / den;
+  bw[2] = (d00 * d21 - d01 * d20) / den;
+  bw[0] = 1.0 - bw[1] - bw[2];
+  return true;
+}
+
+constexpr double kInsideTolerance =
+    0.02;  // 1, barycentric slack: a vertex over a shared edge sees both faces
+
+bool inside_triangle(const double bw[3]) {
+  return bw[0] >= -kInsideTolerance && bw[1] >= -kInsideTolerance && bw[2] >= -kInsideTolerance;
+}
+
+}  // namespace
+
+RealtimeSelfCollisionStage::RealtimeSelfCollisionStage(RealtimeSelfSettings settings) : settings_(settings) {
+  settings_.every = std::max(1, settings_.every);
+}
+
+std::vector<std::pair<std::string, double>> RealtimeSelfCollisionStage::counters() const {
+  return {{"runs", static_cast<double>(runs_)},
+          {"pairs", static_cast<double>(pairs_)},
+          {"contacts", static_cast<double>(contacts_)}};
+}
+
+void RealtimeSelfCollisionStage::save_state(cloth::StateWriter& out) const {
+  out.tag("realtime_self_collision");
+  out.i64(step_);
+  out.vec3s(last_);
+}
+
+void RealtimeSelfCollisionStage::load_state(cloth::StateReader& in) {
+  in.tag("realtime_self_collision");
+  step_ = in.i64();
+  last_ = in.vec3s();
+}
+
+long RealtimeSelfCollisionStage::cell_key(int x, int y, int z) const {
+  // Teschner et al. 2003: (x p1 xor y p2 xor z p3) mod table size.
+  const unsigned long h = (static_cast<unsigned long>(x) * 73856093ul) ^
+                          (static_cast<unsigned long>(y) * 19349663ul) ^
+                          (static_cast<unsigned long>(z) * 83492791ul);
+  return static_cast<long>(h & static_cast<unsigned long>(bucket_start_.size() - 2));
+}
+
+void RealtimeSelfCollisionStage::prepare(const std::vector<std::unique_ptr<cloth::Cloth>>& cloths) {
+  offset_.assign(1, 0);
+  tri_.clear(), tri_cloth_.clear(), vert_cloth_.clear(), rest_.clear();
+  double edge_sum = 0.0;
+  long edge_count = 0;
+  for (size_t c = 0; c < cloths.size(); ++c) {
+    const cloth::ClothMesh& mesh = cloths[c]->mesh();
+    const int base = offset_.back();
+    for (const cloth::Tri& t : mesh.triangles()) {
+      tri_.push_back({t[0] + base, t[1] + base, t[2] + base});
+      tri_cloth_.push_back(static_cast<int>(c));
+      for (int k = 0; k < 3; ++k) {
+        edge_sum += (mesh.rest_positions()[t[k]] - mesh.rest_positions()[t[(k + 1) % 3]]).norm();
+        ++edge_count;
+      }
+    }
+    for (int i = 0; i < mesh.num_vertices(); ++i) {
+      vert_cloth_.push_back(static_cast<int>(c));
+      rest_.push_back(mesh.rest_positions()[i]);
+    }
+    offset_.push_back(base + mesh.num_vertices());
+  }
+  cell_ = std::max(2.0 * (edge_count > 0 ? edge_sum / edge_count : 0.05), 4.0 * settings_.thickness);
+  // A power-of-two table with about eight slots per triangle (plus one end entry).
+  size_t size = 1;
+  while (size < 8 * tri_.size() + 8) size *= 2;
+  bucket_start_.assign(size + 1, 0);
+  tri_range_.resize(tri_.size());
+  last_.clear();
+  for (const auto& cl : cloths) last_.insert(last_.end(), cl->state().x.begin(), cl->state().x.end());
+  prepared_ = true;
+}
+
+void RealtimeSelfCollisionStage::run(cloth::StageContext& ctx) {
+  if (!prepared_ || offset_.size() != ctx.cloths.size() + 1) prepare(ctx.cloths);
+  if (step_++ % settings_.every != 0) return;
+  ++runs_;
+  const int nc = static_cast<int>(ctx.cloths.size());
+  const int n = offset_.back();
+  // Global views of the cloths' state.
+  std::vector<Vec3*>& xs = xs_;
+  std::vector<Vec3*>& vs = vs_;
+  std::vector<double>& w = w_;
+  xs.resize(n), vs.resize(n), w.resize(n);
+  for (int c = 0; c < nc; ++c) {
+    cloth::ClothState& s = ctx.cloths[c]->state();
+    for (int i = 0; i < s.size(); ++i)
+      xs[offset_[c] + i] = &s.x[i], vs[offset_[c] + i] = &s.v[i], w[offset_[c] + i] = s.inv_mass[i];
+  }
+  const double t_between = settings_.thickness, t_self = settings_.self_fraction * settings_.thickness;
+  const double t = t_between, inv_cell = 1.0 / cell_;
+  const long table = static_cast<long>(bucket_start_.size()) - 1;
+  auto cell_of = [&](double v) { return static_cast<int>(std::floor(v * inv_cell)); };
+  // Step 1: counting sort of the triangles' cells into the table.
+  std::fill(bucket_start_.begin(), bucket_start_.end(), 0);
+  const int nt = static_cast<int>(tri_.size());
+  tri_lo_.resize(nt), tri_hi_.resize(nt), tri_n_.resize(nt);
+  for (int q = 0; q < nt; ++q) {
+    const Vec3 &a = *xs[tri_[q][0]], &b = *xs[tri_[q][1]], &c = *xs[tri_[q][2]];
+    const Vec3 lo = a.cwiseMin(b).cwiseMin(c) - Vec3::Constant(t),
+               hi = a.cwiseMax(b).cwiseMax(c) + Vec3::Constant(t);
+    tri_lo_[q] = lo, tri_hi_[q] = hi;
+    const Vec3 nq = (b - a).cross(c - a);
+    const double len = nq.norm();
+    tri_n_[q] = len > 1e-20 ? Vec3(nq / len) : Vec3::Zero();
+    auto& r = tri_range_[q];
+    for (int k = 0; k < 3; ++k) r[k] = cell_of(lo[k]), r[k + 3] = cell_of(hi[k]);
+    for (int x = r[0]; x <= r[3]; ++x)
+      for (int y = r[1]; y <= r[4]; ++y)
+        for (int z = r[2]; z <= r[5]; ++z) ++bucket_start_[cell_key(x, y, z) + 1];
+  }
+  for (long k = 0; k < table; ++k) bucket_start_[k + 1] += bucket_start_[k];
+  bucket_items_.resize(bucket_start_[table]);
+  std::vector<int>& fill = fill_;
+  fill.assign(bucket_start_.begin(), bucket_start_.end() - 1);
+  for (int q = 0; q < nt; ++q) {
+    const auto& r = tri_range_[q];
+    for (int x = r[0]; x <= r[3]; ++x)
+      for (int y = r[1]; y <= r[4]; ++y)
+        for (int z = r[2]; z <= r[5]; ++z) bucket_items_[fill[cell_key(x, y, z)]++] = q;
+  }
+  // Step 2: vertex against the triangles of its cell, in vertex order.
+  for (int g = 0; g < n; ++g) {
+    Vec3& p = *xs[g];
+    const long key = cell_key(cell_of(p.x()), cell_of(p.y()), cell_of(p.z()));
+    for (int it = bucket_start_[key]; it < bucket_start_[key + 1]; ++it) {
+      const int q = bucket_items_[it];
+      const Vec3 &lo = tri_lo_[q], &hi = tri_hi_[q];
+      if (p.x() < lo.x() || p.x() > hi.x() || p.y() < lo.y() || p.y() > hi.y() || p.z() < lo.z() ||
+          p.z() > hi.z())
+        continue;
+      const auto& tri = tri_[q];
+      if (tri[0] == g || tri[1] == g || tri[2] == g) continue;
+      const bool same = tri_cloth_[q] == vert_cloth_[g];
+      if (same && !settings_.self) continue;
+      const double t = same ? t_self : t_between;
+      const double wv = w[g], wa = w[tri[0]], wb = w[tri[1]], wc = w[tri[2]];
+      if (wv + wa + wb + wc == 0.0) continue;
+      Vec3 &a = *xs[tri[0]], &b = *xs[tri[1]], &c = *xs[tri[2]];
+      // The normal at the run's start positions (this run's earlier projections move a triangle by at most
+      // the thickness, a small tilt for a triangle many thicknesses wide).
+      const Vec3& nrm = tri_n_[q];
+      const double sd = (p - a).dot(nrm);
+      if (!(std::abs(sd) < 3.0 * t)) continue;  // a degenerate triangle (normal 0) fails barycentric()
+      ++pairs_;
+      double bw[3];
+      if (!barycentric(a, b, c, p, bw) || !inside_triangle(bw)) continue;
+      // The side at the previous run (its own normal), the current one when the vertex lay in the plane.
+      const Vec3 &la = last_[tri[0]], &lb = last_[tri[1]], &lc = last_[tri[2]];
+      const double sd_last = (last_[g] - la).dot((lb - la).cross(lc - la));
+      const double side = sd_last > 0.0 ? 1.0 : sd_last < 0.0 ? -1.0 : (sd >= 0.0 ? 1.0 : -1.0);
+      const double gap = side * sd;
+      if (gap >= t) continue;
+      if (same) {  // neighbours on the rest shape are not contacts
+        const Vec3 &ra = rest_[tri[0]], &rb = rest_[tri[1]], &rc = rest_[tri[2]];
+        const Vec3 rn = (rb - ra).cross(rc - ra).normalized();
+        double rbw[3];
+        if (std::abs((rest_[g] - ra).dot(rn)) < 2.0 * t && barycentric(ra, rb, rc, rest_[g], rbw) &&
+            inside_triangle(rbw))
+          continue;
+      }
+      // PBD projection of C = side (p - Σ b_k x_k)·n - t >= 0 (gradient side n on p, -side b_k n on x_k).
+      const double denom = wv + bw[0] * bw[0] * wa + bw[1] * bw[1] * wb + bw[2] * bw[2] * wc;
+      if (!(denom > 0.0)) continue;
+      const Vec3 dir = side * nrm;
+      const double lambda = (t - gap) / denom;
+      p += (wv * lambda) * dir;
+      a -= (wa * bw[0] * lambda) * dir;
+      b -= (wb * bw[1] * lambda) * dir;
+      c -= (wc * bw[2] * lambda) * dir;
+      // The approaching normal velocity, removed with the same weights.
+      Vec3 &vp = *vs[g], &va = *vs[tri[0]], &vb = *vs[tri[1]], &vc = *vs[tri[2]];
+      const double vn = (vp - bw[0] * va - bw[1] * vb - bw[2] * vc).dot(dir);
+      if (vn < 0.0) {
+        const double mu = -vn / denom;
+        vp += (wv * mu) * dir;
+        va -= (wa * bw[0] * mu) * dir;
+        vb -= (wb * bw[1] * mu) * dir;
+        vc -= (wc * bw[2] * mu) * dir;
+      }
+      ++contacts_;
+    }
+  }
+  // Step 3: the sides of the next run.
+  for (int g = 0; g < n; ++g) last_[g] = *xs[g];
+}
+
+}  // namespace loom::collision

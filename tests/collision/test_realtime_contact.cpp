@@ -1,0 +1,184 @@
+// RealtimeBodyContactStage (the real-time tier's body contact): no vertex ends a step inside a collider, a
+// fast capsule does not tunnel through a sheet, friction holds and slides by Coulomb's law, the reaction on
+// the collider is minus the cloth's momentum change, and the culling never drops a contact.
+#include <gtest/gtest.h>
+
+#include <cmath>
+#include <functional>
+#include <string>
+
+#include "loom/cloth/Simulation.h"
+#include "loom/collision/BodyCollisionStage.h"
+#include "loom/collision/ColliderDistance.h"
+#include "loom/collision/RealtimeBodyContact.h"
+
+namespace loom::collision {
+namespace {
+
+using cloth::Simulation;
+using cloth::SimulationSetup;
+
+// A stage that runs a check after every step (appended after body_collision).
+class CheckStage final : public cloth::Stage {
+ public:
+  explicit CheckStage(std::function<void(cloth::StageContext&)> f) : f_(std::move(f)) {}
+  const char* name() const override { return "check"; }
+  void run(cloth::StageContext& ctx) override { f_(ctx); }
+
+ private:
+  std::function<void(cloth::StageContext&)> f_;
+};
+
+cloth::ClothSetup sheet(int n, double size, cloth::GridPlane plane, const Vec3& origin) {
+  cloth::ClothSetup c;
+  cloth::GridSpec g;
+  g.nodes_u = g.nodes_v = n;
+  g.size_u = g.size_v = size;
+  g.plane = plane;
+  g.origin = origin;
+  c.mesh = cloth::ClothMesh::grid(g);
+  c.material = cloth::material_preset("cotton");
+  c.material.areal_density = 0.2;
+  return c;
+}
+
+Collider shape(ShapeType type, double radius = 0, double half_height = 0, Vec3 he = Vec3::Zero()) {
+  Collider c;
+  c.shape.type = type;
+  c.shape.radius = radius;
+  c.shape.half_height = half_height;
+  c.shape.half_extents = he;
+  return c;
+}
+
+Transform at(const Vec3& p, double angle_z = 0.0) {
+  Transform t = Transform::Identity();
+  t.linear() = Eigen::AngleAxisd(angle_z, Vec3::UnitZ()).toRotationMatrix();
+  t.translation() = p;
+  return t;
+}
+
+// Worst (most negative) signed distance minus thickness over free vertices; fails the test on NaN.
+double worst_gap(const cloth::ClothState& s, const ColliderSet& set, double thickness) {
+  double worst = HUGE_VAL;
+  for (int i = 0; i < s.size(); ++i) {
+    EXPECT_TRUE(s.x[i].allFinite());
+    if (s.inv_mass[i] == 0.0) continue;
+    for (const Collider& c : set)
+      worst = std::min(worst, signed_distance(c, c.curr, s.x[i], nullptr) - thickness);
+  }
+  return worst;
+}
+
+// The real-time set-up: fast_xpbd, one iteration, `substeps` per 60 Hz frame.
+SimulationSetup realtime(cloth::ClothSetup c, int substeps) {
+  SimulationSetup s;
+  s.cloths.push_back(std::move(c));
+  s.solver.method = "fast_xpbd";
+  s.substeps = substeps;
+  return s;
+}
+
+TEST(RealtimeContact, ASheetDrapedOverCapsulesAndASphereEndsEveryStepOutsideThem) {
+  // A 1 m sheet dropped on two crossed capsules and a sphere: every free vertex ends every step at least the
+  // thickness outside every collider (the postcondition; nothing is pinched between them here).
+  SimulationSetup s = realtime(sheet(21, 1.0, cloth::GridPlane::kXZ, Vec3(-0.5, 0.6, -0.5)), 12);
+  Simulation sim(s);
+  auto set = std::make_shared<ColliderSet>();
+  set->push_back(shape(ShapeType::capsule, 0.08, 0.3));
+  set->back().prev = set->back().curr = at(Vec3(0, 0.3, 0), M_PI / 2);
+  set->push_back(shape(ShapeType::capsule, 0.06, 0.3));
+  set->back().prev = set->back().curr = at(Vec3(0, 0.25, 0.2), 0.3);
+  set->push_back(shape(ShapeType::sphere, 0.15));
+  set->back().prev = set->back().curr = at(Vec3(0.3, 0.2, -0.2));
+  auto stage = std::make_unique<RealtimeBodyContactStage>(set);
+  const RealtimeBodyContactStage* rt = stage.get();
+  sim.add_stage(std::move(stage));
+  const double thickness = sim.cloths()[0]->material().thickness;
+  sim.add_stage(std::make_unique<CheckStage>([&](cloth::StageContext& ctx) {
+    EXPECT_GT(worst_gap(ctx.cloths[0]->state(), *set, thickness), -1e-9) << "t=" << ctx.t;
+  }));
+  for (int f = 0; f < 60; ++f) ASSERT_TRUE(sim.step_frame().finite);
+  double contacts = 0.0;
+  for (const auto& kv : rt->counters())
+    if (kv.first == "contacts") contacts = kv.second;
+  EXPECT_GT(contacts, 1000.0);  // it draped
+}
+
+TEST(RealtimeContact, CullingDropsNoContact) {
+  // 30 small spheres under a falling sheet: the culling (cloth box, collider grid, collider boxes) must not
+  // drop a contact, so after every step every vertex is outside every sphere by the brute-force distance.
+  SimulationSetup s = realtime(sheet(17, 1.0, cloth::GridPlane::kXZ, Vec3(-0.5, 0.4, -0.5)), 8);
+  Simulation sim(s);
+  auto set = std::make_shared<ColliderSet>();
+  for (int k = 0; k < 30; ++k) {
+    set->push_back(shape(ShapeType::sphere, 0.05 + 0.01 * (k % 3)));
+    set->back().prev = set->back().curr = at(Vec3(-0.45 + 0.03 * k, 0.2 + 0.004 * k, -0.4 + 0.027 * k));
+  }
+  sim.add_stage(std::make_unique<RealtimeBodyContactStage>(set));
+  const double thickness = sim.cloths()[0]->material().thickness;
+  long steps = 0;
+  sim.add_stage(std::make_unique<CheckStage>([&](cloth::StageContext& ctx) {
+    ++steps;
+    EXPECT_GT(worst_gap(ctx.cloths[0]->state(), *set, thickness), -1e-9) << "t=" << ctx.t;
+  }));
+  for (int f = 0; f < 30; ++f) ASSERT_TRUE(sim.step_frame().finite);
+  EXPECT_EQ(steps, 30 * 8);
+}
+
+TEST(RealtimeContact, CapsuleAt20MetresPerSecondDoesNotTunnel) {
+  // A capsule (radius 4 cm, wider than the 5 cm vertex spacing's gaps) shot at 20 m/s through a hanging
+  // sheet at 12 substeps: it moves 2.8 cm per substep, most of its radius, so the swept test acts. The
+  // sheet's middle is carried along, and no vertex ends a step inside the capsule.
+  cloth::ClothSetup c = sheet(13, 0.6, cloth::GridPlane::kXY, Vec3(-0.3, 0.7, 0.0));
+  for (int i = 0; i < 13; ++i) c.pins.push_back({c.mesh->grid_index(i, 12), {}, {}, {}});
+  SimulationSetup s = realtime(c, 12);
+  Simulation sim(s);
+  auto set = std::make_shared<ColliderSet>(1, shape(ShapeType::capsule, 0.04, 0.15));
+  const double speed = 20.0, z_start = -0.3;
+  (*set)[0].motion = [&](double t) { return at(Vec3(0.01, 0.9, z_start + speed * t), M_PI / 2); };
+  sim.add_stage(std::make_unique<RealtimeBodyContactStage>(set));
+  double carried = 0.0;
+  sim.add_stage(std::make_unique<CheckStage>([&](cloth::StageContext& ctx) {
+    const auto& st = ctx.cloths[0]->state();
+    carried = std::max(carried, st.x[6 * 13 + 6].z());
+    EXPECT_GT(worst_gap(st, *set, 0.0), -1e-9) << "t=" << ctx.t;
+  }));
+  for (int f = 0; f < 3; ++f) ASSERT_TRUE(sim.step_frame().finite);
+  EXPECT_GT(carried, 0.3);
+}
+
+TEST(RealtimeContact, FrictionSticksBelowStaticLimitAndSlidesAbove) {
+  // A small sheet on the plane y = 0 under gravity tilted by theta: it stays (tan theta < mu_s = 0.4) or
+  // slides (tan theta > mu_s), as Coulomb's law says.
+  auto slide = [](double theta) {
+    SimulationSetup s = realtime(sheet(3, 0.1, cloth::GridPlane::kXZ, Vec3(0, 0.002, 0)), 8);
+    s.gravity = Vec3(9.81 * std::sin(theta), -9.81 * std::cos(theta), 0.0);
+    Simulation sim(s);
+    auto set = std::make_shared<ColliderSet>(1, shape(ShapeType::plane));
+    (*set)[0].friction = 0.3, (*set)[0].static_friction = 0.4;
+    sim.add_stage(std::make_unique<RealtimeBodyContactStage>(set));
+    const double x0 = sim.cloths()[0]->state().x[0].x();
+    for (int f = 0; f < 30; ++f) sim.step_frame();
+    return sim.cloths()[0]->state().x[0].x() - x0;
+  };
+  EXPECT_LT(std::abs(slide(std::atan(0.3))), 1e-3);
+  // Sliding at tan 0.6 with kinetic 0.3: a = g (sin - 0.3 cos) = 2.52 m/s², 0.5 s: about 0.31 m.
+  EXPECT_GT(slide(std::atan(0.6)), 0.2);
+}
+
+TEST(RealtimeContact, ReactionIsMinusTheClothMomentumChange) {
+  // A sheet falling onto a sphere: the sum of the reactions on the sphere is minus the momentum the contacts
+  // gave the cloth, so it points down (the cloth is stopped from falling).
+  SimulationSetup s = realtime(sheet(9, 0.3, cloth::GridPlane::kXZ, Vec3(-0.15, 0.25, -0.15)), 8);
+  s.cloths[0].initial_velocity = Vec3(0, -1.0, 0);
+  Simulation sim(s);
+  auto set = std::make_shared<ColliderSet>(1, shape(ShapeType::sphere, 0.2));
+  sim.add_stage(std::make_unique<RealtimeBodyContactStage>(set));
+  for (int f = 0; f < 10; ++f) sim.step_frame();
+  EXPECT_LT((*set)[0].reaction_impulse.y(), -1e-3);
+  EXPECT_LT(std::abs((*set)[0].reaction_impulse.x()), 0.1 * std::abs((*set)[0].reaction_impulse.y()));
+}
+
+}  // namespace
+}  // namespace loom::collision
