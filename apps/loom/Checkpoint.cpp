@@ -83,7 +83,8 @@ InputFile fingerprint(const std::string& path) {
 std::string kept_stats_rows(const fs::path& out, int frame) {
   const fs::path partial = out / "stats.csv.partial", done = out / "stats.csv";
   const fs::path from = fs::exists(partial) ? partial : done;
-  if (!fs::exists(from)) throw Error(done.string(), "--resume", "missing: the run's stats are needed to resume");
+  if (!fs::exists(from))
+    throw Error(done.string(), "--resume", "missing: the run's stats are needed to resume");
   std::istringstream in(read_text_file(from.string()));
   std::string line, rows;
   std::getline(in, line);  // header

@@ -38,22 +38,22 @@ struct InputFile {
 InputFile fingerprint(const std::string& path);
 
 struct Checkpoint {
-  std::string scene;                // absolute scene path of the run
-  std::string scene_text;           // the scene file's text then: resuming a changed scene is an error
-  std::vector<std::string> sets;    // --set overrides
-  std::uint64_t run_id = 0;         // the output folder's (OutputFolder::run_id)
-  std::vector<InputFile> inputs;    // every file the scene read
-  int frames_total = 0;             // frames the run was asked for
+  std::string scene;              // absolute scene path of the run
+  std::string scene_text;         // the scene file's text then: resuming a changed scene is an error
+  std::vector<std::string> sets;  // --set overrides
+  std::uint64_t run_id = 0;       // the output folder's (OutputFolder::run_id)
+  std::vector<InputFile> inputs;  // every file the scene read
+  int frames_total = 0;           // frames the run was asked for
   int threads = 1;
   int checkpoint_every = 0;
   bool render = false;
-  int frame = 0;                    // frames done when written
-  double max_strain = 0.0;          // 1, run totals so far (summary.json)
-  double mean_strain_sum = 0.0;     // 1, sum of per-frame mean strains
-  double sim_ms = 0.0;              // ms of pipeline time so far
-  long logged_frames = 0;           // entries of frames.bin that belong to frames <= frame
-  std::uint64_t log_hash = 0;       // FNV-1a 64 of those entries' bytes
-  std::string state;                // cloth::Simulation state archive
+  int frame = 0;                 // frames done when written
+  double max_strain = 0.0;       // 1, run totals so far (summary.json)
+  double mean_strain_sum = 0.0;  // 1, sum of per-frame mean strains
+  double sim_ms = 0.0;           // ms of pipeline time so far
+  long logged_frames = 0;        // entries of frames.bin that belong to frames <= frame
+  std::uint64_t log_hash = 0;    // FNV-1a 64 of those entries' bytes
+  std::string state;             // cloth::Simulation state archive
 };
 
 // The bytes of a checkpoint file, and back (errors name `source` and the problem; any input either decodes

@@ -11,8 +11,8 @@
 #include <string>
 
 #include "loom/cloth/Error.h"
-#include "loom/eval/FabricTests.h"
 #include "loom/cloth/Model.h"
+#include "loom/eval/FabricTests.h"
 
 namespace fs = std::filesystem;
 
@@ -70,12 +70,14 @@ void write_report(const fs::path& dir, const eval::FabricTestResult& r) {
   std::ofstream md(dir / "report.md");
   md << "# Fabric test: " << r.test << "\n\n"
      << "| | |\n|---|---|\n"
-     << "| material | " << r.material << " |\n| model | " << r.model << " |\n| resolution | " << r.resolution << " |\n"
+     << "| material | " << r.material << " |\n| model | " << r.model << " |\n| resolution | " << r.resolution
+     << " |\n"
      << "| " << r.quantity << " measured | " << r.measured << " " << r.unit << " |\n"
      << "| theory | " << r.theory << " " << r.unit << " |\n| error | " << r.error << " " << r.unit << " |\n";
   for (const auto& [k, v] : r.fields) md << "| " << k << " | " << v << " |\n";
-  md << "| solver | " << r.solver << " |\n| settle frames | " << r.settle_frames << (r.settled ? " (settled)" : " (not settled)")
-     << " |\n| wall time | " << r.seconds << " s |\n| CPU time | " << r.cpu_seconds << " s |\n\n";
+  md << "| solver | " << r.solver << " |\n| settle frames | " << r.settle_frames
+     << (r.settled ? " (settled)" : " (not settled)") << " |\n| wall time | " << r.seconds
+     << " s |\n| CPU time | " << r.cpu_seconds << " s |\n\n";
   // The plot, through gnuplot when it is installed.
   const std::string gp = (dir / "plot.gp").string();
   {
@@ -84,8 +86,10 @@ void write_report(const fs::path& dir, const eval::FabricTestResult& r) {
     g << "set terminal pngcairo size 640,480 noenhanced\nset output '" << (dir / "plot.png").string() << "'\n"
       << "set datafile separator ','\nset key bottom left\nset grid\n"
       << "set title '" << r.test << ": " << r.material << ", " << r.model << "'\n"
-      << (shape ? "set size ratio -1\nset xlabel 'x'\nset ylabel 'y'\n" : "set xlabel 'extension (%)'\nset ylabel 'load (gf/cm)'\n")
-      << "plot '" << (dir / "curve.csv").string() << "' using ($1 eq 'simulated' ? $2 : 1/0):3 with linespoints title 'simulated', \\\n"
+      << (shape ? "set size ratio -1\nset xlabel 'x'\nset ylabel 'y'\n"
+                : "set xlabel 'extension (%)'\nset ylabel 'load (gf/cm)'\n")
+      << "plot '" << (dir / "curve.csv").string()
+      << "' using ($1 eq 'simulated' ? $2 : 1/0):3 with linespoints title 'simulated', \\\n"
       << "     '' using ($1 eq 'theory' ? $2 : 1/0):3 with lines lw 2 title 'theory'\n";
   }
   // Column 1 is a string: compare with strcol.
@@ -202,14 +206,16 @@ int fabric_test_main(int argc, char** argv) {
     std::cout << j.dump() << "\n";
   } else {
     if (std::isfinite(r.theory))
-      std::printf("%s (%s, %s, resolution %d)\n  %s: measured %.6g %s, theory %.6g %s, error %+.4g %s\n", r.test.c_str(),
-                  r.material.c_str(), r.model.c_str(), r.resolution, r.quantity.c_str(), r.measured, r.unit.c_str(),
-                  r.theory, r.unit.c_str(), r.error, r.unit.c_str());
+      std::printf("%s (%s, %s, resolution %d)\n  %s: measured %.6g %s, theory %.6g %s, error %+.4g %s\n",
+                  r.test.c_str(), r.material.c_str(), r.model.c_str(), r.resolution, r.quantity.c_str(),
+                  r.measured, r.unit.c_str(), r.theory, r.unit.c_str(), r.error, r.unit.c_str());
     else
       std::printf("%s (%s, %s, resolution %d)\n  %s: measured %.6g %s (no theory value)\n", r.test.c_str(),
-                  r.material.c_str(), r.model.c_str(), r.resolution, r.quantity.c_str(), r.measured, r.unit.c_str());
+                  r.material.c_str(), r.model.c_str(), r.resolution, r.quantity.c_str(), r.measured,
+                  r.unit.c_str());
     for (const auto& [k, v] : r.fields) std::printf("  %s = %.6g\n", k.c_str(), v);
-    std::printf("  solver %s: %d frames, %s\n", r.solver.c_str(), r.settle_frames, r.settled ? "settled" : "NOT settled");
+    std::printf("  solver %s: %d frames, %s\n", r.solver.c_str(), r.settle_frames,
+                r.settled ? "settled" : "NOT settled");
     std::printf("  wall time %.2f s, CPU time %.2f s\n", r.seconds, r.cpu_seconds);
   }
   return 0;

@@ -11,10 +11,10 @@
 #include <string>
 #include <vector>
 
-#include "loom/eval/AccuracyPlot.h"
 #include "loom/collision/MultiClothCensus.h"
-#include "loom/scene/ScenePipeline.h"
+#include "loom/eval/AccuracyPlot.h"
 #include "loom/scene/Scene.h"
+#include "loom/scene/ScenePipeline.h"
 #ifdef LOOM_HAVE_CHARACTER_COMPARE
 #include "CompareCharacter.h"
 #include "loom/bullet/CharacterCompare.h"
@@ -22,8 +22,8 @@
 
 namespace loom::app {
 
-using eval::PlotPoint;
 using eval::plot_accuracy;
+using eval::PlotPoint;
 
 namespace {
 

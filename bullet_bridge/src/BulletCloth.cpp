@@ -8,10 +8,10 @@
 #include "BodyCoupling.h"
 #include "BulletConvert.h"
 #include "ContactStage.h"
+#include "loom/cloth/Error.h"
 #include "loom/collision/BodyCollisionStage.h"
 #include "loom/collision/ColliderGeometry.h"
 #include "loom/collision/FeatureContact.h"
-#include "loom/cloth/Error.h"
 
 namespace loom::bullet {
 
@@ -35,11 +35,20 @@ double reach_from_origin(const Collider& c) {
   const collision::Shape& s = c.shape;
   double r = 0.0;
   switch (s.type) {
-    case ShapeType::plane: return 0.0;
-    case ShapeType::sphere: r = s.radius; break;
-    case ShapeType::capsule: r = s.radius + s.half_height; break;
-    case ShapeType::box: r = s.half_extents.norm(); break;
-    case ShapeType::cylinder: r = std::hypot(s.radius, s.half_height); break;
+    case ShapeType::plane:
+      return 0.0;
+    case ShapeType::sphere:
+      r = s.radius;
+      break;
+    case ShapeType::capsule:
+      r = s.radius + s.half_height;
+      break;
+    case ShapeType::box:
+      r = s.half_extents.norm();
+      break;
+    case ShapeType::cylinder:
+      r = std::hypot(s.radius, s.half_height);
+      break;
     case ShapeType::convex:
     case ShapeType::mesh:
       for (const Vec3& v : s.vertices) r = std::max(r, v.norm());
@@ -70,7 +79,7 @@ struct BulletCloth::BodyTrack {
   long seen = -2;                // the Bullet substep (BulletCloth::substeps_) it was last tracked in
   Vec3 applied = Vec3::Zero();   // N s, summed impulse applied to the body
   Vec3 step_impulse = Vec3::Zero(), step_moment = Vec3::Zero();  // this substep's reaction (about the COM)
-  std::vector<Collider> local;   // the shape's colliders in the body frame
+  std::vector<Collider> local;                                   // the shape's colliders in the body frame
   const btCollisionShape* local_of = nullptr;
   Transform at(double f) const { return slerp(start, end, std::clamp(f, 0.0, 1.0)); }
 };
@@ -258,7 +267,8 @@ void BulletCloth::attach(int cloth, int vertex, btRigidBody* body) {
   if (cloth < 0 || cloth >= static_cast<int>(cloths.size()))
     throw Error("", "attach", "cloth " + std::to_string(cloth) + " out of range");
   cloth::ClothState& s = cloths[cloth]->state();
-  if (vertex < 0 || vertex >= s.size()) throw Error("", "attach", "vertex " + std::to_string(vertex) + " out of range");
+  if (vertex < 0 || vertex >= s.size())
+    throw Error("", "attach", "vertex " + std::to_string(vertex) + " out of range");
   if (!body) throw Error("", "attach", "no body");
   Attachment a;
   a.cloth = cloth;
@@ -301,8 +311,9 @@ struct Collect final : btBroadphaseAabbCallback {
 void BulletCloth::updateAction(btCollisionWorld* world, btScalar dt_bt) {
   const double dt = dt_bt;
   if (std::abs(dt - settings_.fixed_dt) > 1e-6 * settings_.fixed_dt)
-    throw Error("", "BulletCloth", "Bullet substep " + std::to_string(dt) + " s differs from fixed_dt " +
-                                       std::to_string(settings_.fixed_dt) + " s (use stepSimulation(frame, max, fixed_dt))");
+    throw Error("", "BulletCloth",
+                "Bullet substep " + std::to_string(dt) + " s differs from fixed_dt " +
+                    std::to_string(settings_.fixed_dt) + " s (use stepSimulation(frame, max, fixed_dt))");
   // 1. Candidates: bodies overlapping the inflated cloth AABB, plus attached bodies; ordered by proxy id.
   Vec3 lo, hi;
   cloth_aabb(lo, hi);
@@ -314,7 +325,8 @@ void BulletCloth::updateAction(btCollisionWorld* world, btScalar dt_bt) {
   for (btCollisionObject* o : cb.objects) {
     btRigidBody* rb = btRigidBody::upcast(o);
     if (!rb) {
-      if (o->getInternalType() != btCollisionObject::CO_USER_TYPE) warn(std::string("non-rigid collision object (") + o->getCollisionShape()->getName() + ")");
+      if (o->getInternalType() != btCollisionObject::CO_USER_TYPE)
+        warn(std::string("non-rigid collision object (") + o->getCollisionShape()->getName() + ")");
       continue;
     }
     if (rb->getBroadphaseHandle()) bodies.push_back(rb);
@@ -351,7 +363,8 @@ void BulletCloth::updateAction(btCollisionWorld* world, btScalar dt_bt) {
         // Bullet set the velocity to (target - from) / (fixed_dt * n) for the n substeps of this call.
         const double dx = (tr.target.translation() - tr.from.translation()).norm();
         const double da = Eigen::AngleAxisd(tr.target.linear() * tr.from.linear().transpose()).angle();
-        const double v = to_eigen(rb->getLinearVelocity()).norm(), w = to_eigen(rb->getAngularVelocity()).norm();
+        const double v = to_eigen(rb->getLinearVelocity()).norm(),
+                     w = to_eigen(rb->getAngularVelocity()).norm();
         double span = dt;
         if (v > 1e-12 && dx > 0.0) {
           span = dx / v;
@@ -372,7 +385,9 @@ void BulletCloth::updateAction(btCollisionWorld* world, btScalar dt_bt) {
       tr.start = now;
       tr.start.translation() -= dt * to_eigen(rb->getLinearVelocity());
       const Vec3 w = to_eigen(rb->getAngularVelocity());
-      if (w.norm() > 0) tr.start.linear() = Eigen::AngleAxisd(-w.norm() * dt, w.normalized()).toRotationMatrix() * now.linear();
+      if (w.norm() > 0)
+        tr.start.linear() =
+            Eigen::AngleAxisd(-w.norm() * dt, w.normalized()).toRotationMatrix() * now.linear();
     }
     tr.initialised = true;
     tr.seen = substeps_;
@@ -381,15 +396,18 @@ void BulletCloth::updateAction(btCollisionWorld* world, btScalar dt_bt) {
     if (tr.local_of != rb->getCollisionShape()) {
       tr.local.clear();
       std::vector<std::string> unsupported;
-      map_shape(rb->getCollisionShape(), Transform::Identity(), "body" + std::to_string(rb->getBroadphaseHandle() ? rb->getBroadphaseHandle()->m_uniqueId : -1),
-                tr.local, unsupported);
+      map_shape(
+          rb->getCollisionShape(), Transform::Identity(),
+          "body" + std::to_string(rb->getBroadphaseHandle() ? rb->getBroadphaseHandle()->m_uniqueId : -1),
+          tr.local, unsupported);
       for (const std::string& u : unsupported) warn(u);
       for (Collider& c : tr.local) collision::prepare_collider(c);
       tr.local_of = rb->getCollisionShape();
     }
     int coupled_index = -1;
     if (coupling_ && !rb->isStaticOrKinematicObject() && rb->getInvMass() > 0 &&
-        std::none_of(attachments_.begin(), attachments_.end(), [rb](const Attachment& a) { return a.body == rb; })) {
+        std::none_of(attachments_.begin(), attachments_.end(),
+                     [rb](const Attachment& a) { return a.body == rb; })) {
       CoupledBody cb;
       cb.inv_mass = rb->getInvMass();
       cb.inv_inertia_local = to_eigen(rb->getInvInertiaDiagLocal());
@@ -421,7 +439,8 @@ void BulletCloth::updateAction(btCollisionWorld* world, btScalar dt_bt) {
   }
 
   // 3. Step the cloth over [t0, t0 + dt], in as many steps as the relative motion needs (settings).
-  int steps = coupling_ ? std::max(settings_.cloth_substeps, settings_.realtime_substeps) : settings_.cloth_substeps;
+  int steps =
+      coupling_ ? std::max(settings_.cloth_substeps, settings_.realtime_substeps) : settings_.cloth_substeps;
   if (settings_.max_cloth_substeps > steps && !colliders_->empty()) {
     double motion = 0.0;  // m
     for (btRigidBody* rb : bodies) {
@@ -469,7 +488,8 @@ void BulletCloth::updateAction(btCollisionWorld* world, btScalar dt_bt) {
     const Collider& c = (*colliders_)[k];
     BodyTrack& tr = *tracks_.at(collider_body_[k]);
     tr.step_impulse += c.reaction_impulse;
-    tr.step_moment += c.reaction_angular_impulse + (c.curr.translation() - tr.end.translation()).cross(c.reaction_impulse);
+    tr.step_moment +=
+        c.reaction_angular_impulse + (c.curr.translation() - tr.end.translation()).cross(c.reaction_impulse);
   }
   for (btRigidBody* rb : bodies) {
     BodyTrack& tr = *tracks_.at(rb);

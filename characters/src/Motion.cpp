@@ -43,7 +43,8 @@ Motion Motion::load(const std::string& path, const MotionSettings& settings) {
   if (!(settings.height > 0.0)) throw Error(path, "height", "must be > 0");
   Assimp::Importer importer;
   const aiScene* scene = importer.ReadFile(path, 0);
-  if (!scene || !scene->mRootNode) throw Error(path, "", std::string("cannot read motion: ") + importer.GetErrorString());
+  if (!scene || !scene->mRootNode)
+    throw Error(path, "", std::string("cannot read motion: ") + importer.GetErrorString());
 
   Motion m;
   m.source_ = path;
@@ -51,7 +52,8 @@ Motion Motion::load(const std::string& path, const MotionSettings& settings) {
   const aiAnimation* anim = scene->mNumAnimations > 0 ? scene->mAnimations[0] : nullptr;
   std::map<std::string, const aiNodeAnim*> channels;
   if (anim)
-    for (unsigned c = 0; c < anim->mNumChannels; ++c) channels[anim->mChannels[c]->mNodeName.C_Str()] = anim->mChannels[c];
+    for (unsigned c = 0; c < anim->mNumChannels; ++c)
+      channels[anim->mChannels[c]->mNodeName.C_Str()] = anim->mChannels[c];
   // A BVH's "Frame Time" is 1 / mTicksPerSecond: zero, negative or non-finite is refused, not defaulted;
   // "Frames: 0" leaves no keys.
   const bool bvh = path.size() >= 4 && (path.compare(path.size() - 4, 4, ".bvh") == 0 ||
@@ -87,7 +89,8 @@ Motion Motion::load(const std::string& path, const MotionSettings& settings) {
       auto bad_key = [&](const char* kind, unsigned k, const std::vector<double>& times) {
         const double t = times.back();
         if (!std::isfinite(t) || (times.size() > 1 && t < times[times.size() - 2]))
-          throw Error(path, "joint '" + j.name + "'", std::string(kind) + " key " + std::to_string(k) + ": time not finite or going back");
+          throw Error(path, "joint '" + j.name + "'",
+                      std::string(kind) + " key " + std::to_string(k) + ": time not finite or going back");
       };
       for (unsigned k = 0; k < ch->mNumPositionKeys; ++k) {
         const aiVectorKey& key = ch->mPositionKeys[k];
@@ -103,7 +106,8 @@ Motion Motion::load(const std::string& path, const MotionSettings& settings) {
         const Quat q(key.mValue.w, key.mValue.x, key.mValue.y, key.mValue.z);
         bad_key("rotation", k, track.rotation_times);
         if (!q.coeffs().allFinite() || !(q.norm() > 0.0))
-          throw Error(path, "joint '" + j.name + "'", "rotation key " + std::to_string(k) + " is not a finite rotation");
+          throw Error(path, "joint '" + j.name + "'",
+                      "rotation key " + std::to_string(k) + " is not a finite rotation");
         track.rotations.push_back(q.normalized());
       }
       if (!track.position_times.empty()) m.duration_ = std::max(m.duration_, track.position_times.back());
@@ -134,7 +138,8 @@ Motion Motion::load(const std::string& path, const MotionSettings& settings) {
   if (settings.scale > 0.0) {
     m.scale_ = settings.scale;
   } else {
-    if (!(ymax - ymin > 0.0)) throw Error(path, "scale", "the rest pose has no height; give 'scale' explicitly");
+    if (!(ymax - ymin > 0.0))
+      throw Error(path, "scale", "the rest pose has no height; give 'scale' explicitly");
     if (!std::isfinite(ymax - ymin)) throw Error(path, "scale", "the rest pose's height is not finite");
     m.scale_ = settings.height / (ymax - ymin);
   }
@@ -179,7 +184,8 @@ Transform Motion::local(int joint, double tau) const {
     out.translation() = j.rest.translation();
   } else {
     const auto [k, a] = bracket(t.position_times, tau);
-    out.translation() = a == 0.0 ? t.positions[k] : ((1.0 - a) * t.positions[k] + a * t.positions[k + 1]).eval();
+    out.translation() =
+        a == 0.0 ? t.positions[k] : ((1.0 - a) * t.positions[k] + a * t.positions[k + 1]).eval();
   }
   if (t.rotations.empty()) {
     out.linear() = j.rest.linear();

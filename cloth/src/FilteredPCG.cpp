@@ -33,8 +33,8 @@ double FilteredPCG::dot(const Vec3s& a, const Vec3s& b, int threads) {
 }
 
 PcgResult FilteredPCG::solve(const BlockMatrix& A, const Vec3s& b, const std::vector<char>& fixed, Vec3s& dv,
-                             double tol, int max_iterations, int threads, bool warm_start, const Vec3s* normals,
-                             const std::vector<Mat3>* diag_inverse) {
+                             double tol, int max_iterations, int threads, bool warm_start,
+                             const Vec3s* normals, const std::vector<Mat3>* diag_inverse) {
   const int n = A.size();
   // Contact filters (S_i = I - n nᵀ): y_i -= n (n·y_i) on the vertices that have one.
   const bool filtered = normals && static_cast<int>(normals->size()) == n;

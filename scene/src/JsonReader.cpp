@@ -27,7 +27,8 @@ std::string show(double v) {
 
 JsonReader::JsonReader(const nlohmann::json& j, std::string path, std::string file)
     : j_(j), path_(std::move(path)), file_(std::move(file)) {
-  if (!j_.is_object()) throw Error(file_, path_.empty() ? "(top level)" : path_, "expected an object, got " + type_name(j_));
+  if (!j_.is_object())
+    throw Error(file_, path_.empty() ? "(top level)" : path_, "expected an object, got " + type_name(j_));
 }
 
 bool JsonReader::has(const std::string& key) const { return j_.contains(key); }
@@ -157,10 +158,12 @@ std::string JsonReader::string(const std::string& key, std::optional<std::string
 std::vector<double> JsonReader::numbers(const std::string& key, size_t count) const {
   const nlohmann::json& v = raw(key);
   if (!v.is_array()) fail(key, "expected an array of numbers, got " + type_name(v));
-  if (count && v.size() != count) fail(key, "expected " + std::to_string(count) + " numbers, got " + std::to_string(v.size()));
+  if (count && v.size() != count)
+    fail(key, "expected " + std::to_string(count) + " numbers, got " + std::to_string(v.size()));
   if (!count && v.empty()) fail(key, "must not be empty");
   std::vector<double> out;
-  for (size_t i = 0; i < v.size(); ++i) out.push_back(as_number(v[i], child(key) + "[" + std::to_string(i) + "]"));
+  for (size_t i = 0; i < v.size(); ++i)
+    out.push_back(as_number(v[i], child(key) + "[" + std::to_string(i) + "]"));
   return out;
 }
 

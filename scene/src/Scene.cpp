@@ -175,11 +175,13 @@ void apply_override(nlohmann::json& root, const std::string& assignment, const s
       } catch (...) {
       }
       if (used != key.size() || idx < 0 || idx >= static_cast<long>(node->size()))
-        throw Error(file, where, "'" + key + "' is not an index of the array (size " + std::to_string(node->size()) + ")");
+        throw Error(file, where,
+                    "'" + key + "' is not an index of the array (size " + std::to_string(node->size()) + ")");
       node = &(*node)[idx];
     } else {
       if (node->is_null()) *node = nlohmann::json::object();
-      if (!node->is_object()) throw Error(file, where, "'" + key + "' goes inside a value that is not an object");
+      if (!node->is_object())
+        throw Error(file, where, "'" + key + "' goes inside a value that is not an object");
       if (!last && !node->contains(key)) (*node)[key] = nlohmann::json::object();
       node = &(*node)[key];
     }
@@ -272,7 +274,8 @@ std::shared_ptr<const cloth::ClothMesh> parse_mesh(const JsonReader& r, Scene& s
       g.size_u = size[0];
       g.size_v = size[1];
       const nlohmann::json& nodes = r.raw("nodes");
-      if (!nodes.is_array() || nodes.size() != 2 || !nodes[0].is_number_integer() || !nodes[1].is_number_integer())
+      if (!nodes.is_array() || nodes.size() != 2 || !nodes[0].is_number_integer() ||
+          !nodes[1].is_number_integer())
         r.fail("nodes", "expected two integers [nodes_u, nodes_v]");
       // Checked as 64-bit values before narrowing: 2^32 + 5 is out of range, not 5.
       for (int k = 0; k < 2; ++k)
@@ -282,7 +285,9 @@ std::shared_ptr<const cloth::ClothMesh> parse_mesh(const JsonReader& r, Scene& s
       g.nodes_v = nodes[1].get<int>();
       reserve_vertices(scene, r.path(), static_cast<double>(g.nodes_u) * g.nodes_v);
       const std::string plane = r.string("plane", "xz", {"xy", "xz", "yz"});
-      g.plane = plane == "xy" ? cloth::GridPlane::kXY : plane == "yz" ? cloth::GridPlane::kYZ : cloth::GridPlane::kXZ;
+      g.plane = plane == "xy"   ? cloth::GridPlane::kXY
+                : plane == "yz" ? cloth::GridPlane::kYZ
+                                : cloth::GridPlane::kXZ;
       g.origin = r.vec3("origin", Vec3::Zero());
       if (!(g.origin.cwiseAbs().maxCoeff() <= kMaxCoordinate))
         r.fail("origin",
@@ -339,7 +344,8 @@ std::vector<cloth::PinSpec> parse_pins(const JsonReader& r, const cloth::ClothMe
     if (p.has("vertex")) {
       spec.vertex = p.integer("vertex");
       if (spec.vertex < 0 || spec.vertex >= mesh.num_vertices())
-        p.fail("vertex", "vertex " + std::to_string(spec.vertex) + " is out of range [0, " + std::to_string(mesh.num_vertices()) + ")");
+        p.fail("vertex", "vertex " + std::to_string(spec.vertex) + " is out of range [0, " +
+                             std::to_string(mesh.num_vertices()) + ")");
     } else {
       if (!mesh.is_grid()) p.fail("grid", "grid pins need a grid mesh");
       const nlohmann::json& g = p.raw("grid");
@@ -352,7 +358,8 @@ std::vector<cloth::PinSpec> parse_pins(const JsonReader& r, const cloth::ClothMe
       if (iu < 0) iu += mesh.grid_nodes_u();
       if (iv < 0) iv += mesh.grid_nodes_v();
       if (iu < 0 || iu >= mesh.grid_nodes_u() || iv < 0 || iv >= mesh.grid_nodes_v())
-        p.fail("grid", "node is outside the " + std::to_string(mesh.grid_nodes_u()) + "x" + std::to_string(mesh.grid_nodes_v()) + " grid");
+        p.fail("grid", "node is outside the " + std::to_string(mesh.grid_nodes_u()) + "x" +
+                           std::to_string(mesh.grid_nodes_v()) + " grid");
       spec.vertex = mesh.grid_index(iu, iv);
     }
     if (p.has("anchor")) {
@@ -449,7 +456,8 @@ Scene parse_scene(const nlohmann::json& root, const std::string& file) {
   scene.frames = std::max(1, static_cast<int>(std::lround(scene.duration * fps)));
   scene.setup.gravity = r.vec3("gravity", Vec3(0.0, -9.81, 0.0));
   scene.setup.threads = r.integer("threads", 1, 1);
-  if (scene.setup.threads > 4096) r.fail("threads", "must be <= 4096 (got " + std::to_string(scene.setup.threads) + ")");
+  if (scene.setup.threads > 4096)
+    r.fail("threads", "must be <= 4096 (got " + std::to_string(scene.setup.threads) + ")");
   parse_guard(r, scene.setup.guard);  // non-finite / explosion guard (SceneGuard.cpp)
 
   // The quality tier (SceneQuality.h) gives the defaults of the solver, constraints and collision below.
@@ -536,13 +544,15 @@ Scene parse_scene(const nlohmann::json& root, const std::string& file) {
     k.finish();
   }
   // The tier's constraint passes, where the scene names none of that kind.
-  if (tier.strain_limit && !scene.setup.strain_limit) scene.strain_limit_after_contact = cloth::StrainLimitSettings{0.1, 2};
+  if (tier.strain_limit && !scene.setup.strain_limit)
+    scene.strain_limit_after_contact = cloth::StrainLimitSettings{0.1, 2};
   if (tier.tethers && !scene.setup.tethers) scene.setup.tethers = cloth::TetherSettings{0.1, true};
-  scene.realtime_contact =
-      r.string("body_contact", tier.realtime_contact ? "realtime" : "exact", {"realtime", "exact"}) == "realtime";
+  scene.realtime_contact = r.string("body_contact", tier.realtime_contact ? "realtime" : "exact",
+                                    {"realtime", "exact"}) == "realtime";
 
   parse_character(r, scene);  // Mocap character; its garments are the first cloths (SceneCharacter.cpp)
-  const auto cloths = r.has("cloths") || scene.setup.cloths.empty() ? r.objects("cloths") : std::vector<JsonReader>{};
+  const auto cloths =
+      r.has("cloths") || scene.setup.cloths.empty() ? r.objects("cloths") : std::vector<JsonReader>{};
   if (cloths.empty() && scene.setup.cloths.empty()) r.fail("cloths", "a scene needs at least one cloth");
   for (const JsonReader& c : cloths) {
     cloth::ClothSetup cs;
@@ -566,7 +576,7 @@ Scene parse_scene(const nlohmann::json& root, const std::string& file) {
     c.finish();
     scene.setup.cloths.push_back(std::move(cs));
   }
-  parse_bodies(r, scene);  // Bullet rigid bodies (SceneBodies.cpp)
+  parse_bodies(r, scene);     // Bullet rigid bodies (SceneBodies.cpp)
   parse_colliders(r, scene);  // Rigid colliders and their motion (SceneColliders.cpp)
   parse_collision(r, scene);  // Self- and cloth-cloth collision, friction pairs (SceneCollision.cpp)
 
@@ -584,7 +594,8 @@ Scene parse_scene(const nlohmann::json& root, const std::string& file) {
         const std::string name = f[i].get<std::string>();
         if (name != "obj" && name != "pc2" && name != "gltf")
           o.fail(where, "unknown format '" + name + "' (known: obj, pc2, gltf)");
-        if (std::find(scene.output.formats.begin(), scene.output.formats.end(), name) != scene.output.formats.end())
+        if (std::find(scene.output.formats.begin(), scene.output.formats.end(), name) !=
+            scene.output.formats.end())
           o.fail(where, "format '" + name + "' is listed twice");
         scene.output.formats.push_back(name);
       }
@@ -615,15 +626,17 @@ Scene parse_scene(const nlohmann::json& root, const std::string& file) {
   if (scene.setup.solver.method == "weil") {
     // Weil's drape is one static shape from catenaries (WeilSolver.h): no motion, no contact.
     auto refuse = [&](const std::string& field, const std::string& what) {
-      throw Error(file, field, "the weil drape (solver.method \"weil\") is a static geometric shape without " + what +
-                                   ": use a dynamic solver or the static solver");
+      throw Error(file, field,
+                  "the weil drape (solver.method \"weil\") is a static geometric shape without " + what +
+                      ": use a dynamic solver or the static solver");
     };
     if (!scene.colliders.empty()) refuse("colliders", "collision");
     if (!scene.bodies.empty()) refuse("bodies", "collision or rigid bodies");
     if (scene.character) refuse("character", "motion (a character moves)");
     if (scene.collision) refuse("collision", "collision");
     if (scene.frames > 1)
-      refuse("duration", "dynamics: it gives one frame (set duration to 1/fps; got " + std::to_string(scene.frames) + " frames)");
+      refuse("duration", "dynamics: it gives one frame (set duration to 1/fps; got " +
+                             std::to_string(scene.frames) + " frames)");
   }
   return scene;
 }

@@ -17,7 +17,8 @@ void parse_collision(const JsonReader& root, Scene& scene) {
   if (c.has("layers")) {
     const std::vector<double> layers = c.numbers("layers");
     if (static_cast<int>(layers.size()) != n)
-      c.fail("layers", "expected one thickness per cloth (" + std::to_string(n) + "), got " + std::to_string(layers.size()));
+      c.fail("layers", "expected one thickness per cloth (" + std::to_string(n) + "), got " +
+                           std::to_string(layers.size()));
     for (int i = 0; i < n; ++i) {
       if (!(layers[i] > 0.0)) c.fail("layers", "entry " + std::to_string(i) + " must be > 0 (m)");
       s.thickness[i] = layers[i];
@@ -40,7 +41,8 @@ void parse_collision(const JsonReader& root, Scene& scene) {
   // the proximity kept between cloths, default 2 cm, half of it within one cloth; `every` its budget in
   // substeps).
   const QualityTier& tier = scene.quality;
-  const std::string method = c.string("method", tier.realtime_self ? "proximity" : "exact", {"exact", "proximity"});
+  const std::string method =
+      c.string("method", tier.realtime_self ? "proximity" : "exact", {"exact", "proximity"});
   if (method == "proximity") {
     collision::RealtimeSelfSettings p;
     p.self = s.self;

@@ -1,13 +1,13 @@
 // `loom fabric-test` end to end: the --json contract, the report files, and errors.
 #include <gtest/gtest.h>
 
-#include "CliRunner.h"
-
 #include <cstdlib>
 #include <filesystem>
 #include <fstream>
 #include <nlohmann/json.hpp>
 #include <sstream>
+
+#include "CliRunner.h"
 
 namespace {
 

@@ -15,7 +15,8 @@ namespace loom::scene {
 namespace {
 
 nlohmann::json base_scene() {
-  return nlohmann::json::parse(R"({"cloths": [{"mesh": {"type": "grid", "size": [1, 1], "nodes": [3, 3]}}]})");
+  return nlohmann::json::parse(
+      R"({"cloths": [{"mesh": {"type": "grid", "size": [1, 1], "nodes": [3, 3]}}]})");
 }
 
 std::string error_of(const nlohmann::json& colliders) {
@@ -66,9 +67,10 @@ TEST(SceneColliders, FrictionPairsResolveNamesAndReportErrors) {
     root["collision"] = {{"self", true}, {"friction_pairs", nlohmann::json::parse(pairs)}};
     return root;
   };
-  const Scene s = parse_scene(scene_with(R"([{"a": "coat", "b": "shirt", "friction": 0.2, "static_friction": 0.3},
+  const Scene s =
+      parse_scene(scene_with(R"([{"a": "coat", "b": "shirt", "friction": 0.2, "static_friction": 0.3},
                                              {"a": "shirt", "b": "floor", "friction": 0.6}])"),
-                              "scene.json");
+                  "scene.json");
   ASSERT_TRUE(s.collision.has_value());
   ASSERT_EQ(s.collision->friction_pairs.size(), 2u);
   const auto& p0 = s.collision->friction_pairs[0];
@@ -115,7 +117,8 @@ TEST(SceneColliders, MotionSamplesKeyframesAndSpin) {
   EXPECT_NEAR(Eigen::AngleAxisd(mid.linear()).angle(), M_PI / 4, 1e-12);
   const collision::Transform late = s.colliders[0].motion(5.0);
   EXPECT_NEAR(late.translation().x(), 2.0, 1e-12);
-  const collision::Transform spun = s.colliders[1].motion(1.0);  // quarter turn about y through the origin, up 1 m
+  const collision::Transform spun =
+      s.colliders[1].motion(1.0);  // quarter turn about y through the origin, up 1 m
   EXPECT_NEAR((spun.translation() - cloth::Vec3(0, 1, -1)).norm(), 0.0, 1e-12);
 }
 

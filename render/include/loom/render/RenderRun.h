@@ -19,7 +19,8 @@ std::vector<RenderMesh> render_meshes(const std::vector<std::unique_ptr<cloth::C
 // poses, so every image shows them where they were at that frame.
 class Recording {
  public:
-  explicit Recording(const std::vector<std::unique_ptr<cloth::Cloth>>& cloths, collision::ColliderSetPtr colliders = nullptr)
+  explicit Recording(const std::vector<std::unique_ptr<cloth::Cloth>>& cloths,
+                     collision::ColliderSetPtr colliders = nullptr)
       : meshes_(render_meshes(cloths)), colliders_(std::move(colliders)) {}
   void add(const std::vector<std::unique_ptr<cloth::Cloth>>& cloths);
   int frames() const { return static_cast<int>(frames_.size()); }

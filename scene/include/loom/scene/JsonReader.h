@@ -23,7 +23,8 @@ class JsonReader {
   // Each getter marks the key as read. `min`/`max` bound the value; strict bounds exclude the limit.
   double number(const std::string& key, std::optional<double> fallback = std::nullopt,
                 std::optional<double> min = std::nullopt, bool strict_min = false) const;
-  int integer(const std::string& key, std::optional<int> fallback = std::nullopt, std::optional<int> min = std::nullopt) const;
+  int integer(const std::string& key, std::optional<int> fallback = std::nullopt,
+              std::optional<int> min = std::nullopt) const;
   bool boolean(const std::string& key, std::optional<bool> fallback = std::nullopt) const;
   std::string string(const std::string& key, std::optional<std::string> fallback = std::nullopt,
                      const std::vector<std::string>& allowed = {}) const;

@@ -28,10 +28,10 @@ struct QualityTier {
   std::string name = "reference";
   // Solver (empty method: the scene's own or Loom's default).
   std::string method;
-  int iterations = 0;         // solver.iterations for `method` (0: its default)
-  int substeps = 0;           // 0: the scene's own
-  bool strain_limit = false;  // strain limiting {max_stretch 0.1} after the collision stages, unless the
-                              // scene names constraints.strain_limit
+  int iterations = 0;             // solver.iterations for `method` (0: its default)
+  int substeps = 0;               // 0: the scene's own
+  bool strain_limit = false;      // strain limiting {max_stretch 0.1} after the collision stages, unless the
+                                  // scene names constraints.strain_limit
   bool tethers = false;           // add constraints.tethers {slack 0.1} unless the scene gives one
   bool realtime_contact = false;  // body contact by RealtimeBodyContactStage instead of BodyCollisionStage
   bool realtime_self = false;     // cloth-cloth by RealtimeSelfCollisionStage instead of SelfCollisionStage
