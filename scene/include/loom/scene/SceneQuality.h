@@ -1,6 +1,6 @@
 #pragma once
 // Scene key `quality`: one word that picks the solver, its substeps, the collision stages and the checks
-// together (README.md, "Scene format"). Any explicit scene value still wins: a `solver.method`,
+// together (docs/scene-format.md, "Quality"). Any explicit scene value still wins: a `solver.method`,
 // `solver.substeps`, `constraints.*`, `collision.method` or `body_contact` given in the scene replaces the
 // tier's choice for that item only.
 //   "reference" (the default when the key is absent): the scene's own settings, nothing added; implicit or
