@@ -157,6 +157,13 @@ case "$cmd" in
     overwrite=()
     if [ -z "${LOOM_OUT:-}" ] && [ -d "$out" ] && [ ! -f "$out/.loom-manifest" ]; then overwrite=(--overwrite); fi
     "$build_dir/apps/loom" run --out "$out" --profile --render "${overwrite[@]}"
+    # What the same character costs in Bullet's own soft body, in the same process and on the same rig:
+    # `loom compare` runs the scene's first 2 s in Loom and in Bullet classic and prints both.
+    if [ -z "${LOOM_OUT:-}" ]; then
+      echo
+      echo "loom.sh: the default scene beside Bullet classic (loom compare, first 2 s):"
+      "$build_dir/apps/loom" compare scenes/character_layers.json --out out/demo_compare --frames 120 || true
+    fi
     echo
     echo "loom.sh: the default scene's output is in $out/:"
     echo "  $out/frames/frame_NNNNN.obj   one OBJ per frame (open in Blender, MeshLab, ...)"
