@@ -9,7 +9,6 @@
 // Built twice from this file: loom_bench_bullet_cloth (float Bullet), loom_bench_bullet_cloth_double.
 #include <benchmark/benchmark.h>
 #include <btBulletDynamicsCommon.h>
-
 #include <time.h>
 
 #include <chrono>
@@ -36,7 +35,8 @@ struct World {
     world.setGravity(btVector3(0, -9.81, 0));
     add(std::make_unique<btStaticPlaneShape>(btVector3(0, 1, 0), 0), 0, btVector3(0, 0, 0));
     for (int k = 0; k < 8; ++k)
-      add(std::make_unique<btBoxShape>(btVector3(0.1, 0.1, 0.1)), 1.0, btVector3(btScalar(-0.35 + 0.1 * k), 0.1, btScalar(0.1 * (k % 3))));
+      add(std::make_unique<btBoxShape>(btVector3(0.1, 0.1, 0.1)), 1.0,
+          btVector3(btScalar(-0.35 + 0.1 * k), 0.1, btScalar(0.1 * (k % 3))));
     add(std::make_unique<btSphereShape>(0.2), 2.0, btVector3(0, 0.4, -0.2));
     if (n <= 0) return;
     loom::cloth::SimulationSetup s;

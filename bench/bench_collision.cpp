@@ -13,8 +13,8 @@
 #include <vector>
 
 #include "loom/collision/MultiClothCensus.h"
-#include "loom/scene/ScenePipeline.h"
 #include "loom/scene/Scene.h"
+#include "loom/scene/ScenePipeline.h"
 
 namespace {
 
@@ -34,7 +34,8 @@ class CensusStage final : public cloth::Stage {
 
 // `frames` frames of `scene` (with `overrides`), the first `warmup` of them not timed (the cloth falling onto
 // the obstacle before any contact).
-void run(benchmark::State& state, const std::string& scene_name, std::vector<std::string> overrides, int warmup) {
+void run(benchmark::State& state, const std::string& scene_name, std::vector<std::string> overrides,
+         int warmup) {
   const int threads = static_cast<int>(state.range(0));
   overrides.push_back("threads=" + std::to_string(threads));
   const scene::Scene sc = scene::load_scene(std::string(LOOM_SOURCE_DIR) + "/" + scene_name, overrides);
@@ -81,15 +82,20 @@ void run(benchmark::State& state, const std::string& scene_name, std::vector<std
   std::fprintf(stderr, "%s/%d counters:", scene_name.c_str(), threads);
   for (const cloth::StageProfile& p : sim->profile())
     if (p.name == "body_collision" || p.name == "self_collision")
-      for (const auto& [key, value] : p.counters) std::fprintf(stderr, " %s.%s=%.0f", p.name.c_str(), key.c_str(), value);
+      for (const auto& [key, value] : p.counters)
+        std::fprintf(stderr, " %s.%s=%.0f", p.name.c_str(), key.c_str(), value);
   std::fprintf(stderr, " steps=%ld\n", c->steps);
 }
 
-void Sphere(benchmark::State& s) { run(s, "scenes/sphere_spin.json", {"cloths[0].mesh.nodes=[101,101]"}, 12); }
+void Sphere(benchmark::State& s) {
+  run(s, "scenes/sphere_spin.json", {"cloths[0].mesh.nodes=[101,101]"}, 12);
+}
 void Twisting(benchmark::State& s) { run(s, "bench/scenes/twisting_cloth_20k.json", {}, 0); }
 void Funnel(benchmark::State& s) { run(s, "scenes/funnel.json", {"cloths[0].mesh.nodes=[101,101]"}, 12); }
 // The top of the range: ~50k triangles (159x159 nodes: 49,928; twisting 225x113: 50,176).
-void Sphere50k(benchmark::State& s) { run(s, "scenes/sphere_spin.json", {"cloths[0].mesh.nodes=[159,159]"}, 12); }
+void Sphere50k(benchmark::State& s) {
+  run(s, "scenes/sphere_spin.json", {"cloths[0].mesh.nodes=[159,159]"}, 12);
+}
 void Twisting50k(benchmark::State& s) { run(s, "bench/scenes/twisting_cloth_50k.json", {}, 0); }
 void Funnel50k(benchmark::State& s) { run(s, "scenes/funnel.json", {"cloths[0].mesh.nodes=[159,159]"}, 12); }
 

@@ -167,9 +167,24 @@ void StepImplicitEpisode(benchmark::State& state) {
 BENCHMARK(StepImplicitEpisode)->ArgsProduct({{64}, {1, 2}})->Unit(benchmark::kMillisecond)->UseRealTime();
 BENCHMARK(GlobalSolveEigen)->Arg(65)->Arg(129)->Unit(benchmark::kMicrosecond);
 BENCHMARK(GlobalSolveSplit)->ArgsProduct({{65, 129}, {1, 2}})->Unit(benchmark::kMicrosecond)->UseRealTime();
-BENCHMARK(StepSymplecticEuler)->ArgsProduct({{33, 65, 129}, {1, 2}, {0}, {0}})->Unit(benchmark::kMicrosecond)->UseManualTime();
-BENCHMARK(StepVerlet)->ArgsProduct({{33, 65, 129}, {1, 2}, {0}, {0}})->Unit(benchmark::kMicrosecond)->UseManualTime();
-BENCHMARK(StepExplicitEuler)->ArgsProduct({{33, 65, 129}, {1, 2}, {0}, {0}})->Unit(benchmark::kMicrosecond)->UseManualTime();
-BENCHMARK(StepPbd)->ArgsProduct({{65, 129}, {1, 2}, {1, 10}, {0, 16}})->Unit(benchmark::kMicrosecond)->UseManualTime();
-BENCHMARK(StepXpbd)->ArgsProduct({{65, 129}, {1, 2}, {1, 10}, {0, 16}})->Unit(benchmark::kMicrosecond)->UseManualTime();
+BENCHMARK(StepSymplecticEuler)
+    ->ArgsProduct({{33, 65, 129}, {1, 2}, {0}, {0}})
+    ->Unit(benchmark::kMicrosecond)
+    ->UseManualTime();
+BENCHMARK(StepVerlet)
+    ->ArgsProduct({{33, 65, 129}, {1, 2}, {0}, {0}})
+    ->Unit(benchmark::kMicrosecond)
+    ->UseManualTime();
+BENCHMARK(StepExplicitEuler)
+    ->ArgsProduct({{33, 65, 129}, {1, 2}, {0}, {0}})
+    ->Unit(benchmark::kMicrosecond)
+    ->UseManualTime();
+BENCHMARK(StepPbd)
+    ->ArgsProduct({{65, 129}, {1, 2}, {1, 10}, {0, 16}})
+    ->Unit(benchmark::kMicrosecond)
+    ->UseManualTime();
+BENCHMARK(StepXpbd)
+    ->ArgsProduct({{65, 129}, {1, 2}, {1, 10}, {0, 16}})
+    ->Unit(benchmark::kMicrosecond)
+    ->UseManualTime();
 BENCHMARK_MAIN();

@@ -14,7 +14,8 @@ namespace loom::test {
 // run's files for a check that a file is *not* written), then created; later calls in the test keep it.
 inline std::filesystem::path test_dir() {
   const auto* info = ::testing::UnitTest::GetInstance()->current_test_info();
-  std::string name = std::string(info->test_suite_name()) + "." + info->name() + "." + std::to_string(getpid());
+  std::string name =
+      std::string(info->test_suite_name()) + "." + info->name() + "." + std::to_string(getpid());
   for (char& c : name)
     if (c == '/') c = '_';
   const auto dir = std::filesystem::temp_directory_path() / "loom_tests" / name;

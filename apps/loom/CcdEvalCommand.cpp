@@ -98,8 +98,8 @@ int ccd_eval_main(int argc, char** argv) {
     eval::scale_translate_exactly(q, scale_exp, offset * translate * std::ldexp(1.0, scale_exp));
   }
   const eval::CcdEvalStats s = eval::evaluate_ccd(queries, options);
-  std::printf("queries=%ld positives=%ld false_negatives=%ld false_positives=%ld us_per_query=%.3f\n", s.queries,
-              s.positives, s.false_negatives, s.false_positives,
+  std::printf("queries=%ld positives=%ld false_negatives=%ld false_positives=%ld us_per_query=%.3f\n",
+              s.queries, s.positives, s.false_negatives, s.false_positives,
               s.queries ? 1e6 * s.seconds / static_cast<double>(s.queries) : 0.0);
   return 0;
 }

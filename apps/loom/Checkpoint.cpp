@@ -1,7 +1,7 @@
 #include "Checkpoint.h"
 
-#include <cmath>
 #include <cctype>
+#include <cmath>
 #include <cstring>
 #include <nlohmann/json.hpp>
 #include <sstream>
@@ -47,7 +47,9 @@ std::string read_text_file(const std::string& path, std::uint64_t max_bytes) {
   const std::uintmax_t size = fs::file_size(path, ec);
   if (ec) throw Error(path, "", "cannot read the file size: " + ec.message());
   if (size > max_bytes)
-    throw Error(path, "", "is " + std::to_string(size) + " bytes, more than the " + std::to_string(max_bytes) + " accepted");
+    throw Error(
+        path, "",
+        "is " + std::to_string(size) + " bytes, more than the " + std::to_string(max_bytes) + " accepted");
   std::ifstream in(path, std::ios::binary);
   if (!in) throw Error(path, "", "cannot open file");
   std::stringstream ss;
@@ -69,7 +71,8 @@ InputFile fingerprint(const std::string& path) {
 std::string kept_stats_rows(const fs::path& out, int frame) {
   const fs::path partial = out / "stats.csv.partial", done = out / "stats.csv";
   const fs::path from = fs::exists(partial) ? partial : done;
-  if (!fs::exists(from)) throw Error(done.string(), "--resume", "missing: the run's stats are needed to resume");
+  if (!fs::exists(from))
+    throw Error(done.string(), "--resume", "missing: the run's stats are needed to resume");
   std::istringstream in(read_text_file(from.string()));
   std::string line, rows;
   std::getline(in, line);  // header
@@ -89,7 +92,8 @@ std::string encode_checkpoint(const Checkpoint& c) {
   j["sets"] = c.sets;
   j["run_id"] = hex(c.run_id);
   nlohmann::json inputs = nlohmann::json::array();
-  for (const InputFile& f : c.inputs) inputs.push_back({{"path", f.path}, {"bytes", f.bytes}, {"hash", hex(f.hash)}});
+  for (const InputFile& f : c.inputs)
+    inputs.push_back({{"path", f.path}, {"bytes", f.bytes}, {"hash", hex(f.hash)}});
   j["inputs"] = inputs;
   j["frames_total"] = c.frames_total;
   j["threads"] = c.threads;
@@ -113,16 +117,20 @@ std::string encode_checkpoint(const Checkpoint& c) {
 
 Checkpoint decode_checkpoint(const std::string& data, const std::string& source) {
   auto bad = [&](const std::string& what) { return Error(source, "", "not a valid checkpoint: " + what); };
-  if (data.size() < kMagicBytes || data.compare(0, 8, kMagicPrefix) != 0 || data[9] != '\n') throw bad("wrong header");
+  if (data.size() < kMagicBytes || data.compare(0, 8, kMagicPrefix) != 0 || data[9] != '\n')
+    throw bad("wrong header");
   if (data[8] != '0' + kCheckpointFormat)
-    throw Error(source, "format", "not a valid checkpoint for this loom: written in checkpoint format " + std::string(1, std::isprint(static_cast<unsigned char>(data[8])) ? data[8] : '?') +
-                                      "; this loom reads format " + std::to_string(kCheckpointFormat) + " only");
+    throw Error(source, "format",
+                "not a valid checkpoint for this loom: written in checkpoint format " +
+                    std::string(1, std::isprint(static_cast<unsigned char>(data[8])) ? data[8] : '?') +
+                    "; this loom reads format " + std::to_string(kCheckpointFormat) + " only");
   if (data.size() < kMagicBytes + 3 * sizeof(std::uint64_t)) throw bad("cut short");
   std::uint64_t sum;
   std::memcpy(&sum, data.data() + data.size() - sizeof sum, sizeof sum);
   const size_t end = data.size() - sizeof sum;
   if (fnv1a(data.data(), end) != sum)
-    throw Error(source, "checksum", "does not match the contents: the checkpoint was changed or damaged after it was written");
+    throw Error(source, "checksum",
+                "does not match the contents: the checkpoint was changed or damaged after it was written");
   size_t pos = kMagicBytes;
   auto u64 = [&](const char* what) {
     std::uint64_t v;
@@ -141,7 +149,8 @@ Checkpoint decode_checkpoint(const std::string& data, const std::string& source)
       field = key;
       return j.at(key);
     };
-    if (at("format").get<int>() != kCheckpointFormat) throw bad("the header's format differs from the file's");
+    if (at("format").get<int>() != kCheckpointFormat)
+      throw bad("the header's format differs from the file's");
     c.scene = at("scene").get<std::string>();
     c.scene_text = at("scene_text").get<std::string>();
     c.sets = at("sets").get<std::vector<std::string>>();
@@ -204,23 +213,26 @@ void write_checkpoint(OutputFolder& out, const Checkpoint& c) {
 
 Checkpoint read_checkpoint(const fs::path& out) {
   const fs::path path = checkpoint_file(out);
-  if (!fs::exists(path)) throw Error(path.string(), "--resume", "no checkpoint here (write one with --checkpoint-every N)");
+  if (!fs::exists(path))
+    throw Error(path.string(), "--resume", "no checkpoint here (write one with --checkpoint-every N)");
   return decode_checkpoint(read_text_file(path.string()), path.string());
 }
 
 void check_inputs(const Checkpoint& c) {
   for (const InputFile& f : c.inputs) {
     std::error_code ec;
-    if (!fs::exists(f.path, ec)) throw Error(f.path, "--resume", "an input of the checkpointed run is missing");
+    if (!fs::exists(f.path, ec))
+      throw Error(f.path, "--resume", "an input of the checkpointed run is missing");
     const InputFile now = fingerprint(f.path);
     if (now.bytes != f.bytes || now.hash != f.hash)
-      throw Error(f.path, "--resume", "this input changed since the checkpoint was written (" + std::to_string(f.bytes) +
-                                          " bytes then, " + std::to_string(now.bytes) + " now): resuming would mix two runs");
+      throw Error(f.path, "--resume",
+                  "this input changed since the checkpoint was written (" + std::to_string(f.bytes) +
+                      " bytes then, " + std::to_string(now.bytes) + " now): resuming would mix two runs");
   }
 }
 
-std::vector<FrameLogEntry> parse_frame_log(const std::string& data, long keep, const std::vector<size_t>& vertices,
-                                           const std::string& source) {
+std::vector<FrameLogEntry> parse_frame_log(const std::string& data, long keep,
+                                           const std::vector<size_t>& vertices, const std::string& source) {
   std::uint64_t points = 0;
   for (size_t v : vertices) {
     if (v > (std::uint64_t(1) << 40)) throw Error(source, "", "too many vertices for a frame log");
@@ -229,7 +241,8 @@ std::vector<FrameLogEntry> parse_frame_log(const std::string& data, long keep, c
   const std::uint64_t entry_bytes = sizeof(double) * (2 + 3 * points);
   // keep * entry_bytes <= data.size(), written as a division so that no product can wrap.
   if (keep < 0 || static_cast<std::uint64_t>(keep) > data.size() / entry_bytes)
-    throw Error(source, "", "frame log is shorter than the checkpoint says (" + std::to_string(keep) + " frames)");
+    throw Error(source, "",
+                "frame log is shorter than the checkpoint says (" + std::to_string(keep) + " frames)");
   std::vector<FrameLogEntry> out;
   out.reserve(static_cast<size_t>(keep));
   size_t pos = 0;
@@ -271,7 +284,8 @@ FrameLog::FrameLog(OutputFolder& out, long keep, std::uint64_t hash,
     bytes = sizeof(double) * (2 + 3 * bytes) * static_cast<size_t>(keep);
     hash_ = fnv1a(data.data(), bytes);
     if (hash_ != hash)
-      throw Error(path_.string(), "--resume", "the frame log changed since the checkpoint was written (hash mismatch)");
+      throw Error(path_.string(), "--resume",
+                  "the frame log changed since the checkpoint was written (hash mismatch)");
     std::error_code ec;
     fs::resize_file(path_, bytes, ec);
     if (ec) throw Error(path_.string(), "", "cannot truncate the frame log: " + ec.message());

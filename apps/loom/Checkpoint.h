@@ -30,30 +30,30 @@ std::uint64_t fnv1a(const char* data, size_t n, std::uint64_t h = 0xcbf29ce48422
 inline std::uint64_t fnv1a(const std::string& s) { return fnv1a(s.data(), s.size()); }
 
 struct InputFile {
-  std::string path;         // absolute
+  std::string path;  // absolute
   std::uint64_t bytes = 0;
-  std::uint64_t hash = 0;   // FNV-1a 64 of the contents
+  std::uint64_t hash = 0;  // FNV-1a 64 of the contents
 };
 // Size and hash of an input file now; errors name the file.
 InputFile fingerprint(const std::string& path);
 
 struct Checkpoint {
-  std::string scene;                // absolute scene path of the run
-  std::string scene_text;           // the scene file's text then: resuming a changed scene is an error
-  std::vector<std::string> sets;    // --set overrides
-  std::uint64_t run_id = 0;         // the output folder's (OutputFolder::run_id)
-  std::vector<InputFile> inputs;    // every file the scene read
-  int frames_total = 0;             // frames the run was asked for
+  std::string scene;              // absolute scene path of the run
+  std::string scene_text;         // the scene file's text then: resuming a changed scene is an error
+  std::vector<std::string> sets;  // --set overrides
+  std::uint64_t run_id = 0;       // the output folder's (OutputFolder::run_id)
+  std::vector<InputFile> inputs;  // every file the scene read
+  int frames_total = 0;           // frames the run was asked for
   int threads = 1;
   int checkpoint_every = 0;
   bool render = false;
-  int frame = 0;                    // frames done when written
-  double max_strain = 0.0;          // 1, run totals so far (summary.json)
-  double mean_strain_sum = 0.0;     // 1, sum of per-frame mean strains
-  double sim_ms = 0.0;              // ms of pipeline time so far
-  long logged_frames = 0;           // entries of frames.bin that belong to frames <= frame
-  std::uint64_t log_hash = 0;       // FNV-1a 64 of those entries' bytes
-  std::string state;                // cloth::Simulation state archive
+  int frame = 0;                 // frames done when written
+  double max_strain = 0.0;       // 1, run totals so far (summary.json)
+  double mean_strain_sum = 0.0;  // 1, sum of per-frame mean strains
+  double sim_ms = 0.0;           // ms of pipeline time so far
+  long logged_frames = 0;        // entries of frames.bin that belong to frames <= frame
+  std::uint64_t log_hash = 0;    // FNV-1a 64 of those entries' bytes
+  std::string state;             // cloth::Simulation state archive
 };
 
 // The bytes of a checkpoint file, and back (errors name `source` and the problem; any input either decodes
@@ -79,15 +79,16 @@ struct FrameLogEntry {
   std::vector<cloth::Vec3s> x;  // m, per cloth
 };
 // The first `keep` entries of a frame log's bytes for cloths of `vertices[k]` vertices; errors name `source`.
-std::vector<FrameLogEntry> parse_frame_log(const std::string& data, long keep, const std::vector<size_t>& vertices,
-                                           const std::string& source);
+std::vector<FrameLogEntry> parse_frame_log(const std::string& data, long keep,
+                                           const std::vector<size_t>& vertices, const std::string& source);
 
 // DIR/checkpoint/frames.bin: per written frame, the time and every cloth's positions.
 class FrameLog {
  public:
   // Opens the log for appending after keeping its first `keep` entries, whose bytes must hash to `hash`
   // (0 entries: a new log).
-  FrameLog(OutputFolder& out, long keep, std::uint64_t hash, const std::vector<std::unique_ptr<cloth::Cloth>>& cloths);
+  FrameLog(OutputFolder& out, long keep, std::uint64_t hash,
+           const std::vector<std::unique_ptr<cloth::Cloth>>& cloths);
   // `flags`: what the frame was written for (bit 0: exporters, bit 1: the render recording).
   void append(double time, int flags, const std::vector<std::unique_ptr<cloth::Cloth>>& cloths);
   void flush() { file_.flush(); }

@@ -36,7 +36,8 @@ std::vector<bullet::KinematicBody> character_bodies(const std::shared_ptr<const 
     bodies.push_back(std::move(b));
   }
   std::map<int, size_t> body_of_joint;
-  for (size_t k = 0; k < bones.size(); ++k) body_of_joint.emplace(bones[k].joint, k);  // first bone of a joint
+  for (size_t k = 0; k < bones.size(); ++k)
+    body_of_joint.emplace(bones[k].joint, k);  // first bone of a joint
   for (const characters::Attachment& a : ch->attachments) {
     auto it = body_of_joint.find(a.joint);
     if (it == body_of_joint.end()) {
@@ -77,8 +78,9 @@ int compare_character(const scene::Scene& sc, int frames, const std::string& out
   in.setup = sc.setup;
   in.bodies = character_bodies(sc.character);
   in.frames = frames > 0 ? frames : sc.frames;
-  in.thickness = sc.character->thickness > 0.0 ? sc.character->thickness
-                                               : (sc.setup.cloths.empty() ? 0.001 : sc.setup.cloths[0].material.thickness);
+  in.thickness = sc.character->thickness > 0.0
+                     ? sc.character->thickness
+                     : (sc.setup.cloths.empty() ? 0.001 : sc.setup.cloths[0].material.thickness);
   auto pipeline = scene::build_pipeline(sc);
   cloth::Simulation* sim = &pipeline->simulation();
   const bullet::CharacterMetrics loom = bullet::run_loom_character(*sim, in);
@@ -97,8 +99,8 @@ int compare_character(const scene::Scene& sc, int frames, const std::string& out
   j["garments"] = sc.setup.cloths.size();
   j["loom"] = to_json(loom);
   j["bullet_classic"] = to_json(classic);
-  j["bullet_deformable"] = {{"available", false}, {"note", deformable_note}, {"ms_per_frame", nullptr},
-                            {"max_strain", nullptr}, {"mean_strain", nullptr}, {"max_penetration", nullptr},
+  j["bullet_deformable"] = {{"available", false},    {"note", deformable_note}, {"ms_per_frame", nullptr},
+                            {"max_strain", nullptr}, {"mean_strain", nullptr},  {"max_penetration", nullptr},
                             {"diverged", nullptr}};
   std::ofstream(out + "/compare.json") << j.dump(2) << "\n";
   std::ofstream csv(out + "/compare.csv");
@@ -113,9 +115,9 @@ int compare_character(const scene::Scene& sc, int frames, const std::string& out
   std::printf("%-18s %12s %12s %12s %16s %9s %12s %12s\n", "system", "ms/frame", "max_strain", "mean_strain",
               "max_penetration", "diverged", "inside_verts", "attach_err");
   for (const bullet::CharacterMetrics* r : {&loom, &classic})
-    std::printf("%-18s %12.3f %12.5f %12.6f %16.6f %9s %12ld %12.6f\n", r->m.system.c_str(), r->m.ms_per_frame,
-                r->m.max_strain, r->m.mean_strain, r->m.max_penetration, r->m.diverged ? "yes" : "no",
-                r->penetrating_vertices, r->max_attachment_error);
+    std::printf("%-18s %12.3f %12.5f %12.6f %16.6f %9s %12ld %12.6f\n", r->m.system.c_str(),
+                r->m.ms_per_frame, r->m.max_strain, r->m.mean_strain, r->m.max_penetration,
+                r->m.diverged ? "yes" : "no", r->penetrating_vertices, r->max_attachment_error);
   std::printf("%-18s not run: %s\n", "bullet_deformable", deformable_note.c_str());
   std::printf("wrote %s/compare.csv and %s/compare.json\n", out.c_str(), out.c_str());
   return 0;

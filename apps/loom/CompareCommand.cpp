@@ -24,10 +24,12 @@ namespace {
 const char* kCompareUsage =
     "Usage: loom compare SCENE [--out DIR] [--set path=value]... [--frames N]\n"
     "  Runs SCENE's first cloth (and its `bodies`) in Loom (BulletCloth in a Bullet world), in Bullet's\n"
-    "  classic soft body and, without rigid bodies, in Bullet's deformable world. Writes DIR/compare.csv and\n"
+    "  classic soft body and, without rigid bodies, in Bullet's deformable world. Writes DIR/compare.csv "
+    "and\n"
     "  DIR/compare.json (default DIR: out/compare). Metrics: ms_per_frame, max_strain, mean_strain,\n"
     "  max_penetration, diverged. Everything but ms_per_frame is deterministic run to run.\n"
-    "  A scene with a `character` runs its garments in Loom (the scene's own pipeline) and as Bullet classic\n"
+    "  A scene with a `character` runs its garments in Loom (the scene's own pipeline) and as Bullet "
+    "classic\n"
     "  soft bodies anchored to the character's capsules, kinematic rigid bodies driven by the clip.\n";
 
 nlohmann::json to_json(const bullet::SystemMetrics& m) {
@@ -41,7 +43,8 @@ nlohmann::json to_json(const bullet::SystemMetrics& m) {
     j["max_penetration"] = m.max_penetration;
     j["diverged"] = m.diverged;
   } else {
-    for (const char* k : {"ms_per_frame", "max_strain", "mean_strain", "max_penetration", "diverged"}) j[k] = nullptr;
+    for (const char* k : {"ms_per_frame", "max_strain", "mean_strain", "max_penetration", "diverged"})
+      j[k] = nullptr;
   }
   return j;
 }
@@ -114,22 +117,22 @@ int compare_main(int argc, char** argv) {
   char line[512];
   for (const auto& m : results) {
     if (m.available) {
-      std::snprintf(line, sizeof line, "%s,1,%.6g,%.9g,%.9g,%.9g,%d\n", m.system.c_str(), m.ms_per_frame, m.max_strain,
-                    m.mean_strain, m.max_penetration, m.diverged ? 1 : 0);
+      std::snprintf(line, sizeof line, "%s,1,%.6g,%.9g,%.9g,%.9g,%d\n", m.system.c_str(), m.ms_per_frame,
+                    m.max_strain, m.mean_strain, m.max_penetration, m.diverged ? 1 : 0);
     } else {
       std::snprintf(line, sizeof line, "%s,0,,,,,\n", m.system.c_str());
     }
     csv << line;
   }
-  std::printf("%-18s %12s %12s %12s %16s %9s\n", "system", "ms/frame", "max_strain", "mean_strain", "max_penetration",
-              "diverged");
+  std::printf("%-18s %12s %12s %12s %16s %9s\n", "system", "ms/frame", "max_strain", "mean_strain",
+              "max_penetration", "diverged");
   for (const auto& m : results) {
     if (!m.available) {
       std::printf("%-18s not run: %s\n", m.system.c_str(), m.note.c_str());
       continue;
     }
-    std::printf("%-18s %12.3f %12.5f %12.6f %16.6f %9s\n", m.system.c_str(), m.ms_per_frame, m.max_strain, m.mean_strain,
-                m.max_penetration, m.diverged ? "yes" : "no");
+    std::printf("%-18s %12.3f %12.5f %12.6f %16.6f %9s\n", m.system.c_str(), m.ms_per_frame, m.max_strain,
+                m.mean_strain, m.max_penetration, m.diverged ? "yes" : "no");
   }
   std::printf("wrote %s/compare.csv and %s/compare.json\n", out.c_str(), out.c_str());
   return 0;

@@ -11,11 +11,14 @@ DetailView::DetailView(const scene::Scene& scene, cloth::Simulation& sim) : sim_
     if (it != scene.detail.end()) {
       faces_.push_back(std::make_unique<cloth::CurvedFaces>(cloths[c]->mesh(), it->second.levels, scene.file,
                                                             "cloths[" + std::to_string(c) + "].detail"));
-      faces_.back()->set_wrinkles(it->second.wrinkles, scene.file, "cloths[" + std::to_string(c) + "].detail");
-      shown_->push_back(std::make_unique<cloth::Cloth>(cloths[c]->name(), faces_.back()->fine_mesh(), cloths[c]->material()));
+      faces_.back()->set_wrinkles(it->second.wrinkles, scene.file,
+                                  "cloths[" + std::to_string(c) + "].detail");
+      shown_->push_back(std::make_unique<cloth::Cloth>(cloths[c]->name(), faces_.back()->fine_mesh(),
+                                                       cloths[c]->material()));
     } else {
       faces_.push_back(nullptr);
-      shown_->push_back(std::make_unique<cloth::Cloth>(cloths[c]->name(), cloths[c]->mesh_ptr(), cloths[c]->material()));
+      shown_->push_back(
+          std::make_unique<cloth::Cloth>(cloths[c]->name(), cloths[c]->mesh_ptr(), cloths[c]->material()));
     }
   }
   update();

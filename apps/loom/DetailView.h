@@ -23,7 +23,7 @@ class DetailView {
 
  private:
   cloth::Simulation& sim_;
-  std::vector<std::unique_ptr<cloth::CurvedFaces>> faces_;            // per cloth; null without detail
+  std::vector<std::unique_ptr<cloth::CurvedFaces>> faces_;             // per cloth; null without detail
   std::unique_ptr<std::vector<std::unique_ptr<cloth::Cloth>>> shown_;  // null without any detail
 };
 

@@ -11,8 +11,8 @@
 #include <string>
 
 #include "loom/cloth/Error.h"
-#include "loom/eval/FabricTests.h"
 #include "loom/cloth/Model.h"
+#include "loom/eval/FabricTests.h"
 
 namespace fs = std::filesystem;
 
@@ -24,11 +24,13 @@ const char* kFabricUsage =
     "Usage: loom fabric-test {cantilever,tensile,shear,catenary,drape} [options]\n"
     "\n"
     "Runs a standard textile test in simulation and prints measured against theory:\n"
-    "  cantilever  ASTM D1388 / FAST-2: tip chord angle against the exact elastica; bending length and rigidity\n"
+    "  cantilever  ASTM D1388 / FAST-2: tip chord angle against the exact elastica; bending length and "
+    "rigidity\n"
     "  tensile     FAST-3: extension at 5, 20, 100 gf/cm; stretch modulus recovered at 5 gf/cm\n"
     "  shear       bias extension: shear modulus from the 45° strip's modulus\n"
     "  catenary    a 1 m strip hung at a span: sag against the analytic catenary\n"
-    "  drape       Cusick: a 30 cm disc on an 18 cm support; drape coefficient (%) and node count (no published\n"
+    "  drape       Cusick: a 30 cm disc on an 18 cm support; drape coefficient (%) and node count (no "
+    "published\n"
     "              value for these fabrics: theory and error are null; --resolution = rings, default 20)\n"
     "\n"
     "Options:\n"
@@ -41,9 +43,11 @@ const char* kFabricUsage =
     "  --solver S            static (default) or a dynamic solver that settles the strip\n"
     "  --settle-frames N     dynamic solvers: at most N frames of 0.01 s (default 400)\n"
     "  --settle-speed V      dynamic solvers: settled when every vertex is slower than V m/s (default 1e-6)\n"
-    "  --json                print one JSON object (test, material, model, resolution, measured, theory, error,\n"
+    "  --json                print one JSON object (test, material, model, resolution, measured, theory, "
+    "error,\n"
     "                        and the test's own fields) instead of text\n"
-    "  --out DIR             report folder (default: out/fabric-test/<test>): report.md, curve.csv, plot.png\n";
+    "  --out DIR             report folder (default: out/fabric-test/<test>): report.md, curve.csv, "
+    "plot.png\n";
 
 double parse_number(const std::string& flag, const char* v) {
   char* end = nullptr;
@@ -66,12 +70,14 @@ void write_report(const fs::path& dir, const eval::FabricTestResult& r) {
   std::ofstream md(dir / "report.md");
   md << "# Fabric test: " << r.test << "\n\n"
      << "| | |\n|---|---|\n"
-     << "| material | " << r.material << " |\n| model | " << r.model << " |\n| resolution | " << r.resolution << " |\n"
+     << "| material | " << r.material << " |\n| model | " << r.model << " |\n| resolution | " << r.resolution
+     << " |\n"
      << "| " << r.quantity << " measured | " << r.measured << " " << r.unit << " |\n"
      << "| theory | " << r.theory << " " << r.unit << " |\n| error | " << r.error << " " << r.unit << " |\n";
   for (const auto& [k, v] : r.fields) md << "| " << k << " | " << v << " |\n";
-  md << "| solver | " << r.solver << " |\n| settle frames | " << r.settle_frames << (r.settled ? " (settled)" : " (not settled)")
-     << " |\n| wall time | " << r.seconds << " s |\n| CPU time | " << r.cpu_seconds << " s |\n\n";
+  md << "| solver | " << r.solver << " |\n| settle frames | " << r.settle_frames
+     << (r.settled ? " (settled)" : " (not settled)") << " |\n| wall time | " << r.seconds
+     << " s |\n| CPU time | " << r.cpu_seconds << " s |\n\n";
   // The plot, through gnuplot when it is installed.
   const std::string gp = (dir / "plot.gp").string();
   {
@@ -80,8 +86,10 @@ void write_report(const fs::path& dir, const eval::FabricTestResult& r) {
     g << "set terminal pngcairo size 640,480 noenhanced\nset output '" << (dir / "plot.png").string() << "'\n"
       << "set datafile separator ','\nset key bottom left\nset grid\n"
       << "set title '" << r.test << ": " << r.material << ", " << r.model << "'\n"
-      << (shape ? "set size ratio -1\nset xlabel 'x'\nset ylabel 'y'\n" : "set xlabel 'extension (%)'\nset ylabel 'load (gf/cm)'\n")
-      << "plot '" << (dir / "curve.csv").string() << "' using ($1 eq 'simulated' ? $2 : 1/0):3 with linespoints title 'simulated', \\\n"
+      << (shape ? "set size ratio -1\nset xlabel 'x'\nset ylabel 'y'\n"
+                : "set xlabel 'extension (%)'\nset ylabel 'load (gf/cm)'\n")
+      << "plot '" << (dir / "curve.csv").string()
+      << "' using ($1 eq 'simulated' ? $2 : 1/0):3 with linespoints title 'simulated', \\\n"
       << "     '' using ($1 eq 'theory' ? $2 : 1/0):3 with lines lw 2 title 'theory'\n";
   }
   // Column 1 is a string: compare with strcol.
@@ -108,7 +116,9 @@ int parse_count(const std::string& flag, const std::string& text, long lo, long 
   errno = 0;
   const long v = std::strtol(text.c_str(), &end, 10);
   if (text.empty() || *end || errno == ERANGE || v < lo || v > hi)
-    throw Error("", flag, "expects a whole number in [" + std::to_string(lo) + ", " + std::to_string(hi) + "], got '" + text + "'");
+    throw Error("", flag,
+                "expects a whole number in [" + std::to_string(lo) + ", " + std::to_string(hi) + "], got '" +
+                    text + "'");
   return static_cast<int>(v);
 }
 
@@ -166,8 +176,10 @@ int fabric_test_main(int argc, char** argv) {
   // bending springs do not follow it (README, "Fabric tests"), so it is not the default there.
   if (o.test == "cantilever" && !model_given) o.model = "choi_ko";
   if (o.test == "cantilever" && o.model == "springs")
-    std::fprintf(stderr, "loom: warning: --model springs: the springs model's bending does not follow the elastica and its "
-                         "cantilever angle is far off (use choi_ko or baraff_witkin for a validated result)\n");
+    std::fprintf(
+        stderr,
+        "loom: warning: --model springs: the springs model's bending does not follow the elastica and its "
+        "cantilever angle is far off (use choi_ko or baraff_witkin for a validated result)\n");
   o.material = cloth::material_preset(material);
   bool known_model = false;
   for (const auto& m : cloth::model_names()) known_model = known_model || m == o.model;
@@ -194,14 +206,16 @@ int fabric_test_main(int argc, char** argv) {
     std::cout << j.dump() << "\n";
   } else {
     if (std::isfinite(r.theory))
-      std::printf("%s (%s, %s, resolution %d)\n  %s: measured %.6g %s, theory %.6g %s, error %+.4g %s\n", r.test.c_str(),
-                  r.material.c_str(), r.model.c_str(), r.resolution, r.quantity.c_str(), r.measured, r.unit.c_str(),
-                  r.theory, r.unit.c_str(), r.error, r.unit.c_str());
+      std::printf("%s (%s, %s, resolution %d)\n  %s: measured %.6g %s, theory %.6g %s, error %+.4g %s\n",
+                  r.test.c_str(), r.material.c_str(), r.model.c_str(), r.resolution, r.quantity.c_str(),
+                  r.measured, r.unit.c_str(), r.theory, r.unit.c_str(), r.error, r.unit.c_str());
     else
       std::printf("%s (%s, %s, resolution %d)\n  %s: measured %.6g %s (no theory value)\n", r.test.c_str(),
-                  r.material.c_str(), r.model.c_str(), r.resolution, r.quantity.c_str(), r.measured, r.unit.c_str());
+                  r.material.c_str(), r.model.c_str(), r.resolution, r.quantity.c_str(), r.measured,
+                  r.unit.c_str());
     for (const auto& [k, v] : r.fields) std::printf("  %s = %.6g\n", k.c_str(), v);
-    std::printf("  solver %s: %d frames, %s\n", r.solver.c_str(), r.settle_frames, r.settled ? "settled" : "NOT settled");
+    std::printf("  solver %s: %d frames, %s\n", r.solver.c_str(), r.settle_frames,
+                r.settled ? "settled" : "NOT settled");
     std::printf("  wall time %.2f s, CPU time %.2f s\n", r.seconds, r.cpu_seconds);
   }
   return 0;

@@ -55,8 +55,9 @@ Manifest read_manifest(const fs::path& file, const std::string& flag) {
       continue;
     }
     if (!valid_entry(line))
-      throw Error(file.string(), "line " + std::to_string(number),
-                  "not a path inside the output folder: the manifest is corrupt, Loom deletes nothing it lists");
+      throw Error(
+          file.string(), "line " + std::to_string(number),
+          "not a path inside the output folder: the manifest is corrupt, Loom deletes nothing it lists");
     m.entries.push_back(line);
   }
   if (number == 0) throw Error(file.string(), "line 1", "empty manifest");
@@ -79,22 +80,27 @@ OutputFolder::OutputFolder(const fs::path& dir, const std::string& flag, bool ov
   if (fs::exists(dir, ec) && !fs::is_directory(dir, ec))
     throw Error(dir.string(), flag, "cannot create output folder: a file of that name exists");
   fs::create_directories(dir, ec);
-  if (ec || !fs::is_directory(dir)) throw Error(dir.string(), flag, "cannot create output folder: " + ec.message());
+  if (ec || !fs::is_directory(dir))
+    throw Error(dir.string(), flag, "cannot create output folder: " + ec.message());
   const fs::path manifest = dir / kManifest;
   const fs::file_status ms = fs::symlink_status(manifest, ec);
   Manifest old;
   if (fs::exists(ms)) {
     if (!fs::is_regular_file(ms))
-      throw Error(manifest.string(), flag, "is not a regular file (a link or a folder): not a folder Loom owns");
+      throw Error(manifest.string(), flag,
+                  "is not a regular file (a link or a folder): not a folder Loom owns");
     old = read_manifest(manifest, flag);
   } else {
-    if (resume) throw Error(dir.string(), flag, "holds no " + std::string(kManifest) + ": not a folder written by loom run");
+    if (resume)
+      throw Error(dir.string(), flag,
+                  "holds no " + std::string(kManifest) + ": not a folder written by loom run");
     const bool empty = fs::directory_iterator(dir, ec) == fs::directory_iterator();
     if (!empty && !overwrite)
-      throw Error(dir.string(), flag,
-                  "is not empty and was not written by loom run (no " + std::string(kManifest) +
-                      "): choose a new or empty folder, or pass --overwrite to write into it (files of the names "
-                      "Loom writes are then replaced; nothing else is deleted)");
+      throw Error(
+          dir.string(), flag,
+          "is not empty and was not written by loom run (no " + std::string(kManifest) +
+              "): choose a new or empty folder, or pass --overwrite to write into it (files of the names "
+              "Loom writes are then replaced; nothing else is deleted)");
   }
   if (resume) {
     run_id_ = old.run_id;
@@ -105,7 +111,8 @@ OutputFolder::OutputFolder(const fs::path& dir, const std::string& flag, bool ov
   }
   // A new run: what the earlier runs listed goes (files, then folders that are left empty, deepest first).
   std::vector<std::string> entries = old.entries;
-  std::sort(entries.begin(), entries.end(), [](const std::string& a, const std::string& b) { return a.size() > b.size(); });
+  std::sort(entries.begin(), entries.end(),
+            [](const std::string& a, const std::string& b) { return a.size() > b.size(); });
   for (const std::string& rel : entries) {
     const fs::path p = dir / rel;
     const fs::file_status st = fs::symlink_status(p, ec);
@@ -141,7 +148,8 @@ void OutputFolder::append(const std::string& line) {
 fs::path OutputFolder::claim(const std::string& relative) {
   const bool folder = !relative.empty() && relative.back() == '/';
   const std::string rel = folder ? relative.substr(0, relative.size() - 1) : relative;
-  if (!valid_entry(rel)) throw Error((dir_ / relative).string(), flag_, "is not a path inside the output folder");
+  if (!valid_entry(rel))
+    throw Error((dir_ / relative).string(), flag_, "is not a path inside the output folder");
   std::error_code ec;
   fs::path at = dir_;
   const fs::path rp(rel);
@@ -149,7 +157,8 @@ fs::path OutputFolder::claim(const std::string& relative) {
     at /= *it;
     const fs::file_status st = fs::symlink_status(at, ec);
     if (fs::is_symlink(st))
-      throw Error(at.string(), flag_, "is a symbolic link: Loom never writes through a link in its output folder");
+      throw Error(at.string(), flag_,
+                  "is a symbolic link: Loom never writes through a link in its output folder");
     const bool last = std::next(it) == rp.end();
     if (fs::exists(st) && !fs::is_directory(st) && (!last || folder))
       throw Error(at.string(), flag_, "is a file where Loom writes a folder");

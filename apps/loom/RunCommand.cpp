@@ -1,13 +1,11 @@
 #include "RunCommand.h"
 
-#include "DetailView.h"
-
 #include <unistd.h>
 
 #include <algorithm>
 #include <chrono>
-#include <csignal>
 #include <cmath>
+#include <csignal>
 #include <cstdio>
 #include <cstdlib>
 #include <filesystem>
@@ -21,6 +19,7 @@
 #include <thread>
 
 #include "Checkpoint.h"
+#include "DetailView.h"
 #include "OutputFolder.h"
 #include "Terminal.h"
 #include "loom/cloth/Error.h"
@@ -32,8 +31,8 @@
 #include "loom/bullet/BulletScene.h"
 #endif
 #include "loom/collision/MultiClothCensus.h"
-#include "loom/scene/ScenePipeline.h"
 #include "loom/scene/Scene.h"
+#include "loom/scene/ScenePipeline.h"
 
 namespace fs = std::filesystem;
 
@@ -102,7 +101,8 @@ class ProgressBar {
     if (!enabled_) return;
     const int width = 30, filled = total_ ? done * width / total_ : width;
     std::fprintf(stderr, "\r[%s%s] %3d%% frame %d/%d  %.2f ms/frame", std::string(filled, '#').c_str(),
-                 std::string(width - filled, ' ').c_str(), total_ ? 100 * done / total_ : 100, done, total_, ms_per_frame);
+                 std::string(width - filled, ' ').c_str(), total_ ? 100 * done / total_ : 100, done, total_,
+                 ms_per_frame);
     std::fflush(stderr);
   }
   void finish() {
@@ -148,7 +148,8 @@ std::optional<Checkpoint> apply_resume(RunOptions& o) {
   if (read_run_id(o.resume) != resume.run_id)
     throw Error(ckpt.string(), "run_id",
                 "belongs to another run's output folder (its run id is not the one in " +
-                    (fs::path(o.resume) / OutputFolder::kManifest).string() + "): resume the folder it was written in");
+                    (fs::path(o.resume) / OutputFolder::kManifest).string() +
+                    "): resume the folder it was written in");
   check_inputs(resume);
   o.scene = resume.scene;
   o.sets = resume.sets;
@@ -191,7 +192,8 @@ class SceneRun {
   RunOptions o_;
   std::optional<Checkpoint> resume_;
   std::string scene_path_, scene_abs_, scene_text_;
-  std::vector<InputFile> inputs_;  // what a checkpoint records of the inputs: every file the scene read, hashed
+  std::vector<InputFile>
+      inputs_;  // what a checkpoint records of the inputs: every file the scene read, hashed
   scene::Scene sc_;
   int frames_ = 0;
   std::unique_ptr<scene::ScenePipeline> pipeline_;
@@ -238,9 +240,10 @@ SceneRun::SceneRun(const RunOptions& options) : o_(options) {
   }
   frames_ = o_.frames >= 0 ? o_.frames : sc_.frames;
   if (!sc_.bodies.empty() && (resume_ || o_.checkpoint_every > 0))
-    throw Error(scene_path_, "bodies",
-                "--checkpoint-every / --resume do not save the Bullet world: not available for scenes with rigid "
-                "bodies");
+    throw Error(
+        scene_path_, "bodies",
+        "--checkpoint-every / --resume do not save the Bullet world: not available for scenes with rigid "
+        "bodies");
   // What the scene runs, with the scene-level defaults (ScenePipeline.h); validates before any output.
   pipeline_ = scene::build_pipeline(sc_);
   sc_ = pipeline_->scene();
@@ -259,7 +262,8 @@ void SceneRun::open_outputs() {
   out_ = o_.out.empty() ? fs::path("out") / sc_.name : fs::path(o_.out);
   if (o_.out.empty() && fs::path(sc_.name).filename() != fs::path(sc_.name))
     throw Error(scene_path_, "name", "is not a plain file name, so it cannot name the output folder");
-  folder_ = std::make_unique<OutputFolder>(out_, resume_ ? "--resume" : "--out", o_.overwrite, resume_.has_value());
+  folder_ =
+      std::make_unique<OutputFolder>(out_, resume_ ? "--resume" : "--out", o_.overwrite, resume_.has_value());
   first_ = resume_ ? resume_->frame : 0;
   shown_ = std::make_unique<DetailView>(sc_, *sim_);
   bool in_memory = o_.render;
@@ -271,8 +275,8 @@ void SceneRun::open_outputs() {
     kept_rows = kept_stats_rows(out_, first_);
   }
   if (in_memory)
-    log_ = std::make_unique<FrameLog>(*folder_, resume_ ? resume_->logged_frames : 0, resume_ ? resume_->log_hash : 0,
-                                      shown_->cloths());
+    log_ = std::make_unique<FrameLog>(*folder_, resume_ ? resume_->logged_frames : 0,
+                                      resume_ ? resume_->log_hash : 0, shown_->cloths());
   digits_ = frame_digits(frames_);
   folder_->claim("frames/");
   if (resume_) {  // the stats rows and OBJ frames up to the checkpoint's frame are kept, later ones dropped
@@ -307,7 +311,8 @@ void SceneRun::open_outputs() {
   if (o_.render) recording_ = std::make_unique<render::Recording>(shown_->cloths(), pipeline_->colliders());
 #else
   if (o_.render)
-    throw Error("", "--render", "this loom was built without the offscreen renderer (Debian: libosmesa6-dev libstb-dev)");
+    throw Error("", "--render",
+                "this loom was built without the offscreen renderer (Debian: libosmesa6-dev libstb-dev)");
 #endif
 }
 
@@ -329,8 +334,8 @@ void SceneRun::write_bodies(int f) {
   }
   for (size_t k = 0; k < bodies_world_->num_bodies(); ++k) {
     const cloth::Vec3 p = bodies_world_->body_position(k), v = bodies_world_->body_velocity(k);
-    bodies_csv_ << f << ',' << f * sc_.setup.frame_dt << ',' << sc_.bodies[k].name << ',' << p.x() << ',' << p.y()
-                << ',' << p.z() << ',' << v.x() << ',' << v.y() << ',' << v.z() << "\n";
+    bodies_csv_ << f << ',' << f * sc_.setup.frame_dt << ',' << sc_.bodies[k].name << ',' << p.x() << ','
+                << p.y() << ',' << p.z() << ',' << v.x() << ',' << v.y() << ',' << v.z() << "\n";
   }
 #else
   (void)f;
@@ -346,7 +351,8 @@ void SceneRun::run_census() {
   census_intersections_ =
       std::max(census_intersections_, collision::count_all_intersections(in, sc_.setup.threads));
   if (pipeline_->colliders())
-    census_penetration_ = std::max(census_penetration_, collision::max_penetration(in, *pipeline_->colliders()));
+    census_penetration_ =
+        std::max(census_penetration_, collision::max_penetration(in, *pipeline_->colliders()));
 }
 
 std::string SceneRun::frame_name(int f) const {
@@ -412,11 +418,12 @@ void SceneRun::start() {
   if (!finite_) {
     const std::string bad = non_finite_cloth(sim_->cloths());
     const std::string shown_bad = non_finite_cloth(shown_->cloths());
-    error_ = !bad.empty() ? "cloth '" + bad + "' starts at a non-finite position"
-             : !shown_bad.empty()
-                 ? "the detail surface of cloth '" + shown_bad + "' is not finite at the start (cloths[].detail)"
-                 : "the start state's energy is not finite (an initial velocity, pin offset or anchor too large "
-                   "for double precision)";
+    error_ =
+        !bad.empty() ? "cloth '" + bad + "' starts at a non-finite position"
+        : !shown_bad.empty()
+            ? "the detail surface of cloth '" + shown_bad + "' is not finite at the start (cloths[].detail)"
+            : "the start state's energy is not finite (an initial velocity, pin offset or anchor too large "
+              "for double precision)";
     error_ += "; stopped before frame 0, nothing written";
     return;
   }
@@ -447,7 +454,8 @@ bool SceneRun::stopped_non_finite(const cloth::FrameStats& s, int f) {
   return false;
 }
 
-// Ctrl-C (SIGINT) stops the loop at the next frame boundary; the run then writes a checkpoint and valid outputs.
+// Ctrl-C (SIGINT) stops the loop at the next frame boundary; the run then writes a checkpoint and valid
+// outputs.
 void SceneRun::step_frames() {
   ProgressBar bar(frames_);
   g_interrupted = 0;
@@ -507,9 +515,10 @@ void SceneRun::render_video() {
   rs.height = sc_.output.render.height;
   if (sc_.output.render.camera)
     rs.camera = render::Camera{sc_.output.render.eye, sc_.output.render.target, sc_.output.render.fov};
-  const render::RenderReport rep =
-      render::render_recording(out_.string(), *recording_, rs, 1.0 / (sc_.setup.frame_dt * sc_.output.render.every));
-  render_summary_ = {{"frames", rep.frames}, {"ms_per_frame", rep.ms_per_frame}, {"width", rs.width}, {"height", rs.height}};
+  const render::RenderReport rep = render::render_recording(
+      out_.string(), *recording_, rs, 1.0 / (sc_.setup.frame_dt * sc_.output.render.every));
+  render_summary_ = {
+      {"frames", rep.frames}, {"ms_per_frame", rep.ms_per_frame}, {"width", rs.width}, {"height", rs.height}};
   std::cout << "loom: rendered " << rep.frames << " frames (" << std::fixed << std::setprecision(1)
             << rep.ms_per_frame << " ms/frame) -> " << (out_ / "render").string() << "/, " << rep.mp4 << ", "
             << rep.gif << "\n";
@@ -563,7 +572,9 @@ nlohmann::ordered_json SceneRun::summary() const {
     nlohmann::ordered_json bj = nlohmann::ordered_json::array();
     for (size_t k = 0; k < bodies_world_->num_bodies(); ++k) {
       const cloth::Vec3 p = bodies_world_->body_position(k), v = bodies_world_->body_velocity(k);
-      bj.push_back({{"name", sc_.bodies[k].name}, {"position", {p.x(), p.y(), p.z()}}, {"velocity", {v.x(), v.y(), v.z()}}});
+      bj.push_back({{"name", sc_.bodies[k].name},
+                    {"position", {p.x(), p.y(), p.z()}},
+                    {"velocity", {v.x(), v.y(), v.z()}}});
     }
     j["bodies"] = bj;
     j["bodies_file"] = "bodies.csv";
@@ -581,14 +592,16 @@ int SceneRun::finish() {
   csv_.close();
   if (!csv_) throw Error(stats_partial_.string(), "", "write failed");
   fs::rename(stats_partial_, folder_->claim("stats.csv"));
-  write_atomically(folder_->claim("summary.json"), folder_->claim("summary.json.tmp"), summary().dump(2) + "\n");
+  write_atomically(folder_->claim("summary.json"), folder_->claim("summary.json.tmp"),
+                   summary().dump(2) + "\n");
   if (o_.profile) print_profile(*sim_, done_);
   if (!finite_) {
     std::cerr << "loom: error: " << printable(scene_path_) << ": " << printable(error_) << "\n";
     return 3;
   }
   if (interrupted_) {
-    std::cerr << "loom: interrupted after frame " << done_ << " of " << frames_ << "; outputs so far are valid";
+    std::cerr << "loom: interrupted after frame " << done_ << " of " << frames_
+              << "; outputs so far are valid";
     if (!resumable_)
       std::cerr << " (a scene with rigid bodies cannot be resumed)\n";
     else
@@ -596,8 +609,8 @@ int SceneRun::finish() {
     return 130;
   }
   std::cout << "loom: " << done_ << " frames of " << printable(sc_.name) << " in " << std::fixed
-            << std::setprecision(2) << (done_ ? sim_ms_ / done_ : 0.0) << " ms/frame -> " << printable(out_.string())
-            << "\n";
+            << std::setprecision(2) << (done_ ? sim_ms_ / done_ : 0.0) << " ms/frame -> "
+            << printable(out_.string()) << "\n";
   return 0;
 }
 

@@ -11,8 +11,8 @@
 #include "RunCommand.h"
 #include "Terminal.h"
 #ifdef LOOM_HAVE_BENCH_ACCURACY
-#include "loom/eval/AccuracyBench.h"
 #include "CompareCommand.h"
+#include "loom/eval/AccuracyBench.h"
 #endif
 #include "loom/cloth/Error.h"
 #include "loom/cloth/Material.h"
@@ -39,7 +39,8 @@ std::string run_usage() {
   std::string solvers, presets;
   for (const auto& s : loom::cloth::solver_names()) solvers += (solvers.empty() ? "" : ", ") + s;
   for (const auto& p : loom::cloth::material_preset_names()) presets += (presets.empty() ? "" : ", ") + p;
-  return "Usage: loom run [SCENE] [--out DIR] [--frames N] [--threads N] [--profile] [--render] [--set PATH=VALUE ...]\n"
+  return "Usage: loom run [SCENE] [--out DIR] [--frames N] [--threads N] [--profile] [--render] [--set "
+         "PATH=VALUE ...]\n"
          "                [--checkpoint-every N] [--resume DIR] [--overwrite]\n"
          "\n"
          "Runs SCENE (a JSON file; default: " +
@@ -47,8 +48,10 @@ std::string run_usage() {
          ") and writes\n"
          "  DIR/frames/frame_NNNNN.obj  every k-th frame (scene: output.every)\n"
          "  DIR/stats.csv               one row per frame: time, energies, strain, per-stage ms\n"
-         "  DIR/summary.json            frames, sim_seconds, wall_seconds, ms_per_frame, stages, max_strain,\n"
-         "                              mean_strain, finite (written last: its presence means the run ended)\n"
+         "  DIR/summary.json            frames, sim_seconds, wall_seconds, ms_per_frame, stages, "
+         "max_strain,\n"
+         "                              mean_strain, finite (written last: its presence means the run "
+         "ended)\n"
          "\n"
          "Options:\n"
          "  --out DIR          output folder (default: out/<scene name>); loom run owns it through\n"
@@ -59,11 +62,14 @@ std::string run_usage() {
          "  --threads N        OpenMP threads for the per-element loops (default: the scene's, else 1)\n"
          "  --profile          print a table of pipeline stages: total and per-frame milliseconds, counters\n"
          "  --render           also render DIR/render/frame_NNNNN.png, DIR/render.mp4 and DIR/render.gif\n"
-         "                     (offscreen, software OpenGL; scene: output.render {width, height, every, camera})\n"
-         "  --checkpoint-every N  write DIR/checkpoint/checkpoint.bin every N frames (atomically; Ctrl-C also\n"
+         "                     (offscreen, software OpenGL; scene: output.render {width, height, every, "
+         "camera})\n"
+         "  --checkpoint-every N  write DIR/checkpoint/checkpoint.bin every N frames (atomically; Ctrl-C "
+         "also\n"
          "                     writes one, then stops at the frame boundary with valid outputs, exit 130)\n"
          "  --resume DIR       continue the run whose checkpoint is in DIR (bit-identical to not stopping)\n"
-         "  --census           after every frame count intersecting triangle pairs exactly (self pairs sharing no\n"
+         "  --census           after every frame count intersecting triangle pairs exactly (self pairs "
+         "sharing no\n"
          "                     vertex, and pairs between cloths) and the deepest vertex inside a collider;\n"
          "                     summary.json gets intersections (largest count) and max_penetration (m)\n"
          "  --set PATH=VALUE   override any scene value before it is checked, e.g.\n"
@@ -71,7 +77,8 @@ std::string run_usage() {
          "                     VALUE is read as JSON when it parses (numbers, arrays), else as a string\n"
          "  -h, --help         this text\n"
          "\n"
-         "Solvers: " + solvers + "\nMaterial presets: " + presets + "\n";
+         "Solvers: " +
+         solvers + "\nMaterial presets: " + presets + "\n";
 }
 
 int parse_int(const char* flag, const char* value) {
@@ -134,18 +141,20 @@ int run_main(int argc, char** argv) {
     } else if (a.rfind("--set=", 0) == 0) {
       o.sets.push_back(a.substr(6));
     } else if (!a.empty() && a[0] == '-') {
-      std::fprintf(stderr, "loom: error: unknown option '%s' (see loom run --help)\n", loom::app::printable(a).c_str());
+      std::fprintf(stderr, "loom: error: unknown option '%s' (see loom run --help)\n",
+                   loom::app::printable(a).c_str());
       return 2;
     } else if (o.scene.empty()) {
       o.scene = non_empty("SCENE", a.c_str());
     } else {
-      std::fprintf(stderr, "loom: error: more than one scene given ('%s', '%s')\n", loom::app::printable(o.scene).c_str(),
-                   loom::app::printable(a).c_str());
+      std::fprintf(stderr, "loom: error: more than one scene given ('%s', '%s')\n",
+                   loom::app::printable(o.scene).c_str(), loom::app::printable(a).c_str());
       return 2;
     }
   }
   if (!o.resume.empty() && !o.scene.empty()) {
-    std::fprintf(stderr, "loom: error: --resume takes the scene from the checkpoint; do not also give one ('%s')\n",
+    std::fprintf(stderr,
+                 "loom: error: --resume takes the scene from the checkpoint; do not also give one ('%s')\n",
                  loom::app::printable(o.scene).c_str());
     return 2;
   }
@@ -178,6 +187,7 @@ int main(int argc, char** argv) {
     std::cerr << "loom: error: " << loom::app::printable(e.what()) << "\n";
     return 1;
   }
-  std::fprintf(stderr, "loom: error: unknown command '%s' (see loom --help)\n", loom::app::printable(cmd).c_str());
+  std::fprintf(stderr, "loom: error: unknown command '%s' (see loom --help)\n",
+               loom::app::printable(cmd).c_str());
   return 2;
 }

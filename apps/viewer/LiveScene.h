@@ -1,14 +1,14 @@
 #pragma once
 // loom-view's simulation, without any GL (tested in tests/viewer without a display): the scene's
-// pipeline built through scene::build_pipeline (as `loom run` builds it), effect toggles and material edits applied by
-// rebuilding it from an edited copy of the scene while keeping the clock and every cloth's x, v, x_prev
-// (solver history such as BDF2's previous step starts afresh), and dragging a cloth vertex picked with a
-// ray (collision/RayCast.h) as a temporary kinematic pin.
-// A scene with Bullet rigid `bodies` (only when built with the Bullet bridge, LOOM_HAVE_BULLET) runs in a
-// bullet::BulletScene as `loom run` does: colliders() are then the bodies at their poses, picking goes
-// through BulletCloth::ray_test (BulletScene::ray_test) and the grabbed vertex is a kinematic pin on the
-// cloth simulation inside the Bullet world. The Bullet world's state is not copied, so there an edit
-// (rebuild) starts the run again from the scene's start with the new settings.
+// pipeline built through scene::build_pipeline (as `loom run` builds it), effect toggles and material edits
+// applied by rebuilding it from an edited copy of the scene while keeping the clock and every cloth's x, v,
+// x_prev (solver history such as BDF2's previous step starts afresh), and dragging a cloth vertex picked with
+// a ray (collision/RayCast.h) as a temporary kinematic pin. A scene with Bullet rigid `bodies` (only when
+// built with the Bullet bridge, LOOM_HAVE_BULLET) runs in a bullet::BulletScene as `loom run` does:
+// colliders() are then the bodies at their poses, picking goes through BulletCloth::ray_test
+// (BulletScene::ray_test) and the grabbed vertex is a kinematic pin on the cloth simulation inside the Bullet
+// world. The Bullet world's state is not copied, so there an edit (rebuild) starts the run again from the
+// scene's start with the new settings.
 #include <memory>
 #include <optional>
 #include <string>
@@ -37,9 +37,9 @@ struct Effects {
 
 struct Grab {
   int cloth = -1, vertex = -1;
-  int triangle = -1;                          // the triangle the pick ray hit
+  int triangle = -1;                              // the triangle the pick ray hit
   cloth::Vec3 barycentric = cloth::Vec3::Zero();  // 1, the hit point's weights on that triangle
-  double distance = 0.0;  // m from the ray origin to the grabbed point when picked
+  double distance = 0.0;                          // m from the ray origin to the grabbed point when picked
 };
 
 class LiveScene {
@@ -62,7 +62,7 @@ class LiveScene {
   double time() const;
 
   const Effects& available() const { return available_; }  // what the scene names
-  Effects& enabled() { return enabled_; }                   // edit, then rebuild()
+  Effects& enabled() { return enabled_; }                  // edit, then rebuild()
   // Per-cloth materials, edit, then rebuild() (validated: an invalid edit throws and keeps the old run).
   std::vector<cloth::Material>& materials() { return materials_; }
   // Solver method and substeps for rebuild().

@@ -8,10 +8,9 @@
 // renderer's (render/src/gl/Draw.cpp). With --frames N --screenshot FILE it plays N frames, saves
 // the window to FILE and exits (the Xvfb test uses this).
 #include <GLFW/glfw3.h>
-#include <imgui.h>
 #include <backends/imgui_impl_glfw.h>
 #include <backends/imgui_impl_opengl2.h>
-
+#include <imgui.h>
 #include <stb_image_write.h>
 
 #include <cmath>
@@ -47,14 +46,16 @@ Vec3 pick_ray(const render::Camera& cam, double aspect, double mx, double my, in
 // One slider on a log scale for a positive material value; true when changed.
 bool log_slider(const char* label, double& value, double lo, double hi) {
   float v = static_cast<float>(value);
-  if (!ImGui::SliderFloat(label, &v, static_cast<float>(lo), static_cast<float>(hi), "%.3g", ImGuiSliderFlags_Logarithmic))
+  if (!ImGui::SliderFloat(label, &v, static_cast<float>(lo), static_cast<float>(hi), "%.3g",
+                          ImGuiSliderFlags_Logarithmic))
     return false;
   value = v;
   return true;
 }
 
 std::vector<render::RenderMesh> meshes_of(const cloth::Simulation& sim) {
-  static const Vec3 kColors[] = {{0.80, 0.22, 0.18}, {0.20, 0.42, 0.75}, {0.90, 0.68, 0.20}, {0.30, 0.62, 0.35}};
+  static const Vec3 kColors[] = {
+      {0.80, 0.22, 0.18}, {0.20, 0.42, 0.75}, {0.90, 0.68, 0.20}, {0.30, 0.62, 0.35}};
   std::vector<render::RenderMesh> out;
   for (size_t i = 0; i < sim.cloths().size(); ++i) {
     render::RenderMesh m;
@@ -126,7 +127,8 @@ struct Orbit {
   render::Camera camera(const Framing& f) const {
     render::Camera cam;
     cam.target = f.center;
-    cam.eye = f.center + dist * Vec3(std::sin(yaw) * std::cos(pitch), std::sin(pitch), std::cos(yaw) * std::cos(pitch));
+    cam.eye = f.center +
+              dist * Vec3(std::sin(yaw) * std::cos(pitch), std::sin(pitch), std::cos(yaw) * std::cos(pitch));
     cam.fov_deg = f.cam0.fov_deg;
     return cam;
   }
@@ -236,8 +238,8 @@ struct Mouse {
 
 // Orbit (left-drag) and zoom (wheel) when ImGui does not want the mouse; right button: drag a cloth vertex,
 // held at its picked depth along the mouse ray from `cam`.
-void handle_mouse(GLFWwindow* win, viewer::LiveScene& live, const render::Camera& cam, double aspect, Orbit& orbit,
-                  Mouse& mouse) {
+void handle_mouse(GLFWwindow* win, viewer::LiveScene& live, const render::Camera& cam, double aspect,
+                  Orbit& orbit, Mouse& mouse) {
   int ww, wh;
   glfwGetWindowSize(win, &ww, &wh);
   double mx, my;

@@ -8,10 +8,10 @@
 #include "BodyCoupling.h"
 #include "BulletConvert.h"
 #include "ContactStage.h"
+#include "loom/cloth/Error.h"
 #include "loom/collision/BodyCollisionStage.h"
 #include "loom/collision/ColliderGeometry.h"
 #include "loom/collision/FeatureContact.h"
-#include "loom/cloth/Error.h"
 
 namespace loom::bullet {
 
@@ -35,11 +35,20 @@ double reach_from_origin(const Collider& c) {
   const collision::Shape& s = c.shape;
   double r = 0.0;
   switch (s.type) {
-    case ShapeType::plane: return 0.0;
-    case ShapeType::sphere: r = s.radius; break;
-    case ShapeType::capsule: r = s.radius + s.half_height; break;
-    case ShapeType::box: r = s.half_extents.norm(); break;
-    case ShapeType::cylinder: r = std::hypot(s.radius, s.half_height); break;
+    case ShapeType::plane:
+      return 0.0;
+    case ShapeType::sphere:
+      r = s.radius;
+      break;
+    case ShapeType::capsule:
+      r = s.radius + s.half_height;
+      break;
+    case ShapeType::box:
+      r = s.half_extents.norm();
+      break;
+    case ShapeType::cylinder:
+      r = std::hypot(s.radius, s.half_height);
+      break;
     case ShapeType::convex:
     case ShapeType::mesh:
       for (const Vec3& v : s.vertices) r = std::max(r, v.norm());
@@ -70,7 +79,7 @@ struct BulletCloth::BodyTrack {
   long seen = -2;                // the Bullet substep (BulletCloth::substeps_) it was last tracked in
   Vec3 applied = Vec3::Zero();   // N s, summed impulse applied to the body
   Vec3 step_impulse = Vec3::Zero(), step_moment = Vec3::Zero();  // this substep's reaction (about the COM)
-  std::vector<Collider> local;   // the shape's colliders in the body frame
+  std::vector<Collider> local;                                   // the shape's colliders in the body frame
   const btCollisionShape* local_of = nullptr;
   Transform at(double f) const { return slerp(start, end, std::clamp(f, 0.0, 1.0)); }
 };
@@ -258,7 +267,8 @@ void BulletCloth::attach(int cloth, int vertex, btRigidBody* body) {
   if (cloth < 0 || cloth >= static_cast<int>(cloths.size()))
     throw Error("", "attach", "cloth " + std::to_string(cloth) + " out of range");
   cloth::ClothState& s = cloths[cloth]->state();
-  if (vertex < 0 || vertex >= s.size()) throw Error("", "attach", "vertex " + std::to_string(vertex) + " out of range");
+  if (vertex < 0 || vertex >= s.size())
+    throw Error("", "attach", "vertex " + std::to_string(vertex) + " out of range");
   if (!body) throw Error("", "attach", "no body");
   Attachment a;
   a.cloth = cloth;

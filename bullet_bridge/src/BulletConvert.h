@@ -7,7 +7,9 @@
 namespace loom::bullet {
 
 inline collision::Vec3 to_eigen(const btVector3& v) { return collision::Vec3(v.x(), v.y(), v.z()); }
-inline btVector3 to_bt(const collision::Vec3& v) { return btVector3(btScalar(v.x()), btScalar(v.y()), btScalar(v.z())); }
+inline btVector3 to_bt(const collision::Vec3& v) {
+  return btVector3(btScalar(v.x()), btScalar(v.y()), btScalar(v.z()));
+}
 
 inline collision::Transform to_eigen(const btTransform& t) {
   collision::Transform out = collision::Transform::Identity();

@@ -30,7 +30,9 @@ struct BulletScene::World {
 
 BulletScene::BulletScene(const cloth::SimulationSetup& setup, const std::vector<RigidBodySpec>& bodies,
                          const BulletSceneOptions& options)
-    : specs_(bodies), world_(std::make_unique<World>()), body_colliders_(std::make_shared<collision::ColliderSet>()) {
+    : specs_(bodies),
+      world_(std::make_unique<World>()),
+      body_colliders_(std::make_shared<collision::ColliderSet>()) {
   if (options.bullet_substeps < 1) throw Error("", "bullet_substeps", "must be >= 1");
   frame_dt_ = setup.frame_dt;
   substeps_ = options.bullet_substeps;
@@ -46,7 +48,8 @@ BulletScene::BulletScene(const cloth::SimulationSetup& setup, const std::vector<
     for (size_t a = 0; a < specs_[k].attachments.size(); ++a) {
       const collision::BodyAttachment& at = specs_[k].attachments[a];
       const std::string field = "bodies[" + std::to_string(k) + "].attach[" + std::to_string(a) + "]";
-      if (at.cloth < 0 || at.cloth >= num_cloths) throw Error("", field + ".cloth", "no cloth with this index");
+      if (at.cloth < 0 || at.cloth >= num_cloths)
+        throw Error("", field + ".cloth", "no cloth with this index");
       if (at.vertex < 0 || at.vertex >= cloth_->simulation().cloths()[at.cloth]->state().size())
         throw Error("", field + ".vertex", "out of range");
       cloth_->attach(at.cloth, at.vertex, world_->bodies[k].get());
@@ -70,8 +73,12 @@ const cloth::Simulation& BulletScene::simulation() const { return cloth_->simula
 double BulletScene::time() const { return frame_ * frame_dt_; }
 long BulletScene::cloth_steps() const { return cloth_->cloth_steps(); }
 size_t BulletScene::num_bodies() const { return world_->bodies.size(); }
-Vec3 BulletScene::body_position(size_t k) const { return to_eigen(world_->bodies.at(k)->getCenterOfMassPosition()); }
-Vec3 BulletScene::body_velocity(size_t k) const { return to_eigen(world_->bodies.at(k)->getLinearVelocity()); }
+Vec3 BulletScene::body_position(size_t k) const {
+  return to_eigen(world_->bodies.at(k)->getCenterOfMassPosition());
+}
+Vec3 BulletScene::body_velocity(size_t k) const {
+  return to_eigen(world_->bodies.at(k)->getLinearVelocity());
+}
 const std::vector<std::string>& BulletScene::warnings() const { return cloth_->warnings(); }
 RayHit BulletScene::ray_test(const Vec3& from, const Vec3& to) const { return cloth_->ray_test(from, to); }
 
@@ -87,7 +94,8 @@ void BulletScene::refresh_colliders() {
 cloth::FrameStats BulletScene::step_frame() {
   const double t_end = (frame_ + 1) * frame_dt_;
   for (size_t k = 0; k < specs_.size(); ++k)
-    if (specs_[k].motion) world_->bodies[k]->getMotionState()->setWorldTransform(to_bt(specs_[k].motion(t_end)));
+    if (specs_[k].motion)
+      world_->bodies[k]->getMotionState()->setWorldTransform(to_bt(specs_[k].motion(t_end)));
   const long before = cloth_->substeps();
   std::vector<double> stage_ms;
   double total_ms = 0.0;

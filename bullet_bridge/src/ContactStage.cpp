@@ -13,11 +13,16 @@ namespace {
 double bounding_radius(const collision::Shape& s) {
   using collision::ShapeType;
   switch (s.type) {
-    case ShapeType::plane: return HUGE_VAL;
-    case ShapeType::sphere: return s.radius;
-    case ShapeType::capsule: return s.radius + s.half_height;
-    case ShapeType::box: return s.half_extents.norm();
-    case ShapeType::cylinder: return std::hypot(s.radius, s.half_height);
+    case ShapeType::plane:
+      return HUGE_VAL;
+    case ShapeType::sphere:
+      return s.radius;
+    case ShapeType::capsule:
+      return s.radius + s.half_height;
+    case ShapeType::box:
+      return s.half_extents.norm();
+    case ShapeType::cylinder:
+      return std::hypot(s.radius, s.half_height);
     case ShapeType::convex:
     case ShapeType::mesh: {
       double r = 0.0;
@@ -75,7 +80,8 @@ void ContactStage::run(cloth::StageContext& ctx) {
         col.reaction_impulse -= impulse;
         col.reaction_angular_impulse -= (x - centre).cross(impulse);
       }
-      if (edges_ && col.shape.type != collision::ShapeType::mesh) edge_contacts(col, hull, reach, back, ctx.h, s, cl->mesh());
+      if (edges_ && col.shape.type != collision::ShapeType::mesh)
+        edge_contacts(col, hull, reach, back, ctx.h, s, cl->mesh());
     }
   }
 }
@@ -87,12 +93,15 @@ void ContactStage::run(cloth::StageContext& ctx) {
 // pushed out and its approach velocity removed there, the correction shared by the two ends with weights
 // (1 - t) w_i and t w_j (w: inverse masses; the point x(t) moves by the full amount), and minus the impulse
 // goes to the collider as for vertices.
-void ContactStage::edge_contacts(collision::Collider& col, const HullPlanes* hull, double reach, const Transform& back,
-                                 double h, cloth::ClothState& s, const cloth::ClothMesh& mesh) {
+void ContactStage::edge_contacts(collision::Collider& col, const HullPlanes* hull, double reach,
+                                 const Transform& back, double h, cloth::ClothState& s,
+                                 const cloth::ClothMesh& mesh) {
   const Vec3 centre = col.curr.translation();
   const double mu = col.friction;
   const double reach2 = reach * reach;
-  auto phi_at = [&](const Vec3& p, Vec3* n) { return shape_signed_distance(col.shape, hull, col.curr, p, n); };
+  auto phi_at = [&](const Vec3& p, Vec3* n) {
+    return shape_signed_distance(col.shape, hull, col.curr, p, n);
+  };
   for (const cloth::Edge& e : mesh.edges()) {
     const double wi = s.inv_mass[e.i], wj = s.inv_mass[e.j];
     if (wi == 0.0 || wj == 0.0) continue;  // a held end: the free end's vertex contact is enough
@@ -138,15 +147,16 @@ void ContactStage::edge_contacts(collision::Collider& col, const HullPlanes* hul
     const double depth = (thickness_ - phi) / np_norm;
     n = np;
     const double ai = (1.0 - t) * wi, aj = t * wj;
-    const double denom = (1.0 - t) * ai + t * aj;  // m/s of x(t) per N s applied at x(t), i.e. 1 / effective mass
+    const double denom =
+        (1.0 - t) * ai + t * aj;  // m/s of x(t) per N s applied at x(t), i.e. 1 / effective mass
     if (!(denom > 0.0)) continue;
     ++edge_contacts_;
     last_penetration_ = std::max(last_penetration_, -phi);
     const double lambda = depth / denom;
     xi += ai * lambda * n;
     xj += aj * lambda * n;
-    const Vec3 q = xi + t * (xj - xi);           // the contact point after the push
-    const Vec3 vb = (q - back * q) / h;           // m/s, the body point's velocity
+    const Vec3 q = xi + t * (xj - xi);   // the contact point after the push
+    const Vec3 vb = (q - back * q) / h;  // m/s, the body point's velocity
     Vec3 &vi = s.v[e.i], &vj = s.v[e.j];
     const Vec3 rel = (1.0 - t) * vi + t * vj - vb;
     const double vn = rel.dot(n);

@@ -22,7 +22,8 @@ class ContactStage final : public cloth::Stage {
   const char* name() const override { return "bullet_contacts"; }
   void run(cloth::StageContext& ctx) override;
   std::vector<std::pair<std::string, double>> counters() const override {
-    return {{"contacts", static_cast<double>(contacts_)}, {"edge_contacts", static_cast<double>(edge_contacts_)}};
+    return {{"contacts", static_cast<double>(contacts_)},
+            {"edge_contacts", static_cast<double>(edge_contacts_)}};
   }
   double thickness() const { return thickness_; }  // m
   // Deepest penetration (m, >= 0) below the surface seen before the push-out in the last run.
@@ -30,12 +31,12 @@ class ContactStage final : public cloth::Stage {
 
  private:
   const HullPlanes* hull_for(const collision::Collider& c);
-  void edge_contacts(collision::Collider& col, const HullPlanes* hull, double reach, const Transform& back, double h,
-                     cloth::ClothState& s, const cloth::ClothMesh& mesh);
+  void edge_contacts(collision::Collider& col, const HullPlanes* hull, double reach, const Transform& back,
+                     double h, cloth::ClothState& s, const cloth::ClothMesh& mesh);
 
   collision::ColliderSetPtr colliders_;
-  double thickness_;  // m
-  bool edges_;        // the cloth-edge pass
+  double thickness_;                         // m
+  bool edges_;                               // the cloth-edge pass
   std::map<std::string, HullPlanes> hulls_;  // convex colliders' planes by name
   long contacts_ = 0;
   long edge_contacts_ = 0;

@@ -36,19 +36,26 @@ btRigidBody* RigidBodies::add(const collision::RigidBodySpec& b, size_t index) {
   using collision::ShapeType;
   std::unique_ptr<btCollisionShape> shape;
   switch (b.shape.type) {
-    case ShapeType::plane: shape = std::make_unique<btStaticPlaneShape>(btVector3(0, 1, 0), 0); break;
-    case ShapeType::sphere: shape = std::make_unique<btSphereShape>(btScalar(b.shape.radius)); break;
+    case ShapeType::plane:
+      shape = std::make_unique<btStaticPlaneShape>(btVector3(0, 1, 0), 0);
+      break;
+    case ShapeType::sphere:
+      shape = std::make_unique<btSphereShape>(btScalar(b.shape.radius));
+      break;
     case ShapeType::capsule:
       shape = std::make_unique<btCapsuleShape>(btScalar(b.shape.radius), btScalar(2 * b.shape.half_height));
       break;
-    case ShapeType::box: shape = std::make_unique<btBoxShape>(to_bt(b.shape.half_extents)); break;
+    case ShapeType::box:
+      shape = std::make_unique<btBoxShape>(to_bt(b.shape.half_extents));
+      break;
     case ShapeType::cylinder:
       shape = std::make_unique<btCylinderShape>(
           btVector3(btScalar(b.shape.radius), btScalar(b.shape.half_height), btScalar(b.shape.radius)));
       break;
     default:
-      throw Error("", "bodies[" + std::to_string(index) + "].shape",
-                  std::string(collision::shape_type_name(b.shape.type)) + " is not supported for rigid bodies");
+      throw Error(
+          "", "bodies[" + std::to_string(index) + "].shape",
+          std::string(collision::shape_type_name(b.shape.type)) + " is not supported for rigid bodies");
   }
   const bool kinematic = static_cast<bool>(b.motion);
   btRigidBody* body = add(std::move(shape), b.mass, to_bt(kinematic ? b.motion(0.0) : b.pose), kinematic);

@@ -41,7 +41,8 @@ HullPlanes hull_planes(const std::vector<Vec3>& points) {
   for (const Vec3& p : points) c += p;
   c /= static_cast<double>(points.size());
   for (size_t i = 0; i < out.normals.size(); ++i)
-    if (out.normals[i].dot(c) > out.offsets[i]) out.normals[i] = -out.normals[i], out.offsets[i] = -out.offsets[i];
+    if (out.normals[i].dot(c) > out.offsets[i])
+      out.normals[i] = -out.normals[i], out.offsets[i] = -out.offsets[i];
   return out;
 }
 

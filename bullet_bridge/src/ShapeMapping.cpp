@@ -113,8 +113,8 @@ void map_shape(const btCollisionShape* shape, const Transform& pose, const std::
     case COMPOUND_SHAPE_PROXYTYPE: {
       const auto* c = static_cast<const btCompoundShape*>(shape);
       for (int k = 0; k < c->getNumChildShapes(); ++k)
-        map_shape(c->getChildShape(k), pose * to_eigen(c->getChildTransform(k)), name + "/" + std::to_string(k), out,
-                  unsupported);
+        map_shape(c->getChildShape(k), pose * to_eigen(c->getChildTransform(k)),
+                  name + "/" + std::to_string(k), out, unsupported);
       return;
     }
     case TRIANGLE_MESH_SHAPE_PROXYTYPE: {
@@ -123,7 +123,8 @@ void map_shape(const btCollisionShape* shape, const Transform& pose, const std::
       TriangleCollector cb;
       cb.shape = &s;
       const btScalar big = btScalar(1e30);
-      m->getMeshInterface()->InternalProcessAllTriangles(&cb, btVector3(-big, -big, -big), btVector3(big, big, big));
+      m->getMeshInterface()->InternalProcessAllTriangles(&cb, btVector3(-big, -big, -big),
+                                                         btVector3(big, big, big));
       add(out, label, s, pose);
       return;
     }

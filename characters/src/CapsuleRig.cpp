@@ -20,26 +20,47 @@ std::string strip_prefix(std::string name) {
 
 // Biovision / CMU-Acclaim aliases -> canonical names (used when the skeleton has *Collar joints).
 const std::map<std::string, std::string>& collar_aliases() {
-  static const std::map<std::string, std::string> m = {
-      {"Ab", "Spine"},           {"LeftCollar", "LeftShoulder"}, {"RightCollar", "RightShoulder"},
-      {"LeftShoulder", "LeftArm"}, {"RightShoulder", "RightArm"}, {"LeftElbow", "LeftForeArm"},
-      {"RightElbow", "RightForeArm"}, {"LeftWrist", "LeftHand"},   {"RightWrist", "RightHand"},
-      {"LeftHip", "LeftUpLeg"},  {"RightHip", "RightUpLeg"},     {"LeftKnee", "LeftLeg"},
-      {"RightKnee", "RightLeg"}, {"LeftAnkle", "LeftFoot"},      {"RightAnkle", "RightFoot"},
-      {"LeftToes", "LeftToeBase"}, {"RightToes", "RightToeBase"}};
+  static const std::map<std::string, std::string> m = {{"Ab", "Spine"},
+                                                       {"LeftCollar", "LeftShoulder"},
+                                                       {"RightCollar", "RightShoulder"},
+                                                       {"LeftShoulder", "LeftArm"},
+                                                       {"RightShoulder", "RightArm"},
+                                                       {"LeftElbow", "LeftForeArm"},
+                                                       {"RightElbow", "RightForeArm"},
+                                                       {"LeftWrist", "LeftHand"},
+                                                       {"RightWrist", "RightHand"},
+                                                       {"LeftHip", "LeftUpLeg"},
+                                                       {"RightHip", "RightUpLeg"},
+                                                       {"LeftKnee", "LeftLeg"},
+                                                       {"RightKnee", "RightLeg"},
+                                                       {"LeftAnkle", "LeftFoot"},
+                                                       {"RightAnkle", "RightFoot"},
+                                                       {"LeftToes", "LeftToeBase"},
+                                                       {"RightToes", "RightToeBase"}};
   return m;
 }
 
 // Common other spellings -> canonical names.
 const std::map<std::string, std::string>& generic_aliases() {
-  static const std::map<std::string, std::string> m = {
-      {"Pelvis", "Hips"},         {"Hip", "Hips"},            {"Abdomen", "Spine"},
-      {"Spine2", "Chest"},        {"UpperChest", "Chest"},    {"LeftUpperArm", "LeftArm"},
-      {"RightUpperArm", "RightArm"}, {"LeftLowerArm", "LeftForeArm"}, {"RightLowerArm", "RightForeArm"},
-      {"LeftUpperLeg", "LeftUpLeg"}, {"RightUpperLeg", "RightUpLeg"}, {"LeftLowerLeg", "LeftLeg"},
-      {"RightLowerLeg", "RightLeg"}, {"LeftThigh", "LeftUpLeg"}, {"RightThigh", "RightUpLeg"},
-      {"LeftShin", "LeftLeg"},    {"RightShin", "RightLeg"},  {"LeftToe", "LeftToeBase"},
-      {"RightToe", "RightToeBase"}};
+  static const std::map<std::string, std::string> m = {{"Pelvis", "Hips"},
+                                                       {"Hip", "Hips"},
+                                                       {"Abdomen", "Spine"},
+                                                       {"Spine2", "Chest"},
+                                                       {"UpperChest", "Chest"},
+                                                       {"LeftUpperArm", "LeftArm"},
+                                                       {"RightUpperArm", "RightArm"},
+                                                       {"LeftLowerArm", "LeftForeArm"},
+                                                       {"RightLowerArm", "RightForeArm"},
+                                                       {"LeftUpperLeg", "LeftUpLeg"},
+                                                       {"RightUpperLeg", "RightUpLeg"},
+                                                       {"LeftLowerLeg", "LeftLeg"},
+                                                       {"RightLowerLeg", "RightLeg"},
+                                                       {"LeftThigh", "LeftUpLeg"},
+                                                       {"RightThigh", "RightUpLeg"},
+                                                       {"LeftShin", "LeftLeg"},
+                                                       {"RightShin", "RightLeg"},
+                                                       {"LeftToe", "LeftToeBase"},
+                                                       {"RightToe", "RightToeBase"}};
   return m;
 }
 
@@ -47,7 +68,8 @@ const std::map<std::string, std::string>& generic_aliases() {
 
 std::vector<std::string> canonical_joint_names(const Motion& motion) {
   bool collar = false;
-  for (const Joint& j : motion.joints()) collar = collar || strip_prefix(j.name).find("Collar") != std::string::npos;
+  for (const Joint& j : motion.joints())
+    collar = collar || strip_prefix(j.name).find("Collar") != std::string::npos;
   std::vector<std::string> out;
   for (const Joint& j : motion.joints()) {
     std::string n = strip_prefix(j.name);
@@ -66,14 +88,14 @@ const std::map<std::string, double>& default_bone_radii() {
   // m, for a 1.7 m adult: hand-chosen round values (not fitted to an anthropometric data set); override
   // them per bone with the scene's `character.radii`.
   static const std::map<std::string, double> m = {
-      {"Hips", 0.11},         {"LowerBack", 0.11},    {"Spine", 0.115},      {"Spine1", 0.12},
-      {"Chest", 0.12},        {"Neck", 0.07},         {"Neck1", 0.055},      {"Head", 0.095},
-      {"LHipJoint", 0.08},    {"RHipJoint", 0.08},    {"LeftUpLeg", 0.075},  {"RightUpLeg", 0.075},
-      {"LeftLeg", 0.055},     {"RightLeg", 0.055},    {"LeftFoot", 0.045},   {"RightFoot", 0.045},
-      {"LeftToeBase", 0.03},  {"RightToeBase", 0.03}, {"LeftShoulder", 0.055}, {"RightShoulder", 0.055},
-      {"LeftArm", 0.048},     {"RightArm", 0.048},    {"LeftForeArm", 0.04}, {"RightForeArm", 0.04},
-      {"LeftHand", 0.035},    {"RightHand", 0.035},   {"LeftFingerBase", 0.03}, {"RightFingerBase", 0.03},
-      {"LFingers", 0.0},      {"RFingers", 0.0},      {"LThumb", 0.0},       {"RThumb", 0.0},
+      {"Hips", 0.11},        {"LowerBack", 0.11},    {"Spine", 0.115},         {"Spine1", 0.12},
+      {"Chest", 0.12},       {"Neck", 0.07},         {"Neck1", 0.055},         {"Head", 0.095},
+      {"LHipJoint", 0.08},   {"RHipJoint", 0.08},    {"LeftUpLeg", 0.075},     {"RightUpLeg", 0.075},
+      {"LeftLeg", 0.055},    {"RightLeg", 0.055},    {"LeftFoot", 0.045},      {"RightFoot", 0.045},
+      {"LeftToeBase", 0.03}, {"RightToeBase", 0.03}, {"LeftShoulder", 0.055},  {"RightShoulder", 0.055},
+      {"LeftArm", 0.048},    {"RightArm", 0.048},    {"LeftForeArm", 0.04},    {"RightForeArm", 0.04},
+      {"LeftHand", 0.035},   {"RightHand", 0.035},   {"LeftFingerBase", 0.03}, {"RightFingerBase", 0.03},
+      {"LFingers", 0.0},     {"RFingers", 0.0},      {"LThumb", 0.0},          {"RThumb", 0.0},
       {"default", 0.04}};
   return m;
 }
@@ -98,7 +120,8 @@ CapsuleRig CapsuleRig::build(const Motion& motion, const std::map<std::string, d
     if (offset.norm() < min_length) continue;
     bool duplicate = false;
     for (const Bone& b : rig.bones_)
-      duplicate = duplicate || (b.joint == j && (joints[b.child].rest.translation() - offset).norm() < min_length);
+      duplicate =
+          duplicate || (b.joint == j && (joints[b.child].rest.translation() - offset).norm() < min_length);
     if (duplicate) continue;
     Bone b;
     b.name = joints[j].name;
@@ -173,8 +196,8 @@ std::vector<collision::Collider> CapsuleRig::make_colliders(const std::vector<Tr
 
 namespace {
 
-const std::set<std::string> kArm = {"LeftArm", "RightArm", "LeftForeArm", "RightForeArm", "LeftHand",
-                                    "RightHand", "LeftFingerBase", "RightFingerBase"};
+const std::set<std::string> kArm = {"LeftArm",  "RightArm",  "LeftForeArm",    "RightForeArm",
+                                    "LeftHand", "RightHand", "LeftFingerBase", "RightFingerBase"};
 
 // Samples (>= 1) and span (s) of the motion as it is played (clamped, or one loop).
 double played_span(const Motion& motion) {
@@ -184,8 +207,8 @@ double played_span(const Motion& motion) {
 
 }  // namespace
 
-int CapsuleRig::keep_clear_of(const Motion& motion, const std::vector<std::pair<int, Vec3>>& points, double gap,
-                              double rate) {
+int CapsuleRig::keep_clear_of(const Motion& motion, const std::vector<std::pair<int, Vec3>>& points,
+                              double gap, double rate) {
   if (!(gap >= 0.0) || !(rate > 0.0) || points.empty()) return 0;
   std::vector<int> arms;
   for (size_t k = 0; k < bones_.size(); ++k)
@@ -216,13 +239,15 @@ int CapsuleRig::keep_clear_of(const Motion& motion, const std::vector<std::pair<
 
 int CapsuleRig::fit_to_motion(const Motion& motion, double gap, double rate) {
   const std::set<std::string>& arm = kArm;
-  static const std::set<std::string> body = {"Hips", "LowerBack", "Spine", "Spine1", "Chest", "LHipJoint", "RHipJoint",
-                                             "LeftUpLeg", "RightUpLeg", "LeftLeg", "RightLeg"};
+  static const std::set<std::string> body = {"Hips",       "LowerBack", "Spine",     "Spine1",
+                                             "Chest",      "LHipJoint", "RHipJoint", "LeftUpLeg",
+                                             "RightUpLeg", "LeftLeg",   "RightLeg"};
   if (!(gap >= 0.0) || !(rate > 0.0)) return 0;
   std::vector<std::pair<int, int>> pairs;
   for (size_t a = 0; a < bones_.size(); ++a)
     for (size_t b = 0; b < bones_.size(); ++b)
-      if (arm.count(bones_[a].canonical) && body.count(bones_[b].canonical)) pairs.emplace_back(int(a), int(b));
+      if (arm.count(bones_[a].canonical) && body.count(bones_[b].canonical))
+        pairs.emplace_back(int(a), int(b));
   if (pairs.empty()) return 0;
   // Closest approach (m) of each pair's axes over the motion as it is played (clamped or one loop).
   const double span = played_span(motion);
@@ -233,20 +258,23 @@ int CapsuleRig::fit_to_motion(const Motion& motion, double gap, double rate) {
     motion.pose(span * k / samples, pose);
     for (size_t p = 0; p < pairs.size(); ++p) {
       const Bone &a = bones_[pairs[p].first], &b = bones_[pairs[p].second];
-      const double d2 = collision::segment_segment_closest(pose[a.joint].translation(), pose[a.child].translation(),
-                                                           pose[b.joint].translation(), pose[b.child].translation())
-                            .distance_squared;
+      const double d2 =
+          collision::segment_segment_closest(pose[a.joint].translation(), pose[a.child].translation(),
+                                             pose[b.joint].translation(), pose[b.child].translation())
+              .distance_squared;
       closest[p] = std::min(closest[p], std::sqrt(d2));
     }
   }
   std::vector<double> floor(bones_.size());
-  for (size_t k = 0; k < bones_.size(); ++k) floor[k] = std::min(bones_[k].radius, 0.5 * bones_[k].table_radius);
+  for (size_t k = 0; k < bones_.size(); ++k)
+    floor[k] = std::min(bones_[k].radius, 0.5 * bones_[k].table_radius);
   std::set<int> changed;
   // Tightest pairs first, so a bone shrunk for one pair is not shrunk again more than it needs.
   std::vector<size_t> order(pairs.size());
   for (size_t p = 0; p < order.size(); ++p) order[p] = p;
   std::sort(order.begin(), order.end(), [&](size_t x, size_t y) {
-    const Bone &ax = bones_[pairs[x].first], &bx = bones_[pairs[x].second], &ay = bones_[pairs[y].first], &by = bones_[pairs[y].second];
+    const Bone &ax = bones_[pairs[x].first], &bx = bones_[pairs[x].second], &ay = bones_[pairs[y].first],
+               &by = bones_[pairs[y].second];
     return closest[x] - ax.radius - bx.radius < closest[y] - ay.radius - by.radius;
   });
   for (size_t p : order) {

@@ -29,8 +29,8 @@ void Character::add_garment(cloth::SimulationSetup& setup, const Garment& garmen
   setup.cloths.push_back(std::move(cs));
 }
 
-CharacterStage::CharacterStage(std::shared_ptr<const Character> character, collision::ColliderSetPtr colliders,
-                               size_t first)
+CharacterStage::CharacterStage(std::shared_ptr<const Character> character,
+                               collision::ColliderSetPtr colliders, size_t first)
     : character_(std::move(character)), colliders_(std::move(colliders)), first_(first) {}
 
 void CharacterStage::run(cloth::StageContext& ctx) {

@@ -40,7 +40,8 @@ void ClipProbe::run(cloth::StageContext& ctx) {
       int bone = -1;
       for (size_t bk = 0; bk < c.rig.bones().size(); ++bk) {
         const Bone& b = c.rig.bones()[bk];
-        const double d = b.radius - segment_distance(s.x[i], pose_[b.joint].translation(), pose_[b.child].translation());
+        const double d =
+            b.radius - segment_distance(s.x[i], pose_[b.joint].translation(), pose_[b.child].translation());
         if (d > depth) depth = d, bone = static_cast<int>(bk);
       }
       double& worst = attached_[k][i] ? f_.max_attached_depth : f_.max_depth;
@@ -50,11 +51,13 @@ void ClipProbe::run(cloth::StageContext& ctx) {
     }
   }
   for (const Attachment& a : c.attachments)
-    f_.max_track = std::max(f_.max_track, (ctx.cloths[a.cloth]->state().x[a.vertex] - c.target(a, pose_)).norm());
+    f_.max_track =
+        std::max(f_.max_track, (ctx.cloths[a.cloth]->state().x[a.vertex] - c.target(a, pose_)).norm());
   if (census_every_ > 0 && f_.steps % census_every_ == 0) {
     std::vector<collision::CensusInput> in;
     for (const auto& cl : ctx.cloths) in.push_back({&cl->mesh(), &cl->state().x});
-    f_.max_intersections = std::max(f_.max_intersections, collision::count_all_intersections(in, ctx.threads));
+    f_.max_intersections =
+        std::max(f_.max_intersections, collision::count_all_intersections(in, ctx.threads));
     ++f_.census_steps;
   }
   ++f_.steps;
@@ -62,10 +65,11 @@ void ClipProbe::run(cloth::StageContext& ctx) {
 
 void ClipProbe::save_state(cloth::StateWriter& out) const {
   out.tag("character_probe");
-  out.doubles({static_cast<double>(f_.steps), f_.finite ? 1.0 : 0.0, f_.max_speed, f_.max_depth, f_.max_attached_depth,
-               f_.max_track, static_cast<double>(f_.max_intersections), static_cast<double>(f_.census_steps),
-               f_.max_speed_time, f_.max_depth_time, f_.max_attached_depth_time,
-               static_cast<double>(f_.max_depth_bone), static_cast<double>(f_.max_attached_depth_bone)});
+  out.doubles({static_cast<double>(f_.steps), f_.finite ? 1.0 : 0.0, f_.max_speed, f_.max_depth,
+               f_.max_attached_depth, f_.max_track, static_cast<double>(f_.max_intersections),
+               static_cast<double>(f_.census_steps), f_.max_speed_time, f_.max_depth_time,
+               f_.max_attached_depth_time, static_cast<double>(f_.max_depth_bone),
+               static_cast<double>(f_.max_attached_depth_bone)});
 }
 
 void ClipProbe::load_state(cloth::StateReader& in) {

@@ -30,7 +30,8 @@ double segment_distance(const Vec3& p, const Vec3& a, const Vec3& b) {
 }
 
 // The rig's capsules at t = 0 as world segments.
-std::vector<Segment> segments_at_start(const Motion& motion, const CapsuleRig& rig, std::vector<Transform>& pose) {
+std::vector<Segment> segments_at_start(const Motion& motion, const CapsuleRig& rig,
+                                       std::vector<Transform>& pose) {
   motion.pose(0.0, pose);
   std::vector<Segment> out;
   for (size_t k = 0; k < rig.bones().size(); ++k) {
@@ -52,8 +53,9 @@ std::vector<std::vector<Transform>> motion_samples(const Motion& motion) {
   const MotionSettings& ms = motion.settings();
   // 30 samples per second of the clip's own time (the poses do not depend on the playback speed, so a slow
   // playback must not multiply them: speed 1e-6 asked for 3e7 poses per clip second and hung).
-  const double clip_span = ms.loop ? motion.duration() : std::max(0.0, motion.duration() - ms.start);  // s of clip
-  const double span = clip_span / ms.speed;  // s of playback
+  const double clip_span =
+      ms.loop ? motion.duration() : std::max(0.0, motion.duration() - ms.start);  // s of clip
+  const double span = clip_span / ms.speed;                                       // s of playback
   const int samples = std::max(1, static_cast<int>(std::ceil(clip_span * 30.0)));
   std::vector<std::vector<Transform>> poses(samples + 1);
   for (int k = 0; k <= samples; ++k) motion.pose(span * k / samples, poses[k]);
@@ -69,7 +71,8 @@ double carried_gap(const Vec3& x0, int joint, const std::vector<Transform>& pose
   for (const std::vector<Transform>& p : samples) {
     const Vec3 x = p[joint] * local;
     for (const Bone& bone : rig.bones())
-      gap = std::min(gap, segment_distance(x, p[bone.joint].translation(), p[bone.child].translation()) - bone.radius);
+      gap = std::min(
+          gap, segment_distance(x, p[bone.joint].translation(), p[bone.child].translation()) - bone.radius);
   }
   return gap;
 }
@@ -127,12 +130,14 @@ int nearest_joint(const Vec3& p, const std::vector<Segment>& caps, const Capsule
 }
 
 // Bones a skirt / a shirt goes around (arms and hands outside a skirt, hands outside a shirt).
-const std::set<std::string> kSkirtBody = {"Hips", "LowerBack", "Spine", "LHipJoint", "RHipJoint",
+const std::set<std::string> kSkirtBody = {"Hips",      "LowerBack",  "Spine",   "LHipJoint", "RHipJoint",
                                           "LeftUpLeg", "RightUpLeg", "LeftLeg", "RightLeg"};
-const std::set<std::string> kShirtBody = {"Hips", "LowerBack", "Spine", "Spine1", "Chest", "Neck", "Neck1",
-                                          "LHipJoint", "RHipJoint", "LeftShoulder", "RightShoulder",
-                                          "LeftArm", "RightArm", "LeftForeArm", "RightForeArm"};
-const std::set<std::string> kUpperTorso = {"Spine1", "Chest", "Neck", "Neck1", "LeftShoulder", "RightShoulder"};
+const std::set<std::string> kShirtBody = {"Hips",      "LowerBack",    "Spine",         "Spine1",
+                                          "Chest",     "Neck",         "Neck1",         "LHipJoint",
+                                          "RHipJoint", "LeftShoulder", "RightShoulder", "LeftArm",
+                                          "RightArm",  "LeftForeArm",  "RightForeArm"};
+const std::set<std::string> kUpperTorso = {"Spine1", "Chest",        "Neck",
+                                           "Neck1",  "LeftShoulder", "RightShoulder"};
 
 }  // namespace
 
@@ -160,7 +165,8 @@ std::map<std::string, std::vector<int>> read_obj_groups(const std::string& path)
       while (ls >> corner) {
         const long idx = std::strtol(corner.substr(0, corner.find('/')).c_str(), nullptr, 10);
         const long v = idx > 0 ? idx - 1 : vertices + idx;
-        if (idx == 0 || v < 0 || v >= vertices) throw Error(path, "line " + std::to_string(line_no), "bad vertex index '" + corner + "'");
+        if (idx == 0 || v < 0 || v >= vertices)
+          throw Error(path, "line " + std::to_string(line_no), "bad vertex index '" + corner + "'");
         for (const std::string& g : current) groups[g].insert(static_cast<int>(v));
       }
     }
@@ -182,7 +188,9 @@ struct GarmentFit {
   // The joint of the bone `canonical`; throws naming the garment when the skeleton has none.
   int need(const std::string& canonical) const {
     const int j = joint_of(rig, canonical);
-    if (j < 0) throw Error(source, where, "a " + spec.type + " needs a '" + canonical + "' bone in " + motion.source());
+    if (j < 0)
+      throw Error(source, where,
+                  "a " + spec.type + " needs a '" + canonical + "' bone in " + motion.source());
     return j;
   }
   double bone_radius(const std::string& canonical) const { return rig.bones()[rig.find(canonical)].radius; }
@@ -223,7 +231,8 @@ Garment make_cape(const GarmentFit& f) {
   centre.y() = top;
   const double width = spec.width > 0.0 ? spec.width : (rs - ls).norm() + 0.2;
   const double length = spec.length > 0.0 ? spec.length : top - knee.y();
-  if (!(length > 0.0)) throw Error(f.source, f.where + ".length", "the knees are above the shoulders at t = 0");
+  if (!(length > 0.0))
+    throw Error(f.source, f.where + ".length", "the knees are above the shoulders at t = 0");
   const int nu = std::max(3, static_cast<int>(std::ceil(width / spec.resolution)) + 1);
   const int nv = std::max(3, static_cast<int>(std::ceil(length / spec.resolution)) + 1);
   cloth::Vec3s x(nu * nv);
@@ -241,8 +250,8 @@ Garment make_cape(const GarmentFit& f) {
     bool clear = true;
     for (int j = 0; j < nv && clear; ++j)
       for (int i = 0; i < nu && clear; ++i) {
-        x[j * nu + i] = centre + (-0.5 * width + width * i / (nu - 1)) * right - (length * j / (nv - 1)) * kUp -
-                        depth * forward;
+        x[j * nu + i] = centre + (-0.5 * width + width * i / (nu - 1)) * right -
+                        (length * j / (nv - 1)) * kUp - depth * forward;
         clear = clearance_of(x[j * nu + i], f.caps) >= spec.clearance;
       }
     if (clear && static_depth < 0.0) static_depth = depth;
@@ -314,8 +323,9 @@ TubeFrame shirt_frame(const GarmentFit& f) {
 // How far (m) the ray axis + r dir, r in [0, 1.5), runs within `gap` of the `avoid` capsules: the farthest r
 // still too close. For the pinned ring (`ring`), further out until the point, carried rigidly by the root,
 // also clears the torso by `gap` at every sampled pose (a spine bending forward over it).
-double ray_reach(const GarmentFit& f, const Vec3& axis, const Vec3& dir, const std::vector<Segment>& avoid, double gap,
-                 bool ring, const std::vector<Segment>& torso, const std::vector<std::vector<Transform>>& samples) {
+double ray_reach(const GarmentFit& f, const Vec3& axis, const Vec3& dir, const std::vector<Segment>& avoid,
+                 double gap, bool ring, const std::vector<Segment>& torso,
+                 const std::vector<std::vector<Transform>>& samples) {
   const int root = f.motion.root();
   double last = 0.0;  // m, farthest point of the ray still within clearance of the body
   for (double r = 0.0; r < 1.5; r += 0.002)
@@ -434,7 +444,8 @@ Garment make_tube(const GarmentFit& f) {
   cloth::Vec3s x(nu * nv);
   for (int j = 0; j < nv; ++j) {
     const double y = top - (static_cast<double>(j) / (nv - 1)) * (top - bottom);
-    for (int i = 0; i < nu; ++i) x[j * nu + i] = Vec3(centre.x(), y, centre.z()) + ring_point(j, 2.0 * kPi * i / nu);
+    for (int i = 0; i < nu; ++i)
+      x[j * nu + i] = Vec3(centre.x(), y, centre.z()) + ring_point(j, 2.0 * kPi * i / nu);
   }
   Garment g;
   g.mesh = f.mesh_of(x, nu, nv, true);
@@ -468,9 +479,11 @@ Garment make_obj_garment(const GarmentFit& f) {
         throw Error(f.source, f.where + ".attach." + group, "no bone '" + bone + "' in " + f.motion.source());
     }
     for (int v : it->second) {
-      if (std::find(g.attached_vertices.begin(), g.attached_vertices.end(), v) != g.attached_vertices.end()) continue;
+      if (std::find(g.attached_vertices.begin(), g.attached_vertices.end(), v) != g.attached_vertices.end())
+        continue;
       g.attached_vertices.push_back(v);
-      g.attached_joints.push_back(joint >= 0 ? joint : nearest_joint(g.mesh->rest_positions()[v], f.caps, f.rig, {}));
+      g.attached_joints.push_back(joint >= 0 ? joint
+                                             : nearest_joint(g.mesh->rest_positions()[v], f.caps, f.rig, {}));
     }
   }
   return g;
@@ -478,8 +491,8 @@ Garment make_obj_garment(const GarmentFit& f) {
 
 }  // namespace
 
-Garment make_garment(const GarmentSpec& spec, const Motion& motion, const CapsuleRig& rig, const std::string& source,
-                     const std::string& where, const cloth::Vec3s& outside) {
+Garment make_garment(const GarmentSpec& spec, const Motion& motion, const CapsuleRig& rig,
+                     const std::string& source, const std::string& where, const cloth::Vec3s& outside) {
   if (!(spec.resolution > 0.0)) throw Error(source, where + ".resolution", "must be > 0");
   if (!(spec.clearance >= 0.0)) throw Error(source, where + ".clearance", "must be >= 0");
   GarmentFit f(spec, motion, rig, source, where);
@@ -493,7 +506,8 @@ Garment make_garment(const GarmentSpec& spec, const Motion& motion, const Capsul
   } else if (spec.type == "obj") {
     g = make_obj_garment(f);
   } else {
-    throw Error(source, where + ".type", "unknown garment '" + spec.type + "' (known: cape, skirt, shirt, obj)");
+    throw Error(source, where + ".type",
+                "unknown garment '" + spec.type + "' (known: cape, skirt, shirt, obj)");
   }
   for (int j : g.attached_joints)
     if (j < 0) throw Error(source, where, "no bone to attach the " + spec.type + " to");

@@ -217,7 +217,8 @@ Transform Motion::local(int joint, double tau) const {
     out.translation() = j.rest.translation();
   } else {
     const auto [k, a] = bracket(t.position_times, tau);
-    out.translation() = a == 0.0 ? t.positions[k] : ((1.0 - a) * t.positions[k] + a * t.positions[k + 1]).eval();
+    out.translation() =
+        a == 0.0 ? t.positions[k] : ((1.0 - a) * t.positions[k] + a * t.positions[k + 1]).eval();
   }
   if (t.rotations.empty()) {
     out.linear() = j.rest.linear();

@@ -84,7 +84,8 @@ void AirDragTerm::add_jacobians(const EvalContext& c, const JacobianOptions&, Bl
       const Vec3 vrel = (c.v[tri[0]] + c.v[tri[1]] + c.v[tri[2]]) / 3.0 - w;
       const double vn = vrel.dot(N);
       // g(N) = (vrel·N) N / |N|;  dg/dN = [N vrelᵀ + (vrel·N) I] / |N| - (vrel·N) N Nᵀ / |N|³.
-      const Mat3 dg = (N * vrel.transpose() + vn * Mat3::Identity()) / len - vn * (N * N.transpose()) / (len * len * len);
+      const Mat3 dg =
+          (N * vrel.transpose() + vn * Mat3::Identity()) / len - vn * (N * N.transpose()) / (len * len * len);
       // dN/dx0 = [e2]x - [e1]x, dN/dx1 = -[e2]x, dN/dx2 = [e1]x.
       const Mat3 dN[3] = {skew(e2) - skew(e1), -skew(e2), skew(e1)};
       for (int k = 0; k < 3; ++k) {

@@ -10,7 +10,8 @@ namespace {
 std::atomic<std::uint64_t> next_pattern_id{1};
 }  // namespace
 
-BlockMatrix::BlockMatrix(int n, const std::vector<std::pair<int, int>>& pairs) : n_(n), pattern_id_(next_pattern_id++) {
+BlockMatrix::BlockMatrix(int n, const std::vector<std::pair<int, int>>& pairs)
+    : n_(n), pattern_id_(next_pattern_id++) {
   std::vector<std::vector<int>> rows(n);
   for (int i = 0; i < n; ++i) rows[i].push_back(i);
   for (const auto& [i, j] : pairs) {

@@ -1,11 +1,10 @@
 #include "loom/cloth/ChoiKoTerm.h"
 
+#include <Eigen/Eigenvalues>
 #include <algorithm>
 #include <array>
 #include <cmath>
 #include <map>
-
-#include <Eigen/Eigenvalues>
 #include <unsupported/Eigen/AutoDiff>
 
 #include "loom/cloth/SpringSet.h"
@@ -47,7 +46,10 @@ double arc_half_angle(double ratio) {
   for (int it = 0; it < 60; ++it) {
     const double g = sinc(y) - ratio;  // decreasing in y
     if (g == 0.0) return y;
-    if (g > 0) lo = y; else hi = y;
+    if (g > 0)
+      lo = y;
+    else
+      hi = y;
     const double slope = q_of(y) * y;  // d sinc / dy = (cos y - sinc y) / y
     double next = slope != 0.0 ? y - g / slope : 0.5 * (lo + hi);
     if (!(next >= lo && next <= hi)) next = 0.5 * (lo + hi);  // inclusive: a converged step lands on y
@@ -82,7 +84,10 @@ double crossover_ratio(double eps) {
   for (int it = 0; it < 64; ++it) {
     const double x = 0.5 * (lo + hi);
     const double g = -12.0 * (1.0 - x) / eps - 4.0 / q_of(arc_half_angle(x));
-    if (g > 0) hi = x; else lo = x;
+    if (g > 0)
+      hi = x;
+    else
+      lo = x;
   }
   return 0.5 * (lo + hi);
 }
@@ -97,7 +102,9 @@ std::vector<std::array<int, 4>> corners_of(const std::vector<BucklingSpring>& sp
   return e;
 }
 // Corner vertices of interlaced spring s (i, j, a, b; without a path, a = i and b = j carry no force).
-std::array<int, 4> corners(const BucklingSpring& s) { return {s.i, s.j, s.a < 0 ? s.i : s.a, s.b < 0 ? s.j : s.b}; }
+std::array<int, 4> corners(const BucklingSpring& s) {
+  return {s.i, s.j, s.a < 0 ? s.i : s.a, s.b < 0 ? s.j : s.b};
+}
 // φ(z) and its first two derivatives (see ChoiKoTerm.h).
 void phi(double z, double z0, double& p, double& dp, double& ddp) {
   if (z <= 0.0) {
@@ -115,8 +122,9 @@ void phi(double z, double z0, double& p, double& dp, double& ddp) {
 }
 }  // namespace
 
-ChoiKoTerm::ChoiKoTerm(int num_vertices, std::vector<Spring> sequential, std::vector<BucklingSpring> interlaced,
-                       double crossover_curvature, double compensation_strain, std::vector<double> sequential_kb)
+ChoiKoTerm::ChoiKoTerm(int num_vertices, std::vector<Spring> sequential,
+                       std::vector<BucklingSpring> interlaced, double crossover_curvature,
+                       double compensation_strain, std::vector<double> sequential_kb)
     : sequential_(std::move(sequential)),
       interlaced_(std::move(interlaced)),
       z0_(compensation_strain),
@@ -143,7 +151,8 @@ void ChoiKoTerm::set_crossover(std::vector<BucklingSpring>& springs, double cros
   std::map<double, double> ratio_by_length;
   for (BucklingSpring& s : springs) {
     const double L = s.rest_length;
-    const double eps = std::min(std::max(crossover_curvature * crossover_curvature * L * L / 24.0, 1e-12), 0.25);
+    const double eps =
+        std::min(std::max(crossover_curvature * crossover_curvature * L * L / 24.0, 1e-12), 0.25);
     auto it = ratio_by_length.find(L);
     if (it == ratio_by_length.end()) it = ratio_by_length.emplace(L, choi_ko::crossover_ratio(eps)).first;
     s.cb = 12.0 * s.kb / (eps * L * L * L);
@@ -238,7 +247,8 @@ void ChoiKoTerm::geometry(const BucklingSpring& s, const Vec3s& x, bool hessian,
     for (int k = 0; k < 5; ++k) {
       a[k].value() = Ad1(len[k], 5, k);
       a[k].derivatives().resize(5);
-      for (int m = 0; m < 5; ++m) a[k].derivatives()[m] = Ad1(m == k ? 1.0 : 0.0, Eigen::Matrix<double, 5, 1>::Zero());
+      for (int m = 0; m < 5; ++m)
+        a[k].derivatives()[m] = Ad1(m == k ? 1.0 : 0.0, Eigen::Matrix<double, 5, 1>::Zero());
     }
     const Ad2 r = unfolded_chord(a[0], a[1], a[2], a[3], a[4]);
     g.lu = r.value().value();
@@ -339,8 +349,10 @@ void ChoiKoTerm::spring_derivatives(const BucklingSpring& s, const Vec3s& x, Vec
   Mat12& H = *hess;
   H = interlaced_stiffness(s, m * L) * gm * gm.transpose();
   if (!project && Tm != 0.0) {
-    if (has_path(s)) H += Tm * L * (ddm * g.glu * g.glu.transpose() + dm * g.Hlu);
-    else H += Tm * g.Hl;
+    if (has_path(s))
+      H += Tm * L * (ddm * g.glu * g.glu.transpose() + dm * g.Hlu);
+    else
+      H += Tm * g.Hl;
   }
   if (!has_path(s)) return;
   const double lu = g.lu;
@@ -523,16 +535,19 @@ std::unique_ptr<ChoiKoTerm> make_choi_ko_term(const ClothMesh& mesh, const Mater
         // by h_i h_j θ² / (2 l_u).
         const Vec3 e = x[h.e1] - x[h.e0];
         const double elen = e.norm(), hi = e.cross(x[d.i] - x[h.e0]).norm() / elen,
-                     hj = e.cross(x[d.j] - x[h.e0]).norm() / elen, L3 = d.rest_length * d.rest_length * d.rest_length;
+                     hj = e.cross(x[d.j] - x[h.e0]).norm() / elen,
+                     L3 = d.rest_length * d.rest_length * d.rest_length;
         s.kb = directional_bend(d.rest_uv_dir) * elen * L3 / (6.0 * hi * hj * (hi + hj));
         s.a = h.e0;
         s.b = h.e1;
-        s.path_rest = unfolded_chord((x[h.e0] - x[d.i]).norm(), (x[h.e1] - x[d.i]).norm(), (x[h.e0] - x[d.j]).norm(),
-                                     (x[h.e1] - x[d.j]).norm(), (x[h.e1] - x[h.e0]).norm());
+        s.path_rest =
+            unfolded_chord((x[h.e0] - x[d.i]).norm(), (x[h.e1] - x[d.i]).norm(), (x[h.e0] - x[d.j]).norm(),
+                           (x[h.e1] - x[d.j]).norm(), (x[h.e1] - x[h.e0]).norm());
         interlaced.push_back(s);
       }
   }
-  return std::make_unique<ChoiKoTerm>(mesh.num_vertices(), std::move(sequential), std::move(interlaced), 4.0, 1e-5);
+  return std::make_unique<ChoiKoTerm>(mesh.num_vertices(), std::move(sequential), std::move(interlaced), 4.0,
+                                      1e-5);
 }
 
 }  // namespace loom::cloth

@@ -34,8 +34,9 @@ const Term* Cloth::find_term(const std::string& name) const {
 
 void Cloth::add_pin(Pin pin) {
   if (pin.vertex < 0 || pin.vertex >= state_.size())
-    throw Error("", "pins", "vertex " + std::to_string(pin.vertex) + " is out of range [0, " +
-                                std::to_string(state_.size()) + ")");
+    throw Error("", "pins",
+                "vertex " + std::to_string(pin.vertex) + " is out of range [0, " +
+                    std::to_string(state_.size()) + ")");
   state_.inv_mass[pin.vertex] = 0.0;
   pins_.push_back(std::move(pin));
 }

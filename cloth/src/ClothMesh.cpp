@@ -3,8 +3,8 @@
 #include <Eigen/Eigenvalues>
 #include <Eigen/Geometry>
 #include <algorithm>
-#include <cstdlib>
 #include <cmath>
+#include <cstdlib>
 #include <fstream>
 #include <sstream>
 #include <tuple>
@@ -15,11 +15,16 @@ namespace loom::cloth {
 
 const char* to_string(SpringKind kind) {
   switch (kind) {
-    case SpringKind::kStructural: return "structural";
-    case SpringKind::kShear: return "shear";
-    case SpringKind::kBend: return "bend";
-    case SpringKind::kEdge: return "edge";
-    case SpringKind::kHinge: return "hinge";
+    case SpringKind::kStructural:
+      return "structural";
+    case SpringKind::kShear:
+      return "shear";
+    case SpringKind::kBend:
+      return "bend";
+    case SpringKind::kEdge:
+      return "edge";
+    case SpringKind::kHinge:
+      return "hinge";
   }
   return "?";
 }
@@ -47,7 +52,8 @@ double ClothMesh::total_area() const {
 
 std::shared_ptr<const ClothMesh> ClothMesh::grid(const GridSpec& spec) {
   if (spec.nodes_u < 2 || spec.nodes_v < 2) throw Error("", "grid", "needs at least 2 nodes per side");
-  if (!(spec.size_u > 0.0) || !(spec.size_v > 0.0) || !std::isfinite(spec.size_u) || !std::isfinite(spec.size_v))
+  if (!(spec.size_u > 0.0) || !(spec.size_v > 0.0) || !std::isfinite(spec.size_u) ||
+      !std::isfinite(spec.size_v))
     throw Error("", "grid", "size must be finite and > 0");
   auto mesh = std::shared_ptr<ClothMesh>(new ClothMesh());
   ClothMesh& m = *mesh;
@@ -59,7 +65,8 @@ std::shared_ptr<const ClothMesh> ClothMesh::grid(const GridSpec& spec) {
   m.grid_nodes_v_ = nv;
   m.rest_positions_.resize(static_cast<size_t>(nu) * nv);
   for (int iv = 0; iv < nv; ++iv)
-    for (int iu = 0; iu < nu; ++iu) m.rest_positions_[m.grid_index(iu, iv)] = spec.origin + iu * du * a1 + iv * dv * a2;
+    for (int iu = 0; iu < nu; ++iu)
+      m.rest_positions_[m.grid_index(iu, iv)] = spec.origin + iu * du * a1 + iv * dv * a2;
   // Cells split along alternating diagonals, counter-clockwise in (u, v).
   for (int iv = 0; iv + 1 < nv; ++iv)
     for (int iu = 0; iu + 1 < nu; ++iu) {
@@ -99,7 +106,8 @@ std::shared_ptr<const ClothMesh> ClothMesh::grid(const GridSpec& spec) {
     s.area = cell_area;
     // A spring along a boundary line stands for half a row of cloth.
     const bool along_u = iv1 == iv0, along_v = iu1 == iu0;
-    if ((along_u && (iv0 == 0 || iv0 == nv - 1)) || (along_v && (iu0 == 0 || iu0 == nu - 1))) s.row_share = 0.5;
+    if ((along_u && (iv0 == 0 || iv0 == nv - 1)) || (along_v && (iu0 == 0 || iu0 == nu - 1)))
+      s.row_share = 0.5;
     if (kind == SpringKind::kStructural) m.strain_springs_.push_back(static_cast<int>(m.springs_.size()));
     m.springs_.push_back(s);
   };
@@ -124,20 +132,23 @@ std::shared_ptr<const ClothMesh> ClothMesh::from_triangles(Vec3s positions, std:
     throw Error(source, "", "texture coordinates must be given for every triangle or none");
   const int n = static_cast<int>(positions.size());
   for (int i = 0; i < n; ++i)
-    if (!positions[i].allFinite()) throw Error(source, "vertex " + std::to_string(i), "coordinate is not finite");
+    if (!positions[i].allFinite())
+      throw Error(source, "vertex " + std::to_string(i), "coordinate is not finite");
   std::vector<char> used(n, 0);
   double max_edge2 = 0.0;
   for (size_t t = 0; t < triangles.size(); ++t) {
     const Tri& tri = triangles[t];
     for (int k = 0; k < 3; ++k) {
       if (tri[k] < 0 || tri[k] >= n)
-        throw Error(source, "triangle " + std::to_string(t),
-                    "vertex index " + std::to_string(tri[k]) + " is out of range [0, " + std::to_string(n) + ")");
+        throw Error(
+            source, "triangle " + std::to_string(t),
+            "vertex index " + std::to_string(tri[k]) + " is out of range [0, " + std::to_string(n) + ")");
       used[tri[k]] = 1;
     }
     if (tri[0] == tri[1] || tri[1] == tri[2] || tri[0] == tri[2])
       throw Error(source, "triangle " + std::to_string(t), "repeats a vertex (degenerate triangle)");
-    for (int k = 0; k < 3; ++k) max_edge2 = std::max(max_edge2, (positions[tri[k]] - positions[tri[(k + 1) % 3]]).squaredNorm());
+    for (int k = 0; k < 3; ++k)
+      max_edge2 = std::max(max_edge2, (positions[tri[k]] - positions[tri[(k + 1) % 3]]).squaredNorm());
   }
   for (size_t t = 0; t < triangles.size(); ++t) {
     const Tri& tri = triangles[t];
@@ -182,7 +193,9 @@ void ClothMesh::build_topology(const std::string& source) {
   hinges_.clear();
   for (size_t s = 0; s < half.size();) {
     size_t e = s;
-    while (e < half.size() && std::get<0>(half[e]) == std::get<0>(half[s]) && std::get<1>(half[e]) == std::get<1>(half[s])) ++e;
+    while (e < half.size() && std::get<0>(half[e]) == std::get<0>(half[s]) &&
+           std::get<1>(half[e]) == std::get<1>(half[s]))
+      ++e;
     const int a = std::get<0>(half[s]), b = std::get<1>(half[s]);
     if (e - s > 2)
       throw Error(source, "edge (" + std::to_string(a) + ", " + std::to_string(b) + ")",
@@ -296,7 +309,8 @@ void ClothMesh::build_mesh_springs() {
   }
 }
 
-std::shared_ptr<const ClothMesh> ClothMesh::from_obj(const std::string& path, double scale, const Vec3& translate) {
+std::shared_ptr<const ClothMesh> ClothMesh::from_obj(const std::string& path, double scale,
+                                                     const Vec3& translate) {
   std::ifstream in(path);
   if (!in) throw Error(path, "", "cannot open OBJ file");
   Vec3s positions;
@@ -306,7 +320,9 @@ std::shared_ptr<const ClothMesh> ClothMesh::from_obj(const std::string& path, do
   bool any_vt = false, all_vt = true;
   std::string line;
   int line_no = 0;
-  auto fail = [&](const std::string& problem) { throw Error(path, "line " + std::to_string(line_no), problem); };
+  auto fail = [&](const std::string& problem) {
+    throw Error(path, "line " + std::to_string(line_no), problem);
+  };
   while (std::getline(in, line)) {
     ++line_no;
     if (!line.empty() && line.back() == '\r') line.pop_back();
@@ -351,14 +367,16 @@ std::shared_ptr<const ClothMesh> ClothMesh::from_obj(const std::string& path, do
           if (used != s.size()) fail(std::string("bad ") + what + " index '" + s + "'");
           long resolved = idx > 0 ? idx - 1 : static_cast<long>(count) + idx;
           if (idx == 0 || resolved < 0 || resolved >= static_cast<long>(count))
-            fail(std::string(what) + " index " + s + " is out of range (" + std::to_string(count) + " defined so far)");
+            fail(std::string(what) + " index " + s + " is out of range (" + std::to_string(count) +
+                 " defined so far)");
           return static_cast<int>(resolved);
         };
         vi.push_back(parse_index(corner.substr(0, slash), positions.size(), "vertex"));
         int t = -1;
         if (slash != std::string::npos) {
           const size_t slash2 = corner.find('/', slash + 1);
-          const std::string vt = corner.substr(slash + 1, slash2 == std::string::npos ? std::string::npos : slash2 - slash - 1);
+          const std::string vt =
+              corner.substr(slash + 1, slash2 == std::string::npos ? std::string::npos : slash2 - slash - 1);
           if (!vt.empty()) t = parse_index(vt, texcoords.size(), "texture");
         }
         ti.push_back(t);

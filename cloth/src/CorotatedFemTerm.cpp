@@ -1,7 +1,7 @@
 #include "loom/cloth/CorotatedFemTerm.h"
 
-#include <algorithm>
 #include <Eigen/Eigenvalues>
+#include <algorithm>
 #include <cmath>
 #include <unsupported/Eigen/AutoDiff>
 
@@ -50,7 +50,8 @@ Polar<T> polar(const BwTriangle& t, const V3<T>* x) {
   return p;
 }
 
-// Energy and its gradient ∂E/∂x_m of one triangle (header: E = A (1/2 Y_u ε_uu² + 1/2 Y_v ε_vv² + 2 G ε_uv²)).
+// Energy and its gradient ∂E/∂x_m of one triangle (header: E = A (1/2 Y_u ε_uu² + 1/2 Y_v ε_vv² + 2 G
+// ε_uv²)).
 template <class T>
 T fem_gradient(const BwTriangle& t, const V3<T>* x, double y_u, double y_v, double g, V3<T>* grad) {
   const Polar<T> p = polar(t, x);
@@ -95,13 +96,14 @@ void rotated_linear_force(const BwTriangle& t, const V3<T>& r0, const V3<T>& r1,
     gam += t.b[n] * px + t.a[n] * py;
   }
   const T s00 = A * y_u * e00, s11 = A * y_v * e11, s01 = A * g * gam;
-  for (int m = 0; m < 3; ++m) out[m] = -scale * ((t.a[m] * s00 + t.b[m] * s01) * r0 + (t.b[m] * s11 + t.a[m] * s01) * r1);
+  for (int m = 0; m < 3; ++m)
+    out[m] = -scale * ((t.a[m] * s00 + t.b[m] * s01) * r0 + (t.b[m] * s11 + t.a[m] * s01) * r1);
 }
 
 }  // namespace
 
-CorotatedFemTerm::CorotatedFemTerm(int num_vertices, std::vector<BwTriangle> triangles, double y_u, double y_v,
-                                   double shear, double damping)
+CorotatedFemTerm::CorotatedFemTerm(int num_vertices, std::vector<BwTriangle> triangles, double y_u,
+                                   double y_v, double shear, double damping)
     : n_(num_vertices), tris_(std::move(triangles)), y_u_(y_u), y_v_(y_v), g_(shear), damping_(damping) {
   std::vector<Tri> tv(tris_.size());
   for (size_t t = 0; t < tris_.size(); ++t) tv[t] = tris_[t].v;

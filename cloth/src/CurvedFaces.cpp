@@ -27,8 +27,8 @@ Vec3 pn_point(const Vec3& p1, const Vec3& p2, const Vec3& p3, const Vec3& n1, co
   const Vec3 c = (p1 + p2 + p3) / 3.0;
   const Vec3 b111 = e + 0.5 * (e - c);
   return p1 * (w * w * w) + p2 * (u * u * u) + p3 * (v * v * v) + b210 * (3.0 * w * w * u) +
-         b120 * (3.0 * w * u * u) + b201 * (3.0 * w * w * v) + b021 * (3.0 * u * u * v) + b102 * (3.0 * w * v * v) +
-         b012 * (3.0 * u * v * v) + b111 * (6.0 * w * u * v);
+         b120 * (3.0 * w * u * u) + b201 * (3.0 * w * w * v) + b021 * (3.0 * u * u * v) +
+         b102 * (3.0 * w * v * v) + b012 * (3.0 * u * v * v) + b111 * (6.0 * w * u * v);
 }
 
 constexpr double kPi = 3.14159265358979323846;
@@ -41,9 +41,11 @@ double largest_eigenvalue(const Eigen::Matrix2d& q) {
 
 }  // namespace
 
-CurvedFaces::CurvedFaces(const ClothMesh& coarse, int levels, const std::string& file, const std::string& where)
+CurvedFaces::CurvedFaces(const ClothMesh& coarse, int levels, const std::string& file,
+                         const std::string& where)
     : coarse_tris_(coarse.triangles()), coarse_n_(coarse.num_vertices()), levels_(levels) {
-  if (levels < 0 || levels > 5) throw Error(file, where + ".levels", "must be an integer in [0, 5] (got " + std::to_string(levels) + ")");
+  if (levels < 0 || levels > 5)
+    throw Error(file, where + ".levels", "must be an integer in [0, 5] (got " + std::to_string(levels) + ")");
   // Fine triangles, each with its coarse triangle and its corners' barycentric weights in it.
   struct FineTri {
     Tri v;
@@ -102,10 +104,12 @@ CurvedFaces::CurvedFaces(const ClothMesh& coarse, int levels, const std::string&
     fine_tris.push_back(ft.v);
     const auto& ruv = coarse.triangle_frames()[ft.coarse].rest_uv;
     std::array<Vec2, 3> uv;
-    for (int k = 0; k < 3; ++k) uv[k] = ft.bary[k][0] * ruv[0] + ft.bary[k][1] * ruv[1] + ft.bary[k][2] * ruv[2];
+    for (int k = 0; k < 3; ++k)
+      uv[k] = ft.bary[k][0] * ruv[0] + ft.bary[k][1] * ruv[1] + ft.bary[k][2] * ruv[2];
     uvs.push_back(uv);
   }
-  fine_ = ClothMesh::from_triangles(std::move(rest), std::move(fine_tris), std::move(uvs), file.empty() ? "detail" : file);
+  fine_ = ClothMesh::from_triangles(std::move(rest), std::move(fine_tris), std::move(uvs),
+                                    file.empty() ? "detail" : file);
   heights_.assign(samples_.size(), 0.0);
 
   // Wrinkle data. Material coordinates unfolded breadth-first over the coarse triangles: every triangle's
@@ -192,7 +196,8 @@ void CurvedFaces::vertex_compression(const Vec3s& x) const {
 double CurvedFaces::wrinkle_height(int tri, const Vec3& bary) const {
   if (!wrinkles_.enabled || compression_.empty()) return 0.0;
   const Tri& t = coarse_tris_[tri];
-  const Eigen::Matrix2d q = bary[0] * compression_[t[0]] + bary[1] * compression_[t[1]] + bary[2] * compression_[t[2]];
+  const Eigen::Matrix2d q =
+      bary[0] * compression_[t[0]] + bary[1] * compression_[t[1]] + bary[2] * compression_[t[2]];
   const double q1 = std::min(largest_eigenvalue(q), 0.999);
   if (q1 <= 0.0) return 0.0;
   const Vec2 m = bary[0] * material_[t[0]] + bary[1] * material_[t[1]] + bary[2] * material_[t[2]];
@@ -234,8 +239,8 @@ void CurvedFaces::evaluate(const Vec3s& coarse_x, Vec3s& fine_x) const {
   for (int i = 0; i < n; ++i) {
     const Sample& s = samples_[i];
     const Tri& t = coarse_tris_[s.tri];
-    fine_x[i] = pn_point(coarse_x[t[0]], coarse_x[t[1]], coarse_x[t[2]], normals_[t[0]], normals_[t[1]], normals_[t[2]],
-                         s.bary);
+    fine_x[i] = pn_point(coarse_x[t[0]], coarse_x[t[1]], coarse_x[t[2]], normals_[t[0]], normals_[t[1]],
+                         normals_[t[2]], s.bary);
   }
   if (!wrinkles_.enabled) return;
   vertex_compression(coarse_x);

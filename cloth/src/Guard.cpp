@@ -6,10 +6,11 @@
 
 namespace loom::cloth {
 
-std::string guard_violation(const GuardSettings& g, const GuardSample& start, const GuardSample& end, double energy_scale) {
+std::string guard_violation(const GuardSettings& g, const GuardSample& start, const GuardSample& end,
+                            double energy_scale) {
   std::ostringstream why;
-  if (!end.finite || !std::isfinite(end.kinetic) || !std::isfinite(end.elastic) || !std::isfinite(end.potential) ||
-      !std::isfinite(end.max_strain)) {
+  if (!end.finite || !std::isfinite(end.kinetic) || !std::isfinite(end.elastic) ||
+      !std::isfinite(end.potential) || !std::isfinite(end.max_strain)) {
     why << "the state became non-finite (a position, velocity or energy is not a finite number)";
     return why.str();
   }

@@ -57,7 +57,8 @@ void ImplicitSolver::prepare(const Cloth& cloth) {
       }
       std::vector<Spring> stiff;
       for (size_t k = 0; k < defs.size(); ++k)
-        if (defs[k].kind != SpringKind::kBend && defs[k].kind != SpringKind::kHinge) stiff.push_back(springs->springs()[k]);
+        if (defs[k].kind != SpringKind::kBend && defs[k].kind != SpringKind::kHinge)
+          stiff.push_back(springs->springs()[k]);
       owned_terms_.push_back(std::make_unique<SpringTerm>(n, std::move(stiff), "springs_in_plane"));
       jac_terms_.push_back(owned_terms_.back().get());
     }
@@ -132,7 +133,9 @@ void ImplicitSolver::assemble(Cloth& cloth, const Vec3s& x, const Vec3s& v, doub
   auto& a = A_.blocks();
   const auto& rs = A_.row_start();
   const auto& cols = A_.cols();
-  auto raw = [&](int k) -> Mat3 { return use_d ? Mat3(-gamma * db[k] - gamma * gamma * kb[k]) : Mat3(-gamma * gamma * kb[k]); };
+  auto raw = [&](int k) -> Mat3 {
+    return use_d ? Mat3(-gamma * db[k] - gamma * gamma * kb[k]) : Mat3(-gamma * gamma * kb[k]);
+  };
   bool symmetric = true;
   for (const Term* term : jac_terms_) symmetric = symmetric && term->symmetric_jacobians(o);
   if (symmetric) {
@@ -269,7 +272,8 @@ bool ImplicitSolver::substep(Cloth& cloth, double t, double h, int threads) {
       ++counters_.safeguard_corrections;
       vtry_.resize(n);
       for (int i = 0; i < n; ++i) vtry_[i] = fixed_[i] ? vplus[i] : s.v[i];
-      if (incremental_potential(cloth, vtry_, t + h, threads) < incremental_potential(cloth, vplus, t + h, threads))
+      if (incremental_potential(cloth, vtry_, t + h, threads) <
+          incremental_potential(cloth, vplus, t + h, threads))
         vplus.swap(vtry_);
       newton(cloth, t, h, threads, p_.safeguard_newton_iterations);
       for (int i = 0; i < n; ++i) dv_[i] = vplus[i] - s.v[i];  // the next step's warm start
@@ -312,7 +316,8 @@ std::vector<const Term*> ImplicitSolver::term_list(const Cloth& cloth) {
 }
 
 double ImplicitSolver::mechanical_energy(const Cloth& cloth, const Vec3s& x, const Vec3s& v, double t,
-                                         int threads, std::vector<double>& per_term, bool kinetic_only) const {
+                                         int threads, std::vector<double>& per_term,
+                                         bool kinetic_only) const {
   const ClothState& s = cloth.state();
   double kinetic = 0.0;
   for (int i = 0; i < n_; ++i)
@@ -368,7 +373,9 @@ bool ImplicitSolver::energy_gain_excessive(Cloth& cloth, double t, double h, int
     for (int i = 0; i < n; ++i)
       if (!fixed_[i]) w_in += h * std::max(0.0, tmp_[i].dot(vplus[i]));
   }
-  auto allowed = [&]() { return w_pins + w_in + p_.safeguard_tolerance * (exchanged + std::abs(w_pins) + w_in); };
+  auto allowed = [&]() {
+    return w_pins + w_in + p_.safeguard_tolerance * (exchanged + std::abs(w_pins) + w_in);
+  };
   if (gain <= allowed()) return false;
   // Moving kinematic vertices: the start-of-step forces miss the work of a pin that loads the cloth during
   // the step (a pin compressing an unloaded strip sees zero force at the start). Before calling the step
@@ -395,10 +402,11 @@ PcgResult ImplicitSolver::solve_with_contacts(const Cloth& cloth, Vec3s& x, bool
     }
   }
   if (constrained == 0)
-    return pcg_.solve(A_, rhs_, fixed_, x, p_.cg_tolerance, p_.cg_max_iterations, threads, warm_start, nullptr, &dinv_);
+    return pcg_.solve(A_, rhs_, fixed_, x, p_.cg_tolerance, p_.cg_max_iterations, threads, warm_start,
+                      nullptr, &dinv_);
   counters_.contact_constraints += constrained;
-  PcgResult r =
-      pcg_.solve(A_, rhs_, fixed_, x, p_.cg_tolerance, p_.cg_max_iterations, threads, warm_start, &normals_, &dinv_);
+  PcgResult r = pcg_.solve(A_, rhs_, fixed_, x, p_.cg_tolerance, p_.cg_max_iterations, threads, warm_start,
+                           &normals_, &dinv_);
   // Release the contacts that hold their vertex against the body: the constraint impulse λ n = (A x - b)
   // along n (n points out of the body) is negative there. One more solve from this result, without them.
   multiply(A_, x, tmp_, threads);
@@ -411,7 +419,8 @@ PcgResult ImplicitSolver::solve_with_contacts(const Cloth& cloth, Vec3s& x, bool
   counters_.contact_releases += released;
   counters_.cg_iterations += r.iterations;
   ++counters_.linear_solves;
-  return pcg_.solve(A_, rhs_, fixed_, x, p_.cg_tolerance, p_.cg_max_iterations, threads, true, &normals_, &dinv_);
+  return pcg_.solve(A_, rhs_, fixed_, x, p_.cg_tolerance, p_.cg_max_iterations, threads, true, &normals_,
+                    &dinv_);
 }
 
 void ImplicitSolver::newton(Cloth& cloth, double t, double h, int threads, int iterations) {

@@ -2,8 +2,8 @@
 
 #include <cmath>
 #include <cstdio>
-#include <string>
 #include <map>
+#include <string>
 
 #include "loom/cloth/Error.h"
 
@@ -75,17 +75,19 @@ std::map<std::string, Material> presets() {
                                  {23.191698e-6, 32.932217e-6, 34.406498e-6, 39.014420e-6, 23.382786e-6},
                                  {14.267624e-6, 7.052906e-6, 14.515154e-6, 24.665127e-6, 19.383726e-6});
   // white-dots-on-blk: tablecloth, 100% polyester (Wang et al. 2011).
-  p["white_dots_tablecloth"] = measured("white_dots_tablecloth", 0.128, 2002.08618, 2027.48559, 19.189022,
-                                        {51.713814e-6, 36.506981e-6, 66.360748e-6, 52.729267e-6, 15.221714e-6},
-                                        {31.282822e-6, 22.910311e-6, 26.350384e-6, 30.637762e-6, 16.726685e-6});
+  p["white_dots_tablecloth"] =
+      measured("white_dots_tablecloth", 0.128, 2002.08618, 2027.48559, 19.189022,
+               {51.713814e-6, 36.506981e-6, 66.360748e-6, 52.729267e-6, 15.221714e-6},
+               {31.282822e-6, 22.910311e-6, 26.350384e-6, 30.637762e-6, 16.726685e-6});
   // ivory-rib-knit: underwear, 95% cotton 5% spandex (Wang et al. 2011).
   p["ivory_rib_knit"] = measured("ivory_rib_knit", 0.276, 42.871021, 65.166023, 83.175644,
                                  {46.237591e-6, 63.086697e-6, 83.192772e-6, 97.574425e-6, 80.726685e-6},
                                  {32.243889e-6, 37.341282e-6, 38.817448e-6, 39.812527e-6, 30.437820e-6});
   // pink-ribbon-brown: blanket, 100% polyester (Wang et al. 2011).
-  p["pink_ribbon_brown"] = measured("pink_ribbon_brown", 0.228, 151.503906, 244.830673, 30.250183,
-                                    {117.070122e-6, 202.682922e-6, 298.615936e-6, 244.588867e-6, 238.437820e-6},
-                                    {59.774277e-6, 59.260632e-6, 64.199661e-6, 55.017326e-6, 59.221714e-6});
+  p["pink_ribbon_brown"] =
+      measured("pink_ribbon_brown", 0.228, 151.503906, 244.830673, 30.250183,
+               {117.070122e-6, 202.682922e-6, 298.615936e-6, 244.588867e-6, 238.437820e-6},
+               {59.774277e-6, 59.260632e-6, 64.199661e-6, 55.017326e-6, 59.221714e-6});
   // navy-sparkle-sweat: sweater, 96% polyester 4% spandex (Wang et al. 2011).
   p["navy_sparkle_sweat"] = measured("navy_sparkle_sweat", 0.224, 12.486332, 3.272434, 17.616289,
                                      {59.469658e-6, 37.500004e-6, 35.787308e-6, 35.737106e-6, 21.033506e-6},
@@ -102,13 +104,13 @@ std::map<std::string, Material> presets() {
   p["tango_red_jet_set"] = measured("tango_red_jet_set", 0.113, 43.067627, 171.424835, 14.314700,
                                     {14.293814e-6, 8.949391e-6, 30.011126e-6, 36.081490e-6, 18.363136e-6},
                                     {20.345654e-6, 22.696880e-6, 15.698071e-6, 13.466827e-6, 7.556618e-6});
-  // denim_kes: denim from KES-F measurements, "Regenerated Cellulose-Based Denim Fabric for Tropical Regions",
-  // Journal of Textiles 2016, Table 5 (six fabrics; mid-range values). B = 0.144-0.227 gf·cm²/cm -> 18 µN·m
-  // (1 gf·cm²/cm = 98.1 µN·m); G = 1.50-3.40 gf/(cm·deg) -> 137 N/m (1 gf/(cm·deg) = 56.2 N/m per radian);
-  // stretch: secant modulus at EMT (strain at 500 gf/cm = 490 N/m), EMT 4.70-5.74% -> 490/0.0522 = 9,390 N/m
-  // (KES tensile curves are stiffening, so small-strain stiffness is lower); thickness 0.80-1.19 mm -> 1.0 mm.
-  // The table's weight column (94-109 mg/cm²) is implausible for denim; the density is the nominal 11 oz/yd²
-  // (0.373 kg/m²), an assumption of ours, not a measurement.
+  // denim_kes: denim from KES-F measurements, "Regenerated Cellulose-Based Denim Fabric for Tropical
+  // Regions", Journal of Textiles 2016, Table 5 (six fabrics; mid-range values). B = 0.144-0.227 gf·cm²/cm ->
+  // 18 µN·m (1 gf·cm²/cm = 98.1 µN·m); G = 1.50-3.40 gf/(cm·deg) -> 137 N/m (1 gf/(cm·deg) = 56.2 N/m per
+  // radian); stretch: secant modulus at EMT (strain at 500 gf/cm = 490 N/m), EMT 4.70-5.74% -> 490/0.0522 =
+  // 9,390 N/m (KES tensile curves are stiffening, so small-strain stiffness is lower); thickness 0.80-1.19 mm
+  // -> 1.0 mm. The table's weight column (94-109 mg/cm²) is implausible for denim; the density is the nominal
+  // 11 oz/yd² (0.373 kg/m²), an assumption of ours, not a measurement.
   {
     Material m;
     m.name = "denim_kes";

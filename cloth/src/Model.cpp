@@ -2,8 +2,8 @@
 
 #include <functional>
 
-#include "loom/cloth/ChoiKoTerm.h"
 #include "loom/cloth/BaraffWitkinTerm.h"
+#include "loom/cloth/ChoiKoTerm.h"
 #include "loom/cloth/CorotatedFemTerm.h"
 #include "loom/cloth/DihedralBendingTerm.h"
 #include "loom/cloth/Error.h"
@@ -23,7 +23,8 @@ const std::vector<Entry>& registry() {
   static const std::vector<Entry> entries = {
       {"springs",
        [](Cloth& c) {
-         c.add_term(std::make_unique<SpringTerm>(c.mesh().num_vertices(), make_springs(c.mesh(), c.material())));
+         c.add_term(
+             std::make_unique<SpringTerm>(c.mesh().num_vertices(), make_springs(c.mesh(), c.material())));
        }},
       // Choi & Ko 2002: tension-only sequential springs + interlaced buckling springs (ChoiKoTerm.h).
       {"choi_ko", [](Cloth& c) { c.add_term(make_choi_ko_term(c.mesh(), c.material())); }},
@@ -47,7 +48,8 @@ const std::vector<Entry>& registry() {
 
 }  // namespace
 
-void add_model_terms(Cloth& cloth, const std::string& model, const std::string& file, const std::string& where) {
+void add_model_terms(Cloth& cloth, const std::string& model, const std::string& file,
+                     const std::string& where) {
   for (const Entry& e : registry())
     if (model == e.name) return e.add(cloth);
   std::string known;

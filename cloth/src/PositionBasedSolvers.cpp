@@ -114,8 +114,8 @@ void XpbdSolver::project(int begin, int end, const ClothState& s, double h) {
     if (l < 1e-12) continue;
     const Vec3 n = d / l;
     const double C = l - sp.rest_length;
-    const double alpha_t = compliance_scale_ / sp.k * inv_h2;  // α̃ = α / h²
-    const double gamma = sp.c / (sp.k * h);                    // γ = β / h, β = c / k
+    const double alpha_t = compliance_scale_ / sp.k * inv_h2;                    // α̃ = α / h²
+    const double gamma = sp.c / (sp.k * h);                                      // γ = β / h, β = c / k
     const double rate = n.dot((p_[sp.j] - s.x[sp.j]) - (p_[sp.i] - s.x[sp.i]));  // ∇C·(p - x_n)
     // Macklin 2016 eq. (18), with its damping term.
     const double dlambda = (-C - alpha_t * lambda_[k] - gamma * rate) / ((1.0 + gamma) * (wi + wj) + alpha_t);

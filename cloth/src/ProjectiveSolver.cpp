@@ -58,7 +58,8 @@ void ProjectiveSolver::prepare(const Cloth& cloth, double h) {
       for (int m = 0; m < 3; ++m)
         for (int n = 0; n < 3; ++n) {
           const int fm = index_[triangles_[t][m]], fn = index_[triangles_[t][n]];
-          if (fm >= 0 && fn >= 0) trip.emplace_back(fm, fn, h * h * tri_weight_[t] * tri_g_[t][m].dot(tri_g_[t][n]));
+          if (fm >= 0 && fn >= 0)
+            trip.emplace_back(fm, fn, h * h * tri_weight_[t] * tri_g_[t][m].dot(tri_g_[t][n]));
         }
     Eigen::SparseMatrix<double> tri(num_free_, num_free_);
     tri.setFromTriplets(trip.begin(), trip.end());
@@ -129,7 +130,8 @@ void ProjectiveSolver::step(Cloth& cloth, double t, double h, int threads) {
       }
 #pragma omp for schedule(static)
       for (int i = 0; i < n; ++i)
-        if (index_[i] >= 0) rhs_.row(index_[i]) = base_rhs_.row(index_[i]) + gather_.sum(i, spring_rhs_).transpose();
+        if (index_[i] >= 0)
+          rhs_.row(index_[i]) = base_rhs_.row(index_[i]) + gather_.sum(i, spring_rhs_).transpose();
     }
     if (!triangles_.empty()) add_strain_projection(s, h, rhs_);
     // Global step: the prefactorised solve, three right-hand sides at once.

@@ -51,7 +51,8 @@ class SolveStage final : public Stage {
   }
   const char* name() const override { return "solve"; }
   void run(StageContext& ctx) override {
-    for (size_t k = 0; k < ctx.cloths.size(); ++k) solvers_[k]->step(*ctx.cloths[k], ctx.t, ctx.h, ctx.threads);
+    for (size_t k = 0; k < ctx.cloths.size(); ++k)
+      solvers_[k]->step(*ctx.cloths[k], ctx.t, ctx.h, ctx.threads);
     ++steps_;
   }
   std::vector<std::pair<std::string, double>> counters() const override {
@@ -59,7 +60,8 @@ class SolveStage final : public Stage {
     // The solvers' own counters (CG iterations, ...), summed over cloths by name.
     for (const auto& s : solvers_)
       for (const auto& counter : s->counters()) {
-        const std::string& name = counter.first;  // no structured binding: C++17 lambdas cannot capture one (clang)
+        const std::string& name =
+            counter.first;  // no structured binding: C++17 lambdas cannot capture one (clang)
         const double value = counter.second;
         auto it = std::find_if(out.begin(), out.end(), [&](const auto& kv) { return kv.first == name; });
         if (it == out.end())
@@ -86,10 +88,12 @@ class SolveStage final : public Stage {
 }  // namespace
 
 Simulation::Simulation(SimulationSetup setup, const std::string& file) : setup_(std::move(setup)) {
-  if (!(setup_.frame_dt > 0.0) || !std::isfinite(setup_.frame_dt)) throw Error(file, "fps", "frame time step must be > 0");
+  if (!(setup_.frame_dt > 0.0) || !std::isfinite(setup_.frame_dt))
+    throw Error(file, "fps", "frame time step must be > 0");
   if (setup_.substeps < 1) throw Error(file, "solver.substeps", "must be >= 1");
   if (setup_.threads < 1) throw Error(file, "threads", "must be >= 1");
-  if (setup_.strain_limit && !(setup_.strain_limit->max_stretch >= 0.0 && setup_.strain_limit->max_stretch < 1e6))
+  if (setup_.strain_limit &&
+      !(setup_.strain_limit->max_stretch >= 0.0 && setup_.strain_limit->max_stretch < 1e6))
     throw Error(file, "constraints.strain_limit.max_stretch", "must be >= 0");
   if (setup_.strain_limit && setup_.strain_limit->iterations < 1)
     throw Error(file, "constraints.strain_limit.iterations", "must be >= 1");
@@ -109,14 +113,16 @@ Simulation::Simulation(SimulationSetup setup, const std::string& file) : setup_(
       cloth->add_term(std::make_unique<GravityTerm>(cloth->state().mass, setup_.gravity));
     add_model_terms(*cloth, cs.model, file, where + ".model");
     if (setup_.drag)
-      cloth->add_term(std::make_unique<AirDragTerm>(*setup_.drag, cs.mesh->triangles(), cs.mesh->vertex_areas()));
+      cloth->add_term(
+          std::make_unique<AirDragTerm>(*setup_.drag, cs.mesh->triangles(), cs.mesh->vertex_areas()));
     for (Vec3& v : cloth->state().v) v = cs.initial_velocity;
     for (size_t p = 0; p < cs.pins.size(); ++p) {
       const PinSpec& ps = cs.pins[p];
       const std::string pw = where + ".pins[" + std::to_string(p) + "]";
       if (ps.vertex < 0 || ps.vertex >= cs.mesh->num_vertices())
-        throw Error(file, pw + ".vertex", "vertex " + std::to_string(ps.vertex) + " is out of range [0, " +
-                                              std::to_string(cs.mesh->num_vertices()) + ")");
+        throw Error(file, pw + ".vertex",
+                    "vertex " + std::to_string(ps.vertex) + " is out of range [0, " +
+                        std::to_string(cs.mesh->num_vertices()) + ")");
       if (ps.times.size() != ps.offsets.size()) throw Error(file, pw + ".path", "needs one offset per time");
       for (size_t k = 1; k < ps.times.size(); ++k)
         if (!(ps.times[k] > ps.times[k - 1])) throw Error(file, pw + ".path", "times must increase strictly");
@@ -174,7 +180,8 @@ std::vector<std::string> Simulation::stage_names() const {
 
 std::vector<StageProfile> Simulation::profile() const {
   std::vector<StageProfile> rows;
-  for (size_t k = 0; k < stages_.size(); ++k) rows.push_back({stages_[k]->name(), stage_total_ms_[k], stages_[k]->counters()});
+  for (size_t k = 0; k < stages_.size(); ++k)
+    rows.push_back({stages_[k]->name(), stage_total_ms_[k], stages_[k]->counters()});
   for (const std::string& name : stage_names()) {
     if (name.rfind("solve/", 0) != 0) continue;
     StageProfile p{name, 0.0, {}};
@@ -191,8 +198,10 @@ std::vector<StageProfile> Simulation::profile() const {
   }
   rows.push_back({"stats", stats_total_ms_, {}});
   if (setup_.guard.enabled)
-    rows.push_back({"guard", guard_ms_,
-                    {{"rollbacks", double(rollbacks_)}, {"retried_frames", double(retried_frames_)},
+    rows.push_back({"guard",
+                    guard_ms_,
+                    {{"rollbacks", double(rollbacks_)},
+                     {"retried_frames", double(retried_frames_)},
                      {"failed_frames", double(failed_frames_)}}});
   return rows;
 }
@@ -255,7 +264,8 @@ FrameStats Simulation::step_frame() {
       stats = FrameStats();
       fill_stats(stats);
       stats_total_ms_ += ms_since(start);
-      if (why.empty()) why = guard_violation(setup_.guard, *start_sample_, guard_sample(stats), energy_scale_);
+      if (why.empty())
+        why = guard_violation(setup_.guard, *start_sample_, guard_sample(stats), energy_scale_);
       double pin_work = 0.0;
       if (why.empty() && setup_.guard.energy_bound > 0.0) why = energy_budget_violation(stats, &pin_work);
       if (why.empty()) {
@@ -318,9 +328,9 @@ std::string Simulation::energy_budget_violation(const FrameStats& end, double* p
   const double bound = setup_.guard.energy_bound * budget_ref_ + pin_work_ + w + stage_work;
   if (e <= bound) return "";
   std::ostringstream why;
-  why << "the energy exploded (E_kin + E_el + E_pot - E_pot(0) = " << e << " J, above the budget " << bound << " J: "
-      << setup_.guard.energy_bound << " x " << budget_ref_ << " J at the start + " << pin_work_ + w + stage_work
-      << " J of work put in)";
+  why << "the energy exploded (E_kin + E_el + E_pot - E_pot(0) = " << e << " J, above the budget " << bound
+      << " J: " << setup_.guard.energy_bound << " x " << budget_ref_ << " J at the start + "
+      << pin_work_ + w + stage_work << " J of work put in)";
   return why.str();
 }
 
@@ -372,14 +382,16 @@ void Simulation::fill_stats(FrameStats& s) const {
     s.elastic += c->elastic_energy(setup_.threads);
     const auto& springs = c->mesh().springs();
     const std::vector<int>& ids = c->mesh().strain_springs();
-    stat_chunks(static_cast<int>(ids.size()), setup_.threads, chunks, [&](int begin, int end, StatChunk& out) {
-      for (int q = begin; q < end; ++q) {
-        const SpringDef& d = springs[ids[q]];
-        const double strain = (st.x[d.j] - st.x[d.i]).norm() / d.rest_length - 1.0;
-        out.max_strain = std::max(out.max_strain, strain);  // a NaN strain is skipped here, caught by the sum
-        out.strain_sum += std::abs(strain);
-      }
-    });
+    stat_chunks(static_cast<int>(ids.size()), setup_.threads, chunks,
+                [&](int begin, int end, StatChunk& out) {
+                  for (int q = begin; q < end; ++q) {
+                    const SpringDef& d = springs[ids[q]];
+                    const double strain = (st.x[d.j] - st.x[d.i]).norm() / d.rest_length - 1.0;
+                    out.max_strain =
+                        std::max(out.max_strain, strain);  // a NaN strain is skipped here, caught by the sum
+                    out.strain_sum += std::abs(strain);
+                  }
+                });
     for (const StatChunk& ch : chunks) {
       s.max_strain = std::max(s.max_strain, ch.max_strain);
       strain_sum += ch.strain_sum;

@@ -39,7 +39,8 @@ double guard_energy_scale(const SimulationSetup& setup, const std::vector<std::u
   // velocity or pin path.
   double v_ref = 10.0;
   double fastest = 0.0;
-  if (setup.drag) fastest = std::max(fastest, setup.drag->wind.norm() * (1.0 + std::abs(setup.drag->gust_amplitude)));
+  if (setup.drag)
+    fastest = std::max(fastest, setup.drag->wind.norm() * (1.0 + std::abs(setup.drag->gust_amplitude)));
   for (const ClothSetup& c : setup.cloths) fastest = std::max(fastest, c.initial_velocity.norm());
   for (const auto& c : cloths)
     for (const Pin& p : c->pins())
@@ -88,18 +89,21 @@ void Simulation::load_state(StateReader& in) {
   const double budget_ref = in.f64(), budget_potential0 = in.f64(), pin_work = in.f64();
   const std::int64_t n = in.i64();
   if (n != static_cast<std::int64_t>(cloths_.size()) || substeps < 1 || frame < 0 || !std::isfinite(t))
-    throw Error(in.source(), "", "state archive does not match this simulation (" + std::to_string(n) + " cloths, this scene has " +
-                                     std::to_string(cloths_.size()) + ")");
+    throw Error(in.source(), "",
+                "state archive does not match this simulation (" + std::to_string(n) +
+                    " cloths, this scene has " + std::to_string(cloths_.size()) + ")");
   for (auto& c : cloths_) {
     in.tag("cloth:" + c->name());
     ClothState& s = c->state();
     Vec3s x = in.vec3s(), v = in.vec3s(), xp = in.vec3s(), cn = in.vec3s();
     if (static_cast<int>(x.size()) != s.size() || v.size() != x.size() || xp.size() != x.size())
-      throw Error(in.source(), "cloth " + c->name(), "state archive has " + std::to_string(x.size()) +
-                                                         " vertices, this scene's cloth has " + std::to_string(s.size()));
+      throw Error(in.source(), "cloth " + c->name(),
+                  "state archive has " + std::to_string(x.size()) + " vertices, this scene's cloth has " +
+                      std::to_string(s.size()));
     if (!cn.empty() && cn.size() != x.size())
-      throw Error(in.source(), "cloth " + c->name(), "state archive has " + std::to_string(cn.size()) +
-                                                         " contact normals for " + std::to_string(x.size()) + " vertices");
+      throw Error(in.source(), "cloth " + c->name(),
+                  "state archive has " + std::to_string(cn.size()) + " contact normals for " +
+                      std::to_string(x.size()) + " vertices");
     s.x = std::move(x);
     s.v = std::move(v);
     s.x_prev = std::move(xp);

@@ -2,10 +2,10 @@
 #include <cstdio>
 #include <string>
 
+#include "loom/cloth/DesbrunSolver.h"
 #include "loom/cloth/Error.h"
 #include "loom/cloth/ExplicitSolvers.h"
 #include "loom/cloth/ImplicitSolver.h"
-#include "loom/cloth/DesbrunSolver.h"
 #include "loom/cloth/PositionBasedSolvers.h"
 #include "loom/cloth/ProjectiveSolver.h"
 #include "loom/cloth/Solver.h"
@@ -40,7 +40,9 @@ int SolverParams::integer(const std::string& key, int fallback, int min, int max
   return static_cast<int>(v);
 }
 
-bool SolverParams::flag(const std::string& key, bool fallback) { return number(key, fallback ? 1 : 0, 0, 1) != 0.0; }
+bool SolverParams::flag(const std::string& key, bool fallback) {
+  return number(key, fallback ? 1 : 0, 0, 1) != 0.0;
+}
 
 void SolverParams::finish() const {
   for (const auto& kv : s_.params)
@@ -80,9 +82,11 @@ const std::vector<Entry>& registry() {
       {"symplectic_euler", [](SolverParams&) { return std::make_unique<SymplecticEuler>(); }},
       {"verlet", [](SolverParams&) { return std::make_unique<Verlet>(); }},
       // Baraff & Witkin 1998 backward Euler and Choi & Ko 2002 BDF2 (ImplicitSolver.h).
-      {"implicit_euler", [](SolverParams& p) { return make_implicit_solver(ImplicitSolver::Scheme::kBackwardEuler, p); }},
+      {"implicit_euler",
+       [](SolverParams& p) { return make_implicit_solver(ImplicitSolver::Scheme::kBackwardEuler, p); }},
       {"bdf2", [](SolverParams& p) { return make_implicit_solver(ImplicitSolver::Scheme::kBdf2, p); }},
-      // Implicit-explicit split: stiff in-plane terms implicit, bending and the rest explicit (ImplicitSolver.h).
+      // Implicit-explicit split: stiff in-plane terms implicit, bending and the rest explicit
+      // (ImplicitSolver.h).
       {"imex", [](SolverParams& p) { return make_implicit_solver(ImplicitSolver::Scheme::kImex, p); }},
       // Position-based and projective solvers on the springs (PositionBasedSolvers.h, ProjectiveSolver.h).
       {"pbd",

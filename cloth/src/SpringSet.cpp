@@ -26,13 +26,15 @@ std::vector<Spring> make_springs(const ClothMesh& mesh, const Material& mat) {
   // their direction; the structural springs give that much less, and k_bend is capped at (Y - k_d) / 8 so
   // at least half the modulus stays in the structural springs (fine grids, where 576 B A / L⁴ grows as 1/d²).
   auto bend_k = [&](const SpringDef& d) {
-    const double k = bend_spring_stiffness(directional(mat.bend_weft, mat.bend_warp, d.rest_uv_dir), d.area, d.rest_length);
+    const double k = bend_spring_stiffness(directional(mat.bend_weft, mat.bend_warp, d.rest_uv_dir), d.area,
+                                           d.rest_length);
     if (d.kind != SpringKind::kBend) return k;
     return std::min(k, (directional(mat.stretch_weft, mat.stretch_warp, d.rest_uv_dir) - shear_k) / 8.0);
   };
   double bend_weft = 0.0, bend_warp = 0.0;  // grid bend-spring stiffness along each axis (interior rows)
   for (const SpringDef& d : mesh.springs())
-    if (d.kind == SpringKind::kBend && d.row_share == 1.0) (std::abs(d.rest_uv_dir.x()) > 0.5 ? bend_weft : bend_warp) = bend_k(d);
+    if (d.kind == SpringKind::kBend && d.row_share == 1.0)
+      (std::abs(d.rest_uv_dir.x()) > 0.5 ? bend_weft : bend_warp) = bend_k(d);
   std::vector<Spring> out;
   out.reserve(mesh.springs().size());
   for (const SpringDef& d : mesh.springs()) {
@@ -54,7 +56,8 @@ std::vector<Spring> make_springs(const ClothMesh& mesh, const Material& mat) {
         break;
       case SpringKind::kEdge:
         // Van Gelder 1998: k_e = E sum_t A_t / l_e² for a 2D modulus E (N/m).
-        s.k = directional(mat.stretch_weft, mat.stretch_warp, d.rest_uv_dir) * d.area / (d.rest_length * d.rest_length);
+        s.k = directional(mat.stretch_weft, mat.stretch_warp, d.rest_uv_dir) * d.area /
+              (d.rest_length * d.rest_length);
         break;
     }
     s.k *= d.row_share;

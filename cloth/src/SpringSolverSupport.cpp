@@ -6,14 +6,16 @@
 
 namespace loom::cloth {
 
-bool is_external_term(const Term& term) { return !term.conservative() || std::strcmp(term.name(), "gravity") == 0; }
+bool is_external_term(const Term& term) {
+  return !term.conservative() || std::strcmp(term.name(), "gravity") == 0;
+}
 
 void check_spring_terms(const Cloth& cloth, const char* solver) {
   for (const auto& t : cloth.terms()) {
     if (dynamic_cast<const SpringTerm*>(t.get()) || is_external_term(*t)) continue;
     throw Error("", "solver.method",
-                std::string("method '") + solver + "' cannot use term '" + t->name() + "' of cloth '" + cloth.name() +
-                    "' (it takes springs, gravity and drag only)");
+                std::string("method '") + solver + "' cannot use term '" + t->name() + "' of cloth '" +
+                    cloth.name() + "' (it takes springs, gravity and drag only)");
   }
 }
 
@@ -41,8 +43,9 @@ std::vector<int> free_index(const ClothState& s, int* num_free) {
   return index;
 }
 
-Eigen::SparseMatrix<double> spring_system_matrix(const ClothState& s, const std::vector<int>& index, int num_free,
-                                                 const std::vector<Spring>& springs, double a, double b) {
+Eigen::SparseMatrix<double> spring_system_matrix(const ClothState& s, const std::vector<int>& index,
+                                                 int num_free, const std::vector<Spring>& springs, double a,
+                                                 double b) {
   std::vector<Eigen::Triplet<double>> trip;
   trip.reserve(num_free + 4 * springs.size());
   for (int i = 0; i < s.size(); ++i)
@@ -63,7 +66,8 @@ Eigen::SparseMatrix<double> spring_system_matrix(const ClothState& s, const std:
 }
 
 std::vector<std::vector<int>> color_springs(int num_vertices, const std::vector<Spring>& springs) {
-  // used[v][c] = 1 if a spring of colour c touches vertex v; each spring takes the lowest colour free at both ends.
+  // used[v][c] = 1 if a spring of colour c touches vertex v; each spring takes the lowest colour free at both
+  // ends.
   std::vector<std::vector<int>> colors;
   std::vector<std::vector<char>> used(num_vertices);
   for (int s = 0; s < static_cast<int>(springs.size()); ++s) {

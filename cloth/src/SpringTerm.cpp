@@ -48,8 +48,8 @@ void SpringTerm::add_jacobians(const EvalContext& c, const JacobianOptions& o, B
   if (!dfdx && !want_v) return;
   if (dfdx) kx_.resize(ns);
   if (want_v) kv_.resize(ns);
-  // Per spring, in parallel: the block K = df_i/dx_j (and D = df_i/dv_j); the matrix gets -K, K, K, -K at
-  // (i,i), (i,j), (j,i), (j,j).
+    // Per spring, in parallel: the block K = df_i/dx_j (and D = df_i/dv_j); the matrix gets -K, K, K, -K at
+    // (i,i), (i,j), (j,i), (j,j).
 #pragma omp parallel for num_threads(c.threads) if (c.threads > 1) schedule(static)
   for (int k = 0; k < ns; ++k) {
     const Spring& s = springs_[k];

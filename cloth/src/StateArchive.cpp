@@ -11,7 +11,8 @@ template <class T>
 void append(std::string& s, const T& v) {
   s.append(reinterpret_cast<const char*>(&v), sizeof(T));
 }
-// Arrays go in one copy each: a Vec3s is n packed triples of doubles, the same bytes as writing them one by one.
+// Arrays go in one copy each: a Vec3s is n packed triples of doubles, the same bytes as writing them one by
+// one.
 static_assert(sizeof(Vec3) == 3 * sizeof(double), "Vec3 must be three packed doubles");
 // An empty array's data() may be null: nothing is copied from it.
 void append_array(std::string& s, const void* data, size_t n) {
@@ -40,8 +41,10 @@ void StateWriter::bytes(const std::string& b) {
 
 void StateReader::take(void* out, size_t n, const char* what) {
   if (n > data_.size() - pos_)
-    throw Error(source_, "after '" + last_tag_ + "'", std::string("state archive is cut short (reading ") + what + ")");
-  if (n == 0) return;  // an empty array's data() may be null, and memcpy's pointers must not be, even for 0 bytes
+    throw Error(source_, "after '" + last_tag_ + "'",
+                std::string("state archive is cut short (reading ") + what + ")");
+  if (n == 0)
+    return;  // an empty array's data() may be null, and memcpy's pointers must not be, even for 0 bytes
   std::memcpy(out, data_.data() + pos_, n);
   pos_ += n;
 }
@@ -49,8 +52,9 @@ void StateReader::take(void* out, size_t n, const char* what) {
 void StateReader::tag(const std::string& name) {
   const std::string got = bytes();
   if (got != name)
-    throw Error(source_, "after '" + last_tag_ + "'", "state archive does not match this simulation (expected '" + name +
-                                                          "', found '" + got.substr(0, 64) + "')");
+    throw Error(source_, "after '" + last_tag_ + "'",
+                "state archive does not match this simulation (expected '" + name + "', found '" +
+                    got.substr(0, 64) + "')");
   last_tag_ = name;
 }
 

@@ -11,8 +11,9 @@ namespace loom::cloth {
 void StaticSolver::check(const Cloth& cloth) const {
   for (const auto& t : cloth.terms())
     if (!t->conservative())
-      throw Error("", "solver.method", std::string("the static solver cannot use the non-conservative term '") + t->name() +
-                                           "' (remove the effect or use a dynamic solver)");
+      throw Error("", "solver.method",
+                  std::string("the static solver cannot use the non-conservative term '") + t->name() +
+                      "' (remove the effect or use a dynamic solver)");
 }
 
 double StaticSolver::total_energy(const Cloth& cloth, const Vec3s& x, int threads) const {

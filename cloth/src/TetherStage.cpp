@@ -55,7 +55,8 @@ void TetherStage::build(const Cloth& cloth, std::vector<Tether>& out) const {
       }
   }
   for (int i = 0; i < n; ++i)
-    if (s.inv_mass[i] > 0.0 && anchor[i] >= 0) out.push_back({i, anchor[i], (1.0 + settings_.slack) * dist[i]});
+    if (s.inv_mass[i] > 0.0 && anchor[i] >= 0)
+      out.push_back({i, anchor[i], (1.0 + settings_.slack) * dist[i]});
 }
 
 void TetherStage::run(StageContext& ctx) {

@@ -33,10 +33,13 @@ Vec3 catenary_point(const Vec3& a, const Vec3& b, double S, double s, const Vec3
   double z = 0.5 * (lo + hi);
   for (int it = 0; it < 200; ++it) {
     const double gz = g(z);
-    if (gz < 0.0) lo = z; else hi = z;
+    if (gz < 0.0)
+      lo = z;
+    else
+      hi = z;
     const double dz = gz / (1.0 / std::tanh(z) - 1.0 / z);  // Newton step, g' = coth z - 1/z
     double zn = z - dz;
-    if (!(zn > lo && zn < hi)) zn = 0.5 * (lo + hi);         // safeguard: bisection
+    if (!(zn > lo && zn < hi)) zn = 0.5 * (lo + hi);  // safeguard: bisection
     if (std::abs(zn - z) <= 1e-15 * z) {
       z = zn;
       break;
@@ -51,7 +54,8 @@ Vec3 catenary_point(const Vec3& a, const Vec3& b, double S, double s, const Vec3
   return a + x * e + y * up;
 }
 
-void weil_drape(const Cloth& cloth, const std::vector<std::pair<int, Vec3>>& pins, const Vec3& down, Vec3s& x) {
+void weil_drape(const Cloth& cloth, const std::vector<std::pair<int, Vec3>>& pins, const Vec3& down,
+                Vec3s& x) {
   const ClothMesh& mesh = cloth.mesh();
   const Vec3s& X = mesh.rest_positions();
   const int n = mesh.num_vertices();
@@ -141,21 +145,24 @@ void weil_drape(const Cloth& cloth, const std::vector<std::pair<int, Vec3>>& pin
 
 void WeilSolver::check(const Cloth& cloth) const {
   if (cloth.pins().empty())
-    throw Error("", "cloths[].pins", "the weil drape hangs a cloth from its constraint points: give at least one pin");
+    throw Error("", "cloths[].pins",
+                "the weil drape hangs a cloth from its constraint points: give at least one pin");
   for (size_t k = 0; k < cloth.pins().size(); ++k)
     if (!cloth.pins()[k].times.empty())
       throw Error("", "cloths[].pins[" + std::to_string(k) + "].path",
                   "the weil drape is a static shape: moving pins need a dynamic solver");
   if (!cloth.mesh().is_grid())
-    throw Error("", "cloths[].mesh",
-                "the weil drape subdivides along grid rows and columns: it needs a grid mesh (mesh.type \"grid\")");
+    throw Error(
+        "", "cloths[].mesh",
+        "the weil drape subdivides along grid rows and columns: it needs a grid mesh (mesh.type \"grid\")");
   for (const auto& t : cloth.terms())
     if (std::string(t->name()) == "drag")
       throw Error("", "effects.drag", "the weil drape has no dynamics: drag and wind need a dynamic solver");
   const ClothState& s = cloth.state();
   for (int i = 0; i < s.size(); ++i)
     if (s.inv_mass[i] != 0.0 && s.v[i].squaredNorm() > 0.0)
-      throw Error("", "cloths[].velocity", "the weil drape has no dynamics: an initial velocity needs a dynamic solver");
+      throw Error("", "cloths[].velocity",
+                  "the weil drape has no dynamics: an initial velocity needs a dynamic solver");
 }
 
 void WeilSolver::step(Cloth& cloth, double t, double h, int threads) {

@@ -61,12 +61,14 @@ void BodyCollisionStage::run(cloth::StageContext& ctx) {
   }
   std::vector<double> margins(set.size(), 0.0);
   for (size_t k = 0; k < set.size(); ++k)
-    for (const auto& cl : ctx.cloths) margins[k] = std::max(margins[k], thickness(static_cast<int>(k), cl->material().thickness));
+    for (const auto& cl : ctx.cloths)
+      margins[k] = std::max(margins[k], thickness(static_cast<int>(k), cl->material().thickness));
   broad_phase_.update(set, margins);
   max_deficit_ = -HUGE_VAL;
   h_ = ctx.h;
   near_.resize(ctx.cloths.size());
-  for (size_t c = 0; c < ctx.cloths.size(); ++c) run_cloth(*ctx.cloths[c], static_cast<int>(c), ctx.h, ctx.threads);
+  for (size_t c = 0; c < ctx.cloths.size(); ++c)
+    run_cloth(*ctx.cloths[c], static_cast<int>(c), ctx.h, ctx.threads);
 }
 
 void BodyCollisionStage::run_cloth(cloth::Cloth& cloth, int cloth_index, double h, int threads) {
@@ -80,7 +82,8 @@ void BodyCollisionStage::run_cloth(cloth::Cloth& cloth, int cloth_index, double 
     s.contact_normal.assign(n, Vec3::Zero());
   else
     s.contact_normal.clear();
-  if (static_cast<int>(pairs_.size()) <= cloth_index) pairs_.resize(cloth_index + 1), min_thickness_.resize(cloth_index + 1);
+  if (static_cast<int>(pairs_.size()) <= cloth_index)
+    pairs_.resize(cloth_index + 1), min_thickness_.resize(cloth_index + 1);
   std::vector<Pair>& pairs = pairs_[cloth_index];
   pairs.assign(set.size(), Pair());
   for (size_t k = 0; k < set.size(); ++k) {
@@ -132,7 +135,8 @@ void BodyCollisionStage::run_cloth(cloth::Cloth& cloth, int cloth_index, double 
         if (swept_box(x0, x, pairs[k].thickness).overlaps(broad_phase_.box(k))) mine.push_back(k);
       if (mine.empty()) continue;
       cc.candidates += static_cast<long>(mine.size());
-      const int used = respond_vertex(mine, pairs, x0, x, v, s.mass[i], h, out, cc.contacts, cc.ccd_hits, &final_d);
+      const int used =
+          respond_vertex(mine, pairs, x0, x, v, s.mass[i], h, out, cc.contacts, cc.ccd_hits, &final_d);
       cc.passes = std::max(cc.passes, used);
       s.x[i] = x;
       s.v[i] = v;
@@ -177,9 +181,10 @@ void BodyCollisionStage::run_cloth(cloth::Cloth& cloth, int cloth_index, double 
 
 // Step 4 for one free vertex (path x0 -> x, velocity v, mass m) against its candidate colliders `mine`:
 // returns the passes used; responses are appended to `out`.
-int BodyCollisionStage::respond_vertex(const std::vector<int>& mine, const std::vector<Pair>& pairs, const Vec3& x0,
-                                       Vec3& x, Vec3& v, double m, double h, std::vector<Reaction>& out, long& contacts,
-                                       long& ccd_hits, std::vector<double>* final_d) const {
+int BodyCollisionStage::respond_vertex(const std::vector<int>& mine, const std::vector<Pair>& pairs,
+                                       const Vec3& x0, Vec3& x, Vec3& v, double m, double h,
+                                       std::vector<Reaction>& out, long& contacts, long& ccd_hits,
+                                       std::vector<double>* final_d) const {
   const ColliderSet& set = *colliders_;
   const double ccd_ratio = settings_.ccd_separation;
   const int max_passes = settings_.max_passes;
@@ -205,13 +210,13 @@ int BodyCollisionStage::respond_vertex(const std::vector<int>& mine, const std::
         x = c.shape.type == ShapeType::mesh
                 ? stuck
                 : Vec3(stuck + coulomb_tangent(x - stuck, c.curr.linear() * hit.normal, pr.mu_s, pr.mu_k));
-      // The velocity becomes what the vertex did, (x - x_prev) / h (then the inward part relative to the
-      // surface is removed below): a vertex that springs keep pulling along a curved surface is caught by
-      // the swept test at every step and hardly moves; keeping the velocity it had would let it gather
-      // speed without bound.
-      const Vec3 v_did = (x - x0) / h;
-      out.push_back({k, m * (v_did - v), x});  // its reaction, as every velocity change's
-      v = v_did;
+        // The velocity becomes what the vertex did, (x - x_prev) / h (then the inward part relative to the
+        // surface is removed below): a vertex that springs keep pulling along a curved surface is caught by
+        // the swept test at every step and hardly moves; keeping the velocity it had would let it gather
+        // speed without bound.
+        const Vec3 v_did = (x - x0) / h;
+        out.push_back({k, m * (v_did - v), x});  // its reaction, as every velocity change's
+        v = v_did;
         ++ccd_hits;
       }
       Vec3 nrm;
@@ -255,8 +260,9 @@ int BodyCollisionStage::respond_vertex(const std::vector<int>& mine, const std::
 // the normals of the colliders it is within the thickness of (or touches), by the largest deficit over that
 // normal's share (signed distances are 1-Lipschitz, so a few steps), then the inward velocity relative to
 // each of their surfaces is removed.
-void BodyCollisionStage::exit_pinch(const std::vector<int>& mine, const std::vector<Pair>& pairs, Vec3& x, Vec3& v,
-                                    double m, double h, std::vector<Reaction>& out, long& contacts) const {
+void BodyCollisionStage::exit_pinch(const std::vector<int>& mine, const std::vector<Pair>& pairs, Vec3& x,
+                                    Vec3& v, double m, double h, std::vector<Reaction>& out,
+                                    long& contacts) const {
   const ColliderSet& set = *colliders_;
   std::vector<std::pair<int, Vec3>> touched;  // collider, its normal at x
   for (int it = 0; it < 8; ++it) {

@@ -9,26 +9,26 @@
 //    (Euclidean), which implies |F_k| <= s on every axis k. We only ever discard a box when some axis has
 //    F_k > s or F_k < -s on the whole box, so no admissible point with |F| <= s is ever discarded.
 // 2. Exact range over a box. Each F_k has degree <= 1 in each of t, u, v separately (multilinear). A
-//    multilinear function restricted to a box is, along every coordinate line, affine, so its min and max over
-//    the box are attained at box corners: range_k(box) = [min over 8 corners, max over 8 corners] exactly.
-//    For VF, a box that is only partly inside u + v <= 1 is evaluated over the whole box: a superset, safe.
-//    A box with u_lo + v_lo > 1 holds no admissible point (fl(u_lo + v_lo) > 1 implies u_lo + v_lo > 1,
-//    because rounding is monotone and 1 is a double).
+//    multilinear function restricted to a box is, along every coordinate line, affine, so its min and max
+//    over the box are attained at box corners: range_k(box) = [min over 8 corners, max over 8 corners]
+//    exactly. For VF, a box that is only partly inside u + v <= 1 is evaluated over the whole box: a
+//    superset, safe. A box with u_lo + v_lo > 1 holds no admissible point (fl(u_lo + v_lo) > 1 implies u_lo +
+//    v_lo > 1, because rounding is monotone and 1 is a double).
 // 3. Rounding. The corners are evaluated in double in the order written in eval_corner(). By the standard
 //    model (Higham, "Accuracy and Stability of Numerical Algorithms", 2002, Sec. 3.1 and Lemma 3.4), the
 //    computed value equals sum_i m_i * prod_{j<=k_i} (1 + d_ij), |d_ij| <= u = 2^-53, where m_i are the
 //    monomials of the exact expression and k_i <= 10 is the number of operations on the path of m_i (counted
 //    below, even if 1-u, 1-u-v happened to round). Hence |computed - exact| <= gamma_10 * sum_i |m_i|,
 //    gamma_10 = 10u / (1 - 10u). With M_k = max |coordinate k| over the 8 input points and t,u,v in [0,1]:
-//    the monomials of q(t) = q0 + t (q1 - q0) sum to <= |q0| + t|q1| + t|q0| <= 3 M_k, and the weights, expanded
-//    into monomials (1, u, v are not assumed to cancel), sum to 1 + (1 + u + v) + u + v <= 6 (VF) and
-//    (1 + u) + u + (1 + v) + v <= 6 (EE), so sum_i |m_i| <= 18 M_k and the error is below
-//    18 * 10.0001 u M_k < 256 u M_k = err_k. Underflow adds at most 2^-1074 per multiplication
-//    (additions of subnormals are exact); kUnderflowPad covers it. FMA contraction, if the compiler uses it,
-//    only removes roundings, so the bound still holds. No -ffast-math (the build does not use it).
+//    the monomials of q(t) = q0 + t (q1 - q0) sum to <= |q0| + t|q1| + t|q0| <= 3 M_k, and the weights,
+//    expanded into monomials (1, u, v are not assumed to cancel), sum to 1 + (1 + u + v) + u + v <= 6 (VF)
+//    and (1 + u) + u + (1 + v) + v <= 6 (EE), so sum_i |m_i| <= 18 M_k and the error is below 18 * 10.0001 u
+//    M_k < 256 u M_k = err_k. Underflow adds at most 2^-1074 per multiplication (additions of subnormals are
+//    exact); kUnderflowPad covers it. FMA contraction, if the compiler uses it, only removes roundings, so
+//    the bound still holds. No -ffast-math (the build does not use it).
 // 4. Rejection rule: discard the box when min_corner(F_k) > thr_k or max_corner(F_k) < -thr_k with
-//    thr_k >= s + err_k (computed with an upward margin). Then every exact corner value, hence (2.) every exact
-//    value on the box, is beyond s on axis k: no contact in the box.
+//    thr_k >= s + err_k (computed with an upward margin). Then every exact corner value, hence (2.) every
+//    exact value on the box, is beyond s on axis k: no contact in the box.
 // 5. Every box that is not discarded is either split (its halves cover it) or accepted as a hit (when its
 //    image is narrower than the tolerance, when it cannot be split further, or when the box budget is spent).
 //    So a contact point always lies in a box that is split or accepted: the answer is never a false "no".
@@ -42,9 +42,9 @@
 namespace loom::collision {
 namespace {
 
-constexpr double kErrFactor = 0x1p-45;        // 256 u, u = 2^-53 (see 3.)
-constexpr double kUnderflowPad = 0x1p-1060;   // >= 12 * 2^-1074, absolute error from gradual underflow
-constexpr double kMinWidth = 0x1p-40;         // parameter boxes are not split below this width (dyadic, exact)
+constexpr double kErrFactor = 0x1p-45;       // 256 u, u = 2^-53 (see 3.)
+constexpr double kUnderflowPad = 0x1p-1060;  // >= 12 * 2^-1074, absolute error from gradual underflow
+constexpr double kMinWidth = 0x1p-40;        // parameter boxes are not split below this width (dyadic, exact)
 
 struct Box {
   double lo[3];  // t, u, v lower bounds
@@ -139,7 +139,8 @@ CcdResult solve(const Query& q, const CcdOptions& o) {
     const Box b = stack.back();
     stack.pop_back();
     if (r.hit && b.lo[0] >= r.toi) continue;  // cannot lower the first-contact bound
-    if (r.hit && r.boxes >= hit_boxes + o.toi_max_boxes) {  // refinement budget spent: bound from what is left
+    if (r.hit &&
+        r.boxes >= hit_boxes + o.toi_max_boxes) {  // refinement budget spent: bound from what is left
       r.toi = std::min(r.toi, b.lo[0]);
       for (const Box& s : stack) r.toi = std::min(r.toi, s.lo[0]);
       return r;

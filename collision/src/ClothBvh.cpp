@@ -116,7 +116,8 @@ void ClothBvh::build(const Vec3s& points) {
   const auto& tris = mesh_->triangles();
   const int n = static_cast<int>(tris.size());
   std::vector<Vec3> centroids(n);
-  for (int i = 0; i < n; ++i) centroids[i] = (points[tris[i][0]] + points[tris[i][1]] + points[tris[i][2]]) / 3.0;
+  for (int i = 0; i < n; ++i)
+    centroids[i] = (points[tris[i][0]] + points[tris[i][1]] + points[tris[i][2]]) / 3.0;
   std::vector<int> order(n);
   std::iota(order.begin(), order.end(), 0);
   nodes_.clear();
@@ -166,7 +167,8 @@ void ClothBvh::build_topology() {
     std::vector<EdgeKey>& c = contour_[id];
     if (nd.left < 0) {
       const loom::cloth::Tri& t = tris[nd.triangle];
-      for (int k = 0; k < 3; ++k) c.emplace_back(std::min(t[k], t[(k + 1) % 3]), std::max(t[k], t[(k + 1) % 3]));
+      for (int k = 0; k < 3; ++k)
+        c.emplace_back(std::min(t[k], t[(k + 1) % 3]), std::max(t[k], t[(k + 1) % 3]));
       std::sort(c.begin(), c.end());
       nd.connected = true;
       continue;
@@ -259,7 +261,9 @@ double ClothBvh::surface_area_sum() const {
   return s;
 }
 
-bool ClothBvh::adjacent(int i, int j) const { return share_vertex(mesh_->triangles()[i], mesh_->triangles()[j]); }
+bool ClothBvh::adjacent(int i, int j) const {
+  return share_vertex(mesh_->triangles()[i], mesh_->triangles()[j]);
+}
 
 void ClothBvh::self_recurse(int n, bool skip_adjacent, std::vector<TrianglePair>& out) const {
   const Node& nd = nodes_[n];
@@ -301,10 +305,10 @@ std::vector<TrianglePair> ClothBvh::self_pairs(bool skip_adjacent) const {
 // no vertex must be farther apart at t = 0 than their largest projected endpoint displacements d_i + d_j plus
 // the margin: a point of a linearly moving segment moves at most as far as its farthest endpoint, so their
 // distance can shrink by at most d_i + d_j during the step.
-// Contour edges closer than the margin in the rest mesh (material space: a fine mesh whose edges are about the
-// margin, e.g. two edges one diagonal apart) are close at rest and need only stay apart: for them the margin is
-// dropped, never the strict bound, so the contour is still proven simple (Volino & Magnenat-Thalmann 1994 need
-// nothing more) and fine meshes keep their culling.
+// Contour edges closer than the margin in the rest mesh (material space: a fine mesh whose edges are about
+// the margin, e.g. two edges one diagonal apart) are close at rest and need only stay apart: for them the
+// margin is dropped, never the strict bound, so the contour is still proven simple (Volino &
+// Magnenat-Thalmann 1994 need nothing more) and fine meshes keep their culling.
 bool ClothBvh::cullable(int n, const Vec3s& x0, const Vec3s& x1, double margin) const {
   const Node& nd = nodes_[n];
   if (!cones_valid_) return false;  // stale cones (box-only refit): nothing is culled
@@ -346,7 +350,8 @@ bool ClothBvh::cullable(int n, const Vec3s& x0, const Vec3s& x1, double margin) 
       const double strict = p.disp + q.disp;
       if (d2 <= strict * strict) return false;
       const Vec3s& r = mesh_->rest_positions();
-      if (segment_segment_closest(r[p.i], r[p.j], r[q.i], r[q.j]).distance_squared >= margin * margin) return false;
+      if (segment_segment_closest(r[p.i], r[p.j], r[q.i], r[q.j]).distance_squared >= margin * margin)
+        return false;
     }
   }
   return true;
@@ -366,12 +371,12 @@ void ClothBvh::self_recurse_culled(int n, bool skip_adjacent, const Vec3s& x0, c
 }
 
 std::vector<std::pair<int, int>> ClothBvh::self_pair_tasks(const Vec3s& x0, const Vec3s& x1, double margin,
-                                                            long* culled) const {
+                                                           long* culled) const {
   long n_culled = 0;
   std::vector<std::pair<int, int>> tasks, done;
   if (!nodes_.empty()) tasks.push_back({0, 0});
-  // The self tasks of the top levels are split (after their own cull test) until there are kTasks tasks: enough
-  // for dynamic scheduling on a few threads, and the same for every thread count.
+  // The self tasks of the top levels are split (after their own cull test) until there are kTasks tasks:
+  // enough for dynamic scheduling on a few threads, and the same for every thread count.
   constexpr size_t kTasks = 64;
   while (!tasks.empty() && tasks.size() + done.size() < kTasks) {
     std::vector<std::pair<int, int>> next;
@@ -416,7 +421,8 @@ std::vector<TrianglePair> ClothBvh::self_pairs_culled(const Vec3s& x0, const Vec
   const int nt = static_cast<int>(tasks.size());
   std::vector<std::vector<TrianglePair>> parts(nt);
 #pragma omp parallel for num_threads(threads) if (threads > 1) schedule(dynamic, 1) reduction(+ : n_culled)
-  for (int k = 0; k < nt; ++k) self_pairs_of_task(tasks[k], x0, x1, margin, skip_adjacent, parts[k], n_culled);
+  for (int k = 0; k < nt; ++k)
+    self_pairs_of_task(tasks[k], x0, x1, margin, skip_adjacent, parts[k], n_culled);
   std::vector<TrianglePair> out;
   size_t total = 0;
   for (const auto& p : parts) total += p.size();
@@ -469,8 +475,8 @@ std::vector<TrianglePair> ClothBvh::cross_pairs(const ClothBvh& other) const {
   return out;
 }
 
-std::vector<TrianglePair> brute_force_pairs(const loom::cloth::ClothMesh& mesh, const Vec3s& x0, const Vec3s& x1,
-                                            double thickness, bool skip_adjacent) {
+std::vector<TrianglePair> brute_force_pairs(const loom::cloth::ClothMesh& mesh, const Vec3s& x0,
+                                            const Vec3s& x1, double thickness, bool skip_adjacent) {
   const auto& tris = mesh.triangles();
   const int n = static_cast<int>(tris.size());
   std::vector<Aabb> boxes(n);
@@ -478,7 +484,8 @@ std::vector<TrianglePair> brute_force_pairs(const loom::cloth::ClothMesh& mesh, 
   std::vector<TrianglePair> out;
   for (int i = 0; i < n; ++i)
     for (int j = i + 1; j < n; ++j)
-      if (boxes[i].overlaps(boxes[j]) && !(skip_adjacent && share_vertex(tris[i], tris[j]))) out.emplace_back(i, j);
+      if (boxes[i].overlaps(boxes[j]) && !(skip_adjacent && share_vertex(tris[i], tris[j])))
+        out.emplace_back(i, j);
   return out;
 }
 

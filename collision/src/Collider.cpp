@@ -4,13 +4,20 @@ namespace loom::collision {
 
 const char* shape_type_name(ShapeType type) {
   switch (type) {
-    case ShapeType::plane: return "plane";
-    case ShapeType::sphere: return "sphere";
-    case ShapeType::capsule: return "capsule";
-    case ShapeType::box: return "box";
-    case ShapeType::cylinder: return "cylinder";
-    case ShapeType::convex: return "convex";
-    case ShapeType::mesh: return "mesh";
+    case ShapeType::plane:
+      return "plane";
+    case ShapeType::sphere:
+      return "sphere";
+    case ShapeType::capsule:
+      return "capsule";
+    case ShapeType::box:
+      return "box";
+    case ShapeType::cylinder:
+      return "cylinder";
+    case ShapeType::convex:
+      return "convex";
+    case ShapeType::mesh:
+      return "mesh";
   }
   return "unknown";
 }

@@ -112,12 +112,13 @@ std::vector<int> ColliderBroadPhase::query(const Aabb& box) const {
       std::vector<int>* out;
       const fcl::CollisionObjectd* probe;
     } data{&out, &probe};
-    impl_->manager.collide(&probe, &data, [](fcl::CollisionObjectd* a, fcl::CollisionObjectd* b, void* cdata) {
-      auto* d = static_cast<Data*>(cdata);
-      const fcl::CollisionObjectd* other = a == d->probe ? b : a;
-      d->out->push_back(*static_cast<const int*>(other->getUserData()));
-      return false;  // keep going
-    });
+    impl_->manager.collide(&probe, &data,
+                           [](fcl::CollisionObjectd* a, fcl::CollisionObjectd* b, void* cdata) {
+                             auto* d = static_cast<Data*>(cdata);
+                             const fcl::CollisionObjectd* other = a == d->probe ? b : a;
+                             d->out->push_back(*static_cast<const int*>(other->getUserData()));
+                             return false;  // keep going
+                           });
   }
   std::sort(out.begin(), out.end());
   out.erase(std::unique(out.begin(), out.end()), out.end());

@@ -20,7 +20,8 @@ double sphere_sd(double r, const Vec3& q, Vec3* n) {
   return len - r;
 }
 
-// Box |x_i| <= e_i: outside, the distance to the clamped point; inside, minus the distance to the nearest face.
+// Box |x_i| <= e_i: outside, the distance to the clamped point; inside, minus the distance to the nearest
+// face.
 double box_sd(const Vec3& e, const Vec3& q, Vec3* n) {
   const Vec3 w = q.cwiseAbs() - e;
   const Vec3 sgn(q.x() < 0 ? -1.0 : 1.0, q.y() < 0 ? -1.0 : 1.0, q.z() < 0 ? -1.0 : 1.0);
@@ -101,8 +102,8 @@ double convex_sd(const ColliderGeometry& g, const Vec3& q, Vec3* n) {
   return std::sqrt(d2);
 }
 
-// Lower bound (m) of the distance from q to anything inside an RSS (rectangle [0, l0] x [0, l1] in its frame's
-// z = 0 plane, swept by a sphere of radius r): the distance to the rectangle minus r.
+// Lower bound (m) of the distance from q to anything inside an RSS (rectangle [0, l0] x [0, l1] in its
+// frame's z = 0 plane, swept by a sphere of radius r): the distance to the rectangle minus r.
 double rss_lower_bound(const fcl::RSSd& rss, const Vec3& q) {
   const Vec3 local = rss.axis.transpose() * (q - rss.To);
   const Vec3 on(std::clamp(local.x(), 0.0, rss.l[0]), std::clamp(local.y(), 0.0, rss.l[1]), 0.0);
@@ -153,7 +154,8 @@ double mesh_sd(const Shape& s, const ColliderGeometry& g, const Vec3& q, Vec3* n
       continue;
     }
     const int l = node.leftChild(), r = node.rightChild();
-    const double bl = rss_lower_bound(model.getBV(l).bv.rss, q), br = rss_lower_bound(model.getBV(r).bv.rss, q);
+    const double bl = rss_lower_bound(model.getBV(l).bv.rss, q),
+                 br = rss_lower_bound(model.getBV(r).bv.rss, q);
     // Farther child below the nearer one, so the nearer is searched first and tightens `best`.
     const Entry near{bl <= br ? l : r, std::min(bl, br)}, far{bl <= br ? r : l, std::max(bl, br)};
     if (!pruned(far.bound)) stack.push_back(far);
@@ -204,9 +206,10 @@ double signed_distance(const Collider& c, const Transform& pose, const Vec3& p, 
   return d;
 }
 
-double segment_capsule_distance(const Collider& c, const Transform& pose, const Vec3& a, const Vec3& b, double* s,
-                                Vec3* normal) {
-  const Vec3 p0 = pose * Vec3(0.0, -c.shape.half_height, 0.0), p1 = pose * Vec3(0.0, c.shape.half_height, 0.0);
+double segment_capsule_distance(const Collider& c, const Transform& pose, const Vec3& a, const Vec3& b,
+                                double* s, Vec3* normal) {
+  const Vec3 p0 = pose * Vec3(0.0, -c.shape.half_height, 0.0),
+             p1 = pose * Vec3(0.0, c.shape.half_height, 0.0);
   const SegmentSegmentClosest cl = segment_segment_closest(a, b, p0, p1);
   const Vec3 on_edge = a + cl.s * (b - a), on_axis = p0 + cl.t * (p1 - p0);
   const Vec3 dir = on_edge - on_axis;
@@ -225,8 +228,8 @@ double segment_capsule_distance(const Collider& c, const Transform& pose, const 
   return len - c.shape.radius;
 }
 
-double segment_box_edges_distance(const Collider& c, const Transform& pose, const Vec3& a, const Vec3& b, double* s,
-                                  Vec3* normal) {
+double segment_box_edges_distance(const Collider& c, const Transform& pose, const Vec3& a, const Vec3& b,
+                                  double* s, Vec3* normal) {
   const Vec3& e = c.shape.half_extents;
   double best = HUGE_VAL;
   for (int axis = 0; axis < 3; ++axis) {
@@ -252,7 +255,8 @@ double segment_box_edges_distance(const Collider& c, const Transform& pose, cons
         const Vec3 dir = on_edge - on_box;
         // Inside the box (the segment's closest point has negative box distance): negative, pushed out along
         // the bisector; outside: the distance to the edge, away from it.
-        const bool inside = local_signed_distance(c.shape, nullptr, pose.inverse(Eigen::Isometry) * on_edge, nullptr) < 0.0;
+        const bool inside =
+            local_signed_distance(c.shape, nullptr, pose.inverse(Eigen::Isometry) * on_edge, nullptr) < 0.0;
         if (s) *s = cl.s;
         if (normal) *normal = !inside && d > 0.0 ? Vec3(dir / d) : out;
         if (inside) best = -d;

@@ -28,7 +28,8 @@ void build_hull(const std::vector<Vec3>& points, const std::string& where, Colli
   FILE* err = std::fopen("/dev/null", "w");
   qh_zero(qh, err);
   char flags[] = "qhull Qt";
-  const int code = qh_new_qhull(qh, 3, static_cast<int>(points.size()), coords.data(), False, flags, nullptr, err);
+  const int code =
+      qh_new_qhull(qh, 3, static_cast<int>(points.size()), coords.data(), False, flags, nullptr, err);
   std::vector<int> used(points.size(), -1);
   if (code == 0) {
     facetT* facet;
@@ -59,7 +60,8 @@ void build_hull(const std::vector<Vec3>& points, const std::string& where, Colli
   qh_memfreeshort(qh, &curlong, &totlong);
   std::fclose(err);
   if (code != 0 || g.hull_triangles.size() < 4)
-    throw Error("", where, "the convex hull of the vertices is degenerate (fewer than 4 non-coplanar points?)");
+    throw Error("", where,
+                "the convex hull of the vertices is degenerate (fewer than 4 non-coplanar points?)");
   for (const Tri& t : g.hull_triangles) {
     const Vec3& a = g.hull_vertices[t[0]];
     Vec3 n = (g.hull_vertices[t[1]] - a).cross(g.hull_vertices[t[2]] - a);
@@ -73,13 +75,15 @@ void build_hull(const std::vector<Vec3>& points, const std::string& where, Colli
   auto faces = std::make_shared<std::vector<int>>();
   for (const Tri& t : g.hull_triangles) faces->insert(faces->end(), {3, t[0], t[1], t[2]});
   auto fcl_shape = std::make_shared<FclShape>();
-  fcl_shape->geometry = std::make_shared<fcl::Convexd>(verts, static_cast<int>(g.hull_triangles.size()), faces);
+  fcl_shape->geometry =
+      std::make_shared<fcl::Convexd>(verts, static_cast<int>(g.hull_triangles.size()), faces);
   fcl_shape->geometry->computeLocalAABB();
   g.fcl = fcl_shape;
 }
 
 void build_mesh(const Shape& s, const std::string& where, ColliderGeometry& g) {
-  if (s.vertices.empty() || s.triangles.empty()) throw Error("", where, "a mesh collider needs vertices and triangles");
+  if (s.vertices.empty() || s.triangles.empty())
+    throw Error("", where, "a mesh collider needs vertices and triangles");
   const int n = static_cast<int>(s.vertices.size());
   for (const Vec3& p : s.vertices)
     if (!p.allFinite()) throw Error("", where, "a vertex is not finite");
@@ -89,8 +93,9 @@ void build_mesh(const Shape& s, const std::string& where, ColliderGeometry& g) {
     const Tri& t = s.triangles[k];
     for (int v : t)
       if (v < 0 || v >= n)
-        throw Error("", where, "triangle " + std::to_string(k) + " has vertex " + std::to_string(v) +
-                                   " out of range [0, " + std::to_string(n) + ")");
+        throw Error("", where,
+                    "triangle " + std::to_string(k) + " has vertex " + std::to_string(v) +
+                        " out of range [0, " + std::to_string(n) + ")");
     tris.emplace_back(t[0], t[1], t[2]);
   }
   auto model = std::make_shared<fcl::BVHModel<fcl::OBBRSSd>>();
@@ -106,7 +111,8 @@ void build_mesh(const Shape& s, const std::string& where, ColliderGeometry& g) {
 
 }  // namespace
 
-std::shared_ptr<const ColliderGeometry> build_collider_geometry(const Shape& shape, const std::string& where) {
+std::shared_ptr<const ColliderGeometry> build_collider_geometry(const Shape& shape,
+                                                                const std::string& where) {
   if (shape.type != ShapeType::convex && shape.type != ShapeType::mesh) return nullptr;
   auto g = std::make_shared<ColliderGeometry>();
   if (shape.type == ShapeType::convex)

@@ -61,7 +61,8 @@ std::vector<Ring> hemisphere(double r, double yc, int dir, int steps, bool from_
 
 }  // namespace
 
-ColliderMesh tessellate(const Shape& s, const ColliderGeometry* geometry, const TessellationSettings& settings) {
+ColliderMesh tessellate(const Shape& s, const ColliderGeometry* geometry,
+                        const TessellationSettings& settings) {
   ColliderMesh m;
   const int seg = std::max(3, settings.segments), lat = std::max(2, seg / 4);
   switch (s.type) {
@@ -117,7 +118,8 @@ ColliderMesh tessellate(const Shape& s, const ColliderGeometry* geometry, const 
         geometry = built.get();
       }
       for (const Tri& t : geometry->hull_triangles) {
-        const Vec3 &a = geometry->hull_vertices[t[0]], &b = geometry->hull_vertices[t[1]], &c = geometry->hull_vertices[t[2]];
+        const Vec3 &a = geometry->hull_vertices[t[0]], &b = geometry->hull_vertices[t[1]],
+                   &c = geometry->hull_vertices[t[2]];
         const Vec3 n = (b - a).cross(c - a);
         if (n.norm() > 0.0) add_polygon(m, {a, b, c}, n.normalized());
       }

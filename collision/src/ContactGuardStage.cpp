@@ -37,7 +37,8 @@ void ContactGuardStage::run(cloth::StageContext& ctx) {
       if (st.inv_mass[i] == 0.0) continue;  // kinematic vertices are placed by their owner
       for (size_t k = 0; k < cs.size(); ++k) {
         const double depth = -signed_distance(cs[k], cs[k].curr, st.x[i], nullptr);
-        if (depth > deepest) deepest = depth, at_cloth = static_cast<int>(ci), at_vertex = i, at_collider = static_cast<int>(k);
+        if (depth > deepest)
+          deepest = depth, at_cloth = static_cast<int>(ci), at_vertex = i, at_collider = static_cast<int>(k);
       }
     }
   }

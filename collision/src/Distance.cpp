@@ -113,7 +113,8 @@ PointTriangleClosest point_triangle_closest(const Vec3& p, const Vec3& a, const 
   return r;
 }
 
-SegmentSegmentClosest segment_segment_closest(const Vec3& p0, const Vec3& p1, const Vec3& q0, const Vec3& q1) {
+SegmentSegmentClosest segment_segment_closest(const Vec3& p0, const Vec3& p1, const Vec3& q0,
+                                              const Vec3& q1) {
   SegmentSegmentClosest r;
   r.distance_squared =
       segment_segment(lift<double>(p0), lift<double>(p1), lift<double>(q0), lift<double>(q1), r.s, r.t);
@@ -125,9 +126,11 @@ mpq_class point_triangle_distance_squared_exact(const Vec3& p, const Vec3& a, co
   return point_triangle(lift<mpq_class>(p), lift<mpq_class>(a), lift<mpq_class>(b), lift<mpq_class>(c), w);
 }
 
-mpq_class segment_segment_distance_squared_exact(const Vec3& p0, const Vec3& p1, const Vec3& q0, const Vec3& q1) {
+mpq_class segment_segment_distance_squared_exact(const Vec3& p0, const Vec3& p1, const Vec3& q0,
+                                                 const Vec3& q1) {
   mpq_class s, t;
-  return segment_segment(lift<mpq_class>(p0), lift<mpq_class>(p1), lift<mpq_class>(q0), lift<mpq_class>(q1), s, t);
+  return segment_segment(lift<mpq_class>(p0), lift<mpq_class>(p1), lift<mpq_class>(q0), lift<mpq_class>(q1),
+                         s, t);
 }
 
 }  // namespace loom::collision

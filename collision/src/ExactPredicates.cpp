@@ -1,4 +1,5 @@
-// Filtered exact orient3d/orient2d and an exact closed triangle-triangle intersection test (ExactPredicates.h).
+// Filtered exact orient3d/orient2d and an exact closed triangle-triangle intersection test
+// (ExactPredicates.h).
 #include "loom/collision/ExactPredicates.h"
 
 #include <gmpxx.h>
@@ -52,7 +53,8 @@ int drop_axis(const Vec3& a, const Vec3& b, const Vec3& c) {
   for (int k = 0; k < 3; ++k)
     if (a[k] == b[k] && b[k] == c[k]) return k;
   mpq_class u[3], v[3];
-  for (int k = 0; k < 3; ++k) u[k] = mpq_class(b[k]) - mpq_class(a[k]), v[k] = mpq_class(c[k]) - mpq_class(a[k]);
+  for (int k = 0; k < 3; ++k)
+    u[k] = mpq_class(b[k]) - mpq_class(a[k]), v[k] = mpq_class(c[k]) - mpq_class(a[k]);
   const mpq_class n[3] = {u[1] * v[2] - u[2] * v[1], u[2] * v[0] - u[0] * v[2], u[0] * v[1] - u[1] * v[0]};
   int best = 0;
   for (int k = 1; k < 3; ++k)
@@ -99,7 +101,8 @@ bool segments_meet_3d(const Vec3& p, const Vec3& q, const Vec3& r, const Vec3& s
   }
   // All four points collinear in every projection: they are collinear in 3D; test overlap in every axis.
   for (int k = 0; k < 3; ++k)
-    if (std::max(std::min(p[k], q[k]), std::min(r[k], s[k])) > std::min(std::max(p[k], q[k]), std::max(r[k], s[k])))
+    if (std::max(std::min(p[k], q[k]), std::min(r[k], s[k])) >
+        std::min(std::max(p[k], q[k]), std::max(r[k], s[k])))
       return false;
   return true;
 }

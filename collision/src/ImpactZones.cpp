@@ -25,7 +25,8 @@ using namespace self_collision_detail;
 void SelfCollisionStage::apply_rigid_zone(const std::vector<int>& verts_in) {
   std::vector<int> pinned, free;
   for (int v : verts_in) {
-    if (fixed_[v]) fixed_[v] = 0, w_[v] = w_free_[v];  // held for a collider: moves with the zone, checked again
+    if (fixed_[v])
+      fixed_[v] = 0, w_[v] = w_free_[v];  // held for a collider: moves with the zone, checked again
     (w_[v] == 0.0 ? pinned : free).push_back(v);
   }
   if (!pinned.empty()) {
@@ -147,8 +148,8 @@ bool SelfCollisionStage::impact_zones(std::vector<char> dirty, int threads) {
 // The continuous test (separation 0) of every feature of `fs` on x0 -> x1: hit[i] = 1 for a hit, found[i]
 // its constraint (n = 0: no usable normal, the zone will have to go rigid). Pairs inside one rigid zone
 // (more than kProjections rounds) are skipped.
-void SelfCollisionStage::zone_hits(const std::vector<Feature>& fs, const std::vector<int>& zone_rounds, int threads,
-                                   std::vector<char>& hit, std::vector<ZoneConstraint>& found) {
+void SelfCollisionStage::zone_hits(const std::vector<Feature>& fs, const std::vector<int>& zone_rounds,
+                                   int threads, std::vector<char>& hit, std::vector<ZoneConstraint>& found) {
   auto root_of = [&](int v) {
     while (zone_parent_[v] != v) v = zone_parent_[v];
     return v;
@@ -178,8 +179,9 @@ void SelfCollisionStage::zone_hits(const std::vector<Feature>& fs, const std::ve
     const int split = fs[i].type == 0 ? 1 : 2;
     for (int k = 0; k < 4; ++k) (k < split ? ba : bb).grow(*a0[k]), (k < split ? ba : bb).grow(*a1[k]);
     if (!ba.overlaps(bb)) continue;
-    const CcdResult r = fs[i].type == 0 ? vertex_face_ccd(*a0[0], *a0[1], *a0[2], *a0[3], *a1[0], *a1[1], *a1[2], *a1[3], opt)
-                                        : edge_edge_ccd(*a0[0], *a0[1], *a0[2], *a0[3], *a1[0], *a1[1], *a1[2], *a1[3], opt);
+    const CcdResult r =
+        fs[i].type == 0 ? vertex_face_ccd(*a0[0], *a0[1], *a0[2], *a0[3], *a1[0], *a1[1], *a1[2], *a1[3], opt)
+                        : edge_edge_ccd(*a0[0], *a0[1], *a0[2], *a0[3], *a1[0], *a1[1], *a1[2], *a1[3], opt);
     cut += r.budget_exhausted;
     if (!r.hit) continue;
     hit[i] = 1;
@@ -214,8 +216,8 @@ void SelfCollisionStage::zone_hits(const std::vector<Feature>& fs, const std::ve
 // (zone_constraints_); a hit without a normal sends its zone to the rigid rounds. `roots_changed`: one
 // vertex of every zone a hit touched. Returns whether there was any hit.
 bool SelfCollisionStage::merge_zone_hits(const std::vector<Feature>& fs, const std::vector<char>& hit,
-                                         const std::vector<ZoneConstraint>& found, std::vector<int>& zone_rounds,
-                                         std::vector<int>& roots_changed) {
+                                         const std::vector<ZoneConstraint>& found,
+                                         std::vector<int>& zone_rounds, std::vector<int>& roots_changed) {
   const long n = static_cast<long>(fs.size());
   bool any = false;
   for (long i = 0; i < n; ++i) {
@@ -245,8 +247,8 @@ bool SelfCollisionStage::merge_zone_hits(const std::vector<Feature>& fs, const s
 // Every zone a hit touched this round: inelastic projection over its constraints while it has had fewer than
 // kProjections rounds (restored and sent rigid when the projection fails), else the rigid zone. Its vertices
 // are marked in `dirty` for the next round's tests.
-void SelfCollisionStage::move_changed_zones(const std::vector<int>& roots_changed, std::vector<int>& zone_rounds,
-                                            std::vector<char>& dirty) {
+void SelfCollisionStage::move_changed_zones(const std::vector<int>& roots_changed,
+                                            std::vector<int>& zone_rounds, std::vector<char>& dirty) {
   const int nv = static_cast<int>(x0_.size());
   std::vector<char> root_mark(nv, 0);
   for (int v : roots_changed) root_mark[find_root(zone_parent_, v)] = 1;
@@ -256,7 +258,8 @@ void SelfCollisionStage::move_changed_zones(const std::vector<int>& roots_change
     if (zone_parent_[v] < 0) continue;
     const int r = find_root(zone_parent_, v);
     if (!root_mark[r]) continue;
-    if (zone_index[r] < 0) zone_index[r] = static_cast<int>(zones.size()), zones.emplace_back(), constraints.emplace_back();
+    if (zone_index[r] < 0)
+      zone_index[r] = static_cast<int>(zones.size()), zones.emplace_back(), constraints.emplace_back();
     zones[zone_index[r]].push_back(v);
   }
   for (int k = 0; k < static_cast<int>(zone_constraints_.size()); ++k) {

@@ -16,8 +16,8 @@ constexpr double kConeMargin = 1e-6;
 
 }  // namespace
 
-std::vector<IntersectingPair> IntersectionGuardStage::find(const std::vector<std::unique_ptr<cloth::Cloth>>& cloths,
-                                                           int threads) {
+std::vector<IntersectingPair> IntersectionGuardStage::find(
+    const std::vector<std::unique_ptr<cloth::Cloth>>& cloths, int threads) {
   std::vector<CensusInput> in;
   std::vector<const ClothBvh*> trees;
   const bool fresh = trees_.size() != cloths.size();
@@ -44,7 +44,8 @@ void IntersectionGuardStage::run(cloth::StageContext& ctx) {
   ++steps_;
   violation_.clear();
   for (const auto& c : ctx.cloths)
-    if (!c->state().is_finite()) return;  // the guard rejects the step anyway; the predicates need finite input
+    if (!c->state().is_finite())
+      return;  // the guard rejects the step anyway; the predicates need finite input
   std::vector<IntersectingPair> now = find(ctx.cloths, ctx.threads);
   std::vector<IntersectingPair> added;
   std::set_difference(now.begin(), now.end(), pairs_.begin(), pairs_.end(), std::back_inserter(added));
@@ -56,8 +57,8 @@ void IntersectionGuardStage::run(cloth::StageContext& ctx) {
     const std::string where =
         p.cloth_a == p.cloth_b
             ? "cloth '" + a + "': triangles " + std::to_string(p.tri_a) + " and " + std::to_string(p.tri_b)
-            : "triangle " + std::to_string(p.tri_a) + " of cloth '" + a + "' and triangle " + std::to_string(p.tri_b) +
-                  " of cloth '" + ctx.cloths[p.cloth_b]->name() + "'";
+            : "triangle " + std::to_string(p.tri_a) + " of cloth '" + a + "' and triangle " +
+                  std::to_string(p.tri_b) + " of cloth '" + ctx.cloths[p.cloth_b]->name() + "'";
     violation_ = "cloth intersections: " + std::to_string(added.size()) + " intersecting triangle pair" +
                  (added.size() == 1 ? "" : "s") + " the step start did not have (" + where + ")";
   }

@@ -43,7 +43,8 @@ long count_all_intersections(const std::vector<CensusInput>& cloths, int threads
   long count = 0;
   for (size_t i = 0; i < cloths.size(); ++i) {
     count += count_intersecting_pairs(*cloths[i].mesh, *cloths[i].x, threads);
-    for (size_t j = i + 1; j < cloths.size(); ++j) count += count_intersecting_pairs_between(cloths[i], cloths[j], threads);
+    for (size_t j = i + 1; j < cloths.size(); ++j)
+      count += count_intersecting_pairs_between(cloths[i], cloths[j], threads);
   }
   return count;
 }
@@ -64,9 +65,10 @@ std::vector<IntersectingPair> intersecting_pairs(const std::vector<CensusInput>&
     for (size_t j = i; j < cloths.size(); ++j) {
       // Candidates: overlapping leaf boxes (within one cloth, pairs sharing a vertex left out).
       const std::vector<TrianglePair> cand =
-          i != j              ? trees[i]->cross_pairs(*trees[j])
-          : cone_margin < 0.0 ? trees[i]->self_pairs(/*skip_adjacent=*/true)
-                              : trees[i]->self_pairs_culled(*cloths[i].x, *cloths[i].x, cone_margin, true, threads);
+          i != j ? trees[i]->cross_pairs(*trees[j])
+          : cone_margin < 0.0
+              ? trees[i]->self_pairs(/*skip_adjacent=*/true)
+              : trees[i]->self_pairs_culled(*cloths[i].x, *cloths[i].x, cone_margin, true, threads);
       const auto& t0 = cloths[i].mesh->triangles();
       const auto& t1 = cloths[j].mesh->triangles();
       const loom::cloth::Vec3s& x0 = *cloths[i].x;

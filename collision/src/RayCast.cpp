@@ -4,8 +4,8 @@
 
 namespace loom::collision {
 
-std::optional<RayHit> ray_triangle(const Vec3& origin, const Vec3& dir, const Vec3& a, const Vec3& b, const Vec3& c,
-                                   double max_distance) {
+std::optional<RayHit> ray_triangle(const Vec3& origin, const Vec3& dir, const Vec3& a, const Vec3& b,
+                                   const Vec3& c, double max_distance) {
   // Möller-Trumbore 1997: solve origin + s dir = a + u (b - a) + v (c - a) by Cramer's rule.
   const Vec3 e1 = b - a, e2 = c - a;
   const Vec3 p = dir.cross(e2);
@@ -28,8 +28,8 @@ std::optional<RayHit> ray_triangle(const Vec3& origin, const Vec3& dir, const Ve
   return hit;
 }
 
-std::optional<RayHit> ray_cast(const Vec3& origin, const Vec3& dir, const Vec3s& x, const std::vector<Tri>& triangles,
-                               double max_distance) {
+std::optional<RayHit> ray_cast(const Vec3& origin, const Vec3& dir, const Vec3s& x,
+                               const std::vector<Tri>& triangles, double max_distance) {
   const double len = dir.norm();
   if (!(len > 0.0) || !std::isfinite(len)) return std::nullopt;
   const Vec3 d = dir / len;

@@ -20,7 +20,8 @@ using namespace self_collision_detail;
 // I-Cloth's Td x (Td u Ts): triangles with a dirty vertex, queried against every cloth's refitted tree.
 // The dirty triangles' queries run in parallel over contiguous chunks of the dirty list, joined in chunk
 // order, then sorted: the same pairs for any thread count.
-std::vector<TrianglePair> SelfCollisionStage::triangle_pairs_touching(const std::vector<char>& dirty, int threads) {
+std::vector<TrianglePair> SelfCollisionStage::triangle_pairs_touching(const std::vector<char>& dirty,
+                                                                      int threads) {
   PhaseTimer timer(pairs_ms_);
   std::vector<char> td(tris_.size(), 0);
   for (int v = 0; v < static_cast<int>(dirty.size()); ++v)
@@ -46,7 +47,8 @@ std::vector<TrianglePair> SelfCollisionStage::triangle_pairs_touching(const std:
       }
     }
   };
-  std::vector<TrianglePair> out = in_chunks<TrianglePair>(static_cast<long>(list.size()), threads, 512, 8, query);
+  std::vector<TrianglePair> out =
+      in_chunks<TrianglePair>(static_cast<long>(list.size()), threads, 512, 8, query);
   sort_pairs(out);
   out.erase(std::unique(out.begin(), out.end()), out.end());
   candidate_pairs_ += static_cast<long>(out.size());
@@ -135,8 +137,8 @@ void SelfCollisionStage::vertex_boxes(int threads) const {
 
 // Features of `pairs` (extract_features); chunks of pairs are done in parallel and joined in order.
 std::vector<SelfCollisionStage::Feature> SelfCollisionStage::features(const std::vector<TrianglePair>& pairs,
-                                                                     const std::vector<char>* dirty,
-                                                                     int threads) const {
+                                                                      const std::vector<char>* dirty,
+                                                                      int threads) const {
   PhaseTimer timer(features_ms_);
   vertex_boxes(threads);
   std::vector<Feature> out = extract_in_chunks(pairs, dirty, threads);
@@ -145,9 +147,8 @@ std::vector<SelfCollisionStage::Feature> SelfCollisionStage::features(const std:
 }
 
 // extract_features over `pairs` (vertex boxes already computed): chunks in parallel, joined in pair order.
-std::vector<SelfCollisionStage::Feature> SelfCollisionStage::extract_in_chunks(const std::vector<TrianglePair>& pairs,
-                                                                              const std::vector<char>* dirty,
-                                                                              int threads) const {
+std::vector<SelfCollisionStage::Feature> SelfCollisionStage::extract_in_chunks(
+    const std::vector<TrianglePair>& pairs, const std::vector<char>* dirty, int threads) const {
   return in_chunks<Feature>(static_cast<long>(pairs.size()), threads, 4096, 4,
                             [&](long begin, long end, std::vector<Feature>& out) {
                               extract_features(pairs.data() + begin, end - begin, dirty, out);
@@ -167,7 +168,8 @@ std::vector<SelfCollisionStage::Feature> SelfCollisionStage::all_features(int th
     if (settings_.self && settings_.normal_cones) {
       const ClothBvh& bvh = *bvhs_[c];
       long culled = 0, npairs = 0;
-      const std::vector<std::pair<int, int>> tasks = bvh.self_pair_tasks(cx0_[c], cx1_[c], cloth_thickness_[c], &culled);
+      const std::vector<std::pair<int, int>> tasks =
+          bvh.self_pair_tasks(cx0_[c], cx1_[c], cloth_thickness_[c], &culled);
       const int nt = static_cast<int>(tasks.size()), to = tri_offset_[c];
       std::vector<std::vector<Feature>> parts(nt);
 #pragma omp parallel for num_threads(threads) if (threads > 1) schedule(dynamic, 1) reduction(+ : culled, npairs)
@@ -191,9 +193,11 @@ std::vector<SelfCollisionStage::Feature> SelfCollisionStage::all_features(int th
     }
     std::vector<TrianglePair> pairs;
     if (settings_.self && !settings_.normal_cones)
-      for (const TrianglePair& p : bvhs_[c]->self_pairs(false)) pairs.emplace_back(tri_offset_[c] + p.first, tri_offset_[c] + p.second);
+      for (const TrianglePair& p : bvhs_[c]->self_pairs(false))
+        pairs.emplace_back(tri_offset_[c] + p.first, tri_offset_[c] + p.second);
     for (int d = c + 1; d < num_cloths_; ++d)
-      for (const TrianglePair& p : bvhs_[c]->cross_pairs(*bvhs_[d])) pairs.emplace_back(tri_offset_[c] + p.first, tri_offset_[d] + p.second);
+      for (const TrianglePair& p : bvhs_[c]->cross_pairs(*bvhs_[d]))
+        pairs.emplace_back(tri_offset_[c] + p.first, tri_offset_[d] + p.second);
     if (pairs.empty()) continue;
     candidate_pairs_ += static_cast<long>(pairs.size());
     const std::vector<Feature> fc = extract_in_chunks(pairs, nullptr, threads);

@@ -17,7 +17,9 @@ using loom::cloth::Vec3s;
 class PhaseTimer {
  public:
   explicit PhaseTimer(double& ms) : ms_(ms), start_(std::chrono::steady_clock::now()) {}
-  ~PhaseTimer() { ms_ += std::chrono::duration<double, std::milli>(std::chrono::steady_clock::now() - start_).count(); }
+  ~PhaseTimer() {
+    ms_ += std::chrono::duration<double, std::milli>(std::chrono::steady_clock::now() - start_).count();
+  }
 
  private:
   double& ms_;
@@ -47,7 +49,6 @@ inline bool contact_normal(const Vec3& d, const Vec3& fallback, const Vec3& side
   if (n.dot(side) < 0.0) n = -n;
   return true;
 }
-
 
 // A float at most d (d >= 0): float rounding is within 2^-24 relatively, the factor keeps it below.
 inline float lower_float(double d) { return d > 0.0 ? static_cast<float>(d) * 0.999999f : 0.0f; }
@@ -93,8 +94,8 @@ std::vector<Impulse> collect_impulses(long n, int threads, Body body) {
   });
 }
 
-// Applies the impulses (apply order: `imp`'s), x1 += h * (mean dv per vertex); marks moved vertices in `moved`
-// when given (SelfProximity.cpp).
+// Applies the impulses (apply order: `imp`'s), x1 += h * (mean dv per vertex); marks moved vertices in
+// `moved` when given (SelfProximity.cpp).
 void apply_impulses(const std::vector<Impulse>& imp, double h, Vec3s& x1, std::vector<char>* moved);
 
 }  // namespace loom::collision::self_collision_detail

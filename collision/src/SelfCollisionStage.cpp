@@ -90,9 +90,11 @@ void SelfCollisionStage::setup(loom::cloth::StageContext& ctx) {
   pair_mu_s_.assign(num_cloths_ * num_cloths_, 0.0);
   for (int a = 0; a < num_cloths_; ++a)
     for (int b = 0; b < num_cloths_; ++b) {
-      const double k = settings_.friction >= 0.0 ? settings_.friction : 0.5 * (cloth_friction_[a] + cloth_friction_[b]);
+      const double k =
+          settings_.friction >= 0.0 ? settings_.friction : 0.5 * (cloth_friction_[a] + cloth_friction_[b]);
       pair_mu_k_[a * num_cloths_ + b] = k;
-      pair_mu_s_[a * num_cloths_ + b] = std::max(k, settings_.static_friction >= 0.0 ? settings_.static_friction : k);
+      pair_mu_s_[a * num_cloths_ + b] =
+          std::max(k, settings_.static_friction >= 0.0 ? settings_.static_friction : k);
     }
   for (const FrictionPair& fp : settings_.friction_pairs) {
     if (fp.other_cloth < 0 || fp.cloth >= num_cloths_ || fp.other_cloth >= num_cloths_) continue;
@@ -145,7 +147,8 @@ void SelfCollisionStage::setup_rest_neighbours(const loom::cloth::StageContext& 
   for (int c = 0; c < num_cloths_ && settings_.self; ++c) {
     const Vec3s& r = ctx.cloths[c]->mesh().rest_positions();
     const int vo = vertex_offset_[c], to = tri_offset_[c];
-    const double reach = 2.0 * cloth_thickness_[c];  // m: rest distances below it give a cap below the thickness
+    const double reach =
+        2.0 * cloth_thickness_[c];  // m: rest distances below it give a cap below the thickness
     if (!(reach > 0.0)) continue;
     // Candidate triangle pairs: rest boxes inflated by half the reach on each side overlap.
     ClothBvh rest_tree(ctx.cloths[c]->mesh_ptr());
@@ -159,7 +162,8 @@ void SelfCollisionStage::setup_rest_neighbours(const loom::cloth::StageContext& 
         for (int k = 0; k < 3; ++k) {
           const int v = tv[k];
           if (v == tf[0] || v == tf[1] || v == tf[2]) continue;
-          const double d2 = point_triangle_closest(r[v - vo], r[tf[0] - vo], r[tf[1] - vo], r[tf[2] - vo]).distance_squared;
+          const double d2 =
+              point_triangle_closest(r[v - vo], r[tf[0] - vo], r[tf[1] - vo], r[tf[2] - vo]).distance_squared;
           if (d2 < reach * reach) vf.push_back({v, f, static_cast<float>(0.5 * std::sqrt(d2))});
         }
       }
@@ -169,15 +173,19 @@ void SelfCollisionStage::setup_rest_neighbours(const loom::cloth::StageContext& 
           const auto& a = edges_[ea];
           const auto& b = edges_[eb];
           if (a[0] == b[0] || a[0] == b[1] || a[1] == b[0] || a[1] == b[1]) continue;
-          const double d2 = segment_segment_closest(r[a[0] - vo], r[a[1] - vo], r[b[0] - vo], r[b[1] - vo]).distance_squared;
-          if (d2 < reach * reach) ee.push_back({std::min(ea, eb), std::max(ea, eb), static_cast<float>(0.5 * std::sqrt(d2))});
+          const double d2 = segment_segment_closest(r[a[0] - vo], r[a[1] - vo], r[b[0] - vo], r[b[1] - vo])
+                                .distance_squared;
+          if (d2 < reach * reach)
+            ee.push_back({std::min(ea, eb), std::max(ea, eb), static_cast<float>(0.5 * std::sqrt(d2))});
         }
     }
   }
   // CSR by the first index, sorted by the second, duplicates (a feature seen from several pairs) removed.
-  auto csr = [](std::vector<Near>& in, int n, std::vector<int>& start, std::vector<std::pair<int, float>>& out) {
+  auto csr = [](std::vector<Near>& in, int n, std::vector<int>& start,
+                std::vector<std::pair<int, float>>& out) {
     std::sort(in.begin(), in.end());
-    in.erase(std::unique(in.begin(), in.end(), [](const Near& x, const Near& y) { return x.a == y.a && x.b == y.b; }),
+    in.erase(std::unique(in.begin(), in.end(),
+                         [](const Near& x, const Near& y) { return x.a == y.a && x.b == y.b; }),
              in.end());
     start.assign(n + 1, 0);
     for (const Near& e : in) ++start[e.a + 1];
@@ -236,7 +244,8 @@ void SelfCollisionStage::resolve(std::vector<char>& dirty, const std::vector<Fea
 // One collider round: every free vertex this stage moved is handed back to the body stage
 // (BodyCollisionStage::revisit_vertex). Those it acts on take its position and velocity, become fixed
 // (inverse mass 0 here) and are marked in `dirty` (cleared first). Returns whether any was acted on.
-bool SelfCollisionStage::collider_round(loom::cloth::StageContext& ctx, std::vector<char>& dirty, int threads) {
+bool SelfCollisionStage::collider_round(loom::cloth::StageContext& ctx, std::vector<char>& dirty,
+                                        int threads) {
   const int nv = static_cast<int>(x1_.size());
   std::fill(dirty.begin(), dirty.end(), 0);
   std::vector<int> moved;
@@ -278,7 +287,8 @@ void SelfCollisionStage::run(loom::cloth::StageContext& ctx) {
   h_ = ctx.h;
   const int threads = ctx.threads;
   const int nv = vertex_offset_[num_cloths_];
-  x0_.resize(nv), x1_.resize(nv), w_.resize(nv), m_.resize(nv), near_.resize(nv), fixed_v_.resize(nv), w_free_.resize(nv);
+  x0_.resize(nv), x1_.resize(nv), w_.resize(nv), m_.resize(nv), near_.resize(nv), fixed_v_.resize(nv),
+      w_free_.resize(nv);
   for (int c = 0; c < num_cloths_; ++c) {
     const loom::cloth::ClothState& s = ctx.cloths[c]->state();
     const int vo = vertex_offset_[c];

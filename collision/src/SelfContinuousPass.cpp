@@ -49,8 +49,9 @@ bool SelfCollisionStage::ccd_pass(const std::vector<Feature>& fs, int threads, s
         for (int m = split; m < 4; ++m) reach2 = std::max(reach2, (dx[k] - dx[m]).squaredNorm());
       const double bound = (sep + std::sqrt(reach2)) * (1.0 + 1e-9);
       if (fs[i].d0 > bound) return;  // the proximity phase's lower bound on d(0) already proves it
-      const double d0 = std::sqrt(fs[i].type == 0 ? point_triangle_closest(*a0[0], *a0[1], *a0[2], *a0[3]).distance_squared
-                                                   : segment_segment_closest(*a0[0], *a0[1], *a0[2], *a0[3]).distance_squared);
+      const double d0 = std::sqrt(
+          fs[i].type == 0 ? point_triangle_closest(*a0[0], *a0[1], *a0[2], *a0[3]).distance_squared
+                          : segment_segment_closest(*a0[0], *a0[1], *a0[2], *a0[3]).distance_squared);
       if (d0 > bound) return;
       at_start = d0 <= sep;
     }
@@ -68,11 +69,12 @@ bool SelfCollisionStage::ccd_pass(const std::vector<Feature>& fs, int threads, s
     } else {
       CcdOptions opt;
       opt.min_separation = sep;
-      opt.tolerance = 1e-4;     // of the query's extent: a few micrometres at cloth scale, well below sep
+      opt.tolerance = 1e-4;      // of the query's extent: a few micrometres at cloth scale, well below sep
       opt.toi_tolerance = 1e-2;  // the time of impact only places the contact normal
       opt.toi_max_boxes = 64;
-      r = fs[i].type == 0 ? vertex_face_ccd(*a0[0], *a0[1], *a0[2], *a0[3], *a1[0], *a1[1], *a1[2], *a1[3], opt)
-                          : edge_edge_ccd(*a0[0], *a0[1], *a0[2], *a0[3], *a1[0], *a1[1], *a1[2], *a1[3], opt);
+      r = fs[i].type == 0
+              ? vertex_face_ccd(*a0[0], *a0[1], *a0[2], *a0[3], *a1[0], *a1[1], *a1[2], *a1[3], opt)
+              : edge_edge_ccd(*a0[0], *a0[1], *a0[2], *a0[3], *a1[0], *a1[1], *a1[2], *a1[3], opt);
 #pragma omp atomic
       ++tests;
 #pragma omp atomic

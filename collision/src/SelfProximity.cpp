@@ -38,8 +38,10 @@ bool capped_shares(const double w[4], const double im[4], int first, double cap,
   for (;;) {  // each further round caps at least one more movable vertex: at most 5 rounds
     double rest = 1.0, free_denom = 0.0;
     for (int k = 0; k < 4; ++k) {
-      if (capped[k]) rest -= cap * std::abs(w[k]);
-      else free_denom += w[k] * w[k] * im[k];
+      if (capped[k])
+        rest -= cap * std::abs(w[k]);
+      else
+        free_denom += w[k] * w[k] * im[k];
     }
     // Infeasible: every movable vertex of the contact is at the bound (or, by rounding, the capped ones
     // already give the whole change). Every movable vertex of both features takes the bound on its feature's
@@ -53,7 +55,8 @@ bool capped_shares(const double w[4], const double im[4], int first, double cap,
     const double lambda = rest / free_denom;
     bool more = false;
     for (int k = 0; k < 4; ++k)
-      if (!capped[k] && lambda * std::abs(w[k]) * im[k] > cap * (1.0 + 1e-9)) capped[k] = more = true;  // rounding
+      if (!capped[k] && lambda * std::abs(w[k]) * im[k] > cap * (1.0 + 1e-9))
+        capped[k] = more = true;  // rounding
     if (more) continue;
     for (int k = 0; k < 4; ++k) beta[k] = capped[k] ? std::copysign(cap, w[k]) : lambda * w[k] * im[k];
     return true;
@@ -86,7 +89,6 @@ void apply_impulses(const std::vector<Impulse>& imp, double h, Vec3s& x1, std::v
 }
 
 }  // namespace self_collision_detail
-
 
 // Bridson et al. 2002, Sec. 7.2: pairs closer than the thickness at the step's start get an impulse that
 // removes `repulsion` of the overlap per step along the normal; Sec. 7.3: Coulomb friction clamps the
@@ -165,7 +167,8 @@ void SelfCollisionStage::proximity(std::vector<Feature>& fs, int threads, std::v
 // features of triangle pairs with no vertex moved by proximity impulses are unchanged (same boxes, same
 // features); those of pairs touching a moved vertex are dropped and found again from the refitted trees
 // (triangle_pairs_touching, not culled). A feature belongs to one pair only (its owner pair, see features()).
-void SelfCollisionStage::first_pass_features(std::vector<Feature>& fs, const std::vector<char>& moved, int threads) {
+void SelfCollisionStage::first_pass_features(std::vector<Feature>& fs, const std::vector<char>& moved,
+                                             int threads) {
   if (std::none_of(moved.begin(), moved.end(), [](char m) { return m != 0; })) return;
   update_bvhs(threads, false);
   std::vector<char> td(tris_.size(), 0);  // triangles with a moved vertex

@@ -28,11 +28,13 @@ Vec3 surface_velocity(const Transform& a, const Transform& b, double h, const Ve
   return (b.translation() - a.translation()) / h + omega.cross(x - b.translation());
 }
 
-SweptHit swept_point(const Collider& c, const Vec3& p0, const Vec3& p1, double separation, int max_iterations) {
+SweptHit swept_point(const Collider& c, const Vec3& p0, const Vec3& p1, double separation,
+                     int max_iterations) {
   SweptHit out;
   const Vec3 c0 = c.prev.translation(), c1 = c.curr.translation();
   const double theta = rotation_angle(c.prev, c.curr);
-  const double lip = (p1 - p0).norm() + (c1 - c0).norm() + theta * std::max((p0 - c0).norm(), (p1 - c1).norm());
+  const double lip =
+      (p1 - p0).norm() + (c1 - c0).norm() + theta * std::max((p0 - c0).norm(), (p1 - c1).norm());
   // A gap below 10% of the separation counts as a hit: it ends the slow (linear) convergence of an oblique
   // approach; the contact it reports is then within 1.1 x separation (a false positive, never a miss).
   const double slack = 0.1 * separation;
@@ -66,7 +68,8 @@ SweptSegmentHit swept_segment_capsule(const Collider& c, const Vec3& a0, const V
   const Vec3 c0 = c.prev.translation(), c1 = c.curr.translation();
   const double theta = rotation_angle(c.prev, c.curr);
   // Segment-to-segment distance is 1-Lipschitz in the largest endpoint displacement of either segment.
-  const double lip = std::max((a1 - a0).norm(), (b1 - b0).norm()) + (c1 - c0).norm() + theta * c.shape.half_height;
+  const double lip =
+      std::max((a1 - a0).norm(), (b1 - b0).norm()) + (c1 - c0).norm() + theta * c.shape.half_height;
   const double slack = 0.1 * separation;
   double t = 0.0;
   auto eval = [&](double tt, bool record) {

@@ -15,14 +15,17 @@ namespace fs = std::filesystem;
 
 namespace {
 
-bool has(const std::vector<std::string>& v, const char* s) { return std::find(v.begin(), v.end(), s) != v.end(); }
+bool has(const std::vector<std::string>& v, const char* s) {
+  return std::find(v.begin(), v.end(), s) != v.end();
+}
 
 void write_mesh_obj(const fs::path& path, const cloth::Cloth& c) {
   std::ofstream out(path);
   if (!out) throw Error(path.string(), "", "cannot write");
   out << std::setprecision(9) << "o " << c.name() << "\n";
   for (const cloth::Vec3& p : c.state().x) out << "v " << p.x() << ' ' << p.y() << ' ' << p.z() << "\n";
-  for (const cloth::Tri& t : c.mesh().triangles()) out << "f " << t[0] + 1 << ' ' << t[1] + 1 << ' ' << t[2] + 1 << "\n";
+  for (const cloth::Tri& t : c.mesh().triangles())
+    out << "f " << t[0] + 1 << ' ' << t[1] + 1 << ' ' << t[2] + 1 << "\n";
   if (!out) throw Error(path.string(), "", "write failed");
 }
 
@@ -55,7 +58,8 @@ Exporters::Exporters(const std::string& out_dir, const std::vector<std::string>&
     for (size_t i = 0; i < cloths.size(); ++i) {
       const fs::path base = out / "pc2" / names[i];
       write_mesh_obj(base.string() + ".obj", *cloths[i]);
-      pc2_.push_back(std::make_unique<Pc2Writer>(base.string() + ".pc2", cloths[i]->state().size(), 0.0, every));
+      pc2_.push_back(
+          std::make_unique<Pc2Writer>(base.string() + ".pc2", cloths[i]->state().size(), 0.0, every));
       files_.push_back(base.string() + ".pc2");
     }
   }

@@ -71,7 +71,8 @@ void GltfWriter::add_frame(double time, const std::vector<const cloth::Vec3s*>& 
       index_accessor_.push_back(append(idx.data(), 4 * idx.size(), std::move(view)));
     }
   } else {
-    for (size_t m = 0; m < meshes_.size(); ++m) target_accessor_[m].push_back(append_vec3(*positions[m], &base_[m]));
+    for (size_t m = 0; m < meshes_.size(); ++m)
+      target_accessor_[m].push_back(append_vec3(*positions[m], &base_[m]));
   }
   times_.push_back(time);
 }
@@ -108,8 +109,10 @@ void GltfWriter::finish() {
   ordered_json nodes = ordered_json::array(), meshes = ordered_json::array();
   for (size_t m = 0; m < meshes_.size() && !base_.empty(); ++m) {
     nodes.push_back({{"name", meshes_[m].name}, {"mesh", m}});
-    ordered_json prim = {{"attributes", {{"POSITION", base_accessor_[m]}}}, {"indices", index_accessor_[m]},
-                         {"material", 0}, {"mode", 4}};
+    ordered_json prim = {{"attributes", {{"POSITION", base_accessor_[m]}}},
+                         {"indices", index_accessor_[m]},
+                         {"material", 0},
+                         {"mode", 4}};
     ordered_json mesh = {{"name", meshes_[m].name}};
     if (targets > 0) {
       ordered_json tg = ordered_json::array(), names = ordered_json::array();
@@ -134,23 +137,28 @@ void GltfWriter::finish() {
   j["materials"] = ordered_json::array(
       {{{"name", "cloth"},
         {"doubleSided", true},
-        {"pbrMetallicRoughness", {{"baseColorFactor", {0.8, 0.3, 0.25, 1.0}}, {"metallicFactor", 0.0}, {"roughnessFactor", 0.9}}}}});
+        {"pbrMetallicRoughness",
+         {{"baseColorFactor", {0.8, 0.3, 0.25, 1.0}}, {"metallicFactor", 0.0}, {"roughnessFactor", 0.9}}}}});
   if (targets > 0) {
     ordered_json channels = ordered_json::array(), samplers = ordered_json::array();
     for (size_t m = 0; m < meshes_.size(); ++m) {
-      samplers.push_back({{"input", times_accessor}, {"output", weights_accessor}, {"interpolation", "LINEAR"}});
+      samplers.push_back(
+          {{"input", times_accessor}, {"output", weights_accessor}, {"interpolation", "LINEAR"}});
       channels.push_back({{"sampler", m}, {"target", {{"node", m}, {"path", "weights"}}}});
     }
-    j["animations"] = ordered_json::array({{{"name", "simulation"}, {"channels", channels}, {"samplers", samplers}}});
+    j["animations"] =
+        ordered_json::array({{{"name", "simulation"}, {"channels", channels}, {"samplers", samplers}}});
   }
-  j["buffers"] = ordered_json::array({{{"uri", fs::path(bin_path_).filename().string()}, {"byteLength", bin_size_}}});
+  j["buffers"] =
+      ordered_json::array({{{"uri", fs::path(bin_path_).filename().string()}, {"byteLength", bin_size_}}});
   ordered_json views = ordered_json::array(), accessors = ordered_json::array();
   for (size_t i = 0; i < views_.size(); ++i) {
     const View& v = views_[i];
     ordered_json bv = {{"buffer", 0}, {"byteOffset", v.offset}, {"byteLength", v.bytes}};
     if (v.target) bv["target"] = v.target;
     views.push_back(bv);
-    ordered_json a = {{"bufferView", i}, {"componentType", v.component}, {"count", v.count}, {"type", v.type}};
+    ordered_json a = {
+        {"bufferView", i}, {"componentType", v.component}, {"count", v.count}, {"type", v.type}};
     if (!v.min.empty()) {
       a["min"] = v.min;
       a["max"] = v.max;

@@ -56,7 +56,8 @@ Pc2Writer::~Pc2Writer() {
 
 void Pc2Writer::add_sample(const cloth::Vec3s& x) {
   if (static_cast<int>(x.size()) != points_)
-    throw Error(path_, "", "sample has " + std::to_string(x.size()) + " points, the cache " + std::to_string(points_));
+    throw Error(path_, "",
+                "sample has " + std::to_string(x.size()) + " points, the cache " + std::to_string(points_));
   std::vector<char> buf(x.size() * 12);
   for (size_t i = 0; i < x.size(); ++i)
     for (int k = 0; k < 3; ++k) put_f32(buf.data() + 12 * i + 4 * k, static_cast<float>(x[i][k]));
@@ -79,9 +80,12 @@ void Pc2Writer::finish() {
 Pc2Cache read_pc2(const std::string& path) {
   std::ifstream in(path, std::ios::binary);
   if (!in) throw Error(path, "", "cannot open PC2 file");
-  const std::vector<unsigned char> bytes((std::istreambuf_iterator<char>(in)), std::istreambuf_iterator<char>());
-  if (bytes.size() < static_cast<size_t>(kHeaderSize)) throw Error(path, "header", "file too short for a PC2 header");
-  if (std::memcmp(bytes.data(), kSignature, 12) != 0) throw Error(path, "header", "not a PC2 file (no POINTCACHE2 signature)");
+  const std::vector<unsigned char> bytes((std::istreambuf_iterator<char>(in)),
+                                         std::istreambuf_iterator<char>());
+  if (bytes.size() < static_cast<size_t>(kHeaderSize))
+    throw Error(path, "header", "file too short for a PC2 header");
+  if (std::memcmp(bytes.data(), kSignature, 12) != 0)
+    throw Error(path, "header", "not a PC2 file (no POINTCACHE2 signature)");
   if (get_u32(bytes.data() + 12) != 1) throw Error(path, "header", "unsupported PC2 version");
   Pc2Cache c;
   c.points = static_cast<int>(get_u32(bytes.data() + 16));
@@ -90,8 +94,9 @@ Pc2Cache read_pc2(const std::string& path) {
   c.samples = static_cast<int>(get_u32(bytes.data() + 28));
   const size_t floats = size_t(c.samples) * size_t(c.points) * 3;
   if (bytes.size() != kHeaderSize + 4 * floats)
-    throw Error(path, "", "size " + std::to_string(bytes.size()) + " bytes does not match " + std::to_string(c.samples) +
-                              " samples of " + std::to_string(c.points) + " points");
+    throw Error(path, "",
+                "size " + std::to_string(bytes.size()) + " bytes does not match " +
+                    std::to_string(c.samples) + " samples of " + std::to_string(c.points) + " points");
   c.xyz.resize(floats);
   for (size_t i = 0; i < floats; ++i) c.xyz[i] = get_f32(bytes.data() + kHeaderSize + 4 * i);
   return c;

@@ -15,7 +15,8 @@ namespace loom::render {
 namespace fs = std::filesystem;
 
 std::vector<RenderMesh> render_meshes(const std::vector<std::unique_ptr<cloth::Cloth>>& cloths) {
-  static const cloth::Vec3 kColors[] = {{0.80, 0.22, 0.18}, {0.20, 0.42, 0.75}, {0.90, 0.68, 0.20}, {0.30, 0.62, 0.35}};
+  static const cloth::Vec3 kColors[] = {
+      {0.80, 0.22, 0.18}, {0.20, 0.42, 0.75}, {0.90, 0.68, 0.20}, {0.30, 0.62, 0.35}};
   std::vector<RenderMesh> meshes;
   for (size_t i = 0; i < cloths.size(); ++i) {
     RenderMesh m;
@@ -110,13 +111,14 @@ std::string quote(const std::string& s) {
 void run_ffmpeg(const std::string& args, const std::string& target) {
   const std::string cmd = "ffmpeg -hide_banner -loglevel error -y " + args + " </dev/null";
   const int status = std::system(cmd.c_str());
-  if (status != 0 || !fs::exists(target)) throw Error(target, "--render", "ffmpeg failed (command: " + cmd + ")");
+  if (status != 0 || !fs::exists(target))
+    throw Error(target, "--render", "ffmpeg failed (command: " + cmd + ")");
 }
 
 }  // namespace
 
-RenderReport render_recording(const std::string& out_dir, const Recording& rec, const RenderSettings& settings,
-                              double fps, bool video) {
+RenderReport render_recording(const std::string& out_dir, const Recording& rec,
+                              const RenderSettings& settings, double fps, bool video) {
   const fs::path out(out_dir), dir = out / "render";
   std::error_code ec;  // the caller owns the folder and removes its earlier files (RenderRun.h)
   fs::create_directories(dir, ec);
@@ -141,22 +143,32 @@ RenderReport render_recording(const std::string& out_dir, const Recording& rec, 
   }
   RenderReport rep;
   rep.frames = rec.frames();
-  rep.ms_per_frame = rec.frames() ? std::chrono::duration<double, std::milli>(std::chrono::steady_clock::now() - start).count() / rec.frames() : 0.0;
+  rep.ms_per_frame =
+      rec.frames()
+          ? std::chrono::duration<double, std::milli>(std::chrono::steady_clock::now() - start).count() /
+                rec.frames()
+          : 0.0;
   if (!video || rec.frames() == 0) return rep;
 
   if (std::system("command -v ffmpeg >/dev/null 2>&1") != 0)
-    throw Error("ffmpeg", "--render", "ffmpeg not found (Debian package: ffmpeg); the PNG frames are in " + dir.string());
+    throw Error("ffmpeg", "--render",
+                "ffmpeg not found (Debian package: ffmpeg); the PNG frames are in " + dir.string());
   char rate[32];
   std::snprintf(rate, sizeof rate, "%.6g", fps);
-  const std::string input = std::string("-framerate ") + rate + " -i " + quote((dir / "frame_%05d.png").string());
+  const std::string input =
+      std::string("-framerate ") + rate + " -i " + quote((dir / "frame_%05d.png").string());
   rep.mp4 = (out / "render.mp4").string();
   // H.264 needs even sizes: pad by one pixel when the image is odd.
-  run_ffmpeg(input + " -vf 'pad=ceil(iw/2)*2:ceil(ih/2)*2' -c:v libx264 -pix_fmt yuv420p -crf 20 -movflags +faststart " +
-                 quote(rep.mp4),
-             rep.mp4);
+  run_ffmpeg(
+      input +
+          " -vf 'pad=ceil(iw/2)*2:ceil(ih/2)*2' -c:v libx264 -pix_fmt yuv420p -crf 20 -movflags +faststart " +
+          quote(rep.mp4),
+      rep.mp4);
   rep.gif = (out / "render.gif").string();
   run_ffmpeg(input +
-                 " -t 4 -vf 'fps=15,scale=320:-1:flags=lanczos,split[a][b];[a]palettegen=max_colors=96[p];[b][p]paletteuse=dither=bayer:bayer_scale=4' -loop 0 " +
+                 " -t 4 -vf "
+                 "'fps=15,scale=320:-1:flags=lanczos,split[a][b];[a]palettegen=max_colors=96[p];[b][p]"
+                 "paletteuse=dither=bayer:bayer_scale=4' -loop 0 " +
                  quote(rep.gif),
              rep.gif);
   return rep;

@@ -42,8 +42,9 @@ Renderer::Renderer(RenderSettings settings, std::vector<RenderMesh> meshes)
   if (!gl_->ctx) throw Error("", "render", "cannot create an OSMesa (software OpenGL) context");
   gl_->buffer.resize(size_t(gl_->w) * gl_->h * 4);
   if (!OSMesaMakeCurrent(gl_->ctx, gl_->buffer.data(), GL_UNSIGNED_BYTE, gl_->w, gl_->h))
-    throw Error("", "render", "cannot bind the OSMesa context to a " + std::to_string(gl_->w) + "x" +
-                                  std::to_string(gl_->h) + " image");
+    throw Error("", "render",
+                "cannot bind the OSMesa context to a " + std::to_string(gl_->w) + "x" +
+                    std::to_string(gl_->h) + " image");
   gl_->textures = gl::create_textures();
   if (settings_.camera) camera_ = *settings_.camera;
 }
@@ -76,14 +77,15 @@ void Renderer::look_at(const Vec3& target) {
 
 cloth::Vec2 Renderer::project(const Vec3& p) const {
   const double dist = (camera_.eye - camera_.target).norm();
-  const Mat4 pv = gl::perspective(camera_.fov_deg, double(settings_.width) / settings_.height, std::max(1e-3, 0.02 * dist),
-                              dist + 8.0 * extent_) *
+  const Mat4 pv = gl::perspective(camera_.fov_deg, double(settings_.width) / settings_.height,
+                                  std::max(1e-3, 0.02 * dist), dist + 8.0 * extent_) *
                   gl::look_at(camera_.eye, camera_.target, Vec3(0, 1, 0));
   const Eigen::Vector4d c = pv * Eigen::Vector4d(p.x(), p.y(), p.z(), 1.0);
   return Vec2((0.5 * c.x() / c.w() + 0.5) * settings_.width, (0.5 - 0.5 * c.y() / c.w()) * settings_.height);
 }
 
-Image Renderer::render(const std::vector<const cloth::Vec3s*>& positions, const collision::ColliderSet* colliders) {
+Image Renderer::render(const std::vector<const cloth::Vec3s*>& positions,
+                       const collision::ColliderSet* colliders) {
   if (positions.size() != meshes_.size()) throw Error("", "render", "one position array per mesh expected");
   OSMesaMakeCurrent(gl_->ctx, gl_->buffer.data(), GL_UNSIGNED_BYTE, gl_->w, gl_->h);
   gl::DrawParams p;

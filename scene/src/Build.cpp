@@ -10,7 +10,8 @@
 
 namespace loom::scene {
 
-std::unique_ptr<cloth::Simulation> build_simulation(const Scene& scene, collision::ColliderSetPtr* colliders_out) {
+std::unique_ptr<cloth::Simulation> build_simulation(const Scene& scene,
+                                                    collision::ColliderSetPtr* colliders_out) {
   auto sim = std::make_unique<cloth::Simulation>(scene.setup, scene.file);
   // The one collider set of this simulation: the scene's colliders and a character rig's capsules go in
   // here; the stages that read or move them share it, and the caller (renderer, viewer) draws it.
@@ -24,7 +25,8 @@ std::unique_ptr<cloth::Simulation> build_simulation(const Scene& scene, collisio
   collision::BodyCollisionStage* body_stage = nullptr;
   if (!colliders->empty()) {
     collision::BodyCollisionSettings body;
-    if (scene.collision) body.friction_pairs = scene.collision->friction_pairs;  // the (cloth, collider) entries
+    if (scene.collision)
+      body.friction_pairs = scene.collision->friction_pairs;     // the (cloth, collider) entries
     body.contact_normals = scene.setup.solver.holds_contacts();  // only a solver that reads them
     auto stage = std::make_unique<collision::BodyCollisionStage>(colliders, body);
     body_stage = stage.get();

@@ -27,7 +27,8 @@ std::string show(double v) {
 
 JsonReader::JsonReader(const nlohmann::json& j, std::string path, std::string file)
     : j_(j), path_(std::move(path)), file_(std::move(file)) {
-  if (!j_.is_object()) throw Error(file_, path_.empty() ? "(top level)" : path_, "expected an object, got " + type_name(j_));
+  if (!j_.is_object())
+    throw Error(file_, path_.empty() ? "(top level)" : path_, "expected an object, got " + type_name(j_));
 }
 
 bool JsonReader::has(const std::string& key) const { return j_.contains(key); }
@@ -76,30 +77,40 @@ int JsonReader::integer(const std::string& key, std::optional<int> fallback, std
 long long JsonReader::integer_value(const nlohmann::json& v, const std::string& where, long long min,
                                     long long max) const {
   if (!v.is_number_integer())
-    throw Error(file_, where, "expected an integer, got " + (v.is_number() ? std::string("a fractional number") : type_name(v)));
+    throw Error(
+        file_, where,
+        "expected an integer, got " + (v.is_number() ? std::string("a fractional number") : type_name(v)));
   // Unsigned values are compared unsigned: a value past 2^63 would turn negative as long long.
   if (v.is_number_unsigned() && v.get<std::uint64_t>() > static_cast<std::uint64_t>(max))
-    throw Error(file_, where, "must be <= " + std::to_string(max) + " (got " + std::to_string(v.get<std::uint64_t>()) + ")");
+    throw Error(
+        file_, where,
+        "must be <= " + std::to_string(max) + " (got " + std::to_string(v.get<std::uint64_t>()) + ")");
   const long long i = v.get<long long>();
-  if (i < min) throw Error(file_, where, "must be >= " + std::to_string(min) + " (got " + std::to_string(i) + ")");
-  if (i > max) throw Error(file_, where, "must be <= " + std::to_string(max) + " (got " + std::to_string(i) + ")");
+  if (i < min)
+    throw Error(file_, where, "must be >= " + std::to_string(min) + " (got " + std::to_string(i) + ")");
+  if (i > max)
+    throw Error(file_, where, "must be <= " + std::to_string(max) + " (got " + std::to_string(i) + ")");
   return i;
 }
 
 bool JsonReader::in_range(const nlohmann::json& v, long long min, long long max) {
   if (!v.is_number_integer()) return false;
-  if (v.is_number_unsigned()) return max >= 0 && v.get<std::uint64_t>() <= static_cast<std::uint64_t>(max) &&
-                                     static_cast<long long>(v.get<std::uint64_t>()) >= min;
+  if (v.is_number_unsigned())
+    return max >= 0 && v.get<std::uint64_t>() <= static_cast<std::uint64_t>(max) &&
+           static_cast<long long>(v.get<std::uint64_t>()) >= min;
   const long long i = v.get<long long>();
   return i >= min && i <= max;
 }
 
-std::vector<long long> JsonReader::integers(const std::string& key, size_t count, long long min, long long max) const {
+std::vector<long long> JsonReader::integers(const std::string& key, size_t count, long long min,
+                                            long long max) const {
   const nlohmann::json& v = raw(key);
   if (!v.is_array() || v.size() != count)
-    fail(key, "expected " + std::to_string(count) + " integers, got " + (v.is_array() ? std::to_string(v.size()) + " values" : type_name(v)));
+    fail(key, "expected " + std::to_string(count) + " integers, got " +
+                  (v.is_array() ? std::to_string(v.size()) + " values" : type_name(v)));
   std::vector<long long> out;
-  for (size_t i = 0; i < count; ++i) out.push_back(integer_value(v[i], child(key) + "[" + std::to_string(i) + "]", min, max));
+  for (size_t i = 0; i < count; ++i)
+    out.push_back(integer_value(v[i], child(key) + "[" + std::to_string(i) + "]", min, max));
   return out;
 }
 
@@ -128,7 +139,8 @@ std::string JsonReader::string(const std::string& key, std::optional<std::string
     if (ch < 0x20 || ch == 0x7f) {
       char code[8];
       std::snprintf(code, sizeof code, "0x%02x", ch);
-      fail(key, std::string("holds a control character (") + code + " at byte " + std::to_string(i) + "): not allowed in scene text");
+      fail(key, std::string("holds a control character (") + code + " at byte " + std::to_string(i) +
+                    "): not allowed in scene text");
     }
   }
   if (!allowed.empty()) {
@@ -146,10 +158,12 @@ std::string JsonReader::string(const std::string& key, std::optional<std::string
 std::vector<double> JsonReader::numbers(const std::string& key, size_t count) const {
   const nlohmann::json& v = raw(key);
   if (!v.is_array()) fail(key, "expected an array of numbers, got " + type_name(v));
-  if (count && v.size() != count) fail(key, "expected " + std::to_string(count) + " numbers, got " + std::to_string(v.size()));
+  if (count && v.size() != count)
+    fail(key, "expected " + std::to_string(count) + " numbers, got " + std::to_string(v.size()));
   if (!count && v.empty()) fail(key, "must not be empty");
   std::vector<double> out;
-  for (size_t i = 0; i < v.size(); ++i) out.push_back(as_number(v[i], child(key) + "[" + std::to_string(i) + "]"));
+  for (size_t i = 0; i < v.size(); ++i)
+    out.push_back(as_number(v[i], child(key) + "[" + std::to_string(i) + "]"));
   return out;
 }
 

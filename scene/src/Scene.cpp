@@ -12,8 +12,8 @@
 #include "loom/cloth/Model.h"
 #include "loom/scene/JsonReader.h"
 #include "loom/scene/SceneBodies.h"
-#include "loom/scene/SceneColliders.h"
 #include "loom/scene/SceneCharacter.h"
+#include "loom/scene/SceneColliders.h"
 #include "loom/scene/SceneCollision.h"
 #include "loom/scene/SceneGuard.h"
 #include "loom/scene/SceneLimits.h"
@@ -67,7 +67,8 @@ class DuplicateKeys : public nlohmann::json::json_sax_t {
   }
   bool key(string_t& k) override {
     Frame& f = frames_.back();
-    if (!f.keys.insert(k).second) throw Error(file_, path() + (path().empty() ? "" : ".") + k, "key given twice");
+    if (!f.keys.insert(k).second)
+      throw Error(file_, path() + (path().empty() ? "" : ".") + k, "key given twice");
     f.key = k;
     return true;
   }
@@ -84,7 +85,9 @@ class DuplicateKeys : public nlohmann::json::json_sax_t {
     frames_.pop_back();
     return true;
   }
-  bool parse_error(std::size_t, const std::string&, const nlohmann::detail::exception&) override { return false; }
+  bool parse_error(std::size_t, const std::string&, const nlohmann::detail::exception&) override {
+    return false;
+  }
 
  private:
   struct Frame {
@@ -172,11 +175,13 @@ void apply_override(nlohmann::json& root, const std::string& assignment, const s
       } catch (...) {
       }
       if (used != key.size() || idx < 0 || idx >= static_cast<long>(node->size()))
-        throw Error(file, where, "'" + key + "' is not an index of the array (size " + std::to_string(node->size()) + ")");
+        throw Error(file, where,
+                    "'" + key + "' is not an index of the array (size " + std::to_string(node->size()) + ")");
       node = &(*node)[idx];
     } else {
       if (node->is_null()) *node = nlohmann::json::object();
-      if (!node->is_object()) throw Error(file, where, "'" + key + "' goes inside a value that is not an object");
+      if (!node->is_object())
+        throw Error(file, where, "'" + key + "' goes inside a value that is not an object");
       if (!last && !node->contains(key)) (*node)[key] = nlohmann::json::object();
       node = &(*node)[key];
     }
@@ -264,32 +269,40 @@ std::shared_ptr<const cloth::ClothMesh> parse_mesh(const JsonReader& r, Scene& s
       const auto size = r.numbers("size", 2);
       for (int k = 0; k < 2; ++k)
         if (!(size[k] > 0.0) || size[k] > kMaxCoordinate)
-          r.fail("size", "both sizes must be in (0, " + std::to_string(static_cast<long>(kMaxCoordinate)) + "] m");
+          r.fail("size",
+                 "both sizes must be in (0, " + std::to_string(static_cast<long>(kMaxCoordinate)) + "] m");
       g.size_u = size[0];
       g.size_v = size[1];
       const nlohmann::json& nodes = r.raw("nodes");
-      if (!nodes.is_array() || nodes.size() != 2 || !nodes[0].is_number_integer() || !nodes[1].is_number_integer())
+      if (!nodes.is_array() || nodes.size() != 2 || !nodes[0].is_number_integer() ||
+          !nodes[1].is_number_integer())
         r.fail("nodes", "expected two integers [nodes_u, nodes_v]");
       // Checked as 64-bit values before narrowing: 2^32 + 5 is out of range, not 5.
       for (int k = 0; k < 2; ++k)
-        if (!JsonReader::in_range(nodes[k], 2, 4096)) r.fail("nodes", "each count must be in [2, 4096] (got " + nodes[k].dump() + ")");
+        if (!JsonReader::in_range(nodes[k], 2, 4096))
+          r.fail("nodes", "each count must be in [2, 4096] (got " + nodes[k].dump() + ")");
       g.nodes_u = nodes[0].get<int>();
       g.nodes_v = nodes[1].get<int>();
       reserve_vertices(scene, r.path(), static_cast<double>(g.nodes_u) * g.nodes_v);
       const std::string plane = r.string("plane", "xz", {"xy", "xz", "yz"});
-      g.plane = plane == "xy" ? cloth::GridPlane::kXY : plane == "yz" ? cloth::GridPlane::kYZ : cloth::GridPlane::kXZ;
+      g.plane = plane == "xy"   ? cloth::GridPlane::kXY
+                : plane == "yz" ? cloth::GridPlane::kYZ
+                                : cloth::GridPlane::kXZ;
       g.origin = r.vec3("origin", Vec3::Zero());
       if (!(g.origin.cwiseAbs().maxCoeff() <= kMaxCoordinate))
-        r.fail("origin", "coordinates must be within +-" + std::to_string(static_cast<long>(kMaxCoordinate)) + " m");
+        r.fail("origin",
+               "coordinates must be within +-" + std::to_string(static_cast<long>(kMaxCoordinate)) + " m");
       r.finish();
       return build([&] { return cloth::ClothMesh::grid(g); });
     }
     const std::string path = r.string("path");
     const double scale = r.number("scale", 1.0, 0.0, true);
     const Vec3 translate = r.vec3("translate", Vec3::Zero());
-    if (scale > kMaxCoordinate) r.fail("scale", "must be <= " + std::to_string(static_cast<long>(kMaxCoordinate)));
+    if (scale > kMaxCoordinate)
+      r.fail("scale", "must be <= " + std::to_string(static_cast<long>(kMaxCoordinate)));
     if (!(translate.cwiseAbs().maxCoeff() <= kMaxCoordinate))
-      r.fail("translate", "coordinates must be within +-" + std::to_string(static_cast<long>(kMaxCoordinate)) + " m");
+      r.fail("translate",
+             "coordinates must be within +-" + std::to_string(static_cast<long>(kMaxCoordinate)) + " m");
     r.finish();
     std::filesystem::path p(path);
     if (p.is_relative()) p = std::filesystem::path(file).parent_path() / p;
@@ -331,7 +344,8 @@ std::vector<cloth::PinSpec> parse_pins(const JsonReader& r, const cloth::ClothMe
     if (p.has("vertex")) {
       spec.vertex = p.integer("vertex");
       if (spec.vertex < 0 || spec.vertex >= mesh.num_vertices())
-        p.fail("vertex", "vertex " + std::to_string(spec.vertex) + " is out of range [0, " + std::to_string(mesh.num_vertices()) + ")");
+        p.fail("vertex", "vertex " + std::to_string(spec.vertex) + " is out of range [0, " +
+                             std::to_string(mesh.num_vertices()) + ")");
     } else {
       if (!mesh.is_grid()) p.fail("grid", "grid pins need a grid mesh");
       const nlohmann::json& g = p.raw("grid");
@@ -344,13 +358,15 @@ std::vector<cloth::PinSpec> parse_pins(const JsonReader& r, const cloth::ClothMe
       if (iu < 0) iu += mesh.grid_nodes_u();
       if (iv < 0) iv += mesh.grid_nodes_v();
       if (iu < 0 || iu >= mesh.grid_nodes_u() || iv < 0 || iv >= mesh.grid_nodes_v())
-        p.fail("grid", "node is outside the " + std::to_string(mesh.grid_nodes_u()) + "x" + std::to_string(mesh.grid_nodes_v()) + " grid");
+        p.fail("grid", "node is outside the " + std::to_string(mesh.grid_nodes_u()) + "x" +
+                           std::to_string(mesh.grid_nodes_v()) + " grid");
       spec.vertex = mesh.grid_index(iu, iv);
     }
     if (p.has("anchor")) {
       spec.anchor = p.vec3("anchor");
       if (!(spec.anchor->cwiseAbs().maxCoeff() <= kMaxCoordinate))
-        p.fail("anchor", "coordinates must be within +-" + std::to_string(static_cast<long>(kMaxCoordinate)) + " m");
+        p.fail("anchor",
+               "coordinates must be within +-" + std::to_string(static_cast<long>(kMaxCoordinate)) + " m");
     }
     if (p.has("path")) {
       const JsonReader path = p.object("path");
@@ -382,8 +398,9 @@ std::vector<cloth::PinSpec> parse_pins(const JsonReader& r, const cloth::ClothMe
                         (!spec.anchor || *pins[k].anchor == *spec.anchor) && pins[k].times == spec.times &&
                         pins[k].offsets == spec.offsets;
       if (!same)
-        p.fail("", "pins vertex " + std::to_string(spec.vertex) + " with another anchor or path than an earlier pin " +
-                       "(entry " + std::to_string(k) + " of the expanded list) already holding it");
+        p.fail("", "pins vertex " + std::to_string(spec.vertex) +
+                       " with another anchor or path than an earlier pin " + "(entry " + std::to_string(k) +
+                       " of the expanded list) already holding it");
       repeated = true;
     }
     if (!repeated) pins.push_back(spec);
@@ -422,8 +439,10 @@ Scene parse_scene(const nlohmann::json& root, const std::string& file) {
   // The name is the default output folder out/<name>: a plain file name, never a path.
   if (scene.name.empty() || scene.name == "." || scene.name == ".." || scene.name.size() > 200 ||
       scene.name.find_first_of("/\\") != std::string::npos)
-    r.fail("name", "must be a plain file name of 1 to 200 characters without '/' or '\\' and not '.' or '..' "
-                   "(it names the default output folder out/<name>; got '" + scene.name + "')");
+    r.fail("name",
+           "must be a plain file name of 1 to 200 characters without '/' or '\\' and not '.' or '..' "
+           "(it names the default output folder out/<name>; got '" +
+               scene.name + "')");
   if (r.has("description")) r.string("description");
   scene.duration = r.number("duration", 1.0, 0.0, true);
   const double fps = r.number("fps", 60.0, 0.0, true);
@@ -431,12 +450,14 @@ Scene parse_scene(const nlohmann::json& root, const std::string& file) {
   scene.setup.frame_dt = 1.0 / fps;
   // Checked in double before the conversion to int (a huge duration would overflow it).
   if (scene.duration * fps > static_cast<double>(kMaxFrames))
-    r.fail(r.has("duration") ? "duration" : "fps",
-           "gives " + show(scene.duration * fps) + " frames (duration x fps); at most " + std::to_string(kMaxFrames));
+    r.fail(r.has("duration") ? "duration" : "fps", "gives " + show(scene.duration * fps) +
+                                                       " frames (duration x fps); at most " +
+                                                       std::to_string(kMaxFrames));
   scene.frames = std::max(1, static_cast<int>(std::lround(scene.duration * fps)));
   scene.setup.gravity = r.vec3("gravity", Vec3(0.0, -9.81, 0.0));
   scene.setup.threads = r.integer("threads", 1, 1);
-  if (scene.setup.threads > 4096) r.fail("threads", "must be <= 4096 (got " + std::to_string(scene.setup.threads) + ")");
+  if (scene.setup.threads > 4096)
+    r.fail("threads", "must be <= 4096 (got " + std::to_string(scene.setup.threads) + ")");
   parse_guard(r, scene.setup.guard);  // non-finite / explosion guard (SceneGuard.cpp)
 
   if (r.has("solver")) {
@@ -509,7 +530,8 @@ Scene parse_scene(const nlohmann::json& root, const std::string& file) {
   }
 
   parse_character(r, scene);  // Mocap character; its garments are the first cloths (SceneCharacter.cpp)
-  const auto cloths = r.has("cloths") || scene.setup.cloths.empty() ? r.objects("cloths") : std::vector<JsonReader>{};
+  const auto cloths =
+      r.has("cloths") || scene.setup.cloths.empty() ? r.objects("cloths") : std::vector<JsonReader>{};
   if (cloths.empty() && scene.setup.cloths.empty()) r.fail("cloths", "a scene needs at least one cloth");
   for (const JsonReader& c : cloths) {
     cloth::ClothSetup cs;
@@ -520,9 +542,11 @@ Scene parse_scene(const nlohmann::json& root, const std::string& file) {
     if (c.has("mass")) {
       const double mass = c.number("mass", std::nullopt, 0.0, true);
       cs.material.areal_density = mass / cs.mesh->total_area();
-      if (!std::isfinite(cs.material.areal_density) || !(cs.material.areal_density >= 1e-6) || cs.material.areal_density > 1e4)
-        c.fail("mass", "gives an areal density of " + show(cs.material.areal_density) + " kg/m^2 over the mesh's " +
-                           show(cs.mesh->total_area()) + " m^2; it must be in [1e-06, 10000]");
+      if (!std::isfinite(cs.material.areal_density) || !(cs.material.areal_density >= 1e-6) ||
+          cs.material.areal_density > 1e4)
+        c.fail("mass", "gives an areal density of " + show(cs.material.areal_density) +
+                           " kg/m^2 over the mesh's " + show(cs.mesh->total_area()) +
+                           " m^2; it must be in [1e-06, 10000]");
     }
     cs.initial_velocity = c.vec3("velocity", Vec3::Zero());
     cs.pins = parse_pins(c, *cs.mesh);
@@ -531,7 +555,7 @@ Scene parse_scene(const nlohmann::json& root, const std::string& file) {
     c.finish();
     scene.setup.cloths.push_back(std::move(cs));
   }
-  parse_bodies(r, scene);  // Bullet rigid bodies (SceneBodies.cpp)
+  parse_bodies(r, scene);     // Bullet rigid bodies (SceneBodies.cpp)
   parse_colliders(r, scene);  // Rigid colliders and their motion (SceneColliders.cpp)
   parse_collision(r, scene);  // Self- and cloth-cloth collision, friction pairs (SceneCollision.cpp)
 
@@ -549,7 +573,8 @@ Scene parse_scene(const nlohmann::json& root, const std::string& file) {
         const std::string name = f[i].get<std::string>();
         if (name != "obj" && name != "pc2" && name != "gltf")
           o.fail(where, "unknown format '" + name + "' (known: obj, pc2, gltf)");
-        if (std::find(scene.output.formats.begin(), scene.output.formats.end(), name) != scene.output.formats.end())
+        if (std::find(scene.output.formats.begin(), scene.output.formats.end(), name) !=
+            scene.output.formats.end())
           o.fail(where, "format '" + name + "' is listed twice");
         scene.output.formats.push_back(name);
       }
@@ -580,15 +605,17 @@ Scene parse_scene(const nlohmann::json& root, const std::string& file) {
   if (scene.setup.solver.method == "weil") {
     // Weil's drape is one static shape from catenaries (WeilSolver.h): no motion, no contact.
     auto refuse = [&](const std::string& field, const std::string& what) {
-      throw Error(file, field, "the weil drape (solver.method \"weil\") is a static geometric shape without " + what +
-                                   ": use a dynamic solver or the static solver");
+      throw Error(file, field,
+                  "the weil drape (solver.method \"weil\") is a static geometric shape without " + what +
+                      ": use a dynamic solver or the static solver");
     };
     if (!scene.colliders.empty()) refuse("colliders", "collision");
     if (!scene.bodies.empty()) refuse("bodies", "collision or rigid bodies");
     if (scene.character) refuse("character", "motion (a character moves)");
     if (scene.collision) refuse("collision", "collision");
     if (scene.frames > 1)
-      refuse("duration", "dynamics: it gives one frame (set duration to 1/fps; got " + std::to_string(scene.frames) + " frames)");
+      refuse("duration", "dynamics: it gives one frame (set duration to 1/fps; got " +
+                             std::to_string(scene.frames) + " frames)");
   }
   return scene;
 }

@@ -5,10 +5,10 @@
 
 namespace loom::scene {
 
+using cloth::Vec3;
 using collision::RigidBodySpec;
 using collision::ShapeType;
 using collision::Transform;
-using cloth::Vec3;
 
 namespace {
 
@@ -50,7 +50,8 @@ std::function<Transform(double)> parse_body_motion(const JsonReader& m, const Tr
     times.push_back(k.number("t"));
     positions.push_back(k.vec3("position"));
     k.finish();
-    if (times.size() > 1 && !(times.back() > times[times.size() - 2])) k.fail("t", "keyframe times must increase strictly");
+    if (times.size() > 1 && !(times.back() > times[times.size() - 2]))
+      k.fail("t", "keyframe times must increase strictly");
   }
   if (times.empty()) m.fail("keyframes", "needs at least one keyframe");
   m.finish();
@@ -78,7 +79,8 @@ void parse_bodies(const JsonReader& root, Scene& scene) {
     const JsonReader& r = bodies[i];
     RigidBodySpec b;
     b.name = r.string("name", "body" + std::to_string(i));
-    const std::string shape = r.string("shape", std::nullopt, {"plane", "sphere", "capsule", "box", "cylinder"});
+    const std::string shape =
+        r.string("shape", std::nullopt, {"plane", "sphere", "capsule", "box", "cylinder"});
     if (shape == "plane") {
       b.shape.type = ShapeType::plane;
     } else if (shape == "sphere") {
@@ -110,7 +112,8 @@ void parse_bodies(const JsonReader& root, Scene& scene) {
         const JsonReader& a = att[k];
         collision::BodyAttachment ba;
         ba.cloth = a.integer("cloth", 0, 0);
-        if (ba.cloth >= static_cast<int>(scene.setup.cloths.size())) a.fail("cloth", "no cloth with this index");
+        if (ba.cloth >= static_cast<int>(scene.setup.cloths.size()))
+          a.fail("cloth", "no cloth with this index");
         const cloth::ClothMesh& mesh = *scene.setup.cloths[ba.cloth].mesh;
         if (a.has("vertex") == a.has("grid")) a.fail("", "give either 'vertex' or 'grid'");
         if (a.has("vertex")) {

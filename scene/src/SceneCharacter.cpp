@@ -100,7 +100,8 @@ void parse_character(const JsonReader& root, Scene& scene) {
         // (sqrt(3)/4 r^2) per vertex pair; the area is bounded by a 2.5 m x 2.5 m human-sized sheet unless
         // length and width say more.
         const double area = std::max(6.25, std::max(spec.length, 2.5) * std::max(spec.width, 2.5));
-        reserve_vertices(scene, g.child("resolution"), 2.0 * area / (std::sqrt(3.0) * spec.resolution * spec.resolution));
+        reserve_vertices(scene, g.child("resolution"),
+                         2.0 * area / (std::sqrt(3.0) * spec.resolution * spec.resolution));
       }
       if (spec.type == "skirt") spec.flare = g.number("flare", spec.flare, 0.0, true);
       if (spec.type == "obj") {
@@ -108,7 +109,8 @@ void parse_character(const JsonReader& root, Scene& scene) {
         spec.scale = g.number("scale", 1.0, 0.0, true);
         spec.translate = g.vec3("translate", cloth::Vec3::Zero());
         const nlohmann::json& aj = g.raw("attach");
-        if (!aj.is_object() || aj.empty()) g.fail("attach", "expected {\"obj group\": \"bone name\" or \"nearest\", ...}");
+        if (!aj.is_object() || aj.empty())
+          g.fail("attach", "expected {\"obj group\": \"bone name\" or \"nearest\", ...}");
         const JsonReader ar = g.object("attach");
         for (auto it = aj.begin(); it != aj.end(); ++it) spec.attach[it.key()] = ar.string(it.key());
         ar.finish();
@@ -116,9 +118,12 @@ void parse_character(const JsonReader& root, Scene& scene) {
       cloth::Material material = parse_material(g, file);
       const std::string model = g.string("model", "springs", cloth::model_names());
       // Later garments are fitted outside the earlier ones (layers).
-      const ch::Garment garment = ch::make_garment(spec, character->motion, character->rig, file, g.path(), layers);
-      layers.insert(layers.end(), garment.mesh->rest_positions().begin(), garment.mesh->rest_positions().end());
-      if (g.has("mass")) material.areal_density = g.number("mass", std::nullopt, 0.0, true) / garment.mesh->total_area();
+      const ch::Garment garment =
+          ch::make_garment(spec, character->motion, character->rig, file, g.path(), layers);
+      layers.insert(layers.end(), garment.mesh->rest_positions().begin(),
+                    garment.mesh->rest_positions().end());
+      if (g.has("mass"))
+        material.areal_density = g.number("mass", std::nullopt, 0.0, true) / garment.mesh->total_area();
       if (g.has("detail"))  // The garment shown as its curved-face surface
         scene.detail[static_cast<int>(scene.setup.cloths.size())] = parse_detail(g.object("detail"));
       g.finish();
@@ -127,7 +132,7 @@ void parse_character(const JsonReader& root, Scene& scene) {
   }
   // Arms kept clear of the attached garment vertices over the clip (an attached vertex cannot be pushed out).
   if (fit_radii) {
-    std::vector<std::pair<int, cloth::Vec3>> points;
+    std::vector<std::pair<int, cloth::Vec3> > points;
     for (const ch::Attachment& a : character->attachments) points.emplace_back(a.joint, a.local);
     character->rig.keep_clear_of(character->motion, points, 0.5 * capsule_gap);
   }

@@ -64,7 +64,8 @@ std::vector<Vec3> parse_points(const JsonReader& r, const std::string& key) {
 
 // A minimal OBJ reader for collider geometry: `v x y z` and `f a b c ...` (1-based, v/vt/vn allowed,
 // polygons fan-split); other lines are ignored. Errors name the OBJ file and line.
-void read_obj(const std::string& path, double scale, std::vector<Vec3>& vertices, std::vector<cloth::Tri>& tris) {
+void read_obj(const std::string& path, double scale, std::vector<Vec3>& vertices,
+              std::vector<cloth::Tri>& tris) {
   std::ifstream in(path);
   if (!in) throw Error(path, "", "cannot open OBJ file");
   std::string line;
@@ -76,7 +77,8 @@ void read_obj(const std::string& path, double scale, std::vector<Vec3>& vertices
     ss >> tag;
     if (tag == "v") {
       Vec3 p;
-      if (!(ss >> p.x() >> p.y() >> p.z()) || !p.allFinite()) throw Error(path, "line " + std::to_string(number), "bad vertex");
+      if (!(ss >> p.x() >> p.y() >> p.z()) || !p.allFinite())
+        throw Error(path, "line " + std::to_string(number), "bad vertex");
       vertices.push_back(scale * p);
     } else if (tag == "f") {
       std::vector<int> idx;
@@ -93,7 +95,8 @@ void read_obj(const std::string& path, double scale, std::vector<Vec3>& vertices
           throw Error(path, "line " + std::to_string(number), "face index '" + tok + "' is out of range");
         idx.push_back(k);
       }
-      if (idx.size() < 3) throw Error(path, "line " + std::to_string(number), "a face needs at least 3 vertices");
+      if (idx.size() < 3)
+        throw Error(path, "line " + std::to_string(number), "a face needs at least 3 vertices");
       for (size_t j = 1; j + 1 < idx.size(); ++j) tris.push_back({idx[0], idx[j], idx[j + 1]});
     }
   }
@@ -105,7 +108,8 @@ void read_obj(const std::string& path, double scale, std::vector<Vec3>& vertices
 // pose(t) = translate(velocity t) * rotate_about(centre, axis, rate t) * pose(0).
 std::function<Transform(double)> parse_motion(const JsonReader& m, const Transform& start) {
   if (m.has("keyframes")) {
-    if (m.has("velocity") || m.has("spin")) m.fail("keyframes", "give either 'keyframes' or 'velocity'/'spin', not both");
+    if (m.has("velocity") || m.has("spin"))
+      m.fail("keyframes", "give either 'keyframes' or 'velocity'/'spin', not both");
     std::vector<double> times;
     std::vector<Transform> poses;
     for (const JsonReader& k : m.objects("keyframes")) {
@@ -114,7 +118,8 @@ std::function<Transform(double)> parse_motion(const JsonReader& m, const Transfo
       p.linear() = k.has("rotation") ? parse_rotation(k, "rotation") : Eigen::Matrix3d(start.linear());
       p.translation() = k.vec3("position", start.translation());
       k.finish();
-      if (times.size() > 1 && !(times.back() > times[times.size() - 2])) k.fail("t", "keyframe times must increase strictly");
+      if (times.size() > 1 && !(times.back() > times[times.size() - 2]))
+        k.fail("t", "keyframe times must increase strictly");
       poses.push_back(p);
     }
     if (times.empty()) m.fail("keyframes", "needs at least one keyframe");
@@ -125,7 +130,9 @@ std::function<Transform(double)> parse_motion(const JsonReader& m, const Transfo
       const size_t k = std::upper_bound(times.begin(), times.end(), t) - times.begin();
       const double a = (t - times[k - 1]) / (times[k] - times[k - 1]);
       Transform out = Transform::Identity();
-      out.linear() = Eigen::Quaterniond(poses[k - 1].linear()).slerp(a, Eigen::Quaterniond(poses[k].linear())).toRotationMatrix();
+      out.linear() = Eigen::Quaterniond(poses[k - 1].linear())
+                         .slerp(a, Eigen::Quaterniond(poses[k].linear()))
+                         .toRotationMatrix();
       out.translation() = (1.0 - a) * poses[k - 1].translation() + a * poses[k].translation();
       return out;
     };
@@ -191,22 +198,26 @@ void parse_colliders(const JsonReader& root, Scene& scene) {
         s.vertices = parse_points(r, "vertices");
         if (s.type == ShapeType::mesh) {
           const nlohmann::json& t = r.raw("triangles");
-          if (!t.is_array() || t.empty()) r.fail("triangles", "expected an array of [i, j, k] vertex indices");
+          if (!t.is_array() || t.empty())
+            r.fail("triangles", "expected an array of [i, j, k] vertex indices");
           for (size_t k = 0; k < t.size(); ++k) {
             const auto& e = t[k];
             const std::string where = "triangles[" + std::to_string(k) + "]";
-            if (!e.is_array() || e.size() != 3 || !e[0].is_number_integer() || !e[1].is_number_integer() || !e[2].is_number_integer())
+            if (!e.is_array() || e.size() != 3 || !e[0].is_number_integer() || !e[1].is_number_integer() ||
+                !e[2].is_number_integer())
               r.fail(where, "expected [i, j, k]");
             // Checked as 64-bit values before narrowing: 2^32 + 1 is out of range, not 1.
             const long long last = static_cast<long long>(s.vertices.size()) - 1;
             cloth::Tri tri;
             for (int j = 0; j < 3; ++j)
-              tri[j] = static_cast<int>(r.integer_value(e[j], r.child(where) + "[" + std::to_string(j) + "]", 0, last));
+              tri[j] = static_cast<int>(
+                  r.integer_value(e[j], r.child(where) + "[" + std::to_string(j) + "]", 0, last));
             s.triangles.push_back(tri);
           }
         }
       }
-      if (s.type == ShapeType::mesh && s.triangles.empty()) r.fail(r.has("obj") ? "obj" : "triangles", "a mesh collider needs triangles");
+      if (s.type == ShapeType::mesh && s.triangles.empty())
+        r.fail(r.has("obj") ? "obj" : "triangles", "a mesh collider needs triangles");
       s.triangles = s.type == ShapeType::convex ? std::vector<cloth::Tri>{} : s.triangles;
       try {
         c.geometry = collision::build_collider_geometry(s, "");

@@ -17,7 +17,8 @@ void parse_collision(const JsonReader& root, Scene& scene) {
   if (c.has("layers")) {
     const std::vector<double> layers = c.numbers("layers");
     if (static_cast<int>(layers.size()) != n)
-      c.fail("layers", "expected one thickness per cloth (" + std::to_string(n) + "), got " + std::to_string(layers.size()));
+      c.fail("layers", "expected one thickness per cloth (" + std::to_string(n) + "), got " +
+                           std::to_string(layers.size()));
     for (int i = 0; i < n; ++i) {
       if (!(layers[i] > 0.0)) c.fail("layers", "entry " + std::to_string(i) + " must be > 0 (m)");
       s.thickness[i] = layers[i];

@@ -19,12 +19,14 @@ void check_input_file(const std::string& file, const std::string& field, const s
   const std::string what = path == file ? "" : path + ": ";
   if (!fs::exists(st)) throw Error(file, field, what + "no such file");
   if (fs::is_directory(st)) throw Error(file, field, what + "is a folder, not a file");
-  if (!fs::is_regular_file(st)) throw Error(file, field, what + "is not a regular file (a device, pipe or socket)");
+  if (!fs::is_regular_file(st))
+    throw Error(file, field, what + "is not a regular file (a device, pipe or socket)");
   const std::uintmax_t size = fs::file_size(path, ec);
   if (ec) throw Error(file, field, what + "cannot read its size: " + ec.message());
   if (size > kMaxInputBytes)
-    throw Error(file, field, what + "is " + show_bytes(static_cast<double>(size)) + ", more than the " +
-                                 show_bytes(static_cast<double>(kMaxInputBytes)) + " Loom reads");
+    throw Error(file, field,
+                what + "is " + show_bytes(static_cast<double>(size)) + ", more than the " +
+                    show_bytes(static_cast<double>(kMaxInputBytes)) + " Loom reads");
 }
 
 std::string input_file(Scene& scene, const std::string& field, const std::string& path) {
@@ -71,8 +73,9 @@ void reserve_vertices(Scene& scene, const std::string& field, double vertices) {
     std::snprintf(count, sizeof count, "%.3g", scene.vertices);
     throw Error(scene.file, field,
                 "the scene's cloths would have about " + std::string(count) + " vertices, which need about " +
-                    show_bytes(need) + " of memory (" + std::to_string(kBytesPerVertex) + " bytes per vertex); " +
-                    show_bytes(budget) + " is available: use fewer nodes or a coarser resolution");
+                    show_bytes(need) + " of memory (" + std::to_string(kBytesPerVertex) +
+                    " bytes per vertex); " + show_bytes(budget) +
+                    " is available: use fewer nodes or a coarser resolution");
   }
 }
 

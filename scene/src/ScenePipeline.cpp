@@ -12,7 +12,9 @@ namespace loom::scene {
 
 namespace {
 
-bool cloth_collision(const Scene& s) { return s.collision && (s.collision->self || s.setup.cloths.size() > 1); }
+bool cloth_collision(const Scene& s) {
+  return s.collision && (s.collision->self || s.setup.cloths.size() > 1);
+}
 
 }  // namespace
 
@@ -40,7 +42,8 @@ std::unique_ptr<ScenePipeline> build_pipeline(Scene scene) {
   }
 #ifdef LOOM_HAVE_BULLET
   if (!scene.colliders.empty())
-    throw Error(scene.file, "colliders", "cannot be combined with 'bodies': give static shapes as bodies (mass 0)");
+    throw Error(scene.file, "colliders",
+                "cannot be combined with 'bodies': give static shapes as bodies (mass 0)");
   if (scene.character) throw Error(scene.file, "character", "cannot be combined with 'bodies'");
   // The cloths as one BulletCloth in a Bullet world with the bodies; cloth-cloth collision as in
   // build_simulation. The colliders drawn and censused are the bodies at their poses.
@@ -52,8 +55,9 @@ std::unique_ptr<ScenePipeline> build_pipeline(Scene scene) {
   p->scene_ = std::move(scene);
   return p;
 #else
-  throw Error(scene.file, "bodies",
-              "rigid bodies need the Bullet bridge, and this loom was built without it (Debian: libbullet-dev)");
+  throw Error(
+      scene.file, "bodies",
+      "rigid bodies need the Bullet bridge, and this loom was built without it (Debian: libbullet-dev)");
 #endif
 }
 

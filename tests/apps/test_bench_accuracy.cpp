@@ -2,8 +2,6 @@
 // solver and both Bullet systems appear, the reference check is reported, bad options exit 2.
 #include <gtest/gtest.h>
 
-#include "CliRunner.h"
-
 #include <cmath>
 #include <cstdlib>
 #include <filesystem>
@@ -13,6 +11,8 @@
 #include <sstream>
 #include <string>
 #include <vector>
+
+#include "CliRunner.h"
 #include "TestDir.h"
 
 namespace {
@@ -59,9 +59,10 @@ TEST(BenchAccuracy, QuickRunWritesTheCsvWithEveryMethodAndTheReferenceCheck) {
   std::ifstream csv(out / "accuracy.csv");
   std::string line;
   ASSERT_TRUE(std::getline(csv, line));
-  EXPECT_EQ(line,
-            "system,method,size,config,threads,ms_per_frame,rms_error_max,rms_error_end,max_strain,mean_strain,"
-            "energy_drift,diverged");
+  EXPECT_EQ(
+      line,
+      "system,method,size,config,threads,ms_per_frame,rms_error_max,rms_error_end,max_strain,mean_strain,"
+      "energy_drift,diverged");
   std::map<std::string, int> rows_per_method;
   std::set<std::string> systems;
   while (std::getline(csv, line)) {
@@ -95,8 +96,8 @@ TEST(BenchAccuracy, QuickRunWritesTheCsvWithEveryMethodAndTheReferenceCheck) {
   ASSERT_EQ(f.size(), 8u);
   EXPECT_EQ(f[0], "8");
   EXPECT_GT(std::stod(f[4]), 0.0);
-  // The CSV holds 6 significant digits (relative rounding up to 5e-6 each): the quotient of two printed values
-  // matches the printed ratio to 1.5e-5.
+  // The CSV holds 6 significant digits (relative rounding up to 5e-6 each): the quotient of two printed
+  // values matches the printed ratio to 1.5e-5.
   EXPECT_NEAR(std::stod(f[5]), std::stod(f[3]) / std::stod(f[4]), 2e-5 * std::stod(f[5]) + 1e-12);
   EXPECT_EQ(f[6], std::stod(f[5]) < 0.01 ? "1" : "0");
   EXPECT_GT(std::stod(f[7]), 0.0);  // the hanging cloth stretches

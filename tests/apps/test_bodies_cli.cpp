@@ -18,8 +18,9 @@ bool have_bullet() { return run_loom("compare").err.find("unknown command") == s
 
 TEST(BodiesCli, TrampolineBoxBouncesBack) {
   const auto dir = test_dir() / "out";
-  const CliResult r = run_loom("run " + std::string(LOOM_SOURCE_DIR) +
-                               "/scenes/trampoline.json --frames 50 --set cloths.0.mesh.nodes=[13,13] --out " + dir.string());
+  const CliResult r =
+      run_loom("run " + std::string(LOOM_SOURCE_DIR) +
+               "/scenes/trampoline.json --frames 50 --set cloths.0.mesh.nodes=[13,13] --out " + dir.string());
   if (!have_bullet()) {
     EXPECT_EQ(r.code, 1);
     EXPECT_NE(r.err.find("bodies"), std::string::npos) << r.err;
@@ -45,9 +46,9 @@ TEST(BodiesCli, TrampolineBoxBouncesBack) {
   ASSERT_EQ(y.size(), 51u);
   const auto low = std::min_element(y.begin(), y.end());
   const double y_low = *low, y_after = *std::max_element(low, y.end());
-  EXPECT_LT(y_low, 0.5);                   // it fell into the sheet (rest height 0.5 + half size 0.1)
-  EXPECT_GT(low - y.begin(), 5);           // ... after falling for a while
-  EXPECT_GT(y_after, y_low + 0.3);         // and was thrown back up
+  EXPECT_LT(y_low, 0.5);            // it fell into the sheet (rest height 0.5 + half size 0.1)
+  EXPECT_GT(low - y.begin(), 5);    // ... after falling for a while
+  EXPECT_GT(y_after, y_low + 0.3);  // and was thrown back up
   EXPECT_GT(y.front(), y_low + 0.3);
   const nlohmann::json s = nlohmann::json::parse(slurp(dir / "summary.json"));
   EXPECT_EQ(s["frames"], 50);
@@ -58,7 +59,7 @@ TEST(BodiesCli, TrampolineBoxBouncesBack) {
   EXPECT_EQ(s["bodies"][0]["name"], "box");
   EXPECT_NEAR(s["bodies"][0]["position"][1].get<double>(), y.back(), 1e-6);
   EXPECT_EQ(s["bullet_substeps"], 4);
-  EXPECT_GE(s["cloth_steps"].get<long>(), 200);  // 50 frames x 4 Bullet substeps, more during the impact
+  EXPECT_GE(s["cloth_steps"].get<long>(), 200);   // 50 frames x 4 Bullet substeps, more during the impact
   EXPECT_LT(s["max_strain"].get<double>(), 0.5);  // bounded under the impact
   EXPECT_TRUE(s["stages"].contains("bullet_contacts"));
   // The usual outputs: stats rows for frames 0..50, OBJ frames.
@@ -72,12 +73,14 @@ TEST(BodiesCli, TrampolineBoxBouncesBack) {
 TEST(BodiesCli, BodiesWithCollidersOrCheckpointsRefused) {
   if (!have_bullet()) GTEST_SKIP() << "loom built without the Bullet bridge";
   const std::string scene = std::string(LOOM_SOURCE_DIR) + "/scenes/trampoline.json";
-  const CliResult cp = run_loom("run " + scene + " --frames 2 --checkpoint-every 1 --out " + (test_dir() / "cp").string());
+  const CliResult cp =
+      run_loom("run " + scene + " --frames 2 --checkpoint-every 1 --out " + (test_dir() / "cp").string());
   EXPECT_EQ(cp.code, 1);
   EXPECT_NE(cp.err.find("bodies"), std::string::npos) << cp.err;
   EXPECT_NE(cp.err.find("--checkpoint-every"), std::string::npos) << cp.err;
-  const CliResult col = run_loom("run " + scene + " --frames 2 --set 'colliders=[{\"shape\":\"sphere\",\"radius\":0.1}]' --out " +
-                                 (test_dir() / "col").string());
+  const CliResult col = run_loom(
+      "run " + scene + " --frames 2 --set 'colliders=[{\"shape\":\"sphere\",\"radius\":0.1}]' --out " +
+      (test_dir() / "col").string());
   EXPECT_EQ(col.code, 1);
   EXPECT_NE(col.err.find("colliders"), std::string::npos) << col.err;
   EXPECT_FALSE(std::filesystem::exists(test_dir() / "col" / "summary.json"));

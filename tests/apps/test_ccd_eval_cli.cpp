@@ -1,7 +1,6 @@
 // `loom ccd-eval`: one output line with the documented fields, exit codes, errors naming the file.
 #include <gtest/gtest.h>
-
-#include "CliRunner.h"
+#include <sys/wait.h>
 
 #include <cstdio>
 #include <cstdlib>
@@ -9,7 +8,8 @@
 #include <regex>
 #include <sstream>
 #include <string>
-#include <sys/wait.h>
+
+#include "CliRunner.h"
 
 namespace {
 
@@ -28,7 +28,8 @@ TEST(CcdEvalCli, PrintsOneLineWithZeroFalseNegatives) {
     ASSERT_EQ(r.code, 0) << r.err;
     std::smatch m;
     const std::regex line(
-        "queries=(\\d+) positives=(\\d+) false_negatives=(\\d+) false_positives=(\\d+) us_per_query=[0-9.]+\\n");
+        "queries=(\\d+) positives=(\\d+) false_negatives=(\\d+) false_positives=(\\d+) "
+        "us_per_query=[0-9.]+\\n");
     ASSERT_TRUE(std::regex_match(r.out, m, line)) << r.out;
     EXPECT_EQ(m[1], "179");  // 125 VF + 54 EE queries
     EXPECT_EQ(m[3], "0") << extra;

@@ -15,13 +15,18 @@ using loom::test::write_json_scene;
 
 nlohmann::json sheet(const std::string& name, const std::string& plane, const std::vector<double>& origin) {
   return {{"name", name},
-          {"mesh", {{"type", "grid"}, {"size", {0.4, 0.4}}, {"nodes", {9, 9}}, {"plane", plane}, {"origin", origin}}},
+          {"mesh",
+           {{"type", "grid"}, {"size", {0.4, 0.4}}, {"nodes", {9, 9}}, {"plane", plane}, {"origin", origin}}},
           {"material", "cotton"}};
 }
 
 nlohmann::json base_scene() {
-  return {{"name", "census"}, {"duration", 0.05}, {"fps", 60}, {"gravity", {0, 0, 0}},
-          {"solver", {{"method", "implicit_euler"}, {"substeps", 1}}}, {"output", {{"frames", false}}}};
+  return {{"name", "census"},
+          {"duration", 0.05},
+          {"fps", 60},
+          {"gravity", {0, 0, 0}},
+          {"solver", {{"method", "implicit_euler"}, {"substeps", 1}}},
+          {"output", {{"frames", false}}}};
 }
 
 nlohmann::json summary_of(const std::string& out) {
@@ -67,11 +72,13 @@ TEST(CensusCli, CollisionKeyErrorsNameThePath) {
   nlohmann::json j = base_scene();
   j["cloths"] = {sheet("a", "xz", {-0.2, 0.5, -0.2}), sheet("b", "xz", {-0.2, 0.6, -0.2})};
   j["collision"] = {{"layers", {0.002}}};
-  const auto r = run_loom("run " + write_json_scene("bad.json", j) + " --out " + (test_dir() / "out").string());
+  const auto r =
+      run_loom("run " + write_json_scene("bad.json", j) + " --out " + (test_dir() / "out").string());
   EXPECT_EQ(r.code, 1);
   EXPECT_NE(r.err.find("collision.layers"), std::string::npos) << r.err;
   j["collision"] = {{"passes", 2}, {"bogus", 1}};
-  const auto r2 = run_loom("run " + write_json_scene("bad2.json", j) + " --out " + (test_dir() / "out").string());
+  const auto r2 =
+      run_loom("run " + write_json_scene("bad2.json", j) + " --out " + (test_dir() / "out").string());
   EXPECT_EQ(r2.code, 1);
   EXPECT_NE(r2.err.find("collision.bogus"), std::string::npos) << r2.err;
 }

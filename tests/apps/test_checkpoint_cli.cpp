@@ -1,5 +1,6 @@
 // Checkpoint and resume through `loom run`:
-//   - `--checkpoint-every N` then `--resume DIR` gives the same frames (OBJ text), the same stats rows and the
+//   - `--checkpoint-every N` then `--resume DIR` gives the same frames (OBJ text), the same stats rows and
+//   the
 //     same PC2 cache as one uninterrupted run;
 //   - Ctrl-C (SIGINT to a running `loom run`) stops at a frame boundary with exit 130, valid outputs
 //     (summary.json "completed": false, "interrupted": true; no half-written frame) and a checkpoint that
@@ -11,12 +12,10 @@
 #include <sys/wait.h>
 #include <unistd.h>
 
-#include "CliRunner.h"
-
 #include <chrono>
 #include <cmath>
-#include <cstring>
 #include <cstdint>
+#include <cstring>
 #include <filesystem>
 #include <fstream>
 #include <nlohmann/json.hpp>
@@ -24,6 +23,8 @@
 #include <sstream>
 #include <string>
 #include <thread>
+
+#include "CliRunner.h"
 
 namespace {
 
@@ -71,7 +72,9 @@ std::string fingerprint_text(const fs::path& out, int frames) {
   all += slurp(out / "pc2" / "sheet.pc2");
   return all;
 }
-size_t run_fingerprint(const fs::path& out, int frames) { return std::hash<std::string>()(fingerprint_text(out, frames)); }
+size_t run_fingerprint(const fs::path& out, int frames) {
+  return std::hash<std::string>()(fingerprint_text(out, frames));
+}
 
 TEST(Checkpoint, ResumeIsBitIdenticalToAnUninterruptedRun) {
   const fs::path dir = loom::test::test_dir();
@@ -106,9 +109,11 @@ TEST(Checkpoint, ResumeWithCharacterCollidersAndSelfCollisionIsBitIdentical) {
   fs::remove_all(whole);
   fs::remove_all(parts);
   const std::string scene = std::string(LOOM_SOURCE_DIR) + "/scenes/character_cape.json";
-  const std::string set = " --set 'character.garments[0].resolution=0.1' --set 'collision={\"self\":true}' --set output.every=1 ";
+  const std::string set =
+      " --set 'character.garments[0].resolution=0.1' --set 'collision={\"self\":true}' --set output.every=1 ";
   auto r = loom::test::run_loom("run " + scene + set + "--frames 10 --out " + whole.string());
-  if (r.err.find("this build has no loom::characters") != std::string::npos) GTEST_SKIP() << "no loom::characters";
+  if (r.err.find("this build has no loom::characters") != std::string::npos)
+    GTEST_SKIP() << "no loom::characters";
   ASSERT_EQ(r.code, 0) << r.err;
   r = loom::test::run_loom("run " + scene + set + "--frames 7 --checkpoint-every 3 --out " + parts.string());
   ASSERT_EQ(r.code, 0) << r.err;
@@ -128,7 +133,9 @@ TEST(Checkpoint, ResumeRefusesAChangedScene) {
   const std::string scene = write_scene(dir);
   const fs::path out = dir / "out";
   fs::remove_all(out);
-  ASSERT_EQ(loom::test::run_loom("run " + scene + " --frames 6 --checkpoint-every 2 --out " + out.string()).code, 0);
+  ASSERT_EQ(
+      loom::test::run_loom("run " + scene + " --frames 6 --checkpoint-every 2 --out " + out.string()).code,
+      0);
   std::string changed = kScene;
   changed.replace(changed.find("\"mass\": 0.2"), 11, "\"mass\": 0.3");
   write_scene(dir, changed);
@@ -152,7 +159,8 @@ TEST(Checkpoint, SigintStopsAtAFrameBoundaryAndResumesBitIdentically) {
   if (pid == 0) {
     const std::string log = (dir / "child.txt").string();
     if (!freopen(log.c_str(), "w", stdout) || !freopen(log.c_str(), "a", stderr)) _exit(99);
-    execl(LOOM_BINARY, LOOM_BINARY, "run", scene.c_str(), "--frames", "99999", "--out", out.string().c_str(), (char*)nullptr);
+    execl(LOOM_BINARY, LOOM_BINARY, "run", scene.c_str(), "--frames", "99999", "--out", out.string().c_str(),
+          (char*)nullptr);
     _exit(98);
   }
   // Wait for frame 5 on disk, then Ctrl-C.
@@ -181,7 +189,8 @@ TEST(Checkpoint, SigintStopsAtAFrameBoundaryAndResumesBitIdentically) {
   const int total = stopped + 10;
   auto r = loom::test::run_loom("run --resume " + out.string() + " --frames " + std::to_string(total));
   ASSERT_EQ(r.code, 0) << r.err;
-  r = loom::test::run_loom("run " + scene + " --frames " + std::to_string(total) + " --out " + whole.string());
+  r = loom::test::run_loom("run " + scene + " --frames " + std::to_string(total) + " --out " +
+                           whole.string());
   ASSERT_EQ(r.code, 0) << r.err;
   EXPECT_EQ(run_fingerprint(out, total), run_fingerprint(whole, total));
 }
@@ -189,7 +198,8 @@ TEST(Checkpoint, SigintStopsAtAFrameBoundaryAndResumesBitIdentically) {
 TEST(Guard, HopelessRunStopsWithSceneTimeAndCauseAndNoNaNAnywhere) {
   const fs::path dir = loom::test::test_dir();
   std::string text = kScene;
-  text.replace(text.find("\"method\": \"bdf2\", \"substeps\": 2"), 31, "\"method\": \"explicit_euler\", \"substeps\": 1");
+  text.replace(text.find("\"method\": \"bdf2\", \"substeps\": 2"), 31,
+               "\"method\": \"explicit_euler\", \"substeps\": 1");
   text.replace(text.find("[\"obj\", \"pc2\"]"), 14, "[\"obj\", \"pc2\", \"gltf\"]");
   const std::string scene = write_scene(dir, text);
   const fs::path out = dir / "out";
@@ -197,7 +207,8 @@ TEST(Guard, HopelessRunStopsWithSceneTimeAndCauseAndNoNaNAnywhere) {
   const auto r = loom::test::run_loom("run " + scene + " --frames 60 --out " + out.string());
   EXPECT_EQ(r.code, 3) << r.err;
   EXPECT_NE(r.err.find(scene), std::string::npos) << r.err;
-  EXPECT_TRUE(r.err.find("exploded") != std::string::npos || r.err.find("non-finite") != std::string::npos) << r.err;
+  EXPECT_TRUE(r.err.find("exploded") != std::string::npos || r.err.find("non-finite") != std::string::npos)
+      << r.err;
   EXPECT_NE(r.err.find("(t = "), std::string::npos) << r.err;
   EXPECT_NE(r.err.find("substeps"), std::string::npos) << r.err;
   const auto j = nlohmann::json::parse(slurp(out / "summary.json"));

@@ -2,14 +2,14 @@
 // texts, and bad input that exits non-zero without leaving a summary behind.
 #include <gtest/gtest.h>
 
-#include "CliRunner.h"
-
 #include <cstdlib>
 #include <filesystem>
 #include <fstream>
 #include <nlohmann/json.hpp>
 #include <sstream>
 #include <string>
+
+#include "CliRunner.h"
 
 namespace {
 
@@ -42,14 +42,15 @@ TEST(Cli, RunHangingClothWritesFramesStatsAndSummary) {
   std::ifstream csv(out / "stats.csv");
   std::string header, line;
   std::getline(csv, header);
-  for (const char* col : {"time", "kinetic_energy", "potential_energy", "elastic_energy", "max_strain", "mean_strain",
-                          "ms_solve", "ms_pins", "ms_solve/springs"})
+  for (const char* col : {"time", "kinetic_energy", "potential_energy", "elastic_energy", "max_strain",
+                          "mean_strain", "ms_solve", "ms_pins", "ms_solve/springs"})
     EXPECT_NE(header.find(col), std::string::npos) << col;
   int rows = 0;
   while (std::getline(csv, line)) ++rows;
   EXPECT_EQ(rows, 11);
   const auto j = nlohmann::json::parse(slurp(out / "summary.json"));
-  for (const char* key : {"frames", "sim_seconds", "wall_seconds", "ms_per_frame", "stages", "max_strain", "mean_strain", "finite"})
+  for (const char* key : {"frames", "sim_seconds", "wall_seconds", "ms_per_frame", "stages", "max_strain",
+                          "mean_strain", "finite"})
     EXPECT_TRUE(j.contains(key)) << key;
   EXPECT_EQ(j["frames"], 10);
   EXPECT_NEAR(j["sim_seconds"].get<double>(), 10.0 / 60.0, 1e-12);
@@ -58,7 +59,8 @@ TEST(Cli, RunHangingClothWritesFramesStatsAndSummary) {
   EXPECT_TRUE(j["stages"].contains("solve"));
   EXPECT_TRUE(j["stages"].contains("pins"));
   // The hanging cloth has no drag: no drag stage at all.
-  for (auto it = j["stages"].begin(); it != j["stages"].end(); ++it) EXPECT_EQ(it.key().find("drag"), std::string::npos) << it.key();
+  for (auto it = j["stages"].begin(); it != j["stages"].end(); ++it)
+    EXPECT_EQ(it.key().find("drag"), std::string::npos) << it.key();
   // Positions in the last frame moved down from the start (gravity acted) and are finite numbers.
   const std::string last = slurp(out / "frames" / "frame_00010.obj");
   EXPECT_NE(last.find("o sheet"), std::string::npos);
@@ -82,7 +84,9 @@ TEST(Cli, FlagSceneHasADragStageAndProfileTable) {
 
 TEST(Cli, SetOverridesAnySceneValue) {
   const fs::path out = fresh_dir("verlet");
-  const Result r = run(kScenes + "hanging_cloth.json --frames 2 --set solver.method=verlet --set solver.substeps=120 --out " + out.string());
+  const Result r = run(
+      kScenes + "hanging_cloth.json --frames 2 --set solver.method=verlet --set solver.substeps=120 --out " +
+      out.string());
   ASSERT_EQ(r.code, 0) << r.err;
   const auto j = nlohmann::json::parse(slurp(out / "summary.json"));
   EXPECT_EQ(j["solver"], "verlet");
@@ -102,13 +106,15 @@ TEST(Cli, HelpTextsExplainEveryOption) {
   EXPECT_NE(r.out.find("loom run"), std::string::npos);
   r = run("run --help");
   EXPECT_EQ(r.code, 0);
-  for (const char* opt : {"--out", "--frames", "--threads", "--profile", "--set"}) EXPECT_NE(r.out.find(opt), std::string::npos) << opt;
+  for (const char* opt : {"--out", "--frames", "--threads", "--profile", "--set"})
+    EXPECT_NE(r.out.find(opt), std::string::npos) << opt;
 }
 
 TEST(Cli, BadInputExitsNonZeroWithAClearMessageAndNoOutput) {
   const fs::path out = fresh_dir("bad");
   const fs::path bad = loom::test::test_dir() / "bad.json";
-  std::ofstream(bad) << "{\"duration\": 1, \"cloths\": [{\"mesh\": {\"type\": \"grid\", \"size\": [1, 1], \"nodes\": [5, 5]}, \"mass\": -1}]}";
+  std::ofstream(bad) << "{\"duration\": 1, \"cloths\": [{\"mesh\": {\"type\": \"grid\", \"size\": [1, 1], "
+                        "\"nodes\": [5, 5]}, \"mass\": -1}]}";
   Result r = run("run " + bad.string() + " --out " + out.string());
   EXPECT_EQ(r.code, 1);
   EXPECT_NE(r.err.find(bad.string() + ": cloths[0].mass: must be > 0"), std::string::npos) << r.err;
@@ -134,10 +140,12 @@ TEST(Cli, UnwritableOutputFolderIsAnError) {
 TEST(Cli, DivergedRunIsReportedNotPassedOffAsWhole) {
   // Far above the explicit stability limit: the state explodes to non-finite values.
   const fs::path out = fresh_dir("diverged");
-  const Result r = run(kScenes + "hanging_cloth.json --frames 200 --set solver.substeps=1 --out " + out.string());
+  const Result r =
+      run(kScenes + "hanging_cloth.json --frames 200 --set solver.substeps=1 --out " + out.string());
   EXPECT_EQ(r.code, 3) << r.err;
   // The guard names the cause: non-finite, or an explosion caught before it.
-  EXPECT_TRUE(r.err.find("non-finite") != std::string::npos || r.err.find("exploded") != std::string::npos) << r.err;
+  EXPECT_TRUE(r.err.find("non-finite") != std::string::npos || r.err.find("exploded") != std::string::npos)
+      << r.err;
   const auto j = nlohmann::json::parse(slurp(out / "summary.json"));
   EXPECT_FALSE(j["finite"].get<bool>());
   EXPECT_TRUE(j.contains("error"));

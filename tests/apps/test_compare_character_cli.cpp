@@ -13,14 +13,16 @@ namespace {
 
 nlohmann::json run_character_compare(const std::string& sub) {
   const auto dir = test_dir() / sub;
-  const CliResult r = run_loom("compare " + std::string(LOOM_SOURCE_DIR) +
-                               "/scenes/character_cape.json --frames 20 --set character.garments.0.resolution=0.1 --out " +
-                               dir.string());
+  const CliResult r =
+      run_loom("compare " + std::string(LOOM_SOURCE_DIR) +
+               "/scenes/character_cape.json --frames 20 --set character.garments.0.resolution=0.1 --out " +
+               dir.string());
   if (r.code == 2 && r.err.find("unknown command") != std::string::npos) return nullptr;
   if (r.code == 1 && r.err.find("no loom::characters") != std::string::npos) return nullptr;
   EXPECT_EQ(r.code, 0) << r.err;
   const std::string csv = slurp(dir / "compare.csv");
-  EXPECT_NE(csv.find("system,available,ms_per_frame,max_strain,mean_strain,max_penetration,diverged\n"), std::string::npos);
+  EXPECT_NE(csv.find("system,available,ms_per_frame,max_strain,mean_strain,max_penetration,diverged\n"),
+            std::string::npos);
   EXPECT_NE(csv.find("\nloom,1,"), std::string::npos) << csv;
   EXPECT_NE(csv.find("\nbullet_classic,1,"), std::string::npos) << csv;
   EXPECT_NE(csv.find("\nbullet_deformable,0,"), std::string::npos) << csv;

@@ -11,12 +11,14 @@ namespace {
 
 nlohmann::json run_compare(const std::string& scene, const std::string& extra, const std::string& sub) {
   const auto dir = test_dir() / sub;
-  const CliResult r = run_loom("compare " + std::string(LOOM_SOURCE_DIR) + "/scenes/" + scene + " --out " + dir.string() + " " + extra);
+  const CliResult r = run_loom("compare " + std::string(LOOM_SOURCE_DIR) + "/scenes/" + scene + " --out " +
+                               dir.string() + " " + extra);
   if (r.code == 2 && r.err.find("unknown command") != std::string::npos) return nullptr;
   EXPECT_EQ(r.code, 0) << r.err;
   EXPECT_TRUE(std::filesystem::exists(dir / "compare.csv"));
   const std::string csv = slurp(dir / "compare.csv");
-  EXPECT_NE(csv.find("system,available,ms_per_frame,max_strain,mean_strain,max_penetration,diverged"), std::string::npos);
+  EXPECT_NE(csv.find("system,available,ms_per_frame,max_strain,mean_strain,max_penetration,diverged"),
+            std::string::npos);
   return nlohmann::json::parse(slurp(dir / "compare.json"));
 }
 
@@ -60,7 +62,8 @@ TEST(CompareCli, BadInput) {
   const CliResult none = run_loom("compare");
   if (none.err.find("unknown command") != std::string::npos) GTEST_SKIP();
   EXPECT_EQ(none.code, 2);
-  const CliResult frames = run_loom("compare " + std::string(LOOM_SOURCE_DIR) + "/scenes/trampoline.json --frames 0");
+  const CliResult frames =
+      run_loom("compare " + std::string(LOOM_SOURCE_DIR) + "/scenes/trampoline.json --frames 0");
   EXPECT_EQ(frames.code, 1);
   EXPECT_NE(frames.err.find("--frames"), std::string::npos);
 }

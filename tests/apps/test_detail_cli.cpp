@@ -4,8 +4,8 @@
 #include <gtest/gtest.h>
 
 #include <algorithm>
-#include <cmath>
 #include <array>
+#include <cmath>
 #include <cstdio>
 #include <filesystem>
 #include <fstream>
@@ -72,9 +72,12 @@ TEST(DetailCli, WrinklesDisplaceTheRefinedSurfaceAndBadValuesAreRefused) {
   const fs::path plain = dir / "detail_plain", wr = dir / "detail_wrinkles";
   fs::remove_all(plain);
   fs::remove_all(wr);
-  ASSERT_EQ(loom::test::run_loom(kScenes + "hanging_cloth_detail.json --frames 30 --out " + plain.string()).code, 0);
-  const auto r = loom::test::run_loom(kScenes + "hanging_cloth_detail.json --frames 30 --out " + wr.string() +
-                                      " --set 'cloths[0].detail.wrinkles={\"amplitude\":0.01,\"wavelength\":0.05}'");
+  ASSERT_EQ(
+      loom::test::run_loom(kScenes + "hanging_cloth_detail.json --frames 30 --out " + plain.string()).code,
+      0);
+  const auto r =
+      loom::test::run_loom(kScenes + "hanging_cloth_detail.json --frames 30 --out " + wr.string() +
+                           " --set 'cloths[0].detail.wrinkles={\"amplitude\":0.01,\"wavelength\":0.05}'");
   ASSERT_EQ(r.code, 0) << r.err;
   const auto a = obj_vertices(plain / "frames" / "frame_00030.obj");
   const auto b = obj_vertices(wr / "frames" / "frame_00030.obj");
@@ -84,8 +87,9 @@ TEST(DetailCli, WrinklesDisplaceTheRefinedSurfaceAndBadValuesAreRefused) {
     largest = std::max(largest, std::hypot(a[i][0] - b[i][0], a[i][1] - b[i][1], a[i][2] - b[i][2]));
   EXPECT_GT(largest, 1e-3);
   EXPECT_LE(largest, 0.01 + 1e-9);
-  const auto bad = loom::test::run_loom(kScenes + "hanging_cloth_detail.json --frames 1 --out " + wr.string() +
-                                        " --set 'cloths[0].detail.wrinkles={\"wavelength\":0}'");
+  const auto bad =
+      loom::test::run_loom(kScenes + "hanging_cloth_detail.json --frames 1 --out " + wr.string() +
+                           " --set 'cloths[0].detail.wrinkles={\"wavelength\":0}'");
   EXPECT_NE(bad.code, 0);
   EXPECT_NE(bad.err.find("cloths[0].detail.wrinkles.wavelength"), std::string::npos) << bad.err;
 }

@@ -1,13 +1,13 @@
 // `loom fabric-test` end to end: the --json contract, the report files, and errors.
 #include <gtest/gtest.h>
 
-#include "CliRunner.h"
-
 #include <cstdlib>
 #include <filesystem>
 #include <fstream>
 #include <nlohmann/json.hpp>
 #include <sstream>
+
+#include "CliRunner.h"
 
 namespace {
 
@@ -73,7 +73,8 @@ TEST(FabricTestCli, CantileverDefaultsToAValidatedModel) {
   EXPECT_EQ(j["model"], "choi_ko");
   EXPECT_LT(std::abs(j["error"].get<double>()), 1.5) << r.out;
   EXPECT_EQ(r.err.find("warning"), std::string::npos) << r.err;
-  const Result s = run("fabric-test cantilever --model springs --resolution 9 --json --out " + (loom::test::test_dir() / "s").string());
+  const Result s = run("fabric-test cantilever --model springs --resolution 9 --json --out " +
+                       (loom::test::test_dir() / "s").string());
   EXPECT_NE(s.err.find("warning: --model springs"), std::string::npos) << s.err;
 }
 

@@ -29,24 +29,39 @@ nlohmann::json pierce_scene() {
   nlohmann::json upper_pins = nlohmann::json::array();
   for (int i = 0; i < 3; ++i)
     for (int k = 0; k < 3; ++k) upper_pins.push_back({{"grid", {i, k}}});
-  return {{"name", "pierce"}, {"duration", 0.15}, {"fps", 60}, {"gravity", {0, 0, 0}},
+  return {{"name", "pierce"},
+          {"duration", 0.15},
+          {"fps", 60},
+          {"gravity", {0, 0, 0}},
           {"solver", {{"method", "implicit_euler"}, {"substeps", 2}}},
           {"guard", {{"max_halvings", 1}}},
           {"collision", {{"self", true}}},
           {"output", {{"frames", true}}},
           {"cloths",
            {{{"name", "lower"},
-             {"mesh", {{"type", "grid"}, {"size", {0.4, 0.4}}, {"nodes", {5, 5}}, {"plane", "xz"}, {"origin", {-0.2, 0.0, -0.2}}}},
+             {"mesh",
+              {{"type", "grid"},
+               {"size", {0.4, 0.4}},
+               {"nodes", {5, 5}},
+               {"plane", "xz"},
+               {"origin", {-0.2, 0.0, -0.2}}}},
              {"material", "cotton"},
-             {"pins", {{{"vertex", 12}, {"path", {{"times", {0, 0.1}}, {"offsets", {{0, 0, 0}, {0, 0.1, 0}}}}}}}}},
+             {"pins",
+              {{{"vertex", 12}, {"path", {{"times", {0, 0.1}}, {"offsets", {{0, 0, 0}, {0, 0.1, 0}}}}}}}}},
             {{"name", "upper"},
-             {"mesh", {{"type", "grid"}, {"size", {0.3, 0.3}}, {"nodes", {3, 3}}, {"plane", "xz"}, {"origin", {-0.13, 0.05, -0.17}}}},
+             {"mesh",
+              {{"type", "grid"},
+               {"size", {0.3, 0.3}},
+               {"nodes", {3, 3}},
+               {"plane", "xz"},
+               {"origin", {-0.13, 0.05, -0.17}}}},
              {"material", "cotton"},
              {"pins", upper_pins}}}}};
 }
 
 TEST(IntersectionGuardCli, OnByDefaultWithCollisionAndStopsNamingTheCause) {
-  const std::string scene = write_json_scene("pierce.json", pierce_scene()), out = (test_dir() / "out").string();
+  const std::string scene = write_json_scene("pierce.json", pierce_scene()),
+                    out = (test_dir() / "out").string();
   const auto r = run_loom("run " + scene + " --out " + out);
   ASSERT_EQ(r.code, 3) << r.err;
   EXPECT_NE(r.err.find("pierce.json: cloth intersections: "), std::string::npos) << r.err;
@@ -55,7 +70,8 @@ TEST(IntersectionGuardCli, OnByDefaultWithCollisionAndStopsNamingTheCause) {
   EXPECT_NE(r.err.find("also with 4 substeps; stopped, frames up to "), std::string::npos) << r.err;
   const nlohmann::json s = summary_of(out);
   EXPECT_FALSE(s["completed"].get<bool>());
-  EXPECT_FALSE(s["finite"].get<bool>());  // as every guard stop: the run did not end on a good frame it was asked for
+  EXPECT_FALSE(
+      s["finite"].get<bool>());  // as every guard stop: the run did not end on a good frame it was asked for
   const int valid = s["frames"].get<int>();
   EXPECT_GE(valid, 1);
   EXPECT_LT(valid, 6);  // the vertex reaches the upper sheet (0.05 m) at frame 3

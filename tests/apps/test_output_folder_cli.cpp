@@ -8,9 +8,6 @@
 //   - empty paths (unset shell variables) are errors; frame numbers past 99999 keep their sort order;
 //   - memory and threads are bounded before anything is allocated; NaN is never written.
 #include <gtest/gtest.h>
-
-#include "CliRunner.h"
-
 #include <sys/wait.h>
 
 #include <algorithm>
@@ -20,6 +17,8 @@
 #include <nlohmann/json.hpp>
 #include <string>
 #include <vector>
+
+#include "CliRunner.h"
 
 namespace {
 
@@ -57,8 +56,9 @@ void write(const fs::path& p, const std::string& text) {
 }
 
 // Files a user keeps in a folder, under names Loom also writes or used to delete.
-const std::vector<std::string> kForeign = {"pc2/keep.pc2", "checkpoint/notes.txt", "animation.gltf", "animation.bin",
-                                           "bodies.csv", "frames/frame_00007.obj", "mesh.obj", "notes.txt"};
+const std::vector<std::string> kForeign = {
+    "pc2/keep.pc2", "checkpoint/notes.txt",   "animation.gltf", "animation.bin",
+    "bodies.csv",   "frames/frame_00007.obj", "mesh.obj",       "notes.txt"};
 
 TEST(OutputFolder, RefusesAFolderItDidNotWriteAndTouchesNothing) {
   const fs::path dir = loom::test::test_dir(), out = dir / "mine";
@@ -143,8 +143,9 @@ TEST(OutputFolder, SceneNameNeverBecomesAPath) {
   write(target / "frames" / "frame_00001.obj", "x");
   for (const std::string& name : std::vector<std::string>{target.string(), "../../x", "a/b"}) {
     // No --out: the default folder out/<name> would be the name itself; run from the scratch folder.
-    const std::string cmd = "cd " + dir.string() + " && " + LOOM_BINARY + " run " + scene + " --frames 1 --set 'name=" + name +
-                            "' >" + (dir / "o.txt").string() + " 2>" + (dir / "e.txt").string();
+    const std::string cmd = "cd " + dir.string() + " && " + LOOM_BINARY + " run " + scene +
+                            " --frames 1 --set 'name=" + name + "' >" + (dir / "o.txt").string() + " 2>" +
+                            (dir / "e.txt").string();
     const int status = std::system(cmd.c_str());
     EXPECT_EQ(WEXITSTATUS(status), 1) << name;
     EXPECT_NE(slurp(dir / "e.txt").find("name"), std::string::npos) << slurp(dir / "e.txt");
@@ -159,7 +160,8 @@ TEST(OutputFolder, SceneNameNeverBecomesAPath) {
 TEST(OutputFolder, EmptyPathsAreErrorsNotDefaults) {
   const fs::path dir = loom::test::test_dir();
   const std::string scene = write_scene(dir);
-  for (const std::string& args : std::vector<std::string>{"run --resume ''", "run " + scene + " --out ''", "run ''"}) {
+  for (const std::string& args :
+       std::vector<std::string>{"run --resume ''", "run " + scene + " --out ''", "run ''"}) {
     const auto r = run_loom(args);
     EXPECT_EQ(r.code, 2) << args;
     EXPECT_NE(r.err.find("empty"), std::string::npos) << args << ": " << r.err;
@@ -169,7 +171,8 @@ TEST(OutputFolder, EmptyPathsAreErrorsNotDefaults) {
 TEST(OutputFolder, FrameNamesPastNinetyNineThousandKeepTheirOrder) {
   const fs::path dir = loom::test::test_dir(), out = dir / "out";
   std::string text = kScene;
-  text = with(text, "\"output\": {\"formats\": [\"obj\", \"pc2\", \"gltf\"]}", "\"output\": {\"every\": 50000}");
+  text =
+      with(text, "\"output\": {\"formats\": [\"obj\", \"pc2\", \"gltf\"]}", "\"output\": {\"every\": 50000}");
   text = with(text, "\"nodes\": [5, 5]", "\"nodes\": [2, 2]");
   text = with(text, "\"substeps\": 4", "\"substeps\": 1");
   // At rest (no gravity, no pins): 100000 cheap frames.
@@ -222,14 +225,17 @@ TEST(Resources, ScenesThatAreNotFilesAreRefusedWithoutReading) {
     const auto r = run_loom("run " + s + " --out " + (dir / "out").string());
     EXPECT_EQ(r.code, 1) << s;
     EXPECT_NE(r.err.find(s), std::string::npos) << r.err;
-    EXPECT_TRUE(r.err.find("is a folder") != std::string::npos || r.err.find("not a regular file") != std::string::npos) << r.err;
+    EXPECT_TRUE(r.err.find("is a folder") != std::string::npos ||
+                r.err.find("not a regular file") != std::string::npos)
+        << r.err;
   }
 }
 
 TEST(Nan, NonFiniteStartIsNamedAndNothingIsWritten) {
   const fs::path dir = loom::test::test_dir(), out = dir / "out";
   const std::string scene = write_scene(dir);
-  const auto r = run_loom("run " + scene + " --frames 2 --set 'cloths[0].velocity=[1e200,0,0]' --out " + out.string());
+  const auto r =
+      run_loom("run " + scene + " --frames 2 --set 'cloths[0].velocity=[1e200,0,0]' --out " + out.string());
   EXPECT_EQ(r.code, 3) << r.err;
   EXPECT_NE(r.err.find("not finite"), std::string::npos) << r.err;
   const auto j = nlohmann::json::parse(slurp(out / "summary.json"));
@@ -268,7 +274,9 @@ void expect_refused(const CheckpointRun& c, const std::string& what, const std::
 }
 
 std::string read_bytes(const fs::path& p) { return slurp(p); }
-void write_bytes(const fs::path& p, const std::string& s) { std::ofstream(p, std::ios::binary | std::ios::trunc) << s; }
+void write_bytes(const fs::path& p, const std::string& s) {
+  std::ofstream(p, std::ios::binary | std::ios::trunc) << s;
+}
 
 TEST(CheckpointTrust, FlippedBitIsRefusedByChecksum) {
   const CheckpointRun c = checkpointed();
@@ -338,8 +346,8 @@ TEST(CheckpointTrust, ResumeWorksFromAnotherWorkingFolder) {
   const std::string run = "cd " + dir.string() + " && " + LOOM_BINARY +
                           " run scene.json --frames 4 --checkpoint-every 2 --out out >/dev/null 2>&1";
   ASSERT_EQ(WEXITSTATUS(std::system(run.c_str())), 0);
-  const std::string resume = "cd / && " + std::string(LOOM_BINARY) + " run --resume " + (dir / "out").string() +
-                             " --frames 6 >/dev/null 2>" + (dir / "e.txt").string();
+  const std::string resume = "cd / && " + std::string(LOOM_BINARY) + " run --resume " +
+                             (dir / "out").string() + " --frames 6 >/dev/null 2>" + (dir / "e.txt").string();
   ASSERT_EQ(WEXITSTATUS(std::system(resume.c_str())), 0) << slurp(dir / "e.txt");
   const auto j = nlohmann::json::parse(slurp(dir / "out" / "summary.json"));
   EXPECT_TRUE(j["completed"].get<bool>());

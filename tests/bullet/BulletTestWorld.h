@@ -54,7 +54,8 @@ struct TestWorld {
 
 // A soft test fabric (500 N/m, 0.3 kg/m²) on an n x n grid of side `size` in the xz plane, node (0,0) at
 // `origin`; symplectic Euler.
-inline cloth::SimulationSetup sheet(int n, double size, const Vec3& origin, const Vec3& gravity = Vec3(0, -9.81, 0)) {
+inline cloth::SimulationSetup sheet(int n, double size, const Vec3& origin,
+                                    const Vec3& gravity = Vec3(0, -9.81, 0)) {
   cloth::SimulationSetup s;
   s.gravity = gravity;
   s.solver.method = "symplectic_euler";

@@ -50,13 +50,15 @@ TEST(BulletCloth, MomentumConservedFreeClothFreeBody) {
     EXPECT_LT(max_rel, 1e-12);
   }
   RecordProperty("momentum_rel_error", std::to_string(max_rel));
-  std::printf("momentum (%s Bullet): max relative error %.3g\n", LOOM_BULLET_DOUBLE ? "double" : "float", max_rel);
+  std::printf("momentum (%s Bullet): max relative error %.3g\n", LOOM_BULLET_DOUBLE ? "double" : "float",
+              max_rel);
 }
 
 // The coupled solve (Tier::realtime): a free cloth and a free cube, no gravity, the cube thrown off-centre
 // and spinning into the cloth (a cube: its inertia is isotropic, so Bullet's free rotation, which has no
-// gyroscopic term, keeps I w as well). Every cloth-body correction is an equal and opposite positional impulse, so the
-// linear momentum of cloth plus box and their angular momentum about the origin are conserved.
+// gyroscopic term, keeps I w as well). Every cloth-body correction is an equal and opposite positional
+// impulse, so the linear momentum of cloth plus box and their angular momentum about the origin are
+// conserved.
 TEST(BulletCloth, CoupledSolveConservesMomentum) {
   TestWorld w(Vec3::Zero());
   btRigidBody* box = w.add_body(new btBoxShape(btVector3(0.04f, 0.04f, 0.04f)), 0.8, Vec3(0.05, 0.2, -0.03));
@@ -127,9 +129,9 @@ TEST(BulletCloth, FastSphereDoesNotPassPinnedSheet) {
   }
   EXPECT_LT(lowest, -0.05);  // it did hit and stretch the sheet
   EXPECT_GT(ball->getLinearVelocity().y(), -10.0);
-  std::printf("sphere: lowest centre %.3f m, deepest vertex penetration before push-out %.4f m\n", lowest, worst_pen);
+  std::printf("sphere: lowest centre %.3f m, deepest vertex penetration before push-out %.4f m\n", lowest,
+              worst_pen);
 }
-
 
 // A box resting in a hammock (a sheet whose two opposite edges are attached to static posts): the cloth
 // holds it up, so the vertical impulse per second it gets from the cloth is m g, and it does not sink.
@@ -171,8 +173,10 @@ TEST(BulletCloth, HammockHoldsBox) {
   }
   const double per_second = (c->applied_impulse(box) - j0).y() / 2.0;
   const double mg = m * 9.81;
-  std::printf("hammock: vertical impulse/s %.5f N vs m g %.5f N (%.3f%%), box y %.4f..%.4f m, mean %.5f then %.5f m\n",
-              per_second, mg, 100.0 * (per_second / mg - 1.0), y_min, y_max, mean_first, mean_second);
+  std::printf(
+      "hammock: vertical impulse/s %.5f N vs m g %.5f N (%.3f%%), box y %.4f..%.4f m, mean %.5f then %.5f "
+      "m\n",
+      per_second, mg, 100.0 * (per_second / mg - 1.0), y_min, y_max, mean_first, mean_second);
   EXPECT_NEAR(per_second / mg, 1.0, 0.01);
   // Held, not sinking: no downward drift between the two seconds (measured 0.28 mm float, 0.96 mm double),
   // a sway of about 1 cm peak to peak (the vertical mode, excited now and then by the contacts: 9.8 mm float,
@@ -253,7 +257,9 @@ TEST(BulletCloth, FlagFollowsKinematicPole) {
       const auto& st = cloth->simulation().cloths()[0]->state();
       for (size_t k = 0; k < vertices.size(); ++k) {
         max_err = std::max(max_err, (st.x[vertices[k]] - eig(pose(t) * bt(offsets[k]))).norm());
-        max_raw = std::max(max_raw, (eig(pole->getWorldTransform() * bt(offsets[k])) - eig(pose(t) * bt(offsets[k]))).norm());
+        max_raw = std::max(
+            max_raw,
+            (eig(pole->getWorldTransform() * bt(offsets[k])) - eig(pose(t) * bt(offsets[k]))).norm());
       }
     }
     void debugDraw(btIDebugDraw*) override {}
@@ -269,7 +275,8 @@ TEST(BulletCloth, FlagFollowsKinematicPole) {
     w.frame();
   }
   w.world.removeAction(&check);
-  std::printf("pole: attachment error max %.3g m (Bullet's raw kinematic pose: %.3g m)\n", check.max_err, check.max_raw);
+  std::printf("pole: attachment error max %.3g m (Bullet's raw kinematic pose: %.3g m)\n", check.max_err,
+              check.max_raw);
   EXPECT_LT(check.max_err, 1e-3);
   EXPECT_GT(check.max_raw, 5e-3);  // without interpolation the pole jumps once per frame
   EXPECT_NEAR(check.t, 1.5, 1e-6);

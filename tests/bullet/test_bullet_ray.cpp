@@ -30,7 +30,8 @@ RefHit reference(const cloth::ClothMesh& mesh, const cloth::Vec3s& x, const Vec3
     const double s = n.dot(a - from) / den;
     if (s < 0.0 || s > 1.0) continue;
     const Vec3 p = from + s * d;
-    if (n.dot((b - a).cross(p - a)) < 0 || n.dot((c - b).cross(p - b)) < 0 || n.dot((a - c).cross(p - c)) < 0) continue;
+    if (n.dot((b - a).cross(p - a)) < 0 || n.dot((c - b).cross(p - b)) < 0 || n.dot((a - c).cross(p - c)) < 0)
+      continue;
     const double dist = s * d.norm();
     if (dist < best.distance) best = {k, dist};
   }

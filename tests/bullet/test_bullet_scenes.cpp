@@ -43,8 +43,9 @@ SceneRun run_scene(const std::string& name, int frames = -1) {
         const double e = (st.x[d.j] - st.x[d.i]).norm() / d.rest_length - 1.0;
         if (e > worst) worst = e, wi = d.i, wj = d.j;
       }
-      std::printf("%s f%d strain %.3f edge %d-%d (%.3f %.3f %.3f)-(%.3f %.3f %.3f) pen %.4f", name.c_str(), f, worst, wi, wj,
-                  st.x[wi].x(), st.x[wi].y(), st.x[wi].z(), st.x[wj].x(), st.x[wj].y(), st.x[wj].z(), bs.max_penetration());
+      std::printf("%s f%d strain %.3f edge %d-%d (%.3f %.3f %.3f)-(%.3f %.3f %.3f) pen %.4f", name.c_str(), f,
+                  worst, wi, wj, st.x[wi].x(), st.x[wi].y(), st.x[wi].z(), st.x[wj].x(), st.x[wj].y(),
+                  st.x[wj].z(), bs.max_penetration());
       for (size_t b = 0; b < bs.num_bodies(); ++b) {
         const cloth::Vec3 p = bs.body_position(b);
         std::printf(" b%zu(%.3f %.3f %.3f)", b, p.x(), p.y(), p.z());
@@ -53,7 +54,8 @@ SceneRun run_scene(const std::string& name, int frames = -1) {
     }
   }
   for (size_t b = 0; b < bs.num_bodies(); ++b) r.final_y.push_back(bs.body_position(b).y());
-  std::printf("%s: max strain %.4f (frame %d), max penetration %.4f m\n", name.c_str(), r.max_strain, r.worst_frame, r.max_pen);
+  std::printf("%s: max strain %.4f (frame %d), max penetration %.4f m\n", name.c_str(), r.max_strain,
+              r.worst_frame, r.max_pen);
   return r;
 }
 

@@ -21,17 +21,26 @@ double loom_support(const Collider& c, const Vec3& d) {
   const auto& s = c.shape;
   double h = 0.0;
   switch (s.type) {
-    case ShapeType::sphere: h = s.radius; break;
-    case ShapeType::capsule: h = s.half_height * std::abs(l.y()) + s.radius; break;
-    case ShapeType::box: h = s.half_extents.dot(l.cwiseAbs()); break;
-    case ShapeType::cylinder: h = s.half_height * std::abs(l.y()) + s.radius * std::hypot(l.x(), l.z()); break;
+    case ShapeType::sphere:
+      h = s.radius;
+      break;
+    case ShapeType::capsule:
+      h = s.half_height * std::abs(l.y()) + s.radius;
+      break;
+    case ShapeType::box:
+      h = s.half_extents.dot(l.cwiseAbs());
+      break;
+    case ShapeType::cylinder:
+      h = s.half_height * std::abs(l.y()) + s.radius * std::hypot(l.x(), l.z());
+      break;
     case ShapeType::convex:
     case ShapeType::mesh: {
       h = -HUGE_VAL;
       for (const Vec3& v : s.vertices) h = std::max(h, v.dot(l));
       break;
     }
-    default: ADD_FAILURE() << "no support for " << collision::shape_type_name(s.type);
+    default:
+      ADD_FAILURE() << "no support for " << collision::shape_type_name(s.type);
   }
   return d.dot(c.curr.translation()) + h;
 }
@@ -108,7 +117,8 @@ TEST(BulletShapes, PrimitivesMatchBulletSupport) {
   btConvexHullShape hull;
   std::mt19937 rng(11);
   std::uniform_real_distribution<double> u(-0.3, 0.3);
-  for (int k = 0; k < 30; ++k) hull.addPoint(btVector3(btScalar(u(rng)), btScalar(u(rng)), btScalar(u(rng))), k == 29);
+  for (int k = 0; k < 30; ++k)
+    hull.addPoint(btVector3(btScalar(u(rng)), btScalar(u(rng)), btScalar(u(rng))), k == 29);
   hull.setLocalScaling(btVector3(1.0, 2.0, 0.5));
   hull.setMargin(0);
   check_convex(&hull, ShapeType::convex, tol);
@@ -201,9 +211,13 @@ TEST(BulletShapes, SignedDistanceAtSupportPoints) {
         const btVector3 sp = s->localGetSupportingVertex(dl);
         const Vec3 surface = eig(tf * (dl * sp.dot(dl)));
         const Vec3 dir = eig(tf.getBasis() * dl);
-        EXPECT_NEAR(bullet::shape_signed_distance(out[0].shape, nullptr, out[0].curr, surface + 0.01 * dir, nullptr), 0.01, 1e-4)
+        EXPECT_NEAR(
+            bullet::shape_signed_distance(out[0].shape, nullptr, out[0].curr, surface + 0.01 * dir, nullptr),
+            0.01, 1e-4)
             << s->getName() << " axis " << axis;
-        EXPECT_NEAR(bullet::shape_signed_distance(out[0].shape, nullptr, out[0].curr, surface - 0.01 * dir, nullptr), -0.01, 1e-4)
+        EXPECT_NEAR(
+            bullet::shape_signed_distance(out[0].shape, nullptr, out[0].curr, surface - 0.01 * dir, nullptr),
+            -0.01, 1e-4)
             << s->getName() << " axis " << axis;
       }
   }
@@ -245,7 +259,8 @@ TEST(BulletShapes, ClothObjectInBroadphase) {
   } find;
   find.target = c->collision_object();
   const auto& x = c->simulation().cloths()[0]->state().x;
-  w.world.getBroadphase()->aabbTest(bt(x[40]) - btVector3(0.01, 0.01, 0.01), bt(x[40]) + btVector3(0.01, 0.01, 0.01), find);
+  w.world.getBroadphase()->aabbTest(bt(x[40]) - btVector3(0.01, 0.01, 0.01),
+                                    bt(x[40]) + btVector3(0.01, 0.01, 0.01), find);
   EXPECT_TRUE(find.found);
   EXPECT_EQ(c->collision_object()->getInternalType(), btCollisionObject::CO_USER_TYPE);
   btVector3 lo, hi;

@@ -25,7 +25,9 @@ std::unique_ptr<Simulation> hanging_cloth(int n, bool pinned = true) {
   c.mesh = ClothMesh::grid(g);
   c.material = material_preset("cotton");
   c.material.areal_density = 0.2 / c.mesh->total_area();
-  if (pinned) c.pins = {PinSpec{c.mesh->grid_index(0, 0), {}, {}, {}}, PinSpec{c.mesh->grid_index(n - 1, 0), {}, {}, {}}};
+  if (pinned)
+    c.pins = {PinSpec{c.mesh->grid_index(0, 0), {}, {}, {}},
+              PinSpec{c.mesh->grid_index(n - 1, 0), {}, {}, {}}};
   s.cloths = {c};
   return std::make_unique<Simulation>(s);
 }

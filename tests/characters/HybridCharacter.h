@@ -26,16 +26,17 @@ namespace loom::test {
 
 struct HybridCharacterResult {
   int coarse_vertices = 0, fine_vertices = 0;
-  double rms = 0.0, max = 0.0;                // m, detail surface vs fine simulation at the same material points
-  double coarse_cpu = 0.0, fine_cpu = 0.0;    // s, process CPU time (coarse: steps + detail surface)
-  double worst_move_ratio = 0.0;              // 1, per frame: max detail move / max coarse move
+  double rms = 0.0, max = 0.0;  // m, detail surface vs fine simulation at the same material points
+  double coarse_cpu = 0.0, fine_cpu = 0.0;      // s, process CPU time (coarse: steps + detail surface)
+  double worst_move_ratio = 0.0;                // 1, per frame: max detail move / max coarse move
   double coarse_speed = 0.0, fine_speed = 0.0;  // m/s, largest vertex speed over the last frame
   double sag = 0.0;  // m, largest vertex displacement of the fine garment from its start (it did drape)
 };
 
 inline nlohmann::json hybrid_character_scene(double resolution, int levels, int frames) {
-  nlohmann::json garment = {{"type", "cape"}, {"name", "cape"}, {"resolution", resolution}, {"width", 0.625},
-                            {"length", 0.75}, {"material", {{"preset", "cotton"}, {"damping", 1e-4}}}};
+  nlohmann::json garment = {
+      {"type", "cape"}, {"name", "cape"}, {"resolution", resolution},
+      {"width", 0.625}, {"length", 0.75}, {"material", {{"preset", "cotton"}, {"damping", 1e-4}}}};
   if (levels > 0) garment["detail"] = {{"method", "curved_faces"}, {"levels", levels}};
   return {{"name", "hybrid_character"},
           {"duration", frames / 60.0},
@@ -72,7 +73,8 @@ inline HybridCharacterResult measure_hybrid_character(double coarse_resolution, 
   HybridCharacterResult r;
   const std::string file = std::string(LOOM_TEST_DATA) + "/hybrid_character.json";  // only names errors
   // (a) coarse + detail.
-  scene::Scene coarse_scene = scene::parse_scene(hybrid_character_scene(coarse_resolution, levels, frames), file);
+  scene::Scene coarse_scene =
+      scene::parse_scene(hybrid_character_scene(coarse_resolution, levels, frames), file);
   lean_back(coarse_scene);
   double t0 = cpu_seconds();
   auto coarse = scene::build_simulation(coarse_scene);
@@ -94,7 +96,8 @@ inline HybridCharacterResult measure_hybrid_character(double coarse_resolution, 
   r.coarse_cpu = cpu_seconds() - t0;
   r.coarse_vertices = cc.mesh().num_vertices();
   // (b) the full fine simulation.
-  scene::Scene fine_scene = scene::parse_scene(hybrid_character_scene(coarse_resolution / (1 << levels), 0, frames), file);
+  scene::Scene fine_scene =
+      scene::parse_scene(hybrid_character_scene(coarse_resolution / (1 << levels), 0, frames), file);
   lean_back(fine_scene);
   t0 = cpu_seconds();
   auto fine = scene::build_simulation(fine_scene);
@@ -104,17 +107,20 @@ inline HybridCharacterResult measure_hybrid_character(double coarse_resolution, 
     before = fc.state().x;
     fine->step_frame();
     if (f == frames - 1)
-      for (size_t i = 0; i < before.size(); ++i) r.fine_speed = std::max(r.fine_speed, (fc.state().x[i] - before[i]).norm() * 60.0);
+      for (size_t i = 0; i < before.size(); ++i)
+        r.fine_speed = std::max(r.fine_speed, (fc.state().x[i] - before[i]).norm() * 60.0);
   }
   r.fine_cpu = cpu_seconds() - t0;
   r.fine_vertices = fc.mesh().num_vertices();
   for (size_t i = 0; i < start.size(); ++i) r.sag = std::max(r.sag, (fc.state().x[i] - start[i]).norm());
   // Point to surface, both ways.
-  auto to_surface = [&r](const cloth::Vec3s& points, const cloth::ClothMesh& mesh, const cloth::Vec3s& x, double& sum) {
+  auto to_surface = [&r](const cloth::Vec3s& points, const cloth::ClothMesh& mesh, const cloth::Vec3s& x,
+                         double& sum) {
     for (const cloth::Vec3& p : points) {
       double best = 1e30;
       for (const cloth::Tri& t : mesh.triangles())
-        best = std::min(best, collision::point_triangle_closest(p, x[t[0]], x[t[1]], x[t[2]]).distance_squared);
+        best =
+            std::min(best, collision::point_triangle_closest(p, x[t[0]], x[t[1]], x[t[2]]).distance_squared);
       sum += best;
       r.max = std::max(r.max, std::sqrt(best));
     }

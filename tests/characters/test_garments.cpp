@@ -4,10 +4,10 @@
 #include <fstream>
 
 #include "CharacterTestUtil.h"
+#include "TestDir.h"
 #include "loom/characters/Character.h"
 #include "loom/cloth/Error.h"
 #include "loom/cloth/Material.h"
-#include "TestDir.h"
 
 namespace {
 
@@ -28,12 +28,14 @@ double start_gap(const Character& c, const Garment& g, bool edge_midpoints = fal
   std::vector<Vec3> points = g.mesh->rest_positions();
   if (edge_midpoints) {
     points.clear();
-    for (const auto& e : g.mesh->edges()) points.push_back(0.5 * (g.mesh->rest_positions()[e.i] + g.mesh->rest_positions()[e.j]));
+    for (const auto& e : g.mesh->edges())
+      points.push_back(0.5 * (g.mesh->rest_positions()[e.i] + g.mesh->rest_positions()[e.j]));
   }
   double gap = 1e9;
   for (const Vec3& x : points)
     for (const Bone& b : c.rig.bones())
-      gap = std::min(gap, segment_distance(x, pose[b.joint].translation(), pose[b.child].translation()) - b.radius);
+      gap = std::min(
+          gap, segment_distance(x, pose[b.joint].translation(), pose[b.child].translation()) - b.radius);
   return gap;
 }
 
@@ -57,7 +59,8 @@ TEST(Garments, GeneratedGarmentsFitOutsideTheCapsules) {
       double longest = 0.0;
       for (const auto& e : g.mesh->edges())
         longest = std::max(longest, (g.mesh->rest_positions()[e.i] - g.mesh->rest_positions()[e.j]).norm());
-      EXPECT_LT(longest, 2.1 * spec.resolution) << clip << " " << type;  // diagonals ~1.4x (01_01 shirt: 2.03x)
+      EXPECT_LT(longest, 2.1 * spec.resolution)
+          << clip << " " << type;  // diagonals ~1.4x (01_01 shirt: 2.03x)
       EXPECT_GT(g.mesh->num_vertices(), 50) << clip << " " << type;
       EXPECT_FALSE(g.attached_vertices.empty());
       // Sizes follow the skeleton: a cape about as wide as the shoulders and as long as shoulders-to-knees.
@@ -78,7 +81,9 @@ class TrackingCheck final : public loom::cloth::Stage {
     c_->motion.pose(ctx.t + ctx.h, pose_);
     for (const Attachment& a : c_->attachments) {
       worst = std::max(worst, (ctx.cloths[a.cloth]->state().x[a.vertex] - c_->target(a, pose_)).norm());
-      travelled = std::max(travelled, (ctx.cloths[a.cloth]->state().x[a.vertex] - ctx.cloths[a.cloth]->mesh().rest_positions()[a.vertex]).norm());
+      travelled = std::max(travelled, (ctx.cloths[a.cloth]->state().x[a.vertex] -
+                                       ctx.cloths[a.cloth]->mesh().rest_positions()[a.vertex])
+                                          .norm());
     }
     ++steps;
   }
@@ -123,7 +128,8 @@ TEST(Garments, AttachedVerticesTrackTheirBonesAtEverySubstep) {
       GarmentSpec spec;
       spec.type = type;
       spec.resolution = 0.08;
-      c->add_garment(setup, make_garment(spec, c->motion, c->rig), type, loom::cloth::material_preset("cotton"));
+      c->add_garment(setup, make_garment(spec, c->motion, c->rig), type,
+                     loom::cloth::material_preset("cotton"));
     }
     Simulation sim(setup);
     auto colliders = std::make_shared<loom::collision::ColliderSet>();
@@ -133,8 +139,8 @@ TEST(Garments, AttachedVerticesTrackTheirBonesAtEverySubstep) {
     sim.add_stage(std::move(check));
     for (int f = 0; f < 60; ++f) ASSERT_TRUE(sim.step_frame().finite);
     EXPECT_EQ(probe->steps, 60 * setup.substeps);
-    EXPECT_LE(probe->worst, 1e-3) << method;  // the requirement: 1 mm
-    EXPECT_LE(probe->worst, 1e-9) << method;  // what the pin contract gives (x += h v exactly)
+    EXPECT_LE(probe->worst, 1e-3) << method;      // the requirement: 1 mm
+    EXPECT_LE(probe->worst, 1e-9) << method;      // what the pin contract gives (x += h v exactly)
     EXPECT_GT(probe->travelled, 0.05) << method;  // the bones did move the attachments
     EXPECT_EQ(colliders->size(), c->rig.bones().size());
   }

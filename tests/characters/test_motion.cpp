@@ -40,29 +40,29 @@ void reference_positions(const aiScene* scene, unsigned k, std::map<std::string,
   std::map<std::string, const aiNodeAnim*> ch;
   const aiAnimation* a = scene->mAnimations[0];
   for (unsigned c = 0; c < a->mNumChannels; ++c) ch[a->mChannels[c]->mNodeName.C_Str()] = a->mChannels[c];
-  std::function<void(const aiNode*, const Mat4&, const aiMatrix4x4&)> walk = [&](const aiNode* n, const Mat4& parent,
-                                                                                  const aiMatrix4x4& parent_f) {
-    Mat4 local = Mat4::Identity();
-    aiMatrix4x4 local_f = n->mTransformation;
-    auto it = ch.find(n->mName.C_Str());
-    if (it != ch.end()) {
-      const aiNodeAnim* c = it->second;
-      const aiVectorKey& p = c->mPositionKeys[std::min(k, c->mNumPositionKeys - 1)];
-      const aiQuatKey& q = c->mRotationKeys[std::min(k, c->mNumRotationKeys - 1)];
-      local = quat_matrix(q.mValue.w, q.mValue.x, q.mValue.y, q.mValue.z);
-      local(0, 3) = p.mValue.x, local(1, 3) = p.mValue.y, local(2, 3) = p.mValue.z;
-      local_f = aiMatrix4x4(q.mValue.GetMatrix());
-      local_f.a4 = p.mValue.x, local_f.b4 = p.mValue.y, local_f.c4 = p.mValue.z;
-    } else {
-      for (int r = 0; r < 4; ++r)
-        for (int cc = 0; cc < 4; ++cc) local(r, cc) = n->mTransformation[r][cc];
-    }
-    const Mat4 g = parent * local;
-    const aiMatrix4x4 gf = parent_f * local_f;
-    exact[n->mName.C_Str()] = g.block<3, 1>(0, 3);
-    assimp_float[n->mName.C_Str()] = Vec3(gf.a4, gf.b4, gf.c4);
-    for (unsigned i = 0; i < n->mNumChildren; ++i) walk(n->mChildren[i], g, gf);
-  };
+  std::function<void(const aiNode*, const Mat4&, const aiMatrix4x4&)> walk =
+      [&](const aiNode* n, const Mat4& parent, const aiMatrix4x4& parent_f) {
+        Mat4 local = Mat4::Identity();
+        aiMatrix4x4 local_f = n->mTransformation;
+        auto it = ch.find(n->mName.C_Str());
+        if (it != ch.end()) {
+          const aiNodeAnim* c = it->second;
+          const aiVectorKey& p = c->mPositionKeys[std::min(k, c->mNumPositionKeys - 1)];
+          const aiQuatKey& q = c->mRotationKeys[std::min(k, c->mNumRotationKeys - 1)];
+          local = quat_matrix(q.mValue.w, q.mValue.x, q.mValue.y, q.mValue.z);
+          local(0, 3) = p.mValue.x, local(1, 3) = p.mValue.y, local(2, 3) = p.mValue.z;
+          local_f = aiMatrix4x4(q.mValue.GetMatrix());
+          local_f.a4 = p.mValue.x, local_f.b4 = p.mValue.y, local_f.c4 = p.mValue.z;
+        } else {
+          for (int r = 0; r < 4; ++r)
+            for (int cc = 0; cc < 4; ++cc) local(r, cc) = n->mTransformation[r][cc];
+        }
+        const Mat4 g = parent * local;
+        const aiMatrix4x4 gf = parent_f * local_f;
+        exact[n->mName.C_Str()] = g.block<3, 1>(0, 3);
+        assimp_float[n->mName.C_Str()] = Vec3(gf.a4, gf.b4, gf.c4);
+        for (unsigned i = 0; i < n->mNumChildren; ++i) walk(n->mChildren[i], g, gf);
+      };
   walk(scene->mRootNode, Mat4::Identity(), aiMatrix4x4());
 }
 
@@ -86,15 +86,18 @@ void expect_matches_assimp(const std::string& file) {
     for (int j = 0; j < m.num_joints(); ++j) {
       const Vec3 ref = exact.at(m.joints()[j].name) * m.scale();
       worst = std::max(worst, (pose[j].translation() - ref).norm());
-      worst_float = std::max(worst_float, (pose[j].translation() - fl.at(m.joints()[j].name) * m.scale()).norm());
+      worst_float =
+          std::max(worst_float, (pose[j].translation() - fl.at(m.joints()[j].name) * m.scale()).norm());
     }
   }
   const double height = m.rest_height();
-  EXPECT_LE(worst, 1e-9 * height) << file;          // independent double evaluation of assimp's keys
-  EXPECT_LE(worst_float, 1e-5 * height) << file;    // assimp's own float matrices (float rounding)
+  EXPECT_LE(worst, 1e-9 * height) << file;        // independent double evaluation of assimp's keys
+  EXPECT_LE(worst_float, 1e-5 * height) << file;  // assimp's own float matrices (float rounding)
 }
 
-TEST(Motion, SamplingAtKeysReproducesAssimpJointPositions_01_01) { expect_matches_assimp(loom::test::mocap("01_01.bvh")); }
+TEST(Motion, SamplingAtKeysReproducesAssimpJointPositions_01_01) {
+  expect_matches_assimp(loom::test::mocap("01_01.bvh"));
+}
 TEST(Motion, SamplingAtKeysReproducesAssimpJointPositions_Boxing) {
   expect_matches_assimp(loom::test::mocap("Boxing_Toes.bvh"));
 }
@@ -133,7 +136,9 @@ TEST(Motion, InterpolatesBetweenKeys) {
   EXPECT_LE((m.local(arm, tm).linear() - mid.toRotationMatrix()).norm(), 1e-12);
   const auto& ht = m.track(hips);
   const Vec3 p_mid = 0.5 * (ht.positions[k] + ht.positions[k + 1]);
-  EXPECT_LE((m.local(hips, 0.5 * (ht.position_times[k] + ht.position_times[k + 1])).translation() - p_mid).norm(), 1e-12);
+  EXPECT_LE(
+      (m.local(hips, 0.5 * (ht.position_times[k] + ht.position_times[k + 1])).translation() - p_mid).norm(),
+      1e-12);
 }
 
 // Units: the CMU clip (inch-like units) and the Biovision clip (cm) both become ~1.7 m figures.
@@ -148,7 +153,8 @@ TEST(Motion, AutomaticScaleGivesHumanHeight) {
     std::vector<Transform> pose;
     m->pose(0.0, pose);
     double lo = 1e9, hi = -1e9;
-    for (const Transform& t : pose) lo = std::min(lo, t.translation().y()), hi = std::max(hi, t.translation().y());
+    for (const Transform& t : pose)
+      lo = std::min(lo, t.translation().y()), hi = std::max(hi, t.translation().y());
     EXPECT_NEAR(lo, 0.0, 1e-12);  // placed on the floor
     EXPECT_GT(hi - lo, 1.4);
     EXPECT_LT(hi - lo, 1.8);
@@ -206,7 +212,8 @@ TEST(Motion, SpeedLoopAndStart) {
   ml.pose(1.0 + m.duration(), b);
   Vec3 shift = (m.local(m.root(), m.duration()).translation() - m.local(m.root(), 0.0).translation());
   shift.y() = 0.0;
-  for (size_t j = 0; j < a.size(); ++j) EXPECT_LE((b[j].translation() - a[j].translation() - shift).norm(), 1e-9);
+  for (size_t j = 0; j < a.size(); ++j)
+    EXPECT_LE((b[j].translation() - a[j].translation() - shift).norm(), 1e-9);
 }
 
 TEST(Motion, ErrorsNameTheFile) {

@@ -1,11 +1,11 @@
 // Capsule rig: capsule endpoints at joint positions, radii from the body-proportion table.
 #include <gtest/gtest.h>
 
-#include "CharacterTestUtil.h"
-#include "loom/characters/CapsuleRig.h"
 #include <cmath>
 #include <set>
 
+#include "CharacterTestUtil.h"
+#include "loom/characters/CapsuleRig.h"
 #include "loom/cloth/Error.h"
 #include "loom/collision/Distance.h"
 
@@ -68,10 +68,11 @@ TEST(CapsuleRig, RadiiFromTheProportionTableAcrossNamingConventions) {
 
 TEST(CapsuleRig, RadiusOverridesByFileOrCanonicalName) {
   const Motion box = Motion::load(loom::test::mocap("Boxing_Toes.bvh"));
-  const CapsuleRig r = CapsuleRig::build(box, {{"LeftShoulder", 0.07}, {"RightArm", 0.065}, {"LeftToeBase", 0.0}});
-  EXPECT_DOUBLE_EQ(r.bones()[r.find("LeftArm")].radius, 0.07);   // by the file's name
-  EXPECT_DOUBLE_EQ(r.bones()[r.find("RightArm")].radius, 0.065); // by the canonical name
-  EXPECT_LT(r.find("LeftToeBase"), 0);                           // radius 0: no capsule
+  const CapsuleRig r =
+      CapsuleRig::build(box, {{"LeftShoulder", 0.07}, {"RightArm", 0.065}, {"LeftToeBase", 0.0}});
+  EXPECT_DOUBLE_EQ(r.bones()[r.find("LeftArm")].radius, 0.07);    // by the file's name
+  EXPECT_DOUBLE_EQ(r.bones()[r.find("RightArm")].radius, 0.065);  // by the canonical name
+  EXPECT_LT(r.find("LeftToeBase"), 0);                            // radius 0: no capsule
   try {
     CapsuleRig::build(box, {{"Tail", 0.05}});
     FAIL();
@@ -87,10 +88,11 @@ namespace {
 // Closest approach (m) of the capsule surfaces of any arm bone and any torso/leg bone over the clip (120 Hz),
 // skipping pairs where a bone sits at the fit's floor (half its table radius).
 double closest_arm_body_gap(const Motion& m, const CapsuleRig& rig, bool skip_floored) {
-  const std::set<std::string> arm = {"LeftArm", "RightArm", "LeftForeArm", "RightForeArm", "LeftHand", "RightHand",
-                                     "LeftFingerBase", "RightFingerBase"};
-  const std::set<std::string> body = {"Hips", "LowerBack", "Spine", "Spine1", "Chest", "LHipJoint", "RHipJoint",
-                                      "LeftUpLeg", "RightUpLeg", "LeftLeg", "RightLeg"};
+  const std::set<std::string> arm = {"LeftArm",  "RightArm",  "LeftForeArm",    "RightForeArm",
+                                     "LeftHand", "RightHand", "LeftFingerBase", "RightFingerBase"};
+  const std::set<std::string> body = {"Hips",       "LowerBack", "Spine",     "Spine1",
+                                      "Chest",      "LHipJoint", "RHipJoint", "LeftUpLeg",
+                                      "RightUpLeg", "LeftLeg",   "RightLeg"};
   auto floored = [](const Bone& b) { return b.radius <= 0.5 * b.table_radius + 1e-12; };
   std::vector<Transform> pose;
   double gap = 1e9;
@@ -100,8 +102,9 @@ double closest_arm_body_gap(const Motion& m, const CapsuleRig& rig, bool skip_fl
       for (const Bone& b : rig.bones()) {
         if (!arm.count(a.canonical) || !body.count(b.canonical)) continue;
         if (skip_floored && (floored(a) || floored(b))) continue;
-        const auto c = loom::collision::segment_segment_closest(pose[a.joint].translation(), pose[a.child].translation(),
-                                                                pose[b.joint].translation(), pose[b.child].translation());
+        const auto c = loom::collision::segment_segment_closest(
+            pose[a.joint].translation(), pose[a.child].translation(), pose[b.joint].translation(),
+            pose[b.child].translation());
         gap = std::min(gap, std::sqrt(c.distance_squared) - a.radius - b.radius);
       }
   }

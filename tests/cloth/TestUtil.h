@@ -1,9 +1,8 @@
 #pragma once
 // Small helpers shared by the cloth tests.
+#include <Eigen/Dense>
 #include <memory>
 #include <random>
-
-#include <Eigen/Dense>
 
 #include "loom/cloth/BlockMatrix.h"
 #include "loom/cloth/Cloth.h"
@@ -18,7 +17,8 @@ using cloth::Vec3s;
 
 // A cloth with three vertices (one triangle) whose masses and terms a test sets itself.
 inline std::unique_ptr<cloth::Cloth> triangle_cloth() {
-  auto mesh = cloth::ClothMesh::from_triangles({Vec3(0, 0, 0), Vec3(1, 0, 0), Vec3(0, 1, 0)}, {{0, 1, 2}}, {}, "test");
+  auto mesh = cloth::ClothMesh::from_triangles({Vec3(0, 0, 0), Vec3(1, 0, 0), Vec3(0, 1, 0)}, {{0, 1, 2}}, {},
+                                               "test");
   return std::make_unique<cloth::Cloth>("test", mesh, cloth::Material());
 }
 
@@ -49,7 +49,8 @@ inline cloth::SimulationSetup hanging_sheet(int n) {
   c.mesh = cloth::ClothMesh::grid(g);
   c.material = cloth::material_preset("cotton");
   c.material.areal_density = 0.2;
-  c.pins = {cloth::PinSpec{c.mesh->grid_index(0, 0), {}, {}, {}}, cloth::PinSpec{c.mesh->grid_index(n - 1, 0), {}, {}, {}}};
+  c.pins = {cloth::PinSpec{c.mesh->grid_index(0, 0), {}, {}, {}},
+            cloth::PinSpec{c.mesh->grid_index(n - 1, 0), {}, {}, {}}};
   s.cloths.push_back(c);
   return s;
 }
@@ -78,8 +79,8 @@ inline Eigen::MatrixXd term_jacobian(const cloth::Term& term, const TermConfig& 
 }
 
 // max |analytic - finite difference| / max |finite difference| of df/dx or df/dv.
-inline double jacobian_error(const cloth::Term& term, const TermConfig& c, int wrt, const cloth::JacobianOptions& o = {},
-                             double t = 0.0) {
+inline double jacobian_error(const cloth::Term& term, const TermConfig& c, int wrt,
+                             const cloth::JacobianOptions& o = {}, double t = 0.0) {
   const int n = static_cast<int>(c.x.size());
   const Eigen::MatrixXd analytic = term_jacobian(term, c, wrt, o, t);
   Eigen::MatrixXd fd(3 * n, 3 * n);
@@ -107,7 +108,9 @@ inline double gradient_error(const cloth::Term& term, const Vec3s& x) {
       Vec3s xp = x, xm = x;
       xp[j][d] += eps;
       xm[j][d] -= eps;
-      const double g = (term.energy(cloth::EvalContext{xp, v, 0, 1}) - term.energy(cloth::EvalContext{xm, v, 0, 1})) / (2 * eps);
+      const double g =
+          (term.energy(cloth::EvalContext{xp, v, 0, 1}) - term.energy(cloth::EvalContext{xm, v, 0, 1})) /
+          (2 * eps);
       err = std::max(err, std::abs(f[j][d] + g));
       scale = std::max(scale, std::abs(g));
     }

@@ -97,7 +97,8 @@ TEST(BaraffWitkin, SolverJacobiansAreSymmetricNegativeSemiDefinite) {
             << term->name();
       }
       if (std::string(term->name()) != "bw_stretch") {
-        Eigen::SelfAdjointEigenSolver<Eigen::MatrixXd> eig(test::term_jacobian(*term, c, 0, JacobianOptions{}));
+        Eigen::SelfAdjointEigenSolver<Eigen::MatrixXd> eig(
+            test::term_jacobian(*term, c, 0, JacobianOptions{}));
         EXPECT_GT(eig.eigenvalues().maxCoeff(), 1e-6 * eig.eigenvalues().cwiseAbs().maxCoeff())
             << term->name();
       }
@@ -111,7 +112,9 @@ TEST(BaraffWitkin, GaussNewtonBendingJacobianIsExactAtRest) {
   Config c{mesh->rest_positions(), Vec3s(mesh->num_vertices(), Vec3::Zero())};
   JacobianOptions gn;
   gn.clamp_compression = true;
-  EXPECT_LT(max_abs(test::term_jacobian(*bend, c, 0, gn) - test::term_jacobian(*bend, c, 0, JacobianOptions{})), 1e-12);
+  EXPECT_LT(
+      max_abs(test::term_jacobian(*bend, c, 0, gn) - test::term_jacobian(*bend, c, 0, JacobianOptions{})),
+      1e-12);
   EXPECT_LT(jacobian_error(*bend, c, 0, gn), 1e-6);
 }
 

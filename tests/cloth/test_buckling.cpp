@@ -77,8 +77,10 @@ std::vector<StepRecord> compress_strip(const std::string& model, int steps, bool
     for (int iu : {0, nu - 1}) {
       const int v = c.mesh->grid_index(iu, iv);
       const double shift = (iu == 0 ? 0.5 : -0.5) * (1.0 - squeeze) * length;
-      if (at_once) c.pins.push_back(PinSpec{v, start(v), {}, {}});
-      else c.pins.push_back(PinSpec{v, start(v), {0.0, ramp}, {Vec3::Zero(), Vec3(shift, 0, 0)}});
+      if (at_once)
+        c.pins.push_back(PinSpec{v, start(v), {}, {}});
+      else
+        c.pins.push_back(PinSpec{v, start(v), {0.0, ramp}, {Vec3::Zero(), Vec3(shift, 0, 0)}});
     }
   s.cloths.push_back(c);
   s.gravity = Vec3::Zero();

@@ -48,9 +48,11 @@ TEST(ChoiKo, DerivativeAndEnergyAreConsistentWithTheForce) {
   const double L = 0.03, kb = 5e-6, h = 1e-7 * L;
   for (double x : {0.999, 0.99, 0.95, 0.8, 0.5, 0.2, 0.06}) {
     const double l = x * L;
-    const double df = (choi_ko::buckling_force(l + h, L, kb) - choi_ko::buckling_force(l - h, L, kb)) / (2 * h);
+    const double df =
+        (choi_ko::buckling_force(l + h, L, kb) - choi_ko::buckling_force(l - h, L, kb)) / (2 * h);
     EXPECT_NEAR(choi_ko::buckling_force_derivative(l, L, kb) / df, 1.0, 1e-5) << "l/L = " << x;
-    const double dE = (choi_ko::buckling_energy(l + h, L, kb) - choi_ko::buckling_energy(l - h, L, kb)) / (2 * h);
+    const double dE =
+        (choi_ko::buckling_energy(l + h, L, kb) - choi_ko::buckling_energy(l - h, L, kb)) / (2 * h);
     EXPECT_NEAR(choi_ko::buckling_force(l, L, kb) / dE, 1.0, 1e-5) << "l/L = " << x;
   }
 }
@@ -71,7 +73,9 @@ TEST(ChoiKo, LinearBranchRemovesTheForceJumpAndMeetsTheCurve) {
   EXPECT_NEAR((1.0 - xs) / (eps / (1 - 0.6 * eps)), 1.0, 1e-3);
   EXPECT_NEAR(choi_ko::crossover_ratio(eps), xs, 1e-15);
   // Continuous at the crossover, and the exact curve beyond it.
-  EXPECT_NEAR(term->interlaced_tension(s, xs * L * (1 + 1e-12)) / term->interlaced_tension(s, xs * L * (1 - 1e-12)), 1.0, 1e-6);
+  EXPECT_NEAR(
+      term->interlaced_tension(s, xs * L * (1 + 1e-12)) / term->interlaced_tension(s, xs * L * (1 - 1e-12)),
+      1.0, 1e-6);
   EXPECT_DOUBLE_EQ(term->interlaced_tension(s, 0.7 * L), choi_ko::buckling_force(0.7 * L, L, s.kb));
   // No compression resistance in type-1 springs; no tension in type-2 springs.
   EXPECT_EQ(term->interlaced_tension(s, 1.1 * L), 0.0);
@@ -110,7 +114,9 @@ TEST(ChoiKo, TermForcesAndJacobiansMatchFiniteDifferences) {
         Vec3s xp = x, xm = x;
         xp[i][d] += eps;
         xm[i][d] -= eps;
-        const double g = (term->energy(EvalContext{xp, zero, 0, 1}) - term->energy(EvalContext{xm, zero, 0, 1})) / (2 * eps);
+        const double g =
+            (term->energy(EvalContext{xp, zero, 0, 1}) - term->energy(EvalContext{xm, zero, 0, 1})) /
+            (2 * eps);
         err = std::max(err, std::abs(f[i][d] + g));
         scale = std::max(scale, std::abs(g));
       }
@@ -138,7 +144,8 @@ TEST(ChoiKo, TermForcesAndJacobiansMatchFiniteDifferences) {
     const Eigen::MatrixXd Kd = K.to_dense();
     EXPECT_LT((Kd - Kd.transpose()).cwiseAbs().maxCoeff(), 1e-9 * Kd.cwiseAbs().maxCoeff());
     Eigen::SelfAdjointEigenSolver<Eigen::MatrixXd> eig(Kd);
-    EXPECT_LT(eig.eigenvalues().maxCoeff(), 1e-9 * eig.eigenvalues().cwiseAbs().maxCoeff()) << "trial " << trial;
+    EXPECT_LT(eig.eigenvalues().maxCoeff(), 1e-9 * eig.eigenvalues().cwiseAbs().maxCoeff())
+        << "trial " << trial;
   }
 }
 
@@ -148,7 +155,8 @@ std::shared_ptr<const ClothMesh> equilateral_sheet(int rows, double size) {
   const int nu = static_cast<int>(std::lround(size / h)) + 1;
   Vec3s x;
   for (int j = 0; j < rows; ++j)
-    for (int i = 0; i < nu; ++i) x.push_back(Vec3(i * h - 0.5 * size, j * d + (i % 2 ? 0.5 * d : 0.0) - 0.5 * size, 0));
+    for (int i = 0; i < nu; ++i)
+      x.push_back(Vec3(i * h - 0.5 * size, j * d + (i % 2 ? 0.5 * d : 0.0) - 0.5 * size, 0));
   std::vector<Tri> tris;
   for (int i = 0; i + 1 < nu; ++i)
     for (int j = 0; j + 1 < rows; ++j) {
@@ -198,7 +206,8 @@ TEST(ChoiKo, BendingEnergyIsResolutionIndependentAndIsotropic) {
   // and clear (κ = 20 /m) bends: the bending part has no linear branch, so gentle bends are not softer.
   // Boundary nodes have fewer interlaced springs, so a sheet stores slightly less than ½ B κ² per area.
   for (const double kappa : {2.0, 20.0}) {
-    const double coarse = bent_energy_ratio(square_grid(61), kappa, 0.0), fine = bent_energy_ratio(square_grid(121), kappa, 0.0);
+    const double coarse = bent_energy_ratio(square_grid(61), kappa, 0.0),
+                 fine = bent_energy_ratio(square_grid(121), kappa, 0.0);
     const double diagonal = bent_energy_ratio(square_grid(121), kappa, kPi / 4);
     const double oblique = bent_energy_ratio(square_grid(121), kappa, kPi / 8);
     EXPECT_GT(fine, 0.95) << "κ " << kappa;
@@ -210,8 +219,10 @@ TEST(ChoiKo, BendingEnergyIsResolutionIndependentAndIsotropic) {
     const double mesh_fine = bent_energy_ratio(equilateral_sheet(81, 0.3), kappa, 0.0);
     const double mesh_30 = bent_energy_ratio(equilateral_sheet(81, 0.3), kappa, kPi / 6);
     const double mesh_90 = bent_energy_ratio(equilateral_sheet(81, 0.3), kappa, kPi / 2);
-    std::printf("κ %.0f /m: grid 61/121 nodes %.4f %.4f, 22.5° %.4f, 45° %.4f; equilateral 41/81 rows %.4f %.4f, 30° %.4f, 90° %.4f\n",
-                kappa, coarse, fine, oblique, diagonal, mesh_coarse, mesh_fine, mesh_30, mesh_90);
+    std::printf(
+        "κ %.0f /m: grid 61/121 nodes %.4f %.4f, 22.5° %.4f, 45° %.4f; equilateral 41/81 rows %.4f %.4f, 30° "
+        "%.4f, 90° %.4f\n",
+        kappa, coarse, fine, oblique, diagonal, mesh_coarse, mesh_fine, mesh_30, mesh_90);
     EXPECT_GT(mesh_fine, 0.95) << "κ " << kappa;
     EXPECT_LT(mesh_fine, 1.03) << "κ " << kappa;
     EXPECT_LT(std::abs(mesh_coarse - mesh_fine) / mesh_fine, 0.03);

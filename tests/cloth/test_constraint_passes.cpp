@@ -24,7 +24,9 @@ SimulationSetup soft_sheet(int n, double stretch) {
   return s;
 }
 
-bool has(const std::vector<std::string>& v, const std::string& s) { return std::find(v.begin(), v.end(), s) != v.end(); }
+bool has(const std::vector<std::string>& v, const std::string& s) {
+  return std::find(v.begin(), v.end(), s) != v.end();
+}
 
 // Largest l/L - 1 over the structural and shear springs.
 double max_stretch(const Cloth& c) {
@@ -123,7 +125,8 @@ TEST(ConstraintPasses, TethersHold) {
     for (int i = 0; i < st.size(); ++i) {
       if (st.inv_mass[i] == 0.0) continue;
       const double d = std::min((rest[i] - rest[0]).norm(), (rest[i] - rest[8]).norm());
-      free_excess = std::max(free_excess, std::min((st.x[i] - st.x[0]).norm(), (st.x[i] - st.x[8]).norm()) - d);
+      free_excess =
+          std::max(free_excess, std::min((st.x[i] - st.x[0]).norm(), (st.x[i] - st.x[8]).norm()) - d);
     }
   }
   EXPECT_GT(free_excess, 0.05);

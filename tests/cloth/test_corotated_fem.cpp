@@ -49,8 +49,9 @@ std::shared_ptr<const ClothMesh> irregular_flat_mesh(std::mt19937& rng) {
       p.z() += u(rng);
     }
   std::vector<std::array<Vec2, 3>> uvs;
-  for (const Tri& t : grid->triangles()) uvs.push_back({Vec2(x[t[0]].x(), x[t[0]].z()), Vec2(x[t[1]].x(), x[t[1]].z()),
-                                                        Vec2(x[t[2]].x(), x[t[2]].z())});
+  for (const Tri& t : grid->triangles())
+    uvs.push_back(
+        {Vec2(x[t[0]].x(), x[t[0]].z()), Vec2(x[t[1]].x(), x[t[1]].z()), Vec2(x[t[2]].x(), x[t[2]].z())});
   return ClothMesh::from_triangles(x, grid->triangles(), uvs, "test");
 }
 
@@ -96,42 +97,43 @@ TEST(CorotatedFem, ExactJacobiansMatchFiniteDifferences) {
 TEST(CorotatedFem, SolverStiffnessIsSymmetricNegativeSemiDefiniteAndExactAtZeroStrain) {
   // Both solver stiffnesses: the projected exact Hessian (default) and the standard co-rotational -R K₀ Rᵀ.
   for (bool corotational_only : {false, true}) {
-  SCOPED_TRACE(corotational_only ? "-R K0 R^T" : "projected Hessian");
-  std::mt19937 rng(23);
-  auto mesh = small_grid();
-  auto term = make_corotated_fem_term(*mesh, fem_material(0.01));
-  static_cast<CorotatedFemTerm&>(*term).set_corotational_only(corotational_only);
-  JacobianOptions solver;
-  solver.clamp_compression = true;
-  solver.damping_position_terms = false;
-  const Mat3 R = Eigen::AngleAxisd(1.1, Vec3(0.2, 1.0, -0.6).normalized()).toRotationMatrix();
-  for (int trial = 0; trial < 3; ++trial) {
-    Config c{perturbed(mesh->rest_positions(), 0.03, rng), perturbed(Vec3s(mesh->num_vertices(), Vec3::Zero()), 1.0, rng)};
-    for (Vec3& p : c.x) p *= trial == 0 ? 0.85 : 1.1;  // compressed, stretched
-    for (int wrt = 0; wrt < 2; ++wrt) {
-      const Eigen::MatrixXd K = test::term_jacobian(*term, c, wrt, solver);
-      EXPECT_LT(max_abs(K - K.transpose()), 1e-12 * max_abs(K));
-      Eigen::SelfAdjointEigenSolver<Eigen::MatrixXd> eig(K);
-      EXPECT_LT(eig.eigenvalues().maxCoeff(), 1e-9 * eig.eigenvalues().cwiseAbs().maxCoeff());
+    SCOPED_TRACE(corotational_only ? "-R K0 R^T" : "projected Hessian");
+    std::mt19937 rng(23);
+    auto mesh = small_grid();
+    auto term = make_corotated_fem_term(*mesh, fem_material(0.01));
+    static_cast<CorotatedFemTerm&>(*term).set_corotational_only(corotational_only);
+    JacobianOptions solver;
+    solver.clamp_compression = true;
+    solver.damping_position_terms = false;
+    const Mat3 R = Eigen::AngleAxisd(1.1, Vec3(0.2, 1.0, -0.6).normalized()).toRotationMatrix();
+    for (int trial = 0; trial < 3; ++trial) {
+      Config c{perturbed(mesh->rest_positions(), 0.03, rng),
+               perturbed(Vec3s(mesh->num_vertices(), Vec3::Zero()), 1.0, rng)};
+      for (Vec3& p : c.x) p *= trial == 0 ? 0.85 : 1.1;  // compressed, stretched
+      for (int wrt = 0; wrt < 2; ++wrt) {
+        const Eigen::MatrixXd K = test::term_jacobian(*term, c, wrt, solver);
+        EXPECT_LT(max_abs(K - K.transpose()), 1e-12 * max_abs(K));
+        Eigen::SelfAdjointEigenSolver<Eigen::MatrixXd> eig(K);
+        EXPECT_LT(eig.eigenvalues().maxCoeff(), 1e-9 * eig.eigenvalues().cwiseAbs().maxCoeff());
+      }
     }
-  }
-  // Zero strain, any rotation and translation: the co-rotational stiffness is the exact Hessian.
-  Config rest{mesh->rest_positions(), Vec3s(mesh->num_vertices(), Vec3::Zero())};
-  for (Vec3& p : rest.x) p = R * p + Vec3(0.3, -1.0, 2.0);
-  EXPECT_LT(test::jacobian_error(*term, rest, 0, solver), 1e-6);
-  // Small strain (1e-4, stretched along x and compressed along z): -R K₀ Rᵀ differs from the exact Hessian by
-  // O(strain); the projection only removes the compression's negative curvature, also O(strain).
-  Config small = rest;
-  for (Vec3& p : small.x) p = R * (R.transpose() * p).cwiseProduct(Vec3(1.0 + 1e-4, 1.0, 1.0 - 5e-5));
-  const double err = test::jacobian_error(*term, small, 0, solver);
-  EXPECT_LT(err, 1e-3);
-  EXPECT_GT(err, 0.0);
-  if (!corotational_only) {
-    // Stretched only: the exact Hessian is already negative semi-definite, the projection leaves it exact.
-    Config stretched = rest;
-    for (Vec3& p : stretched.x) p = R * (R.transpose() * p).cwiseProduct(Vec3(1.05, 1.0, 1.02));
-    EXPECT_LT(test::jacobian_error(*term, stretched, 0, solver), 1e-6);
-  }
+    // Zero strain, any rotation and translation: the co-rotational stiffness is the exact Hessian.
+    Config rest{mesh->rest_positions(), Vec3s(mesh->num_vertices(), Vec3::Zero())};
+    for (Vec3& p : rest.x) p = R * p + Vec3(0.3, -1.0, 2.0);
+    EXPECT_LT(test::jacobian_error(*term, rest, 0, solver), 1e-6);
+    // Small strain (1e-4, stretched along x and compressed along z): -R K₀ Rᵀ differs from the exact Hessian
+    // by O(strain); the projection only removes the compression's negative curvature, also O(strain).
+    Config small = rest;
+    for (Vec3& p : small.x) p = R * (R.transpose() * p).cwiseProduct(Vec3(1.0 + 1e-4, 1.0, 1.0 - 5e-5));
+    const double err = test::jacobian_error(*term, small, 0, solver);
+    EXPECT_LT(err, 1e-3);
+    EXPECT_GT(err, 0.0);
+    if (!corotational_only) {
+      // Stretched only: the exact Hessian is already negative semi-definite, the projection leaves it exact.
+      Config stretched = rest;
+      for (Vec3& p : stretched.x) p = R * (R.transpose() * p).cwiseProduct(Vec3(1.05, 1.0, 1.02));
+      EXPECT_LT(test::jacobian_error(*term, stretched, 0, solver), 1e-6);
+    }
   }
 }
 
@@ -149,7 +151,8 @@ TEST(CorotatedFem, RigidRotationsOfAStretchedSheetGiveNoSpuriousForce) {
   ASSERT_GT(scale, 1.0);
   for (int trial = 0; trial < 5; ++trial) {
     std::uniform_real_distribution<double> u(-1.0, 1.0);
-    const Mat3 R = Eigen::AngleAxisd(3.0 * u(rng), Vec3(u(rng), u(rng), u(rng)).normalized()).toRotationMatrix();
+    const Mat3 R =
+        Eigen::AngleAxisd(3.0 * u(rng), Vec3(u(rng), u(rng), u(rng)).normalized()).toRotationMatrix();
     const Vec3 shift(u(rng), u(rng), u(rng));
     Vec3s x(n), xr(n);
     for (int i = 0; i < n; ++i) {
@@ -202,11 +205,13 @@ TEST(CorotatedFem, PatchTestGivesTheWarpWeftAndShearModuli) {
     const double edge = dir == 0 ? H : W;
     const double modulus = pull / (eps * edge);  // N/m
     const double expect = dir == 0 ? m.stretch_weft : m.stretch_warp;
-    std::printf("patch test %s: modulus %.6f N/m (material %.1f, rel. error %.2g), max interior force %.2g N\n",
-                dir == 0 ? "weft" : "warp", modulus, expect, std::abs(modulus / expect - 1.0), interior);
+    std::printf(
+        "patch test %s: modulus %.6f N/m (material %.1f, rel. error %.2g), max interior force %.2g N\n",
+        dir == 0 ? "weft" : "warp", modulus, expect, std::abs(modulus / expect - 1.0), interior);
     EXPECT_NEAR(modulus, expect, 0.005 * expect) << "dir " << dir;
     EXPECT_LT(interior, 1e-9 * pull) << "dir " << dir;
-    EXPECT_NEAR(term->energy(EvalContext{x, zero, 0, 1}), 0.5 * expect * area * eps * eps, 0.005 * 0.5 * expect * area * eps * eps);
+    EXPECT_NEAR(term->energy(EvalContext{x, zero, 0, 1}), 0.5 * expect * area * eps * eps,
+                0.005 * 0.5 * expect * area * eps * eps);
   }
   // Simple shear x += γ z: the shear modulus from the energy 1/2 G γ² A and from the traction on the top edge
   // (force along x per metre of edge = G γ).

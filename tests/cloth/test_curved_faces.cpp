@@ -36,7 +36,8 @@ TEST(CurvedFaces, SubdividesAndInterpolatesTheCoarseVertices) {
     const Vec3s x = test::perturbed(coarse->rest_positions(), 0.05, rng);
     Vec3s fine;
     cf.evaluate(x, fine);
-    for (int i = 0; i < coarse->num_vertices(); ++i) EXPECT_LT((fine[cf.fine_vertex_of(i)] - x[i]).norm(), 1e-12);
+    for (int i = 0; i < coarse->num_vertices(); ++i)
+      EXPECT_LT((fine[cf.fine_vertex_of(i)] - x[i]).norm(), 1e-12);
   }
   EXPECT_THROW(CurvedFaces(*coarse, 6, "scene.json", "cloths[0].detail"), Error);
 }
@@ -57,7 +58,9 @@ TEST(CurvedFaces, FlatClothStaysFlatAndCurvedClothIsFollowed) {
   // Rolled on a cylinder of radius 0.3 m (axis along z): distance of the fine vertices to the cylinder, PN
   // surface against the flat facets (the coarse mesh linearly subdivided).
   const double r = 0.3;
-  auto roll = [&](const Vec3& p) { return Vec3(r * std::sin(p.x() / r), 1.0 - r * (1.0 - std::cos(p.x() / r)), p.z()); };
+  auto roll = [&](const Vec3& p) {
+    return Vec3(r * std::sin(p.x() / r), 1.0 - r * (1.0 - std::cos(p.x() / r)), p.z());
+  };
   for (int i = 0; i < coarse->num_vertices(); ++i) x[i] = roll(coarse->rest_positions()[i]);
   cf.evaluate(x, fine);
   double pn_err = 0.0, flat_err = 0.0;
@@ -75,8 +78,10 @@ TEST(CurvedFaces, FlatClothStaysFlatAndCurvedClothIsFollowed) {
   // Flat facets: the midpoint of a coarse edge of length a lies r (1 - cos(a / 2r)) inside the cylinder.
   const double a = 1.0 / 8.0;
   flat_err = r * (1.0 - std::cos(a / (2.0 * r)));
-  std::printf("cylinder r = 0.3 m, coarse edge 0.125 m: PN surface off the cylinder by %.3g m (%.3g m in the "
-              "cells along the free edges), flat facets by %.3g m\n", pn_err, pn_edge, flat_err);
+  std::printf(
+      "cylinder r = 0.3 m, coarse edge 0.125 m: PN surface off the cylinder by %.3g m (%.3g m in the "
+      "cells along the free edges), flat facets by %.3g m\n",
+      pn_err, pn_edge, flat_err);
   EXPECT_LT(pn_err, 0.1 * flat_err);
   EXPECT_LT(pn_edge, flat_err);
 }
@@ -86,7 +91,8 @@ TEST(CurvedFaces, FlatClothStaysFlatAndCurvedClothIsFollowed) {
 struct Distance {
   double rms = 0.0, max = 0.0;
 };
-Distance distance(const CurvedFaces& cf, const Vec3s& detail, const ClothMesh& fine_mesh, const Vec3s& fine_x) {
+Distance distance(const CurvedFaces& cf, const Vec3s& detail, const ClothMesh& fine_mesh,
+                  const Vec3s& fine_x) {
   Distance d;
   int count = 0;
   const Vec3s& rest = cf.fine_mesh()->rest_positions();
@@ -133,21 +139,23 @@ TEST(CurvedFaces, ContinuousInTimeAndCloseToAFineSimulation) {
     if (dc > 1e-6) worst_ratio = std::max(worst_ratio, df / dc);
     prev_detail = detail;
   }
-  const double coarse_ms = std::chrono::duration<double, std::milli>(std::chrono::steady_clock::now() - t0).count();
+  const double coarse_ms =
+      std::chrono::duration<double, std::milli>(std::chrono::steady_clock::now() - t0).count();
   Simulation fine(setup(33));
   const auto t1 = std::chrono::steady_clock::now();
   for (int f = 0; f < frames; ++f) fine.step_frame();
-  const double fine_ms = std::chrono::duration<double, std::milli>(std::chrono::steady_clock::now() - t1).count();
+  const double fine_ms =
+      std::chrono::duration<double, std::milli>(std::chrono::steady_clock::now() - t1).count();
   const Distance pn = distance(cf, detail, fine.cloths()[0]->mesh(), fine.cloths()[0]->state().x);
-  std::printf("hybrid detail, hanging sheet after %d frames: coarse 9x9 + 2 levels vs fine 33x33: RMS %.4f m, max "
-              "%.4f m; worst per-frame fine/coarse motion ratio %.3f; cost coarse+detail %.0f ms vs fine %.0f ms "
-              "(ratio %.3f)\n",
-              frames, pn.rms, pn.max, worst_ratio, coarse_ms, fine_ms, coarse_ms / fine_ms);
+  std::printf(
+      "hybrid detail, hanging sheet after %d frames: coarse 9x9 + 2 levels vs fine 33x33: RMS %.4f m, max "
+      "%.4f m; worst per-frame fine/coarse motion ratio %.3f; cost coarse+detail %.0f ms vs fine %.0f ms "
+      "(ratio %.3f)\n",
+      frames, pn.rms, pn.max, worst_ratio, coarse_ms, fine_ms, coarse_ms / fine_ms);
   EXPECT_LT(worst_ratio, 2.0);  // no popping: the fine surface moves by O(the coarse motion)
   EXPECT_LT(pn.rms, 0.05);      // m, on a 1 m sheet
   EXPECT_LT(pn.max, 0.15);
 }
-
 
 // Geometric wrinkles (CurvedFaces.h): a 1 m sheet, coarse 9 x 9, 3 levels (fine edge 1/64 m), wavelength
 // 0.125 m (8 fine edges).
@@ -215,16 +223,22 @@ TEST(CurvedFacesWrinkles, CompressionMakesWrinklesAcrossItsAxisThatKeepTheArea) 
       hmax = std::max(hmax, std::abs(h));
       const long key = std::lround(fine.rest_positions()[i][axis] * 1024.0);
       auto it = by_line.find(key);
-      if (it == by_line.end()) by_line[key] = {h, h};
-      else it->second = {std::min(it->second.first, h), std::max(it->second.second, h)};
+      if (it == by_line.end())
+        by_line[key] = {h, h};
+      else
+        it->second = {std::min(it->second.first, h), std::max(it->second.second, h)};
       // The displacement is along the normal (±y here).
-      worst_normal = std::max(worst_normal, std::abs((out[i] - flat[i]).norm() - std::abs(h)) + std::abs(std::abs(out[i].y() - flat[i].y()) - std::abs(h)));
+      worst_normal = std::max(worst_normal, std::abs((out[i] - flat[i]).norm() - std::abs(h)) +
+                                                std::abs(std::abs(out[i].y() - flat[i].y()) - std::abs(h)));
     }
     for (const auto& [k, mm] : by_line) spread_along = std::max(spread_along, mm.second - mm.first);
-    const double a_rest = fine_area(fine, fine.rest_positions()), a_flat = fine_area(fine, flat), a_wr = fine_area(fine, out);
-    std::printf("wrinkles, 10%% compression along %c: max height %.4g m (rule %.4g m), height spread along the crests %.2g m; "
-                "area rest %.4f, compressed flat %.4f, with wrinkles %.4f m²\n",
-                axis == 0 ? 'x' : 'z', hmax, expected, spread_along, a_rest, a_flat, a_wr);
+    const double a_rest = fine_area(fine, fine.rest_positions()), a_flat = fine_area(fine, flat),
+                 a_wr = fine_area(fine, out);
+    std::printf(
+        "wrinkles, 10%% compression along %c: max height %.4g m (rule %.4g m), height spread along the "
+        "crests %.2g m; "
+        "area rest %.4f, compressed flat %.4f, with wrinkles %.4f m²\n",
+        axis == 0 ? 'x' : 'z', hmax, expected, spread_along, a_rest, a_flat, a_wr);
     EXPECT_NEAR(hmax, expected, 0.02 * expected);
     EXPECT_LT(spread_along, 1e-9);
     EXPECT_LT(worst_normal, 1e-12);
@@ -246,7 +260,8 @@ Vec3s squeezed(const ClothMesh& m, double s) {
   for (Vec3& p : x) {
     const double u = p.x(), v = p.z();
     const double squeeze = 0.15 * s * std::exp(-8.0 * (u * u + v * v));
-    p = Vec3(u * (1.0 - squeeze) + 0.05 * s * v * v, 1.0 + 0.2 * s * u * u + 0.05 * s * std::sin(3 * v), v * (1.0 - 0.5 * squeeze));
+    p = Vec3(u * (1.0 - squeeze) + 0.05 * s * v * v, 1.0 + 0.2 * s * u * u + 0.05 * s * std::sin(3 * v),
+             v * (1.0 - 0.5 * squeeze));
   }
   return x;
 }
@@ -261,7 +276,8 @@ TEST(CurvedFacesWrinkles, ContinuousAcrossSharedCoarseEdges) {
   for (double h : cf.wrinkle_heights()) hmax = std::max(hmax, std::abs(h));
   ASSERT_GT(hmax, 1e-3);  // there are wrinkles to compare
   // Every interior coarse edge: points on it evaluated from both triangles agree.
-  std::map<std::pair<int, int>, std::vector<std::pair<int, int>>> edge_tris;  // edge -> (triangle, corner of its first vertex)
+  std::map<std::pair<int, int>, std::vector<std::pair<int, int>>>
+      edge_tris;  // edge -> (triangle, corner of its first vertex)
   const auto& tris = coarse->triangles();
   for (int t = 0; t < static_cast<int>(tris.size()); ++t)
     for (int k = 0; k < 3; ++k) edge_tris[std::minmax(tris[t][k], tris[t][(k + 1) % 3])].push_back({t, k});
@@ -286,8 +302,10 @@ TEST(CurvedFacesWrinkles, ContinuousAcrossSharedCoarseEdges) {
       ++compared;
     }
   }
-  std::printf("wrinkles across %d shared-edge points: largest difference between the two sides %.3g m (max height %.3g m)\n",
-              compared, worst, hmax);
+  std::printf(
+      "wrinkles across %d shared-edge points: largest difference between the two sides %.3g m (max height "
+      "%.3g m)\n",
+      compared, worst, hmax);
   EXPECT_GT(compared, 100);
   EXPECT_LT(worst, 1e-12);
 }
@@ -314,15 +332,17 @@ TEST(CurvedFacesWrinkles, BoundedFrameToFrameChangeForSmoothMotion) {
     for (size_t i = 0; i < out.size(); ++i) df = std::max(df, (out[i] - prev[i]).norm());
     worst_fine = std::max(worst_fine, df);
     worst_coarse = std::max(worst_coarse, dc);
-    for (size_t i = 0; i < prev_h.size(); ++i) worst_dh = std::max(worst_dh, std::abs(cf.wrinkle_heights()[i] - prev_h[i]));
+    for (size_t i = 0; i < prev_h.size(); ++i)
+      worst_dh = std::max(worst_dh, std::abs(cf.wrinkle_heights()[i] - prev_h[i]));
     prev_h = cf.wrinkle_heights();
     prev = out;
     prev_coarse = x;
   }
   for (double h : cf.wrinkle_heights()) hmax = std::max(hmax, std::abs(h));
-  std::printf("wrinkles over a smooth %d-frame ramp: largest per-frame move fine %.3g m, coarse %.3g m, of a wrinkle "
-              "height %.3g m; final max height %.3g m\n",
-              frames, worst_fine, worst_coarse, worst_dh, hmax);
+  std::printf(
+      "wrinkles over a smooth %d-frame ramp: largest per-frame move fine %.3g m, coarse %.3g m, of a wrinkle "
+      "height %.3g m; final max height %.3g m\n",
+      frames, worst_fine, worst_coarse, worst_dh, hmax);
   ASSERT_GT(hmax, 2e-3);
   EXPECT_LT(worst_fine, 0.2 * hmax);
   EXPECT_LT(worst_fine, 5.0 * worst_coarse);

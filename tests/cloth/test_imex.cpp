@@ -35,7 +35,8 @@ TEST(Imex, HangingClothIsStableAt60HzWithOneStepPerFrame) {
     Simulation sim(hanging_cloth(model, n));
     const FrameStats s0 = sim.measure();
     const double scale = 0.2 * 9.81 * 1.0;  // J, m g L
-    double worst = -1e300, lowest = s0.potential, max_strain = 0.0, late_strain = 0.0, late_rise = -1e300, e1 = 0.0;
+    double worst = -1e300, lowest = s0.potential, max_strain = 0.0, late_strain = 0.0, late_rise = -1e300,
+           e1 = 0.0;
     FrameStats st;
     for (int f = 0; f < 180; ++f) {  // 3 s
       st = sim.step_frame();
@@ -50,9 +51,10 @@ TEST(Imex, HangingClothIsStableAt60HzWithOneStepPerFrame) {
         late_strain = std::max(late_strain, st.max_strain);
       }
     }
-    std::printf("imex %s, %d x %d, 60 Hz, 1 step/frame, 3 s: energy rise over the start %.3g J (m g L = %.3g J), "
-                "after 1 s over its 1 s value %.3g J; max strain %.4f (after 1 s: %.4f)\n",
-                model.c_str(), n, n, worst, scale, late_rise, max_strain, late_strain);
+    std::printf(
+        "imex %s, %d x %d, 60 Hz, 1 step/frame, 3 s: energy rise over the start %.3g J (m g L = %.3g J), "
+        "after 1 s over its 1 s value %.3g J; max strain %.4f (after 1 s: %.4f)\n",
+        model.c_str(), n, n, worst, scale, late_rise, max_strain, late_strain);
     // Bounded energy: at most a few percent of m g L above the start in the release transient (explicit
     // bending), and after the first second it only decreases (a dissipative scheme); the cloth really fell
     // and swung (its centre of mass went down by more than 0.3 m at some point); strains settle to a few %.
@@ -89,10 +91,12 @@ TEST(Imex, ConvergesFirstOrderToAFineReference) {
   };
   const auto ref = run("verlet", 4000);
   std::vector<double> err;
-  for (int steps : {16, 32, 64, 128}) err.push_back(rms(run("imex", steps)->cloths()[0]->state(), ref->cloths()[0]->state()));
-  std::printf("imex vs Verlet reference (9 x 9 springs, 0.25 s): RMS error %.3g, %.3g, %.3g, %.3g m at 16, 32, 64, "
-              "128 steps per frame (ratios %.2f, %.2f, %.2f)\n", err[0], err[1], err[2], err[3], err[0] / err[1],
-              err[1] / err[2], err[2] / err[3]);
+  for (int steps : {16, 32, 64, 128})
+    err.push_back(rms(run("imex", steps)->cloths()[0]->state(), ref->cloths()[0]->state()));
+  std::printf(
+      "imex vs Verlet reference (9 x 9 springs, 0.25 s): RMS error %.3g, %.3g, %.3g, %.3g m at 16, 32, 64, "
+      "128 steps per frame (ratios %.2f, %.2f, %.2f)\n",
+      err[0], err[1], err[2], err[3], err[0] / err[1], err[1] / err[2], err[2] / err[3]);
   for (size_t k = 0; k + 1 < err.size(); ++k) {
     const double ratio = err[k] / err[k + 1];
     EXPECT_GT(ratio, 1.7) << "halving h from step " << k;
@@ -108,8 +112,8 @@ TEST(Imex, EqualsImplicitEulerWhenEverythingIsStiff) {
   for (double bend : {0.0, 1e-4}) {
     auto step = [&](const std::string& method) {
       SimulationSetup s = test::hanging_sheet(9);
-      s.cloths[0].mesh = ClothMesh::from_triangles(s.cloths[0].mesh->rest_positions(), s.cloths[0].mesh->triangles(),
-                                                   {}, "test");
+      s.cloths[0].mesh = ClothMesh::from_triangles(s.cloths[0].mesh->rest_positions(),
+                                                   s.cloths[0].mesh->triangles(), {}, "test");
       s.cloths[0].material.bend_weft = s.cloths[0].material.bend_warp = bend;
       s.solver.method = method;
       s.solver.params["cg_tolerance"] = 1e-12;

@@ -159,8 +159,10 @@ TEST(BlockGather, SpringJacobiansEqualASerialAssemblyForAnyThreadCountAndPattern
       EXPECT_NE(got_x.pattern_id(), want_x.pattern_id());
       term.add_jacobians(EvalContext{x, v, 0.0, th}, o, &got_x, &got_v);
       for (int k = 0; k < got_x.num_blocks(); ++k) {
-        ASSERT_EQ(got_x.blocks()[k], want_x.blocks()[k]) << "round " << round << " threads " << th << " block " << k;
-        ASSERT_EQ(got_v.blocks()[k], want_v.blocks()[k]) << "round " << round << " threads " << th << " block " << k;
+        ASSERT_EQ(got_x.blocks()[k], want_x.blocks()[k])
+            << "round " << round << " threads " << th << " block " << k;
+        ASSERT_EQ(got_v.blocks()[k], want_v.blocks()[k])
+            << "round " << round << " threads " << th << " block " << k;
       }
     }
   }
@@ -239,7 +241,8 @@ TEST(SpringTerm, JacobianBlocksAreMirroredBitForBitWhenItSaysSo) {
       JacobianOptions o;
       o.clamp_compression = clamp;
       o.damping_position_terms = damping_x;
-      EXPECT_EQ(term.symmetric_jacobians(o), !damping_x);  // the set is damped: only the damping x-term breaks it
+      EXPECT_EQ(term.symmetric_jacobians(o),
+                !damping_x);  // the set is damped: only the damping x-term breaks it
       if (!term.symmetric_jacobians(o)) continue;
       for (int th = 1; th <= 2; ++th) {
         BlockMatrix kx(n, pairs);
@@ -256,7 +259,8 @@ TEST(SpringTerm, JacobianBlocksAreMirroredBitForBitWhenItSaysSo) {
             }
       }
     }
-  EXPECT_GT(checked, 2 * 2 * 2 * 3000);  // 2 mirrored option sets x 2 thread counts x 2 matrices x > 3000 blocks
+  EXPECT_GT(checked,
+            2 * 2 * 2 * 3000);  // 2 mirrored option sets x 2 thread counts x 2 matrices x > 3000 blocks
   // The damped set with the damping position term is not mirrored: the flag must say so (checked above), and
   // an undamped set stays mirrored with it.
   std::vector<Spring> undamped = springs;
@@ -470,7 +474,6 @@ TEST(ImplicitSolvers, AdaptiveStepRejectsAndGrowsBack) {
   EXPECT_GT(s.stats().cg_iterations, 0);
 }
 
-
 // Runs `frames` frames; returns the largest total energy seen, and fails on any non-finite frame.
 // A solver counter of the "solve" stage (ImplicitSolver::counters()), -1 if absent.
 TEST(ImplicitSolvers, ResultsAreBitIdenticalForOneAndTwoThreads) {
@@ -478,8 +481,8 @@ TEST(ImplicitSolvers, ResultsAreBitIdenticalForOneAndTwoThreads) {
     for (int mg = 0; mg <= 2; ++mg) {
       Vec3s out[2];
       for (int th = 1; th <= 2; ++th) {
-        SimulationSetup s =
-            pinned_setup(method, {{"newton_iterations", 2}, {"cg_max_iterations", 40}, {"multigrid", double(mg)}});
+        SimulationSetup s = pinned_setup(
+            method, {{"newton_iterations", 2}, {"cg_max_iterations", 40}, {"multigrid", double(mg)}});
         s.threads = th;
         Simulation sim(s);
         sim.step_frame();
@@ -499,7 +502,8 @@ class UndeclaredSprings final : public Term {
   double energy(const EvalContext& c) const override { return t_.energy(c); }
   void add_forces(const EvalContext& c, Vec3s& f) const override { t_.add_forces(c, f); }
   void add_pattern(std::vector<std::pair<int, int>>& pairs) const override { t_.add_pattern(pairs); }
-  void add_jacobians(const EvalContext& c, const JacobianOptions& o, BlockMatrix* dfdx, BlockMatrix* dfdv) const override {
+  void add_jacobians(const EvalContext& c, const JacobianOptions& o, BlockMatrix* dfdx,
+                     BlockMatrix* dfdv) const override {
     t_.add_jacobians(c, o, dfdx, dfdv);
   }
   bool has_velocity_jacobian() const override { return t_.has_velocity_jacobian(); }
@@ -545,7 +549,8 @@ TEST(ImplicitSolvers, FastPathsOnALargeClothEqualTheGeneralPathBitForBit) {
           continue;
         }
         for (size_t i = 0; i < want.size(); ++i)
-          ASSERT_EQ(c->state().x[i], want[i]) << method << " multigrid " << mg << " run " << run << " vertex " << i;
+          ASSERT_EQ(c->state().x[i], want[i])
+              << method << " multigrid " << mg << " run " << run << " vertex " << i;
       }
     }
 }

@@ -96,7 +96,8 @@ TEST(Oscillator, PeriodMatchesTwoPiSqrtMOverK) {
     }
     ASSERT_GE(crossings.size(), 11u) << method;
     const double measured = (crossings.back() - crossings.front()) / 10.0;
-    EXPECT_NEAR(measured / period, 1.0, 0.005) << method << ": measured " << measured << " s, exact " << period;
+    EXPECT_NEAR(measured / period, 1.0, 0.005)
+        << method << ": measured " << measured << " s, exact " << period;
   }
 }
 
@@ -112,7 +113,7 @@ TEST(Oscillator, SymplecticEnergyStaysBoundedOverTenThousandSteps) {
       if (s < 1000) early = std::max(early, dev);
       if (s >= 9000) late = std::max(late, dev);
     }
-    EXPECT_LT(early, 0.1) << method;             // O(h ω) oscillation ...
+    EXPECT_LT(early, 0.1) << method;                  // O(h ω) oscillation ...
     EXPECT_LT(late, 1.05 * early + 1e-12) << method;  // ... and no drift
   }
 }

@@ -5,10 +5,10 @@
 #include <fstream>
 #include <functional>
 
+#include "TestDir.h"
 #include "loom/cloth/ClothMesh.h"
 #include "loom/cloth/Error.h"
 #include "loom/cloth/SpringSet.h"
-#include "TestDir.h"
 
 namespace loom::cloth {
 namespace {
@@ -162,7 +162,8 @@ TEST(Obj, RejectsBadInputWithFileLineAndProblem) {
     EXPECT_NE(msg.find(c.expect_where), std::string::npos) << c.name << ": " << msg;
     EXPECT_NE(msg.find(c.expect_problem), std::string::npos) << c.name << ": " << msg;
   }
-  EXPECT_NE(error_of([] { ClothMesh::from_obj("/nonexistent/cloth.obj"); }).find("cannot open"), std::string::npos);
+  EXPECT_NE(error_of([] { ClothMesh::from_obj("/nonexistent/cloth.obj"); }).find("cannot open"),
+            std::string::npos);
 }
 
 }  // namespace
@@ -179,7 +180,7 @@ TEST(Materials, EveryPresetIsValidAndCitesPhysicalRanges) {
     EXPECT_NO_THROW(m.validate("", n)) << n;
     EXPECT_GT(m.areal_density, 0.05) << n;  // fabrics: 50-500 g/m²
     EXPECT_LT(m.areal_density, 0.5) << n;
-    EXPECT_GT(m.bend_weft, 1e-6) << n;      // µN·m range
+    EXPECT_GT(m.bend_weft, 1e-6) << n;  // µN·m range
     EXPECT_LT(m.bend_weft, 1e-3) << n;
   }
   // Anisotropy survives: 11 oz denim is ~5x stiffer along the warp than the weft (Wang et al. 2011).
@@ -209,9 +210,9 @@ TEST(Materials, WarpAndWeftFollowTheMaterialFrameOnAnyMesh) {
   Material m = material_preset("denim_11oz");
   // A right triangle whose legs run along weft (u) and warp (v), rotated by 30° in 3D.
   const double c = std::cos(0.5236), s = std::sin(0.5236);
-  auto mesh = ClothMesh::from_triangles({Vec3(0, 0, 0), Vec3(c, s, 0), Vec3(-s, c, 0), Vec3(c - s, s + c, 0)},
-                                        {{0, 1, 3}, {0, 3, 2}},
-                                        {{Vec2(0, 0), Vec2(1, 0), Vec2(1, 1)}, {Vec2(0, 0), Vec2(1, 1), Vec2(0, 1)}}, "test");
+  auto mesh = ClothMesh::from_triangles(
+      {Vec3(0, 0, 0), Vec3(c, s, 0), Vec3(-s, c, 0), Vec3(c - s, s + c, 0)}, {{0, 1, 3}, {0, 3, 2}},
+      {{Vec2(0, 0), Vec2(1, 0), Vec2(1, 1)}, {Vec2(0, 0), Vec2(1, 1), Vec2(0, 1)}}, "test");
   const auto springs = make_springs(*mesh, m);
   for (size_t k = 0; k < springs.size(); ++k) {
     const SpringDef& d = mesh->springs()[k];

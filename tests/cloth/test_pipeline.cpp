@@ -19,7 +19,9 @@ SimulationSetup hanging(int n, bool pins, bool drag) {
   return s;
 }
 
-bool has(const std::vector<std::string>& v, const std::string& s) { return std::find(v.begin(), v.end(), s) != v.end(); }
+bool has(const std::vector<std::string>& v, const std::string& s) {
+  return std::find(v.begin(), v.end(), s) != v.end();
+}
 
 TEST(Pipeline, OnlyTheEffectsTheSetupNamesExist) {
   {

@@ -10,7 +10,7 @@ namespace {
 
 // Height of the pins above the cloth's centre of mass once it has settled.
 double settled_sag(int n) {
-  SimulationSetup s = test::hanging_sheet(n);  // pins at y = 1 m
+  SimulationSetup s = test::hanging_sheet(n);               // pins at y = 1 m
   s.drag = DragSettings{1.0, 0.0, Vec3::Zero(), 0.0, 0.0};  // settles it; per area, so resolution-free
   s.substeps = n <= 17 ? 50 : 100;
   s.threads = 1;

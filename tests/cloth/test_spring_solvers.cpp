@@ -95,7 +95,8 @@ const double kH = 1.0 / 120.0;
 TEST(ProjectiveDynamics, FixedPointIsTheBackwardEulerStep) {
   Vec3s y;
   // Converged with Chebyshev (plain iterations converge at a rate of about 0.998 here).
-  const Vec3s x = one_step(settings("projective", {{"iterations", 3000}, {"chebyshev", 1}, {"rho", 0.99}}), kH, &y);
+  const Vec3s x =
+      one_step(settings("projective", {{"iterations", 3000}, {"chebyshev", 1}, {"rho", 0.99}}), kH, &y);
   const double r0 = backward_euler_residual(y, y, kH);
   EXPECT_LT(backward_euler_residual(x, y, kH), 1e-11 * r0);
 }
@@ -190,11 +191,12 @@ TEST(Xpbd, ApproachesTheBackwardEulerStepAsIterationsGrow) {
   // gradients within the step (Macklin 2016 drops that term), so a gentle start (2 mm, 5 cm/s) is used:
   // the error then falls by more than 100x before it levels off.
   const double amount = 0.002;
-  const Vec3s reference =
-      one_step(settings("projective", {{"iterations", 3000}, {"chebyshev", 1}, {"rho", 0.99}}), kH, nullptr, amount);
+  const Vec3s reference = one_step(
+      settings("projective", {{"iterations", 3000}, {"chebyshev", 1}, {"rho", 0.99}}), kH, nullptr, amount);
   std::vector<double> errors;
   for (int it : {1, 4, 16, 64, 256})
-    errors.push_back(rms_difference(one_step(settings("xpbd", {{"iterations", it}}), kH, nullptr, amount), reference));
+    errors.push_back(
+        rms_difference(one_step(settings("xpbd", {{"iterations", it}}), kH, nullptr, amount), reference));
   for (size_t k = 1; k < errors.size(); ++k) EXPECT_LT(errors[k], errors[k - 1]) << "step " << k;
   EXPECT_LT(errors.back(), 0.01 * errors.front());
 }

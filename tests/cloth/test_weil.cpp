@@ -64,13 +64,14 @@ TEST(Weil, StripMatchesTheAnalyticCatenarySag) {
     Simulation sim(strip(d));
     const auto t0 = std::chrono::steady_clock::now();
     sim.step_frame();
-    const double ms = std::chrono::duration<double, std::milli>(std::chrono::steady_clock::now() - t0).count();
+    const double ms =
+        std::chrono::duration<double, std::milli>(std::chrono::steady_clock::now() - t0).count();
     const ClothState& st = sim.cloths()[0]->state();
     double lowest = 1e9;
     for (const Vec3& p : st.x) lowest = std::min(lowest, p.y());
     const double measured = 1.0 - lowest;
-    std::printf("weil strip span %.1f m: sag %.5f m (analytic %.5f, error %.3f%%), %.2f ms\n", d, measured, sag,
-                100.0 * std::abs(measured - sag) / sag, ms);
+    std::printf("weil strip span %.1f m: sag %.5f m (analytic %.5f, error %.3f%%), %.2f ms\n", d, measured,
+                sag, 100.0 * std::abs(measured - sag) / sag, ms);
     EXPECT_NEAR(measured, sag, 0.01 * sag) << "span " << d;
     // The midpoint is the lowest point and the pinned ends did not move.
     const int mid = sim.cloths()[0]->mesh().grid_index(50, 0);
@@ -95,8 +96,10 @@ TEST(Weil, SquareHungFromFourCornersIsSymmetric) {
   g.origin = Vec3(-0.5, 1.0, -0.5);
   c.mesh = ClothMesh::grid(g);
   const double h = 0.35;  // corners at (±0.35, 1, ±0.35): span 0.7 m on a 1 m side
-  c.pins = {PinSpec{c.mesh->grid_index(0, 0), Vec3(-h, 1, -h), {}, {}}, PinSpec{c.mesh->grid_index(20, 0), Vec3(h, 1, -h), {}, {}},
-            PinSpec{c.mesh->grid_index(0, 20), Vec3(-h, 1, h), {}, {}}, PinSpec{c.mesh->grid_index(20, 20), Vec3(h, 1, h), {}, {}}};
+  c.pins = {PinSpec{c.mesh->grid_index(0, 0), Vec3(-h, 1, -h), {}, {}},
+            PinSpec{c.mesh->grid_index(20, 0), Vec3(h, 1, -h), {}, {}},
+            PinSpec{c.mesh->grid_index(0, 20), Vec3(-h, 1, h), {}, {}},
+            PinSpec{c.mesh->grid_index(20, 20), Vec3(h, 1, h), {}, {}}};
   s.cloths.push_back(c);
   s.solver.method = "weil";
   Simulation sim(s);
@@ -112,15 +115,17 @@ TEST(Weil, SquareHungFromFourCornersIsSymmetric) {
       const Vec3& mu = x[mesh.grid_index(20 - iu, iv)];  // mirror in x
       const Vec3& mv = x[mesh.grid_index(iu, 20 - iv)];  // mirror in z
       const Vec3& sw = x[mesh.grid_index(iv, iu)];       // swap x and z
-      asym = std::max({asym, (Vec3(-mu.x(), mu.y(), mu.z()) - p).norm(), (Vec3(mv.x(), mv.y(), -mv.z()) - p).norm(),
-                       (Vec3(sw.z(), sw.y(), sw.x()) - p).norm()});
+      asym =
+          std::max({asym, (Vec3(-mu.x(), mu.y(), mu.z()) - p).norm(),
+                    (Vec3(mv.x(), mv.y(), -mv.z()) - p).norm(), (Vec3(sw.z(), sw.y(), sw.x()) - p).norm()});
       lowest = std::min(lowest, p.y());
       highest = std::max(highest, p.y());
       ASSERT_TRUE(p.allFinite());
     }
   const double centre = 1.0 - x[mesh.grid_index(10, 10)].y();
-  std::printf("weil square on 4 corners (21 x 21): centre sag %.4f m, lowest %.4f m, asymmetry %.2g m, %.2f ms\n",
-              centre, 1.0 - lowest, asym, ms);
+  std::printf(
+      "weil square on 4 corners (21 x 21): centre sag %.4f m, lowest %.4f m, asymmetry %.2g m, %.2f ms\n",
+      centre, 1.0 - lowest, asym, ms);
   EXPECT_LT(asym, 1e-9);
   EXPECT_NEAR(highest, 1.0, 1e-12);  // nothing above the corners
   EXPECT_GT(centre, 0.1);            // it hangs: the centre sags below the corners

@@ -64,7 +64,8 @@ double worst_gap(const cloth::ClothState& s, const ColliderSet& set, double thic
   for (int i = 0; i < s.size(); ++i) {
     EXPECT_TRUE(s.x[i].allFinite());
     if (s.inv_mass[i] == 0.0) continue;
-    for (const Collider& c : set) worst = std::min(worst, signed_distance(c, c.curr, s.x[i], nullptr) - thickness);
+    for (const Collider& c : set)
+      worst = std::min(worst, signed_distance(c, c.curr, s.x[i], nullptr) - thickness);
   }
   return worst;
 }
@@ -222,7 +223,8 @@ void capsule_shot(int threads, cloth::Vec3s* final_x) {
       if ((a.y() - cc.y()) * (b.y() - cc.y()) >= 0.0) continue;
       const double s = (cc.y() - a.y()) / (b.y() - a.y());
       const Vec3 p = a + s * (b - a);
-      if (std::abs(p.x() - cc.x()) > 0.08) continue;  // the middle of the capsule (the sheet may slide off its ends)
+      if (std::abs(p.x() - cc.x()) > 0.08)
+        continue;  // the middle of the capsule (the sheet may slide off its ends)
       ++checked;
       EXPECT_GT(p.z(), cc.z()) << "edge " << e.i << "-" << e.j << " behind the capsule at t=" << ctx.t;
     }
@@ -285,8 +287,9 @@ double run_once(std::vector<std::unique_ptr<cloth::Cloth>>& cloths, const std::s
 // over a limb), is still corrected.
 TEST(BodyCollision, CapsuleThreadedThroughATriangleDoesNotTearItsEdgesApart) {
   for (bool threaded : {true, false}) {
-    auto mesh = cloth::ClothMesh::from_triangles(
-        {Vec3(0, 0, 0), Vec3(0.3, 0, 0), Vec3(0.3, 0, 0.3), Vec3(0, 0, 0.3)}, {{0, 1, 2}, {0, 2, 3}}, {}, "square");
+    auto mesh =
+        cloth::ClothMesh::from_triangles({Vec3(0, 0, 0), Vec3(0.3, 0, 0), Vec3(0.3, 0, 0.3), Vec3(0, 0, 0.3)},
+                                         {{0, 1, 2}, {0, 2, 3}}, {}, "square");
     std::vector<std::unique_ptr<cloth::Cloth>> cloths;
     cloths.push_back(std::make_unique<cloth::Cloth>("square", mesh, cloth::material_preset("cotton")));
     auto& st = cloths[0]->state();
@@ -334,8 +337,9 @@ TEST(BodyCollision, CapsuleThreadedThroughATriangleDoesNotTearItsEdgesApart) {
 // per capsule (and dropping only that capsule's edges) passes this test, but makes layered garments on a
 // mocap clip faster and more strained than the first-normal test does, so it is not in.
 TEST(BodyCollision, DISABLED_ThreadedCapsuleIsFoundBehindAnotherCollidersEdge) {
-  auto mesh = cloth::ClothMesh::from_triangles(
-      {Vec3(0, 0, 0), Vec3(0.3, 0, 0), Vec3(0.3, 0, 0.3), Vec3(0, 0, 0.3)}, {{0, 1, 2}, {0, 2, 3}}, {}, "square");
+  auto mesh =
+      cloth::ClothMesh::from_triangles({Vec3(0, 0, 0), Vec3(0.3, 0, 0), Vec3(0.3, 0, 0.3), Vec3(0, 0, 0.3)},
+                                       {{0, 1, 2}, {0, 2, 3}}, {}, "square");
   ASSERT_EQ(mesh->edges()[0].i, 0);
   ASSERT_EQ(mesh->edges()[0].j, 1);  // v0's first edge in the stage's order is A's
   std::vector<std::unique_ptr<cloth::Cloth>> cloths;
@@ -373,7 +377,8 @@ TEST(BodyCollision, DISABLED_ThreadedCapsuleIsFoundBehindAnotherCollidersEdge) {
 // is moved along the normal, not swung about P.
 TEST(BodyCollision, EdgeCorrectionMovesBothEndsAlikeAndSparesTheirOtherEdges) {
   const Vec3 p(0, 0, 0), q1(0, 0, 0.1), q2(0.1, 0, 0.1), q3(-0.1, 0, 0.1), r(-0.2, 0, 0.15);
-  auto mesh = cloth::ClothMesh::from_triangles({p, q1, q2, q3, r}, {{0, 2, 1}, {0, 1, 3}, {3, 1, 4}}, {}, "fan");
+  auto mesh =
+      cloth::ClothMesh::from_triangles({p, q1, q2, q3, r}, {{0, 2, 1}, {0, 1, 3}, {3, 1, 4}}, {}, "fan");
   std::vector<std::unique_ptr<cloth::Cloth>> cloths;
   cloths.push_back(std::make_unique<cloth::Cloth>("fan", mesh, cloth::material_preset("cotton")));
   auto& st = cloths[0]->state();
@@ -392,7 +397,8 @@ TEST(BodyCollision, EdgeCorrectionMovesBothEndsAlikeAndSparesTheirOtherEdges) {
   for (const auto& e : mesh->edges()) {
     double sp = 0.0;
     Vec3 n;
-    EXPECT_GT(segment_capsule_distance(c, c.curr, st.x[e.i], st.x[e.j], &sp, &n), -0.002) << "edge " << e.i << "-" << e.j;
+    EXPECT_GT(segment_capsule_distance(c, c.curr, st.x[e.i], st.x[e.j], &sp, &n), -0.002)
+        << "edge " << e.i << "-" << e.j;
   }
   EXPECT_GT((st.x[0] - p).norm(), 0.003);
   // Q3 moves no farther than P (1.4 vs 1.8 cm; scaled per end 2.1 vs 1.1 cm), and its hem edge stretches by

@@ -4,8 +4,8 @@
 #include <gtest/gtest.h>
 
 #include <algorithm>
-#include <iterator>
 #include <cmath>
+#include <iterator>
 #include <random>
 
 #include "loom/collision/Ccd.h"
@@ -13,10 +13,10 @@
 #include "loom/collision/ExactPredicates.h"
 
 namespace lc = loom::collision;
-using loom::cloth::ClothMesh;
-using loom::cloth::GridSpec;
 using lc::Vec3;
 using lc::Vec3s;
+using loom::cloth::ClothMesh;
+using loom::cloth::GridSpec;
 
 namespace {
 
@@ -35,7 +35,8 @@ Vec3s deform(const ClothMesh& mesh, std::mt19937_64& rng, double noise) {
   for (Vec3& p : x) {
     const double a = fold * (p.x() + 0.5);  // rolls the sheet around the z axis: layers overlap
     const double r = 0.15 + 0.05 * a;
-    p = Vec3(r * std::cos(a * 3.0 + phase), amp * std::sin(5.0 * p.z()) + r * std::sin(a * 3.0 + phase), p.z());
+    p = Vec3(r * std::cos(a * 3.0 + phase), amp * std::sin(5.0 * p.z()) + r * std::sin(a * 3.0 + phase),
+             p.z());
     p += noise * Vec3(u(rng), u(rng), u(rng));
   }
   return x;
@@ -116,9 +117,9 @@ TEST(ClothBvh, RebuildTriggers) {
 
 namespace {
 
-// Every pair of non-adjacent triangles that brute force finds but self_pairs_culled() left out must stay apart
-// over the whole step: no exact intersection at 9 times, and no vertex-face or edge-edge continuous contact
-// (conservative CCD: a miss there is proof). Returns the number of pairs left out.
+// Every pair of non-adjacent triangles that brute force finds but self_pairs_culled() left out must stay
+// apart over the whole step: no exact intersection at 9 times, and no vertex-face or edge-edge continuous
+// contact (conservative CCD: a miss there is proof). Returns the number of pairs left out.
 long check_culling_sound(const ClothMesh& mesh, const lc::ClothBvh& bvh, const Vec3s& x0, const Vec3s& x1,
                          double margin, long* culled_nodes) {
   const auto brute = lc::brute_force_pairs(mesh, x0, x1, 0.0, true);
@@ -142,7 +143,8 @@ long check_culling_sound(const ClothMesh& mesh, const lc::ClothBvh& bvh, const V
       const auto& f = side ? a : b;
       for (int k = 0; k < 3; ++k) {
         const int v = p[k];
-        EXPECT_FALSE(lc::vertex_face_ccd(x0[v], x0[f[0]], x0[f[1]], x0[f[2]], x1[v], x1[f[0]], x1[f[1]], x1[f[2]]).hit)
+        EXPECT_FALSE(
+            lc::vertex_face_ccd(x0[v], x0[f[0]], x0[f[1]], x0[f[2]], x1[v], x1[f[0]], x1[f[1]], x1[f[2]]).hit)
             << "culled pair " << i << " " << j;
       }
     }
@@ -185,9 +187,9 @@ TEST(ClothBvhNormalCones, FlatPatchIsCulledWhole) {
 }
 
 // A margin larger than the edges (62.5 mm edges, 70 mm margin, as a fine mesh whose edges are about its
-// thickness): two boundary edges one edge apart along the border are closer than the margin at rest. They need
-// only stay apart, so the gently waving sheet is still culled whole; on crumpled and rolled sheets whatever is
-// culled with that margin is still provably apart over the step.
+// thickness): two boundary edges one edge apart along the border are closer than the margin at rest. They
+// need only stay apart, so the gently waving sheet is still culled whole; on crumpled and rolled sheets
+// whatever is culled with that margin is still provably apart over the step.
 TEST(ClothBvhNormalCones, ContourEdgesCloseAtRestNeedOnlyStayApart) {
   const auto mesh = sheet(17);
   lc::ClothBvh bvh(mesh);
@@ -246,7 +248,8 @@ TEST(ClothBvhNormalCones, CullingNeverDropsATouchingPair) {
   EXPECT_GT(dropped, 1000);
 }
 
-// sort_pairs (the counting sort of candidate pairs) orders like std::sort, duplicates and empty runs included.
+// sort_pairs (the counting sort of candidate pairs) orders like std::sort, duplicates and empty runs
+// included.
 TEST(ClothBvh, SortPairsMatchesStdSort) {
   std::mt19937 rng(3);
   for (const int count : {0, 5, 63, 64, 1000, 20000}) {

@@ -13,7 +13,8 @@
 namespace loom::collision {
 namespace {
 
-Collider make(ShapeType type, double radius = 0.0, double half_height = 0.0, Vec3 half_extents = Vec3::Zero()) {
+Collider make(ShapeType type, double radius = 0.0, double half_height = 0.0,
+              Vec3 half_extents = Vec3::Zero()) {
   Collider c;
   c.shape.type = type;
   c.shape.radius = radius;
@@ -85,7 +86,8 @@ TEST(ColliderDistance, CylinderAndCapsuleMatchBruteForce) {
   std::uniform_real_distribution<double> u(-1.0, 1.0);
   for (int k = 0; k < 200; ++k) {
     const Vec3 q(u(rng), u(rng), u(rng));
-    const double bf = brute(surf, q, [&](const Vec3& p) { return std::hypot(p.x(), p.z()) < r && std::abs(p.y()) < hh; });
+    const double bf =
+        brute(surf, q, [&](const Vec3& p) { return std::hypot(p.x(), p.z()) < r && std::abs(p.y()) < hh; });
     EXPECT_NEAR(signed_distance(cyl, Transform::Identity(), q, nullptr), bf, 3e-3) << q.transpose();
     // Capsule: distance to the axis segment minus r (brute force over 4001 axis samples).
     double axis = HUGE_VAL;
@@ -97,7 +99,8 @@ TEST(ColliderDistance, CylinderAndCapsuleMatchBruteForce) {
 // Normals are the gradient of the distance (central differences away from the medial axis), under a pose.
 TEST(ColliderDistance, NormalIsTheGradientUnderAnyPose) {
   std::vector<Collider> shapes = {make(ShapeType::sphere, 0.4), make(ShapeType::capsule, 0.2, 0.3),
-                                  make(ShapeType::box, 0, 0, Vec3(0.3, 0.2, 0.1)), make(ShapeType::cylinder, 0.3, 0.2)};
+                                  make(ShapeType::box, 0, 0, Vec3(0.3, 0.2, 0.1)),
+                                  make(ShapeType::cylinder, 0.3, 0.2)};
   const Transform p = pose(Vec3(0.3, -0.2, 0.5), Vec3(1, 2, 3), 0.7);
   std::mt19937 rng(3);
   std::uniform_real_distribution<double> u(-1.0, 1.0);
@@ -111,7 +114,9 @@ TEST(ColliderDistance, NormalIsTheGradientUnderAnyPose) {
       Vec3 g;
       const double eps = 1e-6;
       for (int a = 0; a < 3; ++a)
-        g[a] = (signed_distance(c, p, q + eps * Vec3::Unit(a), nullptr) - signed_distance(c, p, q - eps * Vec3::Unit(a), nullptr)) / (2 * eps);
+        g[a] = (signed_distance(c, p, q + eps * Vec3::Unit(a), nullptr) -
+                signed_distance(c, p, q - eps * Vec3::Unit(a), nullptr)) /
+               (2 * eps);
       if (std::abs(g.norm() - 1.0) > 1e-4) continue;  // on a medial surface: no gradient
       EXPECT_NEAR((g - n).norm(), 0.0, 1e-5) << shape_type_name(c.shape.type) << " " << q.transpose();
     }
@@ -121,7 +126,9 @@ TEST(ColliderDistance, NormalIsTheGradientUnderAnyPose) {
 TEST(ColliderDistance, ConvexHullMatchesBoxAndBruteForce) {
   Collider hull = make(ShapeType::convex);
   const Vec3 e(0.3, 0.2, 0.1);
-  for (int k = 0; k < 8; ++k) hull.shape.vertices.emplace_back((k & 1) ? e.x() : -e.x(), (k & 2) ? e.y() : -e.y(), (k & 4) ? e.z() : -e.z());
+  for (int k = 0; k < 8; ++k)
+    hull.shape.vertices.emplace_back((k & 1) ? e.x() : -e.x(), (k & 2) ? e.y() : -e.y(),
+                                     (k & 4) ? e.z() : -e.z());
   hull.shape.vertices.emplace_back(0.01, 0.02, 0.0);
   hull.shape.vertices.emplace_back(-0.1, 0.0, 0.05);
   prepare_collider(hull);
@@ -151,10 +158,13 @@ TEST(ColliderDistance, ConvexHullMatchesBoxAndBruteForce) {
     const Vec3 q(2 * u(rng), 2 * u(rng), 2 * u(rng));
     double bf = HUGE_VAL;
     for (const Tri& t : geo.hull_triangles)
-      bf = std::min(bf, std::sqrt(point_triangle_closest(q, geo.hull_vertices[t[0]], geo.hull_vertices[t[1]], geo.hull_vertices[t[2]]).distance_squared));
+      bf = std::min(bf, std::sqrt(point_triangle_closest(q, geo.hull_vertices[t[0]], geo.hull_vertices[t[1]],
+                                                         geo.hull_vertices[t[2]])
+                                      .distance_squared));
     double inside = -HUGE_VAL;
     for (const auto& pl : geo.hull_planes) inside = std::max(inside, pl.head<3>().dot(q) - pl[3]);
-    EXPECT_NEAR(signed_distance(blob, Transform::Identity(), q, nullptr), inside > 0 ? bf : -bf, 1e-6) << q.transpose();
+    EXPECT_NEAR(signed_distance(blob, Transform::Identity(), q, nullptr), inside > 0 ? bf : -bf, 1e-6)
+        << q.transpose();
   }
 }
 
@@ -162,7 +172,8 @@ TEST(ColliderDistance, ConvexHullMatchesBoxAndBruteForce) {
 Collider wavy_mesh(int n, double s, double a, double fi, double fj) {
   Collider mesh = make(ShapeType::mesh);
   for (int j = 0; j < n; ++j)
-    for (int i = 0; i < n; ++i) mesh.shape.vertices.emplace_back(i * s, a * std::sin(i * fi) * std::cos(j * fj), j * s);
+    for (int i = 0; i < n; ++i)
+      mesh.shape.vertices.emplace_back(i * s, a * std::sin(i * fi) * std::cos(j * fj), j * s);
   for (int j = 0; j + 1 < n; ++j)
     for (int i = 0; i + 1 < n; ++i) {
       const int k = j * n + i;
@@ -182,7 +193,9 @@ TEST(ColliderDistance, MeshIsTwoSidedDistanceToNearestTriangle) {
     const Vec3 ql(u(rng), 0.5 * u(rng) - 0.2, u(rng));
     double bf = HUGE_VAL;
     for (const Tri& t : mesh.shape.triangles)
-      bf = std::min(bf, std::sqrt(point_triangle_closest(ql, mesh.shape.vertices[t[0]], mesh.shape.vertices[t[1]], mesh.shape.vertices[t[2]]).distance_squared));
+      bf = std::min(bf, std::sqrt(point_triangle_closest(ql, mesh.shape.vertices[t[0]],
+                                                         mesh.shape.vertices[t[1]], mesh.shape.vertices[t[2]])
+                                      .distance_squared));
     Vec3 nrm;
     const double d = signed_distance(mesh, p, p * ql, &nrm);
     EXPECT_NEAR(d, bf, 1e-9) << ql.transpose();
@@ -204,7 +217,8 @@ TEST(ColliderDistance, MeshDistanceDoesNotDependOnQueryOrder) {
   for (int k = 0; k < 300; ++k) {
     // On or within 1 mm of the surface (a random vertex of the wavy patch, moved a little), or far.
     const Vec3& v = mesh.shape.vertices[std::uniform_int_distribution<int>(0, n * n - 1)(rng)];
-    pts.push_back(k % 3 == 2 ? Vec3(u(rng), 2.0 * u(rng) - 1.0, u(rng)) : Vec3(v + Vec3(off(rng), off(rng), off(rng))));
+    pts.push_back(k % 3 == 2 ? Vec3(u(rng), 2.0 * u(rng) - 1.0, u(rng))
+                             : Vec3(v + Vec3(off(rng), off(rng), off(rng))));
   }
   std::vector<double> d(pts.size());
   std::vector<Vec3> nrm(pts.size());
@@ -212,7 +226,9 @@ TEST(ColliderDistance, MeshDistanceDoesNotDependOnQueryOrder) {
     d[k] = signed_distance(mesh, Transform::Identity(), pts[k], &nrm[k]);
     double bf = HUGE_VAL;
     for (const Tri& t : mesh.shape.triangles)
-      bf = std::min(bf, std::sqrt(point_triangle_closest(pts[k], mesh.shape.vertices[t[0]], mesh.shape.vertices[t[1]], mesh.shape.vertices[t[2]]).distance_squared));
+      bf = std::min(bf, std::sqrt(point_triangle_closest(pts[k], mesh.shape.vertices[t[0]],
+                                                         mesh.shape.vertices[t[1]], mesh.shape.vertices[t[2]])
+                                      .distance_squared));
     EXPECT_NEAR(d[k], bf, 1e-12) << k;
   }
   for (size_t r = pts.size(); r-- > 0;) {
@@ -227,14 +243,16 @@ TEST(ColliderDistance, MeshDistanceDoesNotDependOnQueryOrder) {
 // separation is reported, and no later than the first sampled time.
 TEST(SweptCollider, NoFalseNegativesAgainstDenseSampling) {
   std::vector<Collider> shapes = {make(ShapeType::sphere, 0.2), make(ShapeType::capsule, 0.05, 0.3),
-                                  make(ShapeType::box, 0, 0, Vec3(0.3, 0.02, 0.2)), make(ShapeType::cylinder, 0.1, 0.3)};
+                                  make(ShapeType::box, 0, 0, Vec3(0.3, 0.02, 0.2)),
+                                  make(ShapeType::cylinder, 0.1, 0.3)};
   std::mt19937 rng(21);
   std::uniform_real_distribution<double> u(-1.0, 1.0);
   int positives = 0;
   for (Collider c : shapes)
     for (int k = 0; k < 300; ++k) {
       c.prev = pose(0.3 * Vec3(u(rng), u(rng), u(rng)), Vec3(u(rng), u(rng), u(rng)), 0.5 * u(rng));
-      c.curr = pose(c.prev.translation() + 0.3 * Vec3(u(rng), u(rng), u(rng)), Vec3(u(rng), u(rng), u(rng)), 0.8 * u(rng));
+      c.curr = pose(c.prev.translation() + 0.3 * Vec3(u(rng), u(rng), u(rng)), Vec3(u(rng), u(rng), u(rng)),
+                    0.8 * u(rng));
       const Vec3 p0 = 0.8 * Vec3(u(rng), u(rng), u(rng)), p1 = 0.8 * Vec3(u(rng), u(rng), u(rng));
       const double sep = 0.002;
       const SweptHit hit = swept_point(c, p0, p1, sep);
@@ -275,8 +293,8 @@ TEST(SweptCollider, ThinPlateDoesNotTunnel) {
   ASSERT_TRUE(h2.hit);
   EXPECT_GT(h2.local.z(), 0.0);  // met by the capsule's front (ahead of its centre)
   // Edge vs capsule axis: the capsule passes between the two end vertices of a long edge.
-  const SweptSegmentHit e = swept_segment_capsule(cap, Vec3(-0.5, 0.0, 0.0), Vec3(0.5, 0.0, 0.0), Vec3(-0.5, 0.0, 0.0),
-                                                  Vec3(0.5, 0.0, 0.0), 0.001);
+  const SweptSegmentHit e = swept_segment_capsule(cap, Vec3(-0.5, 0.0, 0.0), Vec3(0.5, 0.0, 0.0),
+                                                  Vec3(-0.5, 0.0, 0.0), Vec3(0.5, 0.0, 0.0), 0.001);
   ASSERT_TRUE(e.hit);
   EXPECT_NEAR(e.toi, (0.25 - 0.031) / 0.5, 2e-3);
 }

@@ -26,7 +26,8 @@ lc::Shape shape(lc::ShapeType type) {
   s.half_height = 0.5;
   s.half_extents = Vec3(0.4, 0.2, 0.7);
   // An irregular convex point cloud: an octahedron with extra points inside and a few on top.
-  s.vertices = {Vec3(1, 0, 0), Vec3(-0.8, 0, 0), Vec3(0, 1.2, 0), Vec3(0, -0.5, 0), Vec3(0, 0, 0.9), Vec3(0, 0, -1),
+  s.vertices = {Vec3(1, 0, 0),       Vec3(-0.8, 0, 0),    Vec3(0, 1.2, 0),
+                Vec3(0, -0.5, 0),    Vec3(0, 0, 0.9),     Vec3(0, 0, -1),
                 Vec3(0.1, 0.1, 0.1), Vec3(0.2, 0.5, 0.2), Vec3(-0.2, -0.1, 0.3)};
   return s;
 }
@@ -103,7 +104,8 @@ TEST(ColliderMesh, VerticesOnTheSurfaceWithOutwardNormalsAndWinding) {
 
 TEST(ColliderMesh, VolumesConvergeToTheSolids) {
   const double r = 0.3, hh = 0.5;
-  const double sphere = 4.0 / 3.0 * kPi * r * r * r, capsule = sphere + kPi * r * r * 2 * hh, cylinder = kPi * r * r * 2 * hh;
+  const double sphere = 4.0 / 3.0 * kPi * r * r * r, capsule = sphere + kPi * r * r * 2 * hh,
+               cylinder = kPi * r * r * 2 * hh;
   struct Case {
     lc::ShapeType type;
     double exact;
@@ -120,7 +122,8 @@ TEST(ColliderMesh, VolumesConvergeToTheSolids) {
     EXPECT_LT(e64, e16 / 10.0);
   }
   EXPECT_NEAR(volume(lc::tessellate(shape(lc::ShapeType::box))), 8 * 0.4 * 0.2 * 0.7, 1e-15);
-  // The hull of the octahedron's six points (the inner points add nothing): 1/6 |x-span| |y-span| |z-span| * 8 / 8.
+  // The hull of the octahedron's six points (the inner points add nothing): 1/6 |x-span| |y-span| |z-span| *
+  // 8 / 8.
   EXPECT_NEAR(volume(lc::tessellate(shape(lc::ShapeType::convex))), (1.8 * 1.7 * 1.9) / 6.0, 1e-12);
 }
 

@@ -48,16 +48,20 @@ TEST(Distance, KnownValues) {
   EXPECT_NEAR(r.weights[0], 0.5, 1e-15);
   EXPECT_NEAR(r.weights[1], 0.25, 1e-15);
   EXPECT_NEAR(r.weights[2], 0.25, 1e-15);
-  EXPECT_DOUBLE_EQ(lc::point_triangle_closest(Vec3(2, 0, 0), a, b, c).distance_squared, 1.0);    // vertex b
-  EXPECT_DOUBLE_EQ(lc::point_triangle_closest(Vec3(1, 1, 1), a, b, c).distance_squared, 1.5);    // edge bc
+  EXPECT_DOUBLE_EQ(lc::point_triangle_closest(Vec3(2, 0, 0), a, b, c).distance_squared, 1.0);  // vertex b
+  EXPECT_DOUBLE_EQ(lc::point_triangle_closest(Vec3(1, 1, 1), a, b, c).distance_squared, 1.5);  // edge bc
   EXPECT_EQ(lc::point_triangle_distance_squared_exact(Vec3(1, 1, 1), a, b, c), mpq_class(3, 2));
   // Crossing segments 0.5 apart; parallel overlapping segments 2 apart; a zero-length segment.
   auto s = lc::segment_segment_closest(Vec3(-1, 0, 0), Vec3(1, 0, 0), Vec3(0.5, -1, 0.5), Vec3(0.5, 1, 0.5));
   EXPECT_DOUBLE_EQ(s.distance_squared, 0.25);
   EXPECT_DOUBLE_EQ(s.s, 0.75);
   EXPECT_DOUBLE_EQ(s.t, 0.5);
-  EXPECT_EQ(lc::segment_segment_distance_squared_exact(Vec3(0, 0, 0), Vec3(2, 0, 0), Vec3(1, 2, 0), Vec3(3, 2, 0)), 4);
-  EXPECT_EQ(lc::segment_segment_distance_squared_exact(Vec3(0, 0, 0), Vec3(0, 0, 0), Vec3(1, 1, 0), Vec3(1, -1, 0)), 1);
+  EXPECT_EQ(
+      lc::segment_segment_distance_squared_exact(Vec3(0, 0, 0), Vec3(2, 0, 0), Vec3(1, 2, 0), Vec3(3, 2, 0)),
+      4);
+  EXPECT_EQ(
+      lc::segment_segment_distance_squared_exact(Vec3(0, 0, 0), Vec3(0, 0, 0), Vec3(1, 1, 0), Vec3(1, -1, 0)),
+      1);
 }
 
 TEST(Distance, DoubleAgreesWithExactAndExactIsTheMinimum) {

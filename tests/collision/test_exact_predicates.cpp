@@ -8,9 +8,9 @@
 #include "loom/collision/IntersectionCensus.h"
 
 namespace lc = loom::collision;
+using lc::Vec3;
 using loom::cloth::ClothMesh;
 using loom::cloth::GridSpec;
-using lc::Vec3;
 using loom::cloth::Vec3s;
 
 TEST(ExactPredicates, Orient3dDecidesNearCoplanarPointsExactly) {
@@ -37,18 +37,21 @@ TEST(ExactPredicates, TriangleTriangleCases) {
   EXPECT_TRUE(lc::triangles_intersect(a0, a1, a2, on, up1, up2));
   const Vec3 lifted(1, 1, std::nextafter(0.5, 1.0));
   EXPECT_FALSE(lc::triangles_intersect(a0, a1, a2, lifted, up1, up2));
-  EXPECT_TRUE(lc::triangles_intersect(a0, a1, a2, Vec3(1, 1, std::nextafter(0.5, 0.0)), up1, up2));  // pierces
+  EXPECT_TRUE(
+      lc::triangles_intersect(a0, a1, a2, Vec3(1, 1, std::nextafter(0.5, 0.0)), up1, up2));  // pierces
   // Piercing through the middle.
   EXPECT_TRUE(lc::triangles_intersect(a0, a1, a2, Vec3(1, 1, -1), Vec3(1.2, 1, 2), Vec3(1, 1.2, 2)));
   // Coplanar: overlapping, nested, touching at an edge point, disjoint.
   const Vec3 p0(0, 0, 0), p1(1, 0, 0), p2(0, 1, 0);
-  EXPECT_TRUE(lc::triangles_intersect(p0, p1, p2, Vec3(0.5, 0.5, 0) - Vec3(0.2, 0.2, 0), Vec3(2, 0.3, 0), Vec3(0.3, 2, 0)));
+  EXPECT_TRUE(lc::triangles_intersect(p0, p1, p2, Vec3(0.5, 0.5, 0) - Vec3(0.2, 0.2, 0), Vec3(2, 0.3, 0),
+                                      Vec3(0.3, 2, 0)));
   EXPECT_TRUE(lc::triangles_intersect(p0, p1, p2, Vec3(0.1, 0.1, 0), Vec3(0.2, 0.1, 0), Vec3(0.1, 0.2, 0)));
   EXPECT_TRUE(lc::triangles_intersect(p0, p1, p2, Vec3(0.5, 0.5, 0), Vec3(1, 1, 0), Vec3(2, 0.5, 0)));
   EXPECT_FALSE(lc::triangles_intersect(p0, p1, p2, Vec3(0.6, 0.6, 0), Vec3(1, 1, 0), Vec3(2, 0.5, 0)));
   // Parallel planes 2^-60 apart.
   const Vec3 dz(0, 0, std::ldexp(1.0, -60));
-  EXPECT_FALSE(lc::triangles_intersect(p0, p1, p2, Vec3(0.1, 0.1, 0) + dz, Vec3(0.2, 0.1, 0) + dz, Vec3(0.1, 0.2, 0) + dz));
+  EXPECT_FALSE(lc::triangles_intersect(p0, p1, p2, Vec3(0.1, 0.1, 0) + dz, Vec3(0.2, 0.1, 0) + dz,
+                                       Vec3(0.1, 0.2, 0) + dz));
   // A degenerate (collinear) triangle piercing the face, and one beside it.
   EXPECT_TRUE(lc::triangles_intersect(p0, p1, p2, Vec3(0.2, 0.2, -1), Vec3(0.2, 0.2, 0), Vec3(0.2, 0.2, 1)));
   EXPECT_FALSE(lc::triangles_intersect(p0, p1, p2, Vec3(0.8, 0.8, -1), Vec3(0.8, 0.8, 0), Vec3(0.8, 0.8, 1)));
@@ -71,7 +74,8 @@ long brute_census(const ClothMesh& mesh, const Vec3s& x) {
       bool shared = false;
       for (int a = 0; a < 3; ++a)
         for (int b = 0; b < 3; ++b) shared = shared || t[i][a] == t[j][b];
-      if (!shared) n += lc::triangles_intersect(x[t[i][0]], x[t[i][1]], x[t[i][2]], x[t[j][0]], x[t[j][1]], x[t[j][2]]);
+      if (!shared)
+        n += lc::triangles_intersect(x[t[i][0]], x[t[i][1]], x[t[i][2]], x[t[j][0]], x[t[j][1]], x[t[j][2]]);
     }
   return n;
 }

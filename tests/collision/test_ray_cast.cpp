@@ -11,10 +11,10 @@
 #include "loom/collision/RayCast.h"
 
 namespace lc = loom::collision;
+using lc::Vec3;
 using loom::cloth::ClothMesh;
 using loom::cloth::GridSpec;
 using loom::cloth::Tri;
-using lc::Vec3;
 using loom::cloth::Vec3s;
 
 namespace {
@@ -54,7 +54,7 @@ TEST(RayCast, TriangleHitPointAndBarycentricsAgree) {
   EXPECT_FALSE(lc::ray_triangle(o, -d, a, b, c));
   EXPECT_FALSE(lc::ray_triangle(o, d, a, b, c, 1.9));
   EXPECT_FALSE(lc::ray_triangle(Vec3(0.25, 0.5, 0.0), Vec3(1, 0, 0), a, b, c));
-  EXPECT_FALSE(lc::ray_triangle(o, d, a, b, a));  // degenerate
+  EXPECT_FALSE(lc::ray_triangle(o, d, a, b, a));                      // degenerate
   EXPECT_FALSE(lc::ray_triangle(Vec3(0.75, 0.75, 2.0), d, a, b, c));  // outside the hypotenuse
 }
 
@@ -67,12 +67,14 @@ TEST(RayCast, NearestHitOnACrumpledSheetMatchesExactBruteForce) {
   std::mt19937 rng(7);
   Vec3s x = mesh->rest_positions();
   std::uniform_real_distribution<double> bump(-0.15, 0.15);
-  for (Vec3& p : x) p += Vec3(0.3 * bump(rng), bump(rng), 0.3 * bump(rng));  // folds: rays cross it several times
+  for (Vec3& p : x)
+    p += Vec3(0.3 * bump(rng), bump(rng), 0.3 * bump(rng));  // folds: rays cross it several times
   int hits = 0, misses = 0, multi = 0;
   for (int r = 0; r < 3000; ++r) {
     const Vec3 p(dyadic(rng, -0.8, 0.8), dyadic(rng, 0.3, 1.0) * (r % 2 ? 1 : -1), dyadic(rng, -0.8, 0.8));
-    const Vec3 d(dyadic(rng, -0.8, 0.8), -p.y() * dyadic(rng, 1.5, 3.0), dyadic(rng, -0.8, 0.8));  // towards/through y = 0
-    const Vec3 q = p + d;  // exact
+    const Vec3 d(dyadic(rng, -0.8, 0.8), -p.y() * dyadic(rng, 1.5, 3.0),
+                 dyadic(rng, -0.8, 0.8));  // towards/through y = 0
+    const Vec3 q = p + d;                  // exact
     // Brute force: every triangle the segment crosses exactly, and the crossing's parameter along d.
     int strict = 0, touching = 0;
     double nearest_strict = 1e300;
@@ -88,8 +90,10 @@ TEST(RayCast, NearestHitOnACrumpledSheetMatchesExactBruteForce) {
     multi += strict > 1;
     const auto hit = lc::ray_cast(p, d, x, tris, d.norm());
     if (strict > 0) {
-      ASSERT_TRUE(hit) << "ray " << r << " crosses " << strict << " triangles exactly but was reported missing";
-      EXPECT_LE(hit->distance, nearest_strict * d.norm() + 1e-12) << "ray " << r << ": not the nearest crossing";
+      ASSERT_TRUE(hit) << "ray " << r << " crosses " << strict
+                       << " triangles exactly but was reported missing";
+      EXPECT_LE(hit->distance, nearest_strict * d.norm() + 1e-12)
+          << "ray " << r << ": not the nearest crossing";
     }
     if (!hit) {
       ++misses;
@@ -97,8 +101,10 @@ TEST(RayCast, NearestHitOnACrumpledSheetMatchesExactBruteForce) {
     }
     ++hits;
     const Tri& t = tris[hit->triangle];
-    EXPECT_NE(crossing(p, q, x[t[0]], x[t[1]], x[t[2]]), 0) << "ray " << r << ": reported triangle not crossed exactly";
-    const Vec3 on = hit->barycentric[0] * x[t[0]] + hit->barycentric[1] * x[t[1]] + hit->barycentric[2] * x[t[2]];
+    EXPECT_NE(crossing(p, q, x[t[0]], x[t[1]], x[t[2]]), 0)
+        << "ray " << r << ": reported triangle not crossed exactly";
+    const Vec3 on =
+        hit->barycentric[0] * x[t[0]] + hit->barycentric[1] * x[t[1]] + hit->barycentric[2] * x[t[2]];
     EXPECT_LT((on - (p + hit->distance * d.normalized())).norm(), 1e-12);
     EXPECT_GE(hit->barycentric.minCoeff(), 0.0);
     EXPECT_NEAR(hit->barycentric.sum(), 1.0, 1e-14);

@@ -58,7 +58,8 @@ TEST(SelfCollision, FastTrianglesNeverPassThrough) {
       const Vec3 a(0, 0, 0), b(0.1, 0, 0), c(0, 0, 0.1);
       const Vec3 up(0.01, 0.001, 0.01);
       if (one_cloth) {
-        auto mesh = ClothMesh::from_triangles({a, b, c, a + up, b + up, c + up}, {{0, 1, 2}, {3, 4, 5}}, {}, "pair");
+        auto mesh =
+            ClothMesh::from_triangles({a, b, c, a + up, b + up, c + up}, {{0, 1, 2}, {3, 4, 5}}, {}, "pair");
         cloths.push_back(std::make_unique<Cloth>("pair", mesh, loom::cloth::Material()));
       } else {
         cloths.push_back(one_triangle(a, b, c, "low"));
@@ -81,7 +82,8 @@ TEST(SelfCollision, FastTrianglesNeverPassThrough) {
       const Vec3s& hi = cloths.back()->state().x;
       const Vec3s& lo = cloths.front()->state().x;
       const int first = one_cloth ? 3 : 0;
-      EXPECT_EQ(orient3d(lo[0], lo[1], lo[2], hi[first]), orient3d(a, b, c, a + up)) << "passed through, speed " << speed;
+      EXPECT_EQ(orient3d(lo[0], lo[1], lo[2], hi[first]), orient3d(a, b, c, a + up))
+          << "passed through, speed " << speed;
       EXPECT_GT((hi[first] - lo[0]).y(), 0.0);
       EXPECT_TRUE(cloths.back()->state().is_finite());
     }
@@ -143,7 +145,8 @@ TEST(SelfCollision, ThreadCountDeterminismAndNoIntersections) {
     std::uniform_real_distribution<double> u(-4e-3, 4e-3);
     for (int k = 0; k < 5; ++k) {
       Vec3s dx(s.size());
-      for (int i = 0; i < s.size(); ++i) dx[i] = Vec3(u(rng), u(rng) + (s.x[i].y() > 0.001 ? -2e-3 : 2e-3), u(rng));
+      for (int i = 0; i < s.size(); ++i)
+        dx[i] = Vec3(u(rng), u(rng) + (s.x[i].y() > 0.001 ? -2e-3 : 2e-3), u(rng));
       step(stage, cloths, {dx}, 1.0 / 120.0, threads);
       ASSERT_EQ(count_intersecting_pairs(*mesh, s.x), 0) << "step " << k << " threads " << threads;
     }
@@ -212,7 +215,8 @@ TEST(SelfCollision, RestNeighboursAreNoContactButAFoldOfTheSameSheetIs) {
     for (int k = 0; k < 3; ++k) {
       const Vec3s start = s.x;
       step(stage, cloths, {dx}, 1.0 / 240.0, 1);
-      for (int i = 0; i < s.size(); ++i) ASSERT_EQ(s.x[i], Vec3(start[i] + dx[i])) << "vertex " << i << " step " << k;
+      for (int i = 0; i < s.size(); ++i)
+        ASSERT_EQ(s.x[i], Vec3(start[i] + dx[i])) << "vertex " << i << " step " << k;
     }
     EXPECT_GT(counter(stage, "features"), 0.0);  // the rest neighbours are still tested (continuous passes)
     EXPECT_EQ(counter(stage, "contacts"), 0.0);

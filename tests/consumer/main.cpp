@@ -22,7 +22,8 @@ int main() {
   const Vec3s& x = sim.cloths()[0]->state().x;
   double lowest = x[0].y();
   for (const Vec3& p : x) lowest = std::min(lowest, p.y());
-  std::printf("consumer: %zu vertices, pinned corner y = %.6f, lowest y = %.6f\n", x.size(), x[0].y(), lowest);
+  std::printf("consumer: %zu vertices, pinned corner y = %.6f, lowest y = %.6f\n", x.size(), x[0].y(),
+              lowest);
   const bool ok = std::abs(x[0].y() - 1.0) < 1e-12 && x.back().y() < 0.99;
   return ok ? 0 : 1;
 }

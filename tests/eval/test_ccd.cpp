@@ -8,9 +8,9 @@
 #include <fstream>
 #include <random>
 
+#include "TestDir.h"
 #include "loom/cloth/Error.h"
 #include "loom/eval/CcdSampleQueries.h"
-#include "TestDir.h"
 
 namespace lc = loom::collision;
 namespace le = loom::eval;

@@ -5,8 +5,8 @@
 #include <cstdio>
 
 #include "loom/cloth/Error.h"
-#include "loom/eval/FabricTests.h"
 #include "loom/cloth/Simulation.h"
+#include "loom/eval/FabricTests.h"
 
 namespace loom::eval {
 namespace {
@@ -40,7 +40,8 @@ TEST(FabricTests, CatenarySagWithinOnePercent) {
       FabricTestOptions o = options("catenary", model);
       o.span = span;
       const FabricTestResult r = run_fabric_test(o);
-      EXPECT_LT(std::abs(r.measured / r.theory - 1.0), 0.01) << model << " span " << span << ": " << r.measured << " vs " << r.theory;
+      EXPECT_LT(std::abs(r.measured / r.theory - 1.0), 0.01)
+          << model << " span " << span << ": " << r.measured << " vs " << r.theory;
     }
 }
 
@@ -55,9 +56,11 @@ TEST(FabricTests, TensileRecoversTheStretchModulusWithinTwoPercent) {
       const FabricTestResult r = run_fabric_test(o);
       // The grid's diagonals add a Poisson coupling C12 = k_d, so a free strip's uniaxial modulus is
       // C11 - C12²/C22, slightly below the material's modulus: the bound allows for it.
-      const double k_d = std::min(o.material.shear, 0.5 * std::min(o.material.stretch_weft, o.material.stretch_warp));
+      const double k_d =
+          std::min(o.material.shear, 0.5 * std::min(o.material.stretch_weft, o.material.stretch_warp));
       const double uniaxial = o.material.stretch_weft - k_d * k_d / o.material.stretch_warp;
-      EXPECT_LT(std::abs(r.measured / uniaxial - 1.0), 0.02) << model << ", " << material << ": " << r.measured << " N/m";
+      EXPECT_LT(std::abs(r.measured / uniaxial - 1.0), 0.02)
+          << model << ", " << material << ": " << r.measured << " N/m";
       EXPECT_LT(std::abs(r.measured / r.theory - 1.0), 0.03) << model << ", " << material;
       // Linear material: extension grows with the load (E5 < E20 < E100).
       EXPECT_LT(r.fields[0].second, r.fields[1].second);
@@ -90,7 +93,8 @@ TEST(FabricTests, DihedralCantileverMatchesTheElasticaAndResolution) {
       o.resolution = k == 0 ? 9 : 17;
       o.overhang_ratio = ratio;
       const FabricTestResult r = run_fabric_test(o);
-      EXPECT_LT(std::abs(r.error), 1.5) << "l/c = " << ratio << ", N = " << o.resolution << ": " << r.measured << "° vs " << r.theory << "°";
+      EXPECT_LT(std::abs(r.error), 1.5) << "l/c = " << ratio << ", N = " << o.resolution << ": " << r.measured
+                                        << "° vs " << r.theory << "°";
       angle[k] = r.measured;
     }
     EXPECT_LT(std::abs(angle[1] - angle[0]), 1.0) << "l/c = " << ratio;
@@ -109,7 +113,8 @@ TEST(FabricTests, ChoiKoCantileverMatchesTheElasticaAndResolution) {
       o.resolution = k == 0 ? 9 : 17;
       o.overhang_ratio = ratio;
       const FabricTestResult r = run_fabric_test(o);
-      EXPECT_LT(std::abs(r.error), 1.5) << "l/c = " << ratio << ", N = " << o.resolution << ": " << r.measured << "° vs " << r.theory << "°";
+      EXPECT_LT(std::abs(r.error), 1.5) << "l/c = " << ratio << ", N = " << o.resolution << ": " << r.measured
+                                        << "° vs " << r.theory << "°";
       angle[k] = r.measured;
     }
     if (refine) {
@@ -155,8 +160,10 @@ TEST(StaticSolver, CantileverAndCatenaryAgreeWithSettledDynamicsAndTheory) {
       o.settle_frames = 3000;
       o.settle_speed = 1e-6;
       const FabricTestResult d = run_fabric_test(o);
-      std::printf("%s: static %.6g, %s %.6g (%d frames to < 1e-6 m/s), theory %.6g %s; CPU %.3f s vs %.3f s\n", test,
-                  s.measured, dynamic, d.measured, d.settle_frames, s.theory, s.unit.c_str(), s.cpu_seconds, d.cpu_seconds);
+      std::printf(
+          "%s: static %.6g, %s %.6g (%d frames to < 1e-6 m/s), theory %.6g %s; CPU %.3f s vs %.3f s\n", test,
+          s.measured, dynamic, d.measured, d.settle_frames, s.theory, s.unit.c_str(), s.cpu_seconds,
+          d.cpu_seconds);
       EXPECT_TRUE(d.settled) << test << " " << dynamic;
       if (cantilever) {
         EXPECT_NEAR(s.measured, d.measured, 0.05) << dynamic;  // degrees

@@ -24,7 +24,8 @@ FabricTestResult drape(const std::string& material, int rings) {
   double nodes = 0;
   for (const auto& [k, v] : r.fields)
     if (k == "nodes") nodes = v;
-  std::printf("%s, %d rings: DC %.2f%%, %g nodes, %.1f s\n", material.c_str(), rings, r.measured, nodes, r.seconds);
+  std::printf("%s, %d rings: DC %.2f%%, %g nodes, %.1f s\n", material.c_str(), rings, r.measured, nodes,
+              r.seconds);
   return r;
 }
 

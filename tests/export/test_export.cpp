@@ -119,12 +119,12 @@ TEST(Pc2, HeaderBytesFollowTheFormat) {
   std::vector<unsigned char> b((std::istreambuf_iterator<char>(in)), std::istreambuf_iterator<char>());
   ASSERT_EQ(b.size(), 32u + 2 * 12);
   EXPECT_EQ(std::memcmp(b.data(), "POINTCACHE2\0", 12), 0);
-  EXPECT_EQ(b[12], 1);   // version
-  EXPECT_EQ(b[16], 2);   // points
-  EXPECT_EQ(b[28], 1);   // samples
+  EXPECT_EQ(b[12], 1);  // version
+  EXPECT_EQ(b[16], 2);  // points
+  EXPECT_EQ(b[28], 1);  // samples
   const float five = 5.0f, six = 6.0f;
-  EXPECT_EQ(std::memcmp(b.data() + 20, &five, 4), 0);                 // start frame (little-endian host)
-  EXPECT_EQ(std::memcmp(b.data() + 32 + 5 * 4, &six, 4), 0);          // last coordinate
+  EXPECT_EQ(std::memcmp(b.data() + 20, &five, 4), 0);         // start frame (little-endian host)
+  EXPECT_EQ(std::memcmp(b.data() + 32 + 5 * 4, &six, 4), 0);  // last coordinate
 }
 
 TEST(Pc2, ReaderRejectsMalformedFiles) {
@@ -136,8 +136,11 @@ TEST(Pc2, ReaderRejectsMalformedFiles) {
     w.add_sample(Vec3s(3, Vec3::Zero()));
   }
   fs::resize_file(dir / "trunc.pc2", fs::file_size(dir / "trunc.pc2") - 4);
-  for (const auto& [name, words] : std::vector<std::pair<std::string, std::string>>{
-           {"short.pc2", "too short"}, {"sig.pc2", "POINTCACHE2"}, {"trunc.pc2", "does not match"}, {"none.pc2", "cannot open"}}) {
+  for (const auto& [name, words] :
+       std::vector<std::pair<std::string, std::string>>{{"short.pc2", "too short"},
+                                                        {"sig.pc2", "POINTCACHE2"},
+                                                        {"trunc.pc2", "does not match"},
+                                                        {"none.pc2", "cannot open"}}) {
     try {
       read_pc2((dir / name).string());
       ADD_FAILURE() << name << " accepted";
@@ -218,7 +221,8 @@ TEST(Gltf, MorphAnimationMatchesSimulatedPositions) {
     for (size_t s = 0; s < r.times.size(); ++s) {
       const Vec3s x = gltf_positions(m, c, static_cast<double>(s) - 1.0);
       ASSERT_EQ(x.size(), r.x[s][c].size());
-      for (size_t i = 0; i < x.size(); ++i) ASSERT_LT((x[i] - r.x[s][c][i]).norm(), 2e-6) << "frame " << s << " vertex " << i;
+      for (size_t i = 0; i < x.size(); ++i)
+        ASSERT_LT((x[i] - r.x[s][c][i]).norm(), 2e-6) << "frame " << s << " vertex " << i;
     }
   }
   // The animation: one weights channel per node, LINEAR, keys at the frame times, one-hot weights.
@@ -257,9 +261,10 @@ std::vector<Vec3> read_obj_vertices(const fs::path& p) {
 
 TEST(Exports, LoomRunWritesAllFormatsThatAgreeWithObjFrames) {
   const fs::path out = fresh_dir("cli");
-  const std::string cmd = std::string(LOOM_BINARY) + " run " + LOOM_SOURCE_DIR +
-                          "/scenes/hanging_cloth.json --frames 4 --out " + out.string() +
-                          " --set 'output={\"every\": 2, \"formats\": [\"obj\", \"pc2\", \"gltf\"]}' >/dev/null 2>&1";
+  const std::string cmd =
+      std::string(LOOM_BINARY) + " run " + LOOM_SOURCE_DIR + "/scenes/hanging_cloth.json --frames 4 --out " +
+      out.string() +
+      " --set 'output={\"every\": 2, \"formats\": [\"obj\", \"pc2\", \"gltf\"]}' >/dev/null 2>&1";
   ASSERT_EQ(std::system(cmd.c_str()), 0) << cmd;
   const Pc2Cache cache = read_pc2((out / "pc2" / "sheet.pc2").string());
   ASSERT_EQ(cache.samples, 3);  // frames 0, 2, 4

@@ -43,7 +43,8 @@ extern "C" int LLVMFuzzerTestOneInput(const std::uint8_t* data, std::size_t size
     try {
       const auto m = loom::characters::Motion::load(path, s);
       if (!std::isfinite(m.scale()) || !(m.scale() > 0.0) || !std::isfinite(m.duration())) __builtin_trap();
-      for (double t : {0.0, 0.01, 0.5 * m.duration(), m.duration(), 2.7 * m.duration() + 0.1}) check_pose(m, t);
+      for (double t : {0.0, 0.01, 0.5 * m.duration(), m.duration(), 2.7 * m.duration() + 0.1})
+        check_pose(m, t);
     } catch (const loom::Error&) {
       return 0;  // the same bytes fail the same way with loop on
     }

@@ -47,9 +47,10 @@ extern "C" int LLVMFuzzerTestOneInput(const std::uint8_t* data, std::size_t size
     if (mode == 0) {
       const loom::app::Checkpoint c = loom::app::decode_checkpoint(bytes, "fuzz.bin");
       if (c.frame < 0 || c.frame > c.frames_total || c.logged_frames < 0 || c.threads < 1) __builtin_trap();
-      const loom::app::Checkpoint d = loom::app::decode_checkpoint(loom::app::encode_checkpoint(c), "again.bin");
-      if (d.frame != c.frame || d.logged_frames != c.logged_frames || d.state != c.state || d.scene != c.scene ||
-          d.inputs.size() != c.inputs.size() || d.run_id != c.run_id)
+      const loom::app::Checkpoint d =
+          loom::app::decode_checkpoint(loom::app::encode_checkpoint(c), "again.bin");
+      if (d.frame != c.frame || d.logged_frames != c.logged_frames || d.state != c.state ||
+          d.scene != c.scene || d.inputs.size() != c.inputs.size() || d.run_id != c.run_id)
         __builtin_trap();
     } else if (mode == 1) {
       long keep = 0;

@@ -18,7 +18,8 @@ bool tame(nlohmann::json& j) {
   if (j.is_object()) {
     for (auto it = j.begin(); it != j.end(); ++it) {
       // Files named by the scene (meshes, motion clips) could be anything on this machine: never opened.
-      if ((it.key() == "path" || it.key() == "bvh") && it.value().is_string()) it.value() = "/nonexistent/loom_fuzz.obj";
+      if ((it.key() == "path" || it.key() == "bvh") && it.value().is_string())
+        it.value() = "/nonexistent/loom_fuzz.obj";
       if (it.key() == "nodes" && it.value().is_array())
         for (const auto& n : it.value())
           if (n.is_number() && n.get<double>() > 64) return false;

@@ -8,9 +8,9 @@
 #include <filesystem>
 #include <memory>
 
+#include "TestDir.h"
 #include "loom/cloth/ClothMesh.h"
 #include "loom/render/Renderer.h"
-#include "TestDir.h"
 
 namespace loom::render {
 namespace {
@@ -70,7 +70,8 @@ TEST(Render, ClothPixelsWhereTheClothProjects) {
         if (scale > 1.0 && std::max(std::abs(u), std::abs(v)) < 0.45) continue;  // only the outer ring
         const Vec2 px = r->project(Vec3(scale * u, 1.0, scale * v));
         const int x = static_cast<int>(px.x()), y = static_cast<int>(px.y());
-        ASSERT_TRUE(x >= 0 && y >= 0 && x < img.width && y < img.height) << "cloth not framed: " << x << "," << y;
+        ASSERT_TRUE(x >= 0 && y >= 0 && x < img.width && y < img.height)
+            << "cloth not framed: " << x << "," << y;
         const auto c = img.at(x, y);
         if (scale < 1.0) {
           ++inside;
@@ -121,15 +122,17 @@ TEST(Render, BackSideIsLitAndShadowFallsOnTheGround) {
     ASSERT_TRUE(p.x() >= 0 && p.y() >= 0 && p.x() < above.width && p.y() < above.height) << p.transpose();
   const auto sp = above.at(int(s.x()), int(s.y())), op = above.at(int(open.x()), int(open.y()));
   EXPECT_FALSE(is_cloth(sp));
-  EXPECT_LT(luminance(sp), 0.8 * luminance(op)) << "shadow " << luminance(sp) << " open ground " << luminance(op);
+  EXPECT_LT(luminance(sp), 0.8 * luminance(op))
+      << "shadow " << luminance(sp) << " open ground " << luminance(op);
 }
 
 TEST(Render, LoomRunRenderWritesPngsVideoAndGif) {
   const fs::path out = loom::test::test_dir() / "run";
   fs::remove_all(out);
-  const std::string cmd = std::string(LOOM_BINARY) + " run " + LOOM_SOURCE_DIR +
-                          "/scenes/hanging_cloth.json --frames 6 --render --out " + out.string() +
-                          " --set 'output={\"formats\": [], \"render\": {\"width\": 160, \"height\": 120}}' >/dev/null 2>&1";
+  const std::string cmd =
+      std::string(LOOM_BINARY) + " run " + LOOM_SOURCE_DIR +
+      "/scenes/hanging_cloth.json --frames 6 --render --out " + out.string() +
+      " --set 'output={\"formats\": [], \"render\": {\"width\": 160, \"height\": 120}}' >/dev/null 2>&1";
   ASSERT_EQ(std::system(cmd.c_str()), 0) << cmd;
   for (int f = 0; f <= 6; ++f) {
     char name[32];
@@ -148,8 +151,10 @@ TEST(Render, LoomRunRenderWritesPngsVideoAndGif) {
   EXPECT_FALSE(fs::exists(out / "frames" / "frame_00000.obj"));  // formats: [] writes no OBJ
   ASSERT_TRUE(fs::exists(out / "render.gif"));
   const fs::path count = out / "count.txt";
-  const std::string probe = "ffprobe -v error -count_frames -select_streams v:0 -show_entries stream=nb_read_frames,width,height "
-                            "-of csv=p=0 " + (out / "render.mp4").string() + " > " + count.string();
+  const std::string probe =
+      "ffprobe -v error -count_frames -select_streams v:0 -show_entries stream=nb_read_frames,width,height "
+      "-of csv=p=0 " +
+      (out / "render.mp4").string() + " > " + count.string();
   ASSERT_EQ(std::system(probe.c_str()), 0);
   std::FILE* fp = std::fopen(count.string().c_str(), "r");
   ASSERT_NE(fp, nullptr);

@@ -2,16 +2,15 @@
 // cloth, not ground, not sky), its pose is the one given (moving it moves it in the image), a cloth in
 // front of it hides it, and a horizontal plane collider becomes the ground.
 #include <gtest/gtest.h>
-
 #include <stb_image.h>
 
 #include <cstdlib>
 #include <filesystem>
 #include <memory>
 
+#include "TestDir.h"
 #include "loom/cloth/ClothMesh.h"
 #include "loom/render/Renderer.h"
-#include "TestDir.h"
 
 namespace loom::render {
 namespace {
@@ -107,7 +106,7 @@ TEST(RenderColliders, ClothInFrontHidesTheColliderAndAGroundPlaneMovesTheGround)
   EXPECT_DOUBLE_EQ(sc.r->ground(), 0.3);  // the plane's height, not ground_height(b) = 0
   const Image img = sc.r->render({&sc.mesh->rest_positions()}, &set);
   const Vec2 centre = sc.r->project(Vec3(0.0, 0.8, 0.0)), side = sc.r->project(Vec3(0.3, 0.8, 0.18));
-  EXPECT_TRUE(is_cloth(img.at(int(centre.x()), int(centre.y()))));  // hidden behind the cloth
+  EXPECT_TRUE(is_cloth(img.at(int(centre.x()), int(centre.y()))));     // hidden behind the cloth
   EXPECT_TRUE(is_collider(img.at(int(side.x()) - 1, int(side.y()))));  // beside it: seen
   // The ground plane collider itself is not drawn as a collider: below the ball, the ground's grey.
   const Vec2 floor = sc.r->project(Vec3(0.8, 0.3, 0.8));
@@ -121,7 +120,8 @@ TEST(RenderColliders, LoomRunRenderShowsTheScenesColliders) {
   fs::remove_all(out);
   const std::string cmd = std::string(LOOM_BINARY) + " run " + LOOM_SOURCE_DIR +
                           "/scenes/sphere_spin.json --frames 2 --render --out " + out.string() +
-                          " --set cloths.0.mesh.nodes=[9,9] --set 'output={\"formats\": [], \"render\": {\"width\": 160, \"height\": 120}}' >/dev/null 2>&1";
+                          " --set cloths.0.mesh.nodes=[9,9] --set 'output={\"formats\": [], \"render\": "
+                          "{\"width\": 160, \"height\": 120}}' >/dev/null 2>&1";
   ASSERT_EQ(std::system(cmd.c_str()), 0) << cmd;
   int w = 0, h = 0, n = 0;
   unsigned char* data = stbi_load((out / "render" / "frame_00002.png").string().c_str(), &w, &h, &n, 3);

@@ -14,7 +14,7 @@ namespace loom::scene {
 namespace {
 
 struct SheetResult {
-  double fold_height = 0.0;      // m, max - min height over the middle row across the fold direction
+  double fold_height = 0.0;       // m, max - min height over the middle row across the fold direction
   double mean_compression = 0.0;  // 1, mean max(0, 1 - l/L) over structural springs along u
   double worst_compression = 0.0;
   bool finite = true;
@@ -53,10 +53,10 @@ SheetResult run(const std::string& model, double seconds) {
 
 TEST(BucklingScene, SheetPushedTogetherFoldsOutOfPlane) {
   const SheetResult ck = run("choi_ko", 1.2), sp = run("springs", 1.2);
-  std::printf("choi_ko: fold %.4f m, mean compression %.5f, worst %.4f\n", ck.fold_height, ck.mean_compression,
-              ck.worst_compression);
-  std::printf("springs: fold %.4f m, mean compression %.5f, worst %.4f\n", sp.fold_height, sp.mean_compression,
-              sp.worst_compression);
+  std::printf("choi_ko: fold %.4f m, mean compression %.5f, worst %.4f\n", ck.fold_height,
+              ck.mean_compression, ck.worst_compression);
+  std::printf("springs: fold %.4f m, mean compression %.5f, worst %.4f\n", sp.fold_height,
+              sp.mean_compression, sp.worst_compression);
   ASSERT_TRUE(ck.finite);
   ASSERT_TRUE(sp.finite);
   // 20% of 30 cm taken up out of plane: a fold of several centimetres, not a flat compressed sheet.

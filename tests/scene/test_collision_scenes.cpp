@@ -6,6 +6,7 @@
 
 #include <cmath>
 #include <cstdio>
+#include <nlohmann/json.hpp>
 #include <string>
 #include <vector>
 
@@ -13,7 +14,6 @@
 #include "loom/collision/MultiClothCensus.h"
 #include "loom/scene/Build.h"
 #include "loom/scene/Scene.h"
-#include <nlohmann/json.hpp>
 
 namespace {
 
@@ -40,8 +40,9 @@ class CheckStage final : public cloth::Stage {
           const double depth = -collision::signed_distance(k, k.curr, s.x[i], nullptr);
           if (depth > worst_depth) worst_depth = depth;
           if (depth - k.thickness > worst_excess)
-            worst_excess = depth - k.thickness,
-            where = k.name + " vertex " + std::to_string(i) + " t=" + std::to_string(ctx.t) + " depth " + std::to_string(depth);
+            worst_excess = depth - k.thickness, where = k.name + " vertex " + std::to_string(i) +
+                                                        " t=" + std::to_string(ctx.t) + " depth " +
+                                                        std::to_string(depth);
         }
       }
     }
@@ -93,13 +94,14 @@ Outcome run_built(const std::string& name, const scene::Scene& sc) {
         if (k == "contacts") o.contacts += v;
   o.worst = c->worst, o.steps = c->steps, o.first_bad = c->first_bad_step, o.finite = o.finite && c->finite;
   o.worst_depth = c->worst_depth, o.worst_excess = c->worst_excess, o.where = c->where;
-  std::printf("%s: %ld steps, worst census %ld, deepest inside a collider %.4f m, max speed %.2f m/s\n", name.c_str(),
-              o.steps, o.worst, o.worst_depth, o.max_speed);
+  std::printf("%s: %ld steps, worst census %ld, deepest inside a collider %.4f m, max speed %.2f m/s\n",
+              name.c_str(), o.steps, o.worst, o.worst_depth, o.max_speed);
   return o;
 }
 
 Outcome run_scene(const std::string& name, const std::vector<std::string>& overrides) {
-  return run_built(name, scene::load_scene(std::string(LOOM_SOURCE_DIR) + "/scenes/" + name + ".json", overrides));
+  return run_built(name,
+                   scene::load_scene(std::string(LOOM_SOURCE_DIR) + "/scenes/" + name + ".json", overrides));
 }
 
 void expect_clean(const Outcome& o, int min_steps, double speed_bound) {
@@ -107,15 +109,17 @@ void expect_clean(const Outcome& o, int min_steps, double speed_bound) {
   EXPECT_GE(o.steps, min_steps);
   EXPECT_EQ(o.worst, 0) << "first intersecting step " << o.first_bad;
   EXPECT_LE(o.worst_excess, 0.0) << o.where;  // never deeper inside a collider than its thickness
-  EXPECT_LT(o.max_speed, speed_bound);  // bounded energy
-  EXPECT_GT(o.contacts, 0.0);           // the scene does exercise collision
+  EXPECT_LT(o.max_speed, speed_bound);        // bounded energy
+  EXPECT_GT(o.contacts, 0.0);                 // the scene does exercise collision
 }
 
 // I-Cloth's "Sphere": cloth dropped on a sphere spinning at 3 rad/s, self-collision on.
 TEST(CollisionScenes, SphereSpin) {
   expect_clean(run_scene("sphere_spin", {"cloths[0].mesh.nodes=[13,13]", "duration=0.8"}), 96, 6.0);
 }
-TEST(CollisionScenes, TwistingCloth) { expect_clean(run_scene("twisting_cloth", {"duration=1.0"}), 240, 5.0); }
+TEST(CollisionScenes, TwistingCloth) {
+  expect_clean(run_scene("twisting_cloth", {"duration=1.0"}), 240, 5.0);
+}
 TEST(CollisionScenes, Funnel) {
   expect_clean(run_scene("funnel", {"cloths[0].mesh.nodes=[11,11]", "duration=0.6"}), 144, 6.0);
 }
@@ -149,7 +153,8 @@ TEST(CollisionScenes, SqueezedBetweenWalls) {
       {"name": "west", "shape": "box", "half_extents": [0.05, 0.2, 0.3], "thickness": 0.004, "friction": 0.3,
        "motion": {"keyframes": [{"t": 0, "position": [-0.5, 0.2, 0]}, {"t": 0.8, "position": [-0.1, 0.2, 0]}]}}]
   })");
-  const Outcome o = run_built("squeezed_between_walls", scene::parse_scene(root, "squeezed_between_walls.json"));
+  const Outcome o =
+      run_built("squeezed_between_walls", scene::parse_scene(root, "squeezed_between_walls.json"));
   expect_clean(o, 240, 15.0);
   EXPECT_LE(o.worst_depth, 0.0) << o.where;
 }

@@ -5,9 +5,9 @@
 #include <filesystem>
 #include <fstream>
 
+#include "TestDir.h"
 #include "loom/cloth/Error.h"
 #include "loom/scene/Scene.h"
-#include "TestDir.h"
 
 namespace loom::scene {
 namespace {
@@ -20,8 +20,8 @@ std::string write_scene(const std::string& name, const std::string& text) {
   return p.string();
 }
 
-std::string scene_text(const std::string& solver, const std::string& cloth_extra, const std::string& top_extra,
-                       double duration = 0.1) {
+std::string scene_text(const std::string& solver, const std::string& cloth_extra,
+                       const std::string& top_extra, double duration = 0.1) {
   return R"({"duration": )" + std::to_string(duration) + R"(, "fps": 60, "solver": )" + solver + R"(,
   "cloths": [{"name": "sheet", "mesh": {"type": "grid", "size": [1, 1], "nodes": [5, 5]},
               "material": {"preset": "cotton"}, "pins": [{"grid": [0, 0]}, {"grid": [-1, 0]}])" +
@@ -42,13 +42,15 @@ std::string error_of(const std::string& name, const std::string& text) {
 }
 
 TEST(DetailAndWeilScenes, DetailIsParsed) {
-  const std::string path = write_scene("detail.json", scene_text(R"({"method": "implicit_euler"})",
-                                                                  R"(, "detail": {"method": "curved_faces", "levels": 3})", ""));
+  const std::string path =
+      write_scene("detail.json", scene_text(R"({"method": "implicit_euler"})",
+                                            R"(, "detail": {"method": "curved_faces", "levels": 3})", ""));
   const Scene s = load_scene(path);
   ASSERT_EQ(s.detail.size(), 1u);
   EXPECT_EQ(s.detail.at(0).levels, 3);
   EXPECT_EQ(s.detail.at(0).method, "curved_faces");
-  EXPECT_TRUE(load_scene(write_scene("nodetail.json", scene_text(R"({"method": "implicit_euler"})", "", ""))).detail.empty());
+  EXPECT_TRUE(load_scene(write_scene("nodetail.json", scene_text(R"({"method": "implicit_euler"})", "", "")))
+                  .detail.empty());
 }
 
 TEST(DetailAndWeilScenes, DetailErrorsNameThePath) {
@@ -67,15 +69,19 @@ TEST(DetailAndWeilScenes, DetailErrorsNameThePath) {
 TEST(DetailAndWeilScenes, WrinklesAreParsedAndCheckedByPath) {
   const std::string solver = R"({"method": "implicit_euler"})";
   const Scene s = load_scene(write_scene(
-      "wrinkles.json", scene_text(solver, R"(, "detail": {"levels": 2, "wrinkles": {"amplitude": 0.004, "wavelength": 0.03}})", "")));
+      "wrinkles.json",
+      scene_text(solver, R"(, "detail": {"levels": 2, "wrinkles": {"amplitude": 0.004, "wavelength": 0.03}})",
+                 "")));
   ASSERT_EQ(s.detail.size(), 1u);
   EXPECT_TRUE(s.detail.at(0).wrinkles.enabled);
   EXPECT_DOUBLE_EQ(s.detail.at(0).wrinkles.amplitude, 0.004);
   EXPECT_DOUBLE_EQ(s.detail.at(0).wrinkles.wavelength, 0.03);
-  EXPECT_FALSE(load_scene(write_scene("nowrinkles.json", scene_text(solver, R"(, "detail": {"levels": 2})", "")))
-                   .detail.at(0)
-                   .wrinkles.enabled);
-  std::string m = error_of("wl.json", scene_text(solver, R"(, "detail": {"wrinkles": {"wavelength": 0}})", ""));
+  EXPECT_FALSE(
+      load_scene(write_scene("nowrinkles.json", scene_text(solver, R"(, "detail": {"levels": 2})", "")))
+          .detail.at(0)
+          .wrinkles.enabled);
+  std::string m =
+      error_of("wl.json", scene_text(solver, R"(, "detail": {"wrinkles": {"wavelength": 0}})", ""));
   EXPECT_NE(m.find("cloths[0].detail.wrinkles.wavelength"), std::string::npos) << m;
   m = error_of("amp.json", scene_text(solver, R"(, "detail": {"wrinkles": {"amplitude": -1}})", ""));
   EXPECT_NE(m.find("cloths[0].detail.wrinkles.amplitude"), std::string::npos) << m;
@@ -91,11 +97,15 @@ TEST(DetailAndWeilScenes, WeilRefusesWhatNeedsMotionOrCollision) {
   std::string m = error_of("weil_duration.json", scene_text(weil, "", "", 1.0));
   EXPECT_NE(m.find("duration"), std::string::npos) << m;
   EXPECT_NE(m.find("weil"), std::string::npos) << m;
-  m = error_of("weil_colliders.json",
-               scene_text(weil, "", R"(, "colliders": [{"name": "ground", "shape": "plane", "thickness": 0.005}])", one_frame));
+  m = error_of(
+      "weil_colliders.json",
+      scene_text(weil, "", R"(, "colliders": [{"name": "ground", "shape": "plane", "thickness": 0.005}])",
+                 one_frame));
   EXPECT_NE(m.find("colliders"), std::string::npos) << m;
   EXPECT_NE(m.find("collision"), std::string::npos) << m;
-  m = error_of("weil_wind.json", scene_text(weil, "", R"(, "effects": {"drag": {"isotropic": 0.1, "wind": [1, 0, 0]}})", one_frame));
+  m = error_of(
+      "weil_wind.json",
+      scene_text(weil, "", R"(, "effects": {"drag": {"isotropic": 0.1, "wind": [1, 0, 0]}})", one_frame));
   EXPECT_NE(m.find("effects.drag"), std::string::npos) << m;
   m = error_of("weil_velocity.json", scene_text(weil, R"(, "velocity": [0, 0, 1])", "", one_frame));
   EXPECT_NE(m.find("velocity"), std::string::npos) << m;

@@ -5,9 +5,9 @@
 #include <filesystem>
 #include <fstream>
 
+#include "TestDir.h"
 #include "loom/cloth/Error.h"
 #include "loom/scene/Scene.h"
-#include "TestDir.h"
 
 namespace loom::scene {
 namespace {
@@ -39,8 +39,9 @@ TEST(OutputRender, DefaultsAndCamera) {
   EXPECT_EQ(d.width, 640);
   EXPECT_EQ(d.height, 480);
   EXPECT_FALSE(d.camera);
-  const RenderOutput c =
-      load_scene(path, {"output.render={\"width\": 320, \"every\": 2, \"camera\": {\"eye\": [1, 2, 3], \"target\": [0, 1, 0]}}"}).output.render;
+  const RenderOutput c = load_scene(path, {"output.render={\"width\": 320, \"every\": 2, \"camera\": "
+                                           "{\"eye\": [1, 2, 3], \"target\": [0, 1, 0]}}"})
+                             .output.render;
   EXPECT_EQ(c.width, 320);
   EXPECT_EQ(c.every, 2);
   EXPECT_TRUE(c.camera);
@@ -59,8 +60,10 @@ TEST(OutputFormats, BadValuesNameFilePathAndProblem) {
       {"output.render={\"height\": 9000}", "output.render.height", "must be <= 8192"},
       {"output.render={\"every\": 0}", "output.render.every", "must be >= 1"},
       {"output.render={\"size\": 3}", "output.render.size", "unknown key"},
-      {"output.render={\"camera\": {\"eye\": [0, 1, 3], \"target\": [0, 1, 0], \"fov\": 175}}", "output.render.camera.fov", "must be < 170"},
-      {"output.render={\"camera\": {\"eye\": [0, 1, 3], \"target\": [0, 1, 3]}}", "output.render.camera.target", "must differ"},
+      {"output.render={\"camera\": {\"eye\": [0, 1, 3], \"target\": [0, 1, 0], \"fov\": 175}}",
+       "output.render.camera.fov", "must be < 170"},
+      {"output.render={\"camera\": {\"eye\": [0, 1, 3], \"target\": [0, 1, 3]}}",
+       "output.render.camera.target", "must differ"},
       {"output.render={\"camera\": {\"eye\": [0, 1]}}", "output.render.camera.eye", "expected 3 numbers"},
   };
   for (const auto& [set, where, problem] : cases) {

@@ -15,7 +15,8 @@ namespace loom::scene {
 namespace {
 
 nlohmann::json base_scene() {
-  return nlohmann::json::parse(R"({"cloths": [{"mesh": {"type": "grid", "size": [1, 1], "nodes": [3, 3]}}]})");
+  return nlohmann::json::parse(
+      R"({"cloths": [{"mesh": {"type": "grid", "size": [1, 1], "nodes": [3, 3]}}]})");
 }
 
 std::string error_of(const nlohmann::json& colliders) {
@@ -66,9 +67,10 @@ TEST(SceneColliders, FrictionPairsResolveNamesAndReportErrors) {
     root["collision"] = {{"self", true}, {"friction_pairs", nlohmann::json::parse(pairs)}};
     return root;
   };
-  const Scene s = parse_scene(scene_with(R"([{"a": "coat", "b": "shirt", "friction": 0.2, "static_friction": 0.3},
+  const Scene s =
+      parse_scene(scene_with(R"([{"a": "coat", "b": "shirt", "friction": 0.2, "static_friction": 0.3},
                                              {"a": "shirt", "b": "floor", "friction": 0.6}])"),
-                              "scene.json");
+                  "scene.json");
   ASSERT_TRUE(s.collision.has_value());
   ASSERT_EQ(s.collision->friction_pairs.size(), 2u);
   const auto& p0 = s.collision->friction_pairs[0];
@@ -115,7 +117,8 @@ TEST(SceneColliders, MotionSamplesKeyframesAndSpin) {
   EXPECT_NEAR(Eigen::AngleAxisd(mid.linear()).angle(), M_PI / 4, 1e-12);
   const collision::Transform late = s.colliders[0].motion(5.0);
   EXPECT_NEAR(late.translation().x(), 2.0, 1e-12);
-  const collision::Transform spun = s.colliders[1].motion(1.0);  // quarter turn about y through the origin, up 1 m
+  const collision::Transform spun =
+      s.colliders[1].motion(1.0);  // quarter turn about y through the origin, up 1 m
   EXPECT_NEAR((spun.translation() - cloth::Vec3(0, 1, -1)).norm(), 0.0, 1e-12);
 }
 
@@ -131,13 +134,16 @@ TEST(SceneColliders, HugeRotationAxisIsUsedByItsDirection) {
   for (const char* axis : {"[1e300, 1e300, 0]", "[1e-320, 1e-320, 0]", "[1, 1, 0]"}) {
     nlohmann::json root = base_scene();
     root["colliders"] = nlohmann::json::parse(std::string(R"([{"shape": "box", "half_extents": [1, 1, 1],
-        "rotation": {"axis": )") + axis + R"(, "degrees": 90}, "motion": {"spin": {"axis": )" + axis + R"(, "rate": 1}}}])");
+        "rotation": {"axis": )") + axis + R"(, "degrees": 90}, "motion": {"spin": {"axis": )" +
+                                              axis + R"(, "rate": 1}}}])");
     const Scene s = parse_scene(root, "scene.json");
     ASSERT_EQ(s.colliders.size(), 1u);
     for (double t : {0.0, 0.5}) {
       const auto pose = s.colliders[0].motion(t);
       EXPECT_TRUE(pose.matrix().allFinite()) << axis;
-      EXPECT_NEAR((pose.linear() * pose.linear().transpose() - Eigen::Matrix3d::Identity()).norm(), 0.0, 1e-12) << axis;
+      EXPECT_NEAR((pose.linear() * pose.linear().transpose() - Eigen::Matrix3d::Identity()).norm(), 0.0,
+                  1e-12)
+          << axis;
       // A quarter turn about (1, 1, 0)/sqrt(2) maps x to (1/2, 1/2, -1/sqrt(2)) (at t = 0, before the spin).
       if (t == 0.0) {
         const cloth::Vec3 x = pose.linear() * cloth::Vec3::UnitX();

@@ -6,9 +6,9 @@
 #include <filesystem>
 #include <fstream>
 
+#include "TestDir.h"
 #include "loom/cloth/Error.h"
 #include "loom/scene/Scene.h"
-#include "TestDir.h"
 
 namespace loom::scene {
 namespace {
@@ -57,25 +57,51 @@ TEST_P(ConstraintSceneErrors, MessageNamesFilePathAndProblem) {
 const Case kCases[] = {
     {"constraints_type", {"constraints=3"}, "constraints", "expected an object"},
     {"constraints_unknown", {"constraints.springs={}"}, "constraints.springs", "unknown key"},
-    {"max_stretch_negative", {"constraints.strain_limit.max_stretch=-0.1"}, "constraints.strain_limit.max_stretch", "must be >= 0"},
-    {"max_stretch_string", {"constraints.strain_limit.max_stretch=\"ten\""}, "constraints.strain_limit.max_stretch", "expected a number"},
-    {"sl_iterations_zero", {"constraints.strain_limit.iterations=0"}, "constraints.strain_limit.iterations", "must be >= 1"},
-    {"sl_iterations_fraction", {"constraints.strain_limit.iterations=2.5"}, "constraints.strain_limit.iterations", "expected an integer"},
+    {"max_stretch_negative",
+     {"constraints.strain_limit.max_stretch=-0.1"},
+     "constraints.strain_limit.max_stretch",
+     "must be >= 0"},
+    {"max_stretch_string",
+     {"constraints.strain_limit.max_stretch=\"ten\""},
+     "constraints.strain_limit.max_stretch",
+     "expected a number"},
+    {"sl_iterations_zero",
+     {"constraints.strain_limit.iterations=0"},
+     "constraints.strain_limit.iterations",
+     "must be >= 1"},
+    {"sl_iterations_fraction",
+     {"constraints.strain_limit.iterations=2.5"},
+     "constraints.strain_limit.iterations",
+     "expected an integer"},
     {"sl_unknown_key", {"constraints.strain_limit.tau=0.1"}, "constraints.strain_limit.tau", "unknown key"},
     {"slack_negative", {"constraints.tethers.slack=-1"}, "constraints.tethers.slack", "must be >= 0"},
-    {"tether_distance", {"constraints.tethers.distance=manhattan"}, "constraints.tethers.distance", "unknown value 'manhattan'"},
+    {"tether_distance",
+     {"constraints.tethers.distance=manhattan"},
+     "constraints.tethers.distance",
+     "unknown value 'manhattan'"},
     {"xpbd_iterations", {"solver.iterations=0"}, "solver.iterations", "must be in [1"},
     {"pbd_stiffness", {"solver.method=pbd", "solver.stiffness=2"}, "solver.stiffness", "must be in [0"},
     {"projective_rho", {"solver.method=projective", "solver.rho=1.5"}, "solver.rho", "must be in [0"},
-    {"projective_chebyshev", {"solver.method=projective", "solver.chebyshev=3"}, "solver.chebyshev", "must be in [0"},
-    {"desbrun_param", {"solver.method=desbrun"}, "solver.iterations", "unknown parameter for method 'desbrun'"},
-    {"projective_choi_ko", {"solver.method=projective", "cloths[0].model=choi_ko"}, "solver.method", "cannot use term 'choi_ko'"},
+    {"projective_chebyshev",
+     {"solver.method=projective", "solver.chebyshev=3"},
+     "solver.chebyshev",
+     "must be in [0"},
+    {"desbrun_param",
+     {"solver.method=desbrun"},
+     "solver.iterations",
+     "unknown parameter for method 'desbrun'"},
+    {"projective_choi_ko",
+     {"solver.method=projective", "cloths[0].model=choi_ko"},
+     "solver.method",
+     "cannot use term 'choi_ko'"},
 };
 
 INSTANTIATE_TEST_SUITE_P(All, ConstraintSceneErrors, ::testing::ValuesIn(kCases),
                          [](const auto& info) { return std::string(info.param.name); });
 
-bool has(const std::vector<std::string>& v, const std::string& s) { return std::find(v.begin(), v.end(), s) != v.end(); }
+bool has(const std::vector<std::string>& v, const std::string& s) {
+  return std::find(v.begin(), v.end(), s) != v.end();
+}
 
 TEST(ConstraintScene, StagesExistOnlyWhenTheSceneNamesThem) {
   const std::string path = write_scene("stages");

@@ -4,9 +4,9 @@
 #include <filesystem>
 #include <fstream>
 
+#include "TestDir.h"
 #include "loom/cloth/Error.h"
 #include "loom/scene/Scene.h"
-#include "TestDir.h"
 
 namespace loom::scene {
 namespace {
@@ -63,8 +63,14 @@ const Case kCases[] = {
     {"nan_value", {"cloths[0].mass=NaN"}, "cloths[0].mass", "expected a number"},
     {"infinite_value", {"duration=1e999"}, "duration", "finite"},
     {"negative_mass", {"cloths[0].mass=-0.2"}, "cloths[0].mass", "must be > 0"},
-    {"negative_density", {"cloths[0].material.areal_density=-1"}, "cloths[0].material.areal_density", "must be > 0"},
-    {"negative_stretch", {"cloths[0].material.stretch_warp=-5"}, "cloths[0].material.stretch_warp", "must be > 0"},
+    {"negative_density",
+     {"cloths[0].material.areal_density=-1"},
+     "cloths[0].material.areal_density",
+     "must be > 0"},
+    {"negative_stretch",
+     {"cloths[0].material.stretch_warp=-5"},
+     "cloths[0].material.stretch_warp",
+     "must be > 0"},
     {"negative_damping", {"cloths[0].material.damping=-0.1"}, "cloths[0].material.damping", "must be >= 0"},
     {"zero_dt", {"solver={\"dt\": 0}"}, "solver.dt", "must be > 0"},
     {"dt_over_frame", {"solver={\"dt\": 0.5}"}, "solver.dt", "must not exceed"},
@@ -72,7 +78,10 @@ const Case kCases[] = {
     {"fractional_substeps", {"solver.substeps=2.5"}, "solver.substeps", "expected an integer"},
     {"substeps_and_dt", {"solver.dt=0.001"}, "solver", "either 'substeps' or 'dt'"},
     {"unknown_method", {"solver.method=rk99"}, "solver.method", "unknown method 'rk99'"},
-    {"unknown_solver_param", {"solver.iterations=5"}, "solver.iterations", "unknown parameter for method 'symplectic_euler'"},
+    {"unknown_solver_param",
+     {"solver.iterations=5"},
+     "solver.iterations",
+     "unknown parameter for method 'symplectic_euler'"},
     {"solver_param_type", {"solver.iterations=\"many\""}, "solver.iterations", "expected a number"},
     {"zero_duration", {"duration=0"}, "duration", "must be > 0"},
     {"negative_fps", {"fps=-60"}, "fps", "must be > 0"},
@@ -81,22 +90,47 @@ const Case kCases[] = {
     {"missing_cloths", {}, "cloths", "is required", "{\"duration\": 1}"},
     {"empty_cloths", {"cloths=[]"}, "cloths", "at least one cloth"},
     {"cloth_not_object", {"cloths=[3]"}, "cloths[0]", "expected an object"},
-    {"unknown_preset", {"cloths[0].material.preset=silk"}, "cloths[0].material.preset", "unknown material preset 'silk'"},
-    {"clo_and_preset", {"cloths[0].material.clo={\"weight\": 200}"}, "cloths[0].material", "either 'preset' or 'clo'"},
-    {"clo_negative_weight", {"cloths[0].material={\"clo\": {\"weight\": -5}}"}, "cloths[0].material.clo.weight", "must be > 0"},
-    {"clo_unknown_key", {"cloths[0].material={\"clo\": {\"bending\": 5}}"}, "cloths[0].material.clo.bending", "unknown key"},
+    {"unknown_preset",
+     {"cloths[0].material.preset=silk"},
+     "cloths[0].material.preset",
+     "unknown material preset 'silk'"},
+    {"clo_and_preset",
+     {"cloths[0].material.clo={\"weight\": 200}"},
+     "cloths[0].material",
+     "either 'preset' or 'clo'"},
+    {"clo_negative_weight",
+     {"cloths[0].material={\"clo\": {\"weight\": -5}}"},
+     "cloths[0].material.clo.weight",
+     "must be > 0"},
+    {"clo_unknown_key",
+     {"cloths[0].material={\"clo\": {\"bending\": 5}}"},
+     "cloths[0].material.clo.bending",
+     "unknown key"},
     {"unknown_model", {"cloths[0].model=fem"}, "cloths[0].model", "unknown value 'fem'"},
     {"mesh_type", {"cloths[0].mesh.type=sphere"}, "cloths[0].mesh.type", "unknown value 'sphere'"},
     {"grid_nodes", {"cloths[0].mesh.nodes=[1, 5]"}, "cloths[0].mesh.nodes", "[2, 4096]"},
     {"grid_size", {"cloths[0].mesh.size=[0, 1]"}, "cloths[0].mesh.size", "must be in (0, 1000000] m"},
-    {"missing_obj", {"cloths[0].mesh={\"type\": \"obj\", \"path\": \"no_such.obj\"}"}, "cloths[0].mesh", "cannot open OBJ file"},
+    {"missing_obj",
+     {"cloths[0].mesh={\"type\": \"obj\", \"path\": \"no_such.obj\"}"},
+     "cloths[0].mesh",
+     "cannot open OBJ file"},
     {"pin_vertex_range", {"cloths[0].pins=[{\"vertex\": 99}]"}, "cloths[0].pins[0].vertex", "out of range"},
-    {"pin_grid_range", {"cloths[0].pins=[{\"grid\": [7, 0]}]"}, "cloths[0].pins[0].grid", "outside the 5x5 grid"},
-    {"pin_two_kinds", {"cloths[0].pins=[{\"grid\": [0, 0], \"vertex\": 1}]"}, "cloths[0].pins[0]", "exactly one"},
-    {"pin_path_offsets", {"cloths[0].pins=[{\"vertex\": 1, \"path\": {\"times\": [0, 1], \"offsets\": [[0,0,0]]}}]"},
-     "cloths[0].pins[0].path.offsets", "one [x, y, z] offset per time"},
-    {"pin_path_times", {"cloths[0].pins=[{\"vertex\": 1, \"path\": {\"times\": [1, 0], \"offsets\": [[0,0,0],[0,0,0]]}}]"},
-     "cloths[0].pins[0].path.times", "increase strictly"},
+    {"pin_grid_range",
+     {"cloths[0].pins=[{\"grid\": [7, 0]}]"},
+     "cloths[0].pins[0].grid",
+     "outside the 5x5 grid"},
+    {"pin_two_kinds",
+     {"cloths[0].pins=[{\"grid\": [0, 0], \"vertex\": 1}]"},
+     "cloths[0].pins[0]",
+     "exactly one"},
+    {"pin_path_offsets",
+     {"cloths[0].pins=[{\"vertex\": 1, \"path\": {\"times\": [0, 1], \"offsets\": [[0,0,0]]}}]"},
+     "cloths[0].pins[0].path.offsets",
+     "one [x, y, z] offset per time"},
+    {"pin_path_times",
+     {"cloths[0].pins=[{\"vertex\": 1, \"path\": {\"times\": [1, 0], \"offsets\": [[0,0,0],[0,0,0]]}}]"},
+     "cloths[0].pins[0].path.times",
+     "increase strictly"},
     {"drag_negative", {"effects={\"drag\": {\"normal\": -1}}"}, "effects.drag.normal", "must be >= 0"},
     {"unknown_effect", {"effects={\"tornado\": {}}"}, "effects.tornado", "unknown key"},
     {"output_every", {"output={\"every\": 0}"}, "output.every", "must be >= 1"},
@@ -111,12 +145,17 @@ const Case kCases[] = {
     {"guard_growth_below_one", {"guard={\"energy_growth\": 0.5}"}, "guard.energy_growth", "must be >= 1"},
     {"guard_enabled_type", {"guard={\"enabled\": \"yes\"}"}, "guard.enabled", "expected"},
     {"guard_negative_energy_bound", {"guard={\"energy_bound\": -1}"}, "guard.energy_bound", "must be >= 0"},
-    {"guard_penetration_type", {"guard={\"max_penetration\": \"1 mm\"}"}, "guard.max_penetration", "expected"},
+    {"guard_penetration_type",
+     {"guard={\"max_penetration\": \"1 mm\"}"},
+     "guard.max_penetration",
+     "expected"},
     {"guard_intersections_type", {"guard={\"intersections\": 1}"}, "guard.intersections", "expected"},
 };
 
 INSTANTIATE_TEST_SUITE_P(AllCases, SceneErrors, ::testing::ValuesIn(kCases),
-                         [](const ::testing::TestParamInfo<Case>& info) { return std::string(info.param.name); });
+                         [](const ::testing::TestParamInfo<Case>& info) {
+                           return std::string(info.param.name);
+                         });
 
 TEST(Scene, ObjErrorsNameSceneMeshAndObjLine) {
   std::ofstream(test::test_dir() / "broken.obj") << "v 0 0 0\nv 1 0 0\nv 0 1 0\nf 1 2 9\n";
@@ -149,8 +188,9 @@ TEST(Scene, ValidSceneAndOverridesApply) {
 
 TEST(Scene, CloStyleMaterialMapsToPhysicalUnits) {
   const std::string path = write_scene("clo.json", kValid);
-  Scene s = load_scene(path, {"cloths[0].material={\"clo\": {\"weight\": 250, \"bending_weft\": 12, \"thickness\": 0.6}}",
-                              "cloths[0].mass=0.25"});
+  Scene s = load_scene(
+      path, {"cloths[0].material={\"clo\": {\"weight\": 250, \"bending_weft\": 12, \"thickness\": 0.6}}",
+             "cloths[0].mass=0.25"});
   const cloth::Material& m = s.setup.cloths[0].material;
   EXPECT_DOUBLE_EQ(m.bend_weft, 12e-6);
   EXPECT_DOUBLE_EQ(m.thickness, 0.0006);

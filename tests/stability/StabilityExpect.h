@@ -7,7 +7,8 @@
 namespace loom::test {
 
 inline const std::vector<std::string> kStabilitySolvers = {
-    "explicit_euler", "symplectic_euler", "verlet", "implicit_euler", "bdf2", "pbd", "xpbd", "projective", "desbrun"};
+    "explicit_euler", "symplectic_euler", "verlet", "implicit_euler", "bdf2", "pbd",
+    "xpbd",           "projective",       "desbrun"};
 
 // kSurvive: every invariant after every step/frame. kFailCleanly: stops with a clean, named failure (the
 // guard's cause, the frames handed out before are finite, nothing non-finite written). There is no third

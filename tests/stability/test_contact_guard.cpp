@@ -18,7 +18,8 @@ namespace {
 
 // A 0.5 m sheet of 5x5 nodes resting on the floor; the lid (a plane, solid above) comes down from 0.1 m to
 // `lid_end` (m) over 0.1 s.
-std::unique_ptr<cloth::Simulation> squeezed(double lid_end, double max_penetration, collision::ColliderSetPtr* cs) {
+std::unique_ptr<cloth::Simulation> squeezed(double lid_end, double max_penetration,
+                                            collision::ColliderSetPtr* cs) {
   const std::string text = R"({
     "duration": 0.3, "fps": 60, "solver": {"method": "implicit_euler", "substeps": 2},
     "guard": {"max_penetration": @MAXPEN, "max_halvings": 2},
@@ -55,7 +56,9 @@ TEST(ContactGuard, UnresolvableContactStopsTheRunAtTheLastGoodFrame) {
   const std::string& why = sim->failure();
   EXPECT_NE(why.find("could not resolve contacts: vertex "), std::string::npos) << why;
   EXPECT_NE(why.find(" of cloth 'sheet' is "), std::string::npos) << why;
-  EXPECT_TRUE(why.find("inside collider 'lid'") != std::string::npos || why.find("inside collider 'floor'") != std::string::npos) << why;
+  EXPECT_TRUE(why.find("inside collider 'lid'") != std::string::npos ||
+              why.find("inside collider 'floor'") != std::string::npos)
+      << why;
   EXPECT_NE(why.find("(limit 1 mm)"), std::string::npos) << why;
   EXPECT_NE(why.find("also with 8 substeps"), std::string::npos) << why;  // 2 substeps, retried with 4 and 8
   EXPECT_EQ(sim->frame(), f - 1);
@@ -86,7 +89,8 @@ TEST(ContactGuard, ColliderWorkIsImpulseTimesVelocity) {
   c.shape.type = collision::ShapeType::box;
   c.shape.half_extents = cloth::Vec3(0.1, 0.1, 0.1);
   c.prev = collision::Transform::Identity();
-  c.curr = collision::Transform(Eigen::Translation3d(0.02, 0, 0) * Eigen::AngleAxisd(0.03, cloth::Vec3::UnitY()));
+  c.curr =
+      collision::Transform(Eigen::Translation3d(0.02, 0, 0) * Eigen::AngleAxisd(0.03, cloth::Vec3::UnitY()));
   collision::ContactGuardStage stage(cs, 1e-3);
   std::vector<std::unique_ptr<cloth::Cloth>> none;
   cloth::StageContext ctx{none, 0.0, 0.01, 1};

@@ -9,8 +9,8 @@
 #include <algorithm>
 #include <cmath>
 #include <cstdint>
-#include <memory>
 #include <cstring>
+#include <memory>
 
 #include "loom/cloth/Error.h"
 #include "loom/cloth/Simulation.h"
@@ -18,8 +18,9 @@
 namespace loom::cloth {
 namespace {
 
-const std::vector<std::string> kSolvers = {"explicit_euler", "symplectic_euler", "verlet", "implicit_euler", "bdf2",
-                                           "pbd", "xpbd", "projective", "desbrun"};
+const std::vector<std::string> kSolvers = {
+    "explicit_euler", "symplectic_euler", "verlet", "implicit_euler", "bdf2", "pbd",
+    "xpbd",           "projective",       "desbrun"};
 
 void hash_bytes(std::uint64_t& h, const void* data, size_t n) {
   const auto* p = static_cast<const unsigned char*>(data);
@@ -218,7 +219,8 @@ TEST(Guard, StageViolationIsRetriedWithSmallerSteps) {
     ASSERT_TRUE(st.finite) << sim.failure();
     EXPECT_EQ(sim.frame(), f);
   }
-  EXPECT_EQ(sim.rollbacks(), 6);  // each frame: 1 substep (stopped after its step), 2 substeps (after the 1st), 4
+  EXPECT_EQ(sim.rollbacks(),
+            6);  // each frame: 1 substep (stopped after its step), 2 substeps (after the 1st), 4
   EXPECT_EQ(sl->steps, 3 * (1 + 1 + 4));
 }
 
@@ -234,7 +236,8 @@ TEST(Guard, StageViolationThatNoStepCuresStopsTheRunWithItsCause) {
   const FrameStats st = sim.step_frame();
   EXPECT_FALSE(st.finite);
   EXPECT_EQ(sim.frame(), 1);
-  EXPECT_NE(sim.failure().find("step too long for the test stage after step 1 of 8 in frame 2"), std::string::npos)
+  EXPECT_NE(sim.failure().find("step too long for the test stage after step 1 of 8 in frame 2"),
+            std::string::npos)
       << sim.failure();
   EXPECT_NE(sim.failure().find("also with 8 substeps"), std::string::npos) << sim.failure();
   StateWriter after;

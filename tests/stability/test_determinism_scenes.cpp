@@ -23,12 +23,16 @@ struct SceneCase {
   const char* file;  // under scenes/
   std::vector<std::string> overrides;
   int frames;
-  bool collides = true;  // contacts within `frames` (the cape scene: 0 contacts counted in its first 10 frames)
+  bool collides =
+      true;  // contacts within `frames` (the cape scene: 0 contacts counted in its first 10 frames)
 };
 
 std::vector<SceneCase> scene_cases() {
   std::vector<SceneCase> c = {
-      {"sphere_spin_self", "sphere_spin.json", {"cloths[0].mesh.nodes=[13,13]", "collision={\"self\":true}"}, 16},
+      {"sphere_spin_self",
+       "sphere_spin.json",
+       {"cloths[0].mesh.nodes=[13,13]", "collision={\"self\":true}"},
+       16},
       {"layer_stack", "layer_stack.json", {}, 8},
   };
 #ifdef LOOM_HAVE_CHARACTERS
@@ -82,9 +86,7 @@ std::uint64_t run_hash(const SceneCase& c, int threads) {
 
 class SceneDeterminism : public ::testing::TestWithParam<SceneCase> {};
 
-TEST_P(SceneDeterminism, SameThreadsSameHash) {
-  EXPECT_EQ(run_hash(GetParam(), 1), run_hash(GetParam(), 1));
-}
+TEST_P(SceneDeterminism, SameThreadsSameHash) { EXPECT_EQ(run_hash(GetParam(), 1), run_hash(GetParam(), 1)); }
 
 TEST_P(SceneDeterminism, OneAndTwoThreadsSameHash) {
   EXPECT_EQ(run_hash(GetParam(), 1), run_hash(GetParam(), 2));
@@ -102,7 +104,8 @@ TEST_P(SceneDeterminism, SaveAndLoadStateContinuesBitIdentically) {
     a->step_frame();
     hash_state(ha, *a);
   }
-  auto b = scene::build_simulation(load(c, 1));  // fresh: colliders, rig and contact state come from the archive
+  auto b =
+      scene::build_simulation(load(c, 1));  // fresh: colliders, rig and contact state come from the archive
   cloth::StateReader in(saved.data(), "memory");
   b->load_state(in);
   EXPECT_EQ(b->frame(), k);
@@ -115,7 +118,9 @@ TEST_P(SceneDeterminism, SaveAndLoadStateContinuesBitIdentically) {
 }
 
 INSTANTIATE_TEST_SUITE_P(Scenes, SceneDeterminism, ::testing::ValuesIn(scene_cases()),
-                         [](const ::testing::TestParamInfo<SceneCase>& info) { return std::string(info.param.name); });
+                         [](const ::testing::TestParamInfo<SceneCase>& info) {
+                           return std::string(info.param.name);
+                         });
 
 }  // namespace
 }  // namespace loom

@@ -26,7 +26,8 @@ namespace {
 // state, so the retries see how many tries were pushed.
 class PushStage final : public cloth::Stage {
  public:
-  PushStage(int frame, int vertex, double dy, int tries) : frame_(frame), vertex_(vertex), dy_(dy), tries_(tries) {}
+  PushStage(int frame, int vertex, double dy, int tries)
+      : frame_(frame), vertex_(vertex), dy_(dy), tries_(tries) {}
   const char* name() const override { return "push"; }
   void run(cloth::StageContext& ctx) override {
     const double f = ctx.t * 60.0;
@@ -49,7 +50,8 @@ class PushStage final : public cloth::Stage {
 std::string two_sheets(bool guard_on) {
   return std::string(R"({
     "duration": 1, "fps": 60, "gravity": [0, 0, 0], "solver": {"method": "implicit_euler", "substeps": 2},
-    "guard": {"max_halvings": 2, "intersections": )") + (guard_on ? "true" : "false") + R"(},
+    "guard": {"max_halvings": 2, "intersections": )") +
+         (guard_on ? "true" : "false") + R"(},
     "collision": {"self": true},
     "cloths": [{"name": "upper", "mesh": {"type": "grid", "size": [0.4, 0.4], "nodes": [5, 5], "plane": "xz", "origin": [-0.2, 0.05, -0.2]},
                 "material": {"preset": "cotton"}, "mass": 0.05},
@@ -96,7 +98,9 @@ TEST(IntersectionGuard, PushThroughTheOtherSheetStopsTheRunAtTheLastGoodFrame) {
   EXPECT_EQ(p->pushed(), 3);  // 2 substeps, retried with 4 and 8
   const std::string& why = sim->failure();
   EXPECT_NE(why.find("cloth intersections: "), std::string::npos) << why;
-  EXPECT_NE(why.find(" intersecting triangle pairs the step start did not have (triangle "), std::string::npos) << why;
+  EXPECT_NE(why.find(" intersecting triangle pairs the step start did not have (triangle "),
+            std::string::npos)
+      << why;
   EXPECT_NE(why.find(" of cloth 'upper' and triangle "), std::string::npos) << why;
   EXPECT_NE(why.find(" of cloth 'lower')"), std::string::npos) << why;
   EXPECT_NE(why.find("after step 1 of 8 in frame 4"), std::string::npos) << why;
@@ -189,7 +193,8 @@ TEST(IntersectionGuard, SelfIntersectionNamesTheCloth) {
     "collision": {"self": true},
     "cloths": [{"name": "skirt", "mesh": {"type": "grid", "size": [0.4, 0.4], "nodes": [5, 5], "plane": "xz", "origin": [-0.2, 0.0, -0.2]},
                 "material": {"preset": "cotton"}, "mass": 0.05}]
-  })"), "one_sheet.json");
+  })"),
+                                             "one_sheet.json");
   auto sim = scene::build_simulation(sc, nullptr);
   collision::IntersectionGuardStage guard;
   guard.prime(sim->cloths(), 1);

@@ -16,9 +16,9 @@
 #include <map>
 #include <string>
 
+#include "StabilityExpect.h"
 #include "loom/cloth/Error.h"
 #include "loom/cloth/Simulation.h"
-#include "StabilityExpect.h"
 
 namespace loom::cloth {
 namespace {
@@ -28,9 +28,9 @@ struct HardCase {
   SimulationSetup setup;  // solver.method is set per solver
   int frames = 30;
   double max_strain = 3.0;  // 1, bound of max(l/L - 1) at every frame (invariant and guard limit)
-  std::function<void(Simulation&)> prepare;               // after construction (initial state); may be empty
-  std::function<void(Simulation&, int)> before_frame;     // before frame f (1-based); may be empty
-  std::string load_error;                                 // non-empty: building must fail with these words
+  std::function<void(Simulation&)> prepare;            // after construction (initial state); may be empty
+  std::function<void(Simulation&, int)> before_frame;  // before frame f (1-based); may be empty
+  std::string load_error;                              // non-empty: building must fail with these words
 };
 
 std::shared_ptr<const ClothMesh> grid(int n, double size = 1.0, Vec3 origin = Vec3(-0.5, 1.0, -0.5)) {
@@ -111,7 +111,8 @@ std::vector<HardCase> hard_cases() {
     c.setup.cloths[0].pins.clear();
     for (int k = 0; k < 9; ++k) {
       c.setup.cloths[0].pins.push_back(PinSpec{m.grid_index(0, k), {}, {}, {}});
-      c.setup.cloths[0].pins.push_back(PinSpec{m.grid_index(8, k), {}, {0.0, 0.5}, {Vec3::Zero(), Vec3(2, 0, 0)}});
+      c.setup.cloths[0].pins.push_back(
+          PinSpec{m.grid_index(8, k), {}, {0.0, 0.5}, {Vec3::Zero(), Vec3(2, 0, 0)}});
     }
     c.max_strain = 4.0;  // 2 is the imposed stretch
     cases.push_back(c);
@@ -142,8 +143,8 @@ std::vector<HardCase> hard_cases() {
     c.max_strain = 3.0;
     cases.push_back(c);
   }
-  {  // dt changed mid-run: 10 -> 3 -> 40 -> 10 substeps; explicit Euler, unstable on cotton at 10, from its own
-     // stable step (its energy drift grows with h): 1600 -> 800 -> 3200 -> 1600
+  {  // dt changed mid-run: 10 -> 3 -> 40 -> 10 substeps; explicit Euler, unstable on cotton at 10, from its
+     // own stable step (its energy drift grows with h): 1600 -> 800 -> 3200 -> 1600
     HardCase c = make("dt_changed_mid_run", base(), 40);
     c.prepare = [](Simulation& sim) {
       if (sim.setup().solver.method == "explicit_euler") sim.set_substeps(1600);
@@ -170,13 +171,13 @@ using test::S;
 // Which solvers must survive each case (S) and which must stop with a clean, named failure (F), in the order
 // of kSolvers:                                 expl  sympl verlet impl  bdf2  pbd   xpbd  proj  desbrun
 const std::map<std::string, std::vector<Expect>> kExpected = {
-    {"stiff_1e6_dt_1_30",    /* */ {F, F, F, S, S, S, S, S, S}},
-    {"light_1em4_kg_m2",     /* */ {F, F, F, S, S, S, S, S, S}},
-    {"wind_50_m_s",          /* */ {F, S, S, S, S, S, S, S, S}},
-    {"pulled_to_3x",         /* */ {F, S, S, S, S, F, S, S, S}},
-    {"needle_triangles",     /* */ {F, F, F, S, S, S, S, S, S}},
+    {"stiff_1e6_dt_1_30", /* */ {F, F, F, S, S, S, S, S, S}},
+    {"light_1em4_kg_m2", /* */ {F, F, F, S, S, S, S, S, S}},
+    {"wind_50_m_s", /* */ {F, S, S, S, S, S, S, S, S}},
+    {"pulled_to_3x", /* */ {F, S, S, S, S, F, S, S, S}},
+    {"needle_triangles", /* */ {F, F, F, S, S, S, S, S, S}},
     {"collapsed_within_1mm", /* */ {F, S, S, S, S, S, S, S, S}},
-    {"dt_changed_mid_run",   /* */ {S, S, S, S, S, S, S, S, S}},
+    {"dt_changed_mid_run", /* */ {S, S, S, S, S, S, S, S, S}},
 };
 
 struct Outcome {
@@ -196,7 +197,8 @@ double total_mass(const Simulation& sim) {
 double potential(const Simulation& sim) {
   double e = 0.0;
   for (const auto& c : sim.cloths())
-    for (int i = 0; i < c->state().size(); ++i) e -= c->state().mass[i] * sim.setup().gravity.dot(c->state().x[i]);
+    for (int i = 0; i < c->state().size(); ++i)
+      e -= c->state().mass[i] * sim.setup().gravity.dot(c->state().x[i]);
   return e;
 }
 
@@ -224,7 +226,8 @@ Outcome run_case(const HardCase& hc, const std::string& solver, bool check_energ
   SimulationSetup setup = hc.setup;
   setup.solver.method = solver;
   setup.guard.max_strain = hc.max_strain;
-  setup.guard.energy_bound = 10.0;  // the guard enforces the energy invariant too (Guard.h; its W is the one above)
+  setup.guard.energy_bound =
+      10.0;  // the guard enforces the energy invariant too (Guard.h; its W is the one above)
   Simulation sim(setup, hc.name + ".json");
   if (hc.prepare) hc.prepare(sim);
   FrameStats s0 = sim.measure();
@@ -243,10 +246,12 @@ Outcome run_case(const HardCase& hc, const std::string& solver, bool check_energ
   for (int f = 1; f <= hc.frames; ++f) {
     if (hc.before_frame) hc.before_frame(sim, f);
     const FrameStats s = sim.step_frame();
-    for (const auto& c : sim.cloths()) EXPECT_TRUE(c->state().is_finite()) << hc.name << " " << solver << " frame " << f;
+    for (const auto& c : sim.cloths())
+      EXPECT_TRUE(c->state().is_finite()) << hc.name << " " << solver << " frame " << f;
     if (!s.finite) {
       out.failure = sim.failure();
-      EXPECT_FALSE(out.failure.empty()) << hc.name << " " << solver << ": a failed frame must carry its cause";
+      EXPECT_FALSE(out.failure.empty())
+          << hc.name << " " << solver << ": a failed frame must carry its cause";
       EXPECT_EQ(sim.frame(), f - 1) << "the simulation must hold the last good frame";
       return out;
     }
@@ -254,7 +259,8 @@ Outcome run_case(const HardCase& hc, const std::string& solver, bool check_energ
     const double e = s.kinetic + s.elastic + potential(sim) - pot0;
     out.max_energy_ratio = std::max(out.max_energy_ratio, e / (scale + work));
     if (check_energy) {
-      EXPECT_LE(e, scale + work) << hc.name << " " << solver << " frame " << f << ": energy above 10x start + work";
+      EXPECT_LE(e, scale + work) << hc.name << " " << solver << " frame " << f
+                                 << ": energy above 10x start + work";
     }
     EXPECT_LE(s.max_strain, hc.max_strain) << hc.name << " " << solver << " frame " << f;
     out.frames_done = f;
@@ -297,10 +303,12 @@ TEST_P(Stability, SurvivesOrFailsCleanly) {
 }
 
 INSTANTIATE_TEST_SUITE_P(HardCases, Stability,
-                         ::testing::Combine(::testing::Range(0, 8), ::testing::Range(0, static_cast<int>(kSolvers.size()))),
+                         ::testing::Combine(::testing::Range(0, 8),
+                                            ::testing::Range(0, static_cast<int>(kSolvers.size()))),
                          [](const ::testing::TestParamInfo<std::tuple<int, int>>& info) {
                            static const std::vector<HardCase> cases = hard_cases();
-                           return cases[std::get<0>(info.param)].name + "_" + kSolvers[std::get<1>(info.param)];
+                           return cases[std::get<0>(info.param)].name + "_" +
+                                  kSolvers[std::get<1>(info.param)];
                          });
 
 }  // namespace

@@ -5,12 +5,12 @@
 //     guard's snapshot): the exact census (loom::collision::count_all_intersections) finds 0 intersecting
 //     triangle pairs, and every position is finite;
 //   - after every frame: positions finite; the deepest cloth vertex inside a collider
-//     (loom::collision::max_penetration) below the case's bound; max strain max(l/L - 1) below the case's bound
-//     (the guard is given the same bound); E = E_kin + E_el + E_pot(t) - E_pot(0) never above
-//     10 max(E(0), m|g|L) + W(t), W(t) an upper estimate of the work put in from outside: pinned vertices
-//     |f·v| dt per frame (as in test_stability.cpp) and the colliders' push, per frame
-//     |ΔJ·v| + |ΔL·ω| (ΔJ, ΔL: the change of the collider's reaction impulse and its moment about the
-//     collider's origin; v, ω: the collider's velocity and spin over the frame, from its poses).
+//     (loom::collision::max_penetration) below the case's bound; max strain max(l/L - 1) below the case's
+//     bound (the guard is given the same bound); E = E_kin + E_el + E_pot(t) - E_pot(0) never above 10
+//     max(E(0), m|g|L) + W(t), W(t) an upper estimate of the work put in from outside: pinned vertices |f·v|
+//     dt per frame (as in test_stability.cpp) and the colliders' push, per frame |ΔJ·v| + |ΔL·ω| (ΔJ, ΔL: the
+//     change of the collider's reaction impulse and its moment about the collider's origin; v, ω: the
+//     collider's velocity and spin over the frame, from its poses).
 // The guard is given the same bounds (strain, energy budget with its own per-step estimate of the colliders'
 // work, 1 mm penetration via collision::ContactGuardStage, no new intersecting pair after any step via
 // collision::IntersectionGuardStage: `guard.intersections`), so a solver that cannot hold a case is rolled
@@ -29,11 +29,11 @@
 #include <string>
 #include <vector>
 
+#include "StabilityExpect.h"
 #include "loom/cloth/Error.h"
 #include "loom/collision/MultiClothCensus.h"
 #include "loom/scene/Build.h"
 #include "loom/scene/Scene.h"
-#include "StabilityExpect.h"
 
 namespace loom {
 namespace {
@@ -72,7 +72,7 @@ class CensusStage final : public cloth::Stage {
 
 struct CollisionCase {
   std::string name;
-  std::string scene;        // JSON; "@SOLVER" is replaced by the solver's settings
+  std::string scene;  // JSON; "@SOLVER" is replaced by the solver's settings
   int frames = 30;
   double max_strain = 1.0;  // 1, bound of max(l/L - 1) per frame (also the guard's limit)
   double max_depth = 0.0;   // m, bound of max_penetration per frame (also the guard's limit)
@@ -82,12 +82,15 @@ struct CollisionCase {
 // Solver settings per solver: the explicit ones need small steps on cotton (stability limit), the others
 // run at the scenes' usual 2-4 substeps per 60 Hz frame.
 std::string solver_json(const std::string& solver) {
-  const int substeps = solver == "explicit_euler" ? 100 : solver == "symplectic_euler" || solver == "verlet" ? 40 : 4;
+  const int substeps = solver == "explicit_euler"                           ? 100
+                       : solver == "symplectic_euler" || solver == "verlet" ? 40
+                                                                            : 4;
   return "{\"method\": \"" + solver + "\", \"substeps\": " + std::to_string(substeps) + "}";
 }
 
 std::string replace_all(std::string s, const std::string& from, const std::string& to) {
-  for (size_t p = s.find(from); p != std::string::npos; p = s.find(from, p + to.size())) s.replace(p, from.size(), to);
+  for (size_t p = s.find(from); p != std::string::npos; p = s.find(from, p + to.size()))
+    s.replace(p, from.size(), to);
   return s;
 }
 
@@ -112,7 +115,8 @@ std::vector<CollisionCase> collision_cases() {
   }
   // A sheet dropped into a box whose six walls close in at 0.75 m/s (lid and side walls; 3.1 mm per step at
   // 4 substeps of a 60 Hz frame, less than the walls' 5 mm thickness, so a step can resolve it). Two sizes:
-  //  - to 0.5 x 0.25 x 0.5 m (at t = 0.47 s, then held): the 1 m sheet folds to half its width each way, about
+  //  - to 0.5 x 0.25 x 0.5 m (at t = 0.47 s, then held): the 1 m sheet folds to half its width each way,
+  //  about
   //    4 layers in 0.25 m: it fits;
   //  - to 0.3 x 0.15 x 0.3 m (at t = 0.6 s): 11x less area, with 83 mm edges (13x13 nodes) only 3.6 edges
   //    across the box: a hard fold for the coarse sheet.
@@ -137,7 +141,8 @@ std::vector<CollisionCase> collision_cases() {
         {"name": "south", "shape": "plane", "thickness": 0.005, "rotation": {"axis": [1, 0, 0], "degrees": 90},
          "motion": {"keyframes": [{"t": 0, "position": [0, 0, -0.6]}, {"t": @T, "position": [0, 0, -@H]}]}}]
     })";
-    s = replace_all(replace_all(replace_all(s, "@T", std::to_string(t_end)), "@LID", std::to_string(lid)), "@H", std::to_string(half));
+    s = replace_all(replace_all(replace_all(s, "@T", std::to_string(t_end)), "@LID", std::to_string(lid)),
+                    "@H", std::to_string(half));
     c.scene = s;
     c.frames = 48;
     c.max_strain = 1.0;
@@ -174,12 +179,13 @@ using test::S;
 // Which solvers must survive each case (S: every invariant after every step/frame) and which must stop with a
 // clean, named failure (F: the guard's cause, the last good frame kept, every frame before it within every
 // invariant). In the order of kSolvers:
-//                                                       expl  sympl verlet impl  bdf2  pbd   xpbd  proj  desbrun
+//                                                       expl  sympl verlet impl  bdf2  pbd   xpbd  proj
+//                                                       desbrun
 const std::map<std::string, std::vector<Expect>> kExpected = {
-    {"collider_spinning_50_rad_s",        /* */ {F, S, S, S, S, S, S, S, S}},
+    {"collider_spinning_50_rad_s", /* */ {F, S, S, S, S, S, S, S, S}},
     {"crushed_in_shrinking_box_to_50_cm", /* */ {F, S, S, S, S, S, S, S, S}},
     {"crushed_in_shrinking_box_to_30_cm", /* */ {F, S, S, S, S, S, S, S, S}},
-    {"character_clip_at_3x",              /* */ {F, S, S, S, S, S, S, S, S}},
+    {"character_clip_at_3x", /* */ {F, S, S, S, S, S, S, S, S}},
 };
 
 struct Outcome {
@@ -190,9 +196,9 @@ struct Outcome {
   double max_depth = 0.0, max_strain = 0.0, max_energy_ratio = 0.0;
 };
 
-
 // Speed (m/s) of the collider's origin and spin (rad/s) over the frame from pose a to pose b.
-void collider_motion(const collision::Transform& a, const collision::Transform& b, double dt, cloth::Vec3& v, cloth::Vec3& w) {
+void collider_motion(const collision::Transform& a, const collision::Transform& b, double dt, cloth::Vec3& v,
+                     cloth::Vec3& w) {
   v = (b.translation() - a.translation()) / dt;
   const Eigen::AngleAxisd d(b.linear() * a.linear().transpose());
   w = d.axis() * d.angle() / dt;
@@ -206,8 +212,12 @@ Outcome run_case(const CollisionCase& cc, const std::string& solver, bool strict
   // (its own estimate of the work: per step, from the colliders' reaction impulses) and the penetration bound
   // (collision::ContactGuardStage), so a solver that breaks one stops cleanly instead of handing the frame
   // out.
-  root["guard"] = {{"max_strain", cc.max_strain}, {"energy_bound", 10.0}, {"max_penetration", cc.max_depth}, {"intersections", true},
-                   {"max_halvings", solver == "explicit_euler" ? std::min(cc.max_halvings, 1) : cc.max_halvings}};
+  root["guard"] = {
+      {"max_strain", cc.max_strain},
+      {"energy_bound", 10.0},
+      {"max_penetration", cc.max_depth},
+      {"intersections", true},
+      {"max_halvings", solver == "explicit_euler" ? std::min(cc.max_halvings, 1) : cc.max_halvings}};
   const scene::Scene sc = scene::parse_scene(root, cc.name + ".json");
   collision::ColliderSetPtr colliders;
   std::unique_ptr<cloth::Simulation> sim = scene::build_simulation(sc, &colliders);
@@ -237,10 +247,12 @@ Outcome run_case(const CollisionCase& cc, const std::string& solver, bool strict
   out.max_depth = colliders ? collision::max_penetration(census_input(), *colliders) : 0.0;
   for (int f = 1; f <= cc.frames; ++f) {
     const cloth::FrameStats s = sim->step_frame();
-    for (const auto& c : sim->cloths()) EXPECT_TRUE(c->state().is_finite()) << cc.name << " " << solver << " frame " << f;
+    for (const auto& c : sim->cloths())
+      EXPECT_TRUE(c->state().is_finite()) << cc.name << " " << solver << " frame " << f;
     if (!s.finite) {
       out.failure = sim->failure();
-      EXPECT_FALSE(out.failure.empty()) << cc.name << " " << solver << ": a failed frame must carry its cause";
+      EXPECT_FALSE(out.failure.empty())
+          << cc.name << " " << solver << ": a failed frame must carry its cause";
       EXPECT_EQ(sim->frame(), f - 1) << "the simulation must hold the last good frame";
       break;
     }
@@ -264,13 +276,15 @@ Outcome run_case(const CollisionCase& cc, const std::string& solver, bool strict
       const double depth = collision::max_penetration(census_input(), *colliders);
       out.max_depth = std::max(out.max_depth, depth);
       if (strict) {
-        EXPECT_LE(depth, cc.max_depth) << cc.name << " " << solver << " frame " << f << ": a vertex inside a collider";
+        EXPECT_LE(depth, cc.max_depth)
+            << cc.name << " " << solver << " frame " << f << ": a vertex inside a collider";
       }
     }
     const double e = s.kinetic + s.elastic + s.potential - s0.potential;
     out.max_energy_ratio = std::max(out.max_energy_ratio, e / (scale + work));
     if (strict) {
-      EXPECT_LE(e, scale + work) << cc.name << " " << solver << " frame " << f << ": energy above 10x start + work";
+      EXPECT_LE(e, scale + work) << cc.name << " " << solver << " frame " << f
+                                 << ": energy above 10x start + work";
     }
     if (strict) {
       EXPECT_LE(s.max_strain, cc.max_strain) << cc.name << " " << solver << " frame " << f;
@@ -282,7 +296,8 @@ Outcome run_case(const CollisionCase& cc, const std::string& solver, bool strict
   out.intersections = cs->worst;
   out.census_steps = cs->steps;
   if (strict) {
-    EXPECT_EQ(cs->worst, 0) << cc.name << " " << solver << ": intersecting triangle pairs at step " << cs->worst_step;
+    EXPECT_EQ(cs->worst, 0) << cc.name << " " << solver << ": intersecting triangle pairs at step "
+                            << cs->worst_step;
   }
   EXPECT_GE(cs->steps, out.frames_done * sim->setup().substeps) << "the census must see every step";
   return out;
@@ -296,9 +311,11 @@ TEST_P(StabilityWithCollisions, SurvivesOrFailsCleanly) {
   const std::string& solver = kSolvers[std::get<1>(GetParam())];
   const Expect want = kExpected.at(cc.name)[std::get<1>(GetParam())];
   const Outcome o = run_case(cc, solver, true);
-  std::printf("%-27s %-17s %s after %d frames, census 0/%ld steps: worst %ld, depth %.3g m, strain %.3g, max E/bound %.3g %s\n",
-              cc.name.c_str(), solver.c_str(), o.survived ? "survived" : "FAILED", o.frames_done, o.census_steps,
-              o.intersections, o.max_depth, o.max_strain, o.max_energy_ratio, o.failure.c_str());
+  std::printf(
+      "%-27s %-17s %s after %d frames, census 0/%ld steps: worst %ld, depth %.3g m, strain %.3g, max E/bound "
+      "%.3g %s\n",
+      cc.name.c_str(), solver.c_str(), o.survived ? "survived" : "FAILED", o.frames_done, o.census_steps,
+      o.intersections, o.max_depth, o.max_strain, o.max_energy_ratio, o.failure.c_str());
   if (want == S) {
     EXPECT_TRUE(o.survived) << cc.name << " " << solver << ": " << o.failure;
   } else {
@@ -323,7 +340,9 @@ std::vector<std::tuple<int, int>> rows() {
 }
 
 INSTANTIATE_TEST_SUITE_P(HardCases, StabilityWithCollisions, ::testing::ValuesIn(rows()),
-                         [](const ::testing::TestParamInfo<std::tuple<int, int>>& info) { return row_name(info.param); });
+                         [](const ::testing::TestParamInfo<std::tuple<int, int>>& info) {
+                           return row_name(info.param);
+                         });
 
 }  // namespace
 }  // namespace loom

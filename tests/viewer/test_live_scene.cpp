@@ -25,10 +25,11 @@ namespace {
 using cloth::Vec3;
 
 scene::Scene small_scene(const std::string& solver = "symplectic_euler", int substeps = 20) {
-  return scene::load_scene(std::string(LOOM_SOURCE_DIR) + "/scenes/hanging_cloth.json",
-                           {"cloths.0.mesh.nodes=[9, 9]", "solver.method=" + solver, "solver.substeps=" + std::to_string(substeps),
-                            "effects={\"drag\": {\"isotropic\": 0.5}}",
-                            "constraints={\"strain_limit\": {\"max_stretch\": 0.1}, \"tethers\": {\"slack\": 0.0}}"});
+  return scene::load_scene(
+      std::string(LOOM_SOURCE_DIR) + "/scenes/hanging_cloth.json",
+      {"cloths.0.mesh.nodes=[9, 9]", "solver.method=" + solver, "solver.substeps=" + std::to_string(substeps),
+       "effects={\"drag\": {\"isotropic\": 0.5}}",
+       "constraints={\"strain_limit\": {\"max_stretch\": 0.1}, \"tethers\": {\"slack\": 0.0}}"});
 }
 
 bool has(const std::vector<std::string>& names, const std::string& n) {
@@ -109,7 +110,8 @@ TEST_P(LiveSceneDrag, PickedVertexIsTheOneUnderTheRayAndFollowsTheTarget) {
   // The free corner far from the pinned edge: the vertex with the largest x + z among free vertices.
   int corner = -1;
   for (int i = 0; i < static_cast<int>(s0.x.size()); ++i)
-    if (s0.inv_mass[i] > 0 && (corner < 0 || s0.x[i].x() + s0.x[i].z() > s0.x[corner].x() + s0.x[corner].z())) corner = i;
+    if (s0.inv_mass[i] > 0 && (corner < 0 || s0.x[i].x() + s0.x[i].z() > s0.x[corner].x() + s0.x[corner].z()))
+      corner = i;
   const double inv_mass = s0.inv_mass[corner];
   const Vec3 p = s0.x[corner];
   // A ray from above, slanted, hitting the sheet a little inside the corner.
@@ -180,7 +182,10 @@ TEST(LiveSceneBullet, PickGoesThroughBulletClothRayTestAndDragsTheVertex) {
   for (int t = 0; t < static_cast<int>(cl.mesh().triangles().size()); ++t) {
     const auto& T = cl.mesh().triangles()[t];
     const Vec3 c = (cl.state().x[T[0]] + cl.state().x[T[1]] + cl.state().x[T[2]]) / 3.0;
-    if (c.x() > 0.2 && c.x() < 0.35 && c.z() > 0.2 && c.z() < 0.35 && cl.state().inv_mass[T[0]] > 0) { tri = t; break; }
+    if (c.x() > 0.2 && c.x() < 0.35 && c.z() > 0.2 && c.z() < 0.35 && cl.state().inv_mass[T[0]] > 0) {
+      tri = t;
+      break;
+    }
   }
   ASSERT_GE(tri, 0);
   const auto& T = cl.mesh().triangles()[tri];
@@ -220,7 +225,9 @@ TEST(LiveSceneBullet, PickGoesThroughBulletClothRayTestAndDragsTheVertex) {
 
 TEST(LiveSceneBullet, BodiesWithCollidersAreRefusedNamingTheField) {
   try {
-    LiveScene live(trampoline({"colliders=[{\"name\": \"ball\", \"shape\": \"sphere\", \"radius\": 0.1, \"position\": [0, 2, 0]}]"}));
+    LiveScene live(
+        trampoline({"colliders=[{\"name\": \"ball\", \"shape\": \"sphere\", \"radius\": 0.1, \"position\": "
+                    "[0, 2, 0]}]"}));
     FAIL() << "accepted a scene with both bodies and colliders";
   } catch (const std::exception& e) {
     EXPECT_NE(std::string(e.what()).find("trampoline.json"), std::string::npos) << e.what();

@@ -7,6 +7,7 @@
 #include <cstdlib>
 #include <filesystem>
 #include <string>
+
 #include "TestDir.h"
 
 namespace {
@@ -18,9 +19,9 @@ TEST(Viewer, XvfbRunsHundredFramesAndScreenshotShowsCloth) {
   fs::create_directories(dir);
   const fs::path shot = dir / "view.png";
   fs::remove(shot);
-  const std::string cmd = std::string("xvfb-run -a -s '-screen 0 1024x768x24' ") + LOOM_VIEW_BINARY + " " + LOOM_SOURCE_DIR +
-                          "/scenes/hanging_cloth.json --frames 100 --screenshot " + shot.string() + " > " +
-                          (dir / "log.txt").string() + " 2>&1";
+  const std::string cmd = std::string("xvfb-run -a -s '-screen 0 1024x768x24' ") + LOOM_VIEW_BINARY + " " +
+                          LOOM_SOURCE_DIR + "/scenes/hanging_cloth.json --frames 100 --screenshot " +
+                          shot.string() + " > " + (dir / "log.txt").string() + " 2>&1";
   ASSERT_EQ(std::system(cmd.c_str()), 0) << cmd;
   int w = 0, h = 0, n = 0;
   unsigned char* px = stbi_load(shot.string().c_str(), &w, &h, &n, 3);
@@ -42,9 +43,10 @@ TEST(Viewer, XvfbScreenshotShowsColliders) {
   fs::create_directories(dir);
   const fs::path shot = dir / "colliders.png";
   fs::remove(shot);
-  const std::string cmd = std::string("xvfb-run -a -s '-screen 0 1024x768x24' ") + LOOM_VIEW_BINARY + " " + LOOM_SOURCE_DIR +
-                          "/scenes/sphere_spin.json --set cloths.0.mesh.nodes=[17,17] --frames 20 --screenshot " +
-                          shot.string() + " > " + (dir / "log_colliders.txt").string() + " 2>&1";
+  const std::string cmd =
+      std::string("xvfb-run -a -s '-screen 0 1024x768x24' ") + LOOM_VIEW_BINARY + " " + LOOM_SOURCE_DIR +
+      "/scenes/sphere_spin.json --set cloths.0.mesh.nodes=[17,17] --frames 20 --screenshot " + shot.string() +
+      " > " + (dir / "log_colliders.txt").string() + " 2>&1";
   ASSERT_EQ(std::system(cmd.c_str()), 0) << cmd;
   int w = 0, h = 0, n = 0;
   unsigned char* px = stbi_load(shot.string().c_str(), &w, &h, &n, 3);
@@ -66,9 +68,10 @@ TEST(Viewer, XvfbRunsBulletBodiesSceneAndShowsTheBox) {
   fs::create_directories(dir);
   const fs::path shot = dir / "bodies.png";
   fs::remove(shot);
-  const std::string cmd = std::string("xvfb-run -a -s '-screen 0 1024x768x24' ") + LOOM_VIEW_BINARY + " " + LOOM_SOURCE_DIR +
-                          "/scenes/trampoline.json --set cloths.0.mesh.nodes=[11,11] --frames 20 --screenshot " +
-                          shot.string() + " > " + (dir / "log_bodies.txt").string() + " 2>&1";
+  const std::string cmd =
+      std::string("xvfb-run -a -s '-screen 0 1024x768x24' ") + LOOM_VIEW_BINARY + " " + LOOM_SOURCE_DIR +
+      "/scenes/trampoline.json --set cloths.0.mesh.nodes=[11,11] --frames 20 --screenshot " + shot.string() +
+      " > " + (dir / "log_bodies.txt").string() + " 2>&1";
   ASSERT_EQ(std::system(cmd.c_str()), 0) << cmd;
   int w = 0, h = 0, n = 0;
   unsigned char* px = stbi_load(shot.string().c_str(), &w, &h, &n, 3);

@@ -28,10 +28,10 @@ namespace fs = std::filesystem;
 
 // The reference of one size and its dt-halving check (docs/benchmarks.md).
 struct ReferenceRun {
-  std::vector<Vec3s> x;       // m, positions at every frame
-  int steps = 0;              // steps per frame of the reference; the check ran at half
-  double change = 0.0;        // m, largest mass-weighted RMS change of halving the step, over the frames
-  double max_strain = 0.0;    // the reference's own largest structural stretch over the run (the strain target)
+  std::vector<Vec3s> x;     // m, positions at every frame
+  int steps = 0;            // steps per frame of the reference; the check ran at half
+  double change = 0.0;      // m, largest mass-weighted RMS change of halving the step, over the frames
+  double max_strain = 0.0;  // the reference's own largest structural stretch over the run (the strain target)
 };
 
 ReferenceRun run_reference(const Scene& s) {
@@ -59,8 +59,8 @@ ReferenceRun run_reference(const Scene& s) {
 // so that a slow spell of the machine does not fall on one thread count only; the fastest run is kept.
 // Results are bit-identical for any thread count and run (docs/architecture.md, "Numbers and threads"): a
 // repeat or a thread count that differs is reported.
-void run_loom_config(const AccuracyOptions& o, const Scene& s, const std::string& method, const SweepConfig& c,
-                     const std::vector<Vec3s>& ref, std::vector<Row>& rows) {
+void run_loom_config(const AccuracyOptions& o, const Scene& s, const std::string& method,
+                     const SweepConfig& c, const std::vector<Vec3s>& ref, std::vector<Row>& rows) {
   std::vector<std::optional<Row>> best(o.threads.size());
   std::optional<Row> diverged;
   bool skipped = false;
@@ -105,7 +105,8 @@ void run_loom_config(const AccuracyOptions& o, const Scene& s, const std::string
 
 // Every registered dynamic solver over its sweep table (a default step sweep for a solver the table does not
 // know yet).
-void run_loom_rows(const AccuracyOptions& o, const Scene& s, const std::map<std::string, std::vector<SweepConfig>>& table,
+void run_loom_rows(const AccuracyOptions& o, const Scene& s,
+                   const std::map<std::string, std::vector<SweepConfig>>& table,
                    const std::vector<std::string>& registered, const std::vector<Vec3s>& ref,
                    std::vector<Row>& rows) {
   for (const std::string& method : registered) {
@@ -151,7 +152,8 @@ void run_bullet_rows(const AccuracyOptions& o, const Scene& s, const std::vector
                      std::vector<Row>& rows) {
   for (const auto& kv : bullet_sweep_table(o.quick)) {
     if (!o.methods.empty() && !o.methods.count(kv.first)) continue;
-    const auto kind = kv.first == "bullet_classic" ? bullet::TwinKind::kClassic : bullet::TwinKind::kDeformable;
+    const auto kind =
+        kv.first == "bullet_classic" ? bullet::TwinKind::kClassic : bullet::TwinKind::kDeformable;
     for (const SweepConfig& c : kv.second) {
       rows.push_back(run_bullet(s, kind, c, ref));
       print_row(rows.back());
@@ -169,13 +171,14 @@ void check_reference(int n, const ReferenceRun& ref, const std::vector<Row>& row
       if (std::isfinite(e) && e > 0.0) smallest = std::min(smallest, e);
   const double ratio = ref.change / smallest;
   const bool passed = ratio < 0.01;
-  std::printf("reference check N=%d: halving the reference step (%d -> %d steps/frame) changes it by %.3g m "
-              "(max over frames, mass-weighted RMS); smallest reported error %.3g m; ratio %.3g%% -> %s; "
-              "reference max strain %.4g\n",
-              n, ref.steps / 2, ref.steps, ref.change, smallest, 100.0 * ratio,
-              passed ? "PASSED (< 1%)" : "FAILED (>= 1%)", ref.max_strain);
-  refs << n << ',' << ref.steps << ',' << ref.steps / 2 << ',' << num(ref.change) << ',' << num(smallest) << ','
-       << num(ratio) << ',' << (passed ? 1 : 0) << ',' << num(ref.max_strain) << "\n";
+  std::printf(
+      "reference check N=%d: halving the reference step (%d -> %d steps/frame) changes it by %.3g m "
+      "(max over frames, mass-weighted RMS); smallest reported error %.3g m; ratio %.3g%% -> %s; "
+      "reference max strain %.4g\n",
+      n, ref.steps / 2, ref.steps, ref.change, smallest, 100.0 * ratio,
+      passed ? "PASSED (< 1%)" : "FAILED (>= 1%)", ref.max_strain);
+  refs << n << ',' << ref.steps << ',' << ref.steps / 2 << ',' << num(ref.change) << ',' << num(smallest)
+       << ',' << num(ratio) << ',' << (passed ? 1 : 0) << ',' << num(ref.max_strain) << "\n";
 }
 
 // The time-vs-error points of one size's single-thread rows that did not diverge.
@@ -229,9 +232,10 @@ int bench_accuracy(const AccuracyOptions& o) {
   for (int n : o.sizes) {
     const Scene s = make_scene(n, o.duration, o.perturbation);
     const auto table = loom_sweep_table(s.explicit_steps, o.quick);
-    std::printf("loom bench accuracy: N=%d (%d vertices, %zu springs), %d frames of 1/60 s, explicit bound h=%.3g s "
-                "(%d steps/frame)\n", n, s.cloth.mesh->num_vertices(), s.springs.size(), s.frames, s.h_bound,
-                s.explicit_steps);
+    std::printf(
+        "loom bench accuracy: N=%d (%d vertices, %zu springs), %d frames of 1/60 s, explicit bound h=%.3g s "
+        "(%d steps/frame)\n",
+        n, s.cloth.mesh->num_vertices(), s.springs.size(), s.frames, s.h_bound, s.explicit_steps);
     const ReferenceRun ref = run_reference(s);
 
     const size_t first = rows.size();
@@ -258,8 +262,8 @@ int bench_accuracy(const AccuracyOptions& o) {
   }
   run_static_scenes(o, registered, rows);
   if (!write_results(o, rows, refs)) return 1;
-  std::printf("wrote %s/accuracy.csv, %s/reference_check.csv, %s/accuracy.png\n", o.out.c_str(), o.out.c_str(),
-              o.out.c_str());
+  std::printf("wrote %s/accuracy.csv, %s/reference_check.csv, %s/accuracy.png\n", o.out.c_str(),
+              o.out.c_str(), o.out.c_str());
   return 0;
 }
 
@@ -332,14 +336,18 @@ int bench_main(int argc, char** argv) {
     } else if (a == "--sizes") {
       const std::string v = value();
       if (!parse_list(v, o.sizes, 3)) {
-        std::fprintf(stderr, "loom: error: --sizes expects a comma-separated list of integers >= 3, got '%s'\n", v.c_str());
+        std::fprintf(stderr,
+                     "loom: error: --sizes expects a comma-separated list of integers >= 3, got '%s'\n",
+                     v.c_str());
         return 2;
       }
       sizes_given = true;
     } else if (a == "--threads") {
       const std::string v = value();
       if (!parse_list(v, o.threads, 1)) {
-        std::fprintf(stderr, "loom: error: --threads expects a comma-separated list of integers >= 1, got '%s'\n", v.c_str());
+        std::fprintf(stderr,
+                     "loom: error: --threads expects a comma-separated list of integers >= 1, got '%s'\n",
+                     v.c_str());
         return 2;
       }
     } else if (a == "--methods") {
@@ -358,7 +366,8 @@ int bench_main(int argc, char** argv) {
         if (std::find(known.begin(), known.end(), m) == known.end()) {
           std::string list;
           for (const auto& k : known) list += (list.empty() ? "" : ", ") + k;
-          std::fprintf(stderr, "loom: error: --methods: unknown method '%s' (known: %s)\n", m.c_str(), list.c_str());
+          std::fprintf(stderr, "loom: error: --methods: unknown method '%s' (known: %s)\n", m.c_str(),
+                       list.c_str());
           return 2;
         }
     } else if (a == "--configs") {

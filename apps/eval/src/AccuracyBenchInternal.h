@@ -4,11 +4,11 @@
 #include <string>
 #include <vector>
 
+#include "loom/bullet/BulletTwin.h"
 #include "loom/cloth/Simulation.h"
 #include "loom/cloth/SpringSet.h"
 #include "loom/eval/AccuracyBench.h"
 #include "loom/eval/AccuracySweep.h"
-#include "loom/bullet/BulletTwin.h"
 
 namespace loom::eval::accuracy {
 
@@ -64,6 +64,7 @@ Row run_bullet(const Scene& s, bullet::TwinKind kind, const SweepConfig& c, cons
 std::string num(double v);
 void print_row(const Row& r);
 // The static scenes' rows (catenary strip; weil and static solvers).
-void run_static_scenes(const AccuracyOptions& o, const std::vector<std::string>& registered, std::vector<Row>& rows);
+void run_static_scenes(const AccuracyOptions& o, const std::vector<std::string>& registered,
+                       std::vector<Row>& rows);
 
 }  // namespace loom::eval::accuracy

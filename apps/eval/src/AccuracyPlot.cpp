@@ -61,8 +61,8 @@ bool plot_accuracy(const std::vector<PlotPoint>& points, const std::string& titl
     g << "'" << dat << "' index " << s << " using 1:2 with points pt " << kTypes[s % 10] << " ps 1.2 title '"
       << names[s] << "', ";
   g << "'" << dat << "' index " << names.size()
-    << " using 1:2 with steps lw 2 lc rgb 'black' title 'Pareto front', '" << dat << "' index " << names.size()
-    << " using 1:2 with points pt 6 ps 2.2 lc rgb 'black' notitle\n";
+    << " using 1:2 with steps lw 2 lc rgb 'black' title 'Pareto front', '" << dat << "' index "
+    << names.size() << " using 1:2 with points pt 6 ps 2.2 lc rgb 'black' notitle\n";
   g.close();
   const std::string cmd = "gnuplot '" + gp + "' 2>&1";
   FILE* p = popen(cmd.c_str(), "r");
@@ -75,7 +75,8 @@ bool plot_accuracy(const std::vector<PlotPoint>& points, const std::string& titl
   while (fgets(buf, sizeof buf, p)) out += buf;
   const int rc = pclose(p);
   if (rc != 0) {
-    std::cerr << "loom: warning: gnuplot failed (is gnuplot-nox installed?); " << png << " not written\n" << out;
+    std::cerr << "loom: warning: gnuplot failed (is gnuplot-nox installed?); " << png << " not written\n"
+              << out;
     return false;
   }
   return true;

@@ -1,6 +1,4 @@
 // The accuracy benchmark's scene, reference and runs (AccuracyBenchInternal.h).
-#include "AccuracyBenchInternal.h"
-
 #include <algorithm>
 #include <chrono>
 #include <cmath>
@@ -14,15 +12,15 @@
 #include <set>
 #include <sstream>
 
-#include "loom/eval/AccuracyPlot.h"
-#include "loom/eval/AccuracySweep.h"
+#include "AccuracyBenchInternal.h"
 #include "loom/bullet/BulletTwin.h"
+#include "loom/cloth/CurvedFaces.h"
 #include "loom/cloth/Error.h"
 #include "loom/cloth/Material.h"
-#include "loom/cloth/CurvedFaces.h"
 #include "loom/cloth/Simulation.h"
 #include "loom/cloth/SpringSet.h"
-
+#include "loom/eval/AccuracyPlot.h"
+#include "loom/eval/AccuracySweep.h"
 
 namespace loom::eval::accuracy {
 
@@ -68,7 +66,8 @@ Scene make_scene(int n, double duration, double perturbation) {
   for (int iv = 0; iv < n; ++iv)
     for (int iu = 0; iu < n; ++iu) {
       const double u = iu / double(n - 1), v = iv / double(n - 1);
-      s.start[s.cloth.mesh->grid_index(iu, iv)].y() += perturbation * std::sin(kPi * u) * std::sin(0.5 * kPi * v);
+      s.start[s.cloth.mesh->grid_index(iu, iv)].y() +=
+          perturbation * std::sin(kPi * u) * std::sin(0.5 * kPi * v);
     }
   s.springs = make_springs(*s.cloth.mesh, s.cloth.material);
   s.h_bound = explicit_bound(s);
@@ -93,7 +92,6 @@ double median(std::vector<double> v) {
   const size_t k = v.size() / 2;
   return v.size() % 2 ? v[k] : 0.5 * (v[k - 1] + v[k]);
 }
-
 
 // Per-frame metrics of one run, the same code for Loom and Bullet positions.
 class Metrics {
@@ -153,7 +151,8 @@ class Metrics {
   // Kinetic + gravitational (zero at y = 0) + spring energy, J.
   double energy(const Vec3s& x, const Vec3s& v) const {
     double e = own_ ? own_->elastic_energy(1) : energy_term_.energy(EvalContext{x, v, 0.0, 1});
-    for (size_t i = 0; i < x.size(); ++i) e += 0.5 * s_.mass[i] * v[i].squaredNorm() - s_.mass[i] * s_.gravity.dot(x[i]);
+    for (size_t i = 0; i < x.size(); ++i)
+      e += 0.5 * s_.mass[i] * v[i].squaredNorm() - s_.mass[i] * s_.gravity.dot(x[i]);
     return e;
   }
 
@@ -275,8 +274,8 @@ Row run_loom(const Scene& s, const std::string& method, const SweepConfig& c, in
 // (N - 1)/4 + 1 nodes per side with `c`, shown as its curved-face surface refined twice (CurvedFaces.h), and
 // compared with the N x N reference at the reference's nodes (the shown surface bilinearly interpolated on
 // its fine grid at each node's material point). Time: coarse step + surface rebuild.
-Row run_hybrid(const Scene& s, const std::string& method, SweepConfig c, const std::vector<Vec3s>& ref, double duration,
-               double perturbation) {
+Row run_hybrid(const Scene& s, const std::string& method, SweepConfig c, const std::vector<Vec3s>& ref,
+               double duration, double perturbation) {
   const int nc = (s.n - 1) / 4 + 1;
   const Scene coarse = make_scene(nc, duration, perturbation);
   Simulation sim(loom_setup(coarse, method, c, 1));
@@ -372,10 +371,12 @@ std::string num(double v) {
 }
 
 void print_row(const Row& r) {
-  std::printf("  %-17s %-17s N=%-3d thr=%d %-36s %9s ms/frame  err max %-10s end %-10s strain max %-9s mean %-9s drift %-9s%s\n",
-              r.system.c_str(), r.method.c_str(), r.size, r.threads, r.config.c_str(), num(r.ms_per_frame).c_str(),
-              num(r.rms_error_max).c_str(), num(r.rms_error_end).c_str(), num(r.max_strain).c_str(),
-              num(r.mean_strain).c_str(), num(r.energy_drift).c_str(), r.diverged ? "  DIVERGED" : "");
+  std::printf(
+      "  %-17s %-17s N=%-3d thr=%d %-36s %9s ms/frame  err max %-10s end %-10s strain max %-9s mean %-9s "
+      "drift %-9s%s\n",
+      r.system.c_str(), r.method.c_str(), r.size, r.threads, r.config.c_str(), num(r.ms_per_frame).c_str(),
+      num(r.rms_error_max).c_str(), num(r.rms_error_end).c_str(), num(r.max_strain).c_str(),
+      num(r.mean_strain).c_str(), num(r.energy_drift).c_str(), r.diverged ? "  DIVERGED" : "");
   std::fflush(stdout);
 }
 
@@ -384,7 +385,8 @@ void print_row(const Row& r) {
 // minimisation). Row: size = nodes along the strip, config "scene=catenary span=D", ms_per_frame = wall time
 // to the shape, rms_error_max = rms_error_end = |sag - analytic sag| (m), strains of the shape, energy_drift
 // 0.
-void run_static_scenes(const AccuracyOptions& o, const std::vector<std::string>& registered, std::vector<Row>& rows) {
+void run_static_scenes(const AccuracyOptions& o, const std::vector<std::string>& registered,
+                       std::vector<Row>& rows) {
   const std::vector<std::pair<double, double>> spans =
       o.quick ? std::vector<std::pair<double, double>>{{0.8, 0.26544}}
               : std::vector<std::pair<double, double>>{{0.5, 0.39819}, {0.8, 0.26544}, {0.9, 0.19071}};
@@ -394,8 +396,10 @@ void run_static_scenes(const AccuracyOptions& o, const std::vector<std::string>&
     if (std::find(registered.begin(), registered.end(), method) == registered.end()) continue;
     if (!o.methods.empty() && !o.methods.count(method)) continue;
     if (!header) {
-      std::printf("loom bench accuracy: static scenes, catenary strip S = 1 m (%d x 2 nodes, 1 cm wide, cotton with "
-                  "B ~ 0), error = |sag - analytic sag|\n", nodes);
+      std::printf(
+          "loom bench accuracy: static scenes, catenary strip S = 1 m (%d x 2 nodes, 1 cm wide, cotton with "
+          "B ~ 0), error = |sag - analytic sag|\n",
+          nodes);
       header = true;
     }
     for (const auto& [d, sag_ref] : spans) {

@@ -16,8 +16,10 @@ std::string SweepConfig::label() const {
 
 namespace {
 
-std::vector<SweepConfig> grid(const std::vector<int>& substeps, const std::string& key, const std::vector<double>& values,
-                              const std::map<std::string, double>& extra = {}, const std::string& model = "") {
+std::vector<SweepConfig> grid(const std::vector<int>& substeps, const std::string& key,
+                              const std::vector<double>& values,
+                              const std::map<std::string, double>& extra = {},
+                              const std::string& model = "") {
   std::vector<SweepConfig> out;
   for (int s : substeps)
     for (double v : values) {
@@ -31,7 +33,9 @@ std::vector<SweepConfig> grid(const std::vector<int>& substeps, const std::strin
   return out;
 }
 
-void append(std::vector<SweepConfig>& a, const std::vector<SweepConfig>& b) { a.insert(a.end(), b.begin(), b.end()); }
+void append(std::vector<SweepConfig>& a, const std::vector<SweepConfig>& b) {
+  a.insert(a.end(), b.begin(), b.end());
+}
 
 }  // namespace
 
@@ -54,7 +58,8 @@ std::map<std::string, std::vector<SweepConfig>> loom_sweep_table(int explicit_st
   append(t["implicit_euler"], grid({1}, "cg_tolerance", {1e-2, 3e-2}, {{"multigrid", 2}}));
   // The same at 0.02 with the CG capped at 10 or 12 iterations (a step needs 13.4 on average): the fastest
   // within a point of the reference max strain at N=64 (docs/benchmarks.md).
-  append(t["implicit_euler"], grid({1}, "cg_max_iterations", {10, 12}, {{"multigrid", 1}, {"cg_tolerance", 2e-2}}));
+  append(t["implicit_euler"],
+         grid({1}, "cg_max_iterations", {10, 12}, {{"multigrid", 1}, {"cg_tolerance", 2e-2}}));
   t["bdf2"] = grid({1, 2, 4, 8, 16}, "cg_tolerance", {1e-3, 1e-6});
   // IMEX: structural and shear springs implicit, bend springs and gravity explicit (ImplicitSolver.h).
   t["imex"] = grid({1, 2, 4, 8, 16}, "cg_tolerance", {1e-4});

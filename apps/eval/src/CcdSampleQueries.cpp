@@ -17,8 +17,10 @@ namespace {
 double exact_double(const std::string& num, const std::string& den, const std::string& file, int line) {
   mpz_class n, d;
   if (n.set_str(num, 10) != 0 || d.set_str(den, 10) != 0)
-    throw loom::Error(file, "line " + std::to_string(line), "'" + num + "/" + den + "' is not a rational of integers");
-  if (d == 0) throw loom::Error(file, "line " + std::to_string(line), "zero denominator in '" + num + "/" + den + "'");
+    throw loom::Error(file, "line " + std::to_string(line),
+                      "'" + num + "/" + den + "' is not a rational of integers");
+  if (d == 0)
+    throw loom::Error(file, "line " + std::to_string(line), "zero denominator in '" + num + "/" + den + "'");
   mpq_class q(n, d);
   q.canonicalize();
   const double x = q.get_d();  // truncates; checked below
@@ -49,7 +51,8 @@ std::vector<CcdQuery> read_ccd_queries(const std::string& path) {
   const bool vf = path.find("vertex-face") != std::string::npos;
   const bool ee = path.find("edge-edge") != std::string::npos;
   if (vf == ee)
-    throw loom::Error(path, "", "cannot tell the query type: the path must contain 'vertex-face' or 'edge-edge'");
+    throw loom::Error(path, "",
+                      "cannot tell the query type: the path must contain 'vertex-face' or 'edge-edge'");
   std::ifstream in(path);
   if (!in) throw loom::Error(path, "", "cannot open the file");
   std::vector<CcdQuery> out;
@@ -68,7 +71,8 @@ std::vector<CcdQuery> read_ccd_queries(const std::string& path) {
       throw loom::Error(path, "line " + std::to_string(line),
                         "expected 7 comma-separated integers, got " + std::to_string(f.size()));
     if (f[6] != "0" && f[6] != "1")
-      throw loom::Error(path, "line " + std::to_string(line), "truth column must be 0 or 1, got '" + f[6] + "'");
+      throw loom::Error(path, "line " + std::to_string(line),
+                        "truth column must be 0 or 1, got '" + f[6] + "'");
     if (row == 0) {
       q.points.fill(Vec3::Zero());
       q.vertex_face = vf;
@@ -84,12 +88,14 @@ std::vector<CcdQuery> read_ccd_queries(const std::string& path) {
     }
   }
   if (row != 0)
-    throw loom::Error(path, "line " + std::to_string(line), "incomplete query: the row count is not a multiple of 8");
+    throw loom::Error(path, "line " + std::to_string(line),
+                      "incomplete query: the row count is not a multiple of 8");
   return out;
 }
 
 Vec3 scale_translate_exactly(CcdQuery& query, int k, const Vec3& offset) {
-  for (Vec3& p : query.points) p *= std::ldexp(1.0, k);  // exact for the ranges in use (no overflow/underflow)
+  for (Vec3& p : query.points)
+    p *= std::ldexp(1.0, k);  // exact for the ranges in use (no overflow/underflow)
   Vec3 applied = Vec3::Zero();
   for (int axis = 0; axis < 3; ++axis) {
     int g = 1 << 20;
@@ -116,8 +122,9 @@ CcdEvalStats evaluate_ccd(const std::vector<CcdQuery>& queries, const CcdOptions
   const auto start = std::chrono::steady_clock::now();
   for (const CcdQuery& q : queries) {
     const auto& p = q.points;
-    const CcdResult r = q.vertex_face ? vertex_face_ccd(p[0], p[1], p[2], p[3], p[4], p[5], p[6], p[7], options)
-                                      : edge_edge_ccd(p[0], p[1], p[2], p[3], p[4], p[5], p[6], p[7], options);
+    const CcdResult r = q.vertex_face
+                            ? vertex_face_ccd(p[0], p[1], p[2], p[3], p[4], p[5], p[6], p[7], options)
+                            : edge_edge_ccd(p[0], p[1], p[2], p[3], p[4], p[5], p[6], p[7], options);
     ++s.queries;
     s.positives += q.truth;
     s.false_negatives += q.truth && !r.hit;

@@ -1,7 +1,7 @@
 #include "loom/eval/FabricTests.h"
 
-#include <chrono>
 #include <algorithm>
+#include <chrono>
 #include <cmath>
 #include <ctime>
 #include <limits>
@@ -17,7 +17,7 @@ namespace loom::eval {
 namespace {
 
 constexpr double kPi = 3.14159265358979323846;
-constexpr double kG = 9.81;             // m/s²
+constexpr double kG = 9.81;                   // m/s²
 constexpr double kGramForcePerCm = 0.980665;  // N/m in 1 gf/cm
 
 // Integrates the cantilever elastica θ'' = -λ³ (1 - s) cos θ on s in [0, 1] from θ(0) = 0, θ'(0) = a
@@ -54,7 +54,10 @@ std::vector<std::pair<double, double>> elastica_shape(double ratio) {
   double lo = 0.0, hi = 0.5 * lambda3 + 1e-12;
   for (int it = 0; it < 60; ++it) {
     const double mid = 0.5 * (lo + hi);
-    if (elastica_shoot(lambda3, mid) < 0.0) lo = mid; else hi = mid;
+    if (elastica_shoot(lambda3, mid) < 0.0)
+      lo = mid;
+    else
+      hi = mid;
   }
   std::vector<std::pair<double, double>> shape;
   elastica_shoot(lambda3, 0.5 * (lo + hi), &shape);
@@ -176,13 +179,15 @@ int settle(Simulation& sim, double tol, const FabricTestOptions& o, FabricTestRe
 FabricTestResult cantilever(const FabricTestOptions& o) {
   FabricTestResult r;
   const Material& m = o.material;
-  const double c = std::cbrt(m.bend_weft / (m.areal_density * kG));  // m, bending length (strip along the weft)
-  const double l = o.overhang_ratio * c;                             // m, overhang
-  const int n = o.resolution > 0 ? o.resolution : 33;                // nodes along the overhang
+  const double c =
+      std::cbrt(m.bend_weft / (m.areal_density * kG));  // m, bending length (strip along the weft)
+  const double l = o.overhang_ratio * c;                // m, overhang
+  const int n = o.resolution > 0 ? o.resolution : 33;   // nodes along the overhang
   // Rows 0 and 1 are clamped. The first bending element sits at row 1 and stands for the cloth between
   // rows 0.5 and 1.5, so the discrete strip bends from row 0.5 on: the clamp edge x = 0 is put there and
   // the overhang runs from row 0.5 to row n (l = (n - 0.5) rows).
-  const bool grid = o.model == "springs";  // Provot springs need the grid; the others get equilateral triangles
+  const bool grid =
+      o.model == "springs";  // Provot springs need the grid; the others get equilateral triangles
   const double row = l / (n - 0.5), d = grid ? row : row / (0.5 * std::sqrt(3.0));
   // 25 mm wide (ASTM D1388), and at least 16 cells across: the free side edges carry fewer bending elements,
   // a loss of about one cell's share of the width, which the elastica (per unit width) does not have.
@@ -233,7 +238,8 @@ double pulled_strain(const FabricTestOptions& o, double line_load, int n, double
     const double ca = std::cos(angle), sa = std::sin(angle);
     for (const Tri& t : strip.mesh->triangles()) {
       std::array<Vec2, 3> uv;
-      for (int k = 0; k < 3; ++k) uv[k] = Vec2(ca * x[t[k]].x() + sa * x[t[k]].z(), -sa * x[t[k]].x() + ca * x[t[k]].z());
+      for (int k = 0; k < 3; ++k)
+        uv[k] = Vec2(ca * x[t[k]].x() + sa * x[t[k]].z(), -sa * x[t[k]].x() + ca * x[t[k]].z());
       uvs.push_back(uv);
     }
     strip.mesh = ClothMesh::from_triangles(x, strip.mesh->triangles(), uvs, "bias strip");
@@ -273,7 +279,9 @@ FabricTestResult tensile(const FabricTestOptions& o) {
   r.measured = 5 * kGramForcePerCm / strain[0];
   r.theory = o.material.stretch_weft;
   r.error = r.measured - r.theory;
-  r.fields = {{"E5_percent", strain[0] * 100}, {"E20_percent", strain[1] * 100}, {"E100_percent", strain[2] * 100},
+  r.fields = {{"E5_percent", strain[0] * 100},
+              {"E20_percent", strain[1] * 100},
+              {"E100_percent", strain[2] * 100},
               {"relative_error", r.measured / r.theory - 1.0}};
   r.resolution = n;
   return r;
@@ -291,7 +299,9 @@ FabricTestResult shear(const FabricTestOptions& o) {
   r.measured = inv_g > 0 ? 1.0 / inv_g : std::numeric_limits<double>::infinity();
   r.theory = m.shear;
   r.error = r.measured - r.theory;
-  r.fields = {{"EB5_percent", strain5 * 100}, {"bias_modulus_Nm", e45}, {"fast_shear_rigidity_Nm", 123.0 / (strain5 * 100)}};
+  r.fields = {{"EB5_percent", strain5 * 100},
+              {"bias_modulus_Nm", e45},
+              {"fast_shear_rigidity_Nm", 123.0 / (strain5 * 100)}};
   r.resolution = n;
   return r;
 }
@@ -320,7 +330,8 @@ FabricTestResult catenary(const FabricTestOptions& o) {
   Simulation sim(s);
   ClothState& st = sim.cloths()[0]->state();
   for (int v = 0; v < st.size(); ++v)
-    if (st.inv_mass[v] != 0.0) st.x[v] = v_shape(strip.mesh->rest_positions()[v].x(), strip.mesh->rest_positions()[v].z());
+    if (st.inv_mass[v] != 0.0)
+      st.x[v] = v_shape(strip.mesh->rest_positions()[v].x(), strip.mesh->rest_positions()[v].z());
   st.x_prev = st.x;
   settle(sim, 1e-10, o, r);
   timer.stop(r);
@@ -355,7 +366,8 @@ FabricTestResult catenary(const FabricTestOptions& o) {
 // resolution. Rings evenly spaced inside r_ks and at spacing h outside. (With rings at kR/rings the last
 // held ring would move with the ring count, and the drape coefficient with it.) `held_radius`: r_ks, every
 // node within it is held.
-std::shared_ptr<const ClothMesh> disc_mesh(double radius, int rings, double support_radius, double& held_radius) {
+std::shared_ptr<const ClothMesh> disc_mesh(double radius, int rings, double support_radius,
+                                           double& held_radius) {
   const int ks = std::clamp(static_cast<int>(std::lround(rings * support_radius / radius)), 1, rings - 1);
   const double h = (radius - support_radius) / (rings - ks + 0.5);
   held_radius = support_radius + 0.5 * h;
@@ -377,7 +389,8 @@ std::shared_ptr<const ClothMesh> disc_mesh(double radius, int rings, double supp
     int a = 0, b = 0;
     while (a < n0 || b < n1) {
       // Advance the ring whose next node comes first by angle (fractions of a turn, compared exactly).
-      const bool step_outer = b < n1 && (a >= n0 || static_cast<long>(b + 1) * n0 <= static_cast<long>(a + 1) * n1);
+      const bool step_outer =
+          b < n1 && (a >= n0 || static_cast<long>(b + 1) * n0 <= static_cast<long>(a + 1) * n1);
       if (step_outer) {
         tris.push_back({inner(a), outer(b), outer(b + 1)});
         ++b;
@@ -396,11 +409,14 @@ double shadow_area(const Vec3s& x, const std::vector<Tri>& tris, double half_ext
   const int n = static_cast<int>(std::ceil(2.0 * half_extent / cell));
   std::vector<char> covered(static_cast<size_t>(n) * n, 0);
   for (const Tri& t : tris) {
-    const Vec2 p[3] = {Vec2(x[t[0]].x(), x[t[0]].z()), Vec2(x[t[1]].x(), x[t[1]].z()), Vec2(x[t[2]].x(), x[t[2]].z())};
+    const Vec2 p[3] = {Vec2(x[t[0]].x(), x[t[0]].z()), Vec2(x[t[1]].x(), x[t[1]].z()),
+                       Vec2(x[t[2]].x(), x[t[2]].z())};
     const double area2 = (p[1] - p[0]).x() * (p[2] - p[0]).y() - (p[1] - p[0]).y() * (p[2] - p[0]).x();
     if (area2 == 0.0) continue;
-    const double lo_x = std::min({p[0].x(), p[1].x(), p[2].x()}), hi_x = std::max({p[0].x(), p[1].x(), p[2].x()});
-    const double lo_z = std::min({p[0].y(), p[1].y(), p[2].y()}), hi_z = std::max({p[0].y(), p[1].y(), p[2].y()});
+    const double lo_x = std::min({p[0].x(), p[1].x(), p[2].x()}),
+                 hi_x = std::max({p[0].x(), p[1].x(), p[2].x()});
+    const double lo_z = std::min({p[0].y(), p[1].y(), p[2].y()}),
+                 hi_z = std::max({p[0].y(), p[1].y(), p[2].y()});
     const int i0 = std::max(0, static_cast<int>(std::floor((lo_x + half_extent) / cell)));
     const int i1 = std::min(n - 1, static_cast<int>(std::floor((hi_x + half_extent) / cell)));
     const int j0 = std::max(0, static_cast<int>(std::floor((lo_z + half_extent) / cell)));
@@ -457,7 +473,8 @@ FabricTestResult drape(const FabricTestOptions& o) {
     const double rr = rest[v].norm();
     if (rr <= r_held * (1.0 + 1e-9)) continue;
     const double a = std::atan2(rest[v].z(), rest[v].x()), t = rr - r_held;
-    const double slope = kPi / 3.0, wave = 1e-3 * (t / (R - r_held)) * (std::sin(7 * a) + 0.5 * std::sin(3 * a + 1.0));
+    const double slope = kPi / 3.0,
+                 wave = 1e-3 * (t / (R - r_held)) * (std::sin(7 * a) + 0.5 * std::sin(3 * a + 1.0));
     const double rad = r_held + t * std::cos(slope);
     st.x[v] = Vec3(rad * std::cos(a), -t * std::sin(slope) + wave, rad * std::sin(a));
   }
@@ -511,7 +528,8 @@ FabricTestResult drape(const FabricTestOptions& o) {
               {"rim_radius_min_m", rim_min},
               {"rim_radius_max_m", rim_max},
               {"lowest_point_m", lowest},
-              {"bending_length_m", std::cbrt(0.5 * (o.material.bend_weft + o.material.bend_warp) / (o.material.areal_density * kG))},
+              {"bending_length_m", std::cbrt(0.5 * (o.material.bend_weft + o.material.bend_warp) /
+                                             (o.material.areal_density * kG))},
               {"frames", frames},
               {"vertices", mesh->num_vertices()}};
   r.resolution = rings;
@@ -520,12 +538,15 @@ FabricTestResult drape(const FabricTestOptions& o) {
 
 }  // namespace
 
-std::vector<std::string> fabric_test_names() { return {"cantilever", "tensile", "shear", "catenary", "drape"}; }
+std::vector<std::string> fabric_test_names() {
+  return {"cantilever", "tensile", "shear", "catenary", "drape"};
+}
 
 FabricTestResult run_fabric_test(const FabricTestOptions& o) {
   if (o.resolution != 0 && (o.resolution < 5 || o.resolution > 2000))
     throw Error("", "--resolution", "must be in [5, 2000]");
-  if (!(o.overhang_ratio > 0.05 && o.overhang_ratio < 10.0)) throw Error("", "--overhang-ratio", "must be in (0.05, 10)");
+  if (!(o.overhang_ratio > 0.05 && o.overhang_ratio < 10.0))
+    throw Error("", "--overhang-ratio", "must be in (0.05, 10)");
   const auto start = std::chrono::steady_clock::now();
   const std::clock_t cpu_start = std::clock();
   FabricTestResult r;
@@ -540,7 +561,8 @@ FabricTestResult run_fabric_test(const FabricTestOptions& o) {
   } else if (o.test == "drape") {
     r = drape(o);
   } else {
-    throw Error("", "test", "unknown fabric test '" + o.test + "' (known: cantilever, tensile, shear, catenary, drape)");
+    throw Error("", "test",
+                "unknown fabric test '" + o.test + "' (known: cantilever, tensile, shear, catenary, drape)");
   }
   r.test = o.test;
   r.material = o.material.name;
@@ -563,7 +585,10 @@ double elastica_overhang_ratio(double angle) {
   double lo = 0.01, hi = 8.0;
   for (int it = 0; it < 50; ++it) {
     const double mid = 0.5 * (lo + hi);
-    if (elastica_chord_angle(mid) < angle) lo = mid; else hi = mid;
+    if (elastica_chord_angle(mid) < angle)
+      lo = mid;
+    else
+      hi = mid;
   }
   return 0.5 * (lo + hi);
 }
@@ -573,7 +598,10 @@ double catenary_parameter(double length, double span) {
   double lo = 1e-6, hi = 1e6;
   for (int it = 0; it < 200; ++it) {
     const double a = std::sqrt(lo * hi);
-    if (2 * a * std::sinh(std::min(span / (2 * a), 700.0)) > length) lo = a; else hi = a;
+    if (2 * a * std::sinh(std::min(span / (2 * a), 700.0)) > length)
+      lo = a;
+    else
+      hi = a;
   }
   return std::sqrt(lo * hi);
 }

@@ -1,6 +1,5 @@
 #include "loom/bullet/BulletTwin.h"
 
-#include <btBulletDynamicsCommon.h>
 #include <BulletSoftBody/btDeformableBodySolver.h>
 #include <BulletSoftBody/btDeformableGravityForce.h>
 #include <BulletSoftBody/btDeformableMassSpringForce.h>
@@ -9,13 +8,14 @@
 #include <BulletSoftBody/btSoftBody.h>
 #include <BulletSoftBody/btSoftBodyRigidBodyCollisionConfiguration.h>
 #include <BulletSoftBody/btSoftRigidDynamicsWorld.h>
+#include <btBulletDynamicsCommon.h>
 
 #include <algorithm>
 #include <map>
 
+#include "TwinAccess.h"
 #include "loom/cloth/Error.h"
 #include "loom/cloth/SpringSet.h"
-#include "TwinAccess.h"
 
 namespace loom::bullet {
 
@@ -102,7 +102,9 @@ TwinCloth make_twin_cloth(const cloth::Cloth& c, const cloth::Vec3& gravity) {
   t.springs = cloth::make_springs(c.mesh(), c.material());
   t.masses = c.state().mass;
   for (const cloth::Pin& p : c.pins()) {
-    if (!p.times.empty()) throw Error("", "bullet twin", "pin of vertex " + std::to_string(p.vertex) + " moves; only fixed pins are bridged");
+    if (!p.times.empty())
+      throw Error("", "bullet twin",
+                  "pin of vertex " + std::to_string(p.vertex) + " moves; only fixed pins are bridged");
     t.pinned.push_back(p.vertex);
   }
   t.start = c.state().x;
@@ -116,8 +118,8 @@ struct BulletTwin::Impl {
   std::unique_ptr<btSoftBodyRigidBodyCollisionConfiguration> config;
   std::unique_ptr<btCollisionDispatcher> dispatcher;
   std::unique_ptr<btDbvtBroadphase> broadphase;
-  std::unique_ptr<btSequentialImpulseConstraintSolver> rigid_solver;           // classic
-  std::unique_ptr<NewtonSolver> deformable_solver;                              // deformable
+  std::unique_ptr<btSequentialImpulseConstraintSolver> rigid_solver;              // classic
+  std::unique_ptr<NewtonSolver> deformable_solver;                                // deformable
   std::unique_ptr<btDeformableMultiBodyConstraintSolver> deformable_constraints;  // deformable
   std::unique_ptr<btSoftRigidDynamicsWorld> classic_world;
   std::unique_ptr<btDeformableMultiBodyDynamicsWorld> deformable_world;
@@ -132,14 +134,16 @@ struct BulletTwin::Impl {
   }
 };
 
-BulletTwin::BulletTwin(TwinKind kind, const TwinCloth& c, const TwinSettings& s) : kind_(kind), impl_(new Impl) {
+BulletTwin::BulletTwin(TwinKind kind, const TwinCloth& c, const TwinSettings& s)
+    : kind_(kind), impl_(new Impl) {
   if (!c.mesh) throw Error("", "bullet twin", "no mesh");
   const int n = c.mesh->num_vertices();
   if (static_cast<int>(c.masses.size()) != n) throw Error("", "bullet twin", "needs one mass per vertex");
   if (c.springs.size() != c.mesh->springs().size())
     throw Error("", "bullet twin", "needs one spring per mesh spring definition (make_springs)");
   for (int p : c.pinned)
-    if (p < 0 || p >= n) throw Error("", "bullet twin", "pinned vertex " + std::to_string(p) + " out of range");
+    if (p < 0 || p >= n)
+      throw Error("", "bullet twin", "pinned vertex " + std::to_string(p) + " out of range");
   if (s.substeps < 1) throw Error("", "bullet.substeps", "must be >= 1");
   if (s.iterations < 1) throw Error("", "bullet.iterations", "must be >= 1");
   if (!(s.stiffness > 0.0)) throw Error("", "bullet.stiffness", "must be > 0");
@@ -221,8 +225,8 @@ BulletTwin::BulletTwin(TwinKind kind, const TwinCloth& c, const TwinSettings& s)
     b.m_cfg.kKHR = 1;
     b.m_cfg.kCHR = 1;
     b.m_cfg.kDF = 0;
-    b.m_cfg.collisions = btSoftBody::fCollision::SDF_RD | btSoftBody::fCollision::SDF_RDF |
-                         btSoftBody::fCollision::SDF_RDN;
+    b.m_cfg.collisions =
+        btSoftBody::fCollision::SDF_RD | btSoftBody::fCollision::SDF_RDF | btSoftBody::fCollision::SDF_RDN;
     b.setSelfCollision(false);
     m.deformable_world->addSoftBody(&b);
     m.spring_force = std::make_unique<PerLinkMassSpringForce>(std::move(link_k), btScalar(s.damping));
@@ -239,8 +243,9 @@ BulletTwin::~BulletTwin() = default;
 void BulletTwin::step_frame() {
   const TwinSettings& s = impl_->settings;
   const btScalar fixed = btScalar(s.frame_dt / s.substeps);
-  btDiscreteDynamicsWorld* w = impl_->classic_world ? static_cast<btDiscreteDynamicsWorld*>(impl_->classic_world.get())
-                                                    : static_cast<btDiscreteDynamicsWorld*>(impl_->deformable_world.get());
+  btDiscreteDynamicsWorld* w = impl_->classic_world
+                                   ? static_cast<btDiscreteDynamicsWorld*>(impl_->classic_world.get())
+                                   : static_cast<btDiscreteDynamicsWorld*>(impl_->deformable_world.get());
   // maxSubSteps one above the nominal count so float round-off in m_localTime never drops time
   // (docs/bullet.md).
   w->stepSimulation(btScalar(s.frame_dt), s.substeps + 1, fixed);
@@ -252,20 +257,20 @@ int BulletTwin::num_links() const { return impl_->body->m_links.size(); }
 void BulletTwin::positions(cloth::Vec3s& x) const {
   const auto& nodes = impl_->body->m_nodes;
   x.resize(nodes.size());
-  for (int i = 0; i < nodes.size(); ++i) x[i] = cloth::Vec3(nodes[i].m_x.x(), nodes[i].m_x.y(), nodes[i].m_x.z());
+  for (int i = 0; i < nodes.size(); ++i)
+    x[i] = cloth::Vec3(nodes[i].m_x.x(), nodes[i].m_x.y(), nodes[i].m_x.z());
 }
 
 void BulletTwin::velocities(cloth::Vec3s& v) const {
   const auto& nodes = impl_->body->m_nodes;
   v.resize(nodes.size());
-  for (int i = 0; i < nodes.size(); ++i) v[i] = cloth::Vec3(nodes[i].m_v.x(), nodes[i].m_v.y(), nodes[i].m_v.z());
+  for (int i = 0; i < nodes.size(); ++i)
+    v[i] = cloth::Vec3(nodes[i].m_v.x(), nodes[i].m_v.y(), nodes[i].m_v.z());
 }
 
 double BulletTwin::node_mass(int i) const { return impl_->body->getMass(i); }
 bool BulletTwin::is_pinned(int i) const { return impl_->body->m_nodes[i].m_im == 0; }
-bool BulletTwin::simulating() const {
-  return impl_->body->getActivationState() != DISABLE_SIMULATION;
-}
+bool BulletTwin::simulating() const { return impl_->body->getActivationState() != DISABLE_SIMULATION; }
 
 btDiscreteDynamicsWorld* TwinAccess::world(BulletTwin& t) {
   return t.impl_->classic_world ? static_cast<btDiscreteDynamicsWorld*>(t.impl_->classic_world.get())
@@ -273,7 +278,8 @@ btDiscreteDynamicsWorld* TwinAccess::world(BulletTwin& t) {
 }
 btSoftBody* TwinAccess::body(BulletTwin& t) { return t.impl_->body.get(); }
 btSoftBodyWorldInfo* TwinAccess::info(BulletTwin& t) {
-  return t.impl_->classic_world ? &t.impl_->classic_world->getWorldInfo() : &t.impl_->deformable_world->getWorldInfo();
+  return t.impl_->classic_world ? &t.impl_->classic_world->getWorldInfo()
+                                : &t.impl_->deformable_world->getWorldInfo();
 }
 
 }  // namespace loom::bullet

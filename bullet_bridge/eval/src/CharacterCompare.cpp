@@ -1,8 +1,8 @@
 #include "loom/bullet/CharacterCompare.h"
 
-#include <btBulletDynamicsCommon.h>
 #include <BulletSoftBody/btSoftBody.h>
 #include <BulletSoftBody/btSoftRigidDynamicsWorld.h>
+#include <btBulletDynamicsCommon.h>
 
 #include <chrono>
 #include <cmath>
@@ -28,17 +28,19 @@ struct CharacterTally {
   int frames = 0;
   std::vector<std::vector<Vec3>> targets;  // per body attachment: the vertex in the body's frame at t = 0
 
-  explicit CharacterTally(const CharacterCompareInput& input, const std::vector<const cloth::Vec3s*>& x0) : in(&input) {
+  explicit CharacterTally(const CharacterCompareInput& input, const std::vector<const cloth::Vec3s*>& x0)
+      : in(&input) {
     for (const KinematicBody& b : input.bodies) {
       targets.emplace_back();
       const Transform p0 = b.motion(0.0);
-      for (const collision::BodyAttachment& a : b.attachments) targets.back().push_back(p0.inverse() * (*x0[a.cloth])[a.vertex]);
+      for (const collision::BodyAttachment& a : b.attachments)
+        targets.back().push_back(p0.inverse() * (*x0[a.cloth])[a.vertex]);
     }
   }
 
   // x[c]: positions of garment c at time t (s); meshes[c] its mesh.
-  void add(double t, const std::vector<const cloth::ClothMesh*>& meshes, const std::vector<const cloth::Vec3s*>& x,
-           double ms_now) {
+  void add(double t, const std::vector<const cloth::ClothMesh*>& meshes,
+           const std::vector<const cloth::Vec3s*>& x, double ms_now) {
     double mean = 0.0;
     long springs = 0, inside_now = 0;
     for (size_t c = 0; c < meshes.size(); ++c) {
@@ -66,7 +68,9 @@ struct CharacterTally {
         }
         double depth = 0.0;
         for (size_t k = 0; k < in->bodies.size(); ++k)
-          if (in->bodies[k].collides) depth = std::max(depth, -shape_signed_distance(in->bodies[k].shape, nullptr, poses[k], p, nullptr));
+          if (in->bodies[k].collides)
+            depth =
+                std::max(depth, -shape_signed_distance(in->bodies[k].shape, nullptr, poses[k], p, nullptr));
         pen = std::max(pen, depth);
         inside_now += depth > 0.0;
       }
@@ -158,11 +162,13 @@ CharacterMetrics run_bullet_character(const CharacterCompareInput& in) {
     for (const KinematicBody& kb : in.bodies) {
       std::unique_ptr<btCollisionShape> shape;
       if (kb.collides)
-        shape = std::make_unique<btCapsuleShape>(btScalar(kb.shape.radius), btScalar(2 * kb.shape.half_height));
+        shape =
+            std::make_unique<btCapsuleShape>(btScalar(kb.shape.radius), btScalar(2 * kb.shape.half_height));
       else
         shape = std::make_unique<btSphereShape>(btScalar(0.01));
       g->states.push_back(std::make_unique<btDefaultMotionState>(to_bt(kb.motion(0.0))));
-      btRigidBody::btRigidBodyConstructionInfo info(0, g->states.back().get(), shape.get(), btVector3(0, 0, 0));
+      btRigidBody::btRigidBodyConstructionInfo info(0, g->states.back().get(), shape.get(),
+                                                    btVector3(0, 0, 0));
       info.m_friction = btScalar(kb.friction);
       auto rb = std::make_unique<btRigidBody>(info);
       rb->setCollisionFlags(rb->getCollisionFlags() | btCollisionObject::CF_KINEMATIC_OBJECT);
@@ -190,7 +196,8 @@ CharacterMetrics run_bullet_character(const CharacterCompareInput& in) {
     const double t = f * in.setup.frame_dt;
     const auto t0 = Clock::now();
     for (auto& g : garments) {
-      for (size_t k = 0; k < in.bodies.size(); ++k) g->states[k]->setWorldTransform(to_bt(in.bodies[k].motion(t)));
+      for (size_t k = 0; k < in.bodies.size(); ++k)
+        g->states[k]->setWorldTransform(to_bt(in.bodies[k].motion(t)));
       g->twin->step_frame();
     }
     const double ms = std::chrono::duration<double, std::milli>(Clock::now() - t0).count();

@@ -1,18 +1,18 @@
 #include "loom/bullet/Compare.h"
 
-#include <btBulletDynamicsCommon.h>
 #include <BulletSoftBody/btSoftBody.h>
 #include <BulletSoftBody/btSoftRigidDynamicsWorld.h>
+#include <btBulletDynamicsCommon.h>
 
 #include <chrono>
 #include <cmath>
 #include <memory>
 
 #include "BulletConvert.h"
-#include "loom/bullet/RigidBodies.h"
 #include "ShapeDistance.h"
 #include "TwinAccess.h"
 #include "loom/bullet/BulletCloth.h"
+#include "loom/bullet/RigidBodies.h"
 #include "loom/cloth/Error.h"
 
 namespace loom::bullet {
@@ -41,7 +41,8 @@ struct Bodies {
     double worst = 0.0;
     for (size_t k = 0; k < bodies.size(); ++k) {
       collision::Transform pose = to_eigen(bodies[k]->getWorldTransform());
-      for (const Vec3& p : x) worst = std::max(worst, -shape_signed_distance((*specs)[k].shape, nullptr, pose, p, nullptr));
+      for (const Vec3& p : x)
+        worst = std::max(worst, -shape_signed_distance((*specs)[k].shape, nullptr, pose, p, nullptr));
     }
     return worst;
   }
@@ -106,7 +107,8 @@ SystemMetrics run_loom_in_bullet(const CompareInput& in) {
   s.cloth_substeps = std::max(1, (in.setup.substeps + in.bullet_substeps - 1) / in.bullet_substeps);
   BulletCloth cloth(in.setup, s);
   for (size_t k = 0; k < in.bodies.size(); ++k)
-    for (const collision::BodyAttachment& a : in.bodies[k].attachments) cloth.attach(a.cloth, a.vertex, bodies.bodies[k].get());
+    for (const collision::BodyAttachment& a : in.bodies[k].attachments)
+      cloth.attach(a.cloth, a.vertex, bodies.bodies[k].get());
   cloth.add_to(&world);
   const cloth::Cloth& c0 = *cloth.simulation().cloths()[0];
   Tally tally;
@@ -129,8 +131,9 @@ SystemMetrics run_bullet_twin(const CompareInput& in, TwinKind kind) {
   m.system = system_name(kind);
   if (kind == TwinKind::kDeformable && !in.bodies.empty()) {
     m.available = false;
-    m.note = "the deformable twin is not coupled to rigid bodies here (docs/bullet.md: it produced "
-             "NaN nodes against a rigid sphere)";
+    m.note =
+        "the deformable twin is not coupled to rigid bodies here (docs/bullet.md: it produced "
+        "NaN nodes against a rigid sphere)";
     return m;
   }
   cloth::SimulationSetup one = in.setup;

@@ -9,7 +9,8 @@ namespace loom::render::gl {
 namespace {
 
 bool is_ground(const collision::Collider& c) {
-  return c.shape.type == collision::ShapeType::plane && (c.curr.linear() * cloth::Vec3::UnitY()).y() > 1.0 - 1e-9;
+  return c.shape.type == collision::ShapeType::plane &&
+         (c.curr.linear() * cloth::Vec3::UnitY()).y() > 1.0 - 1e-9;
 }
 
 }  // namespace
@@ -24,14 +25,16 @@ void ColliderShapes::update(const collision::ColliderSet& set, double plane_half
     types_.push_back(c.shape.type);
     collision::TessellationSettings ts;
     ts.plane_half_size = plane_half_size;
-    local_.push_back(is_ground(c) ? collision::ColliderMesh{} : collision::tessellate(c.shape, c.geometry.get(), ts));
+    local_.push_back(is_ground(c) ? collision::ColliderMesh{}
+                                  : collision::tessellate(c.shape, c.geometry.get(), ts));
   }
 }
 
 std::vector<collision::ColliderMesh> ColliderShapes::posed(const collision::ColliderSet& set) const {
   std::vector<collision::ColliderMesh> out;
   for (size_t k = 0; k < set.size() && k < local_.size(); ++k)
-    if (!local_[k].triangles.empty() && !is_ground(set[k])) out.push_back(collision::transformed(local_[k], set[k].curr));
+    if (!local_[k].triangles.empty() && !is_ground(set[k]))
+      out.push_back(collision::transformed(local_[k], set[k].curr));
   return out;
 }
 

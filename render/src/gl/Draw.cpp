@@ -67,7 +67,8 @@ std::vector<uint8_t> check_texture(int n) {
       const bool su = i < n / 2, sv = j < n / 2;
       double v = 1.0 - 0.26 * su - 0.26 * sv;
       if (i % (n / 2) == 0 || j % (n / 2) == 0) v *= 0.9;
-      for (int k = 0; k < 3; ++k) t[3 * (size_t(j) * n + i) + k] = static_cast<uint8_t>(std::lround(255.0 * v));
+      for (int k = 0; k < 3; ++k)
+        t[3 * (size_t(j) * n + i) + k] = static_cast<uint8_t>(std::lround(255.0 * v));
     }
   return t;
 }
@@ -161,7 +162,8 @@ void draw_ground(const DrawParams& p, const Textures& t) {
   glTexEnvi(GL_TEXTURE_ENV, GL_TEXTURE_ENV_MODE, GL_MODULATE);
   glColor3f(1.0f, 1.0f, 1.0f);
   glBegin(GL_QUADS);
-  const double x0 = p.center.x() - half, x1 = p.center.x() + half, z0 = p.center.z() - half, z1 = p.center.z() + half;
+  const double x0 = p.center.x() - half, x1 = p.center.x() + half, z0 = p.center.z() - half,
+               z1 = p.center.z() + half;
   const double tex = 1.0;  // m per texture period (two 0.5 m checks)
   glTexCoord2d(x0 / tex, z0 / tex);
   glVertex3d(x0, g, z0);
@@ -210,7 +212,8 @@ ClothArrays cloth_arrays(const DrawParams& p, const std::vector<RenderMesh>& mes
         const Vec3 n = front ? vn[v] : Vec3(-vn[v]);
         const Vec3 to_eye = (p.camera.eye - x[v]).normalized();
         // Lambert: ambient + key light + a dim headlight so the side away from the key keeps its shape.
-        const double light = 0.30 + 0.75 * std::max(0.0, n.dot(kToLight)) + 0.30 * std::max(0.0, n.dot(to_eye));
+        const double light =
+            0.30 + 0.75 * std::max(0.0, n.dot(kToLight)) + 0.30 * std::max(0.0, n.dot(to_eye));
         const Vec3 col = (front ? mesh.color : back) * light;
         for (int c = 0; c < 3; ++c) {
           P[m].push_back(static_cast<float>(x[v][c]));
@@ -238,7 +241,8 @@ void collider_arrays(const DrawParams& p, const std::vector<collision::ColliderM
         const Vec3& x = m.vertices[t[k]];
         const Vec3 n = front ? m.normals[t[k]] : Vec3(-m.normals[t[k]]);
         const Vec3 to_eye = (p.camera.eye - x).normalized();
-        const double light = 0.30 + 0.75 * std::max(0.0, n.dot(kToLight)) + 0.30 * std::max(0.0, n.dot(to_eye));
+        const double light =
+            0.30 + 0.75 * std::max(0.0, n.dot(kToLight)) + 0.30 * std::max(0.0, n.dot(to_eye));
         for (int c = 0; c < 3; ++c) {
           CP.push_back(static_cast<float>(x[c]));
           CC.push_back(static_cast<float>(std::min(1.0, collider_color[c] * light)));
@@ -279,7 +283,8 @@ void draw_shadows(const DrawParams& p, double g, const ClothArrays& cloths, cons
 }  // namespace
 
 void draw_scene(const DrawParams& p, const Textures& t, const std::vector<RenderMesh>& meshes,
-                const std::vector<const cloth::Vec3s*>& positions, const std::vector<collision::ColliderMesh>& colliders) {
+                const std::vector<const cloth::Vec3s*>& positions,
+                const std::vector<collision::ColliderMesh>& colliders) {
   glViewport(0, 0, p.viewport_w, p.viewport_h);
   glClearColor(kHorizon[0], kHorizon[1], kHorizon[2], 1.0f);
   glClearStencil(0);

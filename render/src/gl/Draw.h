@@ -31,10 +31,10 @@ Textures create_textures();  // in the current context
 struct DrawParams {
   Camera camera;
   double aspect = 4.0 / 3.0;
-  double ground = 0.0;   // m
-  double extent = 1.0;   // m
+  double ground = 0.0;  // m
+  double extent = 1.0;  // m
   cloth::Vec3 center = cloth::Vec3::Zero();
-  double check_size = 0.05;  // m
+  double check_size = 0.05;                // m
   int viewport_w = 640, viewport_h = 480;  // px
 };
 

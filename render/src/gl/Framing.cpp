@@ -20,7 +20,8 @@ Camera auto_camera(const Bounds& b, double aspect, double fov_deg) {
   // The smallest distance at which all eight box corners project inside the image (5% margin each side).
   double distance = 1e-3;
   for (int i = 0; i < 8; ++i) {
-    const Vec3 p = Vec3(i & 1 ? b.hi.x() : b.lo.x(), i & 2 ? b.hi.y() : b.lo.y(), i & 4 ? b.hi.z() : b.lo.z()) - center;
+    const Vec3 p =
+        Vec3(i & 1 ? b.hi.x() : b.lo.x(), i & 2 ? b.hi.y() : b.lo.y(), i & 4 ? b.hi.z() : b.lo.z()) - center;
     const double depth = p.dot(f);  // along the view direction
     distance = std::max(distance, depth + std::abs(p.dot(s)) / (0.9 * tan_x));
     distance = std::max(distance, depth + std::abs(p.dot(u)) / (0.9 * tan_y));

@@ -62,11 +62,11 @@ struct BulletClothSettings {
   enum class Tier { setup, realtime };
   Tier tier = Tier::setup;
   std::string realtime_solver = "xpbd";  // realtime: any of cloth::solver_names() taking `iterations`
-  int realtime_iterations = 1;            // realtime: solver iterations per cloth step
-  int realtime_substeps = 2;              // realtime: cloth steps per Bullet substep, at least
-  int coupling_iterations = 2;            // realtime: contact, tether and edge sweeps per cloth step
-  int tether_anchors = 4;                 // realtime: pinned vertices each vertex is tethered to (0: none)
-  double max_stretch = 0.1;               // 1, realtime: strain limit l/L - 1 of edges and tethers
+  int realtime_iterations = 1;           // realtime: solver iterations per cloth step
+  int realtime_substeps = 2;             // realtime: cloth steps per Bullet substep, at least
+  int coupling_iterations = 2;           // realtime: contact, tether and edge sweeps per cloth step
+  int tether_anchors = 4;                // realtime: pinned vertices each vertex is tethered to (0: none)
+  double max_stretch = 0.1;              // 1, realtime: strain limit l/L - 1 of edges and tethers
 
   // Adaptive cloth steps: a Bullet substep runs n = ceil(relative motion / (step_motion * thickness)) cloth
   // steps, cloth_substeps <= n <= max_cloth_substeps, where the relative motion (m) is the farthest any point
@@ -75,8 +75,8 @@ struct BulletClothSettings {
   // moves farther leaves vertices nearer its side than its face, and they are pushed out sideways.
   double step_motion = 0.5;  // 1, relative motion per cloth step in thicknesses
   int max_cloth_substeps = 16;
-  double friction = 0.3;          // 1, kinetic Coulomb coefficient cloth vs bodies
-  double static_friction = 0.4;   // 1, static coefficient (>= friction)
+  double friction = 0.3;         // 1, kinetic Coulomb coefficient cloth vs bodies
+  double static_friction = 0.4;  // 1, static coefficient (>= friction)
   // Contact response of Tier::setup:
   //   vertex (default): the bridge's vertex projection and cloth-edge pass (ContactStage.h), the one the
   //     bridge tests validate;
@@ -89,8 +89,6 @@ struct BulletClothSettings {
   Contacts contacts = Contacts::vertex;
   bool edge_contacts = true;  // Contacts::vertex: also the cloth-edge pass (ContactStage.cpp)
 };
-
-
 
 // Colliders for one Bullet shape placed at `pose` (world frame of the shape: body transform times compound
 // child transforms). Supported: sphere, capsule X/Y/Z, box, cylinder X/Y/Z, cone X/Y/Z (as convex),
@@ -137,7 +135,7 @@ class BulletCloth : public btActionInterface {
   Vec3 applied_impulse(const btRigidBody* body) const;
   // Largest penetration (m) of a cloth vertex into a collider seen (before push-out) in the last substep.
   double last_penetration() const { return last_penetration_; }
-  long substeps() const { return substeps_; }  // Bullet substeps run
+  long substeps() const { return substeps_; }        // Bullet substeps run
   long cloth_steps() const { return cloth_steps_; }  // cloth pipeline steps run (adaptive, see settings)
   // The cloth simulation's statistics for the last Bullet substep (Simulation::step_frame).
   const cloth::FrameStats& last_stats() const { return last_stats_; }
@@ -184,7 +182,7 @@ class BulletCloth : public btActionInterface {
   BulletClothSettings settings_;
   std::unique_ptr<cloth::Simulation> sim_;
   collision::ColliderSetPtr colliders_;
-  std::vector<btRigidBody*> collider_body_;          // per collider
+  std::vector<btRigidBody*> collider_body_;           // per collider
   std::vector<collision::Transform> collider_local_;  // per collider: shape pose in the body frame
   std::vector<Attachment> attachments_;
   std::map<const btRigidBody*, std::unique_ptr<BodyTrack>> tracks_;
@@ -193,12 +191,12 @@ class BulletCloth : public btActionInterface {
   btDynamicsWorld* world_ = nullptr;
   std::vector<std::string> warnings_;
   std::function<void(const std::string&)> warn_;
-  ContactStage* contacts_ = nullptr;                     // owned by sim_ (Contacts::vertex)
+  ContactStage* contacts_ = nullptr;                    // owned by sim_ (Contacts::vertex)
   collision::FeatureContactStage* features_ = nullptr;  // owned by sim_ (Contacts::features)
-  collision::BodyCollisionStage* body_ = nullptr;   // owned by sim_ (Contacts::body_collision)
-  std::unique_ptr<BodyCoupling> coupling_;          // Tier::realtime
-  double thickness_ = 0.0;                          // m, the contact thickness in use
-  double substep_t0_ = 0.0;                  // s, cloth time at the current Bullet substep's start
+  collision::BodyCollisionStage* body_ = nullptr;       // owned by sim_ (Contacts::body_collision)
+  std::unique_ptr<BodyCoupling> coupling_;              // Tier::realtime
+  double thickness_ = 0.0;                              // m, the contact thickness in use
+  double substep_t0_ = 0.0;                             // s, cloth time at the current Bullet substep's start
   double last_penetration_ = 0.0;
   long substeps_ = 0;
   long cloth_steps_ = 0;

@@ -39,7 +39,7 @@ class BulletScene {
   // stage times summed over the cloth steps, finite = every cloth step stayed finite).
   cloth::FrameStats step_frame();
   int frame() const { return frame_; }
-  double time() const;                 // s
+  double time() const;                           // s
   double frame_dt() const { return frame_dt_; }  // s
   int bullet_substeps() const { return substeps_; }
   long cloth_steps() const;  // cloth pipeline steps run so far (adaptive: BulletClothSettings)

@@ -17,11 +17,11 @@ using cloth::Vec3s;
 
 struct RayHit {
   bool hit = false;
-  int cloth = -1;                    // index of the cloth in its simulation (BulletCloth::ray_test)
-  int triangle = -1;                 // triangle index in the cloth's mesh
-  Vec3 barycentric = Vec3::Zero();   // 1, weights of the triangle's vertices (sum 1)
-  double distance = 0.0;             // m, from `from` to the hit point
-  Vec3 point = Vec3::Zero();         // m
+  int cloth = -1;                   // index of the cloth in its simulation (BulletCloth::ray_test)
+  int triangle = -1;                // triangle index in the cloth's mesh
+  Vec3 barycentric = Vec3::Zero();  // 1, weights of the triangle's vertices (sum 1)
+  double distance = 0.0;            // m, from `from` to the hit point
+  Vec3 point = Vec3::Zero();        // m
 };
 
 // Nearest hit over all triangles (brute force), or over `candidates` (sorted triangle indices) if given.

@@ -25,14 +25,14 @@ std::vector<std::string> canonical_joint_names(const Motion& motion);
 const std::map<std::string, double>& default_bone_radii();
 
 struct Bone {
-  std::string name;       // the start joint's name in the file
-  std::string canonical;  // canonical name used for the radius and for garment fitting
-  int joint = 0;          // start joint (the capsule moves with its frame)
-  int child = 0;          // end joint
-  double radius = 0.0;    // m
-  double half_length = 0.0;  // m, half the rest distance between the joints
-  double table_radius = 0.0; // m, the radius before fitting (table or override)
-  bool overridden = false;   // radius given by the scene (`radii`): the fits leave it alone
+  std::string name;           // the start joint's name in the file
+  std::string canonical;      // canonical name used for the radius and for garment fitting
+  int joint = 0;              // start joint (the capsule moves with its frame)
+  int child = 0;              // end joint
+  double radius = 0.0;        // m
+  double half_length = 0.0;   // m, half the rest distance between the joints
+  double table_radius = 0.0;  // m, the radius before fitting (table or override)
+  bool overridden = false;    // radius given by the scene (`radii`): the fits leave it alone
   // Rotation, in the start joint's frame, taking the capsule's local y onto the bone (the child's rest
   // offset). Fixed per bone, so the capsule is rigidly attached to the joint's frame: no twist flips when
   // the bone points along -y (Biovision legs), which would give the capsule's surface a spurious spin.

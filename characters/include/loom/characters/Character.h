@@ -5,7 +5,8 @@
 //   - each capsule collider gets prev = its pose at t and curr = its pose at t + h (swept contacts);
 //   - each attached vertex (a pin: inverse mass 0) gets v = (target(t + h) - x) / h, so the solver's
 //     x += h v puts it exactly on its bone target (the pin contract of Solver.h), the target being the bone
-//     at t + h sampled from the animation (slerp/lerp between keys): targets are interpolated across substeps.
+//     at t + h sampled from the animation (slerp/lerp between keys): targets are interpolated across
+//     substeps.
 #include <memory>
 #include <string>
 #include <vector>
@@ -19,7 +20,7 @@
 namespace loom::characters {
 
 struct Attachment {
-  int cloth = 0;            // index into the simulation's cloths
+  int cloth = 0;  // index into the simulation's cloths
   int vertex = 0;
   int joint = 0;
   Vec3 local = Vec3::Zero();  // m, the vertex in the joint's frame at t = 0
@@ -32,7 +33,9 @@ struct Character {
   double friction = 0.3;   // 1, capsule-cloth kinetic friction (Collider::friction)
   double thickness = 0.0;  // m, contact offset of the capsules (0: the body-collision stage's default)
 
-  Vec3 target(const Attachment& a, const std::vector<Transform>& pose) const { return pose[a.joint] * a.local; }
+  Vec3 target(const Attachment& a, const std::vector<Transform>& pose) const {
+    return pose[a.joint] * a.local;
+  }
   // Appends a garment as a cloth of `setup` (its attached vertices become pins) and records its attachments.
   void add_garment(cloth::SimulationSetup& setup, const Garment& garment, const std::string& name,
                    const cloth::Material& material, const std::string& model = "springs");
@@ -41,7 +44,8 @@ struct Character {
 class CharacterStage final : public cloth::Stage {
  public:
   // Moves colliders[first, first + rig.bones().size()) of `colliders` (may be null: no capsules written).
-  CharacterStage(std::shared_ptr<const Character> character, collision::ColliderSetPtr colliders, size_t first);
+  CharacterStage(std::shared_ptr<const Character> character, collision::ColliderSetPtr colliders,
+                 size_t first);
   const char* name() const override { return "character"; }
   void run(cloth::StageContext& ctx) override;
   std::vector<std::pair<std::string, double>> counters() const override;

@@ -19,12 +19,13 @@ namespace loom::characters {
 struct ProbeFigures {
   long steps = 0;
   bool finite = true;
-  double max_speed = 0.0;          // m/s, over all vertices
-  double max_depth = 0.0;          // m, deepest free vertex inside a capsule (0: none inside)
-  double max_attached_depth = 0.0; // m, the same for attached vertices (they follow their bone, not contacts)
-  double max_track = 0.0;          // m, attached vertex to bone target
-  long max_intersections = 0;      // census: intersecting triangle pairs (self and between cloths), worst step
-  long census_steps = 0;           // steps the census ran at
+  double max_speed = 0.0;  // m/s, over all vertices
+  double max_depth = 0.0;  // m, deepest free vertex inside a capsule (0: none inside)
+  double max_attached_depth =
+      0.0;                     // m, the same for attached vertices (they follow their bone, not contacts)
+  double max_track = 0.0;      // m, attached vertex to bone target
+  long max_intersections = 0;  // census: intersecting triangle pairs (self and between cloths), worst step
+  long census_steps = 0;       // steps the census ran at
   // s, simulated time (end of the step) of the worst step of each: where the hardest seconds of a clip are
   double max_speed_time = 0.0, max_depth_time = 0.0, max_attached_depth_time = 0.0;
   // Rig bone (index into CapsuleRig::bones()) of the deepest free / attached vertex (-1: none inside)

@@ -1,8 +1,10 @@
 #pragma once
 // Garments fitted to a skeleton's measurements at its pose at t = 0:
 //   cape   a rectangle hanging behind the back from the shoulder line (shoulder width, shoulders to knees),
-//          its whole top row attached to the chest joint (the neck's parent), placed clear of every capsule over the motion;
-//   skirt  a flared tube from the waist (root height, or above the thighs' capsules) to the knees, its waist ring
+//          its whole top row attached to the chest joint (the neck's parent), placed clear of every capsule
+//          over the motion;
+//   skirt  a flared tube from the waist (root height, or above the thighs' capsules) to the knees, its waist
+//   ring
 //          attached to the root, hugging the pelvis and clear of the torso over the whole motion;
 //   shirt  a loose tube (poncho) around the torso and arms, from the shoulders to the hips, its top ring
 //          attached to the nearest of the chest, neck and clavicle bones;
@@ -45,7 +47,8 @@ struct Garment {
 // an OBJ group is missing, or the mesh is invalid.
 // `outside`: points the garment must also clear (the vertices of garments made before it: layers).
 Garment make_garment(const GarmentSpec& spec, const Motion& motion, const CapsuleRig& rig,
-                     const std::string& source = "", const std::string& where = "", const cloth::Vec3s& outside = {});
+                     const std::string& source = "", const std::string& where = "",
+                     const cloth::Vec3s& outside = {});
 
 // Vertices of each `g` group's faces in an OBJ file (0-based, in file order of `v`).
 std::map<std::string, std::vector<int>> read_obj_groups(const std::string& path);

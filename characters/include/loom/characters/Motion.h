@@ -19,20 +19,20 @@ using Quat = Eigen::Quaterniond;
 using Transform = Eigen::Isometry3d;
 
 struct MotionSettings {
-  double scale = 0.0;        // m per file unit; 0: automatic, the rest pose's height becomes `height`
-  double height = 1.7;       // m, target figure height of the automatic scale
-  bool root_motion = true;   // false: the root's horizontal (x, z) translation stays at its start value
-  bool loop = false;         // true: the clip repeats (root motion accumulates per cycle); false: holds the end
-  double speed = 1.0;        // 1, clip seconds per simulated second
-  double start = 0.0;        // s, clip time at simulated time 0
-  bool place = true;         // true: at t = 0 the root is at x = z = 0 and the lowest joint at y = 0
+  double scale = 0.0;       // m per file unit; 0: automatic, the rest pose's height becomes `height`
+  double height = 1.7;      // m, target figure height of the automatic scale
+  bool root_motion = true;  // false: the root's horizontal (x, z) translation stays at its start value
+  bool loop = false;   // true: the clip repeats (root motion accumulates per cycle); false: holds the end
+  double speed = 1.0;  // 1, clip seconds per simulated second
+  double start = 0.0;  // s, clip time at simulated time 0
+  bool place = true;   // true: at t = 0 the root is at x = z = 0 and the lowest joint at y = 0
 };
 
 struct Joint {
   std::string name;
-  int parent = -1;                            // index into joints(), parents come before children
-  Transform rest = Transform::Identity();     // local rest transform (m)
-  bool animated = false;                      // has an animation channel (else it keeps `rest`)
+  int parent = -1;                         // index into joints(), parents come before children
+  Transform rest = Transform::Identity();  // local rest transform (m)
+  bool animated = false;                   // has an animation channel (else it keeps `rest`)
 };
 
 // Keys of one animated joint (times in clip seconds, positions in metres).
@@ -55,10 +55,10 @@ class Motion {
   const JointTrack& track(int joint) const { return tracks_[joint]; }
   const MotionSettings& settings() const { return settings_; }
   const std::string& source() const { return source_; }
-  double scale() const { return scale_; }        // m per file unit
-  double duration() const { return duration_; }  // s, clip length (last key time)
+  double scale() const { return scale_; }              // m per file unit
+  double duration() const { return duration_; }        // s, clip length (last key time)
   double rest_height() const { return rest_height_; }  // m, y extent of the rest pose's joints
-  int root() const { return root_; }             // the first animated joint (the skeleton's root)
+  int root() const { return root_; }                   // the first animated joint (the skeleton's root)
 
   // Local transform of a joint at clip time tau (s), straight from the keys (clamped to the key range).
   Transform local(int joint, double tau) const;

@@ -72,7 +72,8 @@ class AggregationMultigrid {
     const BlockMatrix* A = nullptr;  // level 0: the caller's matrix; coarser: `own`
     BlockMatrix own;
     std::vector<char> fixed;  // level 0 only (coarse levels have no fixed vertices)
-    std::vector<Mat3> own_dinv;  // (A_ii)⁻¹ on free vertices, 0 on fixed (unless the caller's is used, level 0)
+    std::vector<Mat3>
+        own_dinv;  // (A_ii)⁻¹ on free vertices, 0 on fixed (unless the caller's is used, level 0)
     const std::vector<Mat3>* dinv = nullptr;  // own_dinv or the caller's fine_dinv
     // To the next coarser level (absent on the coarsest):
     std::vector<int> agg;                          // aggregate of each vertex, -1 for fixed vertices
@@ -86,7 +87,8 @@ class AggregationMultigrid {
   // One cycle on `level` for the right-hand side b into x (level 0: the caller's r and z; coarser: the
   // level's own).
   void cycle(int level, const Vec3s& b, Vec3s& x, int threads);
-  static void residual(Level& l, const Vec3s& b, const Vec3s& x, int threads);  // l.res = b - A x (0 on fixed)
+  static void residual(Level& l, const Vec3s& b, const Vec3s& x,
+                       int threads);  // l.res = b - A x (0 on fixed)
   static void restrict_to_coarser(const Level& l, const Vec3s& v, Level& c, int threads);  // c.b = Pᵀ v
 
   MultigridSettings s_;

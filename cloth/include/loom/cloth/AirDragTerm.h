@@ -3,18 +3,18 @@
 //  - isotropic:  f_i = -c_iso A_i (v_i - w(t))                       (A_i: vertex area)
 //  - normal:     f_t = -c_n A_t ((v̄_t - w(t))·n̂_t) n̂_t, a third to each vertex of triangle t
 //                (v̄_t: mean vertex velocity, n̂_t: unit normal; A_t n̂_t n̂_t = N Nᵀ / (2|N|), N = e1 × e2)
-// The normal part is what makes a flag flutter. Non-conservative: energy 0. Its df/dx is exact (non-symmetric).
-// Wind: w(t) = w0 (1 + gust_amplitude sin(2π gust_frequency t)).
+// The normal part is what makes a flag flutter. Non-conservative: energy 0. Its df/dx is exact
+// (non-symmetric). Wind: w(t) = w0 (1 + gust_amplitude sin(2π gust_frequency t)).
 #include "loom/cloth/Term.h"
 
 namespace loom::cloth {
 
 struct DragSettings {
-  double isotropic = 0.0;      // kg/(m²·s)
-  double normal = 0.0;         // kg/(m²·s)
-  Vec3 wind = Vec3::Zero();    // m/s
-  double gust_amplitude = 0.0; // 1, relative
-  double gust_frequency = 0.0; // Hz
+  double isotropic = 0.0;       // kg/(m²·s)
+  double normal = 0.0;          // kg/(m²·s)
+  Vec3 wind = Vec3::Zero();     // m/s
+  double gust_amplitude = 0.0;  // 1, relative
+  double gust_frequency = 0.0;  // Hz
   Vec3 wind_at(double t) const;
 };
 
@@ -33,9 +33,9 @@ class AirDragTerm final : public Term {
  private:
   DragSettings s_;
   std::vector<Tri> triangles_;
-  std::vector<double> vertex_area_;  // m²
+  std::vector<double> vertex_area_;                 // m²
   std::vector<std::vector<int>> vertex_triangles_;  // for the deterministic gather
-  mutable Vec3s tri_force_;                         // scratch: force on each vertex of triangle t (same for all 3)
+  mutable Vec3s tri_force_;  // scratch: force on each vertex of triangle t (same for all 3)
 };
 
 }  // namespace loom::cloth

@@ -1,11 +1,11 @@
 #pragma once
-// BlockGather: parallel, deterministic assembly of per-element 3x3 blocks into a BlockMatrix, without atomics.
-// A term computes its element blocks in parallel into a source array; the gather then walks the matrix row by
-// row (rows split statically over threads) and adds to each stored block the sources that land on it, in the
-// order the term listed them. A block's additions are thus the same floating-point operations in the same
-// order as a serial "for each element: block(i, j) += ±source" loop: the result is bit-identical to that loop
-// for any thread count. The slot lists are built once per matrix pattern (BlockMatrix::pattern_id()) and
-// reused while the pattern and the number of sources stay the same.
+// BlockGather: parallel, deterministic assembly of per-element 3x3 blocks into a BlockMatrix, without
+// atomics. A term computes its element blocks in parallel into a source array; the gather then walks the
+// matrix row by row (rows split statically over threads) and adds to each stored block the sources that land
+// on it, in the order the term listed them. A block's additions are thus the same floating-point operations
+// in the same order as a serial "for each element: block(i, j) += ±source" loop: the result is bit-identical
+// to that loop for any thread count. The slot lists are built once per matrix pattern
+// (BlockMatrix::pattern_id()) and reused while the pattern and the number of sources stay the same.
 #include <cstdint>
 #include <utility>
 #include <vector>
@@ -22,8 +22,8 @@ class BlockGather {
   }
 
   // Rebuilds the slot lists. `each(emit)` must call emit(i, j, source, negate) for every contribution, in the
-  // order a serial assembly would add them: block (i, j) receives source[source] (negated if `negate`). (i, j)
-  // must be in m's pattern.
+  // order a serial assembly would add them: block (i, j) receives source[source] (negated if `negate`). (i,
+  // j) must be in m's pattern.
   template <class Each>
   void build(const BlockMatrix& m, int sources, const Each& each) {
     std::vector<std::pair<int, int>> contrib;  // (slot, source * 2 + negate), in emit order

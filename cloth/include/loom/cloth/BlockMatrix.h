@@ -13,7 +13,8 @@ namespace loom::cloth {
 class BlockMatrix {
  public:
   BlockMatrix() = default;
-  // n vertices; `pairs` are coupled vertex pairs (both (i,j) and (j,i) get a block); the diagonal is always in.
+  // n vertices; `pairs` are coupled vertex pairs (both (i,j) and (j,i) get a block); the diagonal is always
+  // in.
   BlockMatrix(int n, const std::vector<std::pair<int, int>>& pairs);
 
   int size() const { return n_; }

@@ -55,11 +55,11 @@ struct BucklingSpring {
   // The cloth between i and j: the middle node on grids (a = b), the hinge edge's ends on meshes; -1: none.
   // They define the unfolded chord l_u (see above); without them (a = -1) the spring sees its chord only.
   int a = -1, b = -1;
-  double path_rest = 0.0;    // m, l_u at rest (= L for a flat rest state)
+  double path_rest = 0.0;  // m, l_u at rest (= L for a flat rest state)
   // Filled by ChoiKoTerm from the crossover curvature:
-  double cb = 0.0;           // N/m, slope of the linear branch
-  double l_star = 0.0;       // m, where the linear branch meets the curve
-  double e_offset = 0.0;     // J, energy of the linear branch at l_star minus E_arc(l_star)
+  double cb = 0.0;        // N/m, slope of the linear branch
+  double l_star = 0.0;    // m, where the linear branch meets the curve
+  double e_offset = 0.0;  // J, energy of the linear branch at l_star minus E_arc(l_star)
 };
 
 class ChoiKoTerm final : public Term {
@@ -108,12 +108,14 @@ class ChoiKoTerm final : public Term {
   static bool has_path(const BucklingSpring& s);
   void geometry(const BucklingSpring& s, const Vec3s& x, bool hessian, SpringGeometry& g) const;
   // Bending ratio r = l / l_u and membrane ratio m(l_u) with dm/dl_u, d²m/dl_u² (see the header comment).
-  void ratios(const BucklingSpring& s, const SpringGeometry& g, double& r, double& m, double& dm, double& ddm) const;
+  void ratios(const BucklingSpring& s, const SpringGeometry& g, double& r, double& m, double& dm,
+              double& ddm) const;
   double bending_tension(const BucklingSpring& s, double r) const;
   double bending_stiffness(const BucklingSpring& s, double r) const;
   double bending_energy(const BucklingSpring& s, double r) const;
   double spring_energy(const BucklingSpring& s, const Vec3s& x) const;
-  void spring_derivatives(const BucklingSpring& s, const Vec3s& x, Vec12* grad, Mat12* hess, bool project) const;
+  void spring_derivatives(const BucklingSpring& s, const Vec3s& x, Vec12* grad, Mat12* hess,
+                          bool project) const;
   PairGather gather_seq_;
   ElementGather gather_int_;
   mutable Vec3s seq_force_, int_force_;  // int_force_: 4 corners per interlaced spring

@@ -73,7 +73,7 @@ class ClothMesh {
   const std::vector<Edge>& edges() const { return edges_; }
   const std::vector<Hinge>& hinges() const { return hinges_; }
   const std::vector<double>& triangle_rest_areas() const { return tri_area_; }  // m²
-  const std::vector<double>& vertex_areas() const { return vertex_area_; }      // m², a third of each triangle
+  const std::vector<double>& vertex_areas() const { return vertex_area_; }  // m², a third of each triangle
   const std::vector<SpringDef>& springs() const { return springs_; }
   // Springs whose strain is reported as "edge strain": structural springs on grids, all edges otherwise.
   const std::vector<int>& strain_springs() const { return strain_springs_; }
@@ -88,7 +88,7 @@ class ClothMesh {
   ClothMesh() = default;
   void build_topology(const std::string& source);  // edges, hinges, areas; validates manifoldness
   void build_frames(const std::vector<std::array<Vec2, 3>>& corner_uvs);  // per-triangle warp/weft frames
-  void build_mesh_springs();                       // edge + hinge springs for arbitrary meshes
+  void build_mesh_springs();  // edge + hinge springs for arbitrary meshes
 
   Vec3s rest_positions_;
   std::vector<TriangleFrame> frames_;

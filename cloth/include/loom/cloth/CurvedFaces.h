@@ -10,10 +10,10 @@
 //   E = (b210 + b120 + b021 + b012 + b102 + b201)/6, V = (P1 + P2 + P3)/3, b111 = E + (E - V)/2,
 //   b(w, u, v) = Σ b_ijk 3!/(i! j! k!) wⁱ uʲ vᵏ   (w, u, v: barycentric weights of P1, P2, P3).
 // The patch interpolates the corners; along an edge it depends only on that edge's two corners and their
-// normals, so neighbouring patches meet (C0), and it is a smooth function of the coarse positions, so the fine
-// surface moves continuously with them (no popping). The fine topology is `levels` 1:4 subdivisions of every
-// coarse triangle (4^levels fine triangles each); fine vertices sit at fixed barycentric coordinates of one
-// coarse triangle.
+// normals, so neighbouring patches meet (C0), and it is a smooth function of the coarse positions, so the
+// fine surface moves continuously with them (no popping). The fine topology is `levels` 1:4 subdivisions of
+// every coarse triangle (4^levels fine triangles each); fine vertices sit at fixed barycentric coordinates of
+// one coarse triangle.
 //
 // Optional geometric wrinkles (in the spirit of Oshita & Makinouchi's wrinkles from shortened edges and of
 // wrinkle maps, Hadap et al. 1999): the fine surface is displaced along the interpolated vertex normal by
@@ -25,9 +25,9 @@
 // angle between its two nearest d_k (hat functions of width π/4), blended with equal weights 1/4 by the
 // isotropy: w_k = a hat_k(θ) + (1 - a)/4, a = (q1 - q2)/q1 (θ is undefined only where a = 0). A wave along
 // d_k has its crests perpendicular to d_k, so uniaxial compression along a d_k gives straight crests
-// perpendicular to the compression axis. The amplitude keeps the arc length of a compressed line: a sine of amplitude A and
-// wavelength λ is longer than its chord by about (πA/λ)², so A(q) = (λ/π) √(q / (1 - q)), capped at
-// `amplitude`. Everything is a continuous function of the coarse positions and of per-vertex values
+// perpendicular to the compression axis. The amplitude keeps the arc length of a compressed line: a sine of
+// amplitude A and wavelength λ is longer than its chord by about (πA/λ)², so A(q) = (λ/π) √(q / (1 - q)),
+// capped at `amplitude`. Everything is a continuous function of the coarse positions and of per-vertex values
 // (continuous across coarse triangles and in time), the phases are fixed in material space (the wrinkles
 // do not swim), and there are none where nothing is compressed. Wavelengths shorter than about four fine
 // edges are not resolved by the fine mesh (aliasing). Seams of the unfolding (closed tubes) distort the
@@ -56,12 +56,14 @@ struct DetailSettings {
 class CurvedFaces {
  public:
   // Throws loom::Error(file, where + ".levels", ...) for levels outside 0-5.
-  CurvedFaces(const ClothMesh& coarse, int levels, const std::string& file = "", const std::string& where = "detail");
+  CurvedFaces(const ClothMesh& coarse, int levels, const std::string& file = "",
+              const std::string& where = "detail");
 
   int levels() const { return levels_; }
   // Turns the geometric wrinkles on (enabled) or off. Throws loom::Error for a non-positive wavelength or a
   // negative amplitude.
-  void set_wrinkles(const WrinkleSettings& w, const std::string& file = "", const std::string& where = "detail");
+  void set_wrinkles(const WrinkleSettings& w, const std::string& file = "",
+                    const std::string& where = "detail");
   // The wrinkle height (m, along the normal) of every fine vertex at the last evaluate() (zeros without
   // wrinkles).
   const std::vector<double>& wrinkle_heights() const { return heights_; }
@@ -79,12 +81,11 @@ class CurvedFaces {
 
  private:
   struct Sample {
-    int tri = 0;     // coarse triangle
-    Vec3 bary{};     // weights of its corners
+    int tri = 0;  // coarse triangle
+    Vec3 bary{};  // weights of its corners
   };
   void vertex_normals(const Vec3s& x, Vec3s& normals) const;
   void vertex_compression(const Vec3s& x) const;  // fills compression_
-
 
   std::vector<Tri> coarse_tris_;
   int coarse_n_ = 0;
@@ -95,11 +96,11 @@ class CurvedFaces {
   mutable Vec3s normals_;  // scratch
   // Wrinkles.
   WrinkleSettings wrinkles_;
-  std::vector<Vec2> material_;                   // per coarse vertex, m (unfolded warp/weft coordinates)
-  std::vector<std::array<Vec2, 3>> tri_uv_;      // per coarse triangle: its rest_uv (m)
-  std::vector<double> vertex_area_;              // per coarse vertex: sum of its triangles' rest areas (m²)
-  mutable std::vector<Eigen::Matrix2d> compression_;      // per coarse vertex, 1 (2x2 tensor in warp/weft)
-  mutable std::vector<double> heights_;          // per fine vertex, m
+  std::vector<Vec2> material_;               // per coarse vertex, m (unfolded warp/weft coordinates)
+  std::vector<std::array<Vec2, 3>> tri_uv_;  // per coarse triangle: its rest_uv (m)
+  std::vector<double> vertex_area_;          // per coarse vertex: sum of its triangles' rest areas (m²)
+  mutable std::vector<Eigen::Matrix2d> compression_;  // per coarse vertex, 1 (2x2 tensor in warp/weft)
+  mutable std::vector<double> heights_;               // per fine vertex, m
 };
 
 }  // namespace loom::cloth

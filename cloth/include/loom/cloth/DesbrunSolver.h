@@ -42,12 +42,12 @@ class DesbrunSolver final : public Solver {
   double h_ = 0.0;               // s
   std::vector<char> kinematic_;  // 1 for inverse mass 0
   std::vector<Spring> springs_;
-  PairGather gather_;            // springs incident to each vertex
-  Vec3s spring_force_;           // N·s per spring, on its end i (angular correction)
-  std::vector<int> index_;       // free index per vertex, -1 for kinematic
+  PairGather gather_;       // springs incident to each vertex
+  Vec3s spring_force_;      // N·s per spring, on its end i (angular correction)
+  std::vector<int> index_;  // free index per vertex, -1 for kinematic
   int num_free_ = 0;
   long factorizations_ = 0;
-  Vec3s f_;                      // N
+  Vec3s f_;                             // N
   Eigen::MatrixX3d rhs_, dv_, dv_int_;  // N·s, m/s (free rows)
 };
 

@@ -52,6 +52,7 @@ struct GuardSample {
 };
 
 // Why the frame from `start` to `end` is rejected, or "" if it is accepted. `energy_scale`: E_ref (J).
-std::string guard_violation(const GuardSettings& g, const GuardSample& start, const GuardSample& end, double energy_scale);
+std::string guard_violation(const GuardSettings& g, const GuardSample& start, const GuardSample& end,
+                            double energy_scale);
 
 }  // namespace loom::cloth

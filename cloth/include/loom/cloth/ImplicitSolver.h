@@ -63,13 +63,13 @@
 namespace loom::cloth {
 
 struct ImplicitParams {
-  double cg_tolerance = 1e-4;      // 1, relative residual of the filtered PCG (and the Newton stop)
-  int cg_max_iterations = 200;     // per linear solve
-  int newton_iterations = 1;       // 1 = linearised step; > 1 = Newton with line search
-  bool adaptive = false;           // reject-and-halve substeps
-  double max_strain_change = 0.1;  // 1, largest |Δ(l/L)| of an edge in one accepted substep (adaptive)
-  bool safeguard = true;           // linearised step: energy balance check, Newton correction if violated
-  double safeguard_tolerance = 0.2;    // 1, allowed gain relative to the energy exchanged in the step
+  double cg_tolerance = 1e-4;        // 1, relative residual of the filtered PCG (and the Newton stop)
+  int cg_max_iterations = 200;       // per linear solve
+  int newton_iterations = 1;         // 1 = linearised step; > 1 = Newton with line search
+  bool adaptive = false;             // reject-and-halve substeps
+  double max_strain_change = 0.1;    // 1, largest |Δ(l/L)| of an edge in one accepted substep (adaptive)
+  bool safeguard = true;             // linearised step: energy balance check, Newton correction if violated
+  double safeguard_tolerance = 0.2;  // 1, allowed gain relative to the energy exchanged in the step
   int safeguard_newton_iterations = 20;  // most Newton iterations of a correction (stops at cg_tolerance)
   bool clamp_compression = true;  // false: exact Jacobians (compressed springs keep k (1 - L/l) transverse)
   // PCG preconditioner (AggregationMultigrid.h): 0 block-Jacobi, 1 aggregation multigrid with an additive
@@ -94,9 +94,9 @@ struct ImplicitCounters {
   long safeguard_corrections = 0;  // linearised steps redone by Newton (energy balance violated)
   long contact_constraints = 0;    // vertex contacts filtered in linear solves (ClothState::contact_normal)
   long contact_releases = 0;       // of them released (their impulse pulled towards the body), solve redone
-  double assembly_ms = 0.0;  // ms, Jacobian assembly (K, D, A)
-  double cg_ms = 0.0;        // ms, filtered PCG
-  double safeguard_ms = 0.0; // ms, energy balance checks (not the Newton corrections)
+  double assembly_ms = 0.0;        // ms, Jacobian assembly (K, D, A)
+  double cg_ms = 0.0;              // ms, filtered PCG
+  double safeguard_ms = 0.0;       // ms, energy balance checks (not the Newton corrections)
 };
 
 class ImplicitSolver final : public Solver {
@@ -153,7 +153,8 @@ class ImplicitSolver final : public Solver {
   const Cloth* cloth_ = nullptr;
   int n_ = 0;
   BlockMatrix K_, D_, A_;
-  std::vector<Mat3> dinv_;  // block-Jacobi inverses of A (0 on fixed vertices), formed where A's diagonal is written
+  std::vector<Mat3>
+      dinv_;  // block-Jacobi inverses of A (0 on fixed vertices), formed where A's diagonal is written
   // The terms whose Jacobians enter A: all of the cloth's, or for imex the stiff in-plane ones (some owned:
   // the stiff springs of a "springs" term).
   std::vector<const Term*> jac_terms_;
@@ -178,7 +179,8 @@ class ImplicitSolver final : public Solver {
   bool energy_cache_valid_ = false;
   double gamma_ = 0.0;
   double h_dv_ = 0.0;  // s, step of the Δv kept in dv_ (the PCG's warm start); 0 = none
-  bool d_written_ = false;  // the last assembly wrote df/dv into D_ (so D_ must be cleared before it is skipped)
+  bool d_written_ =
+      false;  // the last assembly wrote df/dv into D_ (so D_ must be cleared before it is skipped)
 };
 
 }  // namespace loom::cloth

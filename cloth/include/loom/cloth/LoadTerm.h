@@ -7,7 +7,8 @@ namespace loom::cloth {
 
 class LoadTerm final : public Term {
  public:
-  LoadTerm(std::vector<int> vertices, Vec3s forces) : vertices_(std::move(vertices)), forces_(std::move(forces)) {}
+  LoadTerm(std::vector<int> vertices, Vec3s forces)
+      : vertices_(std::move(vertices)), forces_(std::move(forces)) {}
   const char* name() const override { return "load"; }
   double energy(const EvalContext& c) const override {
     double e = 0.0;

@@ -28,15 +28,15 @@ struct Material {
 // they are not accepted raw: convert them with the fabric's physical measurements (CLO's Fabric Kit reports
 // these quantities) or calibrate with `loom fabric-test cantilever` / `tensile`.
 struct CloStyleParameters {
-  double weight = 200.0;           // g/m²            -> areal_density = weight / 1000 kg/m²
-  double thickness = 1.0;          // mm              -> thickness / 1000 m (collision offset only)
-  double stretch_weft = 2000.0;    // N/m             -> stretch_weft
-  double stretch_warp = 2000.0;    // N/m             -> stretch_warp
-  double shear = 100.0;            // N/m             -> shear
-  double bending_weft = 10.0;      // µN·m            -> bend_weft = 1e-6 bending_weft N·m
-  double bending_warp = 10.0;      // µN·m            -> bend_warp
-  double friction = 0.3;           // 1               -> friction
-  double internal_damping = 0.0;   // s               -> damping (stiffness-proportional, docs/references.md)
+  double weight = 200.0;          // g/m²            -> areal_density = weight / 1000 kg/m²
+  double thickness = 1.0;         // mm              -> thickness / 1000 m (collision offset only)
+  double stretch_weft = 2000.0;   // N/m             -> stretch_weft
+  double stretch_warp = 2000.0;   // N/m             -> stretch_warp
+  double shear = 100.0;           // N/m             -> shear
+  double bending_weft = 10.0;     // µN·m            -> bend_weft = 1e-6 bending_weft N·m
+  double bending_warp = 10.0;     // µN·m            -> bend_warp
+  double friction = 0.3;          // 1               -> friction
+  double internal_damping = 0.0;  // s               -> damping (stiffness-proportional, docs/references.md)
 };
 Material from_clo_style(const CloStyleParameters& p, const std::string& name = "clo_style");
 

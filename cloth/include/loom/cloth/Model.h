@@ -9,7 +9,8 @@
 namespace loom::cloth {
 
 // Adds the model's elastic terms to the cloth. Throws loom::Error(file, where, ...) for an unknown model.
-void add_model_terms(Cloth& cloth, const std::string& model, const std::string& file, const std::string& where);
+void add_model_terms(Cloth& cloth, const std::string& model, const std::string& file,
+                     const std::string& where);
 std::vector<std::string> model_names();
 
 }  // namespace loom::cloth

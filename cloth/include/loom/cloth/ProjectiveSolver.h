@@ -32,12 +32,13 @@
 namespace loom::cloth {
 
 struct ProjectiveSettings {
-  int iterations = 10;    // local/global iterations per step
-  bool chebyshev = false;  // Wang 2015 acceleration
-  double rho = 0.9;        // 1, spectral radius estimate for Chebyshev
-  int warmup = 3;          // plain iterations before Chebyshev starts (Wang's S)
-  double strain_limit = 0.0;      // 1, τ of the triangle strain projection; 0 = off
-  double strain_stiffness = 0.0;  // N/m, w of the strain projection; 0 = 100 x the material's larger stretch modulus
+  int iterations = 10;        // local/global iterations per step
+  bool chebyshev = false;     // Wang 2015 acceleration
+  double rho = 0.9;           // 1, spectral radius estimate for Chebyshev
+  int warmup = 3;             // plain iterations before Chebyshev starts (Wang's S)
+  double strain_limit = 0.0;  // 1, τ of the triangle strain projection; 0 = off
+  double strain_stiffness =
+      0.0;  // N/m, w of the strain projection; 0 = 100 x the material's larger stretch modulus
 };
 
 // One local/global iteration's measurements (only when recording is on; for tests and studies).
@@ -70,11 +71,11 @@ class ProjectiveSolver final : public Solver {
   // Factorisation and what it was built for.
   SplitCholesky factor_;
   const Cloth* cloth_ = nullptr;
-  double h_ = 0.0;                   // s
-  std::vector<char> kinematic_;      // 1 for inverse mass 0
+  double h_ = 0.0;               // s
+  std::vector<char> kinematic_;  // 1 for inverse mass 0
   std::vector<Spring> springs_;
-  PairGather gather_;                // per-vertex sums of per-spring terms
-  std::vector<int> index_;           // free index per vertex, -1 for kinematic
+  PairGather gather_;       // per-vertex sums of per-spring terms
+  std::vector<int> index_;  // free index per vertex, -1 for kinematic
   // Triangle strain projection (when strain_limit > 0): per triangle the corner weights g_m (1/m, F = Σ x_m
   // g_mᵀ) and w A (N·m).
   std::vector<Tri> triangles_;

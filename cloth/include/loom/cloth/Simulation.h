@@ -37,7 +37,7 @@ struct ClothSetup {
 
 struct SimulationSetup {
   std::vector<ClothSetup> cloths;
-  Vec3 gravity{0.0, -9.81, 0.0};  // m/s²
+  Vec3 gravity{0.0, -9.81, 0.0};     // m/s²
   std::optional<DragSettings> drag;  // the drag effect; absent = no drag term at all
   // Constraint passes after the solver, in this order; absent = no stage (StrainLimitStage.h, TetherStage.h).
   std::optional<StrainLimitSettings> strain_limit;
@@ -52,15 +52,15 @@ struct SimulationSetup {
 // Per-frame measurements (stats.csv).
 struct FrameStats {
   int frame = 0;
-  double time = 0.0;              // s
-  double kinetic = 0.0;           // J
-  double potential = 0.0;         // J, gravitational, zero at y = 0 (along -g)
-  double elastic = 0.0;           // J
-  double max_strain = 0.0;        // 1, largest stretch l/L - 1 over strain edges (0 if none stretched)
-  double mean_strain = 0.0;       // 1, mean |l/L - 1| over strain edges
+  double time = 0.0;         // s
+  double kinetic = 0.0;      // J
+  double potential = 0.0;    // J, gravitational, zero at y = 0 (along -g)
+  double elastic = 0.0;      // J
+  double max_strain = 0.0;   // 1, largest stretch l/L - 1 over strain edges (0 if none stretched)
+  double mean_strain = 0.0;  // 1, mean |l/L - 1| over strain edges
   bool finite = true;
-  std::vector<double> stage_ms;   // per row of stage_names(), this frame
-  double total_ms = 0.0;          // the frame's pipeline time: top-level stages only (no "solve/<term>" rows)
+  std::vector<double> stage_ms;  // per row of stage_names(), this frame
+  double total_ms = 0.0;         // the frame's pipeline time: top-level stages only (no "solve/<term>" rows)
 };
 
 struct StageProfile {

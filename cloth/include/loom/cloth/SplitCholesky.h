@@ -55,9 +55,9 @@ class SplitCholesky {
   int end0_ = 0, end1_ = 0;  // part 0 = [0, end0_), part 1 = [end0_, end1_), S = [end1_, n_) (new numbering)
   bool ok_ = false;
   std::string error_;
-  std::vector<int> old_of_new_;   // permutation: old index of each new index
-  std::vector<double> diag_;      // L_jj
-  std::vector<int> start_;        // CSC of L's strictly lower part, rows ascending within a column
+  std::vector<int> old_of_new_;  // permutation: old index of each new index
+  std::vector<double> diag_;     // L_jj
+  std::vector<int> start_;       // CSC of L's strictly lower part, rows ascending within a column
   std::vector<int> row_;
   std::vector<double> value_;
   std::vector<double> y_;                        // 3 n, rows of (x, y, z)

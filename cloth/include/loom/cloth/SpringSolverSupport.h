@@ -29,8 +29,9 @@ std::vector<int> free_index(const ClothState& s, int* num_free);
 // The scalar n_free x n_free matrix M + a L_k + b L_c over free vertices, with L_k = sum k_s A_s A_sᵀ and
 // L_c = sum c_s A_s A_sᵀ (A_s: incidence vector of spring s; columns of kinematic vertices dropped).
 // Liu et al. 2013 §4 (global matrix); Desbrun et al. 1999 (filter M - h² H, H = -L_k).
-Eigen::SparseMatrix<double> spring_system_matrix(const ClothState& s, const std::vector<int>& index, int num_free,
-                                                 const std::vector<Spring>& springs, double a, double b);
+Eigen::SparseMatrix<double> spring_system_matrix(const ClothState& s, const std::vector<int>& index,
+                                                 int num_free, const std::vector<Spring>& springs, double a,
+                                                 double b);
 
 // Greedy colouring of springs so that no two springs of one colour share a vertex: the springs of a colour
 // can be projected in parallel with results independent of the thread count (PBD, XPBD).

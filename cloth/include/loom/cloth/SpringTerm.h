@@ -29,7 +29,9 @@ class SpringTerm final : public Term {
   bool has_velocity_jacobian() const override { return damped_; }
   // K_s = k [n̂n̂ᵀ + r (I - n̂n̂ᵀ)] and c n̂n̂ᵀ are symmetric element by element and go to (i, j) and (j, i)
   // in spring order; only the damping position term (non-symmetric) breaks that.
-  bool symmetric_jacobians(const JacobianOptions& o) const override { return !(o.damping_position_terms && damped_); }
+  bool symmetric_jacobians(const JacobianOptions& o) const override {
+    return !(o.damping_position_terms && damped_);
+  }
   long work_items() const override { return static_cast<long>(springs_.size()); }
   const std::vector<Spring>& springs() const { return springs_; }
 
@@ -38,9 +40,9 @@ class SpringTerm final : public Term {
   int n_;
   std::vector<Spring> springs_;
   PairGather gather_;
-  bool damped_ = false;              // some spring has c != 0 (df/dv is not zero)
-  mutable Vec3s spring_force_;       // scratch: force on end i of each spring
-  mutable std::vector<Mat3> kx_, kv_;  // scratch: df_i/dx_j (N/m) and df_i/dv_j (N·s/m) of each spring
+  bool damped_ = false;                      // some spring has c != 0 (df/dv is not zero)
+  mutable Vec3s spring_force_;               // scratch: force on end i of each spring
+  mutable std::vector<Mat3> kx_, kv_;        // scratch: df_i/dx_j (N/m) and df_i/dv_j (N·s/m) of each spring
   mutable BlockGather gather_x_, gather_v_;  // slot lists of the df/dx and df/dv matrices
 };
 

@@ -13,8 +13,8 @@ namespace loom::cloth {
 
 struct StageContext {
   std::vector<std::unique_ptr<Cloth>>& cloths;
-  double t = 0.0;   // s, time at the start of the step
-  double h = 0.0;   // s, step size
+  double t = 0.0;  // s, time at the start of the step
+  double h = 0.0;  // s, step size
   int threads = 1;
 };
 

@@ -11,8 +11,9 @@
 namespace loom::cloth {
 
 struct StaticSettings {
-  int max_iterations = 100;   // Newton iterations per step
-  double tolerance = 1e-8;    // stop when max |force| on free vertices < tolerance * (total weight + 1e-12) (N/N)
+  int max_iterations = 100;  // Newton iterations per step
+  double tolerance =
+      1e-8;  // stop when max |force| on free vertices < tolerance * (total weight + 1e-12) (N/N)
 };
 
 class StaticSolver final : public Solver {

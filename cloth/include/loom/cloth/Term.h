@@ -66,7 +66,7 @@ class Term {
   // Conservative terms have force = -grad(energy), a function of the positions alone (not of v or t: the
   // implicit safeguard reuses the energies of unchanged positions); the others (drag) return energy 0.
   virtual bool conservative() const { return true; }
-  virtual double energy(const EvalContext& c) const = 0;       // J
+  virtual double energy(const EvalContext& c) const = 0;              // J
   virtual void add_forces(const EvalContext& c, Vec3s& f) const = 0;  // N, accumulated into f
   // Vertex pairs this term couples in its Jacobians (for BlockMatrix's pattern).
   virtual void add_pattern(std::vector<std::pair<int, int>>& pairs) const { (void)pairs; }

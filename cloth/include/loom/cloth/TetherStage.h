@@ -13,8 +13,8 @@
 namespace loom::cloth {
 
 struct TetherSettings {
-  double slack = 0.0;     // 1, allowed extra length relative to the rest distance
-  bool geodesic = true;   // rest distance along the mesh (true) or straight (false)
+  double slack = 0.0;    // 1, allowed extra length relative to the rest distance
+  bool geodesic = true;  // rest distance along the mesh (true) or straight (false)
 };
 
 struct Tether {

@@ -7,10 +7,11 @@
 //   2. Subdivision along new catenaries (grids): every grid row and column is scanned; between two
 //      consecutive placed vertices with unplaced ones between them, a new catenary is hung and gives those
 //      their positions. All candidates of one pass come from the previous pass's placed vertices and a vertex
-//      on several catenaries takes the highest one (the cloth rests on the tightest curve) — so the result does
-//      not depend on the order of rows and columns and a symmetric setup gives a symmetric drape. Repeated
-//      until nothing changes.
-//   3. What is left (outside every catenary: below the constraint points) hangs straight down from the nearest
+//      on several catenaries takes the highest one (the cloth rests on the tightest curve) — so the result
+//      does not depend on the order of rows and columns and a symmetric setup gives a symmetric drape.
+//      Repeated until nothing changes.
+//   3. What is left (outside every catenary: below the constraint points) hangs straight down from the
+//   nearest
 //      placed vertex of its column or row, at its rest distance.
 // Catenary through a and b of length S, horizontal span d, rise h (Weil 1986; docs/validation.md): y = α
 // cosh((x - x0)/α) + c with sqrt(S² - h²) = 2α sinh(d/2α) (solved for α by Newton's method on the log), taut
@@ -40,6 +41,7 @@ class WeilSolver final : public Solver {
 
 // The drape of `cloth` with its constraint points at `pins` (vertex, position); free vertices get their
 // place.
-void weil_drape(const Cloth& cloth, const std::vector<std::pair<int, Vec3>>& pins, const Vec3& down, Vec3s& x);
+void weil_drape(const Cloth& cloth, const std::vector<std::pair<int, Vec3>>& pins, const Vec3& down,
+                Vec3s& x);
 
 }  // namespace loom::cloth

@@ -19,7 +19,8 @@
 //        for cloth animation", Sec. 7.2: stick if |v_t| <= mu_s dv_n, else v_t *= 1 - mu_k dv_n / |v_t|);
 //      - pinch: when the passes end with the vertex still inside one of two overlapping capsules (a crease),
 //        it is moved along the sum of their normals until it is outside all of them (exit_pinch);
-//      The vertex phase runs last, so its postcondition (no vertex closer than the thickness) holds at the end;
+//      The vertex phase runs last, so its postcondition (no vertex closer than the thickness) holds at the
+//      end;
 //   5. the reaction -m dv of every velocity change, and its moment about curr's origin, is added to the
 //      collider's reaction_impulse / reaction_angular_impulse.
 // Vertices are independent (colliders do not move during the stage), so the vertex phase is a parallel loop;
@@ -35,8 +36,8 @@
 namespace loom::collision {
 
 struct BodyCollisionSettings {
-  double thickness = 0.0;                 // m; contact offset where a collider gives none (0: the cloth material's)
-  std::optional<double> friction;         // 1; kinetic coefficient for every collider (else the collider's)
+  double thickness = 0.0;          // m; contact offset where a collider gives none (0: the cloth material's)
+  std::optional<double> friction;  // 1; kinetic coefficient for every collider (else the collider's)
   std::optional<double> static_friction;  // 1; static coefficient for every collider (else the collider's)
   int max_passes = 4;                     // passes per vertex (and of the edge phase) per step
   double ccd_separation = 0.5;            // 1; the swept test's separation, as a fraction of the thickness
@@ -91,8 +92,8 @@ class BodyCollisionStage final : public cloth::Stage {
   void add_reactions(const std::vector<Reaction>& reactions);
 
  private:
-  struct Pair {          // what one collider is to one cloth this step
-    double thickness = 0.0;       // m
+  struct Pair {                     // what one collider is to one cloth this step
+    double thickness = 0.0;         // m
     double mu_s = 0.0, mu_k = 0.0;  // 1
   };
   void run_cloth(cloth::Cloth& cloth, int cloth_index, double h, int threads);
@@ -112,23 +113,24 @@ class BodyCollisionStage final : public cloth::Stage {
                               std::vector<Reaction>& records);
   // final_d (optional): per entry of `mine`, the signed distance (m) at the returned x; left empty when the
   // last pass still changed x (then the caller evaluates it).
-  int respond_vertex(const std::vector<int>& mine, const std::vector<Pair>& pairs, const Vec3& x0, Vec3& x, Vec3& v,
-                     double m, double h, std::vector<Reaction>& out, long& contacts, long& ccd_hits,
+  int respond_vertex(const std::vector<int>& mine, const std::vector<Pair>& pairs, const Vec3& x0, Vec3& x,
+                     Vec3& v, double m, double h, std::vector<Reaction>& out, long& contacts, long& ccd_hits,
                      std::vector<double>* final_d = nullptr) const;
   // After the passes left a vertex inside a capsule (a pinch between two): moves it out of all of `mine`
   // (nothing when a non-capsule collider is within its thickness).
-  void exit_pinch(const std::vector<int>& mine, const std::vector<Pair>& pairs, Vec3& x, Vec3& v, double m, double h,
-                  std::vector<Reaction>& out, long& contacts) const;
+  void exit_pinch(const std::vector<int>& mine, const std::vector<Pair>& pairs, Vec3& x, Vec3& v, double m,
+                  double h, std::vector<Reaction>& out, long& contacts) const;
 
   ColliderSetPtr colliders_;
   BodyCollisionSettings settings_;
   ColliderBroadPhase broad_phase_;
   double max_deficit_ = 0.0;
-  std::vector<std::vector<char>> near_;  // per cloth, per vertex: near a collider after the last step
+  std::vector<std::vector<char>> near_;   // per cloth, per vertex: near a collider after the last step
   std::vector<std::vector<Pair>> pairs_;  // per cloth, per collider, this step
   std::vector<double> min_thickness_;     // m, per cloth: smallest contact thickness this step
   double h_ = 0.0;                        // s, this step
-  long candidates_ = 0, contacts_ = 0, ccd_hits_ = 0, edge_contacts_ = 0, threaded_edges_ = 0, passes_ = 0, revisits_ = 0;
+  long candidates_ = 0, contacts_ = 0, ccd_hits_ = 0, edge_contacts_ = 0, threaded_edges_ = 0, passes_ = 0,
+       revisits_ = 0;
 };
 
 }  // namespace loom::collision

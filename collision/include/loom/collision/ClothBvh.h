@@ -30,7 +30,9 @@ struct Aabb {
   Vec3 hi = Vec3::Constant(-HUGE_VAL);  // m
   void grow(const Vec3& p) { lo = lo.cwiseMin(p), hi = hi.cwiseMax(p); }
   void grow(const Aabb& b) { lo = lo.cwiseMin(b.lo), hi = hi.cwiseMax(b.hi); }
-  bool overlaps(const Aabb& b) const { return (lo.array() <= b.hi.array()).all() && (b.lo.array() <= hi.array()).all(); }
+  bool overlaps(const Aabb& b) const {
+    return (lo.array() <= b.hi.array()).all() && (b.lo.array() <= hi.array()).all();
+  }
   // Overlap after inflating this box by `margin` (m) on every side.
   bool overlaps_within(const Aabb& b, double margin) const {
     return (lo.array() - margin <= b.hi.array()).all() && (b.lo.array() <= hi.array() + margin).all();
@@ -69,8 +71,9 @@ class ClothBvh {
   // The same pairs minus those inside nodes culled by their normal cone and contour (see above); x0, x1 must
   // be the positions of the last refit, margin (m) the contour clearance. In parallel (top-level subtrees and
   // pairs of subtrees as tasks), sorted. `culled` (optional) receives the number of culled nodes.
-  std::vector<TrianglePair> self_pairs_culled(const Vec3s& x0, const Vec3s& x1, double margin, bool skip_adjacent,
-                                              int threads = 1, long* culled = nullptr) const;
+  std::vector<TrianglePair> self_pairs_culled(const Vec3s& x0, const Vec3s& x1, double margin,
+                                              bool skip_adjacent, int threads = 1,
+                                              long* culled = nullptr) const;
   // The same search split into tasks, for callers that consume the pairs as they come (without the sort):
   // {a, a} = pairs below node a, {a, b} = pairs between subtrees a and b. The split does not depend on the
   // thread count, so visiting the tasks in order gives the same pairs in the same order for any thread count.
@@ -115,9 +118,10 @@ class ClothBvh {
 
   std::shared_ptr<const loom::cloth::ClothMesh> mesh_;
   ClothBvhSettings settings_;
-  std::vector<Node> nodes_;      // root = 0; children after parents (pre-order)
-  std::vector<int> leaf_of_;     // triangle -> leaf node
-  std::vector<std::vector<EdgeKey>> contour_;  // node -> its patch's boundary edges (nodes of >= kConeMin tris)
+  std::vector<Node> nodes_;   // root = 0; children after parents (pre-order)
+  std::vector<int> leaf_of_;  // triangle -> leaf node
+  std::vector<std::vector<EdgeKey>>
+      contour_;                  // node -> its patch's boundary edges (nodes of >= kConeMin tris)
   double area_after_build_ = 0;  // m^2; surface_area_sum() right after the last (re)build and refit
   int steps_since_build_ = 0;
   int rebuilds_ = 0;
@@ -130,7 +134,7 @@ class ClothBvh {
 void sort_pairs(std::vector<TrianglePair>& pairs);
 
 // Brute force over all triangle pairs, with the same leaf boxes: the reference for tests.
-std::vector<TrianglePair> brute_force_pairs(const loom::cloth::ClothMesh& mesh, const Vec3s& x0, const Vec3s& x1,
-                                            double thickness, bool skip_adjacent);
+std::vector<TrianglePair> brute_force_pairs(const loom::cloth::ClothMesh& mesh, const Vec3s& x0,
+                                            const Vec3s& x1, double thickness, bool skip_adjacent);
 
 }  // namespace loom::collision

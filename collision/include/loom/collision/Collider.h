@@ -36,11 +36,11 @@ const char* shape_type_name(ShapeType type);
 
 struct Shape {
   ShapeType type = ShapeType::sphere;
-  double radius = 0.0;                // m: sphere, capsule, cylinder
-  double half_height = 0.0;           // m: capsule (half segment length), cylinder
-  Vec3 half_extents = Vec3::Zero();   // m: box
-  std::vector<Vec3> vertices;         // m, local: convex hull points or mesh vertices
-  std::vector<Tri> triangles;         // mesh only
+  double radius = 0.0;               // m: sphere, capsule, cylinder
+  double half_height = 0.0;          // m: capsule (half segment length), cylinder
+  Vec3 half_extents = Vec3::Zero();  // m: box
+  std::vector<Vec3> vertices;        // m, local: convex hull points or mesh vertices
+  std::vector<Tri> triangles;        // mesh only
 };
 
 struct Collider {
@@ -50,8 +50,8 @@ struct Collider {
   Transform curr = Transform::Identity();  // pose at the step's end
   // Scene-driven kinematic motion: pose at time t (s). Empty: static, or driven from outside (rig, Bullet).
   std::function<Transform(double)> motion;
-  double friction = 0.3;          // 1, kinetic Coulomb coefficient against cloth
-  double static_friction = 0.4;   // 1, static coefficient (>= friction)
+  double friction = 0.3;         // 1, kinetic Coulomb coefficient against cloth
+  double static_friction = 0.4;  // 1, static coefficient (>= friction)
   // Reaction on the collider since the owner last cleared it (two-way coupling): the sum of minus the
   // impulses given to the cloth (N s), and their moment about curr's origin (N m s).
   Vec3 reaction_impulse = Vec3::Zero();

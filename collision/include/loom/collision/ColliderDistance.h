@@ -17,7 +17,8 @@ namespace loom::collision {
 double signed_distance(const Collider& c, const Transform& pose, const Vec3& p, Vec3* normal);
 
 // The same in the shape's local frame (point q, normal in the local frame).
-double local_signed_distance(const Shape& shape, const ColliderGeometry* geometry, const Vec3& q, Vec3* normal);
+double local_signed_distance(const Shape& shape, const ColliderGeometry* geometry, const Vec3& q,
+                             Vec3* normal);
 
 // Distance (m) from the segment (a, b) to a capsule's axis minus its radius (negative: the segment enters the
 // capsule), at `pose`; *s = closest parameter on (a, b), *normal = unit direction from the axis to the

@@ -19,16 +19,17 @@ namespace loom::collision {
 struct FclShape;  // src/FclShape.h
 
 struct ColliderGeometry {
-  std::vector<Vec3> hull_vertices;               // m, local: convex only, the hull's vertices
-  std::vector<Tri> hull_triangles;               // convex only: the hull's faces, triangulated, outward
-  std::vector<Eigen::Vector4d> hull_planes;      // convex only: (n, d), outward unit n, n.x = d on the face
-  std::shared_ptr<const FclShape> fcl;           // fcl::Convex or fcl::BVHModel<OBBRSS>
+  std::vector<Vec3> hull_vertices;           // m, local: convex only, the hull's vertices
+  std::vector<Tri> hull_triangles;           // convex only: the hull's faces, triangulated, outward
+  std::vector<Eigen::Vector4d> hull_planes;  // convex only: (n, d), outward unit n, n.x = d on the face
+  std::shared_ptr<const FclShape> fcl;       // fcl::Convex or fcl::BVHModel<OBBRSS>
   Vec3 local_lo = Vec3::Zero(), local_hi = Vec3::Zero();  // m, bounding box in the local frame
 };
 
 // Builds the geometry of a convex or mesh shape (throws loom::Error naming `where` for bad input: fewer than
 // 4 non-coplanar points, an empty mesh, an out-of-range triangle); null for the analytic shapes.
-std::shared_ptr<const ColliderGeometry> build_collider_geometry(const Shape& shape, const std::string& where = "");
+std::shared_ptr<const ColliderGeometry> build_collider_geometry(const Shape& shape,
+                                                                const std::string& where = "");
 // Fills c.geometry when the shape needs one and it is missing.
 void prepare_collider(Collider& c);
 

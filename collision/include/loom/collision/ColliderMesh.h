@@ -18,8 +18,8 @@ struct ColliderMesh {
 };
 
 struct TessellationSettings {
-  int segments = 32;              // around an axis (sphere, capsule, cylinder); rings follow from it
-  double plane_half_size = 2.0;   // m, half the side of the square drawn for a plane
+  int segments = 32;             // around an axis (sphere, capsule, cylinder); rings follow from it
+  double plane_half_size = 2.0;  // m, half the side of the square drawn for a plane
 };
 
 // In the collider's local frame (Collider.h conventions). A convex shape uses `geometry` (the hull) when

@@ -9,7 +9,8 @@
 //   - adds the colliders' push to the work put into the cloths (Stage::work_in(), the guard's energy
 //     budget): per collider |ΔJ·v| + |ΔL·ω|, ΔJ and ΔL the change over the step of its reaction impulse and
 //     of its moment about curr's origin (the body stage sums them), v and ω its velocity and spin over the
-//     step (prev -> curr). The work of a rigid body on the cloth is Σ J_i·(v + ω × r_i) = v·ΣJ_i + ω·Σ r_i × J_i.
+//     step (prev -> curr). The work of a rigid body on the cloth is Σ J_i·(v + ω × r_i) = v·ΣJ_i + ω·Σ r_i ×
+//     J_i.
 #include <string>
 #include <vector>
 
@@ -36,7 +37,7 @@ class ContactGuardStage final : public cloth::Stage {
   double max_depth_;
   std::string violation_;                    // of the last step
   double work_ = 0.0;                        // J, since the start
-  cloth::Vec3s last_impulse_, last_moment_;       // N s, N m s: each collider's reaction after the last step
+  cloth::Vec3s last_impulse_, last_moment_;  // N s, N m s: each collider's reaction after the last step
   double deepest_ = 0.0;                     // m, over all steps
   long steps_ = 0;
 };

@@ -30,6 +30,7 @@ SegmentSegmentClosest segment_segment_closest(const Vec3& p0, const Vec3& p1, co
 
 // Exact squared distances (m^2) of the double inputs, as rationals.
 mpq_class point_triangle_distance_squared_exact(const Vec3& p, const Vec3& a, const Vec3& b, const Vec3& c);
-mpq_class segment_segment_distance_squared_exact(const Vec3& p0, const Vec3& p1, const Vec3& q0, const Vec3& q1);
+mpq_class segment_segment_distance_squared_exact(const Vec3& p0, const Vec3& p1, const Vec3& q0,
+                                                 const Vec3& q1);
 
 }  // namespace loom::collision

@@ -6,6 +6,7 @@
 
 namespace loom::collision {
 
-long count_intersecting_pairs(const loom::cloth::ClothMesh& mesh, const loom::cloth::Vec3s& x, int threads = 1);
+long count_intersecting_pairs(const loom::cloth::ClothMesh& mesh, const loom::cloth::Vec3s& x,
+                              int threads = 1);
 
 }  // namespace loom::collision

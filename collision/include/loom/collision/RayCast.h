@@ -25,12 +25,14 @@ struct RayHit {
 // Hit of the ray origin + s * dir, 0 <= s <= max_distance, with triangle (a, b, c), either side; `dir`
 // need not be unit (the distance is then in units of |dir|). Empty for no hit, a parallel ray or a
 // degenerate triangle.
-std::optional<RayHit> ray_triangle(const Vec3& origin, const Vec3& dir, const Vec3& a, const Vec3& b, const Vec3& c,
+std::optional<RayHit> ray_triangle(const Vec3& origin, const Vec3& dir, const Vec3& a, const Vec3& b,
+                                   const Vec3& c,
                                    double max_distance = std::numeric_limits<double>::infinity());
 
 // Nearest hit of the ray with the triangles of a mesh at positions x (dir is normalised here, so the
 // distance is in metres). Empty when the ray misses every triangle.
-std::optional<RayHit> ray_cast(const Vec3& origin, const Vec3& dir, const Vec3s& x, const std::vector<Tri>& triangles,
+std::optional<RayHit> ray_cast(const Vec3& origin, const Vec3& dir, const Vec3s& x,
+                               const std::vector<Tri>& triangles,
                                double max_distance = std::numeric_limits<double>::infinity());
 
 // The triangle corner nearest to the hit point (largest barycentric weight).

@@ -16,13 +16,13 @@ struct BodyAttachment {
 
 struct RigidBodySpec {
   std::string name;
-  Shape shape;                           // plane, sphere, capsule, box or cylinder (Collider.h conventions)
-  double mass = 0.0;                     // kg; 0 = static (or kinematic with `motion`)
+  Shape shape;                             // plane, sphere, capsule, box or cylinder (Collider.h conventions)
+  double mass = 0.0;                       // kg; 0 = static (or kinematic with `motion`)
   Transform pose = Transform::Identity();  // pose at t = 0
-  Vec3 velocity = Vec3::Zero();          // m/s, dynamic bodies at t = 0
-  Vec3 angular_velocity = Vec3::Zero();  // rad/s
-  double friction = 0.5;                 // 1, Bullet's rigid-rigid friction
-  double restitution = 0.0;              // 1
+  Vec3 velocity = Vec3::Zero();            // m/s, dynamic bodies at t = 0
+  Vec3 angular_velocity = Vec3::Zero();    // rad/s
+  double friction = 0.5;                   // 1, Bullet's rigid-rigid friction
+  double restitution = 0.0;                // 1
   std::function<Transform(double)> motion;  // kinematic: pose at time t (s); empty: static or dynamic
   std::vector<BodyAttachment> attachments;  // cloth vertices held by this body
 };

@@ -9,20 +9,22 @@
 //      (Volino & Magnenat-Thalmann 1994; Provot 1997): cone half-angle < 90 deg over the whole step and a
 //      simple projected contour; pairs between cloths are never culled.
 //   2. Proximity: vertex-face and edge-edge pairs closer than the pair thickness at x_prev get a repulsion
-//      impulse and Coulomb friction (Bridson, Fedkiw, Anderson 2002, Sec. 7.2-7.3). Rest neighbours (features of
-//      one cloth closer than twice its thickness in the rest mesh) have their pair thickness capped at half their
-//      rest distance everywhere (2-4 too): one patch of cloth, not a contact, yet never left untested.
+//      impulse and Coulomb friction (Bridson, Fedkiw, Anderson 2002, Sec. 7.2-7.3). Rest neighbours (features
+//      of one cloth closer than twice its thickness in the rest mesh) have their pair thickness capped at
+//      half their rest distance everywhere (2-4 too): one patch of cloth, not a contact, yet never left
+//      untested.
 //   3. Up to `passes` passes of continuous tests (Ccd.h, conservative, minimum separation) on x_prev -> x
 //      with inelastic impulses; every pass after the first tests only pairs touching vertices that moved or
 //      hit in the previous pass (I-Cloth, Tang et al. 2018, incremental sets).
-//   4. Fail-safe: impact zones. Vertices of remaining contacts are merged into zones; a zone is first resolved
-//      by inelastic projection over its contacts (Harmon et al. 2008: normal approach cancelled, sliding kept);
-//      a zone still colliding after 4 projections becomes a rigid impact zone (Provot 1997; Bridson et al. 2002
-//      Sec. 7.4): its velocities replaced by its rigid-body motion (momentum and
-//      angular momentum kept), repeated until no contact is left between zones. A zone moved by the linearised
-//      rigid motion is an invertible affine image of its intersection-free start at every t, so it cannot
-//      self-intersect; merging ends, at worst, with one zone. Zones with kinematic (pinned) vertices follow
-//      the best-fit rotation of their pinned vertices (Kabsch 1976) instead; that case is not guaranteed.
+//   4. Fail-safe: impact zones. Vertices of remaining contacts are merged into zones; a zone is first
+//   resolved
+//      by inelastic projection over its contacts (Harmon et al. 2008: normal approach cancelled, sliding
+//      kept); a zone still colliding after 4 projections becomes a rigid impact zone (Provot 1997; Bridson et
+//      al. 2002 Sec. 7.4): its velocities replaced by its rigid-body motion (momentum and angular momentum
+//      kept), repeated until no contact is left between zones. A zone moved by the linearised rigid motion is
+//      an invertible affine image of its intersection-free start at every t, so it cannot self-intersect;
+//      merging ends, at worst, with one zone. Zones with kinematic (pinned) vertices follow the best-fit
+//      rotation of their pinned vertices (Kabsch 1976) instead; that case is not guaranteed.
 //   5. Colliders (with a body stage, set_body_stage): every free vertex moved by 2-4 whose end point came
 //      closer than half the thickness to a collider, or whose path now crosses one, gets the body stage's
 //      vertex response again (BodyCollisionStage::revisit_vertex) and is then held (inverse mass 0) while
@@ -46,19 +48,20 @@
 namespace loom::collision {
 
 struct SelfCollisionSettings {
-  bool self = true;                // collisions within each cloth; pairs between cloths are always handled
-  std::vector<double> thickness;   // m, per cloth (layer); empty or <= 0 entries: the cloth's material thickness
-  double friction = -1.0;          // 1, kinetic Coulomb coefficient; < 0: mean of the two cloths' materials
-  double static_friction = -1.0;   // 1, static coefficient; < 0: equal to the kinetic one
+  bool self = true;  // collisions within each cloth; pairs between cloths are always handled
+  std::vector<double>
+      thickness;           // m, per cloth (layer); empty or <= 0 entries: the cloth's material thickness
+  double friction = -1.0;  // 1, kinetic Coulomb coefficient; < 0: mean of the two cloths' materials
+  double static_friction = -1.0;  // 1, static coefficient; < 0: equal to the kinetic one
   // Per cloth pair (entries with other_cloth >= 0; the collider entries are the body stage's): win over the
   // two above for that pair.
   std::vector<FrictionPair> friction_pairs;
-  int passes = 4;                  // continuous-test passes with impulses before the impact-zone fail-safe
-  double separation = 0.25;        // 1, CCD minimum separation in the passes, as a fraction of the pair thickness
-  double repulsion = 0.1;          // 1, share of the thickness overlap removed per step by repulsion (Bridson 2002)
-  bool normal_cones = true;        // cull self pairs of flat patches (never pairs between cloths)
-  int max_zone_iterations = 200;   // fail-safe rounds before every vertex goes into one zone
-  double near_body_mass = 1e3;     // 1, mass factor of vertices the body stage left near a collider
+  int passes = 4;            // continuous-test passes with impulses before the impact-zone fail-safe
+  double separation = 0.25;  // 1, CCD minimum separation in the passes, as a fraction of the pair thickness
+  double repulsion = 0.1;    // 1, share of the thickness overlap removed per step by repulsion (Bridson 2002)
+  bool normal_cones = true;  // cull self pairs of flat patches (never pairs between cloths)
+  int max_zone_iterations = 200;  // fail-safe rounds before every vertex goes into one zone
+  double near_body_mass = 1e3;    // 1, mass factor of vertices the body stage left near a collider
   // 1, the largest velocity change a cloth-cloth impulse gives one vertex, as a multiple of the contact's
   // relative velocity change (capped_shares, SelfProximity.cpp); <= 0 or infinite: Bridson's shares unbounded
   double max_share = 1.0;
@@ -101,17 +104,19 @@ class SelfCollisionStage final : public loom::cloth::Stage {
   std::vector<std::pair<std::string, double>> counters() const override;
 
  private:
-  struct Feature {   // vertex-face (a = vertex, b = triangle) or edge-edge (a < b, edges); global indices
-    int type = 0;    // 0 VF, 1 EE
+  struct Feature {  // vertex-face (a = vertex, b = triangle) or edge-edge (a < b, edges); global indices
+    int type = 0;   // 0 VF, 1 EE
     int a = 0, b = 0;
     float cap = HUGE_VALF;  // m, the pair thickness' cap for rest neighbours (rest_cap), else infinite
     // m, a lower bound on the two features' distance at x0 (fixed during the step), left by the proximity
     // phase for the continuous passes; < 0: unknown.
     float d0 = -1.0f;
-    bool operator<(const Feature& o) const { return type != o.type ? type < o.type : a != o.a ? a < o.a : b < o.b; }
+    bool operator<(const Feature& o) const {
+      return type != o.type ? type < o.type : a != o.a ? a < o.a : b < o.b;
+    }
     bool operator==(const Feature& o) const { return type == o.type && a == o.a && b == o.b; }
   };
-  struct Contact {   // the four vertices of a feature with weights: relative motion = sum w_i x_i
+  struct Contact {  // the four vertices of a feature with weights: relative motion = sum w_i x_i
     int v[4] = {0, 0, 0, 0};
     double w[4] = {0, 0, 0, 0};
     int cloth_a = 0, cloth_b = 0;
@@ -123,10 +128,12 @@ class SelfCollisionStage final : public loom::cloth::Stage {
   // The step's features of all candidate pairs (self pairs culled by normal cones, pairs between cloths).
   std::vector<Feature> all_features(int threads);
   std::vector<TrianglePair> triangle_pairs_touching(const std::vector<char>& dirty, int threads);
-  std::vector<Feature> features(const std::vector<TrianglePair>& pairs, const std::vector<char>* dirty, int threads) const;
-  void extract_features(const TrianglePair* pairs, long n, const std::vector<char>* dirty, std::vector<Feature>& out) const;
-  std::vector<Feature> extract_in_chunks(const std::vector<TrianglePair>& pairs, const std::vector<char>* dirty,
-                                         int threads) const;
+  std::vector<Feature> features(const std::vector<TrianglePair>& pairs, const std::vector<char>* dirty,
+                                int threads) const;
+  void extract_features(const TrianglePair* pairs, long n, const std::vector<char>* dirty,
+                        std::vector<Feature>& out) const;
+  std::vector<Feature> extract_in_chunks(const std::vector<TrianglePair>& pairs,
+                                         const std::vector<char>* dirty, int threads) const;
   void vertex_boxes(int threads) const;
   Contact contact_of(const Feature& f) const;
   // m: the mean of the two cloths' thicknesses, capped for rest neighbours (Contact::cap).
@@ -171,12 +178,12 @@ class SelfCollisionStage final : public loom::cloth::Stage {
   int num_cloths_ = 0;
   std::vector<int> vertex_offset_, tri_offset_;
   std::vector<int> vertex_cloth_, tri_cloth_, edge_cloth_;
-  std::vector<loom::cloth::Tri> tris_;                 // global vertex indices
-  std::vector<std::array<int, 2>> edges_;              // global vertex indices
-  std::vector<std::array<int, 3>> tri_edges_;          // global edge indices
-  std::vector<int> vtx_tri_start_, vtx_tri_;           // vertex -> triangles (CSR, ascending)
-  std::vector<int> edge_owner_;                        // edge -> lowest-numbered triangle holding it
-  std::vector<unsigned char> tri_owns_;                // triangle -> owner bits (vertices 0-2, edges 3-5)
+  std::vector<loom::cloth::Tri> tris_;         // global vertex indices
+  std::vector<std::array<int, 2>> edges_;      // global vertex indices
+  std::vector<std::array<int, 3>> tri_edges_;  // global edge indices
+  std::vector<int> vtx_tri_start_, vtx_tri_;   // vertex -> triangles (CSR, ascending)
+  std::vector<int> edge_owner_;                // edge -> lowest-numbered triangle holding it
+  std::vector<unsigned char> tri_owns_;        // triangle -> owner bits (vertices 0-2, edges 3-5)
   std::vector<double> cloth_thickness_, cloth_friction_;
   // Rest neighbours with their caps (m): vertex -> (triangle, cap), CSR; edge -> (higher edge, cap), CSR.
   std::vector<int> rest_vf_start_, rest_ee_start_;
@@ -185,13 +192,13 @@ class SelfCollisionStage final : public loom::cloth::Stage {
   std::vector<std::unique_ptr<ClothBvh>> bvhs_;
   std::vector<loom::cloth::Vec3s> cx0_, cx1_;  // m, per cloth: the positions of the last BVH refit
   // Per step.
-  loom::cloth::Vec3s x0_, x1_, x1_solver_;  // m: start, current end, end as the solver left it
-  std::vector<double> w_, m_;               // 1/kg inverse masses, kg masses
-  std::vector<double> w_free_;              // 1/kg, w_ before any vertex was held for a collider
-  std::vector<char> near_;                  // 1: the body stage left the vertex near a collider
-  std::vector<char> fixed_;                 // 1: handed back to the body stage this step, held since
-  loom::cloth::Vec3s fixed_v_;              // m/s, the velocity the body stage gave a fixed vertex
-  std::vector<int> zone_parent_;            // union-find over vertices for impact zones (-1: no zone)
+  loom::cloth::Vec3s x0_, x1_, x1_solver_;        // m: start, current end, end as the solver left it
+  std::vector<double> w_, m_;                     // 1/kg inverse masses, kg masses
+  std::vector<double> w_free_;                    // 1/kg, w_ before any vertex was held for a collider
+  std::vector<char> near_;                        // 1: the body stage left the vertex near a collider
+  std::vector<char> fixed_;                       // 1: handed back to the body stage this step, held since
+  loom::cloth::Vec3s fixed_v_;                    // m/s, the velocity the body stage gave a fixed vertex
+  std::vector<int> zone_parent_;                  // union-find over vertices for impact zones (-1: no zone)
   std::vector<ZoneConstraint> zone_constraints_;  // the contacts found by the fail-safe this step
   // Counters.
   long candidate_pairs_ = 0, contacts_ = 0, passes_ = 0, impact_zones_ = 0, zone_iterations_ = 0;
@@ -203,7 +210,7 @@ class SelfCollisionStage final : public loom::cloth::Stage {
   double bvh_ms_ = 0.0, pairs_ms_ = 0.0, proximity_ms_ = 0.0, ccd_ms_ = 0.0, zones_ms_ = 0.0;
   mutable double features_ms_ = 0.0;
   mutable std::vector<Aabb> vbox_;  // m, per vertex: swept box of x0 -> x1 at the last feature search
-  mutable long features_ = 0;  // features extracted from candidate pairs (all calls)
+  mutable long features_ = 0;       // features extracted from candidate pairs (all calls)
 };
 
 }  // namespace loom::collision

@@ -22,23 +22,24 @@ Vec3 surface_velocity(const Transform& a, const Transform& b, double h, const Ve
 
 struct SweptHit {
   bool hit = false;
-  double toi = 1.0;          // 1, fraction of the step (lower bound on the first contact)
-  Vec3 local = Vec3::Zero(); // m, the point at toi in the collider's frame
-  Vec3 normal = Vec3::Zero();// 1, outward normal at toi in the collider's frame
+  double toi = 1.0;            // 1, fraction of the step (lower bound on the first contact)
+  Vec3 local = Vec3::Zero();   // m, the point at toi in the collider's frame
+  Vec3 normal = Vec3::Zero();  // 1, outward normal at toi in the collider's frame
   int iterations = 0;
 };
 
 // Point moving p0 -> p1 against collider c moving c.prev -> c.curr: first t where the signed distance
 // <= separation (m). max_iterations bounds the advancement (exhausted: hit at the current t).
-SweptHit swept_point(const Collider& c, const Vec3& p0, const Vec3& p1, double separation, int max_iterations = 64);
+SweptHit swept_point(const Collider& c, const Vec3& p0, const Vec3& p1, double separation,
+                     int max_iterations = 64);
 
 // Segment (a0 -> a1, b0 -> b1) against a capsule's axis (c.prev -> c.curr): first t where the segment comes
 // within radius + separation of the axis. toi and normal as above (normal in world at toi: from the axis to
 // the segment's closest point); `local` is unused.
 struct SweptSegmentHit {
   bool hit = false;
-  double toi = 1.0;   // 1
-  double s = 0.0;     // 1, closest parameter on the segment at toi
+  double toi = 1.0;                  // 1
+  double s = 0.0;                    // 1, closest parameter on the segment at toi
   Vec3 normal_local = Vec3::Zero();  // 1, direction from the axis to the segment at toi, capsule frame
   Vec3 axis_local = Vec3::Zero();    // m, closest axis point at toi, capsule frame
 };

@@ -42,9 +42,9 @@ class GltfWriter {
  private:
   struct View {  // one bufferView with exactly one accessor on it
     size_t offset = 0, bytes = 0;
-    int target = 0;          // 34962 ARRAY_BUFFER, 34963 ELEMENT_ARRAY_BUFFER, 0 none
-    int component = 0;       // 5126 FLOAT, 5125 UNSIGNED_INT
-    std::string type;        // "VEC3", "SCALAR"
+    int target = 0;     // 34962 ARRAY_BUFFER, 34963 ELEMENT_ARRAY_BUFFER, 0 none
+    int component = 0;  // 5126 FLOAT, 5125 UNSIGNED_INT
+    std::string type;   // "VEC3", "SCALAR"
     size_t count = 0;
     std::vector<double> min, max;
   };
@@ -56,8 +56,8 @@ class GltfWriter {
   std::ofstream bin_;
   size_t bin_size_ = 0;
   std::vector<View> views_;
-  std::vector<double> times_;                 // s
-  std::vector<cloth::Vec3s> base_;            // frame 0 per mesh
+  std::vector<double> times_;       // s
+  std::vector<cloth::Vec3s> base_;  // frame 0 per mesh
   std::vector<int> base_accessor_, index_accessor_;
   std::vector<std::vector<int>> target_accessor_;  // [mesh][target]
   bool finished_ = false;

@@ -19,7 +19,8 @@ std::vector<RenderMesh> render_meshes(const std::vector<std::unique_ptr<cloth::C
 // poses, so every image shows them where they were at that frame.
 class Recording {
  public:
-  explicit Recording(const std::vector<std::unique_ptr<cloth::Cloth>>& cloths, collision::ColliderSetPtr colliders = nullptr)
+  explicit Recording(const std::vector<std::unique_ptr<cloth::Cloth>>& cloths,
+                     collision::ColliderSetPtr colliders = nullptr)
       : meshes_(render_meshes(cloths)), colliders_(std::move(colliders)) {}
   void add(const std::vector<std::unique_ptr<cloth::Cloth>>& cloths);
   int frames() const { return static_cast<int>(frames_.size()); }
@@ -46,8 +47,9 @@ struct RenderReport {
 };
 
 // Renders `rec` into `out` (see above): out/render/frame_NNNNN.png (frame 0 to rec.frames() - 1),
-// out/render.mp4 and out/render.gif. Deletes nothing: the caller owns `out` and its earlier files. `fps`: frames per second of the video (the rendered frames'
-// rate). `video`: also run ffmpeg (throws loom::Error when ffmpeg is missing or fails).
+// out/render.mp4 and out/render.gif. Deletes nothing: the caller owns `out` and its earlier files. `fps`:
+// frames per second of the video (the rendered frames' rate). `video`: also run ffmpeg (throws loom::Error
+// when ffmpeg is missing or fails).
 RenderReport render_recording(const std::string& out, const Recording& rec, const RenderSettings& settings,
                               double fps, bool video = true);
 

@@ -3,8 +3,9 @@
 // two-sided cloth (Lambert per vertex on the side facing the camera: ambient + key light + dim headlight,
 // front and back colours) modulated by a warp/weft check texture laid out in the
 // cloth's material coordinates (TriangleFrame::rest_uv, so checks follow the weave), a checkered ground
-// plane, colliders (slate-teal, untextured; a horizontal plane collider is the ground), a planar projected shadow (stencilled, so overlapping cloth does not darken twice) and a sky
-// gradient. Images are rendered at `supersample` x the size and box-filtered down.
+// plane, colliders (slate-teal, untextured; a horizontal plane collider is the ground), a planar projected
+// shadow (stencilled, so overlapping cloth does not darken twice) and a sky gradient. Images are rendered at
+// `supersample` x the size and box-filtered down.
 #include <array>
 #include <cstdint>
 #include <memory>
@@ -74,7 +75,8 @@ class Renderer {
   void frame(const Bounds& b, const collision::ColliderSet* colliders = nullptr);
   // One image of the meshes at these positions (one pointer per mesh), with the colliders at their `curr`
   // poses (the set's shapes are tessellated on first use and whenever they change).
-  Image render(const std::vector<const cloth::Vec3s*>& positions, const collision::ColliderSet* colliders = nullptr);
+  Image render(const std::vector<const cloth::Vec3s*>& positions,
+               const collision::ColliderSet* colliders = nullptr);
   // Moves the camera (eye and target together, same direction and distance) so that it looks at `target`
   // (m); nothing happens when the settings name a camera. render_recording tracks the action with it.
   void look_at(const cloth::Vec3& target);
@@ -89,8 +91,8 @@ class Renderer {
   RenderSettings settings_;
   std::vector<RenderMesh> meshes_;
   Camera camera_;
-  double ground_ = 0.0;   // m
-  double extent_ = 1.0;   // m, size of the framed scene (ground plane size)
+  double ground_ = 0.0;  // m
+  double extent_ = 1.0;  // m, size of the framed scene (ground plane size)
   cloth::Vec3 center_ = cloth::Vec3::Zero();
 };
 

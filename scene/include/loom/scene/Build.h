@@ -14,6 +14,7 @@ namespace loom::scene {
 
 // `colliders` (optional): receives the collider set the simulation's stages share, whose `curr` poses are
 // the colliders' poses at the current time after every step (the renderer and the viewer draw them).
-std::unique_ptr<cloth::Simulation> build_simulation(const Scene& scene, collision::ColliderSetPtr* colliders = nullptr);
+std::unique_ptr<cloth::Simulation> build_simulation(const Scene& scene,
+                                                    collision::ColliderSetPtr* colliders = nullptr);
 
 }  // namespace loom::scene

@@ -23,7 +23,8 @@ class JsonReader {
   // Each getter marks the key as read. `min`/`max` bound the value; strict bounds exclude the limit.
   double number(const std::string& key, std::optional<double> fallback = std::nullopt,
                 std::optional<double> min = std::nullopt, bool strict_min = false) const;
-  int integer(const std::string& key, std::optional<int> fallback = std::nullopt, std::optional<int> min = std::nullopt) const;
+  int integer(const std::string& key, std::optional<int> fallback = std::nullopt,
+              std::optional<int> min = std::nullopt) const;
   bool boolean(const std::string& key, std::optional<bool> fallback = std::nullopt) const;
   std::string string(const std::string& key, std::optional<std::string> fallback = std::nullopt,
                      const std::vector<std::string>& allowed = {}) const;
@@ -31,7 +32,8 @@ class JsonReader {
   std::vector<double> numbers(const std::string& key, size_t count = 0) const;  // count 0: any length >= 1
   // An integer JSON value `v` (at JSON path `where`) in [min, max], checked before any narrowing: a value
   // past 64 bits, or past int, is an error, never a wrapped small number.
-  long long integer_value(const nlohmann::json& v, const std::string& where, long long min, long long max) const;
+  long long integer_value(const nlohmann::json& v, const std::string& where, long long min,
+                          long long max) const;
   // True for an integer JSON value in [min, max], compared without narrowing (unsigned values unsigned).
   static bool in_range(const nlohmann::json& v, long long min, long long max);
   // `key` as exactly `count` integers, each in [min, max].

@@ -10,9 +10,9 @@
 
 #include "loom/cloth/CurvedFaces.h"
 #include "loom/cloth/Simulation.h"
-#include "loom/collision/SelfCollisionStage.h"
 #include "loom/collision/Collider.h"
 #include "loom/collision/RigidBodySpec.h"
+#include "loom/collision/SelfCollisionStage.h"
 
 namespace loom::characters {
 struct Character;  // loom/characters/Character.h
@@ -22,11 +22,11 @@ namespace loom::scene {
 
 // output.render: settings of `loom run --render` (render/).
 struct RenderOutput {
-  int width = 640, height = 480;                       // px
-  int every = 1;                                       // render every k-th frame
-  bool camera = false;                                 // true: eye/target/fov below, else framed automatically
+  int width = 640, height = 480;  // px
+  int every = 1;                  // render every k-th frame
+  bool camera = false;            // true: eye/target/fov below, else framed automatically
   cloth::Vec3 eye{0.0, 1.5, 3.0}, target{0.0, 1.0, 0.0};  // m
-  double fov = 40.0;                                   // degrees, vertical
+  double fov = 40.0;                                      // degrees, vertical
 };
 
 struct OutputSettings {
@@ -39,17 +39,19 @@ struct OutputSettings {
 };
 
 struct Scene {
-  std::string file;  // path it was read from
+  std::string file;                 // path it was read from
   std::vector<std::string> inputs;  // every other file the scene read (meshes, motion clips), as opened
-  double vertices = 0.0;  // cloth vertices asked for so far (SceneLimits.h, reserve_vertices)
+  double vertices = 0.0;            // cloth vertices asked for so far (SceneLimits.h, reserve_vertices)
   std::string name;
   cloth::SimulationSetup setup;
   double duration = 1.0;  // s
   int frames = 60;        // frames to simulate (duration * fps, rounded)
   OutputSettings output;
-  std::optional<collision::SelfCollisionSettings> collision;  // `collision` (SceneCollision.cpp); absent: none
+  std::optional<collision::SelfCollisionSettings>
+      collision;                                 // `collision` (SceneCollision.cpp); absent: none
   std::vector<collision::RigidBodySpec> bodies;  // `bodies` (SceneBodies.cpp): Bullet rigid bodies
-  std::vector<collision::Collider> colliders;  // `colliders` (SceneColliders.cpp): rigid shapes, kinematic motion
+  std::vector<collision::Collider>
+      colliders;  // `colliders` (SceneColliders.cpp): rigid shapes, kinematic motion
   std::shared_ptr<characters::Character> character;  // `character` (SceneCharacter.cpp); null without one
   // `cloths[i].detail` (hybrid detail): cloth index -> its curved-face surface settings; the cloths
   // listed are shown (OBJ frames, exports, renders) as their refined surface instead of the simulated mesh.

@@ -10,9 +10,9 @@ namespace loom::scene {
 struct Scene;
 
 constexpr std::uint64_t kMaxInputBytes = std::uint64_t(1) << 30;  // a scene, mesh or motion file: 1 GiB
-constexpr double kMaxCoordinate = 1e6;         // m, |x| of a mesh size, origin, translation, anchor
-constexpr long long kMaxFrames = 10000000;     // frames of one run (duration x fps)
-constexpr long long kMaxSubsteps = 1000000;    // solver steps per frame (frame time / solver.dt)
+constexpr double kMaxCoordinate = 1e6;       // m, |x| of a mesh size, origin, translation, anchor
+constexpr long long kMaxFrames = 10000000;   // frames of one run (duration x fps)
+constexpr long long kMaxSubsteps = 1000000;  // solver steps per frame (frame time / solver.dt)
 // Bytes per cloth vertex of a simulation: the peak resident memory of implicit runs (the heaviest solvers)
 // above the process's own, over the vertex count, rounded up (measured: docs/guarantees.md).
 constexpr std::uint64_t kBytesPerVertex = 8192;

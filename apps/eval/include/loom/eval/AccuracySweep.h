@@ -13,7 +13,7 @@ namespace loom::eval {
 struct SweepConfig {
   int substeps = 1;
   std::map<std::string, double> params;
-  std::string model;  // the cloth's model (Model.h); empty: the scene's "springs" (FEM rows)
+  std::string model;          // the cloth's model (Model.h); empty: the scene's "springs" (FEM rows)
   std::string label() const;  // "substeps=4 iterations=10", the CSV's `config`
 };
 

@@ -15,10 +15,10 @@ namespace loom::eval {
 using namespace loom::collision;
 
 struct CcdQuery {
-  bool vertex_face = true;      // else edge-edge
-  std::array<Vec3, 8> points;   // m; in the row order above
-  bool truth = false;           // ground truth: the primitives touch at some t in [0, 1]
-  int line = 0;                 // first CSV line of the query (1-based)
+  bool vertex_face = true;     // else edge-edge
+  std::array<Vec3, 8> points;  // m; in the row order above
+  bool truth = false;          // ground truth: the primitives touch at some t in [0, 1]
+  int line = 0;                // first CSV line of the query (1-based)
 };
 
 // Throws loom::Error(file, "line N", problem) for unreadable files, malformed rows, zero denominators,
@@ -32,11 +32,11 @@ Vec3 scale_translate_exactly(CcdQuery& query, int k, const Vec3& offset);
 
 struct CcdEvalStats {
   long queries = 0;
-  long positives = 0;          // ground-truth positives
-  long false_negatives = 0;    // truth 1, reported 0
-  long false_positives = 0;    // truth 0, reported 1
-  long budget_exhausted = 0;   // hits reported because the box budget ran out
-  double seconds = 0;          // s; wall time spent in the CCD calls only
+  long positives = 0;         // ground-truth positives
+  long false_negatives = 0;   // truth 1, reported 0
+  long false_positives = 0;   // truth 0, reported 1
+  long budget_exhausted = 0;  // hits reported because the box budget ran out
+  double seconds = 0;         // s; wall time spent in the CCD calls only
 };
 
 CcdEvalStats evaluate_ccd(const std::vector<CcdQuery>& queries, const CcdOptions& options = {});

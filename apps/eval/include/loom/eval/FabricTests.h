@@ -1,9 +1,11 @@
 #pragma once
 // Virtual fabric tests: the standard textile measurements run in simulation and compared with theory
 // (docs/validation.md, "Fabric tests"):
-//  - cantilever (ASTM D1388 / FAST-2): a 25 mm strip clamped at one end and bent by its weight; tip chord angle
-//    against the exact inextensible elastica θ'' = -(l/c)³ (1 - s) cos θ, θ(0) = 0, θ'(1) = 0, with the bending
-//    length c = (B / (ρ_A g))^(1/3); the measured angle, inverted through the elastica, gives c and B.
+//  - cantilever (ASTM D1388 / FAST-2): a 25 mm strip clamped at one end and bent by its weight; tip chord
+//  angle
+//    against the exact inextensible elastica θ'' = -(l/c)³ (1 - s) cos θ, θ(0) = 0, θ'(1) = 0, with the
+//    bending length c = (B / (ρ_A g))^(1/3); the measured angle, inverted through the elastica, gives c and
+//    B.
 //  - tensile (FAST-3): a 20 cm x 5 cm strip pulled along the weft at 5, 20 and 100 gf/cm; extension E5, E20,
 //    E100 (%) and the modulus F / ε at 5 gf/cm against the material's stretch modulus.
 //  - shear (bias extension): the same strip cut at 45° to warp and weft, pulled at 5 gf/cm; with the
@@ -11,9 +13,10 @@
 //  - catenary: a narrow strip of length S = 1 m hung between two points at span d; sag against
 //    a (cosh(d/2a) - 1) with S = 2a sinh(d/2a).
 //  - drape (Cusick, BS 5058): a 30 cm disc (concentric-ring mesh, `resolution` rings, the support edge half a
-//    ring spacing inside the last held ring) held on an 18 cm support; drape coefficient DC = (A_s - A_d)/(A_D - A_d) x 100 from the projected shadow area (point
-//    sampled at 0.5 mm) and the number of nodes (rim radius peaks >= 3 mm prominent). No published DC
-//    exists for the presets (docs/validation.md): theory and error are NaN (null in --json).
+//    ring spacing inside the last held ring) held on an 18 cm support; drape coefficient DC = (A_s -
+//    A_d)/(A_D - A_d) x 100 from the projected shadow area (point sampled at 0.5 mm) and the number of nodes
+//    (rim radius peaks >= 3 mm prominent). No published DC exists for the presets (docs/validation.md):
+//    theory and error are NaN (null in --json).
 // Static measurements use the static (energy-minimisation) solver; each test reports measured, theory,
 // error, and its own fields.
 #include <string>
@@ -28,10 +31,10 @@ using namespace loom::cloth;
 struct FabricTestOptions {
   std::string test = "cantilever";  // cantilever | tensile | shear | catenary | drape
   Material material;
-  std::string model = "springs";   // a model_names() entry
-  int resolution = 0;              // nodes along the strip; 0 = the test's default
-  double overhang_ratio = 2.0;     // cantilever: l / c
-  double span = 0.8;               // catenary: d (m), with S = 1 m
+  std::string model = "springs";  // a model_names() entry
+  int resolution = 0;             // nodes along the strip; 0 = the test's default
+  double overhang_ratio = 2.0;    // cantilever: l / c
+  double span = 0.8;              // catenary: d (m), with S = 1 m
   int threads = 1;
   // "static" (energy minimisation, the default) or any dynamic solver, which then runs frames of
   // `settle_dt` seconds with damping until it has settled — the largest vertex speed over a frame below
@@ -39,20 +42,20 @@ struct FabricTestOptions {
   // one.
   std::string solver = "static";
   int settle_frames = 400;
-  double settle_dt = 0.01;      // s
-  double settle_speed = 1e-6;   // m/s, dynamic solvers: settled when every vertex moves slower than this
+  double settle_dt = 0.01;     // s
+  double settle_speed = 1e-6;  // m/s, dynamic solvers: settled when every vertex moves slower than this
 };
 
 struct FabricTestResult {
   std::string test, material, model, solver;
   int resolution = 0;
-  std::string quantity, unit;       // what measured/theory are, e.g. "tip chord angle", "deg"
-  double measured = 0.0, theory = 0.0, error = 0.0;  // error = measured - theory (same unit)
+  std::string quantity, unit;  // what measured/theory are, e.g. "tip chord angle", "deg"
+  double measured = 0.0, theory = 0.0, error = 0.0;    // error = measured - theory (same unit)
   std::vector<std::pair<std::string, double>> fields;  // the test's own numbers
   // Curves for the report's plot: simulated and theoretical (x, y) points.
   std::vector<std::pair<double, double>> curve, theory_curve;
-  double seconds = 0.0;            // s, wall time of the simulation (set-up and solve/settle; not the theory)
-  double cpu_seconds = 0.0;        // s, process CPU time of the same (the comparable figure on a busy machine)
+  double seconds = 0.0;      // s, wall time of the simulation (set-up and solve/settle; not the theory)
+  double cpu_seconds = 0.0;  // s, process CPU time of the same (the comparable figure on a busy machine)
   // Settling (every test that settles): frames run, and for dynamic solvers whether the speed fell below
   // settle_speed before settle_frames (the static solver: 1 when its Newton residual met its tolerance).
   int settle_frames = 0;

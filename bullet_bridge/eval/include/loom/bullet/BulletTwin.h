@@ -25,10 +25,10 @@ const char* system_name(TwinKind kind);
 // The Loom cloth to copy.
 struct TwinCloth {
   std::shared_ptr<const cloth::ClothMesh> mesh;
-  std::vector<cloth::Spring> springs;  // Loom's springs (make_springs), same order as mesh->springs()
-  std::vector<double> masses;          // kg, Loom's lumped vertex masses (pinned vertices included)
-  std::vector<int> pinned;             // vertices held fixed at their start position
-  cloth::Vec3s start;                  // m, start positions (default: mesh rest positions)
+  std::vector<cloth::Spring> springs;    // Loom's springs (make_springs), same order as mesh->springs()
+  std::vector<double> masses;            // kg, Loom's lumped vertex masses (pinned vertices included)
+  std::vector<int> pinned;               // vertices held fixed at their start position
+  cloth::Vec3s start;                    // m, start positions (default: mesh rest positions)
   cloth::Vec3 gravity{0.0, -9.81, 0.0};  // m/s²
 };
 
@@ -50,7 +50,7 @@ struct TwinSettings {
   // deformable only: damping along the springs, N·s/m (btDeformableMassSpringForce's d); classic: kDP in
   // [0,1].
   double damping = 0.0;
-  bool implicit = true;          // deformable only: backward Euler (true, with projection) or explicit
+  bool implicit = true;  // deformable only: backward Euler (true, with projection) or explicit
 };
 
 class BulletTwin {

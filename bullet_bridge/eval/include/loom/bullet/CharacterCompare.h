@@ -23,25 +23,25 @@ namespace loom::bullet {
 
 struct KinematicBody {
   std::string name;
-  collision::Shape shape;     // capsule (axis local y)
-  bool collides = true;       // false: an anchor frame only (a joint with no capsule of its own)
+  collision::Shape shape;  // capsule (axis local y)
+  bool collides = true;    // false: an anchor frame only (a joint with no capsule of its own)
   std::function<collision::Transform(double)> motion;  // pose at time t (s)
   std::vector<collision::BodyAttachment> attachments;  // garment vertices anchored to this body
-  double friction = 0.3;      // 1
+  double friction = 0.3;                               // 1
 };
 
 struct CharacterCompareInput {
-  cloth::SimulationSetup setup;      // the garments as cloths (attached vertices pinned), gravity, frame_dt
+  cloth::SimulationSetup setup;  // the garments as cloths (attached vertices pinned), gravity, frame_dt
   std::vector<KinematicBody> bodies;
   int frames = 60;
-  int bullet_substeps = 4;           // fixed Bullet steps per frame (1/240 s at 60 fps)
-  double thickness = 0.001;          // m, the capsules' contact offset (Bullet: the soft body's margin)
+  int bullet_substeps = 4;   // fixed Bullet steps per frame (1/240 s at 60 fps)
+  double thickness = 0.001;  // m, the capsules' contact offset (Bullet: the soft body's margin)
 };
 
 struct CharacterMetrics {
-  SystemMetrics m;                   // ms_per_frame, max_strain, mean_strain, max_penetration, diverged
-  long penetrating_vertices = 0;     // largest number of vertices inside a capsule at a frame end
-  double max_attachment_error = 0.0; // m, attached vertex to its bone target at frame ends
+  SystemMetrics m;                    // ms_per_frame, max_strain, mean_strain, max_penetration, diverged
+  long penetrating_vertices = 0;      // largest number of vertices inside a capsule at a frame end
+  double max_attachment_error = 0.0;  // m, attached vertex to its bone target at frame ends
 };
 
 // Loom: steps `sim` (the scene's simulation, built by scene::build_simulation) `in.frames` frames.

@@ -13,15 +13,15 @@
 namespace loom::bullet {
 
 struct CompareInput {
-  cloth::SimulationSetup setup;                 // cloth 0 is compared; frame_dt = the scene's frame
+  cloth::SimulationSetup setup;  // cloth 0 is compared; frame_dt = the scene's frame
   std::vector<collision::RigidBodySpec> bodies;
   int frames = 60;
   int bullet_substeps = 4;  // Bullet fixed steps per frame (frame_dt / 4 = 1/240 s at 60 fps)
 };
 
 struct SystemMetrics {
-  std::string system;            // "loom", "bullet_classic", "bullet_deformable"
-  bool available = true;         // false: not run (see note)
+  std::string system;     // "loom", "bullet_classic", "bullet_deformable"
+  bool available = true;  // false: not run (see note)
   std::string note;
   double ms_per_frame = 0.0;     // ms, wall time per frame (cloth + world)
   double max_strain = 0.0;       // 1, largest stretch l/L - 1 over structural springs, over all frames
