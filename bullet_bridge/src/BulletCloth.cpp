@@ -314,6 +314,29 @@ void BulletCloth::updateAction(btCollisionWorld* world, btScalar dt_bt) {
     throw Error("", "BulletCloth",
                 "Bullet substep " + std::to_string(dt) + " s differs from fixed_dt " +
                     std::to_string(settings_.fixed_dt) + " s (use stepSimulation(frame, max, fixed_dt))");
+  const std::vector<btRigidBody*> bodies = candidate_bodies(world);
+  std::vector<btRigidBody*> coupled;  // Tier::realtime: dynamic bodies solved with the cloth
+  make_colliders(bodies, dt, coupled);
+
+  // 3. Step the cloth over [t0, t0 + dt], in as many steps as the relative motion needs (settings).
+  const int steps = cloth_step_count(bodies, dt);
+  if (steps != sim_->setup().substeps) sim_->set_substeps(steps);
+  cloth_steps_ += steps;
+  substep_t0_ = sim_->time();
+  double pen = 0.0;
+  last_stats_ = sim_->step_frame();
+  pen = coupling_   ? coupling_->last_penetration()
+        : contacts_ ? contacts_->last_penetration()
+        : features_ ? features_->last_penetration()
+                    : std::max(0.0, body_->max_deficit() - thickness_);
+  apply_coupled_solve(coupled);
+  last_penetration_ = pen;
+  ++substeps_;
+  apply_reactions(bodies);
+  update_aabb();
+}
+
+std::vector<btRigidBody*> BulletCloth::candidate_bodies(btCollisionWorld* world) {
   // 1. Candidates: bodies overlapping the inflated cloth AABB, plus attached bodies; ordered by proxy id.
   Vec3 lo, hi;
   cloth_aabb(lo, hi);
@@ -338,12 +361,88 @@ void BulletCloth::updateAction(btCollisionWorld* world, btScalar dt_bt) {
     return ia < ib;
   });
   bodies.erase(std::unique(bodies.begin(), bodies.end()), bodies.end());
+  return bodies;
+}
 
+void BulletCloth::advance_pose(BodyTrack& tr, btRigidBody* rb, double dt) {
+  const Transform now = to_eigen(rb->getWorldTransform());
+  if (rb->isKinematicObject()) {
+    if (!tr.initialised || tr.seen != substeps_ - 1) {
+      tr.from = tr.target = now;
+      tr.tau = tr.span = 0.0;
+    } else if (now.matrix() != tr.target.matrix()) {
+      tr.from = tr.target;
+      tr.target = now;
+      tr.tau = 0.0;
+      // Bullet set the velocity to (target - from) / (fixed_dt * n) for the n substeps of this call.
+      const double dx = (tr.target.translation() - tr.from.translation()).norm();
+      const double da = Eigen::AngleAxisd(tr.target.linear() * tr.from.linear().transpose()).angle();
+      const double v = to_eigen(rb->getLinearVelocity()).norm(),
+                   w = to_eigen(rb->getAngularVelocity()).norm();
+      double span = dt;
+      if (v > 1e-12 && dx > 0.0) {
+        span = dx / v;
+      } else if (w > 1e-12 && da > 0.0) {
+        span = da / w;
+      }
+      span = std::max(1.0, std::round(span / dt)) * dt;
+      tr.span = span;
+    }
+    tr.start = tr.span > 0 ? slerp(tr.from, tr.target, std::min(1.0, tr.tau / tr.span)) : tr.target;
+    tr.tau += dt;
+    tr.end = tr.span > 0 ? slerp(tr.from, tr.target, std::min(1.0, tr.tau / tr.span)) : tr.target;
+  } else if (rb->isStaticObject()) {
+    tr.start = tr.end = now;
+  } else {
+    // Dynamic: integrateTransforms moved it with its current velocities over dt; step back.
+    tr.end = now;
+    tr.start = now;
+    tr.start.translation() -= dt * to_eigen(rb->getLinearVelocity());
+    const Vec3 w = to_eigen(rb->getAngularVelocity());
+    if (w.norm() > 0)
+      tr.start.linear() = Eigen::AngleAxisd(-w.norm() * dt, w.normalized()).toRotationMatrix() * now.linear();
+  }
+  tr.initialised = true;
+  tr.seen = substeps_;
+}
+
+void BulletCloth::map_body_shape(BodyTrack& tr, btRigidBody* rb) {
+  if (tr.local_of == rb->getCollisionShape()) return;
+  tr.local.clear();
+  std::vector<std::string> unsupported;
+  map_shape(rb->getCollisionShape(), Transform::Identity(),
+            "body" + std::to_string(rb->getBroadphaseHandle() ? rb->getBroadphaseHandle()->m_uniqueId : -1),
+            tr.local, unsupported);
+  for (const std::string& u : unsupported) warn(u);
+  for (Collider& c : tr.local) collision::prepare_collider(c);
+  tr.local_of = rb->getCollisionShape();
+}
+
+int BulletCloth::add_coupled_body(const BodyTrack& tr, btRigidBody* rb, std::vector<btRigidBody*>& coupled) {
+  if (!(coupling_ && !rb->isStaticOrKinematicObject() && rb->getInvMass() > 0 &&
+        std::none_of(attachments_.begin(), attachments_.end(),
+                     [rb](const Attachment& a) { return a.body == rb; })))
+    return -1;
+  CoupledBody cb;
+  cb.inv_mass = rb->getInvMass();
+  cb.inv_inertia_local = to_eigen(rb->getInvInertiaDiagLocal());
+  cb.pose = cb.pose0 = tr.start;
+  cb.v = to_eigen(rb->getLinearVelocity());
+  cb.w = to_eigen(rb->getAngularVelocity());
+  const Eigen::Matrix3d R = tr.start.linear();
+  cb.inv_inertia = R * cb.inv_inertia_local.asDiagonal() * R.transpose();
+  const int coupled_index = static_cast<int>(coupling_->bodies.size());
+  coupling_->bodies.push_back(cb);
+  coupled.push_back(rb);
+  return coupled_index;
+}
+
+void BulletCloth::make_colliders(const std::vector<btRigidBody*>& bodies, double dt,
+                                 std::vector<btRigidBody*>& coupled) {
   // 2. Poses at the substep's start and end; colliders.
   colliders_->clear();
   collider_body_.clear();
   collider_local_.clear();
-  std::vector<btRigidBody*> coupled;  // Tier::realtime: dynamic bodies solved with the cloth
   if (coupling_) {
     coupling_->bodies.clear();
     coupling_->collider_body.clear();
@@ -351,75 +450,11 @@ void BulletCloth::updateAction(btCollisionWorld* world, btScalar dt_bt) {
   }
   for (btRigidBody* rb : bodies) {
     BodyTrack& tr = track(rb);
-    const Transform now = to_eigen(rb->getWorldTransform());
-    if (rb->isKinematicObject()) {
-      if (!tr.initialised || tr.seen != substeps_ - 1) {
-        tr.from = tr.target = now;
-        tr.tau = tr.span = 0.0;
-      } else if (now.matrix() != tr.target.matrix()) {
-        tr.from = tr.target;
-        tr.target = now;
-        tr.tau = 0.0;
-        // Bullet set the velocity to (target - from) / (fixed_dt * n) for the n substeps of this call.
-        const double dx = (tr.target.translation() - tr.from.translation()).norm();
-        const double da = Eigen::AngleAxisd(tr.target.linear() * tr.from.linear().transpose()).angle();
-        const double v = to_eigen(rb->getLinearVelocity()).norm(),
-                     w = to_eigen(rb->getAngularVelocity()).norm();
-        double span = dt;
-        if (v > 1e-12 && dx > 0.0) {
-          span = dx / v;
-        } else if (w > 1e-12 && da > 0.0) {
-          span = da / w;
-        }
-        span = std::max(1.0, std::round(span / dt)) * dt;
-        tr.span = span;
-      }
-      tr.start = tr.span > 0 ? slerp(tr.from, tr.target, std::min(1.0, tr.tau / tr.span)) : tr.target;
-      tr.tau += dt;
-      tr.end = tr.span > 0 ? slerp(tr.from, tr.target, std::min(1.0, tr.tau / tr.span)) : tr.target;
-    } else if (rb->isStaticObject()) {
-      tr.start = tr.end = now;
-    } else {
-      // Dynamic: integrateTransforms moved it with its current velocities over dt; step back.
-      tr.end = now;
-      tr.start = now;
-      tr.start.translation() -= dt * to_eigen(rb->getLinearVelocity());
-      const Vec3 w = to_eigen(rb->getAngularVelocity());
-      if (w.norm() > 0)
-        tr.start.linear() =
-            Eigen::AngleAxisd(-w.norm() * dt, w.normalized()).toRotationMatrix() * now.linear();
-    }
-    tr.initialised = true;
-    tr.seen = substeps_;
+    advance_pose(tr, rb, dt);
     tr.step_impulse.setZero();
     tr.step_moment.setZero();
-    if (tr.local_of != rb->getCollisionShape()) {
-      tr.local.clear();
-      std::vector<std::string> unsupported;
-      map_shape(
-          rb->getCollisionShape(), Transform::Identity(),
-          "body" + std::to_string(rb->getBroadphaseHandle() ? rb->getBroadphaseHandle()->m_uniqueId : -1),
-          tr.local, unsupported);
-      for (const std::string& u : unsupported) warn(u);
-      for (Collider& c : tr.local) collision::prepare_collider(c);
-      tr.local_of = rb->getCollisionShape();
-    }
-    int coupled_index = -1;
-    if (coupling_ && !rb->isStaticOrKinematicObject() && rb->getInvMass() > 0 &&
-        std::none_of(attachments_.begin(), attachments_.end(),
-                     [rb](const Attachment& a) { return a.body == rb; })) {
-      CoupledBody cb;
-      cb.inv_mass = rb->getInvMass();
-      cb.inv_inertia_local = to_eigen(rb->getInvInertiaDiagLocal());
-      cb.pose = cb.pose0 = tr.start;
-      cb.v = to_eigen(rb->getLinearVelocity());
-      cb.w = to_eigen(rb->getAngularVelocity());
-      const Eigen::Matrix3d R = tr.start.linear();
-      cb.inv_inertia = R * cb.inv_inertia_local.asDiagonal() * R.transpose();
-      coupled_index = static_cast<int>(coupling_->bodies.size());
-      coupling_->bodies.push_back(cb);
-      coupled.push_back(rb);
-    }
+    map_body_shape(tr, rb);
+    const int coupled_index = add_coupled_body(tr, rb, coupled);
     for (const Collider& c : tr.local) {
       if (coupling_) {
         coupling_->collider_body.push_back(coupled_index);
@@ -437,8 +472,9 @@ void BulletCloth::updateAction(btCollisionWorld* world, btScalar dt_bt) {
       collider_local_.push_back(c.curr);
     }
   }
+}
 
-  // 3. Step the cloth over [t0, t0 + dt], in as many steps as the relative motion needs (settings).
+int BulletCloth::cloth_step_count(const std::vector<btRigidBody*>& bodies, double dt) const {
   int steps =
       coupling_ ? std::max(settings_.cloth_substeps, settings_.realtime_substeps) : settings_.cloth_substeps;
   if (settings_.max_cloth_substeps > steps && !colliders_->empty()) {
@@ -457,15 +493,10 @@ void BulletCloth::updateAction(btCollisionWorld* world, btScalar dt_bt) {
     const double need = std::ceil(motion / (settings_.step_motion * contacts_thickness()));
     if (need > steps) steps = static_cast<int>(std::min<double>(need, settings_.max_cloth_substeps));
   }
-  if (steps != sim_->setup().substeps) sim_->set_substeps(steps);
-  cloth_steps_ += steps;
-  substep_t0_ = sim_->time();
-  double pen = 0.0;
-  last_stats_ = sim_->step_frame();
-  pen = coupling_   ? coupling_->last_penetration()
-        : contacts_ ? contacts_->last_penetration()
-        : features_ ? features_->last_penetration()
-                    : std::max(0.0, body_->max_deficit() - thickness_);
+  return steps;
+}
+
+void BulletCloth::apply_coupled_solve(const std::vector<btRigidBody*>& coupled) {
   // Tier::realtime: the bodies the cloth moved take their pose and velocity from the coupled solve.
   for (size_t b = 0; b < coupled.size(); ++b) {
     const CoupledBody& cb = coupling_->bodies[b];
@@ -480,9 +511,9 @@ void BulletCloth::updateAction(btCollisionWorld* world, btScalar dt_bt) {
     rb->setLinearVelocity(to_bt(cb.v));
     rb->setAngularVelocity(to_bt(cb.w));
   }
-  last_penetration_ = pen;
-  ++substeps_;
+}
 
+void BulletCloth::apply_reactions(const std::vector<btRigidBody*>& bodies) {
   // 4. Reactions to dynamic bodies: linear impulse and the moment about the centre of mass.
   for (size_t k = 0; k < colliders_->size(); ++k) {
     const Collider& c = (*colliders_)[k];
@@ -500,7 +531,6 @@ void BulletCloth::updateAction(btCollisionWorld* world, btScalar dt_bt) {
     rb->applyTorqueImpulse(to_bt(tr.step_moment));
     tr.applied += tr.step_impulse;
   }
-  update_aabb();
 }
 
 double BulletCloth::contacts_thickness() const { return thickness_ > 0.0 ? thickness_ : settings_.thickness; }

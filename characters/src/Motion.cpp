@@ -35,25 +35,14 @@ std::pair<size_t, double> bracket(const std::vector<double>& times, double tau) 
   return {k, (tau - times[k]) / (times[k + 1] - times[k])};
 }
 
-}  // namespace
-
-Motion Motion::load(const std::string& path, const MotionSettings& settings) {
+void check_settings(const std::string& path, const MotionSettings& settings) {
   if (!(settings.speed > 0.0) || !std::isfinite(settings.speed)) throw Error(path, "speed", "must be > 0");
   if (!(settings.scale >= 0.0) || !std::isfinite(settings.scale)) throw Error(path, "scale", "must be >= 0");
   if (!(settings.height > 0.0)) throw Error(path, "height", "must be > 0");
-  Assimp::Importer importer;
-  const aiScene* scene = importer.ReadFile(path, 0);
-  if (!scene || !scene->mRootNode)
-    throw Error(path, "", std::string("cannot read motion: ") + importer.GetErrorString());
+}
 
-  Motion m;
-  m.source_ = path;
-  m.settings_ = settings;
-  const aiAnimation* anim = scene->mNumAnimations > 0 ? scene->mAnimations[0] : nullptr;
-  std::map<std::string, const aiNodeAnim*> channels;
-  if (anim)
-    for (unsigned c = 0; c < anim->mNumChannels; ++c)
-      channels[anim->mChannels[c]->mNodeName.C_Str()] = anim->mChannels[c];
+// Ticks per second of the animation's key times (assimp's default 25 without animation or rate).
+double ticks_per_second(const std::string& path, const aiAnimation* anim) {
   // A BVH's "Frame Time" is 1 / mTicksPerSecond: zero, negative or non-finite is refused, not defaulted;
   // "Frames: 0" leaves no keys.
   const bool bvh = path.size() >= 4 && (path.compare(path.size() - 4, 4, ".bvh") == 0 ||
@@ -67,10 +56,52 @@ Motion Motion::load(const std::string& path, const MotionSettings& settings) {
       keys = keys || anim->mChannels[c]->mNumPositionKeys > 0 || anim->mChannels[c]->mNumRotationKeys > 0;
     if (!keys) throw Error(path, "Frames", "the MOTION section holds no frame (Frames must be >= 1)");
   }
-  const double tps = anim && anim->mTicksPerSecond > 0.0 ? anim->mTicksPerSecond : 25.0;  // assimp's default
+  return anim && anim->mTicksPerSecond > 0.0 ? anim->mTicksPerSecond : 25.0;  // assimp's default
+}
 
-  // Depth-first: parents before children.
-  std::function<void(const aiNode*, int)> walk = [&](const aiNode* node, int parent) {
+// The keys of one joint's channel, times in seconds (key time / tps).
+JointTrack read_track(const std::string& path, const std::string& joint, const aiNodeAnim* ch, double tps) {
+  JointTrack track;
+  // Keys must be finite with times that never go back (bracket() searches them); a file that says
+  // otherwise (a corrupt or cut number, 1e999) is refused here, before any pose can turn non-finite.
+  auto bad_key = [&](const char* kind, unsigned k, const std::vector<double>& times) {
+    const double t = times.back();
+    if (!std::isfinite(t) || (times.size() > 1 && t < times[times.size() - 2]))
+      throw Error(path, "joint '" + joint + "'",
+                  std::string(kind) + " key " + std::to_string(k) + ": time not finite or going back");
+  };
+  for (unsigned k = 0; k < ch->mNumPositionKeys; ++k) {
+    const aiVectorKey& key = ch->mPositionKeys[k];
+    track.position_times.push_back(key.mTime / tps);
+    track.positions.emplace_back(key.mValue.x, key.mValue.y, key.mValue.z);
+    bad_key("position", k, track.position_times);
+    if (!track.positions.back().allFinite())
+      throw Error(path, "joint '" + joint + "'", "position key " + std::to_string(k) + " is not finite");
+  }
+  for (unsigned k = 0; k < ch->mNumRotationKeys; ++k) {
+    const aiQuatKey& key = ch->mRotationKeys[k];
+    track.rotation_times.push_back(key.mTime / tps);
+    const Quat q(key.mValue.w, key.mValue.x, key.mValue.y, key.mValue.z);
+    bad_key("rotation", k, track.rotation_times);
+    if (!q.coeffs().allFinite() || !(q.norm() > 0.0))
+      throw Error(path, "joint '" + joint + "'",
+                  "rotation key " + std::to_string(k) + " is not a finite rotation");
+    track.rotations.push_back(q.normalized());
+  }
+  return track;
+}
+
+// The node hierarchy below `node`, depth-first (parents before children), into joints and tracks;
+// `duration` (s) grows to the last key time seen.
+struct HierarchyReader {
+  const std::string& path;
+  const std::map<std::string, const aiNodeAnim*>& channels;
+  double tps;
+  std::vector<Joint>& joints;
+  std::vector<JointTrack>& tracks;
+  double& duration;
+
+  void walk(const aiNode* node, int parent) {
     Joint j;
     j.name = node->mName.C_Str();
     j.parent = parent;
@@ -82,91 +113,93 @@ Motion Motion::load(const std::string& path, const MotionSettings& settings) {
     JointTrack track;
     auto it = channels.find(j.name);
     if (it != channels.end()) {
-      const aiNodeAnim* ch = it->second;
       j.animated = true;
-      // Keys must be finite with times that never go back (bracket() searches them); a file that says
-      // otherwise (a corrupt or cut number, 1e999) is refused here, before any pose can turn non-finite.
-      auto bad_key = [&](const char* kind, unsigned k, const std::vector<double>& times) {
-        const double t = times.back();
-        if (!std::isfinite(t) || (times.size() > 1 && t < times[times.size() - 2]))
-          throw Error(path, "joint '" + j.name + "'",
-                      std::string(kind) + " key " + std::to_string(k) + ": time not finite or going back");
-      };
-      for (unsigned k = 0; k < ch->mNumPositionKeys; ++k) {
-        const aiVectorKey& key = ch->mPositionKeys[k];
-        track.position_times.push_back(key.mTime / tps);
-        track.positions.emplace_back(key.mValue.x, key.mValue.y, key.mValue.z);
-        bad_key("position", k, track.position_times);
-        if (!track.positions.back().allFinite())
-          throw Error(path, "joint '" + j.name + "'", "position key " + std::to_string(k) + " is not finite");
-      }
-      for (unsigned k = 0; k < ch->mNumRotationKeys; ++k) {
-        const aiQuatKey& key = ch->mRotationKeys[k];
-        track.rotation_times.push_back(key.mTime / tps);
-        const Quat q(key.mValue.w, key.mValue.x, key.mValue.y, key.mValue.z);
-        bad_key("rotation", k, track.rotation_times);
-        if (!q.coeffs().allFinite() || !(q.norm() > 0.0))
-          throw Error(path, "joint '" + j.name + "'",
-                      "rotation key " + std::to_string(k) + " is not a finite rotation");
-        track.rotations.push_back(q.normalized());
-      }
-      if (!track.position_times.empty()) m.duration_ = std::max(m.duration_, track.position_times.back());
-      if (!track.rotation_times.empty()) m.duration_ = std::max(m.duration_, track.rotation_times.back());
+      track = read_track(path, j.name, it->second, tps);
+      if (!track.position_times.empty()) duration = std::max(duration, track.position_times.back());
+      if (!track.rotation_times.empty()) duration = std::max(duration, track.rotation_times.back());
     }
-    const int index = static_cast<int>(m.joints_.size());
-    m.joints_.push_back(j);
-    m.tracks_.push_back(std::move(track));
+    const int index = static_cast<int>(joints.size());
+    joints.push_back(j);
+    tracks.push_back(std::move(track));
     for (unsigned c = 0; c < node->mNumChildren; ++c) walk(node->mChildren[c], index);
-  };
-  walk(scene->mRootNode, -1);
+  }
+};
+
+}  // namespace
+
+Motion Motion::load(const std::string& path, const MotionSettings& settings) {
+  check_settings(path, settings);
+  Assimp::Importer importer;
+  const aiScene* scene = importer.ReadFile(path, 0);
+  if (!scene || !scene->mRootNode)
+    throw Error(path, "", std::string("cannot read motion: ") + importer.GetErrorString());
+
+  Motion m;
+  m.source_ = path;
+  m.settings_ = settings;
+  const aiAnimation* anim = scene->mNumAnimations > 0 ? scene->mAnimations[0] : nullptr;
+  std::map<std::string, const aiNodeAnim*> channels;
+  if (anim)
+    for (unsigned c = 0; c < anim->mNumChannels; ++c)
+      channels[anim->mChannels[c]->mNodeName.C_Str()] = anim->mChannels[c];
+  const double tps = ticks_per_second(path, anim);
+
+  HierarchyReader reader{path, channels, tps, m.joints_, m.tracks_, m.duration_};
+  reader.walk(scene->mRootNode, -1);
   m.root_ = 0;
   for (int k = 0; k < m.num_joints(); ++k)
     if (m.joints_[k].animated) {
       m.root_ = k;
       break;
     }
+  m.set_units();
+  m.set_root_motion();
+  return m;
+}
 
+void Motion::set_units() {
   // Units: the rest pose's height (y extent of every joint at or below the root) becomes settings.height.
-  std::vector<Transform> g(m.joints_.size());
+  std::vector<Transform> g(joints_.size());
   double ymin = std::numeric_limits<double>::infinity(), ymax = -ymin;
-  for (int k = 0; k < m.num_joints(); ++k) {
-    const int p = m.joints_[k].parent;
-    g[k] = p < 0 ? m.joints_[k].rest : g[p] * m.joints_[k].rest;
+  for (int k = 0; k < num_joints(); ++k) {
+    const int p = joints_[k].parent;
+    g[k] = p < 0 ? joints_[k].rest : g[p] * joints_[k].rest;
     ymin = std::min(ymin, g[k].translation().y());
     ymax = std::max(ymax, g[k].translation().y());
   }
-  if (settings.scale > 0.0) {
-    m.scale_ = settings.scale;
+  if (settings_.scale > 0.0) {
+    scale_ = settings_.scale;
   } else {
     if (!(ymax - ymin > 0.0))
-      throw Error(path, "scale", "the rest pose has no height; give 'scale' explicitly");
-    if (!std::isfinite(ymax - ymin)) throw Error(path, "scale", "the rest pose's height is not finite");
-    m.scale_ = settings.height / (ymax - ymin);
+      throw Error(source_, "scale", "the rest pose has no height; give 'scale' explicitly");
+    if (!std::isfinite(ymax - ymin)) throw Error(source_, "scale", "the rest pose's height is not finite");
+    scale_ = settings_.height / (ymax - ymin);
   }
-  m.rest_height_ = (ymax - ymin) * m.scale_;
-  for (Joint& j : m.joints_) j.rest.translation() *= m.scale_;
-  for (JointTrack& t : m.tracks_)
-    for (Vec3& p : t.positions) p *= m.scale_;
+  rest_height_ = (ymax - ymin) * scale_;
+  for (Joint& j : joints_) j.rest.translation() *= scale_;
+  for (JointTrack& t : tracks_)
+    for (Vec3& p : t.positions) p *= scale_;
+}
 
+void Motion::set_root_motion() {
   // Root motion bookkeeping (clip values, before placement).
-  if (m.duration_ > 0.0 && settings.loop) {
-    const Vec3 a = m.local(m.root_, 0.0).translation(), b = m.local(m.root_, m.duration_).translation();
-    m.cycle_shift_ = Vec3(b.x() - a.x(), 0.0, b.z() - a.z());
+  if (duration_ > 0.0 && settings_.loop) {
+    const Vec3 a = local(root_, 0.0).translation(), b = local(root_, duration_).translation();
+    cycle_shift_ = Vec3(b.x() - a.x(), 0.0, b.z() - a.z());
   }
-  const double tau0 = settings.loop && m.duration_ > 0.0
-                          ? settings.start - std::floor(settings.start / m.duration_) * m.duration_
-                          : std::clamp(settings.start, 0.0, m.duration_);
-  m.root_start_ = m.local(m.root_, tau0).translation();
-  if (settings.place) {
-    m.placement_ = Vec3::Zero();
+  const double tau0 = settings_.loop && duration_ > 0.0
+                          ? settings_.start - std::floor(settings_.start / duration_) * duration_
+                          : std::clamp(settings_.start, 0.0, duration_);
+  root_start_ = local(root_, tau0).translation();
+  if (settings_.place) {
+    placement_ = Vec3::Zero();
     std::vector<Transform> pose0;
-    m.pose(0.0, pose0);
+    pose(0.0, pose0);
     double low = std::numeric_limits<double>::infinity();
     for (const Transform& t : pose0) low = std::min(low, t.translation().y());
-    const Vec3 root = pose0[m.root_].translation();
-    m.placement_ = Vec3(-root.x(), -low, -root.z());
+    const Vec3 root = pose0[root_].translation();
+    placement_ = Vec3(-root.x(), -low, -root.z());
   }
-  return m;
 }
 
 int Motion::find(const std::string& name) const {

@@ -344,6 +344,14 @@ void BodyCollisionStage::add_reactions(const std::vector<Reaction>& reactions) {
   revisits_ += static_cast<long>(reactions.size());
 }
 
+// One edge's correction against one collider in a pass.
+struct BodyCollisionStage::EdgeCorrection {
+  int collider = -1;
+  Vec3 dxa = Vec3::Zero(), dxb = Vec3::Zero(), dva = Vec3::Zero(), dvb = Vec3::Zero();
+  Vec3 point = Vec3::Zero(), normal = Vec3::Zero();
+  bool leaving = false;  // the edge point separates from the surface (then its ends get no contact normal)
+};
+
 void BodyCollisionStage::run_edges(cloth::Cloth& cloth, double h, int threads,
                                    std::vector<Reaction>& records) {
   ColliderSet& set = *colliders_;
@@ -352,141 +360,166 @@ void BodyCollisionStage::run_edges(cloth::Cloth& cloth, double h, int threads,
     if (set[k].shape.type == ShapeType::capsule || set[k].shape.type == ShapeType::box)
       edge_colliders.push_back(k);
   if (edge_colliders.empty()) return;
-  ClothState& s = cloth.state();
+  const int ne = static_cast<int>(cloth.mesh().edges().size());
+  std::vector<EdgeCorrection> corr(ne);
+  for (int pass = 0; pass < settings_.max_passes; ++pass) {
+    if (find_edge_corrections(cloth, h, threads, edge_colliders, corr) == 0) break;
+    if (drop_threaded_edges(cloth, corr) == 0) break;
+    apply_edge_corrections(cloth, corr, records);
+  }
+}
+
+long BodyCollisionStage::find_edge_corrections(const cloth::Cloth& cloth, double h, int threads,
+                                               const std::vector<int>& edge_colliders,
+                                               std::vector<EdgeCorrection>& corr) const {
+  const ClothState& s = cloth.state();
   const auto& edges = cloth.mesh().edges();
   const int ne = static_cast<int>(edges.size());
-  struct Correction {
-    int collider = -1;
-    Vec3 dxa = Vec3::Zero(), dxb = Vec3::Zero(), dva = Vec3::Zero(), dvb = Vec3::Zero();
-    Vec3 point = Vec3::Zero(), normal = Vec3::Zero();
-    bool leaving = false;  // the edge point separates from the surface (then its ends get no contact normal)
-  };
-  std::vector<Correction> corr(ne);
-  for (int pass = 0; pass < settings_.max_passes; ++pass) {
-    long found = 0;
+  long found = 0;
 #pragma omp parallel for schedule(static) num_threads(threads) if (threads > 1) reduction(+ : found)
-    for (int e = 0; e < ne; ++e) {
-      Correction& cr = corr[e];
-      cr = Correction();
-      const int a = edges[e].i, b = edges[e].j;
-      const double wa = s.inv_mass[a], wb = s.inv_mass[b];
-      if (wa + wb == 0.0) continue;
-      for (int k : edge_colliders) {
-        const Collider& c = set[k];
-        const double th = thickness(k, cloth.material().thickness);
-        Aabb box = swept_box(s.x_prev[a], s.x[a], th);
-        box.grow(s.x_prev[b]), box.grow(s.x[b]);
-        box.lo -= Vec3::Constant(th), box.hi += Vec3::Constant(th);
-        if (!box.overlaps(broad_phase_.box(k))) continue;
-        double sp = 0.0, deficit = 0.0;
-        Vec3 nrm;
-        if (c.shape.type == ShapeType::capsule) {
-          const SweptSegmentHit hit = swept_segment_capsule(c, s.x_prev[a], s.x_prev[b], s.x[a], s.x[b],
-                                                            settings_.ccd_separation * th);
-          if (hit.hit) {
-            // Keep the side the edge touched from: along the contact normal carried to curr.
-            sp = hit.s;
-            nrm = c.curr.linear() * hit.normal_local;
-            const Vec3 pe = (1.0 - sp) * s.x[a] + sp * s.x[b];
-            deficit = c.shape.radius + th - (pe - c.curr * hit.axis_local).dot(nrm);
-          } else {
-            deficit = th - segment_capsule_distance(c, c.curr, s.x[a], s.x[b], &sp, &nrm);
-          }
-        } else {
-          deficit = th - segment_box_edges_distance(c, c.curr, s.x[a], s.x[b], &sp, &nrm);
-        }
-        // Endpoint contacts belong to the vertex phase.
-        if (deficit <= 1e-9 * th || sp <= 1e-6 || sp >= 1.0 - 1e-6) continue;
-        // Next to a kinematic endpoint the lever amplifies the free endpoint's correction by 1/s (a contact
-        // near a pin, e.g. a garment's attached ring, would fling its neighbour): the free half's contacts
-        // only; the vertex phase handles the free endpoint itself.
-        if ((wa == 0.0 && sp < 0.5) || (wb == 0.0 && sp > 0.5)) continue;
-        // Move the edge point (1-s) a + s b by `deficit` along n, split by inverse mass (Bridson et al. 2002,
-        // Sec. 7.1): lambda = deficit / (wa (1-s)^2 + wb s^2).
-        const double wsum = wa * (1.0 - sp) * (1.0 - sp) + wb * sp * sp;
-        const double lambda = deficit / wsum;
-        cr.dxa = wa * (1.0 - sp) * lambda * nrm;
-        cr.dxb = wb * sp * lambda * nrm;
-        const Vec3 pe = (1.0 - sp) * s.x[a] + sp * s.x[b];
-        const Vec3 vs = surface_velocity(c.prev, c.curr, h, pe);
-        const double vn = ((1.0 - sp) * s.v[a] + sp * s.v[b] - vs).dot(nrm);
-        cr.leaving = vn > 1e-9;
-        if (vn < 0.0) {
-          const double mu = -vn / wsum;
-          cr.dva = wa * (1.0 - sp) * mu * nrm;
-          cr.dvb = wb * sp * mu * nrm;
-        }
-        cr.collider = k;
-        cr.point = pe;
-        cr.normal = nrm;
+  for (int e = 0; e < ne; ++e) {
+    EdgeCorrection& cr = corr[e];
+    cr = EdgeCorrection();
+    const int a = edges[e].i, b = edges[e].j;
+    const double wa = s.inv_mass[a], wb = s.inv_mass[b];
+    if (wa + wb == 0.0) continue;
+    for (int k : edge_colliders) {
+      if (edge_correction(s, a, b, k, cloth.material().thickness, h, cr)) {
         ++found;
         break;  // one collider per edge per pass
       }
     }
-    if (found == 0) break;
-    // A capsule threaded through the cloth: two edges of one vertex corrected against the same capsule from
-    // opposite sides (normals more than 90 degrees apart) have the capsule between them, through a triangle
-    // of the fan, which no edge correction can undo (faces are not tested). Pushing both edges to their own
-    // sides would pull the vertex's neighbours apart every step, and the solver would throw the stretched
-    // vertex back. Those edges get no correction: the cloth slides off the limb; the vertex phase still keeps
-    // every vertex out of every collider. Capsules only: cloth wrapped around the edge of a thin box (a
-    // tablecloth on a table) has opposite normals too and is corrected. (Testing instead whether the
-    // capsule's axis crosses the vertex's triangle misses threaded capsules that the opposite edge normals
-    // catch.)
-    std::vector<int> first_collider(s.size(), -1);
-    std::vector<Vec3> first_normal(s.size());
-    std::vector<char> threaded(s.size(), 0);
-    for (int e = 0; e < ne; ++e) {
-      const Correction& cr = corr[e];
-      if (cr.collider < 0 || set[cr.collider].shape.type != ShapeType::capsule) continue;
-      for (int v : {edges[e].i, edges[e].j}) {
-        if (first_collider[v] < 0) {
-          first_collider[v] = cr.collider, first_normal[v] = cr.normal;
-        } else if (first_collider[v] == cr.collider && first_normal[v].dot(cr.normal) < 0.0) {
-          threaded[v] = 1;
-        }
+  }
+  return found;
+}
+
+bool BodyCollisionStage::edge_correction(const ClothState& s, int a, int b, int k, double material_thickness,
+                                         double h, EdgeCorrection& cr) const {
+  const Collider& c = (*colliders_)[k];
+  const double wa = s.inv_mass[a], wb = s.inv_mass[b];
+  const double th = thickness(k, material_thickness);
+  Aabb box = swept_box(s.x_prev[a], s.x[a], th);
+  box.grow(s.x_prev[b]), box.grow(s.x[b]);
+  box.lo -= Vec3::Constant(th), box.hi += Vec3::Constant(th);
+  if (!box.overlaps(broad_phase_.box(k))) return false;
+  double sp = 0.0, deficit = 0.0;
+  Vec3 nrm;
+  if (c.shape.type == ShapeType::capsule) {
+    const SweptSegmentHit hit =
+        swept_segment_capsule(c, s.x_prev[a], s.x_prev[b], s.x[a], s.x[b], settings_.ccd_separation * th);
+    if (hit.hit) {
+      // Keep the side the edge touched from: along the contact normal carried to curr.
+      sp = hit.s;
+      nrm = c.curr.linear() * hit.normal_local;
+      const Vec3 pe = (1.0 - sp) * s.x[a] + sp * s.x[b];
+      deficit = c.shape.radius + th - (pe - c.curr * hit.axis_local).dot(nrm);
+    } else {
+      deficit = th - segment_capsule_distance(c, c.curr, s.x[a], s.x[b], &sp, &nrm);
+    }
+  } else {
+    deficit = th - segment_box_edges_distance(c, c.curr, s.x[a], s.x[b], &sp, &nrm);
+  }
+  // Endpoint contacts belong to the vertex phase.
+  if (deficit <= 1e-9 * th || sp <= 1e-6 || sp >= 1.0 - 1e-6) return false;
+  // Next to a kinematic endpoint the lever amplifies the free endpoint's correction by 1/s (a contact
+  // near a pin, e.g. a garment's attached ring, would fling its neighbour): the free half's contacts
+  // only; the vertex phase handles the free endpoint itself.
+  if ((wa == 0.0 && sp < 0.5) || (wb == 0.0 && sp > 0.5)) return false;
+  // Move the edge point (1-s) a + s b by `deficit` along n, split by inverse mass (Bridson et al. 2002,
+  // Sec. 7.1): lambda = deficit / (wa (1-s)^2 + wb s^2).
+  const double wsum = wa * (1.0 - sp) * (1.0 - sp) + wb * sp * sp;
+  const double lambda = deficit / wsum;
+  cr.dxa = wa * (1.0 - sp) * lambda * nrm;
+  cr.dxb = wb * sp * lambda * nrm;
+  const Vec3 pe = (1.0 - sp) * s.x[a] + sp * s.x[b];
+  const Vec3 vs = surface_velocity(c.prev, c.curr, h, pe);
+  const double vn = ((1.0 - sp) * s.v[a] + sp * s.v[b] - vs).dot(nrm);
+  cr.leaving = vn > 1e-9;
+  if (vn < 0.0) {
+    const double mu = -vn / wsum;
+    cr.dva = wa * (1.0 - sp) * mu * nrm;
+    cr.dvb = wb * sp * mu * nrm;
+  }
+  cr.collider = k;
+  cr.point = pe;
+  cr.normal = nrm;
+  return true;
+}
+
+long BodyCollisionStage::drop_threaded_edges(const cloth::Cloth& cloth, std::vector<EdgeCorrection>& corr) {
+  const ColliderSet& set = *colliders_;
+  const int nv = cloth.state().size();
+  const auto& edges = cloth.mesh().edges();
+  const int ne = static_cast<int>(edges.size());
+  // A capsule threaded through the cloth: two edges of one vertex corrected against the same capsule from
+  // opposite sides (normals more than 90 degrees apart) have the capsule between them, through a triangle
+  // of the fan, which no edge correction can undo (faces are not tested). Pushing both edges to their own
+  // sides would pull the vertex's neighbours apart every step, and the solver would throw the stretched
+  // vertex back. Those edges get no correction: the cloth slides off the limb; the vertex phase still keeps
+  // every vertex out of every collider. Capsules only: cloth wrapped around the edge of a thin box (a
+  // tablecloth on a table) has opposite normals too and is corrected. (Testing instead whether the
+  // capsule's axis crosses the vertex's triangle misses threaded capsules that the opposite edge normals
+  // catch.)
+  std::vector<int> first_collider(nv, -1);
+  std::vector<Vec3> first_normal(nv);
+  std::vector<char> threaded(nv, 0);
+  for (int e = 0; e < ne; ++e) {
+    const EdgeCorrection& cr = corr[e];
+    if (cr.collider < 0 || set[cr.collider].shape.type != ShapeType::capsule) continue;
+    for (int v : {edges[e].i, edges[e].j}) {
+      if (first_collider[v] < 0) {
+        first_collider[v] = cr.collider, first_normal[v] = cr.normal;
+      } else if (first_collider[v] == cr.collider && first_normal[v].dot(cr.normal) < 0.0) {
+        threaded[v] = 1;
       }
     }
-    long applied = 0;
-    for (int e = 0; e < ne; ++e) {
-      Correction& cr = corr[e];
-      if (cr.collider < 0) continue;
-      if (threaded[edges[e].i] || threaded[edges[e].j]) {
-        cr.collider = -1;
-        ++threaded_edges_;
-      } else {
-        ++applied;
-      }
+  }
+  long applied = 0;
+  for (int e = 0; e < ne; ++e) {
+    EdgeCorrection& cr = corr[e];
+    if (cr.collider < 0) continue;
+    if (threaded[edges[e].i] || threaded[edges[e].j]) {
+      cr.collider = -1;
+      ++threaded_edges_;
+    } else {
+      ++applied;
     }
-    if (applied == 0) break;
-    // Jacobi: a vertex on several corrected edges gets the mean of their corrections, not the sum (summed,
-    // the 4-6 edges of a vertex on one capsule push it 4-6 times too far and too fast). Both ends of an edge
-    // take the same fraction, 1 / the larger of their counts, so the edge point moves along the normal as the
-    // inverse-mass split intends (scaled per end, the end on one corrected edge would take its whole share
-    // while its partner on four took a quarter, and the edge would swing about the partner, moving the first
-    // end farther than the edge's deficit).
-    std::vector<int> hits(s.size(), 0);
-    for (int e = 0; e < ne; ++e)
-      if (corr[e].collider >= 0) ++hits[edges[e].i], ++hits[edges[e].j];
-    // Gather in edge order (deterministic for any thread count).
-    for (int e = 0; e < ne; ++e) {
-      Correction& cr = corr[e];
-      if (cr.collider < 0) continue;
-      const int a = edges[e].i, b = edges[e].j;
-      const double f = 1.0 / std::max(hits[a], hits[b]);
-      cr.dxa *= f, cr.dva *= f, cr.dxb *= f, cr.dvb *= f;
-      s.x[a] += cr.dxa, s.x[b] += cr.dxb;
-      s.v[a] += cr.dva, s.v[b] += cr.dvb;
-      // Both free ends are held along the contact normal in the next solve (ClothState::contact_normal; the
-      // vertex phase replaces it for a vertex that ends near a collider itself), unless the edge point leaves
-      // the surface.
-      if (settings_.contact_normals && !cr.leaving) {
-        if (s.inv_mass[a] > 0.0) s.contact_normal[a] = cr.normal;
-        if (s.inv_mass[b] > 0.0) s.contact_normal[b] = cr.normal;
-      }
-      records.push_back({cr.collider, s.mass[a] * cr.dva + s.mass[b] * cr.dvb, cr.point});
-      ++edge_contacts_;
+  }
+  return applied;
+}
+
+void BodyCollisionStage::apply_edge_corrections(cloth::Cloth& cloth, std::vector<EdgeCorrection>& corr,
+                                                std::vector<Reaction>& records) {
+  ClothState& s = cloth.state();
+  const auto& edges = cloth.mesh().edges();
+  const int ne = static_cast<int>(edges.size());
+  // Jacobi: a vertex on several corrected edges gets the mean of their corrections, not the sum (summed,
+  // the 4-6 edges of a vertex on one capsule push it 4-6 times too far and too fast). Both ends of an edge
+  // take the same fraction, 1 / the larger of their counts, so the edge point moves along the normal as the
+  // inverse-mass split intends (scaled per end, the end on one corrected edge would take its whole share
+  // while its partner on four took a quarter, and the edge would swing about the partner, moving the first
+  // end farther than the edge's deficit).
+  std::vector<int> hits(s.size(), 0);
+  for (int e = 0; e < ne; ++e)
+    if (corr[e].collider >= 0) ++hits[edges[e].i], ++hits[edges[e].j];
+  // Gather in edge order (deterministic for any thread count).
+  for (int e = 0; e < ne; ++e) {
+    EdgeCorrection& cr = corr[e];
+    if (cr.collider < 0) continue;
+    const int a = edges[e].i, b = edges[e].j;
+    const double f = 1.0 / std::max(hits[a], hits[b]);
+    cr.dxa *= f, cr.dva *= f, cr.dxb *= f, cr.dvb *= f;
+    s.x[a] += cr.dxa, s.x[b] += cr.dxb;
+    s.v[a] += cr.dva, s.v[b] += cr.dvb;
+    // Both free ends are held along the contact normal in the next solve (ClothState::contact_normal; the
+    // vertex phase replaces it for a vertex that ends near a collider itself), unless the edge point leaves
+    // the surface.
+    if (settings_.contact_normals && !cr.leaving) {
+      if (s.inv_mass[a] > 0.0) s.contact_normal[a] = cr.normal;
+      if (s.inv_mass[b] > 0.0) s.contact_normal[b] = cr.normal;
     }
+    records.push_back({cr.collider, s.mass[a] * cr.dva + s.mass[b] * cr.dvb, cr.point});
+    ++edge_contacts_;
   }
 }
 

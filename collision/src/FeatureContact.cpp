@@ -184,7 +184,68 @@ Vec3 contact_dv(const Vec3& rel, const Vec3& n, double mu_s, double mu_k) {
   return -vn * n + (keep - 1.0) * vt;
 }
 
+// Clips A + u (B - A), u in [u0, u1], to the prism over the triangle (a, b, c) with unit normal n.
+// Returns false when nothing is left.
+bool clip_to_prism(const Vec3& A, const Vec3& B, const Vec3& a, const Vec3& b, const Vec3& c, const Vec3& n,
+                   double& u0, double& u1) {
+  // Clip A + u (B - A) to the prism over the triangle: (P - e0) . (n x (e1 - e0)) >= 0 per edge.
+  bool empty = false;
+  const Vec3* corners[3] = {&a, &b, &c};
+  for (int j = 0; j < 3 && !empty; ++j) {
+    const Vec3& e0 = *corners[j];
+    const Vec3 m = n.cross(*corners[(j + 1) % 3] - e0);
+    const double gA = (A - e0).dot(m), gB = (B - e0).dot(m);
+    if (gA < 0.0 && gB < 0.0) {
+      empty = true;
+    } else if (gA < 0.0) {
+      u0 = std::max(u0, gA / (gA - gB));
+    } else if (gB < 0.0) {
+      u1 = std::min(u1, gA / (gA - gB));
+    }
+    if (u0 > u1) empty = true;
+  }
+  return !empty;
+}
+
+// Swept box of the collider (prev and curr), inflated by the thickness `thick` (m).
+void swept_bounds(const Collider& col, const ColliderGeometry* geom, double thick, Vec3& blo, Vec3& bhi) {
+  Vec3 llo, lhi;
+  local_bounds(col.shape, geom, llo, lhi);
+  blo = Vec3::Constant(HUGE_VAL), bhi = Vec3::Constant(-HUGE_VAL);
+  for (int corner = 0; corner < 8; ++corner) {
+    const Vec3 q((corner & 1) ? lhi.x() : llo.x(), (corner & 2) ? lhi.y() : llo.y(),
+                 (corner & 4) ? lhi.z() : llo.z());
+    for (const Transform* pose : {&col.prev, &col.curr}) {
+      const Vec3 w = *pose * q;
+      blo = blo.cwiseMin(w), bhi = bhi.cwiseMax(w);
+    }
+  }
+  blo.array() -= thick;
+  bhi.array() += thick;
+}
+
 }  // namespace
+
+// One collider's contact parameters for one cloth and step.
+struct FeatureContactStage::ColliderPass {
+  Collider& col;
+  double thick;  // m, contact thickness
+  double mu_k, mu_s;
+  bool plane;
+  const ColliderGeometry* geom;
+  Transform inv_curr;
+  Vec3 centre;    // m, the collider's origin at curr (reaction torques are about it)
+  Vec3 blo, bhi;  // m, swept box of the collider, inflated by thick (unbounded for a plane)
+
+  // Applies contact_dv at `point` for a point of inverse mass inv_w: `impulse` (N s) goes to the cloth, its
+  // opposite (and torque) to the collider's reaction.
+  void respond(const Vec3& rel, const Vec3& n, const Vec3& point, double inv_w, Vec3& impulse) const {
+    const Vec3 dv = contact_dv(rel, n, mu_s, mu_k);
+    impulse = dv / inv_w;  // N s given to the cloth at `point`
+    col.reaction_impulse -= impulse;
+    col.reaction_angular_impulse -= (point - centre).cross(impulse);
+  }
+};
 
 void FeatureContactStage::run_cloth(cloth::Cloth& cloth, double h) {
   cloth::ClothState& s = cloth.state();
@@ -192,7 +253,6 @@ void FeatureContactStage::run_cloth(cloth::Cloth& cloth, double h) {
   const double thk = settings_.thickness > 0.0 ? settings_.thickness : cloth.material().thickness;
   Grid& grid = *grid_;
   grid.build(s, mesh);
-  const auto& tris = mesh.triangles();
   const bool have_prev = s.x_prev.size() == s.x.size();
 
   for (size_t k = 0; k < colliders_->size(); ++k) {
@@ -201,48 +261,19 @@ void FeatureContactStage::run_cloth(cloth::Cloth& cloth, double h) {
     const double mu_k = settings_.friction.value_or(col.friction);
     const double mu_s = std::max(mu_k, settings_.static_friction.value_or(col.static_friction));
     const bool plane = col.shape.type == ShapeType::plane;
-    const ColliderGeometry* geom = col.geometry.get();
-    const Transform inv_curr = col.curr.inverse(Eigen::Isometry);
-    const Vec3 centre = col.curr.translation();
-    // Swept box of the collider (prev and curr), inflated by the thickness.
-    Vec3 blo = Vec3::Constant(-HUGE_VAL), bhi = Vec3::Constant(HUGE_VAL);
-    if (!plane) {
-      Vec3 llo, lhi;
-      local_bounds(col.shape, geom, llo, lhi);
-      blo = Vec3::Constant(HUGE_VAL), bhi = Vec3::Constant(-HUGE_VAL);
-      for (int corner = 0; corner < 8; ++corner) {
-        const Vec3 q((corner & 1) ? lhi.x() : llo.x(), (corner & 2) ? lhi.y() : llo.y(),
-                     (corner & 4) ? lhi.z() : llo.z());
-        for (const Transform* pose : {&col.prev, &col.curr}) {
-          const Vec3 w = *pose * q;
-          blo = blo.cwiseMin(w), bhi = bhi.cwiseMax(w);
-        }
-      }
-      blo.array() -= thick;
-      bhi.array() += thick;
-    }
-    auto respond = [&](const Vec3& rel, const Vec3& n, const Vec3& point, double inv_w, Vec3& impulse) {
-      const Vec3 dv = contact_dv(rel, n, mu_s, mu_k);
-      impulse = dv / inv_w;  // N s given to the cloth at `point`
-      col.reaction_impulse -= impulse;
-      col.reaction_angular_impulse -= (point - centre).cross(impulse);
-    };
+    ColliderPass pass{col,
+                      thick,
+                      mu_k,
+                      mu_s,
+                      plane,
+                      col.geometry.get(),
+                      col.curr.inverse(Eigen::Isometry),
+                      col.curr.translation(),
+                      Vec3::Constant(-HUGE_VAL),
+                      Vec3::Constant(HUGE_VAL)};
+    if (!plane) swept_bounds(col, pass.geom, thick, pass.blo, pass.bhi);
 
-    // Candidates once per collider and step.
-    cand_v_.clear();
-    cand_t_.clear();
-    if (plane) {
-      for (int i = 0; i < s.size(); ++i) cand_v_.push_back(i);
-    } else {
-      grid.query(blo, bhi, grid.vert_start, grid.verts, [&](int i) {
-        const Vec3& x = s.x[i];
-        if ((x.array() >= blo.array()).all() && (x.array() <= bhi.array()).all()) cand_v_.push_back(i);
-      });
-      if (!features_[k].a.empty()) {
-        const Vec3 r = Vec3::Constant(grid.tri_reach + features_[k].radius);
-        grid.query(blo - r, bhi + r, grid.tri_start, grid.tris, [&](int t) { cand_t_.push_back(t); });
-      }
-    }
+    gather_candidates(s, k, pass);
     if (cand_v_.empty() && cand_t_.empty()) continue;
     const ColliderFeatures& f = features_[k];
     const int nf = static_cast<int>(f.a.size());
@@ -254,110 +285,131 @@ void FeatureContactStage::run_cloth(cloth::Cloth& cloth, double h) {
 
     for (int iter = 0; iter < std::max(1, settings_.iterations); ++iter) {
       // 1. Vertices.
-      for (int i : cand_v_) {
-        if (s.inv_mass[i] == 0.0) continue;
-        Vec3& x = s.x[i];
-        Vec3 nl;
-        const double d = local_signed_distance(col.shape, geom, inv_curr * x, &nl);
-        if (!(d < thick)) continue;
-        last_penetration_ = std::max(last_penetration_, -d);
-        Vec3 n = col.curr.linear() * nl;
-        double push = thick - d;
-        if (d < -thick && have_prev && iter == 0) {
-          // Deeper than the thickness: the nearest face may not be the one it came through.
-          const SweptHit hit = swept_point(col, s.x_prev[i], x, 0.5 * thick);
-          if (hit.hit) {
-            n = col.curr.linear() * hit.normal;
-            push = thick - (inv_curr * x - hit.local).dot(hit.normal);
-            ++swept_vertices_;
-          }
-        }
-        if (push <= 0.0) continue;
-        ++vertex_contacts_;
-        x += push * n;
-        const Vec3 vb = surface_velocity(col.prev, col.curr, h, x);
-        Vec3 impulse;
-        respond(s.v[i] - vb, n, x, s.inv_mass[i], impulse);
-        s.v[i] += s.inv_mass[i] * impulse;
-      }
+      push_vertices(s, pass, h, iter == 0 && have_prev);
       // 2. Collider features against cloth triangles.
-      for (int t : cand_t_) {
-        const int ia = tris[t][0], ib = tris[t][1], ic = tris[t][2];
-        const double wa = s.inv_mass[ia], wb = s.inv_mass[ib], wc = s.inv_mass[ic];
-        if (wa == 0.0 && wb == 0.0 && wc == 0.0) continue;
-        const Vec3 &a = s.x[ia], &b = s.x[ib], &c = s.x[ic];
-        Vec3 n = (b - a).cross(c - a);
-        const double n_len = n.norm();
-        if (!(n_len > 1e-14)) continue;
-        n /= n_len;
-        const double reach = f.radius + thick;
-        for (int e = 0; e < nf; ++e) {
-          const Vec3 &A = fa_[e], &B = fb_[e];
-          const double sA = (A - a).dot(n), sB = (B - a).dot(n);
-          if ((sA > reach && sB > reach) || (sA < -reach && sB < -reach)) continue;
-          // Clip A + u (B - A) to the prism over the triangle: (P - e0) . (n x (e1 - e0)) >= 0 per edge.
-          double u0 = 0.0, u1 = 1.0;
-          bool empty = false;
-          const Vec3* corners[3] = {&a, &b, &c};
-          for (int j = 0; j < 3 && !empty; ++j) {
-            const Vec3& e0 = *corners[j];
-            const Vec3 m = n.cross(*corners[(j + 1) % 3] - e0);
-            const double gA = (A - e0).dot(m), gB = (B - e0).dot(m);
-            if (gA < 0.0 && gB < 0.0) {
-              empty = true;
-            } else if (gA < 0.0) {
-              u0 = std::max(u0, gA / (gA - gB));
-            } else if (gB < 0.0) {
-              u1 = std::min(u1, gA / (gA - gB));
-            }
-            if (u0 > u1) empty = true;
-          }
-          if (empty) continue;
-          // The side the feature was on at the step's start (its clipped middle against the old plane);
-          // when it was closer than half the thickness to it, the side of the collider's centre.
-          double side = 1.0;
-          {
-            const Vec3 &a0 = have_prev ? s.x_prev[ia] : a, &b0 = have_prev ? s.x_prev[ib] : b;
-            const Vec3& c0 = have_prev ? s.x_prev[ic] : c;
-            Vec3 n0 = (b0 - a0).cross(c0 - a0);
-            n0 = n0.norm() > 1e-14 ? n0.normalized() : n;
-            const double um = 0.5 * (u0 + u1);
-            const double s0 = (fa0_[e] + um * (fb0_[e] - fa0_[e]) - a0).dot(n0);
-            const double sc = (col.prev.translation() - a0).dot(n0);
-            side = std::abs(s0) >= 0.5 * thick ? (s0 > 0.0 ? 1.0 : -1.0) : (sc >= 0.0 ? 1.0 : -1.0);
-          }
-          const double h0 = side * (sA + u0 * (sB - sA)), h1 = side * (sA + u1 * (sB - sA));
-          const double u = h0 <= h1 ? u0 : u1;
-          const double depth = reach - std::min(h0, h1);
-          if (!(depth > 0.0)) continue;
-          const Vec3 p = A + u * (B - A);
-          // Barycentric weights of p's projection.
-          const Vec3 q = p - (p - a).dot(n) * n;
-          const double area = (b - a).cross(c - a).dot(n);
-          if (!(area > 1e-14)) continue;
-          double ba = (b - q).cross(c - q).dot(n) / area, bb = (c - q).cross(a - q).dot(n) / area;
-          ba = std::clamp(ba, 0.0, 1.0), bb = std::clamp(bb, 0.0, 1.0 - ba);
-          const double bc = 1.0 - ba - bb;
-          const double inv_w = wa * ba * ba + wb * bb * bb + wc * bc * bc;
-          if (!(inv_w > 0.0)) continue;
-          ++face_contacts_;
-          last_penetration_ = std::max(last_penetration_, depth - thick);
-          const Vec3 N = -side * n;  // from the body to the cloth
-          const Vec3 dx = (depth / inv_w) * N;
-          s.x[ia] += wa * ba * dx, s.x[ib] += wb * bb * dx, s.x[ic] += wc * bc * dx;
-          const Vec3 point = ba * s.x[ia] + bb * s.x[ib] + bc * s.x[ic];
-          const Vec3 vb = surface_velocity(col.prev, col.curr, h, p);
-          const Vec3 vp = ba * s.v[ia] + bb * s.v[ib] + bc * s.v[ic];
-          Vec3 impulse;
-          respond(vp - vb, N, point, inv_w, impulse);
-          s.v[ia] += wa * ba * impulse, s.v[ib] += wb * bb * impulse, s.v[ic] += wc * bc * impulse;
-          // The triangle moved: refresh its plane for the next feature.
-          n = (b - a).cross(c - a);
-          const double len = n.norm();
-          if (!(len > 1e-14)) break;
-          n /= len;
-        }
+      push_triangles(s, mesh, pass, f, h, have_prev);
+    }
+  }
+}
+
+void FeatureContactStage::gather_candidates(const cloth::ClothState& s, size_t k, const ColliderPass& pass) {
+  // Candidates once per collider and step.
+  Grid& grid = *grid_;
+  const Vec3 &blo = pass.blo, &bhi = pass.bhi;
+  cand_v_.clear();
+  cand_t_.clear();
+  if (pass.plane) {
+    for (int i = 0; i < s.size(); ++i) cand_v_.push_back(i);
+  } else {
+    grid.query(blo, bhi, grid.vert_start, grid.verts, [&](int i) {
+      const Vec3& x = s.x[i];
+      if ((x.array() >= blo.array()).all() && (x.array() <= bhi.array()).all()) cand_v_.push_back(i);
+    });
+    if (!features_[k].a.empty()) {
+      const Vec3 r = Vec3::Constant(grid.tri_reach + features_[k].radius);
+      grid.query(blo - r, bhi + r, grid.tri_start, grid.tris, [&](int t) { cand_t_.push_back(t); });
+    }
+  }
+}
+
+void FeatureContactStage::push_vertices(cloth::ClothState& s, const ColliderPass& pass, double h,
+                                        bool swept) {
+  const Collider& col = pass.col;
+  const double thick = pass.thick;
+  for (int i : cand_v_) {
+    if (s.inv_mass[i] == 0.0) continue;
+    Vec3& x = s.x[i];
+    Vec3 nl;
+    const double d = local_signed_distance(col.shape, pass.geom, pass.inv_curr * x, &nl);
+    if (!(d < thick)) continue;
+    last_penetration_ = std::max(last_penetration_, -d);
+    Vec3 n = col.curr.linear() * nl;
+    double push = thick - d;
+    if (d < -thick && swept) {
+      // Deeper than the thickness: the nearest face may not be the one it came through.
+      const SweptHit hit = swept_point(col, s.x_prev[i], x, 0.5 * thick);
+      if (hit.hit) {
+        n = col.curr.linear() * hit.normal;
+        push = thick - (pass.inv_curr * x - hit.local).dot(hit.normal);
+        ++swept_vertices_;
       }
+    }
+    if (push <= 0.0) continue;
+    ++vertex_contacts_;
+    x += push * n;
+    const Vec3 vb = surface_velocity(col.prev, col.curr, h, x);
+    Vec3 impulse;
+    pass.respond(s.v[i] - vb, n, x, s.inv_mass[i], impulse);
+    s.v[i] += s.inv_mass[i] * impulse;
+  }
+}
+
+void FeatureContactStage::push_triangles(cloth::ClothState& s, const cloth::ClothMesh& mesh,
+                                         const ColliderPass& pass, const ColliderFeatures& f, double h,
+                                         bool have_prev) {
+  const Collider& col = pass.col;
+  const double thick = pass.thick;
+  const auto& tris = mesh.triangles();
+  const int nf = static_cast<int>(f.a.size());
+  for (int t : cand_t_) {
+    const int ia = tris[t][0], ib = tris[t][1], ic = tris[t][2];
+    const double wa = s.inv_mass[ia], wb = s.inv_mass[ib], wc = s.inv_mass[ic];
+    if (wa == 0.0 && wb == 0.0 && wc == 0.0) continue;
+    const Vec3 &a = s.x[ia], &b = s.x[ib], &c = s.x[ic];
+    Vec3 n = (b - a).cross(c - a);
+    const double n_len = n.norm();
+    if (!(n_len > 1e-14)) continue;
+    n /= n_len;
+    const double reach = f.radius + thick;
+    for (int e = 0; e < nf; ++e) {
+      const Vec3 &A = fa_[e], &B = fb_[e];
+      const double sA = (A - a).dot(n), sB = (B - a).dot(n);
+      if ((sA > reach && sB > reach) || (sA < -reach && sB < -reach)) continue;
+      double u0 = 0.0, u1 = 1.0;
+      if (!clip_to_prism(A, B, a, b, c, n, u0, u1)) continue;
+      // The side the feature was on at the step's start (its clipped middle against the old plane);
+      // when it was closer than half the thickness to it, the side of the collider's centre.
+      double side = 1.0;
+      {
+        const Vec3 &a0 = have_prev ? s.x_prev[ia] : a, &b0 = have_prev ? s.x_prev[ib] : b;
+        const Vec3& c0 = have_prev ? s.x_prev[ic] : c;
+        Vec3 n0 = (b0 - a0).cross(c0 - a0);
+        n0 = n0.norm() > 1e-14 ? n0.normalized() : n;
+        const double um = 0.5 * (u0 + u1);
+        const double s0 = (fa0_[e] + um * (fb0_[e] - fa0_[e]) - a0).dot(n0);
+        const double sc = (col.prev.translation() - a0).dot(n0);
+        side = std::abs(s0) >= 0.5 * thick ? (s0 > 0.0 ? 1.0 : -1.0) : (sc >= 0.0 ? 1.0 : -1.0);
+      }
+      const double h0 = side * (sA + u0 * (sB - sA)), h1 = side * (sA + u1 * (sB - sA));
+      const double u = h0 <= h1 ? u0 : u1;
+      const double depth = reach - std::min(h0, h1);
+      if (!(depth > 0.0)) continue;
+      const Vec3 p = A + u * (B - A);
+      // Barycentric weights of p's projection.
+      const Vec3 q = p - (p - a).dot(n) * n;
+      const double area = (b - a).cross(c - a).dot(n);
+      if (!(area > 1e-14)) continue;
+      double ba = (b - q).cross(c - q).dot(n) / area, bb = (c - q).cross(a - q).dot(n) / area;
+      ba = std::clamp(ba, 0.0, 1.0), bb = std::clamp(bb, 0.0, 1.0 - ba);
+      const double bc = 1.0 - ba - bb;
+      const double inv_w = wa * ba * ba + wb * bb * bb + wc * bc * bc;
+      if (!(inv_w > 0.0)) continue;
+      ++face_contacts_;
+      last_penetration_ = std::max(last_penetration_, depth - thick);
+      const Vec3 N = -side * n;  // from the body to the cloth
+      const Vec3 dx = (depth / inv_w) * N;
+      s.x[ia] += wa * ba * dx, s.x[ib] += wb * bb * dx, s.x[ic] += wc * bc * dx;
+      const Vec3 point = ba * s.x[ia] + bb * s.x[ib] + bc * s.x[ic];
+      const Vec3 vb = surface_velocity(col.prev, col.curr, h, p);
+      const Vec3 vp = ba * s.v[ia] + bb * s.v[ib] + bc * s.v[ic];
+      Vec3 impulse;
+      pass.respond(vp - vb, N, point, inv_w, impulse);
+      s.v[ia] += wa * ba * impulse, s.v[ib] += wb * bb * impulse, s.v[ic] += wc * bc * impulse;
+      // The triangle moved: refresh its plane for the next feature.
+      n = (b - a).cross(c - a);
+      const double len = n.norm();
+      if (!(len > 1e-14)) break;
+      n /= len;
     }
   }
 }

@@ -159,6 +159,25 @@ class BulletCloth : public btActionInterface {
   double contacts_thickness() const;
   void warn(const std::string& shape_name);
   BodyTrack& track(btRigidBody* body);
+  // Rigid bodies overlapping the inflated cloth AABB, plus attached bodies; unique, ordered by proxy id.
+  std::vector<btRigidBody*> candidate_bodies(btCollisionWorld* world);
+  // The body's pose at the substep's start and end (tr.start, tr.end) for a substep of dt (s).
+  void advance_pose(BodyTrack& tr, btRigidBody* rb, double dt);
+  // Maps the body's collision shape to colliders in its frame (tr.local) when the shape changed.
+  void map_body_shape(BodyTrack& tr, btRigidBody* rb);
+  // Tier::realtime: enters a dynamic, unattached body into the coupled solve (appended to `coupled`);
+  // returns its index there, -1 if it is not coupled.
+  int add_coupled_body(const BodyTrack& tr, btRigidBody* rb, std::vector<btRigidBody*>& coupled);
+  // Poses of `bodies` over a substep of dt (s) and their colliders (colliders_, collider_body_,
+  // collider_local_ and the coupling's per-collider lists).
+  void make_colliders(const std::vector<btRigidBody*>& bodies, double dt, std::vector<btRigidBody*>& coupled);
+  // Cloth steps for a substep of dt (s): the settings' count, raised until no collider point nor cloth
+  // vertex moves more than step_motion thicknesses per step (at most max_cloth_substeps).
+  int cloth_step_count(const std::vector<btRigidBody*>& bodies, double dt) const;
+  // Tier::realtime: the touched coupled bodies take the coupled solve's pose and velocities.
+  void apply_coupled_solve(const std::vector<btRigidBody*>& coupled);
+  // The colliders' reaction impulses and moments, applied to the dynamic bodies.
+  void apply_reactions(const std::vector<btRigidBody*>& bodies);
 
   BulletClothSettings settings_;
   std::unique_ptr<cloth::Simulation> sim_;

@@ -70,6 +70,12 @@ class Motion {
   double clip_time(double t) const { return settings_.start + settings_.speed * t; }
 
  private:
+  // Scales the rest pose and the position keys so that the rest pose is settings.height tall (or by
+  // settings.scale); sets scale_ and rest_height_.
+  void set_units();
+  // The root's cycle shift (looping), its start translation and the placement (settings.place).
+  void set_root_motion();
+
   std::string source_;
   MotionSettings settings_;
   std::vector<Joint> joints_;

@@ -58,6 +58,21 @@ class FilteredPCG {
 
  private:
   double dot(const Vec3s& a, const Vec3s& b, int threads);
+  // Sum of partial_ in index order (the per-chunk sums of the last fused loop).
+  double partial_total() const;
+  // out = B r (one multigrid cycle), then the contact filters (`normals` null: none).
+  void apply_multigrid(const Vec3s& r, Vec3s& out, const Vec3s* normals, int threads);
+  // Fills pinv_ (unless `given`), sets the starting Δv and s = P⁻¹ filter(b).
+  void start(const BlockMatrix& A, const Vec3s& b, const std::vector<char>& fixed, Vec3s& dv, bool warm_start,
+             const Vec3s* normals, const std::vector<Mat3>& pinv, bool given, int t);
+  // r = filter(b - AΔv), c = P⁻¹ r.
+  void initial_residual(const BlockMatrix& A, const Vec3s& b, const std::vector<char>& fixed, const Vec3s& dv,
+                        const Vec3s* normals, const std::vector<Mat3>& pinv, int t);
+  // q = filter(A c); returns cᵀq.
+  double filtered_product(const BlockMatrix& A, const std::vector<char>& fixed, const Vec3s* normals, int t);
+  // Δv += α c, r -= α q, s = P⁻¹ r; returns rᵀs.
+  double step_and_precondition(double alpha, Vec3s& dv, const Vec3s* normals, const std::vector<Mat3>& pinv,
+                               int t);
   Preconditioner precond_ = Preconditioner::kBlockJacobi;
   AggregationMultigrid mg_;
   std::vector<Mat3> pinv_;

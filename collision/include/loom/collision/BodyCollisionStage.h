@@ -97,7 +97,20 @@ class BodyCollisionStage final : public cloth::Stage {
     double mu_s = 0.0, mu_k = 0.0;  // 1
   };
   void run_cloth(cloth::Cloth& cloth, int cloth_index, double h, int threads);
+  struct EdgeCorrection;
   void run_edges(cloth::Cloth& cloth, double h, int threads, std::vector<Reaction>& records);
+  // One pass's correction of every edge against the first of `edge_colliders` (capsules and boxes) that its
+  // interior touches; returns how many edges have one.
+  long find_edge_corrections(const cloth::Cloth& cloth, double h, int threads,
+                             const std::vector<int>& edge_colliders, std::vector<EdgeCorrection>& corr) const;
+  // The correction of edge (a, b) against collider k; false (cr untouched) when there is none.
+  bool edge_correction(const cloth::ClothState& s, int a, int b, int k, double material_thickness, double h,
+                       EdgeCorrection& cr) const;
+  // Drops the corrections of edges at a vertex threaded by a capsule; returns how many corrections remain.
+  long drop_threaded_edges(const cloth::Cloth& cloth, std::vector<EdgeCorrection>& corr);
+  // Applies the remaining corrections (Jacobi-averaged per vertex), appending their reactions to `records`.
+  void apply_edge_corrections(cloth::Cloth& cloth, std::vector<EdgeCorrection>& corr,
+                              std::vector<Reaction>& records);
   // final_d (optional): per entry of `mine`, the signed distance (m) at the returned x; left empty when the
   // last pass still changed x (then the caller evaluates it).
   int respond_vertex(const std::vector<int>& mine, const std::vector<Pair>& pairs, const Vec3& x0, Vec3& x,

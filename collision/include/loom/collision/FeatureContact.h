@@ -66,7 +66,17 @@ class FeatureContactStage final : public cloth::Stage {
 
  private:
   struct Grid;
+  struct ColliderPass;
   void run_cloth(cloth::Cloth& cloth, double h);
+  // Fills cand_v_ (vertices in the swept box; all for a plane) and cand_t_ (triangles within reach of
+  // collider k's features).
+  void gather_candidates(const cloth::ClothState& s, size_t k, const ColliderPass& pass);
+  // Phase 1: pushes candidate vertices out to the thickness and responds; `swept`: a vertex deeper than
+  // the thickness is placed by the continuous test against its previous position.
+  void push_vertices(cloth::ClothState& s, const ColliderPass& pass, double h, bool swept);
+  // Phase 2: pushes candidate triangles off the collider's features (fa_, fb_) and responds.
+  void push_triangles(cloth::ClothState& s, const cloth::ClothMesh& mesh, const ColliderPass& pass,
+                      const ColliderFeatures& f, double h, bool have_prev);
 
   ColliderSetPtr colliders_;
   FeatureContactSettings settings_;
