@@ -8,6 +8,7 @@
 
 #include "CcdEvalCommand.h"
 #include "FabricTestCommand.h"
+#include "RealtimeBench.h"
 #include "RunCommand.h"
 #include "Terminal.h"
 #ifdef LOOM_HAVE_BENCH_ACCURACY

@@ -431,9 +431,10 @@ cloth::DetailSettings parse_detail(const JsonReader& d) {
   return ds;
 }
 
-Scene parse_scene(const nlohmann::json& root, const std::string& file) {
-  const JsonReader r(root, "", file);
-  Scene scene;
+namespace {
+
+// The scene's name, clock (duration, fps, frames), gravity, threads and guard.
+void parse_header(const JsonReader& r, Scene& scene, const std::string& file) {
   scene.file = file;
   scene.name = r.string("name", std::filesystem::path(file).stem().string());
   // The name is the default output folder out/<name>: a plain file name, never a path.
@@ -459,8 +460,11 @@ Scene parse_scene(const nlohmann::json& root, const std::string& file) {
   if (scene.setup.threads > 4096)
     r.fail("threads", "must be <= 4096 (got " + std::to_string(scene.setup.threads) + ")");
   parse_guard(r, scene.setup.guard);  // non-finite / explosion guard (SceneGuard.cpp)
+}
 
-  // The quality tier (SceneQuality.h) gives the defaults of the solver, constraints and collision below.
+// The quality tier (SceneQuality.h) and the solver: the tier gives the defaults an explicit `solver`
+// replaces.
+void parse_solver(const JsonReader& r, const nlohmann::json& root, Scene& scene, const std::string& file) {
   scene.quality = parse_quality(r);
   const QualityTier& tier = scene.quality;
   const std::string default_method = tier.method.empty() ? "symplectic_euler" : tier.method;
@@ -504,7 +508,10 @@ Scene parse_scene(const nlohmann::json& root, const std::string& file) {
     s.finish();
   }
   cloth::make_solver(scene.setup.solver, file);  // an unknown method fails here, naming solver.method
+}
 
+// `effects`: air drag and wind (AirDragTerm.h); absent = no drag term at all.
+void parse_effects(const JsonReader& r, Scene& scene) {
   if (r.has("effects")) {
     const JsonReader e = r.object("effects");
     if (e.has("drag")) {
@@ -520,7 +527,12 @@ Scene parse_scene(const nlohmann::json& root, const std::string& file) {
     }
     e.finish();
   }
+}
 
+// `constraints` (StrainLimitStage.h, TetherStage.h), then the tier's passes where the scene names none of
+// that kind, and `body_contact`.
+void parse_constraints(const JsonReader& r, Scene& scene) {
+  const QualityTier& tier = scene.quality;
   if (r.has("constraints")) {
     // Constraint passes after the solver (StrainLimitStage.h, TetherStage.h); only the named ones exist.
     const JsonReader k = r.object("constraints");
@@ -549,7 +561,10 @@ Scene parse_scene(const nlohmann::json& root, const std::string& file) {
   if (tier.tethers && !scene.setup.tethers) scene.setup.tethers = cloth::TetherSettings{0.1, true};
   scene.realtime_contact = r.string("body_contact", tier.realtime_contact ? "realtime" : "exact",
                                     {"realtime", "exact"}) == "realtime";
+}
 
+// The character's garments first (SceneCharacter.cpp), then `cloths`.
+void parse_cloths(const JsonReader& r, Scene& scene, const std::string& file) {
   parse_character(r, scene);  // Mocap character; its garments are the first cloths (SceneCharacter.cpp)
   const auto cloths =
       r.has("cloths") || scene.setup.cloths.empty() ? r.objects("cloths") : std::vector<JsonReader>{};
@@ -576,10 +591,10 @@ Scene parse_scene(const nlohmann::json& root, const std::string& file) {
     c.finish();
     scene.setup.cloths.push_back(std::move(cs));
   }
-  parse_bodies(r, scene);     // Bullet rigid bodies (SceneBodies.cpp)
-  parse_colliders(r, scene);  // Rigid colliders and their motion (SceneColliders.cpp)
-  parse_collision(r, scene);  // Self- and cloth-cloth collision, friction pairs (SceneCollision.cpp)
+}
 
+// `output`: OBJ frames, export formats and the renderer's settings.
+void parse_output(const JsonReader& r, Scene& scene) {
   if (r.has("output")) {
     const JsonReader o = r.object("output");
     scene.output.every = o.integer("every", 1, 1);
@@ -622,7 +637,10 @@ Scene parse_scene(const nlohmann::json& root, const std::string& file) {
     }
     o.finish();
   }
-  r.finish();
+}
+
+// Weil's drape is one static shape from catenaries (WeilSolver.h): no motion, no contact.
+void check_weil(const Scene& scene, const std::string& file) {
   if (scene.setup.solver.method == "weil") {
     // Weil's drape is one static shape from catenaries (WeilSolver.h): no motion, no contact.
     auto refuse = [&](const std::string& field, const std::string& what) {
@@ -638,6 +656,25 @@ Scene parse_scene(const nlohmann::json& root, const std::string& file) {
       refuse("duration", "dynamics: it gives one frame (set duration to 1/fps; got " +
                              std::to_string(scene.frames) + " frames)");
   }
+}
+
+}  // namespace
+
+Scene parse_scene(const nlohmann::json& root, const std::string& file) {
+  const JsonReader r(root, "", file);
+  Scene scene;
+  parse_header(r, scene, file);
+  parse_solver(r, root, scene, file);
+  parse_effects(r, scene);
+  parse_constraints(r, scene);
+  parse_cloths(r, scene, file);
+  parse_bodies(r, scene);     // Bullet rigid bodies (SceneBodies.cpp)
+  parse_colliders(r, scene);  // Rigid colliders and their motion (SceneColliders.cpp)
+  parse_collision(r, scene);  // Self- and cloth-cloth collision, friction pairs (SceneCollision.cpp)
+
+  parse_output(r, scene);
+  r.finish();
+  check_weil(scene, file);
   return scene;
 }
 
