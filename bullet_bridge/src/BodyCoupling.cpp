@@ -137,64 +137,98 @@ void BodyCoupling::predict(double h) {
   }
 }
 
-void BodyCoupling::solve(cloth::Cloth& cloth, size_t index, double h) {
-  Work& w = *work_;
-  cloth::ClothState& s = cloth.state();
+CoupledBody* BodyCoupling::body_of(int k) {
+  return k < static_cast<int>(collider_body.size()) && collider_body[k] >= 0 ? &bodies[collider_body[k]]
+                                                                             : nullptr;
+}
+
+Transform BodyCoupling::pose_of(int k) {
+  const CoupledBody* b = body_of(k);
+  return b ? b->pose * collider_local[k] : (*colliders_)[k].curr;
+}
+
+// A vertex moving along unit m with multiplier lam (displacement lam W m): contact-aware (see header).
+double BodyCoupling::effective_inv_mass(const cloth::ClothState& s, int i, const Vec3& m) {
+  const Work& w = *work_;
+  const double thick = settings_.thickness;
+  const double wv = s.inv_mass[i];
+  const int k = w.contact[i];
+  if (k < 0 || wv == 0.0 || !body_of(k) || !body_of(k)->dynamic()) return wv;
+  const double mn = m.dot(w.normal[i]);
+  if (mn >= 0.0) return wv;
+  const CoupledBody& b = *body_of(k);
+  const Vec3 p = pose_of(k) * w.point_local[i];
+  if ((s.x[i] - p).dot(w.normal[i]) > kTouch * thick) return wv;  // no longer touching
+  const double wb = generalized_inv_mass(b, p - b.pose.translation(), w.normal[i]);
+  const double wc = wv * wb / (wv + wb);
+  return wv * (1.0 - mn * mn) + wc * mn * mn;
+}
+
+// Moves vertex i by lam W m, W as in effective_inv_mass; the normal share of a coupled contact moves its
+// body back (positional impulse).
+void BodyCoupling::move_vertex(cloth::ClothState& s, int i, double lam, const Vec3& m) {
+  const Work& w = *work_;
+  const double thick = settings_.thickness;
+  const double wv = s.inv_mass[i];
+  if (wv == 0.0) return;
+  const int k = w.contact[i];
+  const bool coupled = k >= 0 && body_of(k) && body_of(k)->dynamic();
+  const double mn = coupled ? m.dot(w.normal[i]) : 0.0;
+  const Vec3 p = coupled ? Vec3(pose_of(k) * w.point_local[i]) : Vec3::Zero();
+  if (!coupled || mn >= 0.0 || (s.x[i] - p).dot(w.normal[i]) > kTouch * thick) {
+    s.x[i] += (lam * wv) * m;
+    return;
+  }
+  CoupledBody& b = *body_of(k);
+  const Vec3& nrm = w.normal[i];
+  const Vec3 r = p - b.pose.translation();
+  const double wb = generalized_inv_mass(b, r, nrm);
+  const double wc = wv * wb / (wv + wb);
+  s.x[i] += lam * (wv * (m - mn * nrm) + wc * mn * nrm);
+  apply_positional_impulse(b, (lam * mn * wv / (wv + wb)) * nrm, r);
+}
+
+void BodyCoupling::build_limits(const cloth::Cloth& cloth, size_t index) {
+  const cloth::ClothState& s = cloth.state();
   const cloth::ClothMesh& mesh = cloth.mesh();
   const int n = s.size();
   const double tau = settings_.max_stretch;
-  if (w.cloths.size() <= index) w.cloths.resize(index + 1);
-  Work::ClothData& cd = w.cloths[index];
-  if (!cd.built) {
-    // Limited edges: structural, shear and mesh edges (as StrainLimitStage).
-    for (const cloth::SpringDef& sp : mesh.springs()) {
-      if (sp.kind != cloth::SpringKind::kStructural && sp.kind != cloth::SpringKind::kShear &&
-          sp.kind != cloth::SpringKind::kEdge)
-        continue;
-      const double L = (mesh.rest_positions()[sp.j] - mesh.rest_positions()[sp.i]).norm();
-      cd.edges.push_back({sp.i, sp.j, (1.0 + tau) * L});
-      cd.max_edge = std::max(cd.max_edge, (1.0 + tau) * L);
-    }
-    // Tethers to the nearest pinned vertices at rest (straight rest distance).
-    std::vector<int> pinned;
-    for (int i = 0; i < n; ++i)
-      if (s.inv_mass[i] == 0.0) pinned.push_back(i);
-    const int per = std::min<int>(settings_.tether_anchors, static_cast<int>(pinned.size()));
-    std::vector<std::pair<double, int>> near;
-    for (int i = 0; i < n && per > 0; ++i) {
-      if (s.inv_mass[i] == 0.0) continue;
-      near.clear();
-      for (int a : pinned) near.emplace_back((mesh.rest_positions()[a] - mesh.rest_positions()[i]).norm(), a);
-      std::partial_sort(near.begin(), near.begin() + per, near.end());
-      for (int k = 0; k < per; ++k) cd.tethers.push_back({i, near[k].second, (1.0 + tau) * near[k].first});
-    }
-    cd.vertex_tris.assign(n, {});
-    for (int t = 0; t < static_cast<int>(mesh.triangles().size()); ++t)
-      for (int k = 0; k < 3; ++k) cd.vertex_tris[mesh.triangles()[t][k]].push_back(t);
-    cd.built = true;
+  Work::ClothData& cd = work_->cloths[index];
+  // Limited edges: structural, shear and mesh edges (as StrainLimitStage).
+  for (const cloth::SpringDef& sp : mesh.springs()) {
+    if (sp.kind != cloth::SpringKind::kStructural && sp.kind != cloth::SpringKind::kShear &&
+        sp.kind != cloth::SpringKind::kEdge)
+      continue;
+    const double L = (mesh.rest_positions()[sp.j] - mesh.rest_positions()[sp.i]).norm();
+    cd.edges.push_back({sp.i, sp.j, (1.0 + tau) * L});
+    cd.max_edge = std::max(cd.max_edge, (1.0 + tau) * L);
   }
+  // Tethers to the nearest pinned vertices at rest (straight rest distance).
+  std::vector<int> pinned;
+  for (int i = 0; i < n; ++i)
+    if (s.inv_mass[i] == 0.0) pinned.push_back(i);
+  const int per = std::min<int>(settings_.tether_anchors, static_cast<int>(pinned.size()));
+  std::vector<std::pair<double, int>> near;
+  for (int i = 0; i < n && per > 0; ++i) {
+    if (s.inv_mass[i] == 0.0) continue;
+    near.clear();
+    for (int a : pinned) near.emplace_back((mesh.rest_positions()[a] - mesh.rest_positions()[i]).norm(), a);
+    std::partial_sort(near.begin(), near.begin() + per, near.end());
+    for (int k = 0; k < per; ++k) cd.tethers.push_back({i, near[k].second, (1.0 + tau) * near[k].first});
+  }
+  cd.vertex_tris.assign(n, {});
+  for (int t = 0; t < static_cast<int>(mesh.triangles().size()); ++t)
+    for (int k = 0; k < 3; ++k) cd.vertex_tris[mesh.triangles()[t][k]].push_back(t);
+}
 
+void BodyCoupling::find_candidates(const cloth::Cloth& cloth, size_t index) {
+  Work& w = *work_;
+  const cloth::ClothState& s = cloth.state();
+  const int n = s.size();
+  const Work::ClothData& cd = w.cloths[index];
   collision::ColliderSet& cs = *colliders_;
   const int nc = static_cast<int>(cs.size());
   const double thick = settings_.thickness;
-  w.contact.assign(n, -1);
-  w.normal.resize(n);
-  w.point_local.resize(n);
-  w.depth.assign(n, 0.0);
-  w.vertex_pairs.clear();
-  w.tri_pairs.clear();
-  w.stamp.assign(mesh.triangles().size(), -1);
-  w.features.resize(nc);
-  w.curr.resize(nc);
-  auto body_of = [&](int k) -> CoupledBody* {
-    return k < static_cast<int>(collider_body.size()) && collider_body[k] >= 0 ? &bodies[collider_body[k]]
-                                                                               : nullptr;
-  };
-  auto pose_of = [&](int k) -> Transform {
-    const CoupledBody* b = body_of(k);
-    return b ? b->pose * collider_local[k] : cs[k].curr;
-  };
-
   // Candidates: vertices in the collider's box grown by the thickness (contacts), triangles touching a
   // vertex in the box grown by the longest edge (features).
   for (int k = 0; k < nc; ++k) {
@@ -233,206 +267,221 @@ void BodyCoupling::solve(cloth::Cloth& cloth, size_t index, double h) {
         if (w.stamp[t] != k) w.stamp[t] = k, w.tri_pairs.emplace_back(t, k);
     }
   }
+}
 
-  const auto& tris = mesh.triangles();
+// Contacts: vertices against bodies.
+void BodyCoupling::solve_vertex_contacts(cloth::ClothState& s, int it) {
+  Work& w = *work_;
+  const collision::ColliderSet& cs = *colliders_;
+  const double thick = settings_.thickness;
+  for (const auto& [i, k] : w.vertex_pairs) {
+    const double wv = s.inv_mass[i];
+    if (wv == 0.0) continue;
+    const Collider& col = cs[k];
+    const Transform curr = pose_of(k);
+    Vec3 nl;
+    const double d = collision::local_signed_distance(col.shape, col.geometry.get(),
+                                                      curr.inverse(Eigen::Isometry) * s.x[i], &nl);
+    if (!(d < thick)) continue;
+    if (it == 0) last_penetration_ = std::max(last_penetration_, -d);
+    ++vertex_contacts_;
+    const Vec3 nrm = curr.linear() * nl;
+    const Vec3 p = s.x[i] - d * nrm;  // on the surface
+    CoupledBody* b = body_of(k);
+    const Vec3 r = b ? Vec3(p - b->pose.translation()) : Vec3::Zero();
+    const double wb = b ? generalized_inv_mass(*b, r, nrm) : 0.0;
+    const double dl = (thick - d) / (wv + wb);
+    s.x[i] += (wv * dl) * nrm;
+    w.point_local[i] = curr.inverse(Eigen::Isometry) * p;
+    if (b) apply_positional_impulse(*b, -dl * nrm, r);
+    w.depth[i] += thick - d;
+    w.contact[i] = k;
+    w.normal[i] = nrm;
+  }
+}
+
+// Contacts: body features against cloth triangles (FeatureContact.h, phase 2, mass-aware).
+void BodyCoupling::solve_feature_contacts(cloth::Cloth& cloth, int it) {
+  Work& w = *work_;
+  cloth::ClothState& s = cloth.state();
+  const auto& tris = cloth.mesh().triangles();
   const bool have_prev = s.x_prev.size() == s.x.size();
-  const double mu_k = settings_.friction, mu_s = std::max(settings_.friction, settings_.static_friction);
-
-  // A vertex moving along unit m with multiplier lam (displacement lam W m): contact-aware (see header).
-  auto eff_w = [&](int i, const Vec3& m) {
-    const double wv = s.inv_mass[i];
-    const int k = w.contact[i];
-    if (k < 0 || wv == 0.0 || !body_of(k) || !body_of(k)->dynamic()) return wv;
-    const double mn = m.dot(w.normal[i]);
-    if (mn >= 0.0) return wv;
-    const CoupledBody& b = *body_of(k);
-    const Vec3 p = pose_of(k) * w.point_local[i];
-    if ((s.x[i] - p).dot(w.normal[i]) > kTouch * thick) return wv;  // no longer touching
-    const double wb = generalized_inv_mass(b, p - b.pose.translation(), w.normal[i]);
-    const double wc = wv * wb / (wv + wb);
-    return wv * (1.0 - mn * mn) + wc * mn * mn;
-  };
-  auto move = [&](int i, double lam, const Vec3& m) {
-    const double wv = s.inv_mass[i];
-    if (wv == 0.0) return;
-    const int k = w.contact[i];
-    const bool coupled = k >= 0 && body_of(k) && body_of(k)->dynamic();
-    const double mn = coupled ? m.dot(w.normal[i]) : 0.0;
-    const Vec3 p = coupled ? Vec3(pose_of(k) * w.point_local[i]) : Vec3::Zero();
-    if (!coupled || mn >= 0.0 || (s.x[i] - p).dot(w.normal[i]) > kTouch * thick) {
-      s.x[i] += (lam * wv) * m;
-      return;
-    }
+  const double thick = settings_.thickness;
+  for (const auto& [t, k] : w.tri_pairs) {
+    const collision::ColliderFeatures& f = w.features[k];
     CoupledBody& b = *body_of(k);
-    const Vec3& nrm = w.normal[i];
-    const Vec3 r = p - b.pose.translation();
-    const double wb = generalized_inv_mass(b, r, nrm);
-    const double wc = wv * wb / (wv + wb);
-    s.x[i] += lam * (wv * (m - mn * nrm) + wc * mn * nrm);
-    apply_positional_impulse(b, (lam * mn * wv / (wv + wb)) * nrm, r);
-  };
-
-  const int iterations = std::max(1, settings_.iterations);
-  for (int it = 0; it < iterations; ++it) {
-    // Contacts: vertices against bodies.
-    for (const auto& [i, k] : w.vertex_pairs) {
-      const double wv = s.inv_mass[i];
-      if (wv == 0.0) continue;
-      const Collider& col = cs[k];
-      const Transform curr = pose_of(k);
-      Vec3 nl;
-      const double d = collision::local_signed_distance(col.shape, col.geometry.get(),
-                                                        curr.inverse(Eigen::Isometry) * s.x[i], &nl);
-      if (!(d < thick)) continue;
-      if (it == 0) last_penetration_ = std::max(last_penetration_, -d);
-      ++vertex_contacts_;
-      const Vec3 nrm = curr.linear() * nl;
-      const Vec3 p = s.x[i] - d * nrm;  // on the surface
-      CoupledBody* b = body_of(k);
-      const Vec3 r = b ? Vec3(p - b->pose.translation()) : Vec3::Zero();
-      const double wb = b ? generalized_inv_mass(*b, r, nrm) : 0.0;
-      const double dl = (thick - d) / (wv + wb);
-      s.x[i] += (wv * dl) * nrm;
-      w.point_local[i] = curr.inverse(Eigen::Isometry) * p;
-      if (b) apply_positional_impulse(*b, -dl * nrm, r);
-      w.depth[i] += thick - d;
-      w.contact[i] = k;
-      w.normal[i] = nrm;
-    }
-    // Contacts: body features against cloth triangles (FeatureContact.h, phase 2, mass-aware).
-    for (const auto& [t, k] : w.tri_pairs) {
-      const collision::ColliderFeatures& f = w.features[k];
-      CoupledBody& b = *body_of(k);
-      const int ia = tris[t][0], ib = tris[t][1], ic = tris[t][2];
-      const double wa = s.inv_mass[ia], wb_ = s.inv_mass[ib], wc_ = s.inv_mass[ic];
-      if (wa == 0.0 && wb_ == 0.0 && wc_ == 0.0) continue;
-      const Transform curr = pose_of(k);
-      const Transform prev = b.pose0 * collider_local[k];
-      const double reach = f.radius + thick;
-      for (size_t e = 0; e < f.a.size(); ++e) {
-        const Vec3 &a = s.x[ia], &bb = s.x[ib], &c = s.x[ic];
-        Vec3 nrm = (bb - a).cross(c - a);
-        const double area = nrm.norm();
-        if (!(area > 1e-14)) break;
-        nrm /= area;
-        const Vec3 A = curr * f.a[e], B = curr * f.b[e];
-        const double sA = (A - a).dot(nrm), sB = (B - a).dot(nrm);
-        if ((sA > reach && sB > reach) || (sA < -reach && sB < -reach)) continue;
-        double u0 = 0.0, u1 = 1.0;
-        bool empty = false;
-        const Vec3* corners[3] = {&a, &bb, &c};
-        for (int j = 0; j < 3 && !empty; ++j) {
-          const Vec3& e0 = *corners[j];
-          const Vec3 m = nrm.cross(*corners[(j + 1) % 3] - e0);
-          const double gA = (A - e0).dot(m), gB = (B - e0).dot(m);
-          if (gA < 0.0 && gB < 0.0) {
-            empty = true;
-          } else if (gA < 0.0) {
-            u0 = std::max(u0, gA / (gA - gB));
-          } else if (gB < 0.0) {
-            u1 = std::min(u1, gA / (gA - gB));
-          }
-          if (u0 > u1) empty = true;
+    const int ia = tris[t][0], ib = tris[t][1], ic = tris[t][2];
+    const double wa = s.inv_mass[ia], wb_ = s.inv_mass[ib], wc_ = s.inv_mass[ic];
+    if (wa == 0.0 && wb_ == 0.0 && wc_ == 0.0) continue;
+    const Transform curr = pose_of(k);
+    const Transform prev = b.pose0 * collider_local[k];
+    const double reach = f.radius + thick;
+    for (size_t e = 0; e < f.a.size(); ++e) {
+      const Vec3 &a = s.x[ia], &bb = s.x[ib], &c = s.x[ic];
+      Vec3 nrm = (bb - a).cross(c - a);
+      const double area = nrm.norm();
+      if (!(area > 1e-14)) break;
+      nrm /= area;
+      const Vec3 A = curr * f.a[e], B = curr * f.b[e];
+      const double sA = (A - a).dot(nrm), sB = (B - a).dot(nrm);
+      if ((sA > reach && sB > reach) || (sA < -reach && sB < -reach)) continue;
+      double u0 = 0.0, u1 = 1.0;
+      bool empty = false;
+      const Vec3* corners[3] = {&a, &bb, &c};
+      for (int j = 0; j < 3 && !empty; ++j) {
+        const Vec3& e0 = *corners[j];
+        const Vec3 m = nrm.cross(*corners[(j + 1) % 3] - e0);
+        const double gA = (A - e0).dot(m), gB = (B - e0).dot(m);
+        if (gA < 0.0 && gB < 0.0) {
+          empty = true;
+        } else if (gA < 0.0) {
+          u0 = std::max(u0, gA / (gA - gB));
+        } else if (gB < 0.0) {
+          u1 = std::min(u1, gA / (gA - gB));
         }
-        if (empty) continue;
-        // The side the feature was on at the step's start (its clipped middle against the old plane); the
-        // side of the body's centre when it was closer than half the thickness.
-        double side = 1.0;
-        {
-          const Vec3 &a0 = have_prev ? s.x_prev[ia] : a, &b0 = have_prev ? s.x_prev[ib] : bb;
-          const Vec3& c0 = have_prev ? s.x_prev[ic] : c;
-          Vec3 n0 = (b0 - a0).cross(c0 - a0);
-          n0 = n0.norm() > 1e-14 ? n0.normalized() : nrm;
-          const double um = 0.5 * (u0 + u1);
-          const Vec3 A0 = prev * f.a[e], B0 = prev * f.b[e];
-          const double s0 = (A0 + um * (B0 - A0) - a0).dot(n0);
-          const double sc = (prev.translation() - a0).dot(n0);
-          side = std::abs(s0) >= 0.5 * thick ? (s0 > 0.0 ? 1.0 : -1.0) : (sc >= 0.0 ? 1.0 : -1.0);
-        }
-        const double h0 = side * (sA + u0 * (sB - sA)), h1 = side * (sA + u1 * (sB - sA));
-        const double u = h0 <= h1 ? u0 : u1;
-        const double depth = reach - std::min(h0, h1);
-        if (!(depth > 0.0)) continue;
-        const Vec3 p = A + u * (B - A);
-        const Vec3 q = p - (p - a).dot(nrm) * nrm;
-        double ba = (bb - q).cross(c - q).dot(nrm) / area, bbw = (c - q).cross(a - q).dot(nrm) / area;
-        ba = std::clamp(ba, 0.0, 1.0), bbw = std::clamp(bbw, 0.0, 1.0 - ba);
-        const double bc = 1.0 - ba - bbw;
-        const double w_tri = wa * ba * ba + wb_ * bbw * bbw + wc_ * bc * bc;
-        if (!(w_tri > 0.0)) continue;
-        ++face_contacts_;
-        if (it == 0) last_penetration_ = std::max(last_penetration_, depth - thick);
-        const Vec3 N = -side * nrm;  // from the body to the cloth
-        const Vec3 r = q - side * f.radius * nrm - b.pose.translation();
-        const double wbody = generalized_inv_mass(b, r, N);
-        const double dl = depth / (w_tri + wbody);
-        s.x[ia] += (wa * ba * dl) * N, s.x[ib] += (wb_ * bbw * dl) * N, s.x[ic] += (wc_ * bc * dl) * N;
-        // The triangle's vertices are in contact with the body at the feature's surface point: tethers and
-        // edges pulling them into it move the body too.
-        const Vec3 surface = curr.inverse(Eigen::Isometry) * (p + f.radius * N);
-        const int corner_ids[3] = {ia, ib, ic};
-        const double weights[3] = {ba, bbw, bc};
-        for (int j = 0; j < 3; ++j) {
-          if (weights[j] < kCornerShare) continue;
-          const int v = corner_ids[j];
-          w.contact[v] = k;
-          w.normal[v] = N;
-          w.point_local[v] = surface;
-          w.depth[v] += weights[j] * depth;
-        }
-        apply_positional_impulse(b, -dl * N, r);
+        if (u0 > u1) empty = true;
       }
-    }
-    // Tethers.
-    for (const Work::Limit& l : cd.tethers) {
-      const Vec3 d = s.x[l.i] - s.x[l.j];
-      const double len = d.norm();
-      if (!(len > l.length)) continue;
-      const Vec3 m = -d / len;
-      const double wi = eff_w(l.i, m);
-      if (!(wi > 0.0)) continue;
-      move(l.i, (len - l.length) / wi, m);
-    }
-    // Edges, alternating sweep order.
-    const int ne = static_cast<int>(cd.edges.size());
-    for (int q = 0; q < ne; ++q) {
-      const Work::Limit& l = cd.edges[it % 2 == 0 ? q : ne - 1 - q];
-      const Vec3 d = s.x[l.j] - s.x[l.i];
-      const double len = d.norm();
-      if (!(len > l.length)) continue;
-      const Vec3 u = d / len;
-      const double wi = eff_w(l.i, u), wj = eff_w(l.j, -u);
-      if (!(wi + wj > 0.0)) continue;
-      const double lam = (len - l.length) / (wi + wj);
-      move(l.i, lam, u);
-      move(l.j, lam, -u);
+      if (empty) continue;
+      // The side the feature was on at the step's start (its clipped middle against the old plane); the
+      // side of the body's centre when it was closer than half the thickness.
+      double side = 1.0;
+      {
+        const Vec3 &a0 = have_prev ? s.x_prev[ia] : a, &b0 = have_prev ? s.x_prev[ib] : bb;
+        const Vec3& c0 = have_prev ? s.x_prev[ic] : c;
+        Vec3 n0 = (b0 - a0).cross(c0 - a0);
+        n0 = n0.norm() > 1e-14 ? n0.normalized() : nrm;
+        const double um = 0.5 * (u0 + u1);
+        const Vec3 A0 = prev * f.a[e], B0 = prev * f.b[e];
+        const double s0 = (A0 + um * (B0 - A0) - a0).dot(n0);
+        const double sc = (prev.translation() - a0).dot(n0);
+        side = std::abs(s0) >= 0.5 * thick ? (s0 > 0.0 ? 1.0 : -1.0) : (sc >= 0.0 ? 1.0 : -1.0);
+      }
+      const double h0 = side * (sA + u0 * (sB - sA)), h1 = side * (sA + u1 * (sB - sA));
+      const double u = h0 <= h1 ? u0 : u1;
+      const double depth = reach - std::min(h0, h1);
+      if (!(depth > 0.0)) continue;
+      const Vec3 p = A + u * (B - A);
+      const Vec3 q = p - (p - a).dot(nrm) * nrm;
+      double ba = (bb - q).cross(c - q).dot(nrm) / area, bbw = (c - q).cross(a - q).dot(nrm) / area;
+      ba = std::clamp(ba, 0.0, 1.0), bbw = std::clamp(bbw, 0.0, 1.0 - ba);
+      const double bc = 1.0 - ba - bbw;
+      const double w_tri = wa * ba * ba + wb_ * bbw * bbw + wc_ * bc * bc;
+      if (!(w_tri > 0.0)) continue;
+      ++face_contacts_;
+      if (it == 0) last_penetration_ = std::max(last_penetration_, depth - thick);
+      const Vec3 N = -side * nrm;  // from the body to the cloth
+      const Vec3 r = q - side * f.radius * nrm - b.pose.translation();
+      const double wbody = generalized_inv_mass(b, r, N);
+      const double dl = depth / (w_tri + wbody);
+      s.x[ia] += (wa * ba * dl) * N, s.x[ib] += (wb_ * bbw * dl) * N, s.x[ic] += (wc_ * bc * dl) * N;
+      // The triangle's vertices are in contact with the body at the feature's surface point: tethers and
+      // edges pulling them into it move the body too.
+      const Vec3 surface = curr.inverse(Eigen::Isometry) * (p + f.radius * N);
+      const int corner_ids[3] = {ia, ib, ic};
+      const double weights[3] = {ba, bbw, bc};
+      for (int j = 0; j < 3; ++j) {
+        if (weights[j] < kCornerShare) continue;
+        const int v = corner_ids[j];
+        w.contact[v] = k;
+        w.normal[v] = N;
+        w.point_local[v] = surface;
+        w.depth[v] += weights[j] * depth;
+      }
+      apply_positional_impulse(b, -dl * N, r);
     }
   }
+}
 
-  // Friction (Macklin et al. 2014, Sec. 6.1) on the vertex contacts.
-  if (have_prev)
-    for (int i = 0; i < n; ++i) {
-      const int k = w.contact[i];
-      if (k < 0 || s.inv_mass[i] == 0.0) continue;
-      const Vec3& nrm = w.normal[i];
-      const Transform curr = pose_of(k);
-      const CoupledBody* bc = body_of(k);
-      const Transform prev = bc ? bc->pose0 * collider_local[k] : cs[k].prev;
-      const Vec3 p = curr * w.point_local[i], p0 = prev * w.point_local[i];
-      const Vec3 dp = (s.x[i] - s.x_prev[i]) - (p - p0);
-      const Vec3 dt = dp - dp.dot(nrm) * nrm;
-      const double len = dt.norm();
-      if (!(len > 1e-12)) continue;
-      const double depth = w.depth[i];
-      const double corr = len < mu_s * depth ? len : std::min(len, mu_k * depth);
-      const Vec3 t = dt / len;
-      CoupledBody* b = body_of(k);
-      const Vec3 r = b ? Vec3(p - b->pose.translation()) : Vec3::Zero();
-      const double wv = s.inv_mass[i], wb = b ? generalized_inv_mass(*b, r, t) : 0.0;
-      const double lam = corr / (wv + wb);
-      s.x[i] -= (wv * lam) * t;
-      if (b) apply_positional_impulse(*b, lam * t, r);
-    }
+void BodyCoupling::solve_limits(cloth::ClothState& s, size_t index, int it) {
+  const Work::ClothData& cd = work_->cloths[index];
+  // Tethers.
+  for (const Work::Limit& l : cd.tethers) {
+    const Vec3 d = s.x[l.i] - s.x[l.j];
+    const double len = d.norm();
+    if (!(len > l.length)) continue;
+    const Vec3 m = -d / len;
+    const double wi = effective_inv_mass(s, l.i, m);
+    if (!(wi > 0.0)) continue;
+    move_vertex(s, l.i, (len - l.length) / wi, m);
+  }
+  // Edges, alternating sweep order.
+  const int ne = static_cast<int>(cd.edges.size());
+  for (int q = 0; q < ne; ++q) {
+    const Work::Limit& l = cd.edges[it % 2 == 0 ? q : ne - 1 - q];
+    const Vec3 d = s.x[l.j] - s.x[l.i];
+    const double len = d.norm();
+    if (!(len > l.length)) continue;
+    const Vec3 u = d / len;
+    const double wi = effective_inv_mass(s, l.i, u), wj = effective_inv_mass(s, l.j, -u);
+    if (!(wi + wj > 0.0)) continue;
+    const double lam = (len - l.length) / (wi + wj);
+    move_vertex(s, l.i, lam, u);
+    move_vertex(s, l.j, lam, -u);
+  }
+}
+
+// Friction (Macklin et al. 2014, Sec. 6.1) on the vertex contacts; needs the step-start positions.
+void BodyCoupling::apply_friction(cloth::ClothState& s) {
+  const Work& w = *work_;
+  const collision::ColliderSet& cs = *colliders_;
+  const int n = s.size();
+  const double mu_k = settings_.friction, mu_s = std::max(settings_.friction, settings_.static_friction);
+  for (int i = 0; i < n; ++i) {
+    const int k = w.contact[i];
+    if (k < 0 || s.inv_mass[i] == 0.0) continue;
+    const Vec3& nrm = w.normal[i];
+    const Transform curr = pose_of(k);
+    const CoupledBody* bc = body_of(k);
+    const Transform prev = bc ? bc->pose0 * collider_local[k] : cs[k].prev;
+    const Vec3 p = curr * w.point_local[i], p0 = prev * w.point_local[i];
+    const Vec3 dp = (s.x[i] - s.x_prev[i]) - (p - p0);
+    const Vec3 dt = dp - dp.dot(nrm) * nrm;
+    const double len = dt.norm();
+    if (!(len > 1e-12)) continue;
+    const double depth = w.depth[i];
+    const double corr = len < mu_s * depth ? len : std::min(len, mu_k * depth);
+    const Vec3 t = dt / len;
+    CoupledBody* b = body_of(k);
+    const Vec3 r = b ? Vec3(p - b->pose.translation()) : Vec3::Zero();
+    const double wv = s.inv_mass[i], wb = b ? generalized_inv_mass(*b, r, t) : 0.0;
+    const double lam = corr / (wv + wb);
+    s.x[i] -= (wv * lam) * t;
+    if (b) apply_positional_impulse(*b, lam * t, r);
+  }
+}
+
+void BodyCoupling::solve(cloth::Cloth& cloth, size_t index, double h) {
+  Work& w = *work_;
+  cloth::ClothState& s = cloth.state();
+  const cloth::ClothMesh& mesh = cloth.mesh();
+  const int n = s.size();
+  if (w.cloths.size() <= index) w.cloths.resize(index + 1);
+  if (!w.cloths[index].built) {
+    build_limits(cloth, index);
+    w.cloths[index].built = true;
+  }
+
+  const int nc = static_cast<int>(colliders_->size());
+  w.contact.assign(n, -1);
+  w.normal.resize(n);
+  w.point_local.resize(n);
+  w.depth.assign(n, 0.0);
+  w.vertex_pairs.clear();
+  w.tri_pairs.clear();
+  w.stamp.assign(mesh.triangles().size(), -1);
+  w.features.resize(nc);
+  w.curr.resize(nc);
+  find_candidates(cloth, index);
+
+  const bool have_prev = s.x_prev.size() == s.x.size();
+  const int iterations = std::max(1, settings_.iterations);
+  for (int it = 0; it < iterations; ++it) {
+    solve_vertex_contacts(s, it);
+    solve_feature_contacts(cloth, it);
+    solve_limits(s, index, it);
+  }
+
+  if (have_prev) apply_friction(s);
 
   // Velocities from the corrected positions.
   if (have_prev)

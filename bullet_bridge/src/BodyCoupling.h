@@ -89,6 +89,20 @@ class BodyCoupling {
   struct Work;
   void predict(double h);
   void solve(cloth::Cloth& cloth, size_t index, double h);
+  // The body collider k belongs to (nullptr: not coupled) and its current pose.
+  CoupledBody* body_of(int k);
+  Transform pose_of(int k);
+  double effective_inv_mass(const cloth::ClothState& s, int i, const Vec3& m);
+  void move_vertex(cloth::ClothState& s, int i, double lam, const Vec3& m);
+  // The cloth's limited edges, its tethers and its vertex-to-triangle lists (once per cloth).
+  void build_limits(const cloth::Cloth& cloth, size_t index);
+  // Vertex-collider and triangle-collider candidate pairs of this step, and the colliders' features.
+  void find_candidates(const cloth::Cloth& cloth, size_t index);
+  void solve_vertex_contacts(cloth::ClothState& s, int it);
+  void solve_feature_contacts(cloth::Cloth& cloth, int it);
+  // Tethers, then edges in alternating sweep order.
+  void solve_limits(cloth::ClothState& s, size_t index, int it);
+  void apply_friction(cloth::ClothState& s);
 
   collision::ColliderSetPtr colliders_;
   BodyCouplingSettings settings_;

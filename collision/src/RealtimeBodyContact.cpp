@@ -117,6 +117,20 @@ void RealtimeBodyContactStage::run(cloth::StageContext& ctx) {
   for (auto& cl : ctx.cloths) run_cloth(*cl, ctx.h);
 }
 
+// A coarse grid over the cloth's box: each cell lists the active colliders whose box meets it, so a vertex
+// tests the boxes of a few colliders (a character's neighbouring bones), not of all of them.
+struct RealtimeBodyContactStage::ColliderGrid {
+  Vec3 lo;
+  int dims[3];
+  Vec3 inv_cell;
+  int cell_of(const Vec3& p, int a) const {
+    return std::clamp(static_cast<int>((p[a] - lo[a]) * inv_cell[a]), 0, dims[a] - 1);
+  }
+  int cell_index(const Vec3& p) const {
+    return (cell_of(p, 2) * dims[1] + cell_of(p, 1)) * dims[0] + cell_of(p, 0);
+  }
+};
+
 void RealtimeBodyContactStage::run_cloth(cloth::Cloth& cloth, double h) {
   ColliderSet& set = *colliders_;
   ClothState& s = cloth.state();
@@ -129,7 +143,30 @@ void RealtimeBodyContactStage::run_cloth(cloth::Cloth& cloth, double h) {
     lo = lo.cwiseMin(s.x[i]).cwiseMin(s.x_prev[i]);
     hi = hi.cwiseMax(s.x[i]).cwiseMax(s.x_prev[i]);
   }
-  const double material_thickness = cloth.material().thickness;
+  prepare_colliders(set, cloth.material().thickness, lo, hi);
+  if (active_.empty()) return;
+  const ColliderGrid grid = build_grid(lo, hi);
+
+  int cand[kMaxCandidates];
+  for (int i = 0; i < n; ++i) {
+    const double m = s.mass[i];
+    if (!(s.inv_mass[i] > 0.0)) continue;
+    Vec3 x = s.x[i];
+    const Vec3 x0 = s.x_prev[i];
+    const int nc = gather_candidates(grid, x, x0, cand);
+    if (nc == 0) continue;
+    candidates_ += nc;
+    Vec3 v = s.v[i];
+    if (settings_.continuous && !settings_.positions_only) sweep(set, cand, nc, x0, x);
+    const bool moved = project(set, cand, nc, m, x0, h, x, v);
+    if (moved) pinch_exit(set, cand, nc, x);
+    s.x[i] = x;
+    s.v[i] = v;
+  }
+}
+
+void RealtimeBodyContactStage::prepare_colliders(const ColliderSet& set, double material_thickness,
+                                                 const Vec3& lo, const Vec3& hi) {
   prepared_.resize(set.size());
   active_.clear();
   for (size_t k = 0; k < set.size(); ++k) {
@@ -173,17 +210,15 @@ void RealtimeBodyContactStage::run_cloth(cloth::Cloth& cloth, double h) {
     pc.active = (pc.lo.array() <= hi.array()).all() && (pc.hi.array() >= lo.array()).all();
     if (pc.active) active_.push_back(static_cast<int>(k));
   }
-  if (active_.empty()) return;
+}
 
-  // A coarse grid over the cloth's box: each cell lists the active colliders whose box meets it, so a vertex
-  // tests the boxes of a few colliders (a character's neighbouring bones), not of all of them.
+RealtimeBodyContactStage::ColliderGrid RealtimeBodyContactStage::build_grid(const Vec3& lo, const Vec3& hi) {
+  ColliderGrid g;
+  g.lo = lo;
+  int* dims = g.dims;
   const Vec3 extent = (hi - lo).cwiseMax(Vec3::Constant(1e-9));
-  int dims[3];
   for (int a = 0; a < 3; ++a) dims[a] = std::clamp(static_cast<int>(extent[a] / kGridCell), 1, kMaxGridDim);
-  const Vec3 inv_cell(dims[0] / extent.x(), dims[1] / extent.y(), dims[2] / extent.z());
-  auto cell_of = [&](const Vec3& p, int a) {
-    return std::clamp(static_cast<int>((p[a] - lo[a]) * inv_cell[a]), 0, dims[a] - 1);
-  };
+  g.inv_cell = Vec3(dims[0] / extent.x(), dims[1] / extent.y(), dims[2] / extent.z());
   const int num_cells = dims[0] * dims[1] * dims[2];
   grid_start_.assign(num_cells + 1, 0);
   for (int pass = 0; pass < 2; ++pass) {
@@ -195,9 +230,9 @@ void RealtimeBodyContactStage::run_cloth(cloth::Cloth& cloth, double h) {
     for (int k : active_) {
       const Prepared& pc = prepared_[k];
       const Vec3 blo = pc.lo.cwiseMax(lo), bhi = pc.hi.cwiseMin(hi);
-      for (int z = cell_of(blo, 2); z <= cell_of(bhi, 2); ++z)
-        for (int y = cell_of(blo, 1); y <= cell_of(bhi, 1); ++y)
-          for (int x = cell_of(blo, 0); x <= cell_of(bhi, 0); ++x) {
+      for (int z = g.cell_of(blo, 2); z <= g.cell_of(bhi, 2); ++z)
+        for (int y = g.cell_of(blo, 1); y <= g.cell_of(bhi, 1); ++y)
+          for (int x = g.cell_of(blo, 0); x <= g.cell_of(bhi, 0); ++x) {
             const int c = (z * dims[1] + y) * dims[0] + x;
             if (pass == 0)
               ++grid_start_[c + 1];
@@ -206,107 +241,109 @@ void RealtimeBodyContactStage::run_cloth(cloth::Cloth& cloth, double h) {
           }
     }
   }
-  auto cell_index = [&](const Vec3& p) {
-    return (cell_of(p, 2) * dims[1] + cell_of(p, 1)) * dims[0] + cell_of(p, 0);
-  };
+  return g;
+}
 
-  int cand[kMaxCandidates];
-  for (int i = 0; i < n; ++i) {
-    const double m = s.mass[i];
-    if (!(s.inv_mass[i] > 0.0)) continue;
-    Vec3 x = s.x[i];
-    const Vec3 x0 = s.x_prev[i];
-    int nc = 0;
-    const int c1 = cell_index(x), c0 = cell_index(x0);
-    for (int it = grid_start_[c1]; it < grid_start_[c1 + 1]; ++it) {
-      const int k = grid_items_[it];
-      if (nc < kMaxCandidates && (inside(prepared_[k], x) || inside(prepared_[k], x0))) cand[nc++] = k;
-    }
-    if (c0 != c1)  // the start's cell: colliders not met at the end
-      for (int it = grid_start_[c0]; it < grid_start_[c0 + 1]; ++it) {
-        const int k = grid_items_[it];
-        if (nc < kMaxCandidates && std::find(cand, cand + nc, k) == cand + nc &&
-            (inside(prepared_[k], x) || inside(prepared_[k], x0)))
-          cand[nc++] = k;
-      }
-    if (nc == 0) continue;
-    candidates_ += nc;
-    Vec3 v = s.v[i];
-    const double step = (x - x0).norm();
-    Vec3 nrm;
-    // Step 3: the swept test, only where the motion relative to the collider exceeds its thickness and the
-    // vertex started outside within reach.
-    if (settings_.continuous && !settings_.positions_only)
-      for (int q = 0; q < nc; ++q) {
-        const Collider& c = set[cand[q]];
-        const Prepared& pc = prepared_[cand[q]];
-        const double reach = step + pc.motion;
-        if (reach <= pc.swept_threshold) continue;
-        const double d0 = distance(c, pc, false, x0, &nrm);
-        if (d0 <= 0.0 || d0 > reach + pc.thickness) continue;
-        ++ccd_tests_;
-        const SweptHit hit = swept_point(c, x0, x, 0.5 * pc.thickness);
-        if (!hit.hit) continue;
-        ++ccd_hits_;
-        x = c.curr * hit.local;  // carried with the body from the contact to the step's end
-        break;
-      }
-    // Step 4: discrete projection and the velocity response.
-    bool moved = true;
-    for (int pass = 0; pass < settings_.passes && moved; ++pass) {
-      moved = false;
-      for (int q = 0; q < nc; ++q) {
-        Collider& c = set[cand[q]];
-        const Prepared& pc = prepared_[cand[q]];
-        const double d = distance(c, pc, true, x, &nrm);
-        if (d >= pc.thickness) continue;
-        const double push = pc.thickness - d;
-        x += push * nrm;
-        moved = true;
-        ++contacts_;
-        if (settings_.positions_only) continue;
-        // Position-level Coulomb friction on the step's motion relative to the surface, the push standing for
-        // the normal impulse (Macklin et al. 2014, "Unified particle physics for real-time applications",
-        // Sec. 6.1): the tangential slip is undone when within μ_s of the push, else shortened by μ_k of it.
-        const Vec3 rel = (x - x0) - (c.curr * (c.prev.inverse() * x0) - x0);
-        const Vec3 slip = rel - rel.dot(nrm) * nrm;
-        const double len = slip.norm();
-        if (len > 0.0) x -= len <= pc.mu_s * push ? slip : Vec3(slip * std::min(1.0, pc.mu_k * push / len));
-        const Vec3 vs = surface_velocity(c.prev, c.curr, h, x);
-        const Vec3 vr = v - vs;
-        if (vr.dot(nrm) >= 0.0) continue;  // separating: position only
-        const Vec3 v_new = vs + coulomb_tangent(vr, nrm, pc.mu_s, pc.mu_k);
-        // Step 5: the reaction on the collider.
-        const Vec3 impulse = m * (v_new - v);
-        c.reaction_impulse -= impulse;
-        c.reaction_angular_impulse -= (x - c.curr.translation()).cross(impulse);
-        v = v_new;
-      }
-    }
-    // A pinch (the passes push the vertex from one collider into another, e.g. an arm pressed against the
-    // torso): move it along the sum of the normals of the colliders it is inside, by the deepest depth,
-    // until it is outside all of them (a few rounds); what remains is counted.
-    for (int round = 0; moved && round < kPinchRounds; ++round) {
-      Vec3 sum = Vec3::Zero();
-      double deepest = 0.0;
-      for (int q = 0; q < nc; ++q) {
-        const double d = distance(set[cand[q]], prepared_[cand[q]], true, x, &nrm);
-        if (d < 0.0) sum += nrm, deepest = std::max(deepest, -d + prepared_[cand[q]].thickness);
-      }
-      if (deepest == 0.0) break;
-      const double len = sum.norm();
-      if (!(len > 1e-12)) break;
-      x += deepest * (sum / len);
-    }
-    if (moved)
-      for (int q = 0; q < nc; ++q)
-        if (distance(set[cand[q]], prepared_[cand[q]], true, x, &nrm) < 0.0) {
-          ++unresolved_;
-          break;
-        }
-    s.x[i] = x;
-    s.v[i] = v;
+int RealtimeBodyContactStage::gather_candidates(const ColliderGrid& grid, const Vec3& x, const Vec3& x0,
+                                                int* cand) const {
+  int nc = 0;
+  const int c1 = grid.cell_index(x), c0 = grid.cell_index(x0);
+  for (int it = grid_start_[c1]; it < grid_start_[c1 + 1]; ++it) {
+    const int k = grid_items_[it];
+    if (nc < kMaxCandidates && (inside(prepared_[k], x) || inside(prepared_[k], x0))) cand[nc++] = k;
   }
+  if (c0 != c1)  // the start's cell: colliders not met at the end
+    for (int it = grid_start_[c0]; it < grid_start_[c0 + 1]; ++it) {
+      const int k = grid_items_[it];
+      if (nc < kMaxCandidates && std::find(cand, cand + nc, k) == cand + nc &&
+          (inside(prepared_[k], x) || inside(prepared_[k], x0)))
+        cand[nc++] = k;
+    }
+  return nc;
+}
+
+// Step 3: the swept test, only where the motion relative to the collider exceeds its thickness and the
+// vertex started outside within reach.
+void RealtimeBodyContactStage::sweep(const ColliderSet& set, const int* cand, int nc, const Vec3& x0,
+                                     Vec3& x) {
+  const double step = (x - x0).norm();
+  Vec3 nrm;
+  for (int q = 0; q < nc; ++q) {
+    const Collider& c = set[cand[q]];
+    const Prepared& pc = prepared_[cand[q]];
+    const double reach = step + pc.motion;
+    if (reach <= pc.swept_threshold) continue;
+    const double d0 = distance(c, pc, false, x0, &nrm);
+    if (d0 <= 0.0 || d0 > reach + pc.thickness) continue;
+    ++ccd_tests_;
+    const SweptHit hit = swept_point(c, x0, x, 0.5 * pc.thickness);
+    if (!hit.hit) continue;
+    ++ccd_hits_;
+    x = c.curr * hit.local;  // carried with the body from the contact to the step's end
+    break;
+  }
+}
+
+// Step 4: discrete projection and the velocity response; true when the vertex was moved.
+bool RealtimeBodyContactStage::project(ColliderSet& set, const int* cand, int nc, double m, const Vec3& x0,
+                                       double h, Vec3& x, Vec3& v) {
+  Vec3 nrm;
+  bool moved = true;
+  for (int pass = 0; pass < settings_.passes && moved; ++pass) {
+    moved = false;
+    for (int q = 0; q < nc; ++q) {
+      Collider& c = set[cand[q]];
+      const Prepared& pc = prepared_[cand[q]];
+      const double d = distance(c, pc, true, x, &nrm);
+      if (d >= pc.thickness) continue;
+      const double push = pc.thickness - d;
+      x += push * nrm;
+      moved = true;
+      ++contacts_;
+      if (settings_.positions_only) continue;
+      // Position-level Coulomb friction on the step's motion relative to the surface, the push standing for
+      // the normal impulse (Macklin et al. 2014, "Unified particle physics for real-time applications",
+      // Sec. 6.1): the tangential slip is undone when within μ_s of the push, else shortened by μ_k of it.
+      const Vec3 rel = (x - x0) - (c.curr * (c.prev.inverse() * x0) - x0);
+      const Vec3 slip = rel - rel.dot(nrm) * nrm;
+      const double len = slip.norm();
+      if (len > 0.0) x -= len <= pc.mu_s * push ? slip : Vec3(slip * std::min(1.0, pc.mu_k * push / len));
+      const Vec3 vs = surface_velocity(c.prev, c.curr, h, x);
+      const Vec3 vr = v - vs;
+      if (vr.dot(nrm) >= 0.0) continue;  // separating: position only
+      const Vec3 v_new = vs + coulomb_tangent(vr, nrm, pc.mu_s, pc.mu_k);
+      // Step 5: the reaction on the collider.
+      const Vec3 impulse = m * (v_new - v);
+      c.reaction_impulse -= impulse;
+      c.reaction_angular_impulse -= (x - c.curr.translation()).cross(impulse);
+      v = v_new;
+    }
+  }
+  return moved;
+}
+
+// A pinch (the passes push the vertex from one collider into another, e.g. an arm pressed against the
+// torso): move it along the sum of the normals of the colliders it is inside, by the deepest depth,
+// until it is outside all of them (a few rounds); what remains is counted. Runs after step 4 moved x.
+void RealtimeBodyContactStage::pinch_exit(const ColliderSet& set, const int* cand, int nc, Vec3& x) {
+  Vec3 nrm;
+  for (int round = 0; round < kPinchRounds; ++round) {
+    Vec3 sum = Vec3::Zero();
+    double deepest = 0.0;
+    for (int q = 0; q < nc; ++q) {
+      const double d = distance(set[cand[q]], prepared_[cand[q]], true, x, &nrm);
+      if (d < 0.0) sum += nrm, deepest = std::max(deepest, -d + prepared_[cand[q]].thickness);
+    }
+    if (deepest == 0.0) break;
+    const double len = sum.norm();
+    if (!(len > 1e-12)) break;
+    x += deepest * (sum / len);
+  }
+  for (int q = 0; q < nc; ++q)
+    if (distance(set[cand[q]], prepared_[cand[q]], true, x, &nrm) < 0.0) {
+      ++unresolved_;
+      break;
+    }
 }
 
 }  // namespace loom::collision

@@ -70,7 +70,18 @@ class RealtimeBodyContactStage final : public cloth::Stage {
   };
 
  private:
+  struct ColliderGrid;  // the per-step collider grid over the cloth's box
+
   void run_cloth(cloth::Cloth& cloth, double h);
+  // Fills prepared_ for every collider and active_ with those whose box meets the cloth's box [lo, hi].
+  void prepare_colliders(const ColliderSet& set, double material_thickness, const Vec3& lo, const Vec3& hi);
+  ColliderGrid build_grid(const Vec3& lo, const Vec3& hi);
+  // Writes into cand (kMaxCandidates at most) the active colliders whose box holds x or x0; their count.
+  int gather_candidates(const ColliderGrid& grid, const Vec3& x, const Vec3& x0, int* cand) const;
+  void sweep(const ColliderSet& set, const int* cand, int nc, const Vec3& x0, Vec3& x);
+  bool project(ColliderSet& set, const int* cand, int nc, double m, const Vec3& x0, double h, Vec3& x,
+               Vec3& v);
+  void pinch_exit(const ColliderSet& set, const int* cand, int nc, Vec3& x);
   double thickness(const Collider& c, double material_thickness) const;
 
   ColliderSetPtr colliders_;
