@@ -25,7 +25,7 @@ class CheckStage final : public cloth::Stage {
   std::function<void(cloth::StageContext&)> f_;
 };
 
-cloth::ClothSetup sheet(int n, double size, cloth::GridPlane plane, const Vec3& origin) {
+inline cloth::ClothSetup sheet(int n, double size, cloth::GridPlane plane, const Vec3& origin) {
   cloth::ClothSetup c;
   cloth::GridSpec g;
   g.nodes_u = g.nodes_v = n;
@@ -38,7 +38,7 @@ cloth::ClothSetup sheet(int n, double size, cloth::GridPlane plane, const Vec3& 
   return c;
 }
 
-Collider shape(ShapeType type, double radius = 0, double half_height = 0, Vec3 he = Vec3::Zero()) {
+inline Collider shape(ShapeType type, double radius = 0, double half_height = 0, Vec3 he = Vec3::Zero()) {
   Collider c;
   c.shape.type = type;
   c.shape.radius = radius;
@@ -47,7 +47,7 @@ Collider shape(ShapeType type, double radius = 0, double half_height = 0, Vec3 h
   return c;
 }
 
-Transform at(const Vec3& p, double angle_z = 0.0) {
+inline Transform at(const Vec3& p, double angle_z = 0.0) {
   Transform t = Transform::Identity();
   t.linear() = Eigen::AngleAxisd(angle_z, Vec3::UnitZ()).toRotationMatrix();
   t.translation() = p;
@@ -55,7 +55,7 @@ Transform at(const Vec3& p, double angle_z = 0.0) {
 }
 
 // Worst (most negative) signed distance minus thickness over free vertices; fails the test on NaN.
-double worst_gap(const cloth::ClothState& s, const ColliderSet& set, double thickness) {
+inline double worst_gap(const cloth::ClothState& s, const ColliderSet& set, double thickness) {
   double worst = HUGE_VAL;
   for (int i = 0; i < s.size(); ++i) {
     EXPECT_TRUE(s.x[i].allFinite());
