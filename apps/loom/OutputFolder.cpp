@@ -14,6 +14,19 @@ namespace loom::app {
 
 namespace {
 
+// True when a folder on the way from `dir` to dir/rel (rel's parents, not rel itself) is a symbolic link: a
+// forged manifest entry such as "frames/link/file" must never delete through the link.
+bool under_a_link(const fs::path& dir, const std::string& rel) {
+  std::error_code ec;
+  fs::path at = dir;
+  const fs::path rp(rel);
+  for (auto it = rp.begin(); it != rp.end() && std::next(it) != rp.end(); ++it) {
+    at /= *it;
+    if (fs::is_symlink(fs::symlink_status(at, ec))) return true;
+  }
+  return false;
+}
+
 constexpr const char* kHeader = "loom-manifest 1 run ";
 
 // A manifest line is a path relative to the folder: no root, no "..", no control character.
@@ -115,6 +128,7 @@ OutputFolder::OutputFolder(const fs::path& dir, const std::string& flag, bool ov
   std::sort(entries.begin(), entries.end(),
             [](const std::string& a, const std::string& b) { return a.size() > b.size(); });
   for (const std::string& rel : entries) {
+    if (under_a_link(dir, rel)) continue;
     const fs::path p = dir / rel;
     const fs::file_status st = fs::symlink_status(p, ec);
     if (!fs::exists(st)) continue;
@@ -178,7 +192,7 @@ fs::path OutputFolder::claim(const std::string& relative) {
 }
 
 void OutputFolder::remove_owned(const std::string& relative) {
-  if (!listed_.count(relative)) return;
+  if (!listed_.count(relative) || under_a_link(dir_, relative)) return;
   std::error_code ec;
   const fs::path p = dir_ / relative;
   const fs::file_status st = fs::symlink_status(p, ec);

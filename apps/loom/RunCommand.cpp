@@ -32,6 +32,7 @@
 #endif
 #include "loom/collision/MultiClothCensus.h"
 #include "loom/scene/Scene.h"
+#include "loom/scene/SceneLimits.h"
 #include "loom/scene/ScenePipeline.h"
 
 namespace fs = std::filesystem;
@@ -239,6 +240,10 @@ SceneRun::SceneRun(const RunOptions& options) : o_(options) {
     sc_.setup.threads = hardware;
   }
   frames_ = o_.frames >= 0 ? o_.frames : sc_.frames;
+  if (frames_ > scene::kMaxFrames)
+    throw Error(
+        scene_path_, "--frames",
+        "at most " + std::to_string(scene::kMaxFrames) + " frames (got " + std::to_string(frames_) + ")");
   if (!sc_.bodies.empty() && (resume_ || o_.checkpoint_every > 0))
     throw Error(
         scene_path_, "bodies",
@@ -445,6 +450,13 @@ bool SceneRun::stopped_non_finite(const cloth::FrameStats& s, int f) {
              valid;
     return true;
   }
+#ifdef LOOM_HAVE_BULLET
+  for (size_t k = 0; bodies_world_ && k < bodies_world_->num_bodies(); ++k)
+    if (!bodies_world_->body_position(k).allFinite() || !bodies_world_->body_velocity(k).allFinite()) {
+      error_ = "body '" + sc_.bodies[k].name + "' became non-finite in frame " + std::to_string(f) + valid;
+      return true;
+    }
+#endif
   shown_->update();
   if (const std::string bad = non_finite_cloth(shown_->cloths()); !bad.empty()) {  // NaN is never written
     error_ = "the shown surface of cloth '" + bad + "' became non-finite in frame " + std::to_string(f) +

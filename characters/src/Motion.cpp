@@ -6,6 +6,7 @@
 #include <algorithm>
 #include <assimp/Importer.hpp>
 #include <cmath>
+#include <fstream>
 #include <functional>
 #include <limits>
 #include <map>
@@ -35,6 +36,43 @@ std::pair<size_t, double> bracket(const std::vector<double>& times, double tau) 
   return {k, (tau - times[k]) / (times[k + 1] - times[k])};
 }
 
+// Deepest joint nesting a skeleton may have (a human has under 30 levels). The readers recurse per level,
+// so a crafted file nested thousands deep would exhaust the stack: a BVH's brace depth is checked before
+// assimp reads it, and every format's node tree after.
+constexpr int kMaxJointDepth = 256;
+
+bool is_bvh(const std::string& path) {
+  return path.size() >= 4 &&
+         (path.compare(path.size() - 4, 4, ".bvh") == 0 || path.compare(path.size() - 4, 4, ".BVH") == 0);
+}
+
+void check_bvh_nesting(const std::string& path) {
+  if (!is_bvh(path)) return;
+  std::ifstream in(path, std::ios::binary);
+  int depth = 0;
+  bool opened = false;
+  for (char c; in.get(c);) {
+    if (c == '{' && ++depth > kMaxJointDepth)
+      throw Error(path, "HIERARCHY",
+                  "joints nest more than " + std::to_string(kMaxJointDepth) + " levels deep");
+    opened = opened || c == '{';
+    if (c == '}') --depth;
+    if (opened && depth == 0) break;  // the root joint's block has closed: MOTION follows
+  }
+}
+
+void check_node_depth(const std::string& path, const aiNode* root) {
+  std::vector<std::pair<const aiNode*, int>> stack{{root, 1}};
+  while (!stack.empty()) {
+    const auto [n, d] = stack.back();
+    stack.pop_back();
+    if (d > kMaxJointDepth)
+      throw Error(path, "HIERARCHY",
+                  "joints nest more than " + std::to_string(kMaxJointDepth) + " levels deep");
+    for (unsigned c = 0; c < n->mNumChildren; ++c) stack.push_back({n->mChildren[c], d + 1});
+  }
+}
+
 void check_settings(const std::string& path, const MotionSettings& settings) {
   if (!(settings.speed > 0.0) || !std::isfinite(settings.speed)) throw Error(path, "speed", "must be > 0");
   if (!(settings.scale >= 0.0) || !std::isfinite(settings.scale)) throw Error(path, "scale", "must be >= 0");
@@ -45,8 +83,7 @@ void check_settings(const std::string& path, const MotionSettings& settings) {
 double ticks_per_second(const std::string& path, const aiAnimation* anim) {
   // A BVH's "Frame Time" is 1 / mTicksPerSecond: zero, negative or non-finite is refused, not defaulted;
   // "Frames: 0" leaves no keys.
-  const bool bvh = path.size() >= 4 && (path.compare(path.size() - 4, 4, ".bvh") == 0 ||
-                                        path.compare(path.size() - 4, 4, ".BVH") == 0);
+  const bool bvh = is_bvh(path);
   if (bvh && anim &&
       !(std::isfinite(anim->mTicksPerSecond) && anim->mTicksPerSecond > 0.0 && anim->mTicksPerSecond < 1e6))
     throw Error(path, "Frame Time", "must be a positive number of seconds (at least 1e-06)");
@@ -129,10 +166,12 @@ struct HierarchyReader {
 
 Motion Motion::load(const std::string& path, const MotionSettings& settings) {
   check_settings(path, settings);
+  check_bvh_nesting(path);
   Assimp::Importer importer;
   const aiScene* scene = importer.ReadFile(path, 0);
   if (!scene || !scene->mRootNode)
     throw Error(path, "", std::string("cannot read motion: ") + importer.GetErrorString());
+  check_node_depth(path, scene->mRootNode);
 
   Motion m;
   m.source_ = path;

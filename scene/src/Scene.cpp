@@ -586,8 +586,14 @@ void parse_cloths(const JsonReader& r, Scene& scene, const std::string& file) {
     }
     cs.initial_velocity = c.vec3("velocity", Vec3::Zero());
     cs.pins = parse_pins(c, *cs.mesh);
-    if (c.has("detail"))  // Hybrid detail (CurvedFaces.h)
-      scene.detail[static_cast<int>(scene.setup.cloths.size())] = parse_detail(c.object("detail"));
+    if (c.has("detail")) {  // Hybrid detail (CurvedFaces.h)
+      const cloth::DetailSettings ds = parse_detail(c.object("detail"));
+      scene.detail[static_cast<int>(scene.setup.cloths.size())] = ds;
+      // The shown surface has about 4^levels times the cloth's vertices; each costs about a quarter of a
+      // simulated vertex (positions, normals and the curved-face coefficients, no solver state).
+      reserve_vertices(scene, c.child("detail") + ".levels",
+                       0.25 * cs.mesh->num_vertices() * std::pow(4.0, ds.levels));
+    }
     c.finish();
     scene.setup.cloths.push_back(std::move(cs));
   }

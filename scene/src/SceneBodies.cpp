@@ -33,7 +33,10 @@ std::function<Transform(double)> parse_body_motion(const JsonReader& m, const Tr
     const JsonReader o = m.object("oscillate");
     const Vec3 amp = o.vec3("amplitude", Vec3::Zero());
     const double f = o.number("frequency", std::nullopt, 0.0, true);
+    if (f > 1000.0) o.fail("frequency", "must be <= 1000 Hz");
+    if (!(amp.cwiseAbs().maxCoeff() <= 1000.0)) o.fail("amplitude", "must be within 1000 m on each axis");
     const double twist = o.number("twist", 0.0);
+    if (!(std::abs(twist) <= 100.0)) o.fail("twist", "must be within 100 rad");
     o.finish();
     m.finish();
     return [start, amp, f, twist](double t) {
@@ -99,7 +102,9 @@ void parse_bodies(const JsonReader& root, Scene& scene) {
     b.mass = r.number("mass", 0.0, 0.0);
     if (b.mass > 0.0 && shape == "plane") r.fail("mass", "a plane is static (mass 0)");
     b.velocity = r.vec3("velocity", Vec3::Zero());
+    if (!(b.velocity.norm() <= 1000.0)) r.fail("velocity", "must be at most 1000 m/s");
     b.angular_velocity = r.vec3("angular_velocity", Vec3::Zero());
+    if (!(b.angular_velocity.norm() <= 10000.0)) r.fail("angular_velocity", "must be at most 10000 rad/s");
     b.friction = r.number("friction", b.friction, 0.0);
     b.restitution = r.number("restitution", b.restitution, 0.0);
     if (r.has("motion")) {

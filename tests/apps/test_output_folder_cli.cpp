@@ -135,6 +135,23 @@ TEST(OutputFolder, NeverWritesThroughALink) {
   EXPECT_NE(r.err.find("frame_00003.obj"), std::string::npos) << r.err;
 }
 
+TEST(OutputFolder, AForgedManifestNeverDeletesThroughALink) {
+  // A manifest that lists a file behind a link inside the folder: the next run deletes its own listed files
+  // but never follows the link to a file outside.
+  const fs::path dir = loom::test::test_dir(), out = dir / "mine", outside = dir / "outside";
+  const std::string scene = write_scene(dir);
+  ASSERT_EQ(run_loom("run " + scene + " --frames 1 --out " + out.string()).code, 0);
+  write(outside / "a.txt", "user data outside");
+  fs::create_symlink(outside, out / "frames" / "x");
+  {
+    std::ofstream m(out / ".loom-manifest", std::ios::app);
+    m << "frames/x/a.txt\n";
+  }
+  const auto r = run_loom("run " + scene + " --frames 1 --out " + out.string());
+  EXPECT_EQ(r.code, 0) << r.err;
+  EXPECT_EQ(slurp(outside / "a.txt"), "user data outside");
+}
+
 TEST(OutputFolder, SceneNameNeverBecomesAPath) {
   const fs::path dir = loom::test::test_dir(), target = dir / "target";
   const std::string scene = write_scene(dir);

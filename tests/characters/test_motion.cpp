@@ -11,6 +11,7 @@
 #include <sstream>
 
 #include "CharacterTestUtil.h"
+#include "TestDir.h"
 #include "loom/characters/Motion.h"
 #include "loom/cloth/Error.h"
 
@@ -226,6 +227,39 @@ TEST(Motion, ErrorsNameTheFile) {
   MotionSettings bad;
   bad.speed = 0.0;
   EXPECT_THROW(Motion::load(loom::test::mocap("01_01.bvh"), bad), loom::Error);
+}
+
+}  // namespace
+
+namespace {
+
+// A crafted BVH whose joints nest 10,000 deep is refused by name before any reader recurses into it (it
+// crashed the reader's stack before); a skeleton within the limit still loads.
+TEST(Motion, DeeplyNestedJointsAreRefusedNamingTheHierarchy) {
+  auto write_chain = [](const std::string& name, int depth) {
+    const std::string path = (loom::test::test_dir() / name).string();
+    std::ofstream f(path);
+    f << "HIERARCHY\nROOT Hips\n{\nOFFSET 0 0 0\nCHANNELS 6 Xposition Yposition Zposition Zrotation "
+         "Xrotation "
+         "Yrotation\n";
+    for (int i = 0; i < depth; ++i)
+      f << "JOINT j" << i << "\n{\nOFFSET 0 0.01 0\nCHANNELS 3 Zrotation Xrotation Yrotation\n";
+    f << "End Site\n{\nOFFSET 0 0.01 0\n}\n";
+    for (int i = 0; i <= depth; ++i) f << "}\n";
+    f << "MOTION\nFrames: 1\nFrame Time: 0.0083333\n";
+    for (int i = 0; i < 6 + 3 * depth; ++i) f << "0 ";
+    f << "\n";
+    return path;
+  };
+  MotionSettings ms;
+  try {
+    Motion::load(write_chain("deep.bvh", 10000), ms);
+    FAIL() << "a 10,000-deep skeleton was accepted";
+  } catch (const loom::Error& e) {
+    EXPECT_NE(std::string(e.what()).find("HIERARCHY"), std::string::npos) << e.what();
+    EXPECT_NE(std::string(e.what()).find("deep.bvh"), std::string::npos) << e.what();
+  }
+  EXPECT_NO_THROW(Motion::load(write_chain("chain.bvh", 40), ms));
 }
 
 }  // namespace

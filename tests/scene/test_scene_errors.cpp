@@ -150,6 +150,17 @@ const Case kCases[] = {
      "guard.max_penetration",
      "expected"},
     {"guard_intersections_type", {"guard={\"intersections\": 1}"}, "guard.intersections", "expected"},
+    // Rigid bodies whose start state or motion would overflow Bullet's state (NaN in bodies.csv).
+    {"body_velocity_huge",
+     {"bodies=[{\"name\": \"b\", \"shape\": \"sphere\", \"radius\": 0.05, \"mass\": 1, "
+      "\"position\": [0, 2, 0], \"velocity\": [0, 1e300, 0]}]"},
+     "bodies[0].velocity",
+     "at most 1000 m/s"},
+    {"body_oscillation_frequency_huge",
+     {"bodies=[{\"name\": \"b\", \"shape\": \"sphere\", \"radius\": 0.05, \"position\": [0, 2, 0], "
+      "\"motion\": {\"oscillate\": {\"amplitude\": [0.1, 0, 0], \"frequency\": 1e308}}}]"},
+     "frequency",
+     "must be <= 1000 Hz"},
 };
 
 INSTANTIATE_TEST_SUITE_P(AllCases, SceneErrors, ::testing::ValuesIn(kCases),
