@@ -10,6 +10,7 @@
 #include <nlohmann/json.hpp>
 #include <string>
 
+#include "OutputFolder.h"
 #include "loom/cloth/Error.h"
 #include "loom/cloth/Model.h"
 #include "loom/eval/FabricTests.h"
@@ -46,6 +47,7 @@ const char* kFabricUsage =
     "  --json                print one JSON object (test, material, model, resolution, measured, theory, "
     "error,\n"
     "                        and the test's own fields) instead of text\n"
+    "  --overwrite           write into a non-empty --out folder that Loom did not write\n"
     "  --out DIR             report folder (default: out/fabric-test/<test>): report.md, curve.csv, "
     "plot.png\n";
 
@@ -56,10 +58,11 @@ double parse_number(const std::string& flag, const char* v) {
   return d;
 }
 
-void write_report(const fs::path& dir, const eval::FabricTestResult& r) {
-  std::error_code ec;
-  fs::create_directories(dir, ec);
-  if (ec) throw Error(dir.string(), "--out", "cannot create report folder: " + ec.message());
+// The report folder is owned as `loom run` owns its output folder (OutputFolder.h): a foreign non-empty
+// folder is refused without --overwrite, and only the report's own files are written.
+void write_report(OutputFolder& folder, const eval::FabricTestResult& r) {
+  const fs::path& dir = folder.dir();
+  for (const char* f : {"curve.csv", "report.md", "plot.gp", "plot.png"}) folder.claim(f);
   {
     std::ofstream csv(dir / "curve.csv");
     csv << "series,x,y\n";
@@ -125,7 +128,7 @@ int parse_count(const std::string& flag, const std::string& text, long lo, long 
 int fabric_test_main(int argc, char** argv) {
   eval::FabricTestOptions o;
   std::string material = "cotton", out;
-  bool json = false, have_test = false, model_given = false;
+  bool json = false, have_test = false, model_given = false, overwrite = false;
   for (int i = 2; i < argc; ++i) {
     const std::string a = argv[i];
     auto value = [&]() -> const char* {
@@ -155,6 +158,8 @@ int fabric_test_main(int argc, char** argv) {
       if (!(o.settle_speed > 0.0)) throw Error("", "--settle-speed", "must be positive (m/s)");
     } else if (a == "--json") {
       json = true;
+    } else if (a == "--overwrite") {
+      overwrite = true;
     } else if (a == "--out") {
       out = value();
     } else if (!a.empty() && a[0] == '-') {
@@ -184,8 +189,11 @@ int fabric_test_main(int argc, char** argv) {
   bool known_model = false;
   for (const auto& m : cloth::model_names()) known_model = known_model || m == o.model;
   if (!known_model) throw Error("", "--model", "unknown model '" + o.model + "'");
+  // The report folder is checked (and claimed) before the test runs, so a refused folder costs nothing.
+  OutputFolder folder(out.empty() ? fs::path("out") / "fabric-test" / o.test : fs::path(out), "--out",
+                      overwrite, false);
   const eval::FabricTestResult r = eval::run_fabric_test(o);
-  write_report(out.empty() ? fs::path("out") / "fabric-test" / r.test : fs::path(out), r);
+  write_report(folder, r);
   if (json) {
     nlohmann::ordered_json j;
     j["test"] = r.test;

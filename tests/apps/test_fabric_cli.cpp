@@ -32,6 +32,23 @@ TEST(FabricTestCli, JsonObjectAndReport) {
   EXPECT_TRUE(fs::exists(out / "curve.csv"));
 }
 
+// The report folder is owned as loom run's output folder: a foreign non-empty folder is refused before the
+// test runs and keeps its files; --overwrite writes the report's own files beside them.
+TEST(FabricTestCli, ForeignReportFolderIsRefusedWithoutOverwrite) {
+  const fs::path out = loom::test::test_dir() / "foreign";
+  fs::remove_all(out);
+  fs::create_directories(out);
+  std::ofstream(out / "report.md") << "user data";
+  Result r = run("fabric-test tensile --resolution 5 --out " + out.string());
+  EXPECT_NE(r.code, 0);
+  EXPECT_NE(r.err.find(out.string()), std::string::npos) << r.err;
+  EXPECT_NE(r.err.find("--overwrite"), std::string::npos) << r.err;
+  std::ifstream in(out / "report.md");
+  std::string kept((std::istreambuf_iterator<char>(in)), {});
+  EXPECT_EQ(kept, "user data");
+  EXPECT_FALSE(fs::exists(out / "curve.csv"));
+}
+
 TEST(FabricTestCli, TextOutputAndErrors) {
   Result r = run("fabric-test tensile --model choi_ko --out " + (loom::test::test_dir() / "t").string());
   ASSERT_EQ(r.code, 0) << r.err;
