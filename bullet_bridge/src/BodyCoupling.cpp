@@ -326,22 +326,7 @@ void BodyCoupling::solve_feature_contacts(cloth::Cloth& cloth, int it) {
       const double sA = (A - a).dot(nrm), sB = (B - a).dot(nrm);
       if ((sA > reach && sB > reach) || (sA < -reach && sB < -reach)) continue;
       double u0 = 0.0, u1 = 1.0;
-      bool empty = false;
-      const Vec3* corners[3] = {&a, &bb, &c};
-      for (int j = 0; j < 3 && !empty; ++j) {
-        const Vec3& e0 = *corners[j];
-        const Vec3 m = nrm.cross(*corners[(j + 1) % 3] - e0);
-        const double gA = (A - e0).dot(m), gB = (B - e0).dot(m);
-        if (gA < 0.0 && gB < 0.0) {
-          empty = true;
-        } else if (gA < 0.0) {
-          u0 = std::max(u0, gA / (gA - gB));
-        } else if (gB < 0.0) {
-          u1 = std::min(u1, gA / (gA - gB));
-        }
-        if (u0 > u1) empty = true;
-      }
-      if (empty) continue;
+      if (!collision::clip_to_prism(A, B, a, bb, c, nrm, u0, u1)) continue;
       // The side the feature was on at the step's start (its clipped middle against the old plane); the
       // side of the body's centre when it was closer than half the thickness.
       double side = 1.0;

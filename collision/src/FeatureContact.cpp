@@ -184,6 +184,25 @@ Vec3 contact_dv(const Vec3& rel, const Vec3& n, double mu_s, double mu_k) {
   return -vn * n + (keep - 1.0) * vt;
 }
 
+// Swept box of the collider (prev and curr), inflated by the thickness `thick` (m).
+void swept_bounds(const Collider& col, const ColliderGeometry* geom, double thick, Vec3& blo, Vec3& bhi) {
+  Vec3 llo, lhi;
+  local_bounds(col.shape, geom, llo, lhi);
+  blo = Vec3::Constant(HUGE_VAL), bhi = Vec3::Constant(-HUGE_VAL);
+  for (int corner = 0; corner < 8; ++corner) {
+    const Vec3 q((corner & 1) ? lhi.x() : llo.x(), (corner & 2) ? lhi.y() : llo.y(),
+                 (corner & 4) ? lhi.z() : llo.z());
+    for (const Transform* pose : {&col.prev, &col.curr}) {
+      const Vec3 w = *pose * q;
+      blo = blo.cwiseMin(w), bhi = bhi.cwiseMax(w);
+    }
+  }
+  blo.array() -= thick;
+  bhi.array() += thick;
+}
+
+}  // namespace
+
 // Clips A + u (B - A), u in [u0, u1], to the prism over the triangle (a, b, c) with unit normal n.
 // Returns false when nothing is left.
 bool clip_to_prism(const Vec3& A, const Vec3& B, const Vec3& a, const Vec3& b, const Vec3& c, const Vec3& n,
@@ -206,25 +225,6 @@ bool clip_to_prism(const Vec3& A, const Vec3& B, const Vec3& a, const Vec3& b, c
   }
   return !empty;
 }
-
-// Swept box of the collider (prev and curr), inflated by the thickness `thick` (m).
-void swept_bounds(const Collider& col, const ColliderGeometry* geom, double thick, Vec3& blo, Vec3& bhi) {
-  Vec3 llo, lhi;
-  local_bounds(col.shape, geom, llo, lhi);
-  blo = Vec3::Constant(HUGE_VAL), bhi = Vec3::Constant(-HUGE_VAL);
-  for (int corner = 0; corner < 8; ++corner) {
-    const Vec3 q((corner & 1) ? lhi.x() : llo.x(), (corner & 2) ? lhi.y() : llo.y(),
-                 (corner & 4) ? lhi.z() : llo.z());
-    for (const Transform* pose : {&col.prev, &col.curr}) {
-      const Vec3 w = *pose * q;
-      blo = blo.cwiseMin(w), bhi = bhi.cwiseMax(w);
-    }
-  }
-  blo.array() -= thick;
-  bhi.array() += thick;
-}
-
-}  // namespace
 
 // One collider's contact parameters for one cloth and step.
 struct FeatureContactStage::ColliderPass {

@@ -88,4 +88,9 @@ class FeatureContactStage final : public cloth::Stage {
   long vertex_contacts_ = 0, face_contacts_ = 0, swept_vertices_ = 0;
 };
 
+// Clips the segment A + u (B - A), u in [u0, u1], to the prism over the triangle (a, b, c) with unit normal n
+// (per edge: (P - e0) . (n x (e1 - e0)) >= 0). Returns false when nothing is left.
+bool clip_to_prism(const Vec3& A, const Vec3& B, const Vec3& a, const Vec3& b, const Vec3& c, const Vec3& n,
+                   double& u0, double& u1);
+
 }  // namespace loom::collision
