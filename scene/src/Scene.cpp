@@ -309,7 +309,8 @@ std::shared_ptr<const cloth::ClothMesh> parse_mesh(const JsonReader& r, Scene& s
     std::error_code ec;
     if (!std::filesystem::exists(p, ec))  // the OBJ loader's own message names the file
       return build([&] { return cloth::ClothMesh::from_obj(p.string(), scale, translate); });
-    input_file(scene, r.child("path"), p.string());
+    input_file(scene, r.child("path"),
+               path);  // as written: input_file resolves it against the scene's folder
     auto mesh = build([&] { return cloth::ClothMesh::from_obj(p.string(), scale, translate); });
     for (const Vec3& x : mesh->rest_positions())
       if (!(x.cwiseAbs().maxCoeff() <= kMaxCoordinate))

@@ -100,6 +100,17 @@ TEST(Cli, DefaultSceneRunsWithoutArguments) {
   EXPECT_TRUE(fs::exists(out / "summary.json"));
 }
 
+// A scene given by a relative path whose mesh is relative to the scene's folder, run from the repository
+// root as the README shows (`loom run scenes/draped_layers.json`): the mesh path is resolved once.
+TEST(Cli, RelativeSceneWithARelativeMeshRunsFromTheRepositoryRoot) {
+  const fs::path out = fresh_dir("relative_mesh");
+  const std::string cmd = std::string("cd ") + LOOM_SOURCE_DIR + " && " + LOOM_BINARY +
+                          " run scenes/draped_layers.json --frames 1 --out " + out.string() +
+                          " >/dev/null 2>&1";
+  EXPECT_EQ(std::system(cmd.c_str()), 0);
+  EXPECT_TRUE(fs::exists(out / "summary.json"));
+}
+
 TEST(Cli, HelpTextsExplainEveryOption) {
   Result r = run("--help");
   EXPECT_EQ(r.code, 0);
