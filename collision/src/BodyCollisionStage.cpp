@@ -24,21 +24,6 @@ Aabb swept_box(const Vec3& a, const Vec3& b, double margin) {
   return box;
 }
 
-// Coulomb friction (Bridson et al. 2002, Sec. 7.2) on a relative velocity, or on a displacement over the
-// step in its place: `rel` is the vertex's motion relative to the surface, n the outward normal. Returns its
-// tangential part after friction: dropped when within μ_s of the inward part (which stands for the normal
-// impulse; static), else shortened by μ_k of it (kinetic). For a swept hit, `rel` is where the vertex was
-// going relative to the contact point carried with the body; without the normal part the vertex stays on the
-// surface's tangent plane at the contact, which a convex collider lies behind (a later pass tests the new
-// path).
-Vec3 coulomb_tangent(const Vec3& rel, const Vec3& n, double mu_s, double mu_k) {
-  const double sn = rel.dot(n);
-  const Vec3 st = rel - sn * n;
-  const double len = st.norm(), push = std::max(0.0, -sn);
-  if (len <= mu_s * push) return Vec3::Zero();
-  return st * std::max(0.0, 1.0 - mu_k * push / len);
-}
-
 }  // namespace
 
 BodyCollisionStage::BodyCollisionStage(ColliderSetPtr colliders, BodyCollisionSettings settings)
@@ -531,6 +516,17 @@ std::vector<std::pair<std::string, double>> BodyCollisionStage::counters() const
           {"threaded_edges", static_cast<double>(threaded_edges_)},
           {"passes", static_cast<double>(passes_)},
           {"revisit_contacts", static_cast<double>(revisits_)}};
+}
+
+// For a swept hit, `rel` is where the vertex was going relative to the contact point carried with the body;
+// without the normal part the vertex stays on the surface's tangent plane at the contact, which a convex
+// collider lies behind (a later pass tests the new path).
+Vec3 coulomb_tangent(const Vec3& rel, const Vec3& n, double mu_s, double mu_k) {
+  const double sn = rel.dot(n);
+  const Vec3 st = rel - sn * n;
+  const double len = st.norm(), push = std::max(0.0, -sn);
+  if (len <= mu_s * push) return Vec3::Zero();
+  return st * std::max(0.0, 1.0 - mu_k * push / len);
 }
 
 }  // namespace loom::collision

@@ -6,6 +6,7 @@
 
 #include "loom/collision/ColliderDistance.h"
 #include "loom/collision/ColliderGeometry.h"
+#include "loom/collision/FrictionPair.h"
 #include "loom/collision/SweptCollider.h"
 
 namespace loom::collision {
@@ -40,16 +41,6 @@ double bounding_radius(const Shape& s) {
       return r;
     }
   }
-}
-
-// Coulomb friction (Bridson et al. 2002, Sec. 7.2) on the velocity relative to the surface, `rel`, with
-// outward normal n: the tangential part after friction, the inward normal part standing for the impulse.
-Vec3 coulomb_tangent(const Vec3& rel, const Vec3& n, double mu_s, double mu_k) {
-  const double sn = rel.dot(n);
-  const Vec3 st = rel - sn * n;
-  const double len = st.norm(), push = std::max(0.0, -sn);
-  if (len <= mu_s * push) return Vec3::Zero();
-  return st * std::max(0.0, 1.0 - mu_k * push / len);
 }
 
 // Signed distance (m) from p to collider c at its step-end pose (end) or step-start pose, outward normal in
