@@ -9,27 +9,31 @@ here="$(cd "$(dirname "${BASH_SOURCE[0]}")" && pwd)"
 cd "$here"
 build_dir="${LOOM_BUILD_DIR:-build}"
 
-# Debian packages, installed only when missing (a second run installs nothing). The demo needs the first list
-# only; the test suite (GoogleTest, benchmarks, the viewer under Xvfb, clang sanitizers and fuzzers, the
+# Debian packages, installed only when missing (a second run installs nothing). The demo needs the first two
+# lists only (the video list is installed in the background while the demo builds); the test suite (GoogleTest, benchmarks, the viewer under Xvfb, clang sanitizers and fuzzers, the
 # format check, assimp's test models) adds the second.
 demo_packages=(
   build-essential cmake pkg-config
   libeigen3-dev nlohmann-json3-dev
   libbullet-dev libfcl-dev libccd-dev libgmp-dev libqhull-dev
   libassimp-dev
-  libosmesa6-dev libstb-dev ffmpeg
+  libosmesa6-dev libstb-dev
 )
+# Only the renderer's last step (PNG frames -> MP4/GIF) runs ffmpeg; it is the biggest download of the demo.
+video_packages=(ffmpeg)
 test_packages=(
   libgtest-dev libgmock-dev libbenchmark-dev
   gnuplot-nox assimp-testmodels libtinygltf-dev
   libglfw3-dev libimgui-dev libgl1-mesa-dri xvfb xauth
   clang-14 libfuzzer-14-dev libomp-14-dev clang-format-14
 )
-packages=("${demo_packages[@]}")
+packages=("${demo_packages[@]}" "${video_packages[@]}")
 
+# install_missing [PACKAGE...]: apt-get install those of the packages (default: $packages) not installed.
 install_missing() {
   local missing=()
-  for p in "${packages[@]}"; do
+  [ $# -gt 0 ] || set -- "${packages[@]}"
+  for p in "$@"; do
     dpkg-query -W -f='${Status}' "$p" 2>/dev/null | grep -q "install ok installed" || missing+=("$p")
   done
   [ ${#missing[@]} -eq 0 ] && return 0
@@ -149,8 +153,18 @@ USAGE
 cmd="${1:-}"
 case "$cmd" in
   demo)
-    install_missing
+    install_missing "${demo_packages[@]}"
+    # ffmpeg downloads and unpacks while the compiler runs; the run waits for it before rendering.
+    mkdir -p "$build_dir"
+    video_log="$build_dir/apt-video.log"
+    install_missing "${video_packages[@]}" >"$video_log" 2>&1 &
+    video_pid=$!
     configure_and_build demo
+    if ! wait "$video_pid"; then
+      cat "$video_log" >&2
+      echo "loom.sh: error: installing ${video_packages[*]} failed (log: $video_log)" >&2
+      exit 1
+    fi
     out="${LOOM_OUT:-out/demo}"
     # loom run owns its output folder (docs/guarantees.md): out/demo is reused by its manifest; a folder of
     # the default name left by a loom without manifests is this script's own, so it may be overwritten.
