@@ -8,6 +8,7 @@
 #include <sstream>
 #include <stdexcept>
 
+#include "Hex.h"
 #include "OutputFolder.h"
 #include "loom/cloth/Error.h"
 
@@ -20,11 +21,6 @@ constexpr const char* kMagicPrefix = "LOOMCKPT";
 constexpr size_t kMagicBytes = 10;  // "LOOMCKPT" + one digit + "\n"
 fs::path checkpoint_file(const fs::path& out) { return out / "checkpoint" / "checkpoint.bin"; }
 
-std::string hex(std::uint64_t v) {
-  char s[17];
-  std::snprintf(s, sizeof s, "%016llx", static_cast<unsigned long long>(v));
-  return s;
-}
 std::uint64_t unhex(const std::string& s) {
   if (s.size() != 16 || s.find_first_not_of("0123456789abcdef") != std::string::npos)
     throw std::invalid_argument("expected 16 hex digits");

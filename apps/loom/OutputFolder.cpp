@@ -6,6 +6,7 @@
 #include <sstream>
 #include <vector>
 
+#include "Hex.h"
 #include "loom/cloth/Error.h"
 
 namespace fs = std::filesystem;
@@ -39,12 +40,6 @@ bool valid_entry(const std::string& rel) {
   for (const fs::path& part : p)
     if (part == "..") return false;
   return true;
-}
-
-std::string hex(std::uint64_t v) {
-  char s[17];
-  std::snprintf(s, sizeof s, "%016llx", static_cast<unsigned long long>(v));
-  return s;
 }
 
 struct Manifest {

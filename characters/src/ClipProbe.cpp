@@ -3,21 +3,10 @@
 #include <algorithm>
 #include <cmath>
 
+#include "loom/collision/Distance.h"
 #include "loom/collision/MultiClothCensus.h"
 
 namespace loom::characters {
-
-namespace {
-
-// Distance (m) from p to the segment (a, b).
-double segment_distance(const Vec3& p, const Vec3& a, const Vec3& b) {
-  const Vec3 d = b - a;
-  const double l2 = d.squaredNorm();
-  const double s = l2 > 0.0 ? std::clamp((p - a).dot(d) / l2, 0.0, 1.0) : 0.0;
-  return (p - (a + s * d)).norm();
-}
-
-}  // namespace
 
 ClipProbe::ClipProbe(std::shared_ptr<const Character> character, int census_every)
     : character_(std::move(character)), census_every_(census_every) {}
@@ -40,8 +29,8 @@ void ClipProbe::run(cloth::StageContext& ctx) {
       int bone = -1;
       for (size_t bk = 0; bk < c.rig.bones().size(); ++bk) {
         const Bone& b = c.rig.bones()[bk];
-        const double d =
-            b.radius - segment_distance(s.x[i], pose_[b.joint].translation(), pose_[b.child].translation());
+        const double d = b.radius - collision::point_segment_distance(s.x[i], pose_[b.joint].translation(),
+                                                                      pose_[b.child].translation());
         if (d > depth) depth = d, bone = static_cast<int>(bk);
       }
       double& worst = attached_[k][i] ? f_.max_attached_depth : f_.max_depth;

@@ -8,6 +8,7 @@
 #include <sstream>
 
 #include "loom/cloth/Error.h"
+#include "loom/collision/Distance.h"
 
 namespace loom::characters {
 
@@ -21,13 +22,6 @@ struct Segment {
   double r = 0.0;
   int bone = 0;
 };
-
-double segment_distance(const Vec3& p, const Vec3& a, const Vec3& b) {
-  const Vec3 d = b - a;
-  const double l2 = d.squaredNorm();
-  const double s = l2 > 0.0 ? std::clamp((p - a).dot(d) / l2, 0.0, 1.0) : 0.0;
-  return (p - (a + s * d)).norm();
-}
 
 // The rig's capsules at t = 0 as world segments.
 std::vector<Segment> segments_at_start(const Motion& motion, const CapsuleRig& rig,
@@ -44,7 +38,7 @@ std::vector<Segment> segments_at_start(const Motion& motion, const CapsuleRig& r
 // Smallest gap from p to the capsule surfaces (negative inside).
 double clearance_of(const Vec3& p, const std::vector<Segment>& caps) {
   double g = std::numeric_limits<double>::infinity();
-  for (const Segment& s : caps) g = std::min(g, segment_distance(p, s.a, s.b) - s.r);
+  for (const Segment& s : caps) g = std::min(g, collision::point_segment_distance(p, s.a, s.b) - s.r);
   return g;
 }
 
@@ -71,8 +65,9 @@ double carried_gap(const Vec3& x0, int joint, const std::vector<Transform>& pose
   for (const std::vector<Transform>& p : samples) {
     const Vec3 x = p[joint] * local;
     for (const Bone& bone : rig.bones())
-      gap = std::min(
-          gap, segment_distance(x, p[bone.joint].translation(), p[bone.child].translation()) - bone.radius);
+      gap = std::min(gap, collision::point_segment_distance(x, p[bone.joint].translation(),
+                                                            p[bone.child].translation()) -
+                              bone.radius);
   }
   return gap;
 }
@@ -120,7 +115,7 @@ int nearest_joint(const Vec3& p, const std::vector<Segment>& caps, const Capsule
   int joint = -1;
   for (const Segment& s : caps) {
     if (s.bone < 0 || (!names.empty() && !names.count(rig.bones()[s.bone].canonical))) continue;
-    const double d = segment_distance(p, s.a, s.b) - s.r;
+    const double d = collision::point_segment_distance(p, s.a, s.b) - s.r;
     if (d < best) {
       best = d;
       joint = rig.bones()[s.bone].joint;
@@ -338,7 +333,8 @@ double ray_reach(const GarmentFit& f, const Vec3& axis, const Vec3& dir, const s
         if (c.bone >= 0) {
           const Bone& bone = f.rig.bones()[c.bone];
           const std::vector<Transform>& p = samples[k];
-          if (segment_distance(p[root] * local, p[bone.joint].translation(), p[bone.child].translation()) -
+          if (collision::point_segment_distance(p[root] * local, p[bone.joint].translation(),
+                                                p[bone.child].translation()) -
                   bone.radius <
               gap) {
             clear = false;

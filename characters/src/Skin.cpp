@@ -5,19 +5,13 @@
 #include <limits>
 
 #include "loom/cloth/Error.h"
+#include "loom/collision/Distance.h"
 
 namespace loom::characters {
 
 namespace {
 
 std::string vertex_field(size_t i) { return "vertices[" + std::to_string(i) + "]"; }
-
-double segment_distance(const cloth::Vec3& p, const cloth::Vec3& a, const cloth::Vec3& b) {
-  const cloth::Vec3 ab = b - a;
-  const double len2 = ab.squaredNorm();
-  const double s = len2 > 0.0 ? std::clamp((p - a).dot(ab) / len2, 0.0, 1.0) : 0.0;
-  return (p - (a + s * ab)).norm();
-}
 
 }  // namespace
 
@@ -95,7 +89,7 @@ Skin Skin::automatic(const cloth::Vec3s& positions, std::vector<std::string> bon
     if (!positions[i].allFinite())
       throw Error(source, "positions[" + std::to_string(i) + "]", "is not finite");
     for (size_t b = 0; b < nb; ++b)
-      dist[b] = {segment_distance(positions[i], head[b], tail[b]), static_cast<int>(b)};
+      dist[b] = {collision::point_segment_distance(positions[i], head[b], tail[b]), static_cast<int>(b)};
     std::partial_sort(dist.begin(), dist.begin() + keep, dist.end());
     double sum = 0.0;
     for (int k = 0; k < keep; ++k) {

@@ -7,6 +7,7 @@
 #include <map>
 #include <unsupported/Eigen/AutoDiff>
 
+#include "Numbers.h"
 #include "loom/cloth/SpringSet.h"
 
 namespace loom::cloth {
@@ -14,7 +15,6 @@ namespace loom::cloth {
 namespace choi_ko {
 
 namespace {
-constexpr double kPi = 3.14159265358979323846;
 
 // q(y) = (cos y - sinc y) / y², and q'(y) / y; Taylor series below y = 0.1 where the direct form cancels.
 double q_of(double y) {

@@ -6,6 +6,7 @@
 #include <deque>
 #include <map>
 
+#include "Numbers.h"
 #include "loom/cloth/Error.h"
 
 namespace loom::cloth {
@@ -30,8 +31,6 @@ Vec3 pn_point(const Vec3& p1, const Vec3& p2, const Vec3& p3, const Vec3& n1, co
          b120 * (3.0 * w * u * u) + b201 * (3.0 * w * w * v) + b021 * (3.0 * u * u * v) +
          b102 * (3.0 * w * v * v) + b012 * (3.0 * u * v * v) + b111 * (6.0 * w * u * v);
 }
-
-constexpr double kPi = 3.14159265358979323846;
 
 // Largest eigenvalue of a symmetric 2x2 matrix.
 double largest_eigenvalue(const Eigen::Matrix2d& q) {

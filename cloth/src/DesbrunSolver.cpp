@@ -2,15 +2,11 @@
 
 #include <Eigen/Dense>
 
+#include "Numbers.h"
 #include "loom/cloth/Error.h"
 #include "loom/cloth/SpringSolverSupport.h"
 
 namespace loom::cloth {
-
-namespace {
-// Loops shorter than this run on one thread: a parallel region costs more than the work it would split.
-constexpr int kMinParallel = 512;
-}  // namespace
 
 void DesbrunSolver::check(const Cloth& cloth) const { check_spring_terms(cloth, name()); }
 

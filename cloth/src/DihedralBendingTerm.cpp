@@ -5,12 +5,11 @@
 #include <unsupported/Eigen/AutoDiff>
 
 #include "ElementJacobians.h"
+#include "Numbers.h"
 
 namespace loom::cloth {
 
 namespace {
-
-constexpr double kPi = 3.14159265358979323846;
 
 template <class S>
 using V3 = Eigen::Matrix<S, 3, 1>;

@@ -15,7 +15,7 @@ namespace loom::cloth {
 namespace {
 // Loops shorter than this run on one thread: a parallel region costs more than the work it would split.
 // Results do not depend on it (colours share no vertex; per-vertex loops are independent).
-constexpr int kMinParallel = 2048;
+constexpr int kMinParallelSprings = 2048;
 // m², springs shorter than 1 µm have no direction and are skipped.
 constexpr float kMinLength2 = 1e-12f;
 
@@ -202,7 +202,7 @@ void FastXpbdSolver::step(Cloth& cloth, double t, double h, int threads) {
   origin_ = n > 0 ? s.x[0] : Vec3::Zero();
   s.x_prev.resize(n);
   const bool with_lambda = iterations_ > 1;
-#pragma omp parallel num_threads(threads) if (threads > 1 && ns >= kMinParallel)
+#pragma omp parallel num_threads(threads) if (threads > 1 && ns >= kMinParallelSprings)
   {
     const int team = omp_get_num_threads(), me = omp_get_thread_num();
     int b = 0, e = 0;

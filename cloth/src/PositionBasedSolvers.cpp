@@ -5,15 +5,10 @@
 #include <algorithm>
 #include <cmath>
 
+#include "Numbers.h"
 #include "loom/cloth/SpringSolverSupport.h"
 
 namespace loom::cloth {
-
-namespace {
-// Loops shorter than this run on one thread: a parallel region costs more than the work it would split.
-// Results do not depend on it (colours share no vertex; per-vertex loops are independent).
-constexpr int kMinParallel = 512;
-}  // namespace
 
 void PositionBasedSolver::check(const Cloth& cloth) const { check_spring_terms(cloth, name()); }
 

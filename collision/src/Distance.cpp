@@ -1,6 +1,7 @@
 // Point-triangle and segment-segment distances, one template for double and exact rationals (Distance.h).
 #include "loom/collision/Distance.h"
 
+#include <algorithm>
 #include <array>
 
 namespace loom::collision {
@@ -104,6 +105,13 @@ T segment_segment(const V3<T>& p0, const V3<T>& p1, const V3<T>& q0, const V3<T>
 }
 
 }  // namespace
+
+double point_segment_distance(const Vec3& p, const Vec3& a, const Vec3& b) {
+  const Vec3 d = b - a;
+  const double l2 = d.squaredNorm();
+  const double s = l2 > 0.0 ? std::clamp((p - a).dot(d) / l2, 0.0, 1.0) : 0.0;
+  return (p - (a + s * d)).norm();
+}
 
 PointTriangleClosest point_triangle_closest(const Vec3& p, const Vec3& a, const Vec3& b, const Vec3& c) {
   std::array<double, 3> w;

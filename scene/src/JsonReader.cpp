@@ -18,7 +18,7 @@ std::string type_name(const nlohmann::json& v) {
   if (v.is_array()) return "an array";
   return "an object";
 }
-std::string show(double v) {
+std::string show_number(double v) {
   std::ostringstream s;
   s << v;
   return s.str();
@@ -62,7 +62,8 @@ double JsonReader::number(const std::string& key, std::optional<double> fallback
   }
   const double d = as_number(at(key), child(key));
   if (min && (strict_min ? !(d > *min) : !(d >= *min)))
-    fail(key, "must be " + std::string(strict_min ? "> " : ">= ") + show(*min) + " (got " + show(d) + ")");
+    fail(key, "must be " + std::string(strict_min ? "> " : ">= ") + show_number(*min) + " (got " +
+                  show_number(d) + ")");
   return d;
 }
 

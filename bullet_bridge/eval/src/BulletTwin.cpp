@@ -13,6 +13,7 @@
 #include <algorithm>
 #include <map>
 
+#include "BulletConvert.h"
 #include "TwinAccess.h"
 #include "loom/cloth/Error.h"
 #include "loom/cloth/SpringSet.h"
@@ -20,8 +21,6 @@
 namespace loom::bullet {
 
 namespace {
-
-btVector3 to_bt(const cloth::Vec3& v) { return btVector3(btScalar(v.x()), btScalar(v.y()), btScalar(v.z())); }
 
 // btDeformableMassSpringForce with one stiffness per link (Loom's k, N/m) instead of Bullet's two (elastic,
 // bending). Same formulas as Bullet 3.24's btDeformableMassSpringForce.h: f = k (|d| - r) d̂ and its full

@@ -25,6 +25,9 @@ struct SegmentSegmentClosest {
   double t = 0;                 // 1; closest point q0 + t (q1 - q0)
 };
 
+// Distance (m) from p to the segment (a, b); a zero-length segment is the point a.
+double point_segment_distance(const Vec3& p, const Vec3& a, const Vec3& b);
+
 PointTriangleClosest point_triangle_closest(const Vec3& p, const Vec3& a, const Vec3& b, const Vec3& c);
 SegmentSegmentClosest segment_segment_closest(const Vec3& p0, const Vec3& p1, const Vec3& q0, const Vec3& q1);
 
