@@ -16,7 +16,7 @@ demo_packages=(
   build-essential cmake pkg-config
   libeigen3-dev nlohmann-json3-dev
   libbullet-dev libfcl-dev libccd-dev libgmp-dev libqhull-dev
-  libassimp-dev
+  libassimp-dev zlib1g-dev
   libosmesa6-dev libstb-dev
 )
 # Only the renderer's last step (PNG frames -> MP4/GIF) runs ffmpeg; it is the biggest download of the demo.
