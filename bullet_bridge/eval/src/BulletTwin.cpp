@@ -20,7 +20,9 @@
 
 namespace loom::bullet {
 
-namespace {
+// Internal to this file; a named namespace because BulletTwin::Impl holds these types (GCC warns about an
+// anonymous-namespace member type when the file is compiled inside a unity build).
+namespace twin_internal {
 
 // btDeformableMassSpringForce with one stiffness per link (Loom's k, N/m) instead of Bullet's two (elastic,
 // bending). Same formulas as Bullet 3.24's btDeformableMassSpringForce.h: f = k (|d| - r) d̂ and its full
@@ -89,7 +91,10 @@ class NewtonSolver final : public btDeformableBodySolver {
   explicit NewtonSolver(int iterations) { m_maxNewtonIterations = iterations; }
 };
 
-}  // namespace
+}  // namespace twin_internal
+
+using twin_internal::NewtonSolver;
+using twin_internal::PerLinkMassSpringForce;
 
 const char* system_name(TwinKind kind) {
   return kind == TwinKind::kClassic ? "bullet_classic" : "bullet_deformable";
