@@ -3,7 +3,7 @@
 # Builds a minimal Debian 12 (bookworm) with debootstrap in a new folder under ${TMPDIR:-/var/tmp}, clones this
 # repository's HEAD into it (uncommitted changes are not measured), and runs `time ./loom.sh demo` there under
 # chroot: apt-get update and install, configure, build, the default scene with its render, `loom compare`.
-# Prints the demo's own output, apt's start and end times and the total. Needs root, debootstrap and the
+# Prints what the demo printed after its build, apt's start and end times and the total. Needs root, debootstrap and the
 # network; run it on a quiet machine (other jobs slow the compiler). The folder it made is removed at the end,
 # after its mounts are released; nothing else is touched.
 # Environment: LOOM_DEBIAN_MIRROR (default http://deb.debian.org/debian), LOOM_DEBIAN_SUITE (default bookworm).
@@ -50,10 +50,20 @@ done
 git clone -q "$here" "$root/root/loom"
 echo "# commit $(git -C "$here" rev-parse --short HEAD), $(nproc) cores, load average $(cut -d' ' -f1-3 /proc/loadavg)"
 
+# The demo's full output (apt, compiler) goes to a log beside the folder; what it printed after the build is
+# shown, the whole log only when it fails.
+log="$root.log"
 start=$(date +%s)
-chroot "$root" env -i HOME=/root PATH=/usr/sbin:/usr/bin:/sbin:/bin LANG=C.UTF-8 \
-  bash -c 'cd /root/loom && ./loom.sh demo'
+if ! chroot "$root" env -i HOME=/root PATH=/usr/sbin:/usr/bin:/sbin:/bin LANG=C.UTF-8 \
+  bash -c 'cd /root/loom && ./loom.sh demo' >"$log" 2>&1; then
+  cat "$log"
+  rm -f "$log"
+  echo "bench/fresh_demo.sh: error: ./loom.sh demo failed on the fresh machine" >&2
+  exit 1
+fi
 end=$(date +%s)
+sed -n '/^loom: rendered/,$p' "$log"
+rm -f "$log"
 echo
 echo "# apt (from the fresh machine's /var/log/apt/history.log):"
 grep -E '^(Start-Date|End-Date)' "$root/var/log/apt/history.log" | sed 's/^/#   /'

@@ -4,7 +4,8 @@
 # into docs/benchmarks.md between its markers
 #   <!-- results: bench/results/NAME.txt -->  ...  <!-- /results -->
 # so the document shows the current figures. Takes hours for all (the accuracy sweeps dominate); run it on a
-# quiet machine. NAMEs: the keys of `benches` below.
+# quiet machine. NAMEs: the keys of `benches` below; fresh_demo (root and the network: ./loom.sh demo on a
+# debootstrapped Debian) runs only when named.
 set -euo pipefail
 here="$(cd "$(dirname "${BASH_SOURCE[0]}")/.." && pwd)"
 cd "$here"
@@ -21,6 +22,7 @@ declare -A benches=(
   [step]="$build/bench/loom_bench_step --benchmark_repetitions=3 --benchmark_report_aggregates_only=true"
   [realtime]="$loom bench realtime --out $tmp_out/realtime"
   [accuracy]="$loom bench accuracy --sizes 32,64 --threads 1 --out $tmp_out/accuracy"
+  [fresh_demo]="bench/fresh_demo.sh"
   [threads_n128]="env -u OMP_WAIT_POLICY $loom bench accuracy --sizes 128 --threads 1,2 --out $tmp_out/threads"
 )
 names=("$@")
