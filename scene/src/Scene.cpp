@@ -531,7 +531,9 @@ cloth::WindSettings parse_wind(const JsonReader& w) {
     }
   if (w.has("swing")) {
     const JsonReader sw = w.object("swing");
-    ws.swing_angle = sw.number("angle") * kDegree;
+    const double angle = sw.number("angle", std::nullopt, 0.0);
+    if (!(angle <= 180.0)) sw.fail("angle", "must be in [0, 180] degrees (got " + show(angle) + ")");
+    ws.swing_angle = angle * kDegree;
     ws.swing_frequency = sw.number("frequency");
     ws.swing_axis = sw.vec3("axis", ws.swing_axis);
     sw.finish();

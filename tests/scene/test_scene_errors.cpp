@@ -219,6 +219,8 @@ TEST(Scene, ShippedScenesLoad) {
   EXPECT_NEAR(area, 1.0, 1e-12);
   EXPECT_NEAR(area * h.setup.cloths[0].material.areal_density, 0.2, 1e-12);  // 1 m², 0.2 kg
   EXPECT_FALSE(h.setup.drag.has_value());
+  EXPECT_FALSE(h.setup.wind.has_value());  // no wind: no aero term
+  EXPECT_FALSE(h.setup.cloths[0].pressure.has_value());
 }
 
 }  // namespace
