@@ -209,7 +209,7 @@ TEST(Scene, CloStyleMaterialMapsToPhysicalUnits) {
 }
 
 TEST(Scene, ShippedScenesLoad) {
-  for (const char* name : {"hanging_cloth.json", "flag_in_wind.json"}) {
+  for (const char* name : {"hanging_cloth.json", "flag_in_wind.json", "pillow.json"}) {
     const std::string path = std::string(LOOM_SOURCE_DIR) + "/scenes/" + name;
     Scene s = load_scene(path);
     EXPECT_NO_THROW(cloth::Simulation(s.setup, path)) << name;
