@@ -12,7 +12,7 @@
 namespace loom::viewer {
 
 LiveScene::LiveScene(scene::Scene scene) : scene_(std::move(scene)) {
-  available_.drag = scene_.setup.drag.has_value();
+  available_.drag = scene_.setup.drag.has_value() || scene_.setup.wind.has_value();
   available_.strain_limit = scene_.setup.strain_limit.has_value();
   available_.tethers = scene_.setup.tethers.has_value();
   available_.colliders = !scene_.colliders.empty();
@@ -43,7 +43,10 @@ double LiveScene::time() const {
 
 scene::Scene LiveScene::edited() const {
   scene::Scene s = scene_;
-  if (!enabled_.drag) s.setup.drag.reset();
+  if (!enabled_.drag) {
+    s.setup.drag.reset();
+    s.setup.wind.reset();
+  }
   if (!enabled_.strain_limit) s.setup.strain_limit.reset();
   if (!enabled_.tethers) s.setup.tethers.reset();
   if (!enabled_.colliders) s.colliders.clear();

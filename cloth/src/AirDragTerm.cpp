@@ -1,6 +1,7 @@
 #include "loom/cloth/AirDragTerm.h"
 
 #include <cmath>
+#include "Numbers.h"
 
 namespace loom::cloth {
 
@@ -10,7 +11,6 @@ Mat3 skew(const Vec3& a) {
   m << 0, -a.z(), a.y(), a.z(), 0, -a.x(), -a.y(), a.x(), 0;
   return m;
 }
-constexpr double kTwoPi = 6.283185307179586;
 }  // namespace
 
 Vec3 DragSettings::wind_at(double t) const {

@@ -101,6 +101,7 @@ Simulation::Simulation(SimulationSetup setup, const std::string& file) : setup_(
     throw Error(file, "constraints.tethers.slack", "must be >= 0");
   if (!setup_.gravity.allFinite()) throw Error(file, "gravity", "must be finite");
   if (setup_.cloths.empty()) throw Error(file, "cloths", "a scene needs at least one cloth");
+  if (setup_.wind) setup_.wind->validate(file, "effects.wind");
   std::vector<std::unique_ptr<Solver>> solvers;
   for (size_t c = 0; c < setup_.cloths.size(); ++c) {
     const ClothSetup& cs = setup_.cloths[c];
@@ -115,6 +116,19 @@ Simulation::Simulation(SimulationSetup setup, const std::string& file) : setup_(
     if (setup_.drag)
       cloth->add_term(
           std::make_unique<AirDragTerm>(*setup_.drag, cs.mesh->triangles(), cs.mesh->vertex_areas()));
+    if (setup_.wind)
+      cloth->add_term(
+          std::make_unique<AeroTerm>(*setup_.wind, cs.mesh->triangles(), cs.mesh->num_vertices()));
+    if (cs.pressure) {
+      cs.pressure->validate(file, where + ".pressure");
+      const std::string open = closed_mesh_problem(static_cast<int>(cs.mesh->edges().size()),
+                                                   static_cast<int>(cs.mesh->hinges().size()));
+      if (!open.empty()) throw Error(file, where + ".pressure", open);
+      auto term =
+          std::make_unique<PressureTerm>(*cs.pressure, cs.mesh->triangles(), cs.mesh->rest_positions());
+      if (!(term->rest_volume() > 0.0)) throw Error(file, where + ".pressure", "the mesh encloses no volume");
+      cloth->add_term(std::move(term));
+    }
     for (Vec3& v : cloth->state().v) v = cs.initial_velocity;
     for (size_t p = 0; p < cs.pins.size(); ++p) {
       const PinSpec& ps = cs.pins[p];
@@ -319,6 +333,15 @@ std::string Simulation::energy_budget_violation(const FrameStats& end, double* p
       drag->add_forces(EvalContext{st.x, st.v, t_, setup_.threads}, fd);
       const double wind = setup_.drag->wind.norm() * (1.0 + std::abs(setup_.drag->gust_amplitude));
       for (int i = 0; i < st.size(); ++i) w += fd[i].norm() * (st.v[i].norm() + wind) * setup_.frame_dt;
+    }
+    // Aero: |f_aero| (|v| + max |w|) Δt per vertex; pressure: |f_p| |v| Δt per vertex.
+    for (const char* name : {"aero", "pressure"}) {
+      const Term* term = c->find_term(name);
+      if (!term) continue;
+      Vec3s fa(st.size(), Vec3::Zero());
+      term->add_forces(EvalContext{st.x, st.v, t_, setup_.threads}, fa);
+      const double wind = setup_.wind && std::string(name) == "aero" ? setup_.wind->max_speed() : 0.0;
+      for (int i = 0; i < st.size(); ++i) w += fa[i].norm() * (st.v[i].norm() + wind) * setup_.frame_dt;
     }
   }
   *pin_work = w;

@@ -41,6 +41,7 @@ double guard_energy_scale(const SimulationSetup& setup, const std::vector<std::u
   double fastest = 0.0;
   if (setup.drag)
     fastest = std::max(fastest, setup.drag->wind.norm() * (1.0 + std::abs(setup.drag->gust_amplitude)));
+  if (setup.wind) fastest = std::max(fastest, setup.wind->max_speed());
   for (const ClothSetup& c : setup.cloths) fastest = std::max(fastest, c.initial_velocity.norm());
   for (const auto& c : cloths)
     for (const Pin& p : c->pins())

@@ -158,6 +158,10 @@ void WeilSolver::check(const Cloth& cloth) const {
   for (const auto& t : cloth.terms())
     if (std::string(t->name()) == "drag")
       throw Error("", "effects.drag", "the weil drape has no dynamics: drag and wind need a dynamic solver");
+    else if (std::string(t->name()) == "aero")
+      throw Error("", "effects.wind", "the weil drape has no dynamics: wind needs a dynamic solver");
+    else if (std::string(t->name()) == "pressure")
+      throw Error("", "cloths[].pressure", "the weil drape has no dynamics: pressure needs a dynamic solver");
   const ClothState& s = cloth.state();
   for (int i = 0; i < s.size(); ++i)
     if (s.inv_mass[i] != 0.0 && s.v[i].squaredNorm() > 0.0)

@@ -511,7 +511,40 @@ void parse_solver(const JsonReader& r, const nlohmann::json& root, Scene& scene,
   cloth::make_solver(scene.setup.solver, file);  // an unknown method fails here, naming solver.method
 }
 
-// `effects`: air drag and wind (AirDragTerm.h); absent = no drag term at all.
+constexpr double kDegree = 3.141592653589793 / 180.0;  // rad
+
+// `effects.wind`: drag and lift of a gusting wind (AeroTerm.h). Angles in degrees.
+cloth::WindSettings parse_wind(const JsonReader& w) {
+  cloth::WindSettings ws;
+  ws.velocity = w.vec3("velocity");
+  ws.density = w.number("density", ws.density);
+  ws.drag = w.number("drag", ws.drag);
+  ws.lift = w.number("lift", ws.lift);
+  if (w.has("gusts"))
+    for (const JsonReader& g : w.objects("gusts")) {
+      cloth::Gust gust;
+      gust.amplitude = g.number("amplitude");
+      gust.frequency = g.number("frequency");
+      gust.phase = g.number("phase", 0.0) * kDegree;
+      g.finish();
+      ws.gusts.push_back(gust);
+    }
+  if (w.has("swing")) {
+    const JsonReader sw = w.object("swing");
+    const double angle = sw.number("angle", std::nullopt, 0.0);
+    if (!(angle <= 180.0)) sw.fail("angle", "must be in [0, 180] degrees (got " + show(angle) + ")");
+    ws.swing_angle = angle * kDegree;
+    ws.swing_frequency = sw.number("frequency");
+    ws.swing_axis = sw.vec3("axis", ws.swing_axis);
+    sw.finish();
+  }
+  w.finish();
+  // Ranges (AeroTerm.h); errors name the JSON path of the field.
+  ws.validate(w.file(), w.path());
+  return ws;
+}
+
+// `effects`: air drag and wind (AirDragTerm.h), wind with lift (AeroTerm.h); absent = no such term at all.
 void parse_effects(const JsonReader& r, Scene& scene) {
   if (r.has("effects")) {
     const JsonReader e = r.object("effects");
@@ -526,6 +559,7 @@ void parse_effects(const JsonReader& r, Scene& scene) {
       d.finish();
       scene.setup.drag = ds;
     }
+    if (e.has("wind")) scene.setup.wind = parse_wind(e.object("wind"));
     e.finish();
   }
 }
@@ -564,6 +598,22 @@ void parse_constraints(const JsonReader& r, Scene& scene) {
                                     {"realtime", "exact"}) == "realtime";
 }
 
+// `cloths[i].pressure`: gas pressure inside a closed mesh (PressureTerm.h).
+cloth::PressureSettings parse_pressure(const JsonReader& p, const cloth::ClothMesh& mesh) {
+  cloth::PressureSettings ps;
+  ps.ideal_gas = p.string("model", "constant", {"constant", "ideal_gas"}) == "ideal_gas";
+  ps.overpressure = p.number("overpressure");
+  ps.ambient = p.number("ambient", ps.ambient);
+  if (p.has("ambient") && !ps.ideal_gas)
+    p.fail("ambient", "only the ideal_gas model uses the ambient pressure");
+  p.finish();
+  ps.validate(p.file(), p.path());
+  const std::string open = cloth::closed_mesh_problem(static_cast<int>(mesh.edges().size()),
+                                                      static_cast<int>(mesh.hinges().size()));
+  if (!open.empty()) throw Error(p.file(), p.path(), open);
+  return ps;
+}
+
 // The character's garments first (SceneCharacter.cpp), then `cloths`.
 void parse_cloths(const JsonReader& r, Scene& scene, const std::string& file) {
   parse_character(r, scene);  // Mocap character; its garments are the first cloths (SceneCharacter.cpp)
@@ -586,6 +636,7 @@ void parse_cloths(const JsonReader& r, Scene& scene, const std::string& file) {
                            " m^2; it must be in [1e-06, 10000]");
     }
     cs.initial_velocity = c.vec3("velocity", Vec3::Zero());
+    if (c.has("pressure")) cs.pressure = parse_pressure(c.object("pressure"), *cs.mesh);
     cs.pins = parse_pins(c, *cs.mesh);
     if (c.has("detail")) {  // Hybrid detail (CurvedFaces.h)
       const cloth::DetailSettings ds = parse_detail(c.object("detail"));

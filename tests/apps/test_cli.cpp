@@ -67,15 +67,16 @@ TEST(Cli, RunHangingClothWritesFramesStatsAndSummary) {
   EXPECT_EQ(last.find("nan"), std::string::npos);
 }
 
-TEST(Cli, FlagSceneHasADragStageAndProfileTable) {
+TEST(Cli, FlagSceneHasAnAeroStageAndProfileTable) {
   const fs::path out = fresh_dir("flag");
   const Result r = run(kScenes + "flag_in_wind.json --frames 4 --profile --threads 2 --out " + out.string());
   ASSERT_EQ(r.code, 0) << r.err;
   const auto j = nlohmann::json::parse(slurp(out / "summary.json"));
-  EXPECT_TRUE(j["stages"].contains("solve/drag"));
+  EXPECT_TRUE(j["stages"].contains("solve/aero"));
+  EXPECT_FALSE(j["stages"].contains("solve/drag"));
   EXPECT_EQ(j["threads"], 2);
   EXPECT_NE(r.out.find("stage"), std::string::npos);
-  EXPECT_NE(r.out.find("solve/drag"), std::string::npos);
+  EXPECT_NE(r.out.find("solve/aero"), std::string::npos);
   EXPECT_NE(r.out.find("ms/frame"), std::string::npos);
   // output.every = 2 in the flag scene.
   EXPECT_TRUE(fs::exists(out / "frames" / "frame_00002.obj"));

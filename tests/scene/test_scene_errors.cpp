@@ -209,7 +209,7 @@ TEST(Scene, CloStyleMaterialMapsToPhysicalUnits) {
 }
 
 TEST(Scene, ShippedScenesLoad) {
-  for (const char* name : {"hanging_cloth.json", "flag_in_wind.json"}) {
+  for (const char* name : {"hanging_cloth.json", "flag_in_wind.json", "pillow.json"}) {
     const std::string path = std::string(LOOM_SOURCE_DIR) + "/scenes/" + name;
     Scene s = load_scene(path);
     EXPECT_NO_THROW(cloth::Simulation(s.setup, path)) << name;
@@ -219,6 +219,8 @@ TEST(Scene, ShippedScenesLoad) {
   EXPECT_NEAR(area, 1.0, 1e-12);
   EXPECT_NEAR(area * h.setup.cloths[0].material.areal_density, 0.2, 1e-12);  // 1 m², 0.2 kg
   EXPECT_FALSE(h.setup.drag.has_value());
+  EXPECT_FALSE(h.setup.wind.has_value());  // no wind: no aero term
+  EXPECT_FALSE(h.setup.cloths[0].pressure.has_value());
 }
 
 }  // namespace

@@ -107,7 +107,9 @@ TEST_P(RealtimeHardCases, SurviveOrStopWithANamedCause) {
   }
   std::printf("%-34s %s after %d frames, worst census %ld, depth %.3g m %s\n", cc.name.c_str(),
               done == cc.frames ? "survived" : "STOPPED", done, worst, depth, sim->failure().c_str());
-  if (cc.must_survive) EXPECT_EQ(done, cc.frames) << cc.name << ": " << sim->failure();
+  if (cc.must_survive) {
+    EXPECT_EQ(done, cc.frames) << cc.name << ": " << sim->failure();
+  }
 }
 
 INSTANTIATE_TEST_SUITE_P(Realtime, RealtimeHardCases, ::testing::Range(0, static_cast<int>(cases().size())),

@@ -9,9 +9,11 @@
 #include <string>
 #include <vector>
 
+#include "loom/cloth/AeroTerm.h"
 #include "loom/cloth/AirDragTerm.h"
 #include "loom/cloth/Cloth.h"
 #include "loom/cloth/Guard.h"
+#include "loom/cloth/PressureTerm.h"
 #include "loom/cloth/Solver.h"
 #include "loom/cloth/Stage.h"
 #include "loom/cloth/StrainLimitStage.h"
@@ -32,13 +34,15 @@ struct ClothSetup {
   Material material;
   std::string model = "springs";  // one of model_names() (Model.h)
   std::vector<PinSpec> pins;
-  Vec3 initial_velocity = Vec3::Zero();  // m/s
+  Vec3 initial_velocity = Vec3::Zero();      // m/s
+  std::optional<PressureSettings> pressure;  // gas pressure inside a closed mesh; absent = no pressure term
 };
 
 struct SimulationSetup {
   std::vector<ClothSetup> cloths;
   Vec3 gravity{0.0, -9.81, 0.0};     // m/s²
   std::optional<DragSettings> drag;  // the drag effect; absent = no drag term at all
+  std::optional<WindSettings> wind;  // drag and lift of a wind on every cloth; absent = no aero term at all
   // Constraint passes after the solver, in this order; absent = no stage (StrainLimitStage.h, TetherStage.h).
   std::optional<StrainLimitSettings> strain_limit;
   std::optional<TetherSettings> tethers;
