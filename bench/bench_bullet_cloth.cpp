@@ -6,18 +6,33 @@
 //                     many while it moves fast),
 //   phase 1 "draped": the second second, the cloth resting on the bodies.
 // Counters: cpu_ms_per_step (process CPU time, all threads), ms_per_step (wall), cloth_steps_per_step.
-// Built twice from this file: loom_bench_bullet_cloth (float Bullet), loom_bench_bullet_cloth_double.
+// BM_ToyBox: scenes/toy_box.json (33 x 33 corner-tied cloth, 12 small bodies, a kinematic paddle) for its
+// first `frames` 60 Hz frames, as `loom run` builds it (BulletScene) in BulletClothSettings' real-time tier
+// (system 0) and as Bullet's classic btSoftBody twin with the same bodies (system 1, `loom compare`'s
+// run_bullet_twin), in the same process. Counters: ms_per_frame (wall, cloth and world), cpu_ms_per_frame
+// (process CPU time; the twin's includes building its world), cloth_ms_per_frame (system 0: the cloth
+// pipeline alone, wall).
+// Built twice from this file (BM_ToyBox only in the float one): loom_bench_bullet_cloth (float Bullet),
+// loom_bench_bullet_cloth_double.
 #include <benchmark/benchmark.h>
 #include <btBulletDynamicsCommon.h>
 #include <time.h>
 
+#include <algorithm>
 #include <chrono>
 #include <memory>
 #include <string>
 
 #include "loom/bullet/BulletCloth.h"
+#ifdef LOOM_BENCH_TOY_BOX
+#include "loom/bullet/BulletScene.h"
+#include "loom/bullet/Compare.h"
+#endif
 #include "loom/bullet/RigidBodies.h"
 #include "loom/cloth/ClothMesh.h"
+#ifdef LOOM_BENCH_TOY_BOX
+#include "loom/scene/Scene.h"
+#endif
 
 namespace {
 
@@ -105,6 +120,63 @@ BENCHMARK(BM_BulletStep)
     ->ArgsProduct({{0, 17, 33}, {0, 1}})
     ->Unit(benchmark::kMillisecond)
     ->MeasureProcessCPUTime();
+
+#ifdef LOOM_BENCH_TOY_BOX
+void BM_ToyBox(benchmark::State& state) {
+  const int system = static_cast<int>(state.range(0));
+  const int frames = static_cast<int>(state.range(1));
+  const loom::scene::Scene sc =
+      loom::scene::load_scene(std::string(LOOM_SOURCE_DIR) + "/scenes/toy_box.json");
+  double ms = 0.0, cloth_ms = 0.0, cpu_s = 0.0, max_strain = 0.0;
+  long runs = 0;
+  for (auto _ : state) {
+    if (system == 0) {
+      state.PauseTiming();
+      loom::bullet::BulletSceneOptions options;
+      options.realtime = true;
+      auto bs = std::make_unique<loom::bullet::BulletScene>(sc.setup, sc.bodies, options);
+      state.ResumeTiming();
+      const double cpu0 = process_cpu_s();
+      const auto wall0 = std::chrono::steady_clock::now();
+      for (int f = 0; f < frames; ++f) {
+        const loom::cloth::FrameStats st = bs->step_frame();
+        cloth_ms += st.total_ms;
+        max_strain = std::max(max_strain, st.max_strain);
+      }
+      ms += 1e3 * std::chrono::duration<double>(std::chrono::steady_clock::now() - wall0).count();
+      cpu_s += process_cpu_s() - cpu0;
+      state.PauseTiming();
+      bs.reset();
+      state.ResumeTiming();
+    } else {
+      loom::bullet::CompareInput in;
+      in.setup = sc.setup;
+      in.bodies = sc.bodies;
+      in.frames = frames;
+      const double cpu0 = process_cpu_s();
+      const loom::bullet::SystemMetrics m =
+          loom::bullet::run_bullet_twin(in, loom::bullet::TwinKind::kClassic);
+      cpu_s += process_cpu_s() - cpu0;
+      ms += m.ms_per_frame * frames;
+      state.counters["max_strain"] = m.max_strain;
+      state.counters["max_penetration_mm"] = 1e3 * m.max_penetration;
+    }
+    ++runs;
+  }
+  state.counters["ms_per_frame"] = ms / double(runs * frames);
+  state.counters["cpu_ms_per_frame"] = 1e3 * cpu_s / double(runs * frames);
+  if (system == 0) {
+    state.counters["cloth_ms_per_frame"] = cloth_ms / double(runs * frames);
+    state.counters["max_strain"] = max_strain;
+  }
+  state.SetLabel(system == 0 ? "Loom BulletCloth, real-time tier" : "Bullet classic btSoftBody twin");
+}
+BENCHMARK(BM_ToyBox)
+    ->ArgNames({"system", "frames"})
+    ->ArgsProduct({{0, 1}, {60}})
+    ->Unit(benchmark::kMillisecond)
+    ->Iterations(1);
+#endif
 
 }  // namespace
 

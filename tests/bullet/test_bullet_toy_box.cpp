@@ -50,10 +50,16 @@ WorldRun run_world(const std::string& name, std::vector<std::string> sets = {}, 
     r.max_pen = std::max(r.max_pen, bs.max_penetration());
     r.cloth_ms += s.total_ms;
     r.worst_ms = std::max(r.worst_ms, s.total_ms);
-    const int before = sides.bodies_through();
-    if (sides.update() > 0 && sides.bodies_through() > before)
-      std::printf("%s frame %d: %d bodies through the cloth so far\n", name.c_str(), f,
-                  sides.bodies_through());
+    std::vector<char> was(bs.num_bodies());
+    for (size_t b = 0; b < bs.num_bodies(); ++b) was[b] = sides.crossed(b);
+    if (sides.update() > 0)
+      for (size_t b = 0; b < bs.num_bodies(); ++b)
+        if (sides.crossed(b) && !was[b]) {
+          const cloth::Vec3 x = bs.body_position(b), v = bs.body_velocity(b);
+          std::printf("%s frame %d: %s through the cloth at (%.3f %.3f %.3f), v (%.2f %.2f %.2f)\n",
+                      name.c_str(), f, (*bs.body_colliders())[b].name.c_str(), x.x(), x.y(), x.z(), v.x(),
+                      v.y(), v.z());
+        }
   }
   r.cloth_ms /= r.frames;
   if (std::getenv("LOOM_DIAG"))
@@ -82,11 +88,24 @@ void expect_world_invariants(const WorldRun& r) {
 // Disabled: these do not hold yet with any contact response or solver the bridge offers (bodies pass through
 // and edges stretch past 10 %). Run them with --gtest_also_run_disabled_tests;
 // LOOM_TOY_SET="path=value;..." applies scene overrides (e.g. solver.method=implicit_euler);
-// LOOM_TOY_REALTIME=1 runs the bridge's coupled solve (BulletClothSettings::Tier::realtime).
+// LOOM_TOY_REALTIME=1 runs the bridge's coupled solve (BulletClothSettings::Tier::realtime). Each body that
+// changes side is printed with the frame, its position and velocity (on the toy box they leave over the
+// cloth's border after a rebound, docs/bullet.md).
 TEST(BulletWorld, DISABLED_ToyBox33NoBodyThrough) { expect_world_invariants(run_world("toy_box.json")); }
 
 TEST(BulletWorld, DISABLED_ToyBox17NoBodyThrough) {
   expect_world_invariants(run_world("toy_box.json", {"cloths.0.mesh.nodes=[17,17]"}));
+}
+
+// The other Bullet-world scenes under the same invariants over their whole duration (test_bullet_scenes.cpp
+// checks their strain and held bodies over the impact only).
+TEST(BulletWorld, DISABLED_TrampolineNoBodyThrough) { expect_world_invariants(run_world("trampoline.json")); }
+TEST(BulletWorld, DISABLED_HammockNoBodyThrough) { expect_world_invariants(run_world("hammock.json")); }
+TEST(BulletWorld, DISABLED_CurtainAndBallsNoBodyThrough) {
+  expect_world_invariants(run_world("curtain_and_balls.json"));
+}
+TEST(BulletWorld, DISABLED_FlagOnPoleNoBodyThrough) {
+  expect_world_invariants(run_world("flag_on_pole.json"));
 }
 
 }  // namespace
