@@ -2,6 +2,7 @@
 
 #include <algorithm>
 #include <cmath>
+#include <unordered_map>
 #ifdef __SSE2__
 #include <xmmintrin.h>
 #endif
@@ -110,11 +111,7 @@ void RealtimeSelfCollisionStage::prepare(const std::vector<std::unique_ptr<cloth
   while (size < 8 * tri_.size() + 8) size *= 2;
   bucket_start_.assign(size + 1, 0);
   tri_range_.resize(tri_.size());
-  rest_n_.resize(tri_.size());
-  for (size_t q = 0; q < tri_.size(); ++q) {
-    const Vec3 &ra = rest_[tri_[q][0]], &rb = rest_[tri_[q][1]], &rc = rest_[tri_[q][2]];
-    rest_n_[q] = (rb - ra).cross(rc - ra).normalized();
-  }
+  rest_neighbours();
   // Sides and broad-phase positions loaded with the state are kept; otherwise the current positions.
   const size_t n = static_cast<size_t>(offset_.back());
   if (last_.size() != n) {
@@ -124,6 +121,46 @@ void RealtimeSelfCollisionStage::prepare(const std::vector<std::unique_ptr<cloth
   if (built_.size() != n) built_.clear();
   cand_valid_ = false;
   prepared_ = true;
+}
+
+void RealtimeSelfCollisionStage::rest_neighbours() {
+  // Vertices by cell of their rest position; each triangle looks at the cells of its rest box inflated by
+  // 2t plus the barycentric slack.
+  const double t_self = settings_.self_fraction * settings_.thickness, inv_cell = 1.0 / cell_;
+  auto cell_of = [&](double v) { return static_cast<long>(std::floor(v * inv_cell)); };
+  auto key = [&](long x, long y, long z) { return (x * 73856093L) ^ (y * 19349663L) ^ (z * 83492791L); };
+  std::unordered_map<long, std::vector<int>> cells;
+  const int n = static_cast<int>(rest_.size()), nt = static_cast<int>(tri_.size());
+  for (int g = 0; g < n; ++g)
+    cells[key(cell_of(rest_[g].x()), cell_of(rest_[g].y()), cell_of(rest_[g].z()))].push_back(g);
+  std::vector<std::pair<int, int>> pairs;
+  for (int q = 0; q < nt; ++q) {
+    const auto& tri = tri_[q];
+    const Vec3 &ra = rest_[tri[0]], &rb = rest_[tri[1]], &rc = rest_[tri[2]];
+    const Vec3 rn = (rb - ra).cross(rc - ra).normalized();
+    const double edge = std::max({(rb - ra).norm(), (rc - rb).norm(), (ra - rc).norm()});
+    const Vec3 reach = Vec3::Constant(2.0 * t_self + kInsideTolerance * edge);
+    const Vec3 lo = ra.cwiseMin(rb).cwiseMin(rc) - reach, hi = ra.cwiseMax(rb).cwiseMax(rc) + reach;
+    for (long x = cell_of(lo.x()); x <= cell_of(hi.x()); ++x)
+      for (long y = cell_of(lo.y()); y <= cell_of(hi.y()); ++y)
+        for (long z = cell_of(lo.z()); z <= cell_of(hi.z()); ++z) {
+          const auto it = cells.find(key(x, y, z));
+          if (it == cells.end()) continue;
+          for (int g : it->second) {
+            if (vert_cloth_[g] != tri_cloth_[q] || tri[0] == g || tri[1] == g || tri[2] == g) continue;
+            double rbw[3];
+            if (std::abs((rest_[g] - ra).dot(rn)) < 2.0 * t_self && barycentric(ra, rb, rc, rest_[g], rbw) &&
+                inside_triangle(rbw))
+              pairs.emplace_back(g, q);
+          }
+        }
+  }
+  std::sort(pairs.begin(), pairs.end());
+  pairs.erase(std::unique(pairs.begin(), pairs.end()), pairs.end());
+  rest_start_.assign(n + 1, 0);
+  rest_tri_.clear();
+  for (const auto& [g, q] : pairs) ++rest_start_[g + 1], rest_tri_.push_back(q);
+  for (int g = 0; g < n; ++g) rest_start_[g + 1] += rest_start_[g];
 }
 
 bool RealtimeSelfCollisionStage::moved_too_far() const {
@@ -140,7 +177,6 @@ bool RealtimeSelfCollisionStage::moved_too_far() const {
 
 void RealtimeSelfCollisionStage::broad_phase() {
   ++broad_phases_;
-  const double t_self = settings_.self_fraction * settings_.thickness;
   const double reach = settings_.thickness + settings_.padding, inv_cell = 1.0 / cell_;
   const long table = static_cast<long>(bucket_start_.size()) - 1;
   auto cell_of = [&](double v) { return static_cast<int>(std::floor(v * inv_cell)); };
@@ -195,13 +231,9 @@ void RealtimeSelfCollisionStage::broad_phase() {
       if (tri[0] == g || tri[1] == g || tri[2] == g) continue;
       const bool same = tri_cloth_[q] == vert_cloth_[g];
       if (same && !settings_.self) continue;
-      if (same) {  // neighbours on the rest shape are not contacts
-        const Vec3 &ra = rest_[tri[0]], &rb = rest_[tri[1]], &rc = rest_[tri[2]];
-        double rbw[3];
-        if (std::abs((rest_[g] - ra).dot(rest_n_[q])) < 2.0 * t_self &&
-            barycentric(ra, rb, rc, rest_[g], rbw) && inside_triangle(rbw))
-          continue;
-      }
+      if (same && std::find(rest_tri_.begin() + rest_start_[g], rest_tri_.begin() + rest_start_[g + 1], q) !=
+                      rest_tri_.begin() + rest_start_[g + 1])
+        continue;  // neighbours on the rest shape are not contacts
       cand_.emplace_back(g, q);
     }
     // This vertex's triangles in order, each once (hash collisions list a triangle once per cell).

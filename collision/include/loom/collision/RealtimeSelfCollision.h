@@ -57,6 +57,8 @@ class RealtimeSelfCollisionStage final : public cloth::Stage {
   long cell_key(int x, int y, int z) const;
   // True when a vertex has moved more than P/2 relative to the mean motion since the broad phase at built_.
   bool moved_too_far() const;
+  // Fills rest_start_ / rest_tri_.
+  void rest_neighbours();
   // Step 1 at the positions built_.
   void broad_phase();
 
@@ -69,8 +71,10 @@ class RealtimeSelfCollisionStage final : public cloth::Stage {
   std::vector<std::array<int, 3>> tri_;  // per global triangle: global vertex indices
   std::vector<int> vert_cloth_;          // per global vertex: its cloth
   cloth::Vec3s rest_;                    // m, per global vertex: rest position
-  cloth::Vec3s rest_n_;                  // 1, per global triangle: unit normal at rest
-  cloth::Vec3s last_;                    // m, per global vertex: positions at the end of the previous run
+  // Per global vertex g: the triangles of its cloth it lies within 2t of and inside at rest (never
+  // contacts), rest_tri_[rest_start_[g] .. rest_start_[g + 1]).
+  std::vector<int> rest_start_, rest_tri_;
+  cloth::Vec3s last_;  // m, per global vertex: positions at the end of the previous run
   std::vector<int> bucket_start_, bucket_items_;  // spatial hash (counting sort)
   struct alignas(16) FloatBox {
     float lo[4], hi[4];  // m (x, y, z, unused)
