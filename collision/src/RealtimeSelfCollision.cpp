@@ -184,6 +184,7 @@ void RealtimeSelfCollisionStage::broad_phase() {
   std::fill(bucket_start_.begin(), bucket_start_.end(), 0);
   const int nt = static_cast<int>(tri_.size()), n = static_cast<int>(built_.size());
   tri_lo_.resize(nt), tri_hi_.resize(nt);
+  entry_key_.clear(), entry_tri_.clear();
   for (int q = 0; q < nt; ++q) {
     const Vec3 &a = built_[tri_[q][0]], &b = built_[tri_[q][1]], &c = built_[tri_[q][2]];
     tri_lo_[q] = a.cwiseMin(b).cwiseMin(c) - Vec3::Constant(reach);
@@ -192,7 +193,12 @@ void RealtimeSelfCollisionStage::broad_phase() {
     for (int k = 0; k < 3; ++k) r[k] = cell_of(tri_lo_[q][k]), r[k + 3] = cell_of(tri_hi_[q][k]);
     for (int x = r[0]; x <= r[3]; ++x)
       for (int y = r[1]; y <= r[4]; ++y)
-        for (int z = r[2]; z <= r[5]; ++z) ++bucket_start_[cell_key(x, y, z) + 1];
+        for (int z = r[2]; z <= r[5]; ++z) {
+          const long key = cell_key(x, y, z);
+          ++bucket_start_[key + 1];
+          entry_key_.push_back(static_cast<int>(key));
+          entry_tri_.push_back(q);
+        }
   }
   for (long k = 0; k < table; ++k) bucket_start_[k + 1] += bucket_start_[k];
   bucket_items_.resize(bucket_start_[table]);
@@ -201,19 +207,17 @@ void RealtimeSelfCollisionStage::broad_phase() {
   // Each entry carries its triangle's box in float (widened by 1 mm for the rounding), so that the scan
   // below reads one bucket's entries in a row.
   constexpr double kRound = 1e-3;  // m
+  box_f_.resize(nt);
   for (int q = 0; q < nt; ++q) {
-    const auto& r = tri_range_[q];
     const Vec3 lo = tri_lo_[q] - Vec3::Constant(kRound), hi = tri_hi_[q] + Vec3::Constant(kRound);
-    const FloatBox box{
-        {static_cast<float>(lo.x()), static_cast<float>(lo.y()), static_cast<float>(lo.z()), 0.0f},
-        {static_cast<float>(hi.x()), static_cast<float>(hi.y()), static_cast<float>(hi.z()), 0.0f}};
-    for (int x = r[0]; x <= r[3]; ++x)
-      for (int y = r[1]; y <= r[4]; ++y)
-        for (int z = r[2]; z <= r[5]; ++z) {
-          const int slot = fill_[cell_key(x, y, z)]++;
-          bucket_items_[slot] = q;
-          bucket_boxes_[slot] = box;
-        }
+    box_f_[q] =
+        FloatBox{{static_cast<float>(lo.x()), static_cast<float>(lo.y()), static_cast<float>(lo.z()), 0.0f},
+                 {static_cast<float>(hi.x()), static_cast<float>(hi.y()), static_cast<float>(hi.z()), 0.0f}};
+  }
+  for (size_t e = 0; e < entry_key_.size(); ++e) {
+    const int slot = fill_[entry_key_[e]]++;
+    bucket_items_[slot] = entry_tri_[e];
+    bucket_boxes_[slot] = box_f_[entry_tri_[e]];
   }
   // Every vertex against the triangles of its cell.
   cand_.clear();

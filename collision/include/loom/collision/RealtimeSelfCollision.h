@@ -82,8 +82,10 @@ class RealtimeSelfCollisionStage final : public cloth::Stage {
   struct alignas(16) FloatPoint {
     float p[4];  // m (x, y, z, unused)
   };
-  std::vector<FloatBox> run_boxes_;     // per triangle: box inflated by the thickness at the run's start
-  std::vector<FloatBox> bucket_boxes_;  // per bucket entry: its triangle's padded box
+  std::vector<FloatBox> box_f_;             // scratch: per triangle, its padded box in float
+  std::vector<int> entry_key_, entry_tri_;  // scratch: per hash entry, its bucket and triangle
+  std::vector<FloatBox> run_boxes_;         // per triangle: box inflated by the thickness at the run's start
+  std::vector<FloatBox> bucket_boxes_;      // per bucket entry: its triangle's padded box
   std::vector<std::array<int, 6>> tri_range_;  // per triangle: cell range lo xyz, hi xyz
   cloth::Vec3s tri_lo_, tri_hi_;               // m, per triangle: box inflated by the thickness, this run
   std::vector<FloatPoint> start_;              // m, per global vertex: position at the run's start
