@@ -2,6 +2,10 @@
 
 #include <algorithm>
 #include <cmath>
+#include <unordered_map>
+#ifdef __SSE2__
+#include <xmmintrin.h>
+#endif
 
 namespace loom::collision {
 
@@ -26,6 +30,18 @@ bool barycentric(const Vec3& a, const Vec3& b, const Vec3& c, const Vec3& p, dou
 constexpr double kInsideTolerance =
     0.02;  // 1, barycentric slack: a vertex over a shared edge sees both faces
 
+// True when p lies in the box [lo, hi] (x, y, z lanes; the fourth lane is ignored).
+inline bool in_box(const float* p, const float* lo, const float* hi) {
+#ifdef __SSE2__
+  const __m128 v = _mm_load_ps(p);
+  const int m =
+      _mm_movemask_ps(_mm_and_ps(_mm_cmpge_ps(v, _mm_load_ps(lo)), _mm_cmple_ps(v, _mm_load_ps(hi))));
+  return (m & 7) == 7;
+#else
+  return p[0] >= lo[0] && p[0] <= hi[0] && p[1] >= lo[1] && p[1] <= hi[1] && p[2] >= lo[2] && p[2] <= hi[2];
+#endif
+}
+
 bool inside_triangle(const double bw[3]) {
   return bw[0] >= -kInsideTolerance && bw[1] >= -kInsideTolerance && bw[2] >= -kInsideTolerance;
 }
@@ -38,6 +54,8 @@ RealtimeSelfCollisionStage::RealtimeSelfCollisionStage(RealtimeSelfSettings sett
 
 std::vector<std::pair<std::string, double>> RealtimeSelfCollisionStage::counters() const {
   return {{"runs", static_cast<double>(runs_)},
+          {"broad_phases", static_cast<double>(broad_phases_)},
+          {"candidates", static_cast<double>(candidates_)},
           {"pairs", static_cast<double>(pairs_)},
           {"contacts", static_cast<double>(contacts_)}};
 }
@@ -46,12 +64,15 @@ void RealtimeSelfCollisionStage::save_state(cloth::StateWriter& out) const {
   out.tag("realtime_self_collision");
   out.i64(step_);
   out.vec3s(last_);
+  out.vec3s(built_);
 }
 
 void RealtimeSelfCollisionStage::load_state(cloth::StateReader& in) {
   in.tag("realtime_self_collision");
   step_ = in.i64();
   last_ = in.vec3s();
+  built_ = in.vec3s();
+  cand_valid_ = false;  // rebuilt from built_ at the next run: the same list
 }
 
 long RealtimeSelfCollisionStage::cell_key(int x, int y, int z) const {
@@ -90,9 +111,141 @@ void RealtimeSelfCollisionStage::prepare(const std::vector<std::unique_ptr<cloth
   while (size < 8 * tri_.size() + 8) size *= 2;
   bucket_start_.assign(size + 1, 0);
   tri_range_.resize(tri_.size());
-  last_.clear();
-  for (const auto& cl : cloths) last_.insert(last_.end(), cl->state().x.begin(), cl->state().x.end());
+  rest_neighbours();
+  // Sides and broad-phase positions loaded with the state are kept; otherwise the current positions.
+  const size_t n = static_cast<size_t>(offset_.back());
+  if (last_.size() != n) {
+    last_.clear();
+    for (const auto& cl : cloths) last_.insert(last_.end(), cl->state().x.begin(), cl->state().x.end());
+  }
+  if (built_.size() != n) built_.clear();
+  cand_valid_ = false;
   prepared_ = true;
+}
+
+void RealtimeSelfCollisionStage::rest_neighbours() {
+  // Vertices by cell of their rest position; each triangle looks at the cells of its rest box inflated by
+  // 2t plus the barycentric slack.
+  const double t_self = settings_.self_fraction * settings_.thickness, inv_cell = 1.0 / cell_;
+  auto cell_of = [&](double v) { return static_cast<long>(std::floor(v * inv_cell)); };
+  auto key = [&](long x, long y, long z) { return (x * 73856093L) ^ (y * 19349663L) ^ (z * 83492791L); };
+  std::unordered_map<long, std::vector<int>> cells;
+  const int n = static_cast<int>(rest_.size()), nt = static_cast<int>(tri_.size());
+  for (int g = 0; g < n; ++g)
+    cells[key(cell_of(rest_[g].x()), cell_of(rest_[g].y()), cell_of(rest_[g].z()))].push_back(g);
+  std::vector<std::pair<int, int>> pairs;
+  for (int q = 0; q < nt; ++q) {
+    const auto& tri = tri_[q];
+    const Vec3 &ra = rest_[tri[0]], &rb = rest_[tri[1]], &rc = rest_[tri[2]];
+    const Vec3 rn = (rb - ra).cross(rc - ra).normalized();
+    const double edge = std::max({(rb - ra).norm(), (rc - rb).norm(), (ra - rc).norm()});
+    const Vec3 reach = Vec3::Constant(2.0 * t_self + kInsideTolerance * edge);
+    const Vec3 lo = ra.cwiseMin(rb).cwiseMin(rc) - reach, hi = ra.cwiseMax(rb).cwiseMax(rc) + reach;
+    for (long x = cell_of(lo.x()); x <= cell_of(hi.x()); ++x)
+      for (long y = cell_of(lo.y()); y <= cell_of(hi.y()); ++y)
+        for (long z = cell_of(lo.z()); z <= cell_of(hi.z()); ++z) {
+          const auto it = cells.find(key(x, y, z));
+          if (it == cells.end()) continue;
+          for (int g : it->second) {
+            if (vert_cloth_[g] != tri_cloth_[q] || tri[0] == g || tri[1] == g || tri[2] == g) continue;
+            double rbw[3];
+            if (std::abs((rest_[g] - ra).dot(rn)) < 2.0 * t_self && barycentric(ra, rb, rc, rest_[g], rbw) &&
+                inside_triangle(rbw))
+              pairs.emplace_back(g, q);
+          }
+        }
+  }
+  std::sort(pairs.begin(), pairs.end());
+  pairs.erase(std::unique(pairs.begin(), pairs.end()), pairs.end());
+  rest_start_.assign(n + 1, 0);
+  rest_tri_.clear();
+  for (const auto& [g, q] : pairs) ++rest_start_[g + 1], rest_tri_.push_back(q);
+  for (int g = 0; g < n; ++g) rest_start_[g + 1] += rest_start_[g];
+}
+
+bool RealtimeSelfCollisionStage::moved_too_far() const {
+  const int n = static_cast<int>(built_.size());
+  if (n == 0) return true;
+  Vec3 mean = Vec3::Zero();
+  for (int g = 0; g < n; ++g) mean += *xs_[g] - built_[g];
+  mean /= n;
+  const double limit2 = 0.25 * settings_.padding * settings_.padding;
+  for (int g = 0; g < n; ++g)
+    if ((*xs_[g] - built_[g] - mean).squaredNorm() > limit2) return true;
+  return false;
+}
+
+void RealtimeSelfCollisionStage::broad_phase() {
+  ++broad_phases_;
+  const double reach = settings_.thickness + settings_.padding, inv_cell = 1.0 / cell_;
+  const long table = static_cast<long>(bucket_start_.size()) - 1;
+  auto cell_of = [&](double v) { return static_cast<int>(std::floor(v * inv_cell)); };
+  // Counting sort of the triangles' padded boxes into the table.
+  std::fill(bucket_start_.begin(), bucket_start_.end(), 0);
+  const int nt = static_cast<int>(tri_.size()), n = static_cast<int>(built_.size());
+  tri_lo_.resize(nt), tri_hi_.resize(nt);
+  entry_key_.clear(), entry_tri_.clear();
+  for (int q = 0; q < nt; ++q) {
+    const Vec3 &a = built_[tri_[q][0]], &b = built_[tri_[q][1]], &c = built_[tri_[q][2]];
+    tri_lo_[q] = a.cwiseMin(b).cwiseMin(c) - Vec3::Constant(reach);
+    tri_hi_[q] = a.cwiseMax(b).cwiseMax(c) + Vec3::Constant(reach);
+    auto& r = tri_range_[q];
+    for (int k = 0; k < 3; ++k) r[k] = cell_of(tri_lo_[q][k]), r[k + 3] = cell_of(tri_hi_[q][k]);
+    for (int x = r[0]; x <= r[3]; ++x)
+      for (int y = r[1]; y <= r[4]; ++y)
+        for (int z = r[2]; z <= r[5]; ++z) {
+          const long key = cell_key(x, y, z);
+          ++bucket_start_[key + 1];
+          entry_key_.push_back(static_cast<int>(key));
+          entry_tri_.push_back(q);
+        }
+  }
+  for (long k = 0; k < table; ++k) bucket_start_[k + 1] += bucket_start_[k];
+  bucket_items_.resize(bucket_start_[table]);
+  bucket_boxes_.resize(bucket_start_[table]);
+  fill_.assign(bucket_start_.begin(), bucket_start_.end() - 1);
+  // Each entry carries its triangle's box in float (widened by 1 mm for the rounding), so that the scan
+  // below reads one bucket's entries in a row.
+  constexpr double kRound = 1e-3;  // m
+  box_f_.resize(nt);
+  for (int q = 0; q < nt; ++q) {
+    const Vec3 lo = tri_lo_[q] - Vec3::Constant(kRound), hi = tri_hi_[q] + Vec3::Constant(kRound);
+    box_f_[q] =
+        FloatBox{{static_cast<float>(lo.x()), static_cast<float>(lo.y()), static_cast<float>(lo.z()), 0.0f},
+                 {static_cast<float>(hi.x()), static_cast<float>(hi.y()), static_cast<float>(hi.z()), 0.0f}};
+  }
+  for (size_t e = 0; e < entry_key_.size(); ++e) {
+    const int slot = fill_[entry_key_[e]]++;
+    bucket_items_[slot] = entry_tri_[e];
+    bucket_boxes_[slot] = box_f_[entry_tri_[e]];
+  }
+  // Every vertex against the triangles of its cell.
+  cand_.clear();
+  for (int g = 0; g < n; ++g) {
+    const Vec3& p = built_[g];
+    alignas(16) const float pf[4] = {static_cast<float>(p.x()), static_cast<float>(p.y()),
+                                     static_cast<float>(p.z()), 0.0f};
+    const size_t first = cand_.size();
+    const long key = cell_key(cell_of(p.x()), cell_of(p.y()), cell_of(p.z()));
+    for (int it = bucket_start_[key]; it < bucket_start_[key + 1]; ++it) {
+      const FloatBox& bx = bucket_boxes_[it];
+      if (!in_box(pf, bx.lo, bx.hi)) continue;
+      const int q = bucket_items_[it];
+      const auto& tri = tri_[q];
+      if (tri[0] == g || tri[1] == g || tri[2] == g) continue;
+      const bool same = tri_cloth_[q] == vert_cloth_[g];
+      if (same && !settings_.self) continue;
+      if (same && std::find(rest_tri_.begin() + rest_start_[g], rest_tri_.begin() + rest_start_[g + 1], q) !=
+                      rest_tri_.begin() + rest_start_[g + 1])
+        continue;  // neighbours on the rest shape are not contacts
+      cand_.emplace_back(g, q);
+    }
+    // This vertex's triangles in order, each once (hash collisions list a triangle once per cell).
+    std::sort(cand_.begin() + first, cand_.end());
+    cand_.erase(std::unique(cand_.begin() + first, cand_.end()), cand_.end());
+  }
+  candidates_ += static_cast<long>(cand_.size());
+  cand_valid_ = true;
 }
 
 void RealtimeSelfCollisionStage::run(cloth::StageContext& ctx) {
@@ -111,99 +264,78 @@ void RealtimeSelfCollisionStage::run(cloth::StageContext& ctx) {
     for (int i = 0; i < s.size(); ++i)
       xs[offset_[c] + i] = &s.x[i], vs[offset_[c] + i] = &s.v[i], w[offset_[c] + i] = s.inv_mass[i];
   }
+  // Step 1, when the list may miss a pair.
+  if (moved_too_far()) {
+    built_.resize(n);
+    for (int g = 0; g < n; ++g) built_[g] = *xs[g];
+    cand_valid_ = false;
+  }
+  if (!cand_valid_) broad_phase();
   const double t_between = settings_.thickness, t_self = settings_.self_fraction * settings_.thickness;
-  const double t = t_between, inv_cell = 1.0 / cell_;
-  const long table = static_cast<long>(bucket_start_.size()) - 1;
-  auto cell_of = [&](double v) { return static_cast<int>(std::floor(v * inv_cell)); };
-  // Step 1: counting sort of the triangles' cells into the table.
-  std::fill(bucket_start_.begin(), bucket_start_.end(), 0);
+  // The triangles' boxes inflated by the thickness and their unit normals at the run's start, in float for
+  // the box test (the same rounding whenever the list was built: the filter does not depend on it).
   const int nt = static_cast<int>(tri_.size());
-  tri_lo_.resize(nt), tri_hi_.resize(nt), tri_n_.resize(nt);
+  run_boxes_.resize(nt), tri_n_.resize(nt), start_.resize(n);
+  for (int g = 0; g < n; ++g) {
+    const Vec3& x = *xs[g];
+    start_[g] =
+        FloatPoint{{static_cast<float>(x.x()), static_cast<float>(x.y()), static_cast<float>(x.z()), 0.0f}};
+  }
   for (int q = 0; q < nt; ++q) {
     const Vec3 &a = *xs[tri_[q][0]], &b = *xs[tri_[q][1]], &c = *xs[tri_[q][2]];
-    const Vec3 lo = a.cwiseMin(b).cwiseMin(c) - Vec3::Constant(t),
-               hi = a.cwiseMax(b).cwiseMax(c) + Vec3::Constant(t);
-    tri_lo_[q] = lo, tri_hi_[q] = hi;
+    const Vec3 lo = a.cwiseMin(b).cwiseMin(c) - Vec3::Constant(t_between),
+               hi = a.cwiseMax(b).cwiseMax(c) + Vec3::Constant(t_between);
+    run_boxes_[q] = {
+        {static_cast<float>(lo.x()), static_cast<float>(lo.y()), static_cast<float>(lo.z()), 0.0f},
+        {static_cast<float>(hi.x()), static_cast<float>(hi.y()), static_cast<float>(hi.z()), 0.0f}};
     const Vec3 nq = (b - a).cross(c - a);
     const double len = nq.norm();
     tri_n_[q] = len > 1e-20 ? Vec3(nq / len) : Vec3::Zero();
-    auto& r = tri_range_[q];
-    for (int k = 0; k < 3; ++k) r[k] = cell_of(lo[k]), r[k + 3] = cell_of(hi[k]);
-    for (int x = r[0]; x <= r[3]; ++x)
-      for (int y = r[1]; y <= r[4]; ++y)
-        for (int z = r[2]; z <= r[5]; ++z) ++bucket_start_[cell_key(x, y, z) + 1];
   }
-  for (long k = 0; k < table; ++k) bucket_start_[k + 1] += bucket_start_[k];
-  bucket_items_.resize(bucket_start_[table]);
-  std::vector<int>& fill = fill_;
-  fill.assign(bucket_start_.begin(), bucket_start_.end() - 1);
-  for (int q = 0; q < nt; ++q) {
-    const auto& r = tri_range_[q];
-    for (int x = r[0]; x <= r[3]; ++x)
-      for (int y = r[1]; y <= r[4]; ++y)
-        for (int z = r[2]; z <= r[5]; ++z) bucket_items_[fill[cell_key(x, y, z)]++] = q;
-  }
-  // Step 2: vertex against the triangles of its cell, in vertex order.
-  for (int g = 0; g < n; ++g) {
+  // Step 2: the candidates in (vertex, triangle) order whose vertex lay in the box at the run's start.
+  for (const auto& [g, q] : cand_) {
+    if (!in_box(start_[g].p, run_boxes_[q].lo, run_boxes_[q].hi)) continue;
     Vec3& p = *xs[g];
-    const long key = cell_key(cell_of(p.x()), cell_of(p.y()), cell_of(p.z()));
-    for (int it = bucket_start_[key]; it < bucket_start_[key + 1]; ++it) {
-      const int q = bucket_items_[it];
-      const Vec3 &lo = tri_lo_[q], &hi = tri_hi_[q];
-      if (p.x() < lo.x() || p.x() > hi.x() || p.y() < lo.y() || p.y() > hi.y() || p.z() < lo.z() ||
-          p.z() > hi.z())
-        continue;
-      const auto& tri = tri_[q];
-      if (tri[0] == g || tri[1] == g || tri[2] == g) continue;
-      const bool same = tri_cloth_[q] == vert_cloth_[g];
-      if (same && !settings_.self) continue;
-      const double t = same ? t_self : t_between;
-      const double wv = w[g], wa = w[tri[0]], wb = w[tri[1]], wc = w[tri[2]];
-      if (wv + wa + wb + wc == 0.0) continue;
-      Vec3 &a = *xs[tri[0]], &b = *xs[tri[1]], &c = *xs[tri[2]];
-      // The normal at the run's start positions (this run's earlier projections move a triangle by at most
-      // the thickness, a small tilt for a triangle many thicknesses wide).
-      const Vec3& nrm = tri_n_[q];
-      const double sd = (p - a).dot(nrm);
-      if (!(std::abs(sd) < 3.0 * t)) continue;  // a degenerate triangle (normal 0) fails barycentric()
-      ++pairs_;
-      double bw[3];
-      if (!barycentric(a, b, c, p, bw) || !inside_triangle(bw)) continue;
-      // The side at the previous run (its own normal), the current one when the vertex lay in the plane.
-      const Vec3 &la = last_[tri[0]], &lb = last_[tri[1]], &lc = last_[tri[2]];
-      const double sd_last = (last_[g] - la).dot((lb - la).cross(lc - la));
-      const double side = sd_last > 0.0 ? 1.0 : sd_last < 0.0 ? -1.0 : (sd >= 0.0 ? 1.0 : -1.0);
-      const double gap = side * sd;
-      if (gap >= t) continue;
-      if (same) {  // neighbours on the rest shape are not contacts
-        const Vec3 &ra = rest_[tri[0]], &rb = rest_[tri[1]], &rc = rest_[tri[2]];
-        const Vec3 rn = (rb - ra).cross(rc - ra).normalized();
-        double rbw[3];
-        if (std::abs((rest_[g] - ra).dot(rn)) < 2.0 * t && barycentric(ra, rb, rc, rest_[g], rbw) &&
-            inside_triangle(rbw))
-          continue;
-      }
-      // PBD projection of C = side (p - Σ b_k x_k)·n - t >= 0 (gradient side n on p, -side b_k n on x_k).
-      const double denom = wv + bw[0] * bw[0] * wa + bw[1] * bw[1] * wb + bw[2] * bw[2] * wc;
-      if (!(denom > 0.0)) continue;
-      const Vec3 dir = side * nrm;
-      const double lambda = (t - gap) / denom;
-      p += (wv * lambda) * dir;
-      a -= (wa * bw[0] * lambda) * dir;
-      b -= (wb * bw[1] * lambda) * dir;
-      c -= (wc * bw[2] * lambda) * dir;
-      // The approaching normal velocity, removed with the same weights.
-      Vec3 &vp = *vs[g], &va = *vs[tri[0]], &vb = *vs[tri[1]], &vc = *vs[tri[2]];
-      const double vn = (vp - bw[0] * va - bw[1] * vb - bw[2] * vc).dot(dir);
-      if (vn < 0.0) {
-        const double mu = -vn / denom;
-        vp += (wv * mu) * dir;
-        va -= (wa * bw[0] * mu) * dir;
-        vb -= (wb * bw[1] * mu) * dir;
-        vc -= (wc * bw[2] * mu) * dir;
-      }
-      ++contacts_;
+    const auto& tri = tri_[q];
+    const bool same = tri_cloth_[q] == vert_cloth_[g];
+    const double t = same ? t_self : t_between;
+    const double wv = w[g], wa = w[tri[0]], wb = w[tri[1]], wc = w[tri[2]];
+    if (wv + wa + wb + wc == 0.0) continue;
+    Vec3 &a = *xs[tri[0]], &b = *xs[tri[1]], &c = *xs[tri[2]];
+    // The normal at the run's start positions (this run's earlier projections move a triangle by at most
+    // the thickness, a small tilt for a triangle many thicknesses wide).
+    const Vec3& nrm = tri_n_[q];
+    const double sd = (p - a).dot(nrm);
+    if (!(std::abs(sd) < 3.0 * t)) continue;  // a degenerate triangle (normal 0) fails barycentric()
+    ++pairs_;
+    double bw[3];
+    if (!barycentric(a, b, c, p, bw) || !inside_triangle(bw)) continue;
+    // The side at the previous run (its own normal), the current one when the vertex lay in the plane.
+    const Vec3 &la = last_[tri[0]], &lb = last_[tri[1]], &lc = last_[tri[2]];
+    const double sd_last = (last_[g] - la).dot((lb - la).cross(lc - la));
+    const double side = sd_last > 0.0 ? 1.0 : sd_last < 0.0 ? -1.0 : (sd >= 0.0 ? 1.0 : -1.0);
+    const double gap = side * sd;
+    if (gap >= t) continue;
+    // PBD projection of C = side (p - Σ b_k x_k)·n - t >= 0 (gradient side n on p, -side b_k n on x_k).
+    const double denom = wv + bw[0] * bw[0] * wa + bw[1] * bw[1] * wb + bw[2] * bw[2] * wc;
+    if (!(denom > 0.0)) continue;
+    const Vec3 dir = side * nrm;
+    const double lambda = (t - gap) / denom;
+    p += (wv * lambda) * dir;
+    a -= (wa * bw[0] * lambda) * dir;
+    b -= (wb * bw[1] * lambda) * dir;
+    c -= (wc * bw[2] * lambda) * dir;
+    // The approaching normal velocity, removed with the same weights.
+    Vec3 &vp = *vs[g], &va = *vs[tri[0]], &vb = *vs[tri[1]], &vc = *vs[tri[2]];
+    const double vn = (vp - bw[0] * va - bw[1] * vb - bw[2] * vc).dot(dir);
+    if (vn < 0.0) {
+      const double mu = -vn / denom;
+      vp += (wv * mu) * dir;
+      va -= (wa * bw[0] * mu) * dir;
+      vb -= (wb * bw[1] * mu) * dir;
+      vc -= (wc * bw[2] * mu) * dir;
     }
+    ++contacts_;
   }
   // Step 3: the sides of the next run.
   for (int g = 0; g < n; ++g) last_[g] = *xs[g];

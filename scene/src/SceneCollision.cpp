@@ -39,7 +39,7 @@ void parse_collision(const JsonReader& root, Scene& scene) {
   s.normal_cones = c.boolean("normal_cones", s.normal_cones);
   // `method`: "exact" (SelfCollisionStage) or "proximity" (RealtimeSelfCollisionStage; `thickness` is then
   // the proximity kept between cloths, default 2 cm, half of it within one cloth; `every` its budget in
-  // substeps).
+  // substeps; `padding` the broad phase's margin, default 2 cm).
   const QualityTier& tier = scene.quality;
   const std::string method =
       c.string("method", tier.realtime_self ? "proximity" : "exact", {"exact", "proximity"});
@@ -48,6 +48,7 @@ void parse_collision(const JsonReader& root, Scene& scene) {
     p.self = s.self;
     p.thickness = c.number("thickness", p.thickness, 0.0, true);
     p.every = c.integer("every", tier.self_every, 1);
+    p.padding = c.number("padding", p.padding, 0.0, true);
     scene.proximity = p;
   }
   if (c.has("friction_pairs")) {

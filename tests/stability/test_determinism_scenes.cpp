@@ -41,6 +41,8 @@ std::vector<SceneCase> scene_cases() {
                {"character.garments[0].resolution=0.08", "collision={\"self\":true}"},
                10,
                false});
+  // The real-time tier: proximity cloth-cloth with its candidate list, real-time body contact.
+  c.push_back({"character_layers_realtime", "character_layers.json", {}, 24});
 #endif
   return c;
 }
@@ -75,7 +77,8 @@ std::uint64_t run_hash(const SceneCase& c, int threads) {
   }
   double contacts = 0.0;
   for (const auto& p : sim->profile())
-    if (p.name == "body_collision" || p.name == "self_collision")
+    if (p.name == "body_collision" || p.name == "self_collision" || p.name == "realtime_contact" ||
+        p.name == "realtime_self_collision")
       for (const auto& [k, v] : p.counters)
         if (k == "contacts") contacts += v;
   if (c.collides) {

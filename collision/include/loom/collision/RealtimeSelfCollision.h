@@ -1,22 +1,30 @@
 #pragma once
 // RealtimeSelfCollisionStage ("realtime_self_collision"): the real-time tier's self- and cloth-cloth
 // collision, proximity only, on a budget. Every `every`-th step it
-//   1. puts every triangle of every cloth (its box inflated by the thickness) into a spatial hash of cells of
+//   1. broad phase, only when the cloths have moved far enough since the last one: every triangle of every
+//      cloth (its box inflated by the thickness t plus a padding P) goes into a spatial hash of cells of
 //      about one mean edge length (Teschner et al. 2003, "Optimized spatial hashing for collision detection
-//      of deformable objects": counting sort into a fixed table, no allocation per step);
-//   2. for every free vertex, tests the triangles of its cell that do not hold it: where the vertex projects
-//      inside the triangle and lies closer than the thickness t to its plane, the pair is pushed apart to t
-//      along the triangle normal (t between cloths, a fraction of it within one, where a smaller gap lets
-//      folds form), on the side the vertex was on at the end of the previous run (so a vertex
-//      that went through between runs is brought back, not pushed further). A position-based projection of
-//      C = s (x_v - Σ b_k x_k)·n - t >= 0 (Müller et al. 2007, "Position based dynamics", Sec. 3.3), with
-//      s = ±1 the remembered side and b the barycentric weights, split by inverse mass; the approaching
-//      normal velocity is removed by the same weights. Within one cloth, pairs closer than 2t at rest (a
-//      vertex and a neighbouring triangle on flat cloth) are skipped;
+//      of deformable objects": counting sort into a fixed table, no allocation per step); every vertex
+//      in the padded box of a triangle that does not hold it becomes a candidate pair, except pairs of one
+//      cloth closer than 2t at rest (a vertex and a neighbouring triangle on flat cloth: never contacts). The
+//      list is sorted by (vertex, triangle) without duplicates. With D the
+//      largest distance a vertex has moved since that broad phase relative to the cloths' mean motion, two
+//      vertices have moved by at most 2D relative to each other, so while 2D <= P the list holds every pair
+//      whose vertex lies in the triangle's box inflated by t now; the broad phase runs again when 2D > P;
+//   2. narrow phase, for the candidates whose vertex lies in the triangle's box inflated by t at the run's
+//      start: where the vertex projects inside the triangle and lies closer than the thickness t to its
+//      plane, the pair is pushed apart to t along the triangle normal (t between cloths, a fraction of it
+//      within one, where a smaller gap lets folds form), on the side the vertex was on at the end of the
+//      previous run (so a vertex that went through between runs is brought back, not pushed further). A
+//      position-based projection of C = s (x_v - Σ b_k x_k)·n - t >= 0 (Müller et al. 2007, "Position based
+//      dynamics", Sec. 3.3), with s = ±1 the remembered side and b the barycentric weights, split by inverse
+//      mass; the approaching normal velocity is removed by the same weights;
 //   3. remembers the positions as the sides of the next run.
+// The narrow phase visits the pairs in (vertex, triangle) order and its box test is exact, so the result
+// does not depend on when the broad phase ran (the positions of the last broad phase are part of the state).
 // Vertex-triangle proximity without continuous tests: pairs that cross by more than t between two runs, or
 // that cross edge against edge, are not caught; the census (MultiClothCensus.h) measures what is left.
-// Visits vertices in a fixed order on one thread: results do not depend on the thread count.
+// Runs on one thread: results do not depend on the thread count.
 #include <array>
 #include <memory>
 #include <vector>
@@ -30,6 +38,7 @@ struct RealtimeSelfSettings {
   double thickness = 0.02;     // m, the proximity kept between a vertex and a triangle of another cloth
   double self_fraction = 0.5;  // 1, the proximity within one cloth, as a fraction of `thickness`
   int every = 1;               // run at every k-th step
+  double padding = 0.02;       // m, P: the broad phase's margin beyond the thickness
 };
 
 class RealtimeSelfCollisionStage final : public cloth::Stage {
@@ -37,7 +46,8 @@ class RealtimeSelfCollisionStage final : public cloth::Stage {
   explicit RealtimeSelfCollisionStage(RealtimeSelfSettings settings);
   const char* name() const override { return "realtime_self_collision"; }
   void run(cloth::StageContext& ctx) override;
-  // runs, pairs (vertex-triangle tests), contacts (projections).
+  // runs, broad_phases, candidates (pairs listed, summed over broad phases), pairs (narrow-phase tests
+  // past the box), contacts (projections).
   std::vector<std::pair<std::string, double>> counters() const override;
   void save_state(cloth::StateWriter& out) const override;
   void load_state(cloth::StateReader& in) override;
@@ -45,6 +55,12 @@ class RealtimeSelfCollisionStage final : public cloth::Stage {
  private:
   void prepare(const std::vector<std::unique_ptr<cloth::Cloth>>& cloths);
   long cell_key(int x, int y, int z) const;
+  // True when a vertex has moved more than P/2 relative to the mean motion since the broad phase at built_.
+  bool moved_too_far() const;
+  // Fills rest_start_ / rest_tri_.
+  void rest_neighbours();
+  // Step 1 at the positions built_.
+  void broad_phase();
 
   RealtimeSelfSettings settings_;
   bool prepared_ = false;
@@ -55,15 +71,32 @@ class RealtimeSelfCollisionStage final : public cloth::Stage {
   std::vector<std::array<int, 3>> tri_;  // per global triangle: global vertex indices
   std::vector<int> vert_cloth_;          // per global vertex: its cloth
   cloth::Vec3s rest_;                    // m, per global vertex: rest position
-  cloth::Vec3s last_;                    // m, per global vertex: positions at the end of the previous run
+  // Per global vertex g: the triangles of its cloth it lies within 2t of and inside at rest (never
+  // contacts), rest_tri_[rest_start_[g] .. rest_start_[g + 1]).
+  std::vector<int> rest_start_, rest_tri_;
+  cloth::Vec3s last_;  // m, per global vertex: positions at the end of the previous run
   std::vector<int> bucket_start_, bucket_items_;  // spatial hash (counting sort)
-  std::vector<std::array<int, 6>> tri_range_;     // per triangle: cell range lo xyz, hi xyz
-  cloth::Vec3s tri_lo_, tri_hi_;                  // m, per triangle: box inflated by the thickness, this run
-  cloth::Vec3s tri_n_;                 // 1, per triangle: unit normal at the run's start (0: degenerate)
-  std::vector<cloth::Vec3*> xs_, vs_;  // scratch: each global vertex's position and velocity
-  std::vector<double> w_;              // scratch: each global vertex's inverse mass (1/kg)
-  std::vector<int> fill_;              // scratch: counting-sort cursors
-  long runs_ = 0, pairs_ = 0, contacts_ = 0;
+  struct alignas(16) FloatBox {
+    float lo[4], hi[4];  // m (x, y, z, unused)
+  };
+  struct alignas(16) FloatPoint {
+    float p[4];  // m (x, y, z, unused)
+  };
+  std::vector<FloatBox> box_f_;             // scratch: per triangle, its padded box in float
+  std::vector<int> entry_key_, entry_tri_;  // scratch: per hash entry, its bucket and triangle
+  std::vector<FloatBox> run_boxes_;         // per triangle: box inflated by the thickness at the run's start
+  std::vector<FloatBox> bucket_boxes_;      // per bucket entry: its triangle's padded box
+  std::vector<std::array<int, 6>> tri_range_;  // per triangle: cell range lo xyz, hi xyz
+  cloth::Vec3s tri_lo_, tri_hi_;               // m, per triangle: box inflated by the thickness, this run
+  std::vector<FloatPoint> start_;              // m, per global vertex: position at the run's start
+  cloth::Vec3s built_;  // m, per global vertex: positions at the last broad phase (empty: none yet)
+  std::vector<std::pair<int, int>> cand_;  // candidate (vertex, triangle) pairs of the last broad phase
+  bool cand_valid_ = false;                // cand_ was built from built_
+  cloth::Vec3s tri_n_;                     // 1, per triangle: unit normal at the run's start (0: degenerate)
+  std::vector<cloth::Vec3*> xs_, vs_;      // scratch: each global vertex's position and velocity
+  std::vector<double> w_;                  // scratch: each global vertex's inverse mass (1/kg)
+  std::vector<int> fill_;                  // scratch: counting-sort cursors
+  long runs_ = 0, broad_phases_ = 0, candidates_ = 0, pairs_ = 0, contacts_ = 0;
 };
 
 }  // namespace loom::collision
