@@ -5,9 +5,9 @@
 //   full: sleep off, stride 1 (every cape simulated at full rate);
 //   lod:  sleep on (defaults), set_lod(distance) with the default GarmentLodSettings.
 // Counters: us_per_char_full, us_per_char_lod (wall time per character per frame), ratio (full / lod),
-// asleep (capes asleep in the lod crowd at the end). 1 thread (the caller's loop; the solver runs serially
-// on a cape this size).
+// asleep (capes asleep in the lod crowd at the end). 1 OpenMP thread.
 #include <benchmark/benchmark.h>
+#include <omp.h>
 
 #include <chrono>
 #include <cmath>
@@ -116,6 +116,7 @@ void frame(const Setup& s, Crowd& c, int f, std::vector<Affine>& scratch) {
 }
 
 void BM_GarmentCrowd(benchmark::State& state) {
+  omp_set_num_threads(1);
   const Setup s = make_setup();
   Crowd full = make_crowd(s, false), lod = make_crowd(s, true);
   std::vector<Affine> scratch;
