@@ -64,6 +64,7 @@ GarmentInstance::GarmentInstance(const Vec3s& bind_positions, const std::vector<
   check_range(sl.wake_distance, 0.0, HUGE_VAL, true, source, "sleep.wake_distance", "must be >= 0 m");
   check_range(sl.wake_rotation, 0.0, HUGE_VAL, true, source, "sleep.wake_rotation", "must be >= 0 rad");
   const GarmentLodSettings& lod = settings_.lod;
+  check_range(lod.blend_time, 0.0, HUGE_VAL, false, source, "lod.blend_time", "must be finite and >= 0 s");
   check_range(lod.full_rate_distance, 1e-9, HUGE_VAL, false, source, "lod.full_rate_distance",
               "must be finite and > 0 m");
   for (auto [value, field] :
@@ -130,6 +131,7 @@ void GarmentInstance::set_pose(const std::vector<Affine>& bones, const Iso& fram
     frame_prev2_ = delta * frame_prev2_;
     frame_prev_ = frame_curr_;
     ++teleports_;
+    blend_start_ = -1.0;  // the blend offset is in the world before the teleport
     teleport_requested_ = false;
   }
 }
@@ -155,6 +157,10 @@ void GarmentInstance::step(double frame_dt) {
   // Three poses (T_{k-2}, T_{k-1}, T_k) give a quadratic in time (Lagrange weights w0, w1, w2) when both
   // intervals are long enough; otherwise the path is linear between the last two.
   const bool quadratic = span > 1e-6 && clock_prev_ - clock_prev2_ > 1e-6;
+  // A stride change moves the render lag: keep the rendered positions of the frame before (blend_offset_).
+  const int stride_before = last_stride_;
+  Vec3s before;  // allocated only at a stride change
+  if (stride != stride_before) render_positions(before);
   for (long k = 0; k < due; ++k) {
     if (asleep_) {  // fell asleep during this frame: the simulated time follows the clock
       ticks_ += stride;
@@ -190,6 +196,13 @@ void GarmentInstance::step(double frame_dt) {
     frame_sim_ = frame;
     fixed_step(stride);
     if (settings_.sleep.enabled) settle(frame_before, frame, h);
+  }
+  if (last_stride_ != stride_before) {
+    blend_start_ = -1.0;
+    render_positions(scratch_);
+    blend_offset_.resize(scratch_.size());
+    for (size_t i = 0; i < scratch_.size(); ++i) blend_offset_[i] = before[i] - scratch_[i];
+    blend_start_ = clock_;
   }
   if (span > 0.0) {
     local_prev2_ = local_prev_;
@@ -333,17 +346,33 @@ void GarmentInstance::reset() {
   clock_prev2_ = clock_prev_ = clock_ = time();
   solver_->reset();
   wake();
+  blend_start_ = -1.0;
 }
 
 void GarmentInstance::set_max_distance_multiplier(double s) {
   constraints_.set_max_distance_multiplier(s, source_);
 }
 
+void GarmentInstance::render_positions(Vec3s& out) const {
+  const double a = std::clamp((clock_ - time()) / (last_stride_ * settings_.fixed_dt), 0.0, 1.0);
+  const Vec3s& x = cloth_->state().x;
+  out.resize(x.size());
+  for (size_t i = 0; i < x.size(); ++i) out[i] = render_prev_[i] + a * (x[i] - render_prev_[i]);
+  const double blend = settings_.lod.blend_time;
+  const double b = blend_start_ < 0.0 ? 0.0
+                   : blend > 0.0      ? 1.0 - (clock_ - blend_start_) / blend
+                                      : (clock_ == blend_start_ ? 1.0 : 0.0);
+  if (b > 0.0)
+    for (size_t i = 0; i < x.size(); ++i) out[i] += b * blend_offset_[i];
+}
+
 void GarmentInstance::write_positions(float* dst, size_t stride) const {
   const double a = std::clamp((clock_ - time()) / (last_stride_ * settings_.fixed_dt), 0.0, 1.0);
   const Vec3s& x = cloth_->state().x;
+  const bool blending = blend_start_ >= 0.0 && clock_ - blend_start_ <= settings_.lod.blend_time;
+  if (blending) render_positions(scratch_);
   for (int i = 0; i < num_vertices(); ++i) {
-    const Vec3 p = render_prev_[i] + a * (x[i] - render_prev_[i]);
+    const Vec3 p = blending ? scratch_[i] : Vec3(render_prev_[i] + a * (x[i] - render_prev_[i]));
     float* d = dst + static_cast<size_t>(i) * stride;
     d[0] = static_cast<float>(p.x());
     d[1] = static_cast<float>(p.y());
@@ -352,10 +381,7 @@ void GarmentInstance::write_positions(float* dst, size_t stride) const {
 }
 
 void GarmentInstance::write_normals(float* dst, size_t stride) const {
-  const double a = std::clamp((clock_ - time()) / (last_stride_ * settings_.fixed_dt), 0.0, 1.0);
-  const Vec3s& x = cloth_->state().x;
-  scratch_.resize(x.size());
-  for (size_t i = 0; i < x.size(); ++i) scratch_[i] = render_prev_[i] + a * (x[i] - render_prev_[i]);
+  render_positions(scratch_);
   vertex_normals(tris_, scratch_, scratch_normals_);
   for (int i = 0; i < num_vertices(); ++i) {
     float* d = dst + static_cast<size_t>(i) * stride;

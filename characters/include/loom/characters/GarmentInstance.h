@@ -35,7 +35,9 @@
 //
 // Rate LOD: set_step_stride(k) (or set_lod(distance, visible) through GarmentLodSettings) runs steps of
 // k * fixed_dt on the same accumulator (the simulated time stays a whole number of fixed_dt), so a far or
-// off-screen garment costs 1/k of the solver work; the state carries over unchanged when k changes (no pop).
+// off-screen garment costs 1/k of the solver work. The state carries over unchanged when k changes, but the
+// render positions lag the clock by one step (k * fixed_dt): at the first step of a new stride the rendered
+// positions keep those of the frame before and the difference fades out linearly over lod.blend_time.
 #include <memory>
 #include <optional>
 #include <string>
@@ -61,6 +63,7 @@ struct GarmentLodSettings {
   double full_rate_distance = 5.0;  // m, > 0: set_lod(d) steps at stride ceil(d / full_rate_distance)
   int max_stride = 8;               // >= 1, <= kMaxStride: the stride of the farthest garments
   int offscreen_stride = 16;        // >= 1, <= kMaxStride: the stride when not visible
+  double blend_time = 0.2;          // s, >= 0: render blend after a stride change (see set_step_stride)
 };
 
 struct GarmentSettings {
@@ -142,6 +145,7 @@ class GarmentInstance {
 
  private:
   void fixed_step(int stride);
+  void render_positions(cloth::Vec3s& out) const;  // interpolated between the last two steps, plus the blend
   void settle(const Eigen::Isometry3d& from, const Eigen::Isometry3d& to, double h);
   void fall_asleep();
   bool pose_moved(const std::vector<Affine>& bones, const Eigen::Isometry3d& frame) const;
@@ -173,7 +177,9 @@ class GarmentInstance {
   int stride_ = 1;       // fixed_dt per step
   int last_stride_ = 1;  // fixed_dt in the last step (render interpolation)
   bool asleep_ = false;
-  double rest_time_ = 0.0;  // s, simulated time every vertex has been below sleep.speed
+  cloth::Vec3s blend_offset_;  // m, render offset at blend_start_ after a stride change
+  double blend_start_ = -1.0;  // s, clock at the stride change (< 0: no blend)
+  double rest_time_ = 0.0;     // s, simulated time every vertex has been below sleep.speed
   std::vector<Affine> bones_, sleep_bones_;
   Eigen::Isometry3d sleep_frame_ = Eigen::Isometry3d::Identity();
   cloth::Vec3 box_lo_ = cloth::Vec3::Zero(), box_hi_ = cloth::Vec3::Zero();  // m, the cloth's box asleep
