@@ -18,6 +18,7 @@ declare -A benches=(
   [collision_20k_50k]="$build/bench/loom_bench_collision --benchmark_counters_tabular=true"
   [character_clips]="$build/bench/loom_bench_character_clips"
   [hybrid_character]="$build/bench/loom_bench_hybrid_character"
+  [garment_crowd]="$build/bench/loom_bench_garment_crowd"
   [bullet_cloth]="$build/bench/loom_bench_bullet_cloth --benchmark_min_time=0.01"
   [step]="$build/bench/loom_bench_step --benchmark_repetitions=3 --benchmark_report_aggregates_only=true"
   [realtime]="$loom bench realtime --out $tmp_out/realtime"
@@ -27,7 +28,7 @@ declare -A benches=(
 )
 names=("$@")
 if [ "${1:-}" = --docs ]; then names=(); fi  # --docs: only splice the current results into the document
-[ ${#names[@]} -eq 0 ] && [ "${1:-}" != --docs ] && names=(step collision_20k_50k bullet_cloth hybrid_character character_clips realtime accuracy threads_n128)
+[ ${#names[@]} -eq 0 ] && [ "${1:-}" != --docs ] && names=(step collision_20k_50k bullet_cloth hybrid_character garment_crowd character_clips realtime accuracy threads_n128)
 
 for name in "${names[@]+"${names[@]}"}"; do
   cmd="${benches[$name]:-}"

@@ -2,7 +2,9 @@
 // buffers).
 #include <gtest/gtest.h>
 
+#include <array>
 #include <cmath>
+#include <cstdio>
 #include <random>
 
 #include "loom/characters/GarmentInstance.h"
@@ -288,4 +290,229 @@ TEST(GarmentInstance, RejectsBadArgumentsNamingThem) {
   EXPECT_NE(message([&] { g.step(-1.0); }).find("frame_dt"), std::string::npos);
   EXPECT_NE(message([&] { g.set_max_distance_multiplier(-1.0); }).find("max_distance_multiplier"),
             std::string::npos);
+}
+
+namespace {
+
+// A cape with sleep on, hanging from a still character until it sleeps (at most 10 s at 60 Hz).
+GarmentInstance sleeping_cape(const Cape& c) {
+  GarmentInstance g(c.bind, c.tris, c.skin, c.settings, pose_at(c, Iso::Identity()), "cape");
+  for (int f = 0; f < 600 && !g.asleep(); ++f) {
+    g.set_pose(pose_at(c, Iso::Identity()));
+    g.step(1.0 / 60.0);
+  }
+  return g;
+}
+
+Cape sleepy_cape() {
+  Cape c = make_cape();
+  c.settings.sleep.enabled = true;
+  return c;
+}
+
+double max_change(const Vec3s& a, const Vec3s& b) {
+  double d = 0;
+  for (size_t i = 0; i < a.size(); ++i) d = std::max(d, (a[i] - b[i]).norm());
+  return d;
+}
+
+}  // namespace
+
+TEST(GarmentInstance, StillCharacterFallsAsleepAndStepsStopCosting) {
+  const Cape c = sleepy_cape();
+  GarmentInstance g = sleeping_cape(c);
+  ASSERT_TRUE(g.asleep());
+  EXPECT_GT(g.time(), c.settings.sleep.settle_time);
+  const long solver = g.solver_steps(), steps = g.steps();
+  const Vec3s rest = g.positions();
+  for (int f = 0; f < 60; ++f) {  // 1 s on the same pose, and with sub-threshold jitter (1 mm, 0.01 rad)
+    Iso j = Iso::Identity();
+    j.translate(Vec3(0.001 * (f % 2), 0, 0));
+    g.set_pose(pose_at(c, j, 0.01 * (f % 2)));
+    g.step(1.0 / 60.0);
+  }
+  EXPECT_TRUE(g.asleep());
+  EXPECT_EQ(g.solver_steps(), solver);  // no solver step while asleep
+  EXPECT_EQ(g.steps(), steps + 240);    // the simulated time follows the clock
+  EXPECT_EQ(max_change(g.positions(), rest), 0.0);
+  // Awake it ran a solver step for every fixed step; the steps left in the frame it fell asleep in are
+  // skipped.
+  EXPECT_GT(solver, steps - 4);
+  EXPECT_LT(solver, steps);
+}
+
+TEST(GarmentInstance, PoseChangeWakesASleepingCloth) {
+  const Cape c = sleepy_cape();
+  GarmentInstance g = sleeping_cape(c);
+  ASSERT_TRUE(g.asleep());
+  const long solver = g.solver_steps();
+  const Vec3s rest = g.positions();
+  g.set_pose(pose_at(c, Iso::Identity(), 0.3));  // the neck turns by 0.3 rad
+  EXPECT_FALSE(g.asleep());
+  for (int f = 0; f < 30; ++f) {
+    g.set_pose(pose_at(c, Iso::Identity(), 0.3));
+    g.step(1.0 / 60.0);
+  }
+  EXPECT_EQ(g.solver_steps(), solver + 120);
+  EXPECT_GT(max_change(g.positions(), rest), 0.01);  // the cape follows the turned neck
+  // A character that walks off (a frame translation) wakes it too.
+  GarmentInstance w = sleeping_cape(c);
+  ASSERT_TRUE(w.asleep());
+  Iso moved = Iso::Identity();
+  moved.translate(Vec3(0.02, 0, 0));
+  w.set_pose(pose_at(c, moved));
+  EXPECT_FALSE(w.asleep());
+  // wake() wakes it; at rest it falls asleep again after the settle time.
+  GarmentInstance e = sleeping_cape(c);
+  e.wake();
+  EXPECT_FALSE(e.asleep());
+  const long before = e.solver_steps();
+  for (int f = 0; f < 120 && !e.asleep(); ++f) e.step(1.0 / 60.0);
+  EXPECT_TRUE(e.asleep());
+  EXPECT_GE(e.solver_steps() - before, std::lround(c.settings.sleep.settle_time * 240));
+}
+
+TEST(GarmentInstance, ASleepingClothWakesWhenTouched) {
+  const Cape c = sleepy_cape();
+  GarmentInstance g = sleeping_cape(c);
+  ASSERT_TRUE(g.asleep());
+  const long solver = g.solver_steps();
+  // A ball of radius 0.1 m rolls towards the cape (x = 0, z = -0.15) from z = 1 m; the game loop reports its
+  // box every frame.
+  int woke_at = -1;
+  double z_woke = 0;
+  for (int f = 0; f < 60; ++f) {
+    const double z = 1.0 - f * 0.02;
+    const Vec3 centre(0.0, 1.3, z), r(0.1, 0.1, 0.1);
+    const bool touched = g.notify_contact(centre - r, centre + r);
+    EXPECT_EQ(touched, !g.asleep());
+    if (touched && woke_at < 0) woke_at = f, z_woke = z;
+    g.set_pose(pose_at(c, Iso::Identity()));
+    g.step(1.0 / 60.0);
+  }
+  ASSERT_GE(woke_at, 0);
+  // It woke once the ball's box reached the cloth's (the hanging cape lies near z = -0.15).
+  EXPECT_LT(z_woke - 0.1, -0.1);
+  EXPECT_GT(z_woke - 0.1, -0.2);
+  EXPECT_GT(g.solver_steps(), solver);
+}
+
+TEST(GarmentInstance, SleepBookkeepingChangesNoResult) {
+  // Sleep on with a zero speed threshold never sleeps: its run is bit-identical to sleep off.
+  Cape off = make_cape(), on = make_cape();
+  on.settings.sleep.enabled = true;
+  on.settings.sleep.speed = 0.0;
+  GarmentInstance a(off.bind, off.tris, off.skin, off.settings, pose_at(off, clip_frame(0)), "cape");
+  GarmentInstance b(on.bind, on.tris, on.skin, on.settings, pose_at(on, clip_frame(0)), "cape");
+  for (int f = 1; f <= 120; ++f) {
+    const double t = f / 60.0;
+    a.set_pose(pose_at(off, clip_frame(t), clip_bend(t)));
+    b.set_pose(pose_at(on, clip_frame(t), clip_bend(t)));
+    a.step(1.0 / 60.0);
+    b.step(1.0 / 60.0);
+    ASSERT_EQ(positions_of(a), positions_of(b));
+  }
+  EXPECT_FALSE(b.asleep());
+}
+
+TEST(GarmentInstance, StrideLodRunsFewerStepsWithoutAPop) {
+  // Plays the clip for 4 s at 60 Hz; with `switching`, strides 1, 4, 8, 1, 4, 8, 1 over 40 frames each
+  // (set_lod with full_rate_distance 5 m, max_stride 8). Returns the largest move of a rendered vertex
+  // between two frames.
+  struct Run {
+    double worst_jump = 0, worst_over = 0;
+    long solver_steps = 0, steps = 0, expected_solver = 0;
+  };
+  auto play_lod = [](bool switching, double blend_time) {
+    Cape c = make_cape();
+    c.settings.lod.blend_time = blend_time;
+    GarmentInstance g(c.bind, c.tris, c.skin, c.settings, pose_at(c, clip_frame(0)), "cape");
+    Run r;
+    std::vector<float> prev = positions_of(g);
+    long due = 0;
+    for (int f = 1; f <= 240; ++f) {
+      const double t = f / 60.0;
+      if (switching && f % 40 == 0) g.set_lod(std::array<double, 3>{0.0, 20.0, 100.0}[(f / 40) % 3]);
+      g.set_pose(pose_at(c, clip_frame(t), clip_bend(t)));
+      g.step(1.0 / 60.0);
+      // A 1/60 s frame is 4 fixed steps; a step of k fixed steps runs when k of them are due.
+      for (due += 4; due >= g.step_stride(); due -= g.step_stride()) ++r.expected_solver;
+      const std::vector<float> now = positions_of(g);
+      for (size_t i = 0; i < now.size(); i += 3)
+        r.worst_jump = std::max<double>(
+            r.worst_jump, std::hypot(now[i] - prev[i], now[i + 1] - prev[i + 1], now[i + 2] - prev[i + 2]));
+      prev = now;
+      for (int i = 0; i < g.num_vertices(); ++i)
+        r.worst_over = std::max(r.worst_over, (g.positions()[i] - g.targets()[i]).norm() -
+                                                  c.settings.constraints.max_distance[i]);
+    }
+    r.solver_steps = g.solver_steps();
+    r.steps = g.steps();
+    return r;
+  };
+  const Run full = play_lod(false, 0.2), lod = play_lod(true, 0.2), unblended = play_lod(true, 0.0);
+  EXPECT_EQ(lod.steps, 960);  // 4 s of 1/240 s steps at any stride
+  EXPECT_EQ(lod.solver_steps, lod.expected_solver);
+  EXPECT_EQ(full.solver_steps, 960);
+  EXPECT_LT(lod.solver_steps, 600);  // two thirds of the frames at a quarter or an eighth of the steps
+  EXPECT_LE(lod.worst_over, 1e-12);
+  // With the blend no frame moves the rendered cloth much more than the worst frame at full rate (the
+  // coarser steps at stride 8 move it a little more); without it the change of the render lag (up to 7 fixed
+  // steps) shows as a jump.
+  std::printf("stride LOD: worst per-frame move %.4f m (full rate %.4f m, no blend %.4f m)\n", lod.worst_jump,
+              full.worst_jump, unblended.worst_jump);
+  EXPECT_LE(lod.worst_jump, 1.3 * full.worst_jump);
+  EXPECT_GT(unblended.worst_jump, 1.6 * full.worst_jump);
+  Cape c = make_cape();
+  GarmentInstance g(c.bind, c.tris, c.skin, c.settings, pose_at(c, Iso::Identity()), "cape");
+  g.set_lod(100.0, false);
+  EXPECT_EQ(g.step_stride(), c.settings.lod.offscreen_stride);
+  g.set_lod(100.0);
+  EXPECT_EQ(g.step_stride(), c.settings.lod.max_stride);
+  g.set_lod(7.0);
+  EXPECT_EQ(g.step_stride(), 2);
+}
+
+TEST(GarmentInstance, RejectsBadSleepAndLodValuesNamingThem) {
+  auto message = [](auto f) {
+    try {
+      f();
+    } catch (const loom::Error& e) {
+      return std::string(e.what());
+    }
+    return std::string();
+  };
+  auto with = [&](auto edit) {
+    Cape k = make_cape();
+    edit(k.settings);
+    return message(
+        [&] { GarmentInstance(k.bind, k.tris, k.skin, k.settings, pose_at(k, Iso::Identity()), "cape"); });
+  };
+  auto has = [](const std::string& m, const char* s) { return m.find(s) != std::string::npos; };
+  EXPECT_TRUE(has(with([](GarmentSettings& s) { s.sleep.speed = -1; }), "cape: sleep.speed"));
+  EXPECT_TRUE(has(with([](GarmentSettings& s) { s.sleep.settle_time = NAN; }), "cape: sleep.settle_time"));
+  EXPECT_TRUE(
+      has(with([](GarmentSettings& s) { s.sleep.wake_distance = -0.1; }), "cape: sleep.wake_distance"));
+  EXPECT_TRUE(
+      has(with([](GarmentSettings& s) { s.sleep.wake_rotation = NAN; }), "cape: sleep.wake_rotation"));
+  EXPECT_TRUE(
+      has(with([](GarmentSettings& s) { s.lod.full_rate_distance = 0; }), "cape: lod.full_rate_distance"));
+  EXPECT_TRUE(has(with([](GarmentSettings& s) { s.lod.max_stride = 0; }), "cape: lod.max_stride"));
+  EXPECT_TRUE(has(with([](GarmentSettings& s) { s.lod.blend_time = -1; }), "cape: lod.blend_time"));
+  EXPECT_TRUE(
+      has(with([](GarmentSettings& s) { s.lod.offscreen_stride = 65; }), "cape: lod.offscreen_stride"));
+  Cape c = make_cape();
+  GarmentInstance g(c.bind, c.tris, c.skin, c.settings, pose_at(c, Iso::Identity()), "cape");
+  EXPECT_TRUE(has(message([&] { g.set_step_stride(0); }), "cape: step_stride: 0 is not in [1, 64]"));
+  EXPECT_TRUE(has(message([&] { g.set_lod(-1.0); }), "cape: distance"));
+  EXPECT_TRUE(has(message([&] { g.set_lod(NAN); }), "cape: distance"));
+  EXPECT_TRUE(has(message([&] { g.notify_contact(Vec3(NAN, 0, 0), Vec3::Ones()); }), "cape: contact"));
+  EXPECT_TRUE(has(message([&] { g.notify_contact(Vec3::Ones(), Vec3::Zero()); }), "cape: contact"));
+  // A sleeping cloth still rejects a bad pose.
+  Cape s = sleepy_cape();
+  GarmentInstance z = sleeping_cape(s);
+  ASSERT_TRUE(z.asleep());
+  auto bad = pose_at(s, Iso::Identity());
+  bad[1].matrix()(0, 3) = NAN;
+  EXPECT_TRUE(has(message([&] { z.set_pose(bad); }), "cape: pose[1]: is not finite"));
 }

@@ -25,6 +25,19 @@
 // Teleports: when the frame's origin moves farther than `teleport_distance` or turns by more than
 // `teleport_rotation` between two set_pose calls (or after teleport()), the whole cloth state is carried
 // rigidly by that frame change and the step interpolates only the pose's motion relative to the frame.
+//
+// Sleep (GarmentSleepSettings, off by default): when every vertex's speed relative to the character's frame
+// stays below `speed` for `settle_time` of simulated time, the cloth is put at rest (velocities zeroed) and
+// sleeps: step() advances the clocks but runs no solver step, set_pose() compares the bones with those at
+// the moment it fell asleep and skins nothing. It wakes when a bone (or the frame) has moved farther than
+// `wake_distance` or turned more than `wake_rotation` since then, on wake(), and on notify_contact() with a
+// box that overlaps the cloth's bounding box. Sleep disabled runs exactly the steps of a build without it.
+//
+// Rate LOD: set_step_stride(k) (or set_lod(distance, visible) through GarmentLodSettings) runs steps of
+// k * fixed_dt on the same accumulator (the simulated time stays a whole number of fixed_dt), so a far or
+// off-screen garment costs 1/k of the solver work. The state carries over unchanged when k changes, but the
+// render positions lag the clock by one step (k * fixed_dt): at the first step of a new stride the rendered
+// positions keep those of the frame before and the difference fades out linearly over lod.blend_time.
 #include <memory>
 #include <optional>
 #include <string>
@@ -37,6 +50,21 @@
 #include "loom/cloth/Solver.h"
 
 namespace loom::characters {
+
+struct GarmentSleepSettings {
+  bool enabled = false;
+  double speed = 0.01;           // m/s, >= 0: rest when every vertex is slower (relative to the frame)
+  double settle_time = 0.5;      // s, >= 0: simulated time at rest before sleeping
+  double wake_distance = 0.005;  // m, >= 0: a bone (or the frame) moved farther than this wakes it
+  double wake_rotation = 0.02;   // rad, >= 0: a bone (or the frame) turned more than this wakes it
+};
+
+struct GarmentLodSettings {
+  double full_rate_distance = 5.0;  // m, > 0: set_lod(d) steps at stride ceil(d / full_rate_distance)
+  int max_stride = 8;               // >= 1, <= kMaxStride: the stride of the farthest garments
+  int offscreen_stride = 16;        // >= 1, <= kMaxStride: the stride when not visible
+  double blend_time = 0.2;          // s, >= 0: render blend after a stride change (see set_step_stride)
+};
 
 struct GarmentSettings {
   cloth::Material material;                   // fabric (Material.h)
@@ -51,15 +79,20 @@ struct GarmentSettings {
   double teleport_rotation = 1.0;             // rad per frame, > 0 (∞: never)
   int max_steps_per_frame = 32;               // >= 1; a longer frame drops the excess time (the clock slips)
   std::optional<cloth::DragSettings> wind;    // air drag with wind; absent = no drag term
+  GarmentSleepSettings sleep;                 // off by default
+  GarmentLodSettings lod;                     // used by set_lod
 };
 
 class GarmentInstance {
  public:
+  static constexpr int kMaxStride = 64;  // largest step stride (steps of kMaxStride * fixed_dt)
+
   // `bind_positions` (m, the skin's bind space) and `triangles` make the cloth's rest shape; the cloth starts
   // on the skinned mesh at `pose` (one global transform per skin bone). The character's frame is the rigid
   // part of bone 0 unless set_pose is given one. Throws loom::Error(source, field, problem) for invalid
   // settings (fixed_dt, iterations, linear_inertia, angular_inertia, teleport_distance, teleport_rotation,
-  // max_steps_per_frame, the constraint maps), a skin of another vertex count, an invalid mesh or pose.
+  // max_steps_per_frame, sleep.*, lod.*, the constraint maps), a skin of another vertex count, an invalid
+  // mesh or pose.
   GarmentInstance(const cloth::Vec3s& bind_positions, const std::vector<cloth::Tri>& triangles, Skin skin,
                   GarmentSettings settings, const std::vector<Affine>& pose,
                   const std::string& source = "garment");
@@ -77,6 +110,20 @@ class GarmentInstance {
   // Global multiplier of the max distances (SkinConstraintSettings): 0 fully skinned, ∞ fully simulated.
   void set_max_distance_multiplier(double s);
 
+  // Sleep (see above). wake() wakes the cloth and restarts its settle time; notify_contact(lo, hi) does so
+  // when the box [lo, hi] (m, world) overlaps the cloth's bounding box (returns whether it overlaps; an awake
+  // cloth only restarts its settle time). Throws loom::Error(source, "contact", ...) for a non-finite or
+  // inverted box.
+  void wake();
+  bool notify_contact(const cloth::Vec3& lo, const cloth::Vec3& hi);
+  bool asleep() const { return asleep_; }
+  // Rate LOD: steps of k * fixed_dt from the next step() on, k in [1, kMaxStride] (throws loom::Error(source,
+  // "step_stride", ...) otherwise). set_lod picks k from the camera distance (m, >= 0, finite) and visibility
+  // with GarmentLodSettings (throws naming "distance").
+  void set_step_stride(int k);
+  void set_lod(double distance, bool visible = true);
+  int step_stride() const { return stride_; }
+
   int num_vertices() const { return static_cast<int>(bind_.size()); }
   // Writes the render positions (xyz as floats) into dst[i * stride + 0..2]; stride >= 3 floats. No
   // allocation.
@@ -90,13 +137,18 @@ class GarmentInstance {
   const cloth::Vec3s& targets() const { return target_; }              // m, skinned targets of the last step
   const cloth::Vec3s& target_normals() const { return target_normal_; }
   const cloth::SkinConstraints& constraints() const { return constraints_; }
-  double time() const { return static_cast<double>(steps_) * settings_.fixed_dt; }  // s, simulated
+  double time() const { return static_cast<double>(ticks_) * settings_.fixed_dt; }  // s, simulated
   double clock() const { return clock_; }                                           // s, frame time
-  long steps() const { return steps_; }
+  long steps() const { return ticks_; }                // simulated time in fixed steps (fixed_dt)
+  long solver_steps() const { return solver_steps_; }  // solver steps run (none while asleep)
   long teleports() const { return teleports_; }
 
  private:
-  void fixed_step();
+  void fixed_step(int stride);
+  void render_positions(cloth::Vec3s& out) const;  // interpolated between the last two steps, plus the blend
+  void settle(const Eigen::Isometry3d& from, const Eigen::Isometry3d& to, double h);
+  void fall_asleep();
+  bool pose_moved(const std::vector<Affine>& bones, const Eigen::Isometry3d& frame) const;
   void carry(const Eigen::Isometry3d& from, const Eigen::Isometry3d& to, double linear, double angular);
   static void vertex_normals(const std::vector<cloth::Tri>& tris, const cloth::Vec3s& x, cloth::Vec3s& n);
 
@@ -119,8 +171,18 @@ class GarmentInstance {
   Eigen::Isometry3d frame_curr_ = Eigen::Isometry3d::Identity();
   Eigen::Isometry3d frame_sim_ = Eigen::Isometry3d::Identity();  // frame at time()
   double clock_prev2_ = 0.0, clock_prev_ = 0.0, clock_ = 0.0;    // s, frame times of the last three poses
-  long steps_ = 0;
+  long ticks_ = 0;                                               // simulated time in units of fixed_dt
+  long solver_steps_ = 0;                                        // solver steps run
   long teleports_ = 0;
+  int stride_ = 1;       // fixed_dt per step
+  int last_stride_ = 1;  // fixed_dt in the last step (render interpolation)
+  bool asleep_ = false;
+  cloth::Vec3s blend_offset_;  // m, render offset at blend_start_ after a stride change
+  double blend_start_ = -1.0;  // s, clock at the stride change (< 0: no blend)
+  double rest_time_ = 0.0;     // s, simulated time every vertex has been below sleep.speed
+  std::vector<Affine> bones_, sleep_bones_;
+  Eigen::Isometry3d sleep_frame_ = Eigen::Isometry3d::Identity();
+  cloth::Vec3 box_lo_ = cloth::Vec3::Zero(), box_hi_ = cloth::Vec3::Zero();  // m, the cloth's box asleep
   bool teleport_requested_ = false;
 };
 
