@@ -107,6 +107,17 @@ void write_report(eval::OutputFolder& folder, const eval::FabricTestResult& r) {
 
 }  // namespace
 
+// A finite number in [lo, hi] (nan, inf, 1e999 or trailing text is an error naming the option).
+double parse_number(const std::string& flag, const std::string& text, double lo, double hi) {
+  char* end = nullptr;
+  const double v = std::strtod(text.c_str(), &end);
+  if (text.empty() || *end || !std::isfinite(v) || v < lo || v > hi)
+    throw Error("", flag,
+                "expects a finite number in [" + cli_show(lo) + ", " + cli_show(hi) + "], got '" +
+                    printable(text) + "'");
+  return v;
+}
+
 // A whole number in [lo, hi] (5.9 or 0 is an error, never truncated).
 int parse_count(const std::string& flag, const std::string& text, long lo, long hi) {
   char* end = nullptr;
@@ -140,15 +151,15 @@ int fabric_test_main(int argc, char** argv) {
     } else if (a == "--resolution") {
       o.resolution = parse_count(a, value(), 2, 2000);
     } else if (a == "--overhang-ratio") {
-      o.overhang_ratio = cli_number(a, value(), 0.1, 100.0);
+      o.overhang_ratio = parse_number(a, value(), 0.1, 100.0);
     } else if (a == "--span") {
-      o.span = cli_number(a, value(), 0.01, 0.999);  // below the strip's 1 m length
+      o.span = parse_number(a, value(), 0.01, 0.999);  // below the strip's 1 m length
     } else if (a == "--solver") {
       o.solver = value();
     } else if (a == "--settle-frames") {
       o.settle_frames = parse_count(a, value(), 1, 10000000);
     } else if (a == "--settle-speed") {
-      o.settle_speed = cli_number(a, value(), 1e-12, 1e3);
+      o.settle_speed = parse_number(a, value(), 1e-12, 1e3);
     } else if (a == "--json") {
       json = true;
     } else if (a == "--overwrite") {

@@ -370,21 +370,34 @@ std::shared_ptr<const cloth::ClothMesh> parse_mesh(const JsonReader& r, Scene& s
 std::vector<cloth::PinSpec> parse_pins(const JsonReader& r, const cloth::ClothMesh& mesh) {
   std::vector<cloth::PinSpec> pins;
   if (!r.has("pins")) return pins;
-  // Each vertex is held by one entry: a vertex named twice (the same pin given twice, or two grid nodes that
-  // coincide) is refused naming both entries. Two grid_edge sides share their corner, which is kept once.
-  std::map<int, std::pair<size_t, bool>> held;  // vertex -> (entry, from a grid_edge)
+  // One pin per vertex. The same entry given twice is refused, and so is a vertex that two entries reach
+  // with different anchors or paths (they would fight); entries that reach it the same way (two grid nodes
+  // that coincide on a grid made smaller with --set, two grid_edge sides at their corner) pin it once.
+  std::map<int, size_t> held;    // vertex -> index in `pins`
+  std::vector<size_t> entry_of;  // pins[k] came from entries[entry_of[k]]
+  const nlohmann::json& raw = r.raw("pins");
   const std::vector<JsonReader> entries = r.objects("pins");
   for (size_t entry = 0; entry < entries.size(); ++entry) {
     const JsonReader& p = entries[entry];
-    auto hold = [&](int vertex, bool edge) {  // false: already held by an earlier grid_edge (a shared corner)
-      const auto it = held.find(vertex);
+    for (size_t k = 0; k < entry; ++k)
+      if (raw[k] == raw[entry])
+        p.fail("", "the same pin as " + r.child("pins") + "[" + std::to_string(k) +
+                       "] (given twice): its vertex is already pinned by " + r.child("pins") + "[" +
+                       std::to_string(k) + "]");
+    auto hold = [&](const cloth::PinSpec& s) {  // false: the vertex is already pinned the same way
+      const auto it = held.find(s.vertex);
       if (it == held.end()) {
-        held[vertex] = {entry, edge};
+        held[s.vertex] = pins.size();
+        entry_of.push_back(entry);
+        pins.push_back(s);
         return true;
       }
-      if (edge && it->second.second) return false;
-      p.fail("", "pins vertex " + std::to_string(vertex) + ", already pinned by " + r.child("pins") + "[" +
-                     std::to_string(it->second.first) + "]: a vertex may be pinned once");
+      const cloth::PinSpec& o = pins[it->second];
+      const bool same = o.anchor.has_value() == s.anchor.has_value() &&
+                        (!s.anchor || *o.anchor == *s.anchor) && o.times == s.times && o.offsets == s.offsets;
+      if (!same)
+        p.fail("", "pins vertex " + std::to_string(s.vertex) + ", already pinned by " + r.child("pins") +
+                       "[" + std::to_string(entry_of[it->second]) + "] with another anchor or path");
       return false;
     };
     cloth::PinSpec spec;
@@ -401,7 +414,7 @@ std::vector<cloth::PinSpec> parse_pins(const JsonReader& r, const cloth::ClothMe
       for (int k = 0; k < (along_v ? nv : nu); ++k) {
         cloth::PinSpec e;
         e.vertex = along_v ? mesh.grid_index(fixed, k) : mesh.grid_index(k, fixed);
-        if (hold(e.vertex, true)) pins.push_back(e);
+        hold(e);
       }
       continue;
     }
@@ -455,8 +468,7 @@ std::vector<cloth::PinSpec> parse_pins(const JsonReader& r, const cloth::ClothMe
       path.finish();
     }
     p.finish();
-    hold(spec.vertex, false);
-    pins.push_back(spec);
+    hold(spec);
   }
   return pins;
 }
