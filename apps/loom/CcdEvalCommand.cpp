@@ -8,6 +8,7 @@
 #include <string>
 #include <vector>
 
+#include "CliValue.h"
 #include "loom/eval/CcdSampleQueries.h"
 
 namespace loom::app {
@@ -29,16 +30,6 @@ const char* kCcdEvalUsage =
     "  --tolerance T        relative image tolerance of the inclusion test (default 1e-6)\n"
     "  -h, --help           this text\n";
 
-double parse_double(const std::string& flag, const char* value) {
-  char* end = nullptr;
-  const double v = std::strtod(value, &end);
-  if (!*value || *end) {
-    std::fprintf(stderr, "loom: error: %s expects a number, got '%s'\n", flag.c_str(), value);
-    std::exit(2);
-  }
-  return v;
-}
-
 }  // namespace
 
 int ccd_eval_main(int argc, char** argv) {
@@ -59,20 +50,16 @@ int ccd_eval_main(int argc, char** argv) {
       std::cout << kCcdEvalUsage;
       return 0;
     } else if (a == "--scale-exp") {
-      const double k = parse_double(a, value());
-      if (k != static_cast<int>(k) || k < -200 || k > 200) {
-        std::fprintf(stderr, "loom: error: --scale-exp expects an integer in [-200, 200]\n");
-        return 2;
-      }
-      scale_exp = static_cast<int>(k);
+      scale_exp = static_cast<int>(cli_integer(a, value(), -200, 200));
     } else if (a == "--translate") {
-      translate = parse_double(a, value());
+      translate = cli_number(a, value(), 0.0, 1e6);
     } else if (a == "--min-separation") {
-      options.min_separation = parse_double(a, value());
+      options.min_separation = cli_number(a, value(), 0.0, 1e6);
     } else if (a == "--tolerance") {
-      options.tolerance = parse_double(a, value());
+      options.tolerance = cli_number(a, value(), 0.0, 1.0);
     } else if (!a.empty() && a[0] == '-') {
-      std::fprintf(stderr, "loom: error: unknown option '%s' (see loom ccd-eval --help)\n", a.c_str());
+      std::fprintf(stderr, "loom: error: unknown option '%s' (see loom ccd-eval --help)\n",
+                   printable(a).c_str());
       return 2;
     } else {
       files.push_back(a);
@@ -80,10 +67,6 @@ int ccd_eval_main(int argc, char** argv) {
   }
   if (files.empty()) {
     std::fprintf(stderr, "loom: error: ccd-eval needs at least one FILE.csv (see loom ccd-eval --help)\n");
-    return 2;
-  }
-  if (options.min_separation < 0 || options.tolerance < 0) {
-    std::fprintf(stderr, "loom: error: --min-separation and --tolerance must be >= 0\n");
     return 2;
   }
   std::vector<eval::CcdQuery> queries;

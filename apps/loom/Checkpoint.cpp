@@ -8,13 +8,16 @@
 #include <sstream>
 #include <stdexcept>
 
-#include "Hex.h"
-#include "OutputFolder.h"
 #include "loom/cloth/Error.h"
+#include "loom/cloth/InputFile.h"
+#include "loom/eval/Hex.h"
+#include "loom/eval/OutputFolder.h"
 
 namespace fs = std::filesystem;
 
 namespace loom::app {
+
+using eval::hex;
 
 namespace {
 constexpr const char* kMagicPrefix = "LOOMCKPT";
@@ -48,21 +51,7 @@ std::uint64_t fnv1a(const char* data, size_t n, std::uint64_t h) {
 }
 
 std::string read_text_file(const std::string& path, std::uint64_t max_bytes) {
-  std::error_code ec;
-  const fs::file_status st = fs::status(path, ec);
-  if (!fs::exists(st)) throw Error(path, "", "cannot open file: no such file");
-  if (!fs::is_regular_file(st)) throw Error(path, "", "is not a regular file (a folder or a device)");
-  const std::uintmax_t size = fs::file_size(path, ec);
-  if (ec) throw Error(path, "", "cannot read the file size: " + ec.message());
-  if (size > max_bytes)
-    throw Error(
-        path, "",
-        "is " + std::to_string(size) + " bytes, more than the " + std::to_string(max_bytes) + " accepted");
-  std::ifstream in(path, std::ios::binary);
-  if (!in) throw Error(path, "", "cannot open file");
-  std::stringstream ss;
-  ss << in.rdbuf();
-  return ss.str();
+  return loom::read_input_file(path, max_bytes);  // a regular file of bounded size (InputFile.h)
 }
 
 InputFile fingerprint(const std::string& path) {

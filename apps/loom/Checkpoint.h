@@ -19,9 +19,15 @@
 
 #include "loom/cloth/Simulation.h"
 
+namespace loom::eval {
+class OutputFolder;
+std::uint64_t read_run_id(const std::filesystem::path& dir);
+}  // namespace loom::eval
+
 namespace loom::app {
 
-class OutputFolder;
+using eval::OutputFolder;
+using eval::read_run_id;
 
 constexpr int kCheckpointFormat = 2;
 

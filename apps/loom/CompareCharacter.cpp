@@ -73,7 +73,8 @@ nlohmann::json to_json(const bullet::CharacterMetrics& r) {
 
 }  // namespace
 
-int compare_character(const scene::Scene& sc, int frames, const std::string& out) {
+int compare_character(const scene::Scene& sc, int frames, eval::OutputFolder& folder) {
+  const std::string out = folder.dir().string();
   bullet::CharacterCompareInput in;
   in.setup = sc.setup;
   in.bodies = character_bodies(sc.character);
@@ -88,7 +89,6 @@ int compare_character(const scene::Scene& sc, int frames, const std::string& out
   const std::string deformable_note =
       "the deformable world is not run on characters (docs/bullet.md: NaN nodes against rigid bodies)";
 
-  std::filesystem::create_directories(out);
   nlohmann::json j;
   j["scene"] = sc.name;
   j["frames"] = in.frames;
@@ -102,8 +102,8 @@ int compare_character(const scene::Scene& sc, int frames, const std::string& out
   j["bullet_deformable"] = {{"available", false},    {"note", deformable_note}, {"ms_per_frame", nullptr},
                             {"max_strain", nullptr}, {"mean_strain", nullptr},  {"max_penetration", nullptr},
                             {"diverged", nullptr}};
-  std::ofstream(out + "/compare.json") << j.dump(2) << "\n";
-  std::ofstream csv(out + "/compare.csv");
+  std::ofstream(folder.claim("compare.json")) << j.dump(2) << "\n";
+  std::ofstream csv(folder.claim("compare.csv"));
   csv << "system,available,ms_per_frame,max_strain,mean_strain,max_penetration,diverged\n";
   char line[512];
   for (const bullet::CharacterMetrics* r : {&loom, &classic}) {

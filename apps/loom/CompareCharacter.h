@@ -6,6 +6,7 @@
 #include <string>
 
 #include "loom/bullet/CharacterCompare.h"
+#include "loom/eval/OutputFolder.h"
 #include "loom/scene/Scene.h"
 
 namespace loom::app {
@@ -14,6 +15,7 @@ namespace loom::app {
 // attachment joints that start no capsule: the Bullet twin's view of the rig.
 std::vector<bullet::KinematicBody> character_bodies(const std::shared_ptr<const characters::Character>& ch);
 
-int compare_character(const scene::Scene& scene, int frames, const std::string& out);
+// Writes into `folder` (claimed: OutputFolder.h).
+int compare_character(const scene::Scene& scene, int frames, eval::OutputFolder& folder);
 
 }  // namespace loom::app

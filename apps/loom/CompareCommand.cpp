@@ -9,8 +9,10 @@
 #include <string>
 #include <vector>
 
+#include "CliValue.h"
 #include "loom/bullet/Compare.h"
 #include "loom/cloth/Error.h"
+#include "loom/eval/OutputFolder.h"
 #include "loom/scene/Scene.h"
 
 #ifdef LOOM_HAVE_CHARACTER_COMPARE
@@ -22,7 +24,7 @@ namespace loom::app {
 namespace {
 
 const char* kCompareUsage =
-    "Usage: loom compare SCENE [--out DIR] [--set path=value]... [--frames N]\n"
+    "Usage: loom compare SCENE [--out DIR] [--overwrite] [--set path=value]... [--frames N]\n"
     "  Runs SCENE's first cloth (and its `bodies`) in Loom (BulletCloth in a Bullet world), in Bullet's\n"
     "  classic soft body and, without rigid bodies, in Bullet's deformable world. Writes DIR/compare.csv "
     "and\n"
@@ -30,7 +32,9 @@ const char* kCompareUsage =
     "  max_penetration, diverged. Everything but ms_per_frame is deterministic run to run.\n"
     "  A scene with a `character` runs its garments in Loom (the scene's own pipeline) and as Bullet "
     "classic\n"
-    "  soft bodies anchored to the character's capsules, kinematic rigid bodies driven by the clip.\n";
+    "  soft bodies anchored to the character's capsules, kinematic rigid bodies driven by the clip.\n"
+    "  DIR is owned as `loom run` owns its folder (DIR/.loom-manifest): a non-empty folder Loom did not\n"
+    "  write is refused unless --overwrite is given.\n";
 
 nlohmann::json to_json(const bullet::SystemMetrics& m) {
   nlohmann::json j;
@@ -55,6 +59,7 @@ int compare_main(int argc, char** argv) {
   std::string scene_path, out = "out/compare";
   std::vector<std::string> sets;
   int frames = -1;
+  bool overwrite = false;
   for (int i = 2; i < argc; ++i) {
     const std::string a = argv[i];
     auto value = [&](const char* name) -> std::string {
@@ -66,16 +71,13 @@ int compare_main(int argc, char** argv) {
       return 0;
     } else if (a == "--out") {
       out = value("--out");
+      if (out.empty()) throw Error("", "--out", "is an empty string (an unset variable?); give a path");
+    } else if (a == "--overwrite") {
+      overwrite = true;
     } else if (a == "--set") {
       sets.push_back(value("--set"));
     } else if (a == "--frames") {
-      const std::string v = value("--frames");
-      try {
-        frames = std::stoi(v);
-      } catch (...) {
-        frames = 0;
-      }
-      if (frames < 1) throw Error("", "--frames", "must be an integer >= 1 (got '" + v + "')");
+      frames = static_cast<int>(cli_integer("--frames", value("--frames"), 1, 10000000));
     } else if (!a.empty() && a[0] == '-') {
       std::fprintf(stderr, "loom compare: error: unknown option '%s'\n%s", a.c_str(), kCompareUsage);
       return 2;
@@ -91,8 +93,10 @@ int compare_main(int argc, char** argv) {
     return 2;
   }
   const scene::Scene sc = scene::load_scene(scene_path, sets);
+  // The folder is checked (and claimed) before the runs, so a refused folder costs nothing.
+  eval::OutputFolder folder(out, "--out", overwrite, false);
 #ifdef LOOM_HAVE_CHARACTER_COMPARE
-  if (sc.character) return compare_character(sc, frames, out);  // Character scenes
+  if (sc.character) return compare_character(sc, frames, folder);  // Character scenes
 #endif
   bullet::CompareInput in;
   in.setup = sc.setup;
@@ -103,7 +107,6 @@ int compare_main(int argc, char** argv) {
   results.push_back(bullet::run_bullet_twin(in, bullet::TwinKind::kClassic));
   results.push_back(bullet::run_bullet_twin(in, bullet::TwinKind::kDeformable));
 
-  std::filesystem::create_directories(out);
   nlohmann::json j;
   j["scene"] = sc.name;
   j["frames"] = in.frames;
@@ -111,8 +114,8 @@ int compare_main(int argc, char** argv) {
   j["bullet_substeps"] = in.bullet_substeps;
   j["bodies"] = sc.bodies.size();
   for (const auto& m : results) j[m.system] = to_json(m);
-  std::ofstream(out + "/compare.json") << j.dump(2) << "\n";
-  std::ofstream csv(out + "/compare.csv");
+  std::ofstream(folder.claim("compare.json")) << j.dump(2) << "\n";
+  std::ofstream csv(folder.claim("compare.csv"));
   csv << "system,available,ms_per_frame,max_strain,mean_strain,max_penetration,diverged\n";
   char line[512];
   for (const auto& m : results) {

@@ -10,10 +10,11 @@
 #include <nlohmann/json.hpp>
 #include <string>
 
-#include "OutputFolder.h"
+#include "CliValue.h"
 #include "loom/cloth/Error.h"
 #include "loom/cloth/Model.h"
 #include "loom/eval/FabricTests.h"
+#include "loom/eval/OutputFolder.h"
 
 namespace fs = std::filesystem;
 
@@ -51,16 +52,9 @@ const char* kFabricUsage =
     "  --out DIR             report folder (default: out/fabric-test/<test>): report.md, curve.csv, "
     "plot.png\n";
 
-double parse_number(const std::string& flag, const char* v) {
-  char* end = nullptr;
-  const double d = std::strtod(v, &end);
-  if (!*v || *end) throw Error("", flag, std::string("expects a number, got '") + v + "'");
-  return d;
-}
-
 // The report folder is owned as `loom run` owns its output folder (OutputFolder.h): a foreign non-empty
 // folder is refused without --overwrite, and only the report's own files are written.
-void write_report(OutputFolder& folder, const eval::FabricTestResult& r) {
+void write_report(eval::OutputFolder& folder, const eval::FabricTestResult& r) {
   const fs::path& dir = folder.dir();
   for (const char* f : {"curve.csv", "report.md", "plot.gp", "plot.png"}) folder.claim(f);
   {
@@ -113,6 +107,17 @@ void write_report(OutputFolder& folder, const eval::FabricTestResult& r) {
 
 }  // namespace
 
+// A finite number in [lo, hi] (nan, inf, 1e999 or trailing text is an error naming the option).
+double parse_number(const std::string& flag, const std::string& text, double lo, double hi) {
+  char* end = nullptr;
+  const double v = std::strtod(text.c_str(), &end);
+  if (text.empty() || *end || !std::isfinite(v) || v < lo || v > hi)
+    throw Error("", flag,
+                "expects a finite number in [" + cli_show(lo) + ", " + cli_show(hi) + "], got '" +
+                    printable(text) + "'");
+  return v;
+}
+
 // A whole number in [lo, hi] (5.9 or 0 is an error, never truncated).
 int parse_count(const std::string& flag, const std::string& text, long lo, long hi) {
   char* end = nullptr;
@@ -146,16 +151,15 @@ int fabric_test_main(int argc, char** argv) {
     } else if (a == "--resolution") {
       o.resolution = parse_count(a, value(), 2, 2000);
     } else if (a == "--overhang-ratio") {
-      o.overhang_ratio = parse_number(a, value());
+      o.overhang_ratio = parse_number(a, value(), 0.1, 100.0);
     } else if (a == "--span") {
-      o.span = parse_number(a, value());
+      o.span = parse_number(a, value(), 0.01, 0.999);  // below the strip's 1 m length
     } else if (a == "--solver") {
       o.solver = value();
     } else if (a == "--settle-frames") {
       o.settle_frames = parse_count(a, value(), 1, 10000000);
     } else if (a == "--settle-speed") {
-      o.settle_speed = parse_number(a, value());
-      if (!(o.settle_speed > 0.0)) throw Error("", "--settle-speed", "must be positive (m/s)");
+      o.settle_speed = parse_number(a, value(), 1e-12, 1e3);
     } else if (a == "--json") {
       json = true;
     } else if (a == "--overwrite") {
@@ -190,8 +194,8 @@ int fabric_test_main(int argc, char** argv) {
   for (const auto& m : cloth::model_names()) known_model = known_model || m == o.model;
   if (!known_model) throw Error("", "--model", "unknown model '" + o.model + "'");
   // The report folder is checked (and claimed) before the test runs, so a refused folder costs nothing.
-  OutputFolder folder(out.empty() ? fs::path("out") / "fabric-test" / o.test : fs::path(out), "--out",
-                      overwrite, false);
+  eval::OutputFolder folder(out.empty() ? fs::path("out") / "fabric-test" / o.test : fs::path(out), "--out",
+                            overwrite, false);
   const eval::FabricTestResult r = eval::run_fabric_test(o);
   write_report(folder, r);
   if (json) {

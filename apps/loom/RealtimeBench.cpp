@@ -11,8 +11,10 @@
 #include <string>
 #include <vector>
 
+#include "CliValue.h"
 #include "loom/collision/MultiClothCensus.h"
 #include "loom/eval/AccuracyPlot.h"
+#include "loom/eval/OutputFolder.h"
 #include "loom/scene/Scene.h"
 #include "loom/scene/ScenePipeline.h"
 #ifdef LOOM_HAVE_CHARACTER_COMPARE
@@ -105,9 +107,10 @@ scene::Scene with(const std::string& path, const std::vector<std::string>& sets)
   return scene::load_scene(path, sets);
 }
 
-void write(const std::string& dir, const std::string& name, const std::string& title,
+void write(eval::OutputFolder& folder, const std::string& name, const std::string& title,
            const std::vector<Row>& rows) {
-  std::ofstream csv(dir + "/" + name + ".csv");
+  for (const char* ext : {".png", ".dat", ".gp"}) folder.claim(name + ext);  // the plot's files
+  std::ofstream csv(folder.claim(name + ".csv"));
   csv << "system,ms_per_frame,rms_error_m,max_penetration_m,max_strain,finite\n";
   std::vector<PlotPoint> points;
   for (const Row& r : rows) {
@@ -119,11 +122,11 @@ void write(const std::string& dir, const std::string& name, const std::string& t
                 r.depth, r.strain, r.finite ? "" : "  (stopped)");
     if (std::isfinite(r.rms) && r.rms > 0.0) points.push_back({r.system, r.ms, r.rms});
   }
-  plot_accuracy(points, title, dir + "/" + name + ".png");
+  plot_accuracy(points, title, (folder.dir() / (name + ".png")).string());
 }
 
 const char* kUsage =
-    "Usage: loom bench realtime [--out DIR] [--seconds S] [--sheet N] [--repeats R] [--quick]\n"
+    "Usage: loom bench realtime [--out DIR] [--overwrite] [--seconds S] [--sheet N] [--repeats R] [--quick]\n"
     "\n"
     "Every quality tier (realtime, balanced, reference) of the character scene "
     "(scenes/character_layers.json)\n"
@@ -138,7 +141,8 @@ const char* kUsage =
     "and a PNG of each (RMS error against ms per frame).\n"
     "\n"
     "Options:\n"
-    "  --out DIR      output folder (default out/bench_realtime)\n"
+    "  --out DIR      output folder (default out/bench_realtime), owned through DIR/.loom-manifest\n"
+    "  --overwrite    write into a non-empty folder Loom did not write (files of its names replaced)\n"
     "  --seconds S    simulated seconds of each run (default 2; chaotic motion makes long runs diverge from\n"
     "                 any reference)\n"
     "  --sheet N      nodes per side of the sheet (default 64)\n"
@@ -151,6 +155,7 @@ int bench_realtime(int argc, char** argv) {
   std::string out = "out/bench_realtime";
   double seconds = 2.0;
   int sheet_n = 64, repeats = 1;
+  bool overwrite = false;
   for (int i = 3; i < argc; ++i) {
     const std::string a = argv[i];
     auto value = [&]() -> std::string {
@@ -165,24 +170,15 @@ int bench_realtime(int argc, char** argv) {
       return 0;
     } else if (a == "--out") {
       out = value();
+      if (out.empty()) cli_refuse(a, out, "a folder (an unset variable?)");
+    } else if (a == "--overwrite") {
+      overwrite = true;
     } else if (a == "--seconds") {
-      seconds = std::atof(value().c_str());
-      if (!(seconds > 0.0) || seconds > 60.0) {
-        std::fprintf(stderr, "loom: error: --seconds expects seconds in (0, 60]\n");
-        return 2;
-      }
+      seconds = cli_number(a, value(), 0.001, 60.0);
     } else if (a == "--sheet") {
-      sheet_n = std::atoi(value().c_str());
-      if (sheet_n < 3 || sheet_n > 512) {
-        std::fprintf(stderr, "loom: error: --sheet expects nodes per side in [3, 512]\n");
-        return 2;
-      }
+      sheet_n = static_cast<int>(cli_integer(a, value(), 3, 512));
     } else if (a == "--repeats") {
-      repeats = std::atoi(value().c_str());
-      if (repeats < 1 || repeats > 100) {
-        std::fprintf(stderr, "loom: error: --repeats expects an integer in [1, 100]\n");
-        return 2;
-      }
+      repeats = static_cast<int>(cli_integer(a, value(), 1, 100));
     } else if (a == "--quick") {
       seconds = 0.1, sheet_n = 12;
     } else {
@@ -190,7 +186,7 @@ int bench_realtime(int argc, char** argv) {
       return 2;
     }
   }
-  std::filesystem::create_directories(out);
+  eval::OutputFolder folder(out, "--out", overwrite, false);
   const int frames = std::max(1, static_cast<int>(std::lround(seconds * 60.0)));
   const char* env = std::getenv("LOOM_SCENES");
   const std::string scenes = (env ? std::string(env) : std::string(LOOM_SOURCE_DIR) + "/scenes") + "/";
@@ -226,7 +222,7 @@ int bench_realtime(int argc, char** argv) {
     }
 #endif
     std::printf("# character_layers, %d frames, 1 thread\n", frames);
-    write(out, "character_realtime", "character_layers: RMS error vs time per frame", rows);
+    write(folder, "character_realtime", "character_layers: RMS error vs time per frame", rows);
   }
   // The hanging sheet: JSON per tier, the same start bump.
   {
@@ -259,7 +255,7 @@ int bench_realtime(int argc, char** argv) {
                       r.max_strain, r.finite});
     }
     std::printf("# hanging sheet N=%d, %d frames, 1 thread\n", sheet_n, frames);
-    write(out, "sheet_realtime", "hanging sheet: RMS error vs time per frame", rows);
+    write(folder, "sheet_realtime", "hanging sheet: RMS error vs time per frame", rows);
   }
   return 0;
 }

@@ -20,9 +20,9 @@
 
 #include "Checkpoint.h"
 #include "DetailView.h"
-#include "OutputFolder.h"
 #include "Terminal.h"
 #include "loom/cloth/Error.h"
+#include "loom/eval/OutputFolder.h"
 #include "loom/export/Exporters.h"
 #ifdef LOOM_HAVE_RENDER
 #include "loom/render/RenderRun.h"
@@ -157,6 +157,13 @@ std::optional<Checkpoint> apply_resume(RunOptions& o) {
   o.out = o.resume;
   o.render = resume.render;
   if (o.frames < 0) o.frames = resume.frames_total;
+  // The frames up to the checkpoint are already written: fewer would leave outputs of a run longer than
+  // the one asked for (or drop frames the run wrote). Equal finishes the outputs without a new step.
+  if (o.frames < resume.frame)
+    throw Error(ckpt.string(), "--frames",
+                std::to_string(o.frames) + " is below the checkpoint's frame " +
+                    std::to_string(resume.frame) + ": give --frames " + std::to_string(resume.frame) +
+                    " or more (or leave it out: " + std::to_string(resume.frames_total) + ")");
   if (o.threads < 0) o.threads = resume.threads;
   if (o.checkpoint_every <= 0) o.checkpoint_every = resume.checkpoint_every;
   if (read_text_file(o.scene) != resume.scene_text)

@@ -7,6 +7,7 @@
 #include <string>
 
 #include "CcdEvalCommand.h"
+#include "CliValue.h"
 #include "FabricTestCommand.h"
 #include "RealtimeBench.h"
 #include "RunCommand.h"
@@ -85,13 +86,7 @@ std::string run_usage() {
 }
 
 int parse_int(const char* flag, const char* value) {
-  char* end = nullptr;
-  const long v = std::strtol(value, &end, 10);
-  if (!*value || *end || v < 0 || v > 100000000) {
-    std::fprintf(stderr, "loom: error: %s expects a non-negative integer, got '%s'\n", flag, value);
-    std::exit(2);
-  }
-  return static_cast<int>(v);
+  return static_cast<int>(loom::app::cli_integer(flag, value, 0, 100000000));
 }
 
 // An empty value (an unset shell variable, `--resume "$DIR"`) is an error, never "the default".
@@ -154,6 +149,12 @@ int run_main(int argc, char** argv) {
                    loom::app::printable(o.scene).c_str(), loom::app::printable(a).c_str());
       return 2;
     }
+  }
+  // A run of no frame is nonsense, like a duration shorter than a frame (a resume may ask for exactly the
+  // checkpoint's frames: it finishes the outputs).
+  if (o.frames == 0 && o.resume.empty()) {
+    std::fprintf(stderr, "loom: error: --frames must be >= 1 (got 0): a run simulates at least one frame\n");
+    return 2;
   }
   if (!o.resume.empty() && !o.scene.empty()) {
     std::fprintf(stderr,

@@ -8,6 +8,7 @@
 #include <sstream>
 
 #include "loom/cloth/Error.h"
+#include "loom/cloth/InputFile.h"
 #include "loom/collision/Distance.h"
 
 namespace loom::characters {
@@ -137,13 +138,12 @@ const std::set<std::string> kUpperTorso = {"Spine1", "Chest",        "Neck",
 }  // namespace
 
 std::map<std::string, std::vector<int>> read_obj_groups(const std::string& path) {
-  std::ifstream in(path);
-  if (!in) throw Error(path, "", "cannot open OBJ file");
+  // A regular file of bounded size, split at any line ending (InputFile.h).
+  const std::vector<std::string> lines = input_lines(read_input_file(path));
   std::map<std::string, std::set<int>> groups;
   std::vector<std::string> current = {"default"};
   int vertices = 0, line_no = 0;
-  std::string line;
-  while (std::getline(in, line)) {
+  for (const std::string& line : lines) {
     ++line_no;
     std::istringstream ls(line);
     std::string tag;
@@ -161,7 +161,7 @@ std::map<std::string, std::vector<int>> read_obj_groups(const std::string& path)
         const long idx = std::strtol(corner.substr(0, corner.find('/')).c_str(), nullptr, 10);
         const long v = idx > 0 ? idx - 1 : vertices + idx;
         if (idx == 0 || v < 0 || v >= vertices)
-          throw Error(path, "line " + std::to_string(line_no), "bad vertex index '" + corner + "'");
+          throw Error(path, line_where(line_no, line), "bad vertex index '" + corner + "'");
         for (const std::string& g : current) groups[g].insert(static_cast<int>(v));
       }
     }

@@ -6,12 +6,14 @@
 #include <algorithm>
 #include <assimp/Importer.hpp>
 #include <cmath>
+#include <filesystem>
 #include <fstream>
 #include <functional>
 #include <limits>
 #include <map>
 
 #include "loom/cloth/Error.h"
+#include "loom/cloth/InputFile.h"
 
 namespace loom::characters {
 
@@ -166,6 +168,16 @@ struct HierarchyReader {
 
 Motion Motion::load(const std::string& path, const MotionSettings& settings) {
   check_settings(path, settings);
+  try {  // a regular file of bounded size (InputFile.h) before assimp or the nesting check reads it
+    check_input_file(path);
+  } catch (const Error&) {
+    std::error_code ec;
+    const bool exists = std::filesystem::exists(path, ec);
+    throw Error(path, "",
+                std::string("cannot read motion: ") +
+                    (exists ? "not a regular file of at most 1 GiB (a folder, a device or too large)"
+                            : "no such file"));
+  }
   check_bvh_nesting(path);
   Assimp::Importer importer;
   const aiScene* scene = importer.ReadFile(path, 0);

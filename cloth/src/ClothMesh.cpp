@@ -10,6 +10,7 @@
 #include <tuple>
 
 #include "loom/cloth/Error.h"
+#include "loom/cloth/InputFile.h"
 
 namespace loom::cloth {
 
@@ -311,8 +312,8 @@ void ClothMesh::build_mesh_springs() {
 
 std::shared_ptr<const ClothMesh> ClothMesh::from_obj(const std::string& path, double scale,
                                                      const Vec3& translate) {
-  std::ifstream in(path);
-  if (!in) throw Error(path, "", "cannot open OBJ file");
+  // A regular file of bounded size, split at any line ending (InputFile.h).
+  const std::vector<std::string> lines = input_lines(read_input_file(path));
   Vec3s positions;
   std::vector<Vec2> texcoords;
   std::vector<Tri> triangles;
@@ -320,12 +321,10 @@ std::shared_ptr<const ClothMesh> ClothMesh::from_obj(const std::string& path, do
   bool any_vt = false, all_vt = true;
   std::string line;
   int line_no = 0;
-  auto fail = [&](const std::string& problem) {
-    throw Error(path, "line " + std::to_string(line_no), problem);
-  };
-  while (std::getline(in, line)) {
+  auto fail = [&](const std::string& problem) { throw Error(path, line_where(line_no, line), problem); };
+  for (const std::string& text : lines) {
+    line = text;
     ++line_no;
-    if (!line.empty() && line.back() == '\r') line.pop_back();
     std::istringstream ls(line);
     std::string tag;
     if (!(ls >> tag) || tag[0] == '#') continue;

@@ -2,8 +2,10 @@
 
 #include <cstring>
 #include <iterator>
+#include <string>
 
 #include "loom/cloth/Error.h"
+#include "loom/cloth/InputFile.h"
 
 namespace loom::exporter {
 
@@ -78,10 +80,8 @@ void Pc2Writer::finish() {
 }
 
 Pc2Cache read_pc2(const std::string& path) {
-  std::ifstream in(path, std::ios::binary);
-  if (!in) throw Error(path, "", "cannot open PC2 file");
-  const std::vector<unsigned char> bytes((std::istreambuf_iterator<char>(in)),
-                                         std::istreambuf_iterator<char>());
+  const std::string text = read_input_file(path);  // a regular file of bounded size (InputFile.h)
+  const std::vector<unsigned char> bytes(text.begin(), text.end());
   if (bytes.size() < static_cast<size_t>(kHeaderSize))
     throw Error(path, "header", "file too short for a PC2 header");
   if (std::memcmp(bytes.data(), kSignature, 12) != 0)

@@ -6,6 +6,7 @@
 #include <sstream>
 
 #include "loom/cloth/Error.h"
+#include "loom/scene/SceneLimits.h"
 
 namespace loom::scene {
 
@@ -67,12 +68,14 @@ double JsonReader::number(const std::string& key, std::optional<double> fallback
   return d;
 }
 
-int JsonReader::integer(const std::string& key, std::optional<int> fallback, std::optional<int> min) const {
+int JsonReader::integer(const std::string& key, std::optional<int> fallback, std::optional<int> min,
+                        std::optional<int> max) const {
   if (!has(key)) {
     if (fallback) return *fallback;
     fail(key, "is required");
   }
-  return static_cast<int>(integer_value(at(key), child(key), min ? *min : -1000000000LL, 1000000000LL));
+  return static_cast<int>(
+      integer_value(at(key), child(key), min ? *min : -1000000000LL, max ? *max : 1000000000LL));
 }
 
 long long JsonReader::integer_value(const nlohmann::json& v, const std::string& where, long long min,
@@ -113,6 +116,21 @@ std::vector<long long> JsonReader::integers(const std::string& key, size_t count
   for (size_t i = 0; i < count; ++i)
     out.push_back(integer_value(v[i], child(key) + "[" + std::to_string(i) + "]", min, max));
   return out;
+}
+
+double JsonReader::length(const std::string& key, std::optional<double> fallback, bool strict) const {
+  const double v = number(key, fallback, 0.0, strict);
+  if (v > kMaxCoordinate)
+    fail(key, "must be <= " + std::to_string(static_cast<long>(kMaxCoordinate)) + " m (got " +
+                  show_number(v) + ")");
+  return v;
+}
+
+cloth::Vec3 JsonReader::point(const std::string& key, std::optional<cloth::Vec3> fallback) const {
+  const cloth::Vec3 p = vec3(key, fallback);
+  if (!(p.cwiseAbs().maxCoeff() <= kMaxCoordinate))
+    fail(key, "coordinates must be within +-" + std::to_string(static_cast<long>(kMaxCoordinate)) + " m");
+  return p;
 }
 
 bool JsonReader::boolean(const std::string& key, std::optional<bool> fallback) const {

@@ -1,10 +1,12 @@
 #include "loom/scene/Scene.h"
 
+#include <Eigen/Geometry>
 #include <algorithm>
 #include <cmath>
 #include <cstdio>
 #include <filesystem>
 #include <fstream>
+#include <map>
 #include <set>
 #include <sstream>
 
@@ -118,12 +120,8 @@ class DuplicateKeys : public nlohmann::json::json_sax_t {
 }  // namespace
 
 nlohmann::json read_json_file(const std::string& path) {
-  check_input_file(path, "", path);  // a folder, /dev/zero or a huge file is refused before reading
-  std::ifstream in(path, std::ios::binary);
-  if (!in) throw Error(path, "", "cannot open scene file");
-  std::stringstream ss;
-  ss << in.rdbuf();
-  const std::string text = ss.str();
+  // A folder, /dev/zero (or a link to it) or a huge file is refused before reading.
+  const std::string text = loom::read_input_file(path, kMaxInputBytes);
   nlohmann::json j;
   try {
     j = nlohmann::json::parse(text);
@@ -152,21 +150,55 @@ void apply_override(nlohmann::json& root, const std::string& assignment, const s
   const size_t eq = assignment.find('=');
   const std::string where = "--set " + assignment;
   if (eq == std::string::npos || eq == 0) throw Error(file, where, "expected PATH=VALUE");
-  std::string path = assignment.substr(0, eq);
+  const std::string path = assignment.substr(0, eq);
   const std::string value = assignment.substr(eq + 1);
-  // cloths[0].x -> cloths.0.x
-  for (char& c : path)
-    if (c == '[' || c == ']') c = '.';
-  std::vector<std::string> parts;
-  std::stringstream ps(path);
-  std::string part;
-  while (std::getline(ps, part, '.'))
-    if (!part.empty()) parts.push_back(part);
-  if (parts.empty()) throw Error(file, where, "empty path");
+  // PATH := KEY ( '.' KEY | '[' DIGITS ']' )*, KEY a non-empty run of characters other than '.', '[', ']'
+  // (a KEY of digits also indexes an array: cloths.0.mass). Anything else is refused by position, never
+  // read as a nearby path: "solver..method", "cloths[0.mass", "cloths[x]", "a.".
+  struct Part {
+    std::string key;
+    bool bracket;
+  };
+  std::vector<Part> parts;
+  auto bad = [&](size_t at, const std::string& problem) {
+    throw Error(file, where, "malformed PATH at character " + std::to_string(at + 1) + ": " + problem);
+  };
+  for (size_t i = 0; i <= path.size();) {
+    if (i == path.size()) {
+      if (parts.empty()) throw Error(file, where, "empty path");
+      break;
+    }
+    if (path[i] == '[') {
+      if (parts.empty()) bad(i, "'[' needs an array name before it");
+      const size_t close = path.find(']', i);
+      if (close == std::string::npos) bad(i, "'[' is not closed by ']'");
+      const std::string digits = path.substr(i + 1, close - i - 1);
+      if (digits.empty() || digits.find_first_not_of("0123456789") != std::string::npos)
+        bad(i + 1, "'[" + digits + "]' is not an array index (a whole number)");
+      parts.push_back({digits, true});
+      i = close + 1;
+      if (i < path.size() && path[i] != '.' && path[i] != '[') bad(i, "expected '.' or '[' after ']'");
+    } else {
+      if (path[i] == '.') {
+        if (parts.empty()) bad(i, "the path starts with '.'");
+        ++i;
+      }
+      const size_t end = path.find_first_of(".[]", i);
+      const std::string key = path.substr(i, end == std::string::npos ? std::string::npos : end - i);
+      if (key.empty())
+        bad(i, i == path.size()
+                   ? "the path ends with '.'"
+                   : (path[i] == ']' ? "']' without '['" : "empty key (two separators in a row)"));
+      parts.push_back({key, false});
+      i = end == std::string::npos ? path.size() : end;
+    }
+  }
   nlohmann::json* node = &root;
   for (size_t k = 0; k < parts.size(); ++k) {
-    const std::string& key = parts[k];
+    const std::string& key = parts[k].key;
     const bool last = k + 1 == parts.size();
+    if (parts[k].bracket && !node->is_array())
+      throw Error(file, where, "'[" + key + "]' indexes a value that is not an array");
     if (node->is_array()) {
       size_t used = 0;
       long idx = -1;
@@ -221,7 +253,8 @@ cloth::Material parse_material(const JsonReader& cloth_reader, const std::string
     const JsonReader c = r.object("clo");
     cloth::CloStyleParameters p;
     p.weight = c.number("weight", p.weight, 0.0, true);
-    p.thickness = c.number("thickness", p.thickness, 0.0);
+    p.thickness = c.number("thickness", p.thickness, 0.0);  // mm
+    if (p.thickness > 1000.0 * kMaxCoordinate) c.fail("thickness", "must be <= 1e9 mm");
     p.stretch_weft = c.number("stretch_weft", p.stretch_weft, 0.0, true);
     p.stretch_warp = c.number("stretch_warp", p.stretch_warp, 0.0, true);
     p.shear = c.number("shear", p.shear, 0.0);
@@ -233,19 +266,25 @@ cloth::Material parse_material(const JsonReader& cloth_reader, const std::string
     m = cloth::from_clo_style(p);
   }
   // A value that must be positive (> 0) or non-negative (>= 0).
-  auto positive = [&](const char* key, double& field) { field = r.number(key, field, 0.0, true); };
-  auto non_negative = [&](const char* key, double& field) { field = r.number(key, field, 0.0, false); };
-  if (r.has("stretch")) m.stretch_weft = m.stretch_warp = r.number("stretch", std::nullopt, 0.0, true);
+  // At most kMaxCoefficient in its own unit: a stiffness or damping of 1e300 would overflow the forces.
+  auto bounded = [&](const char* key, std::optional<double> field, bool strict) {
+    const double v = r.number(key, field, 0.0, strict);
+    if (v > kMaxCoefficient) r.fail(key, "must be <= " + show(kMaxCoefficient) + " (got " + show(v) + ")");
+    return v;
+  };
+  auto positive = [&](const char* key, double& field) { field = bounded(key, field, true); };
+  auto non_negative = [&](const char* key, double& field) { field = bounded(key, field, false); };
+  if (r.has("stretch")) m.stretch_weft = m.stretch_warp = bounded("stretch", std::nullopt, true);
   positive("stretch_weft", m.stretch_weft);
   positive("stretch_warp", m.stretch_warp);
   non_negative("shear", m.shear);
-  if (r.has("bend")) m.bend_weft = m.bend_warp = r.number("bend", std::nullopt, 0.0, false);
+  if (r.has("bend")) m.bend_weft = m.bend_warp = bounded("bend", std::nullopt, false);
   non_negative("bend_weft", m.bend_weft);
   non_negative("bend_warp", m.bend_warp);
   positive("areal_density", m.areal_density);
   non_negative("damping", m.damping);
   non_negative("friction", m.friction);
-  non_negative("thickness", m.thickness);
+  m.thickness = r.length("thickness", m.thickness);
   r.finish();
   return m;
 }
@@ -268,9 +307,10 @@ std::shared_ptr<const cloth::ClothMesh> parse_mesh(const JsonReader& r, Scene& s
       cloth::GridSpec g;
       const auto size = r.numbers("size", 2);
       for (int k = 0; k < 2; ++k)
-        if (!(size[k] > 0.0) || size[k] > kMaxCoordinate)
-          r.fail("size",
-                 "both sizes must be in (0, " + std::to_string(static_cast<long>(kMaxCoordinate)) + "] m");
+        if (!(size[k] >= kMinMeshSize) || size[k] > kMaxCoordinate)
+          r.fail("size", "both sizes must be in [" + show(kMinMeshSize) + ", " +
+                             std::to_string(static_cast<long>(kMaxCoordinate)) + "] m (got " + show(size[k]) +
+                             ")");
       g.size_u = size[0];
       g.size_v = size[1];
       const nlohmann::json& nodes = r.raw("nodes");
@@ -298,8 +338,9 @@ std::shared_ptr<const cloth::ClothMesh> parse_mesh(const JsonReader& r, Scene& s
     const std::string path = r.string("path");
     const double scale = r.number("scale", 1.0, 0.0, true);
     const Vec3 translate = r.vec3("translate", Vec3::Zero());
-    if (scale > kMaxCoordinate)
-      r.fail("scale", "must be <= " + std::to_string(static_cast<long>(kMaxCoordinate)));
+    if (scale > kMaxCoordinate || scale < kMinMeshScale)
+      r.fail("scale", "must be in [" + show(kMinMeshScale) + ", " +
+                          std::to_string(static_cast<long>(kMaxCoordinate)) + "] (got " + show(scale) + ")");
     if (!(translate.cwiseAbs().maxCoeff() <= kMaxCoordinate))
       r.fail("translate",
              "coordinates must be within +-" + std::to_string(static_cast<long>(kMaxCoordinate)) + " m");
@@ -315,6 +356,12 @@ std::shared_ptr<const cloth::ClothMesh> parse_mesh(const JsonReader& r, Scene& s
     for (const Vec3& x : mesh->rest_positions())
       if (!(x.cwiseAbs().maxCoeff() <= kMaxCoordinate))
         r.fail("scale", "puts a vertex beyond +-" + std::to_string(static_cast<long>(kMaxCoordinate)) + " m");
+    // A mesh too small to simulate is the scale's (or the file's) doing, never the mass's.
+    Eigen::AlignedBox3d box;
+    for (const Vec3& x : mesh->rest_positions()) box.extend(x);
+    if (!(box.diagonal().norm() >= kMinMeshSize))
+      r.fail("scale", "makes the mesh " + show(box.diagonal().norm()) + " m across; at least " +
+                          show(kMinMeshSize) + " m");
     reserve_vertices(scene, r.path(), mesh->num_vertices());
     return mesh;
   }
@@ -323,7 +370,36 @@ std::shared_ptr<const cloth::ClothMesh> parse_mesh(const JsonReader& r, Scene& s
 std::vector<cloth::PinSpec> parse_pins(const JsonReader& r, const cloth::ClothMesh& mesh) {
   std::vector<cloth::PinSpec> pins;
   if (!r.has("pins")) return pins;
-  for (const JsonReader& p : r.objects("pins")) {
+  // One pin per vertex. The same entry given twice is refused, and so is a vertex that two entries reach
+  // with different anchors or paths (they would fight); entries that reach it the same way (two grid nodes
+  // that coincide on a grid made smaller with --set, two grid_edge sides at their corner) pin it once.
+  std::map<int, size_t> held;    // vertex -> index in `pins`
+  std::vector<size_t> entry_of;  // pins[k] came from entries[entry_of[k]]
+  const nlohmann::json& raw = r.raw("pins");
+  const std::vector<JsonReader> entries = r.objects("pins");
+  for (size_t entry = 0; entry < entries.size(); ++entry) {
+    const JsonReader& p = entries[entry];
+    for (size_t k = 0; k < entry; ++k)
+      if (raw[k] == raw[entry])
+        p.fail("", "the same pin as " + r.child("pins") + "[" + std::to_string(k) +
+                       "] (given twice): its vertex is already pinned by " + r.child("pins") + "[" +
+                       std::to_string(k) + "]");
+    auto hold = [&](const cloth::PinSpec& s) {  // false: the vertex is already pinned the same way
+      const auto it = held.find(s.vertex);
+      if (it == held.end()) {
+        held[s.vertex] = pins.size();
+        entry_of.push_back(entry);
+        pins.push_back(s);
+        return true;
+      }
+      const cloth::PinSpec& o = pins[it->second];
+      const bool same = o.anchor.has_value() == s.anchor.has_value() &&
+                        (!s.anchor || *o.anchor == *s.anchor) && o.times == s.times && o.offsets == s.offsets;
+      if (!same)
+        p.fail("", "pins vertex " + std::to_string(s.vertex) + ", already pinned by " + r.child("pins") +
+                       "[" + std::to_string(entry_of[it->second]) + "] with another anchor or path");
+      return false;
+    };
     cloth::PinSpec spec;
     if (static_cast<int>(p.has("vertex")) + p.has("grid") + p.has("grid_edge") != 1)
       p.fail("", "give exactly one of 'vertex', 'grid' or 'grid_edge'");
@@ -338,15 +414,17 @@ std::vector<cloth::PinSpec> parse_pins(const JsonReader& r, const cloth::ClothMe
       for (int k = 0; k < (along_v ? nv : nu); ++k) {
         cloth::PinSpec e;
         e.vertex = along_v ? mesh.grid_index(fixed, k) : mesh.grid_index(k, fixed);
-        pins.push_back(e);
+        hold(e);
       }
       continue;
     }
     if (p.has("vertex")) {
-      spec.vertex = p.integer("vertex");
-      if (spec.vertex < 0 || spec.vertex >= mesh.num_vertices())
-        p.fail("vertex", "vertex " + std::to_string(spec.vertex) + " is out of range [0, " +
-                             std::to_string(mesh.num_vertices()) + ")");
+      const nlohmann::json& v = p.raw("vertex");
+      if (!v.is_number_integer()) p.integer("vertex");           // the type error
+      if (!JsonReader::in_range(v, 0, mesh.num_vertices() - 1))  // compared before narrowing
+        p.fail("vertex",
+               "vertex " + v.dump() + " is out of range [0, " + std::to_string(mesh.num_vertices()) + ")");
+      spec.vertex = v.get<int>();
     } else {
       if (!mesh.is_grid()) p.fail("grid", "grid pins need a grid mesh");
       const nlohmann::json& g = p.raw("grid");
@@ -390,21 +468,7 @@ std::vector<cloth::PinSpec> parse_pins(const JsonReader& r, const cloth::ClothMe
       path.finish();
     }
     p.finish();
-    // One pin per vertex: a second one with its own anchor or path would fight the first; the same pin
-    // twice (two grid nodes that coincide on a small grid) is kept once.
-    bool repeated = false;
-    for (size_t k = 0; k < pins.size() && !repeated; ++k) {
-      if (pins[k].vertex != spec.vertex) continue;
-      const bool same = pins[k].anchor.has_value() == spec.anchor.has_value() &&
-                        (!spec.anchor || *pins[k].anchor == *spec.anchor) && pins[k].times == spec.times &&
-                        pins[k].offsets == spec.offsets;
-      if (!same)
-        p.fail("", "pins vertex " + std::to_string(spec.vertex) +
-                       " with another anchor or path than an earlier pin " + "(entry " + std::to_string(k) +
-                       " of the expanded list) already holding it");
-      repeated = true;
-    }
-    if (!repeated) pins.push_back(spec);
+    hold(spec);
   }
   return pins;
 }
@@ -414,9 +478,8 @@ std::vector<cloth::PinSpec> parse_pins(const JsonReader& r, const cloth::ClothMe
 cloth::DetailSettings parse_detail(const JsonReader& d) {
   cloth::DetailSettings ds;
   ds.method = d.string("method", "curved_faces", {"curved_faces"});
-  ds.levels = d.integer("levels", 2, 0);
-  if (ds.levels > 5) d.fail("levels", "must be <= 5 (each level multiplies the triangles by 4)");
-  if (d.has("wrinkles")) {  // geometric wrinkles from the coarse compression (CurvedFaces.h)
+  ds.levels = d.integer("levels", 2, 0, 5);  // each level multiplies the triangles by 4
+  if (d.has("wrinkles")) {                   // geometric wrinkles from the coarse compression (CurvedFaces.h)
     const JsonReader w = d.object("wrinkles");
     ds.wrinkles.enabled = true;
     ds.wrinkles.amplitude = w.number("amplitude", ds.wrinkles.amplitude, 0.0);
@@ -455,11 +518,18 @@ void parse_header(const JsonReader& r, Scene& scene, const std::string& file) {
     r.fail(r.has("duration") ? "duration" : "fps", "gives " + show(scene.duration * fps) +
                                                        " frames (duration x fps); at most " +
                                                        std::to_string(kMaxFrames));
+  // At least one whole frame (to rounding): a shorter duration (5e-324 s) would run a frame it never asked
+  // for.
+  if (scene.duration * fps < 1.0 - 1e-6)
+    r.fail(r.has("duration") ? "duration" : "fps",
+           "gives " + show(scene.duration * fps) +
+               " frames (duration x fps): the run must last at least one " +
+               "frame (duration >= 1/fps = " + show(scene.setup.frame_dt) + " s)");
   scene.frames = std::max(1, static_cast<int>(std::lround(scene.duration * fps)));
   scene.setup.gravity = r.vec3("gravity", Vec3(0.0, -9.81, 0.0));
-  scene.setup.threads = r.integer("threads", 1, 1);
-  if (scene.setup.threads > 4096)
-    r.fail("threads", "must be <= 4096 (got " + std::to_string(scene.setup.threads) + ")");
+  if (!(scene.setup.gravity.cwiseAbs().maxCoeff() <= kMaxAcceleration))
+    r.fail("gravity", "components must be within +-" + show(kMaxAcceleration) + " m/s^2");
+  scene.setup.threads = r.integer("threads", 1, 1, 4096);
   parse_guard(r, scene.setup.guard);  // non-finite / explosion guard (SceneGuard.cpp)
 }
 
@@ -492,7 +562,7 @@ void parse_solver(const JsonReader& r, const nlohmann::json& root, Scene& scene,
                          std::to_string(kMaxSubsteps));
       scene.setup.substeps = static_cast<int>(std::ceil(scene.setup.frame_dt / dt - 1e-9));
     } else {
-      scene.setup.substeps = s.integer("substeps", 1, 1);
+      scene.setup.substeps = s.integer("substeps", 1, 1, static_cast<int>(kMaxSubsteps));
     }
     // Every other key is a solver-specific parameter; the solver checks names and ranges.
     for (auto it = s_json.begin(); it != s_json.end(); ++it) {
@@ -551,11 +621,20 @@ void parse_effects(const JsonReader& r, Scene& scene) {
     if (e.has("drag")) {
       const JsonReader d = e.object("drag");
       cloth::DragSettings ds;
-      ds.isotropic = d.number("isotropic", 0.0, 0.0);
-      ds.normal = d.number("normal", 0.0, 0.0);
+      // Each bounded by name, so a coefficient or wind that would overflow the forces is refused here,
+      // never left to stop the run as a non-finite state.
+      auto bounded = [&](const char* key, double max, const char* unit) {
+        const double v = d.number(key, 0.0, 0.0);
+        if (v > max) d.fail(key, "must be <= " + show(max) + " " + unit + " (got " + show(v) + ")");
+        return v;
+      };
+      ds.isotropic = bounded("isotropic", kMaxCoefficient, "(drag coefficient)");
+      ds.normal = bounded("normal", kMaxCoefficient, "(drag coefficient)");
       ds.wind = d.vec3("wind", Vec3::Zero());
-      ds.gust_amplitude = d.number("gust_amplitude", 0.0, 0.0);
-      ds.gust_frequency = d.number("gust_frequency", 0.0, 0.0);
+      if (!(ds.wind.cwiseAbs().maxCoeff() <= kMaxSpeed))
+        d.fail("wind", "components must be within +-" + show(kMaxSpeed) + " m/s");
+      ds.gust_amplitude = bounded("gust_amplitude", kMaxCoefficient, "(fraction of the wind)");
+      ds.gust_frequency = bounded("gust_frequency", 1e4, "Hz");
       d.finish();
       scene.setup.drag = ds;
     }
@@ -575,8 +654,7 @@ void parse_constraints(const JsonReader& r, Scene& scene) {
       const JsonReader sl = k.object("strain_limit");
       cloth::StrainLimitSettings s;
       s.max_stretch = sl.number("max_stretch", s.max_stretch, 0.0);
-      s.iterations = sl.integer("iterations", s.iterations, 1);
-      if (s.iterations > 100000) sl.fail("iterations", "must be <= 100000");
+      s.iterations = sl.integer("iterations", s.iterations, 1, 100000);
       sl.finish();
       scene.setup.strain_limit = s;
     }
@@ -676,10 +754,8 @@ void parse_output(const JsonReader& r, Scene& scene) {
     if (o.has("render")) {
       const JsonReader rr = o.object("render");
       RenderOutput& ro = scene.output.render;
-      ro.width = rr.integer("width", 640, 16);
-      ro.height = rr.integer("height", 480, 16);
-      if (ro.width > 8192) rr.fail("width", "must be <= 8192");
-      if (ro.height > 8192) rr.fail("height", "must be <= 8192");
+      ro.width = rr.integer("width", 640, 16, 8192);
+      ro.height = rr.integer("height", 480, 16, 8192);
       ro.every = rr.integer("every", 1, 1);
       if (rr.has("camera")) {
         const JsonReader c = rr.object("camera");

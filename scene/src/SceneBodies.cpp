@@ -2,6 +2,9 @@
 
 #include <algorithm>
 #include <cmath>
+#include <string>
+
+#include "loom/scene/SceneLimits.h"
 
 namespace loom::scene {
 
@@ -16,12 +19,17 @@ Transform parse_body_pose(const JsonReader& r) {
   Transform t = Transform::Identity();
   if (r.has("rotation")) {
     const JsonReader o = r.object("rotation");
-    const Vec3 axis = o.vec3("axis");
-    if (!(axis.norm() > 0.0)) o.fail("axis", "must not be zero");
-    t.linear() = Eigen::AngleAxisd(o.number("degrees") * M_PI / 180.0, axis.normalized()).toRotationMatrix();
+    Vec3 axis = o.vec3("axis");
+    // Scaled by its largest component before it is normalised: a huge axis (norm past double range) keeps
+    // its direction instead of normalising to zero.
+    const double largest = axis.cwiseAbs().maxCoeff();
+    if (!(largest > 0.0)) o.fail("axis", "must not be zero");
+    axis /= largest;
+    t.linear() = Eigen::AngleAxisd(std::fmod(o.number("degrees"), 360.0) * M_PI / 180.0, axis.normalized())
+                     .toRotationMatrix();
     o.finish();
   }
-  t.translation() = r.vec3("position", Vec3::Zero());
+  t.translation() = r.point("position", Vec3::Zero());
   return t;
 }
 
@@ -51,7 +59,7 @@ std::function<Transform(double)> parse_body_motion(const JsonReader& m, const Tr
   std::vector<Vec3> positions;
   for (const JsonReader& k : m.objects("keyframes")) {
     times.push_back(k.number("t"));
-    positions.push_back(k.vec3("position"));
+    positions.push_back(k.point("position"));
     k.finish();
     if (times.size() > 1 && !(times.back() > times[times.size() - 2]))
       k.fail("t", "keyframe times must increase strictly");
@@ -88,15 +96,17 @@ void parse_bodies(const JsonReader& root, Scene& scene) {
       b.shape.type = ShapeType::plane;
     } else if (shape == "sphere") {
       b.shape.type = ShapeType::sphere;
-      b.shape.radius = r.number("radius", std::nullopt, 0.0, true);
+      b.shape.radius = r.length("radius", std::nullopt, true);
     } else if (shape == "capsule" || shape == "cylinder") {
       b.shape.type = shape == "capsule" ? ShapeType::capsule : ShapeType::cylinder;
-      b.shape.radius = r.number("radius", std::nullopt, 0.0, true);
-      b.shape.half_height = r.number("half_height", std::nullopt, 0.0, true);
+      b.shape.radius = r.length("radius", std::nullopt, true);
+      b.shape.half_height = r.length("half_height", std::nullopt, true);
     } else {
       b.shape.type = ShapeType::box;
       b.shape.half_extents = r.vec3("half_extents");
-      if (!(b.shape.half_extents.minCoeff() > 0.0)) r.fail("half_extents", "must be > 0");
+      if (!(b.shape.half_extents.minCoeff() > 0.0) || !(b.shape.half_extents.maxCoeff() <= kMaxCoordinate))
+        r.fail("half_extents",
+               "all three must be in (0, " + std::to_string(static_cast<long>(kMaxCoordinate)) + "] m");
     }
     b.pose = parse_body_pose(r);
     b.mass = r.number("mass", 0.0, 0.0);
@@ -116,14 +126,16 @@ void parse_bodies(const JsonReader& root, Scene& scene) {
       for (size_t k = 0; k < att.size(); ++k) {
         const JsonReader& a = att[k];
         collision::BodyAttachment ba;
-        ba.cloth = a.integer("cloth", 0, 0);
-        if (ba.cloth >= static_cast<int>(scene.setup.cloths.size()))
-          a.fail("cloth", "no cloth with this index");
+        ba.cloth = a.integer("cloth", 0, 0, static_cast<int>(scene.setup.cloths.size()) - 1);
         const cloth::ClothMesh& mesh = *scene.setup.cloths[ba.cloth].mesh;
         if (a.has("vertex") == a.has("grid")) a.fail("", "give either 'vertex' or 'grid'");
         if (a.has("vertex")) {
-          ba.vertex = a.integer("vertex", std::nullopt, 0);
-          if (ba.vertex >= mesh.num_vertices()) a.fail("vertex", "out of range");
+          const nlohmann::json& v = a.raw("vertex");
+          if (!v.is_number_integer()) a.integer("vertex");           // the type error
+          if (!JsonReader::in_range(v, 0, mesh.num_vertices() - 1))  // compared before narrowing
+            a.fail("vertex", "vertex " + v.dump() + " is out of range [0, " +
+                                 std::to_string(mesh.num_vertices()) + ")");
+          ba.vertex = v.get<int>();
           b.attachments.push_back(ba);
         } else {
           // "grid": [iu, iv] (negative counts from the end) or [iu, "all"] / ["all", iv] for a whole row.

@@ -44,13 +44,13 @@ void parse_character(const JsonReader& root, Scene& scene) {
     const nlohmann::json& s = c.raw("scale");
     if (s.is_string() && s.get<std::string>() == "auto") {
       ms.scale = 0.0;
-    } else if (s.is_number() && s.get<double>() > 0.0) {
+    } else if (s.is_number() && s.get<double>() > 0.0 && s.get<double>() <= kMaxCoordinate) {
       ms.scale = s.get<double>();
     } else {
-      c.fail("scale", "expected \"auto\" or metres per file unit (> 0)");
+      c.fail("scale", "expected \"auto\" or metres per file unit in (0, 1000000]");
     }
   }
-  ms.height = c.number("height", ms.height, 0.0, true);
+  ms.height = c.length("height", ms.height, true);
   ms.root_motion = c.boolean("root_motion", ms.root_motion);
   ms.loop = c.boolean("loop", ms.loop);
   ms.speed = c.number("speed", ms.speed, 0.0, true);
@@ -66,7 +66,7 @@ void parse_character(const JsonReader& root, Scene& scene) {
     const nlohmann::json& rj = c.raw("radii");
     if (!rj.is_object()) c.fail("radii", "expected an object {\"BoneName\": radius in m}");
     const JsonReader rr = c.object("radii");
-    for (auto it = rj.begin(); it != rj.end(); ++it) radii[it.key()] = rr.number(it.key(), std::nullopt, 0.0);
+    for (auto it = rj.begin(); it != rj.end(); ++it) radii[it.key()] = rr.length(it.key());
     rr.finish();
   }
   try {
@@ -76,11 +76,11 @@ void parse_character(const JsonReader& root, Scene& scene) {
   }
   // Radii fitted to the motion (CapsuleRig::fit_to_motion): arm capsules kept `capsule_gap` away from the
   // torso and leg capsules over the clip; "fit_radii": false keeps the table.
-  const double capsule_gap = c.number("capsule_gap", 0.02, 0.0);  // m
+  const double capsule_gap = c.length("capsule_gap", 0.02);  // m
   const bool fit_radii = c.boolean("fit_radii", true);
   if (fit_radii) character->rig.fit_to_motion(character->motion, capsule_gap);
   character->friction = c.number("friction", character->friction, 0.0);
-  character->thickness = c.number("thickness", character->thickness, 0.0);
+  character->thickness = c.length("thickness", character->thickness);
   if (c.has("garments")) {
     const auto garments = c.objects("garments");
     cloth::Vec3s layers;  // m, vertices of the garments made so far
@@ -90,11 +90,14 @@ void parse_character(const JsonReader& root, Scene& scene) {
       spec.type = g.string("type", std::nullopt, {"cape", "skirt", "shirt", "obj"});
       const std::string name = g.string("name", spec.type);
       spec.resolution = g.number("resolution", spec.resolution, 0.0, true);
-      spec.clearance = g.number("clearance", spec.clearance, 0.0);
+      spec.clearance = g.length("clearance", spec.clearance);
       spec.length = g.number("length", spec.length, 0.0);
       if (spec.type == "cape") spec.width = g.number("width", spec.width, 0.0);
-      if (spec.length > 100.0) g.fail("length", "must be <= 100 m");
-      if (spec.width > 100.0) g.fail("width", "must be <= 100 m");
+      // A garment shorter than 1 cm would be degenerate: refused by its field, not by a triangle.
+      if (g.has("length") && !(spec.length >= 0.01 && spec.length <= 100.0))
+        g.fail("length", "must be in [0.01, 100] m");
+      if (spec.type == "cape" && g.has("width") && !(spec.width >= 0.01 && spec.width <= 100.0))
+        g.fail("width", "must be in [0.01, 100] m");
       if (spec.type != "obj") {
         // Vertices of a generated garment, before it is made: its area over an equilateral triangle's
         // (sqrt(3)/4 r^2) per vertex pair; the area is bounded by a 2.5 m x 2.5 m human-sized sheet unless
@@ -106,8 +109,9 @@ void parse_character(const JsonReader& root, Scene& scene) {
       if (spec.type == "skirt") spec.flare = g.number("flare", spec.flare, 0.0, true);
       if (spec.type == "obj") {
         spec.path = input_file(scene, g.child("path"), g.string("path"));
-        spec.scale = g.number("scale", 1.0, 0.0, true);
-        spec.translate = g.vec3("translate", cloth::Vec3::Zero());
+        spec.scale = g.length("scale", 1.0, true);
+        if (spec.scale < kMinMeshScale) g.fail("scale", "must be >= 1e-06 (a mesh too small to simulate)");
+        spec.translate = g.point("translate", cloth::Vec3::Zero());
         const nlohmann::json& aj = g.raw("attach");
         if (!aj.is_object() || aj.empty())
           g.fail("attach", "expected {\"obj group\": \"bone name\" or \"nearest\", ...}");

@@ -4,9 +4,11 @@
 #include <cmath>
 #include <filesystem>
 #include <fstream>
+#include <optional>
 #include <sstream>
 
 #include "loom/cloth/Error.h"
+#include "loom/cloth/InputFile.h"
 #include "loom/collision/ColliderGeometry.h"
 #include "loom/scene/SceneLimits.h"
 
@@ -31,6 +33,23 @@ Vec3 unit_axis(const JsonReader& o, const std::string& key) {
   return axis.normalized();
 }
 
+const std::string kCoordinateLimit = std::to_string(static_cast<long>(kMaxCoordinate));
+
+// A point (position, vertex, centre) with every coordinate within +-kMaxCoordinate m.
+void check_point(const JsonReader& r, const std::string& key, const Vec3& p) {
+  if (!(p.cwiseAbs().maxCoeff() <= kMaxCoordinate))
+    r.fail(key, "coordinates must be within +-" + kCoordinateLimit + " m");
+}
+
+// Refuses a triangle of zero area (repeated or collinear vertices), the cloth mesh's test (ClothMesh.cpp):
+// its normal is undefined, so contacts against it are too.
+bool degenerate(const std::vector<Vec3>& x, const cloth::Tri& t) {
+  if (t[0] == t[1] || t[1] == t[2] || t[0] == t[2]) return true;
+  const Vec3 e1 = x[t[1]] - x[t[0]], e2 = x[t[2]] - x[t[0]];
+  const double longest = std::max({e1.squaredNorm(), e2.squaredNorm(), (e2 - e1).squaredNorm()});
+  return !(e1.cross(e2).norm() > 1e-10 * longest);
+}
+
 // `rotation`: {"axis": [x, y, z], "degrees": a} (right-handed about the axis).
 Eigen::Matrix3d parse_rotation(const JsonReader& r, const std::string& key) {
   if (!r.has(key)) return Eigen::Matrix3d::Identity();
@@ -44,7 +63,7 @@ Eigen::Matrix3d parse_rotation(const JsonReader& r, const std::string& key) {
 Transform parse_pose(const JsonReader& r) {
   Transform t = Transform::Identity();
   t.linear() = parse_rotation(r, "rotation");
-  t.translation() = r.vec3("position", Vec3::Zero());
+  t.translation() = r.point("position", Vec3::Zero());
   return t;
 }
 
@@ -58,6 +77,7 @@ std::vector<Vec3> parse_points(const JsonReader& r, const std::string& key) {
       r.fail(key + "[" + std::to_string(i) + "]", "expected [x, y, z]");
     out.emplace_back(p[0].get<double>(), p[1].get<double>(), p[2].get<double>());
     if (!out.back().allFinite()) r.fail(key + "[" + std::to_string(i) + "]", "must be finite");
+    check_point(r, key + "[" + std::to_string(i) + "]", out.back());
   }
   return out;
 }
@@ -66,20 +86,20 @@ std::vector<Vec3> parse_points(const JsonReader& r, const std::string& key) {
 // polygons fan-split); other lines are ignored. Errors name the OBJ file and line.
 void read_obj(const std::string& path, double scale, std::vector<Vec3>& vertices,
               std::vector<cloth::Tri>& tris) {
-  std::ifstream in(path);
-  if (!in) throw Error(path, "", "cannot open OBJ file");
-  std::string line;
+  // A regular file of bounded size, split at any line ending (InputFile.h).
   int number = 0;
-  while (std::getline(in, line)) {
+  for (const std::string& line : loom::input_lines(loom::read_input_file(path))) {
     ++number;
+    const std::string where = loom::line_where(number, line);
     std::istringstream ss(line);
     std::string tag;
     ss >> tag;
     if (tag == "v") {
       Vec3 p;
-      if (!(ss >> p.x() >> p.y() >> p.z()) || !p.allFinite())
-        throw Error(path, "line " + std::to_string(number), "bad vertex");
+      if (!(ss >> p.x() >> p.y() >> p.z()) || !p.allFinite()) throw Error(path, where, "bad vertex");
       vertices.push_back(scale * p);
+      if (!(vertices.back().cwiseAbs().maxCoeff() <= kMaxCoordinate))
+        throw Error(path, where, "vertex (times scale) is beyond +-" + kCoordinateLimit + " m");
     } else if (tag == "f") {
       std::vector<int> idx;
       std::string tok;
@@ -88,16 +108,21 @@ void read_obj(const std::string& path, double scale, std::vector<Vec3>& vertices
         try {
           k = std::stoi(tok.substr(0, tok.find('/')));
         } catch (...) {
-          throw Error(path, "line " + std::to_string(number), "bad face index '" + tok + "'");
+          throw Error(path, where, "bad face index '" + tok + "'");
         }
         k = k < 0 ? static_cast<int>(vertices.size()) + k : k - 1;
         if (k < 0 || k >= static_cast<int>(vertices.size()))
-          throw Error(path, "line " + std::to_string(number), "face index '" + tok + "' is out of range");
+          throw Error(path, where, "face index '" + tok + "' is out of range");
         idx.push_back(k);
       }
-      if (idx.size() < 3)
-        throw Error(path, "line " + std::to_string(number), "a face needs at least 3 vertices");
-      for (size_t j = 1; j + 1 < idx.size(); ++j) tris.push_back({idx[0], idx[j], idx[j + 1]});
+      if (idx.size() < 3) throw Error(path, where, "a face needs at least 3 vertices");
+      for (size_t j = 1; j + 1 < idx.size(); ++j) {
+        tris.push_back({idx[0], idx[j], idx[j + 1]});
+        if (degenerate(vertices, tris.back()))
+          throw Error(path, where,
+                      "triangle " + std::to_string(tris.size() - 1) +
+                          " has zero area (repeated or collinear vertices: a degenerate triangle)");
+      }
     }
   }
   if (vertices.empty()) throw Error(path, "", "no vertices");
@@ -106,7 +131,7 @@ void read_obj(const std::string& path, double scale, std::vector<Vec3>& vertices
 // Kinematic motion: `keyframes` (piecewise linear position, slerp rotation, held before the first and
 // after the last), or `velocity` (m/s) and/or `spin` {axis, rate (rad/s), centre (m, default: position)}:
 // pose(t) = translate(velocity t) * rotate_about(centre, axis, rate t) * pose(0).
-std::function<Transform(double)> parse_motion(const JsonReader& m, const Transform& start) {
+std::function<Transform(double)> parse_motion(const JsonReader& m, const Transform& start, double duration) {
   if (m.has("keyframes")) {
     if (m.has("velocity") || m.has("spin"))
       m.fail("keyframes", "give either 'keyframes' or 'velocity'/'spin', not both");
@@ -116,7 +141,7 @@ std::function<Transform(double)> parse_motion(const JsonReader& m, const Transfo
       times.push_back(k.number("t"));
       Transform p = Transform::Identity();
       p.linear() = k.has("rotation") ? parse_rotation(k, "rotation") : Eigen::Matrix3d(start.linear());
-      p.translation() = k.vec3("position", start.translation());
+      p.translation() = k.point("position", start.translation());
       k.finish();
       if (times.size() > 1 && !(times.back() > times[times.size() - 2]))
         k.fail("t", "keyframe times must increase strictly");
@@ -138,13 +163,18 @@ std::function<Transform(double)> parse_motion(const JsonReader& m, const Transfo
     };
   }
   const Vec3 velocity = m.vec3("velocity", Vec3::Zero());
+  // Where the velocity takes the collider by the end of the run must stay within the bounds too.
+  if (!((start.translation() + velocity * duration).cwiseAbs().maxCoeff() <= kMaxCoordinate))
+    m.fail("velocity", "moves the collider beyond +-" + kCoordinateLimit + " m within the scene's duration");
   Vec3 axis = Vec3::UnitY(), centre = start.translation();
   double rate = 0.0;
   if (m.has("spin")) {
     const JsonReader s = m.object("spin");
     axis = unit_axis(s, "axis");
     rate = s.number("rate");
-    centre = s.vec3("centre", centre);
+    if (!(std::abs(rate) <= kMaxSpeed))
+      s.fail("rate", "must be within +-" + std::to_string(static_cast<long>(kMaxSpeed)) + " rad/s");
+    centre = s.point("centre", centre);
     s.finish();
   }
   m.finish();
@@ -174,21 +204,27 @@ void parse_colliders(const JsonReader& root, Scene& scene) {
       s.type = ShapeType::plane;
     } else if (shape == "sphere") {
       s.type = ShapeType::sphere;
-      s.radius = r.number("radius", std::nullopt, 0.0, true);
+      s.radius = r.length("radius", std::nullopt, true);
     } else if (shape == "capsule" || shape == "cylinder") {
       s.type = shape == "capsule" ? ShapeType::capsule : ShapeType::cylinder;
-      s.radius = r.number("radius", std::nullopt, 0.0, true);
-      s.half_height = r.number("half_height", std::nullopt, 0.0, shape == "cylinder");
+      s.radius = r.length("radius", std::nullopt, true);
+      s.half_height = r.length("half_height", std::nullopt, shape == "cylinder");
     } else if (shape == "box") {
       s.type = ShapeType::box;
       s.half_extents = r.vec3("half_extents");
-      if (!(s.half_extents.minCoeff() > 0.0)) r.fail("half_extents", "all three must be > 0");
+      if (!(s.half_extents.minCoeff() > 0.0) || !(s.half_extents.maxCoeff() <= kMaxCoordinate))
+        r.fail("half_extents", "all three must be in (0, " + kCoordinateLimit + "] m");
     } else {
       s.type = shape == "convex" ? ShapeType::convex : ShapeType::mesh;
       if (r.has("vertices") == r.has("obj")) r.fail("", "give either 'vertices' or 'obj'");
       if (r.has("obj")) {
         const std::filesystem::path p = input_file(scene, r.child("obj"), r.string("obj"));
-        const double scale = r.number("scale", 1.0, 0.0, true);
+        const double scale = r.length("scale", 1.0, true);
+        if (scale < kMinMeshScale) {
+          std::ostringstream limit;
+          limit << "must be >= " << kMinMeshScale << " (got " << scale << ")";
+          r.fail("scale", limit.str());
+        }
         try {
           read_obj(p.string(), scale, s.vertices, s.triangles);
         } catch (const Error& e) {
@@ -213,6 +249,9 @@ void parse_colliders(const JsonReader& root, Scene& scene) {
               tri[j] = static_cast<int>(
                   r.integer_value(e[j], r.child(where) + "[" + std::to_string(j) + "]", 0, last));
             s.triangles.push_back(tri);
+            if (degenerate(s.vertices, tri))
+              r.fail(where, "triangle " + std::to_string(k) +
+                                " has zero area (repeated or collinear vertices: a degenerate triangle)");
           }
         }
       }
@@ -227,12 +266,12 @@ void parse_colliders(const JsonReader& root, Scene& scene) {
     }
     const Transform start = parse_pose(r);
     c.prev = c.curr = start;
-    c.thickness = r.number("thickness", 0.0, 0.0);
+    c.thickness = r.length("thickness", 0.0, false);
     c.friction = r.number("friction", c.friction, 0.0);
     c.static_friction = r.number("static_friction", std::max(c.static_friction, c.friction), 0.0);
     if (c.static_friction < c.friction) r.fail("static_friction", "must be >= friction");
     if (r.has("motion")) {
-      c.motion = parse_motion(r.object("motion"), start);
+      c.motion = parse_motion(r.object("motion"), start, scene.duration);
       c.prev = c.curr = c.motion(0.0);
     }
     r.finish();

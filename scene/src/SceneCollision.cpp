@@ -3,6 +3,8 @@
 
 #include <string>
 
+#include "loom/scene/SceneLimits.h"
+
 namespace loom::scene {
 
 void parse_collision(const JsonReader& root, Scene& scene) {
@@ -11,7 +13,7 @@ void parse_collision(const JsonReader& root, Scene& scene) {
   collision::SelfCollisionSettings s;
   s.self = c.boolean("self", true);
   const int n = static_cast<int>(scene.setup.cloths.size());
-  const double all = c.number("thickness", 0.0, 0.0);  // 0: each cloth's material thickness
+  const double all = c.length("thickness", 0.0);  // 0: each cloth's material thickness
   s.thickness.assign(n, 0.0);
   for (int i = 0; i < n; ++i) s.thickness[i] = all > 0.0 ? all : scene.setup.cloths[i].material.thickness;
   if (c.has("layers")) {
@@ -20,7 +22,9 @@ void parse_collision(const JsonReader& root, Scene& scene) {
       c.fail("layers", "expected one thickness per cloth (" + std::to_string(n) + "), got " +
                            std::to_string(layers.size()));
     for (int i = 0; i < n; ++i) {
-      if (!(layers[i] > 0.0)) c.fail("layers", "entry " + std::to_string(i) + " must be > 0 (m)");
+      if (!(layers[i] > 0.0) || layers[i] > kMaxCoordinate)
+        c.fail("layers", "entry " + std::to_string(i) + " must be in (0, " +
+                             std::to_string(static_cast<long>(kMaxCoordinate)) + "] m");
       s.thickness[i] = layers[i];
     }
   }
@@ -30,8 +34,7 @@ void parse_collision(const JsonReader& root, Scene& scene) {
   if (c.has("static_friction")) s.static_friction = c.number("static_friction", std::nullopt, 0.0);
   if (s.static_friction >= 0.0 && s.friction >= 0.0 && s.static_friction < s.friction)
     c.fail("static_friction", "must be >= friction");
-  s.passes = c.integer("passes", s.passes, 0);
-  if (s.passes > 1000) c.fail("passes", "must be <= 1000");
+  s.passes = c.integer("passes", s.passes, 0, 1000);
   s.separation = c.number("separation", s.separation, 0.0);
   if (s.separation >= 1.0) c.fail("separation", "must be < 1 (a fraction of the thickness)");
   s.repulsion = c.number("repulsion", s.repulsion, 0.0);
@@ -46,7 +49,7 @@ void parse_collision(const JsonReader& root, Scene& scene) {
   if (method == "proximity") {
     collision::RealtimeSelfSettings p;
     p.self = s.self;
-    p.thickness = c.number("thickness", p.thickness, 0.0, true);
+    p.thickness = c.length("thickness", p.thickness, true);
     p.every = c.integer("every", tier.self_every, 1);
     p.padding = c.number("padding", p.padding, 0.0, true);
     scene.proximity = p;

@@ -6,8 +6,7 @@ void parse_guard(const JsonReader& root, cloth::GuardSettings& g) {
   if (!root.has("guard")) return;
   const JsonReader r = root.object("guard");
   g.enabled = r.boolean("enabled", g.enabled);
-  g.max_halvings = r.integer("max_halvings", g.max_halvings, 0);
-  if (g.max_halvings > 20) r.fail("max_halvings", "must be <= 20 (2^20 times the substeps)");
+  g.max_halvings = r.integer("max_halvings", g.max_halvings, 0, 20);  // up to 2^20 times the substeps
   g.max_strain = r.number("max_strain", g.max_strain, 0.0, true);
   g.energy_growth = r.number("energy_growth", g.energy_growth, 0.0, true);
   if (g.energy_growth < 1.0) r.fail("energy_growth", "must be >= 1");

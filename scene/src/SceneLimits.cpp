@@ -7,6 +7,7 @@
 #include <limits>
 
 #include "loom/cloth/Error.h"
+#include "loom/cloth/InputFile.h"
 #include "loom/scene/Scene.h"
 
 namespace fs = std::filesystem;
@@ -14,19 +15,12 @@ namespace fs = std::filesystem;
 namespace loom::scene {
 
 void check_input_file(const std::string& file, const std::string& field, const std::string& path) {
-  std::error_code ec;
-  const fs::file_status st = fs::status(path, ec);
-  const std::string what = path == file ? "" : path + ": ";
-  if (!fs::exists(st)) throw Error(file, field, what + "no such file");
-  if (fs::is_directory(st)) throw Error(file, field, what + "is a folder, not a file");
-  if (!fs::is_regular_file(st))
-    throw Error(file, field, what + "is not a regular file (a device, pipe or socket)");
-  const std::uintmax_t size = fs::file_size(path, ec);
-  if (ec) throw Error(file, field, what + "cannot read its size: " + ec.message());
-  if (size > kMaxInputBytes)
-    throw Error(file, field,
-                what + "is " + show_bytes(static_cast<double>(size)) + ", more than the " +
-                    show_bytes(static_cast<double>(kMaxInputBytes)) + " Loom reads");
+  try {
+    loom::check_input_file(path, kMaxInputBytes);
+  } catch (const Error& e) {
+    if (path == file && field.empty()) throw;
+    throw Error(file, field, e.what());  // "scene.json: cloths[0].mesh.path: mesh.obj: no such file"
+  }
 }
 
 std::string input_file(Scene& scene, const std::string& field, const std::string& path) {

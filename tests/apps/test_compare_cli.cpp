@@ -64,7 +64,7 @@ TEST(CompareCli, BadInput) {
   EXPECT_EQ(none.code, 2);
   const CliResult frames =
       run_loom("compare " + std::string(LOOM_SOURCE_DIR) + "/scenes/trampoline.json --frames 0");
-  EXPECT_EQ(frames.code, 1);
+  EXPECT_EQ(frames.code, 2);  // a bad command line, as for `loom run --frames`
   EXPECT_NE(frames.err.find("--frames"), std::string::npos);
 }
 

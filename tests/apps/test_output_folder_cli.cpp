@@ -371,4 +371,98 @@ TEST(CheckpointTrust, ResumeWorksFromAnotherWorkingFolder) {
   EXPECT_EQ(j["frames"], 6);
 }
 
+TEST(CheckpointTrust, TruncatedFrameLogIsRefusedWhereTheCheckpointNeedsIt) {
+  // frames.bin holds frames 0-4; the checkpoint (frame 2) needs the first 3. Cut 7 bytes off the end: only
+  // frame 4 is lost, which the resume simulates again (exit 0, complete). Cut 7 bytes into frame 2: refused.
+  {
+    const CheckpointRun c = checkpointed();
+    const fs::path f = c.out / "checkpoint" / "frames.bin";
+    const std::string b = read_bytes(f);
+    ASSERT_EQ(b.size() % 5, 0u);
+    write_bytes(f, b.substr(0, b.size() - 7));
+    const auto r = run_loom("run --resume " + c.out.string() + " --frames 6");
+    EXPECT_EQ(r.code, 0) << r.err;
+    EXPECT_TRUE(nlohmann::json::parse(slurp(c.out / "summary.json"))["completed"].get<bool>());
+  }
+  const CheckpointRun c = checkpointed();
+  const fs::path f = c.out / "checkpoint" / "frames.bin";
+  const std::string b = read_bytes(f);
+  write_bytes(f, b.substr(0, b.size() / 5 * 3 - 7));
+  expect_refused(c, f.string(), "frame log is shorter than the checkpoint says (3 frames)");
+}
+
+TEST(CheckpointTrust, FewerFramesThanTheCheckpointAreRefused) {
+  const CheckpointRun c = checkpointed();
+  const std::string summary = slurp(c.out / "summary.json");
+  const auto r = run_loom("run --resume " + c.out.string() + " --frames 1");
+  EXPECT_EQ(r.code, 1) << r.err;
+  EXPECT_NE(r.err.find("--frames"), std::string::npos) << r.err;
+  EXPECT_NE(r.err.find("1 is below the checkpoint's frame 2"), std::string::npos) << r.err;
+  EXPECT_EQ(slurp(c.out / "summary.json"), summary);
+  // As many frames as the checkpoint holds finishes the outputs without a step.
+  const auto same = run_loom("run --resume " + c.out.string() + " --frames 2");
+  EXPECT_EQ(same.code, 0) << same.err;
+  EXPECT_EQ(nlohmann::json::parse(slurp(c.out / "summary.json"))["frames"], 2);
+}
+
+// --- The output folder is never reached through a link, whoever writes it.
+
+TEST(OutputFolder, AnOutputFolderThatIsALinkIsRefused) {
+  const fs::path dir = loom::test::test_dir(), real = dir / "real", link = dir / "link";
+  const std::string scene = write_scene(dir);
+  write(real / "notes.txt", "user data");
+  fs::create_directory_symlink(real, link);
+  for (const std::string& out : {link.string(), link.string() + "/"}) {
+    const auto r = run_loom("run " + scene + " --frames 1 --overwrite --out " + out);
+    EXPECT_EQ(r.code, 1) << out << ": " << r.err;
+    EXPECT_NE(r.err.find(link.string()), std::string::npos) << r.err;
+    EXPECT_NE(r.err.find("is a symbolic link"), std::string::npos) << r.err;
+  }
+  EXPECT_EQ(slurp(real / "notes.txt"), "user data");
+  EXPECT_EQ(std::distance(fs::directory_iterator(real), fs::directory_iterator()), 1);
+}
+
+// `loom compare`, `loom bench accuracy`, `loom bench realtime` and `loom fabric-test` own their --out folder
+// as `loom run` does: a non-empty folder Loom did not write is refused (before any run) unless --overwrite,
+// and a link is refused even then.
+TEST(OutputFolder, EveryCommandOwnsItsOutputFolder) {
+  const fs::path dir = loom::test::test_dir(), foreign = dir / "foreign", link = dir / "link";
+  const std::string scene = write_scene(dir);
+  write(foreign / "compare.csv", "user data");
+  write(foreign / "accuracy.csv", "user data");
+  write(foreign / "notes.txt", "user data");
+  fs::create_directory_symlink(foreign, link);
+  const std::vector<std::string> commands = {"fabric-test catenary --resolution 8",
+                                             "compare " + scene + " --frames 1", "bench accuracy --quick",
+                                             "bench realtime --quick"};
+  for (const std::string& cmd : commands) {
+    auto r = run_loom(cmd + " --out " + foreign.string());
+    if (r.err.find("unknown command") != std::string::npos) continue;  // a build without Bullet
+    EXPECT_EQ(r.code, 1) << cmd << ": " << r.err;
+    EXPECT_NE(r.err.find(foreign.string()), std::string::npos) << cmd << ": " << r.err;
+    EXPECT_NE(r.err.find("was not written by loom"), std::string::npos) << cmd << ": " << r.err;
+    r = run_loom(cmd + " --overwrite --out " + link.string());
+    EXPECT_EQ(r.code, 1) << cmd << ": " << r.err;
+    EXPECT_NE(r.err.find("is a symbolic link"), std::string::npos) << cmd << ": " << r.err;
+  }
+  for (const char* f : {"compare.csv", "accuracy.csv", "notes.txt"})
+    EXPECT_EQ(slurp(foreign / f), "user data") << f;
+}
+
+TEST(OutputFolder, CompareWritesItsFilesThroughTheManifest) {
+  const fs::path dir = loom::test::test_dir(), out = dir / "cmp";
+  const std::string scene = write_scene(dir);
+  auto r = run_loom("compare " + scene + " --frames 1 --out " + out.string());
+  if (r.err.find("unknown command") != std::string::npos) GTEST_SKIP() << "no Bullet in this build";
+  ASSERT_EQ(r.code, 0) << r.err;
+  const std::string manifest = slurp(out / ".loom-manifest");
+  EXPECT_NE(manifest.find("\ncompare.csv\n"), std::string::npos) << manifest;
+  EXPECT_NE(manifest.find("\ncompare.json\n"), std::string::npos) << manifest;
+  write(out / "mine.txt", "user data");  // added by the user since: kept by the next run
+  r = run_loom("compare " + scene + " --frames 1 --out " + out.string());
+  EXPECT_EQ(r.code, 0) << r.err;
+  EXPECT_EQ(slurp(out / "mine.txt"), "user data");
+  EXPECT_TRUE(fs::exists(out / "compare.csv"));
+}
+
 }  // namespace

@@ -17,6 +17,7 @@
 #include "loom/cloth/Error.h"
 #include "loom/eval/AccuracyPlot.h"
 #include "loom/eval/AccuracySweep.h"
+#include "loom/eval/OutputFolder.h"
 
 namespace loom::eval {
 
@@ -198,8 +199,9 @@ std::vector<PlotPoint> plot_points(const std::vector<Row>& rows, size_t first) {
 
 // DIR/accuracy.csv and DIR/reference_check.csv, rewritten after every size so a long run keeps what it
 // measured. False (and a message) when they cannot be written.
-bool write_results(const AccuracyOptions& o, const std::vector<Row>& rows, const std::ostringstream& refs) {
-  std::ofstream csv(fs::path(o.out) / "accuracy.csv");
+bool write_results(const AccuracyOptions& o, OutputFolder& folder, const std::vector<Row>& rows,
+                   const std::ostringstream& refs) {
+  std::ofstream csv(folder.claim("accuracy.csv"));
   csv << "system,method,size,config,threads,ms_per_frame,rms_error_max,rms_error_end,max_strain,mean_strain,"
          "energy_drift,diverged\n";
   for (const Row& r : rows)
@@ -207,7 +209,7 @@ bool write_results(const AccuracyOptions& o, const std::vector<Row>& rows, const
         << num(r.ms_per_frame) << ',' << num(r.rms_error_max) << ',' << num(r.rms_error_end) << ','
         << num(r.max_strain) << ',' << num(r.mean_strain) << ',' << num(r.energy_drift) << ','
         << (r.diverged ? 1 : 0) << "\n";
-  std::ofstream rf(fs::path(o.out) / "reference_check.csv");
+  std::ofstream rf(folder.claim("reference_check.csv"));
   rf << refs.str();
   if (!csv || !rf) {
     std::cerr << "loom: error: " << o.out << ": cannot write the results\n";
@@ -220,11 +222,7 @@ bool write_results(const AccuracyOptions& o, const std::vector<Row>& rows, const
 
 int bench_accuracy(const AccuracyOptions& o) {
   std::error_code ec;
-  fs::create_directories(o.out, ec);
-  if (ec) {
-    std::cerr << "loom: error: " << o.out << ": cannot create folder: " << ec.message() << "\n";
-    return 1;
-  }
+  OutputFolder folder(o.out, "--out", o.overwrite, false);  // refuses a folder Loom did not write
   const std::vector<std::string> registered = solver_names();
   std::vector<Row> rows;
   std::ostringstream refs;
@@ -253,15 +251,17 @@ int bench_accuracy(const AccuracyOptions& o) {
     }
     check_reference(n, ref, rows, first, refs);
     const std::vector<PlotPoint> pts = plot_points(rows, first);
-    const std::string png = (fs::path(o.out) / ("accuracy_" + std::to_string(n) + ".png")).string();
+    const std::string stem = "accuracy_" + std::to_string(n);
+    for (const char* ext : {".dat", ".gp"}) folder.claim(stem + ext);
+    const std::string png = folder.claim(stem + ".png").string();
     const std::string title = "hanging cloth " + std::to_string(n) + "x" + std::to_string(n) +
                               ", cotton, 1 m, 0.2 kg, " + num(o.duration) + " s, damping off";
-    if (!write_results(o, rows, refs)) return 1;
+    if (!write_results(o, folder, rows, refs)) return 1;
     if (plot_accuracy(pts, title, png) && n == o.sizes.back())
-      fs::copy_file(png, fs::path(o.out) / "accuracy.png", fs::copy_options::overwrite_existing, ec);
+      fs::copy_file(png, folder.claim("accuracy.png"), fs::copy_options::overwrite_existing, ec);
   }
   run_static_scenes(o, registered, rows);
-  if (!write_results(o, rows, refs)) return 1;
+  if (!write_results(o, folder, rows, refs)) return 1;
   std::printf("wrote %s/accuracy.csv, %s/reference_check.csv, %s/accuracy.png\n", o.out.c_str(),
               o.out.c_str(), o.out.c_str());
   return 0;
@@ -284,7 +284,8 @@ const char* kBenchUsage =
     "\n"
     "Options:\n"
     "  --sizes LIST    nodes per side (default 32,64)\n"
-    "  --out DIR       output folder (default out/bench_accuracy)\n"
+    "  --out DIR       output folder (default out/bench_accuracy), owned through DIR/.loom-manifest\n"
+    "  --overwrite     write into a non-empty folder Loom did not write (files of its names replaced)\n"
     "  --quick         tiny run for tests: N=8, 0.25 s, one configuration per method\n"
     "  --duration S    simulated seconds (default 0.25; longer runs lose a converged reference)\n"
     "  --threads LIST  thread counts for Loom's solvers (default 1,2)\n"
@@ -374,6 +375,10 @@ int bench_main(int argc, char** argv) {
       o.configs = value();
     } else if (a == "--out") {
       o.out = value();
+      if (o.out.empty()) {
+        std::fprintf(stderr, "loom: error: --out is an empty string (an unset variable?); give a path\n");
+        return 2;
+      }
     } else if (a == "--duration") {
       const std::string v = value();
       char* end = nullptr;
@@ -400,6 +405,8 @@ int bench_main(int argc, char** argv) {
         return 2;
       }
       o.repeats = r[0];
+    } else if (a == "--overwrite") {
+      o.overwrite = true;
     } else if (a == "--quick") {
       o.quick = true;
     } else {

@@ -9,6 +9,7 @@
 #include <sstream>
 
 #include "loom/cloth/Error.h"
+#include "loom/cloth/InputFile.h"
 
 namespace loom::eval {
 namespace {
@@ -53,8 +54,7 @@ std::vector<CcdQuery> read_ccd_queries(const std::string& path) {
   if (vf == ee)
     throw loom::Error(path, "",
                       "cannot tell the query type: the path must contain 'vertex-face' or 'edge-edge'");
-  std::ifstream in(path);
-  if (!in) throw loom::Error(path, "", "cannot open the file");
+  std::istringstream in(loom::read_input_file(path));  // a regular file of bounded size (InputFile.h)
   std::vector<CcdQuery> out;
   std::string text;
   int line = 0, row = 0;

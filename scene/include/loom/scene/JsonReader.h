@@ -23,8 +23,9 @@ class JsonReader {
   // Each getter marks the key as read. `min`/`max` bound the value; strict bounds exclude the limit.
   double number(const std::string& key, std::optional<double> fallback = std::nullopt,
                 std::optional<double> min = std::nullopt, bool strict_min = false) const;
+  // An integer in [min, max] (default [-1e9, 1e9]): the message gives the field's own limit.
   int integer(const std::string& key, std::optional<int> fallback = std::nullopt,
-              std::optional<int> min = std::nullopt) const;
+              std::optional<int> min = std::nullopt, std::optional<int> max = std::nullopt) const;
   bool boolean(const std::string& key, std::optional<bool> fallback = std::nullopt) const;
   std::string string(const std::string& key, std::optional<std::string> fallback = std::nullopt,
                      const std::vector<std::string>& allowed = {}) const;
@@ -36,6 +37,12 @@ class JsonReader {
                           long long max) const;
   // True for an integer JSON value in [min, max], compared without narrowing (unsigned values unsigned).
   static bool in_range(const nlohmann::json& v, long long min, long long max);
+  // A length in metres (radius, thickness, half extent, scale): > 0 (`strict`) or >= 0 and at most
+  // kMaxCoordinate (SceneLimits.h), so no size anywhere in a scene can overflow the geometry built from it.
+  double length(const std::string& key, std::optional<double> fallback = std::nullopt,
+                bool strict = false) const;
+  // A point or offset in metres: every coordinate within +-kMaxCoordinate.
+  cloth::Vec3 point(const std::string& key, std::optional<cloth::Vec3> fallback = std::nullopt) const;
   // `key` as exactly `count` integers, each in [min, max].
   std::vector<long long> integers(const std::string& key, size_t count, long long min, long long max) const;
   JsonReader object(const std::string& key) const;

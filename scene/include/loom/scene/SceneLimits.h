@@ -5,12 +5,20 @@
 #include <cstdint>
 #include <string>
 
+#include "loom/cloth/InputFile.h"
+
 namespace loom::scene {
 
 struct Scene;
 
 constexpr std::uint64_t kMaxInputBytes = std::uint64_t(1) << 30;  // a scene, mesh or motion file: 1 GiB
-constexpr double kMaxCoordinate = 1e6;       // m, |x| of a mesh size, origin, translation, anchor
+static_assert(kMaxInputBytes <= loom::kMaxInputFileBytes, "one bound for every input file");
+constexpr double kMaxCoordinate = 1e6;       // m, |x| of a mesh size, origin, translation, anchor, collider
+constexpr double kMinMeshSize = 1e-3;        // m, a grid's side and an OBJ cloth's extent (after scale)
+constexpr double kMinMeshScale = 1e-6;       // an OBJ cloth's or collider's scale
+constexpr double kMaxAcceleration = 1e4;     // m/s^2, each component of gravity
+constexpr double kMaxSpeed = 1e4;            // m/s, wind; rad/s, a collider's spin rate
+constexpr double kMaxCoefficient = 1e12;     // a material stiffness, damping or drag coefficient (own unit)
 constexpr long long kMaxFrames = 10000000;   // frames of one run (duration x fps)
 constexpr long long kMaxSubsteps = 1000000;  // solver steps per frame (frame time / solver.dt)
 // Bytes per cloth vertex of a simulation: the peak resident memory of implicit runs (the heaviest solvers)

@@ -1,4 +1,4 @@
-#include "OutputFolder.h"
+#include "loom/eval/OutputFolder.h"
 
 #include <algorithm>
 #include <cstdio>
@@ -6,12 +6,12 @@
 #include <sstream>
 #include <vector>
 
-#include "Hex.h"
 #include "loom/cloth/Error.h"
+#include "loom/eval/Hex.h"
 
 namespace fs = std::filesystem;
 
-namespace loom::app {
+namespace loom::eval {
 
 namespace {
 
@@ -86,6 +86,13 @@ OutputFolder::OutputFolder(const fs::path& dir, const std::string& flag, bool ov
     : dir_(dir), flag_(flag) {
   if (dir.empty()) throw Error("", flag, "is empty: give the output folder");
   std::error_code ec;
+  // The folder itself is never a link (with or without a trailing '/'): writing or deleting through it would
+  // reach a folder the user never named.
+  fs::path named = dir;
+  while (!named.has_filename() && named.has_relative_path()) named = named.parent_path();
+  if (fs::is_symlink(fs::symlink_status(named, ec)))
+    throw Error(dir.string(), flag,
+                "is a symbolic link: Loom never writes through a link; give the folder it points to");
   if (fs::exists(dir, ec) && !fs::is_directory(dir, ec))
     throw Error(dir.string(), flag, "cannot create output folder: a file of that name exists");
   fs::create_directories(dir, ec);
@@ -194,4 +201,4 @@ void OutputFolder::remove_owned(const std::string& relative) {
   if (fs::exists(st) && !fs::is_directory(st)) fs::remove(p, ec);
 }
 
-}  // namespace loom::app
+}  // namespace loom::eval

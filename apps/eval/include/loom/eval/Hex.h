@@ -4,7 +4,7 @@
 #include <cstdio>
 #include <string>
 
-namespace loom::app {
+namespace loom::eval {
 
 inline std::string hex(std::uint64_t v) {
   char s[17];
@@ -12,4 +12,4 @@ inline std::string hex(std::uint64_t v) {
   return s;
 }
 
-}  // namespace loom::app
+}  // namespace loom::eval

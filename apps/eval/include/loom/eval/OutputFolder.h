@@ -1,13 +1,14 @@
 #pragma once
-// The output folder of `loom run`, owned through its manifest DIR/.loom-manifest: the list of every file and
-// folder the runs that used DIR wrote there, one path relative to DIR a line (no absolute path, no "..").
+// The output folder of `loom run` (and of `loom fabric-test`, `loom compare`, `loom bench`), owned through
+// its manifest DIR/.loom-manifest: the list of every file and folder the runs that used DIR wrote there, one
+// path relative to DIR a line (no absolute path, no "..").
 // Contract (docs/guarantees.md):
 //   - a run writes only inside DIR, and only to paths it first adds to the manifest (claim());
 //   - a run deletes only paths listed in the manifest (never follows a symbolic link to do so);
 //   - DIR is used when it does not exist (it is created), is empty, or holds a manifest; a non-empty folder
 //     without one is refused unless the user passes --overwrite (files of the same names are then replaced,
 //     nothing else is deleted);
-//   - a path inside DIR that is a symbolic link is never written through.
+//   - DIR itself must not be a symbolic link, and a path inside DIR that is one is never written through.
 // The manifest's first line holds a run id that checkpoints record, so a checkpoint copied from another
 // folder is refused on --resume.
 #include <cstdint>
@@ -16,7 +17,7 @@
 #include <set>
 #include <string>
 
-namespace loom::app {
+namespace loom::eval {
 
 class OutputFolder {
  public:
@@ -46,4 +47,4 @@ class OutputFolder {
 // Reads the run id of DIR/.loom-manifest (0 without a manifest).
 std::uint64_t read_run_id(const std::filesystem::path& dir);
 
-}  // namespace loom::app
+}  // namespace loom::eval

@@ -1,0 +1,48 @@
+#pragma once
+// Numbers given on the command line: the whole text must be one number, finite ("nan", "inf", "1e999" are
+// refused), inside the option's range; integers are whole ("5.9", "5x" are refused) and checked before
+// they are narrowed. A refusal names the option, the text as given and the range, and exits with 2 (bad
+// command line).
+#include <cerrno>
+#include <cmath>
+#include <cstdio>
+#include <cstdlib>
+#include <string>
+
+#include "Terminal.h"
+
+namespace loom::app {
+
+[[noreturn]] inline void cli_refuse(const std::string& flag, const std::string& text,
+                                    const std::string& expected) {
+  std::fprintf(stderr, "loom: error: %s expects %s, got '%s'\n", flag.c_str(), expected.c_str(),
+               printable(text).c_str());
+  std::exit(2);
+}
+
+inline std::string cli_show(double v) {
+  char s[32];
+  std::snprintf(s, sizeof s, "%g", v);
+  return s;
+}
+
+// A finite number in [lo, hi].
+inline double cli_number(const std::string& flag, const std::string& text, double lo, double hi) {
+  char* end = nullptr;
+  const double v = std::strtod(text.c_str(), &end);  // overflow gives +-HUGE_VAL: not finite
+  const std::string expected = "a finite number in [" + cli_show(lo) + ", " + cli_show(hi) + "]";
+  if (text.empty() || *end || !std::isfinite(v) || v < lo || v > hi) cli_refuse(flag, text, expected);
+  return v;
+}
+
+// A whole number in [lo, hi].
+inline long long cli_integer(const std::string& flag, const std::string& text, long long lo, long long hi) {
+  char* end = nullptr;
+  errno = 0;
+  const long long v = std::strtoll(text.c_str(), &end, 10);
+  if (text.empty() || *end || errno == ERANGE || v < lo || v > hi)
+    cli_refuse(flag, text, "a whole number in [" + std::to_string(lo) + ", " + std::to_string(hi) + "]");
+  return v;
+}
+
+}  // namespace loom::app

@@ -1,0 +1,26 @@
+#pragma once
+// The one way Loom reads a file it is given (scene, OBJ mesh, collider mesh, motion, garment groups, CCD
+// queries, checkpoint): the path must name a regular file (a symbolic link is followed to its target; a
+// folder, a device such as /dev/zero, a pipe or a socket is refused before anything is read) of at most
+// `max_bytes`. Errors are loom::Error naming the path and the problem.
+#include <cstdint>
+#include <string>
+#include <vector>
+
+namespace loom {
+
+constexpr std::uint64_t kMaxInputFileBytes = std::uint64_t(1) << 30;  // 1 GiB
+
+// Throws loom::Error(path, "", problem) unless `path` is a regular file of at most `max_bytes`.
+void check_input_file(const std::string& path, std::uint64_t max_bytes = kMaxInputFileBytes);
+// The whole file, after check_input_file; reading stops at `max_bytes` even if the file grew meanwhile.
+std::string read_input_file(const std::string& path, std::uint64_t max_bytes = kMaxInputFileBytes);
+
+// The lines of `text`: a line ends at "\n", "\r\n" or a lone "\r" (old Mac line endings), so a line number
+// always counts the lines an editor shows, never the whole file as line 1.
+std::vector<std::string> input_lines(const std::string& text);
+// "line N ('TEXT')": where an error in a text file is, quoting the faulty line itself (at most 80
+// characters, control characters shown as \xNN).
+std::string line_where(long number, const std::string& line);
+
+}  // namespace loom

@@ -1,0 +1,87 @@
+#include "loom/cloth/InputFile.h"
+
+#include <cstdio>
+#include <filesystem>
+#include <fstream>
+
+#include "loom/cloth/Error.h"
+
+namespace fs = std::filesystem;
+
+namespace loom {
+
+namespace {
+
+std::string show_size(std::uint64_t bytes) {
+  char s[48];
+  if (bytes >= 1000000000)
+    std::snprintf(s, sizeof s, "%.3g GB", static_cast<double>(bytes) / 1e9);
+  else if (bytes >= 1000000)
+    std::snprintf(s, sizeof s, "%.3g MB", static_cast<double>(bytes) / 1e6);
+  else
+    std::snprintf(s, sizeof s, "%llu bytes", static_cast<unsigned long long>(bytes));
+  return s;
+}
+
+}  // namespace
+
+void check_input_file(const std::string& path, std::uint64_t max_bytes) {
+  if (path.empty()) throw Error("", "", "an input file path is empty");
+  std::error_code ec;
+  const fs::file_status st = fs::status(path, ec);  // follows links: a link to /dev/zero is a device
+  if (!fs::exists(st)) throw Error(path, "", "no such file (cannot open it)");
+  if (fs::is_directory(st)) throw Error(path, "", "is a folder, not a file");
+  if (!fs::is_regular_file(st)) throw Error(path, "", "is not a regular file (a device, pipe or socket)");
+  const std::uintmax_t size = fs::file_size(path, ec);
+  if (ec) throw Error(path, "", "cannot read its size: " + ec.message());
+  if (size > max_bytes)
+    throw Error(path, "",
+                "is " + show_size(size) + ", more than the " + show_size(max_bytes) + " Loom reads");
+}
+
+std::string read_input_file(const std::string& path, std::uint64_t max_bytes) {
+  check_input_file(path, max_bytes);
+  std::ifstream in(path, std::ios::binary);
+  if (!in) throw Error(path, "", "cannot open the file");
+  std::string text;
+  char buffer[1 << 16];
+  while (in) {
+    in.read(buffer, sizeof buffer);
+    text.append(buffer, static_cast<size_t>(in.gcount()));
+    if (text.size() > max_bytes)
+      throw Error(path, "", "grew past " + show_size(max_bytes) + " while it was read");
+  }
+  if (in.bad()) throw Error(path, "", "read failed");
+  return text;
+}
+
+std::vector<std::string> input_lines(const std::string& text) {
+  std::vector<std::string> lines;
+  size_t start = 0;
+  for (size_t i = 0; i < text.size(); ++i) {
+    if (text[i] != '\n' && text[i] != '\r') continue;
+    lines.push_back(text.substr(start, i - start));
+    if (text[i] == '\r' && i + 1 < text.size() && text[i + 1] == '\n') ++i;
+    start = i + 1;
+  }
+  if (start < text.size()) lines.push_back(text.substr(start));
+  return lines;
+}
+
+std::string line_where(long number, const std::string& line) {
+  std::string quoted;
+  for (size_t i = 0; i < line.size() && i < 80; ++i) {
+    const unsigned char ch = static_cast<unsigned char>(line[i]);
+    if (ch < 0x20 || ch == 0x7f) {
+      char esc[8];
+      std::snprintf(esc, sizeof esc, "\\x%02x", ch);
+      quoted += esc;
+    } else {
+      quoted += static_cast<char>(ch);
+    }
+  }
+  if (line.size() > 80) quoted += "...";
+  return "line " + std::to_string(number) + " ('" + quoted + "')";
+}
+
+}  // namespace loom
