@@ -206,7 +206,9 @@ class SceneRun {
   int frames_ = 0;
   std::unique_ptr<scene::ScenePipeline> pipeline_;
   cloth::Simulation* sim_ = nullptr;
+#ifdef LOOM_HAVE_BULLET
   const bullet::BulletScene* bodies_world_ = nullptr;  // a scene with rigid bodies: its Bullet world
+#endif
   fs::path out_;
   std::unique_ptr<OutputFolder> folder_;
   int first_ = 0;
