@@ -4,8 +4,8 @@
 #include <cmath>
 #include <cstdio>
 
-#include "loom/cloth/Error.h"
 #include "Numbers.h"
+#include "loom/cloth/Error.h"
 
 namespace loom::cloth {
 

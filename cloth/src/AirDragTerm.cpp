@@ -1,6 +1,7 @@
 #include "loom/cloth/AirDragTerm.h"
 
 #include <cmath>
+
 #include "Numbers.h"
 
 namespace loom::cloth {
