@@ -432,19 +432,24 @@ std::string Simulation::moving_pin_note(double t) const {
   double farthest = 0.0;
   const PinSpec* which = nullptr;
   const ClothSetup* owner = nullptr;
+  std::string field;
   for (const ClothSetup& cs : setup_.cloths)
-    for (const PinSpec& p : cs.pins) {
+    for (size_t k = 0; k < cs.pins.size(); ++k) {
+      const PinSpec& p = cs.pins[k];
       if (p.times.empty()) continue;
       Pin path;  // anchor zero: target(t) - target(0) is the pin's displacement
       path.times = p.times;
       path.offsets = p.offsets;
       const double d = (path.target(t) - path.target(0.0)).norm();
-      if (d > farthest || !which) farthest = d, which = &p, owner = &cs;
+      if (d > farthest || !which) {
+        farthest = d, which = &p, owner = &cs;
+        field = k < cs.pin_fields.size() ? cs.pin_fields[k] + " " : "";
+      }
     }
   if (!which) return "";
   std::ostringstream s;
-  s << "; the moving pin " << (which->field.empty() ? "" : which->field + " ") << "(cloth '" << owner->name
-    << "', vertex " << which->vertex << ") has moved " << farthest
+  s << "; the moving pin " << field << "(cloth '" << owner->name << "', vertex " << which->vertex
+    << ") has moved " << farthest
     << " m from its start by then: check its path against the cloth's size and guard.max_strain";
   return s.str();
 }

@@ -189,8 +189,9 @@ void check_pin_path_speed(const JsonReader& path, const cloth::PinSpec& spec, do
 }
 }  // namespace
 
+// The cloth's pins; `fields` gets the JSON path of the entry each came from.
 std::vector<cloth::PinSpec> parse_pins(const JsonReader& r, const cloth::ClothMesh& mesh, double max_speed,
-                                       const std::string& why) {
+                                       const std::string& why, std::vector<std::string>& fields) {
   std::vector<cloth::PinSpec> pins;
   if (!r.has("pins")) return pins;
   // One pin per vertex. The same entry given twice is refused, and so is a vertex that two entries reach
@@ -224,7 +225,6 @@ std::vector<cloth::PinSpec> parse_pins(const JsonReader& r, const cloth::ClothMe
       return false;
     };
     cloth::PinSpec spec;
-    spec.field = r.child("pins") + "[" + std::to_string(entry) + "]";
     if (static_cast<int>(p.has("vertex")) + p.has("grid") + p.has("grid_edge") != 1)
       p.fail("", "give exactly one of 'vertex', 'grid' or 'grid_edge'");
     if (p.has("grid_edge")) {
@@ -295,6 +295,8 @@ std::vector<cloth::PinSpec> parse_pins(const JsonReader& r, const cloth::ClothMe
     p.finish();
     hold(spec);
   }
+  for (size_t k = 0; k < pins.size(); ++k)
+    fields.push_back(r.child("pins") + "[" + std::to_string(entry_of[k]) + "]");
   return pins;
 }
 
@@ -549,7 +551,8 @@ void parse_cloths(const JsonReader& r, Scene& scene, const std::string& file) {
     const double max_pin_speed = scene.setup.guard.max_strain * wave_speed;
     cs.pins = parse_pins(c, *cs.mesh, max_pin_speed,
                          "(guard.max_strain " + show(scene.setup.guard.max_strain) +
-                             " x the cloth's stretch-wave speed " + show(wave_speed) + " m/s)");
+                             " x the cloth's stretch-wave speed " + show(wave_speed) + " m/s)",
+                         cs.pin_fields);
     if (c.has("detail")) {  // Hybrid detail (CurvedFaces.h)
       const cloth::DetailSettings ds = parse_detail(c.object("detail"));
       scene.detail[static_cast<int>(scene.setup.cloths.size())] = ds;

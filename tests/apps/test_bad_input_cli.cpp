@@ -629,7 +629,8 @@ TEST(BadInputCli, ObjWithByteOrderMarkAndColoursLoads) {
 // dropped in silence.
 TEST(BadInputCli, ResumeRefusesOptionsItWouldIgnore) {
   const std::string dir = loom::test::test_dir().string();
-  for (const std::string& extra : {"--set duration=1", "--out '" + dir + "/elsewhere'", "--render"}) {
+  for (const std::string& extra :
+       std::vector<std::string>{"--set duration=1", "--out '" + dir + "/elsewhere'", "--render"}) {
     const loom::test::CliResult r = loom::test::run_loom("run --resume '" + dir + "' " + extra);
     EXPECT_EQ(r.code, 2) << extra << ": " << r.err;
     EXPECT_NE(r.err.find(extra.substr(0, extra.find(' ')) + ": not with --resume"), std::string::npos)

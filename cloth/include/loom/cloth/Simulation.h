@@ -26,7 +26,6 @@ struct PinSpec {
   std::optional<Vec3> anchor;  // m; default: the vertex's start position
   std::vector<double> times;   // s
   std::vector<Vec3> offsets;   // m
-  std::string field;           // where the pin was given (a scene's JSON path), for messages; may be empty
 };
 
 struct ClothSetup {
@@ -35,6 +34,7 @@ struct ClothSetup {
   Material material;
   std::string model = "springs";  // one of model_names() (Model.h)
   std::vector<PinSpec> pins;
+  std::vector<std::string> pin_fields;       // where pins[k] was given (a scene's JSON path), for messages
   Vec3 initial_velocity = Vec3::Zero();      // m/s
   std::optional<PressureSettings> pressure;  // gas pressure inside a closed mesh; absent = no pressure term
 };
