@@ -339,7 +339,7 @@ const BadInput kCases[] = {
      "v 0 0 0\nv 1 0\nv 0 1 0\nf 1 2 3\n",
      "obj",
      "line 2",
-     "'v' needs three numbers"},
+     "'v' needs three decimal numbers"},
     {"obj_vertex_nan",
      nullptr,
      {"@OBJ"},
