@@ -543,9 +543,9 @@ void parse_cloths(const JsonReader& r, Scene& scene, const std::string& file) {
     cs.initial_velocity = c.vec3("velocity", Vec3::Zero());
     if (c.has("pressure")) cs.pressure = parse_pressure(c.object("pressure"), *cs.mesh);
     // A pin moved at speed v strains the cloth behind it by about v / c, c = sqrt(E / rho) the speed of
-    // stretch waves (E the 2D Young's modulus, N/m; rho the areal density): the strain of a string whose end
-    // is set moving (Graff 1975, Wave Motion in Elastic Solids, sec. 1.1). Past the guard's strain bound the
-    // run would only stop, so the path is refused here, by its field.
+    // stretch waves (E the 2D Young's modulus, N/m; rho the areal density): the strain a bar's end carries
+    // when it is set moving at v (longitudinal impact; Graff 1975, Wave Motion in Elastic Solids). Past
+    // the guard's strain bound the run would only stop, so the path is refused here, by its field.
     const double wave_speed =
         std::sqrt(std::min(cs.material.stretch_weft, cs.material.stretch_warp) / cs.material.areal_density);
     const double max_pin_speed = scene.setup.guard.max_strain * wave_speed;
