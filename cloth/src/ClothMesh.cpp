@@ -358,13 +358,13 @@ std::shared_ptr<const ClothMesh> ClothMesh::from_obj(const std::string& path, do
     };
     if (tag == "v") {
       Vec3 p;
-      if (!read_numbers(3, p.data())) fail("'v' needs three decimal numbers");
+      if (!read_numbers(3, p.data())) fail("'v' needs three numbers (decimal)");
       only_numbers("vertex's coordinates");
       if (!p.allFinite()) fail("vertex coordinate is not finite");
       positions.push_back(p);
     } else if (tag == "vt") {
       Vec2 uv;
-      if (!read_numbers(2, uv.data())) fail("'vt' needs two decimal numbers");
+      if (!read_numbers(2, uv.data())) fail("'vt' needs two numbers (decimal)");
       only_numbers("texture coordinates");
       if (!uv.allFinite()) fail("texture coordinate is not finite");
       texcoords.push_back(uv);
