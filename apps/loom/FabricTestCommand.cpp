@@ -189,7 +189,11 @@ int fabric_test_main(int argc, char** argv) {
         stderr,
         "loom: warning: --model springs: the springs model's bending does not follow the elastica and its "
         "cantilever angle is far off (use choi_ko or baraff_witkin for a validated result)\n");
-  o.material = cloth::material_preset(material);
+  try {
+    o.material = cloth::material_preset(material);
+  } catch (const Error& e) {
+    throw Error("", "--material", e.what());  // the option that named it
+  }
   bool known_model = false;
   for (const auto& m : cloth::model_names()) known_model = known_model || m == o.model;
   if (!known_model) throw Error("", "--model", "unknown model '" + o.model + "'");

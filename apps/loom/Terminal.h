@@ -1,25 +1,13 @@
 #pragma once
 // Text from inputs (file names, scene values, error messages quoting them) on its way to a terminal:
-// control characters (C0, DEL) are shown as \xNN, so an input cannot move the cursor, clear the screen or
-// forge lines of output.
-#include <cstdio>
+// control and invisible format characters are escaped (HiddenText.h), so an input cannot move the cursor,
+// clear the screen, forge lines of output or reorder what the terminal shows.
 #include <string>
+
+#include "loom/cloth/HiddenText.h"
 
 namespace loom::app {
 
-inline std::string printable(const std::string& s) {
-  std::string out;
-  out.reserve(s.size());
-  for (unsigned char ch : s) {
-    if (ch < 0x20 || ch == 0x7f) {
-      char esc[8];
-      std::snprintf(esc, sizeof esc, "\\x%02x", ch);
-      out += esc;
-    } else {
-      out += static_cast<char>(ch);
-    }
-  }
-  return out;
-}
+inline std::string printable(const std::string& s) { return loom::show_hidden(s); }
 
 }  // namespace loom::app

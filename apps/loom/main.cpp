@@ -162,6 +162,22 @@ int run_main(int argc, char** argv) {
                  loom::app::printable(o.scene).c_str());
     return 2;
   }
+  // A resumed run is the checkpoint's run: its folder, its --set overrides and its outputs. An option that
+  // would change them is refused, never dropped in silence.
+  if (!o.resume.empty()) {
+    const char* clash = !o.out.empty()    ? "--out"
+                        : !o.sets.empty() ? "--set"
+                        : o.render        ? "--render"
+                                          : nullptr;
+    if (clash) {
+      std::fprintf(
+          stderr,
+          "loom: error: %s: not with --resume (the run continues in its folder with the checkpoint's "
+          "scene, --set overrides and outputs)\n",
+          clash);
+      return 2;
+    }
+  }
   return loom::app::run_command(o);
 }
 

@@ -6,9 +6,11 @@
 #include <algorithm>
 #include <assimp/Importer.hpp>
 #include <cmath>
+#include <cstdlib>
 #include <filesystem>
 #include <fstream>
 #include <functional>
+#include <iterator>
 #include <limits>
 #include <map>
 
@@ -61,6 +63,28 @@ void check_bvh_nesting(const std::string& path) {
     if (c == '}') --depth;
     if (opened && depth == 0) break;  // the root joint's block has closed: MOTION follows
   }
+  // "Frames: N" is what the reader reserves memory for: never more frames than the file has lines after
+  // "Frame Time" (a crafted count would allocate without bound before the first key is read).
+  std::string rest((std::istreambuf_iterator<char>(in)), std::istreambuf_iterator<char>());
+  const size_t at = rest.find("Frames:");
+  const size_t time_at = rest.find("Frame Time:");
+  if (at == std::string::npos || time_at == std::string::npos) return;  // the reader names what is missing
+  const unsigned long long frames = std::strtoull(rest.c_str() + at + 7, nullptr, 10);
+  unsigned long long lines = 0;
+  bool blank = true;
+  for (size_t i = rest.find('\n', time_at); i != std::string::npos && i < rest.size(); ++i) {
+    if (rest[i] == '\n' || rest[i] == '\r') {
+      if (!blank) ++lines;
+      blank = true;
+    } else if (rest[i] != ' ' && rest[i] != '\t') {
+      blank = false;
+    }
+  }
+  if (!blank) ++lines;
+  if (frames > lines)
+    throw Error(path, "Frames",
+                "says " + std::to_string(frames) + " frames but the MOTION section holds " +
+                    std::to_string(lines) + " frame lines");
 }
 
 void check_node_depth(const std::string& path, const aiNode* root) {
@@ -87,8 +111,9 @@ double ticks_per_second(const std::string& path, const aiAnimation* anim) {
   // "Frames: 0" leaves no keys.
   const bool bvh = is_bvh(path);
   if (bvh && anim &&
-      !(std::isfinite(anim->mTicksPerSecond) && anim->mTicksPerSecond > 0.0 && anim->mTicksPerSecond < 1e6))
-    throw Error(path, "Frame Time", "must be a positive number of seconds (at least 1e-06)");
+      !(std::isfinite(anim->mTicksPerSecond) && anim->mTicksPerSecond >= 1.0 / 3600.0 &&
+        anim->mTicksPerSecond < 1e6))
+    throw Error(path, "Frame Time", "must be in [1e-06, 3600] seconds");
   if (bvh) {
     bool keys = false;
     for (unsigned c = 0; anim && c < anim->mNumChannels; ++c)

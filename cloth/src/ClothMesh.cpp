@@ -210,7 +210,13 @@ void ClothMesh::build_topology(const std::string& source) {
       h.e1 = b;
       h.o0 = other_vertex(triangles_[std::get<2>(half[s])], a, b);
       h.o1 = other_vertex(triangles_[std::get<2>(half[s + 1])], a, b);
-      if (h.o0 != h.o1) hinges_.push_back(h);
+      // Two triangles on the same three vertices (one face given twice, in either orientation) would be a
+      // sheet of zero thickness folded onto itself.
+      if (h.o0 == h.o1)
+        throw Error(source, "triangle " + std::to_string(std::get<2>(half[s + 1])),
+                    "has the same three vertices as triangle " + std::to_string(std::get<2>(half[s])) +
+                        " (a face given twice)");
+      hinges_.push_back(h);
     }
     s = e;
   }
@@ -328,25 +334,38 @@ std::shared_ptr<const ClothMesh> ClothMesh::from_obj(const std::string& path, do
     std::istringstream ls(line);
     std::string tag;
     if (!(ls >> tag) || tag[0] == '#') continue;
-    // Reads `count` numbers with strtod, so that "nan" and "inf" are read and then rejected by name.
+    // One decimal number read with strtod, so that "nan" and "inf" are read and then rejected by name; never
+    // hexadecimal ("0x1p3"), which strtod would also read.
+    auto decimal = [](const std::string& tok, double& out) {
+      if (tok.find_first_of("xX") != std::string::npos) return false;
+      char* end = nullptr;
+      out = std::strtod(tok.c_str(), &end);
+      return end != tok.c_str() && !*end;
+    };
     auto read_numbers = [&](int count, double* out) {
-      for (int k = 0; k < count; ++k) {
-        std::string tok;
-        if (!(ls >> tok)) return false;
-        char* end = nullptr;
-        out[k] = std::strtod(tok.c_str(), &end);
-        if (end == tok.c_str() || *end) return false;
-      }
+      std::string tok;
+      for (int k = 0; k < count; ++k)
+        if (!(ls >> tok) || !decimal(tok, out[k])) return false;
       return true;
+    };
+    // After the numbers a directive needs, only numbers may follow (a `v`'s weight or the common r g b
+    // colour extension, a `vt`'s w): never text.
+    auto only_numbers = [&](const char* what) {
+      std::string tok;
+      double extra = 0.0;
+      while (ls >> tok)
+        if (!decimal(tok, extra)) fail("unexpected '" + tok + "' after the " + what);
     };
     if (tag == "v") {
       Vec3 p;
-      if (!read_numbers(3, p.data())) fail("'v' needs three numbers");
+      if (!read_numbers(3, p.data())) fail("'v' needs three numbers (decimal)");
+      only_numbers("vertex's coordinates");
       if (!p.allFinite()) fail("vertex coordinate is not finite");
       positions.push_back(p);
     } else if (tag == "vt") {
       Vec2 uv;
-      if (!read_numbers(2, uv.data())) fail("'vt' needs two numbers");
+      if (!read_numbers(2, uv.data())) fail("'vt' needs two numbers (decimal)");
+      only_numbers("texture coordinates");
       if (!uv.allFinite()) fail("texture coordinate is not finite");
       texcoords.push_back(uv);
     } else if (tag == "f") {

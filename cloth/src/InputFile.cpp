@@ -5,6 +5,7 @@
 #include <fstream>
 
 #include "loom/cloth/Error.h"
+#include "loom/cloth/HiddenText.h"
 
 namespace fs = std::filesystem;
 
@@ -57,8 +58,9 @@ std::string read_input_file(const std::string& path, std::uint64_t max_bytes) {
 
 std::vector<std::string> input_lines(const std::string& text) {
   std::vector<std::string> lines;
-  size_t start = 0;
-  for (size_t i = 0; i < text.size(); ++i) {
+  // A UTF-8 byte order mark (written by some editors) is not part of the first line.
+  size_t start = text.compare(0, 3, "\xef\xbb\xbf") == 0 ? 3 : 0;
+  for (size_t i = start; i < text.size(); ++i) {
     if (text[i] != '\n' && text[i] != '\r') continue;
     lines.push_back(text.substr(start, i - start));
     if (text[i] == '\r' && i + 1 < text.size() && text[i + 1] == '\n') ++i;
@@ -69,17 +71,7 @@ std::vector<std::string> input_lines(const std::string& text) {
 }
 
 std::string line_where(long number, const std::string& line) {
-  std::string quoted;
-  for (size_t i = 0; i < line.size() && i < 80; ++i) {
-    const unsigned char ch = static_cast<unsigned char>(line[i]);
-    if (ch < 0x20 || ch == 0x7f) {
-      char esc[8];
-      std::snprintf(esc, sizeof esc, "\\x%02x", ch);
-      quoted += esc;
-    } else {
-      quoted += static_cast<char>(ch);
-    }
-  }
+  std::string quoted = show_hidden(line.substr(0, 80));
   if (line.size() > 80) quoted += "...";
   return "line " + std::to_string(number) + " ('" + quoted + "')";
 }

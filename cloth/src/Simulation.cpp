@@ -299,6 +299,7 @@ FrameStats Simulation::step_frame() {
         failure_ = why + " in frame " + std::to_string(frame_ + 1) + " (t = " + std::to_string(t_) + " to " +
                    std::to_string((frame_ + 1) * setup_.frame_dt) + " s), also with " +
                    std::to_string(setup_.substeps << attempt) + " substeps";
+        if (why.rfind("the strain", 0) == 0) failure_ += moving_pin_note((frame_ + 1) * setup_.frame_dt);
         stats.finite = false;  // the frame failed; the simulation holds the last good frame
         break;
       }
@@ -425,6 +426,32 @@ void Simulation::fill_stats(FrameStats& s) const {
   if (!std::isfinite(s.kinetic) || !std::isfinite(s.potential) || !std::isfinite(s.elastic) ||
       !std::isfinite(s.max_strain) || !std::isfinite(s.mean_strain))
     s.finite = false;
+}
+
+std::string Simulation::moving_pin_note(double t) const {
+  double farthest = 0.0;
+  const PinSpec* which = nullptr;
+  const ClothSetup* owner = nullptr;
+  std::string field;
+  for (const ClothSetup& cs : setup_.cloths)
+    for (size_t k = 0; k < cs.pins.size(); ++k) {
+      const PinSpec& p = cs.pins[k];
+      if (p.times.empty()) continue;
+      Pin path;  // anchor zero: target(t) - target(0) is the pin's displacement
+      path.times = p.times;
+      path.offsets = p.offsets;
+      const double d = (path.target(t) - path.target(0.0)).norm();
+      if (d > farthest || !which) {
+        farthest = d, which = &p, owner = &cs;
+        field = k < cs.pin_fields.size() ? cs.pin_fields[k] + " " : "";
+      }
+    }
+  if (!which) return "";
+  std::ostringstream s;
+  s << "; the moving pin " << field << "(cloth '" << owner->name << "', vertex " << which->vertex
+    << ") has moved " << farthest
+    << " m from its start by then: check its path against the cloth's size and guard.max_strain";
+  return s.str();
 }
 
 }  // namespace loom::cloth

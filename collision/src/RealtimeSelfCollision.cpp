@@ -105,7 +105,10 @@ void RealtimeSelfCollisionStage::prepare(const std::vector<std::unique_ptr<cloth
     }
     offset_.push_back(base + mesh.num_vertices());
   }
-  cell_ = std::max(2.0 * (edge_count > 0 ? edge_sum / edge_count : 0.05), 4.0 * settings_.thickness);
+  // At least the reach t + P of a padded box on each side, so a box spans a bounded number of cells
+  // whatever the padding (the candidate list does not depend on the cell size).
+  cell_ = std::max({2.0 * (edge_count > 0 ? edge_sum / edge_count : 0.05), 4.0 * settings_.thickness,
+                    2.0 * (settings_.thickness + settings_.padding)});
   // A power-of-two table with about eight slots per triangle (plus one end entry).
   size_t size = 1;
   while (size < 8 * tri_.size() + 8) size *= 2;
@@ -179,7 +182,12 @@ void RealtimeSelfCollisionStage::broad_phase() {
   ++broad_phases_;
   const double reach = settings_.thickness + settings_.padding, inv_cell = 1.0 / cell_;
   const long table = static_cast<long>(bucket_start_.size()) - 1;
-  auto cell_of = [&](double v) { return static_cast<int>(std::floor(v * inv_cell)); };
+  // Clamped before the conversion (a cloth flung far from the origin must not overflow int); clamped cells
+  // only gather more triangles into the end cells, the box test below stays exact.
+  constexpr double kMaxCell = 1 << 30;
+  auto cell_of = [&](double v) {
+    return static_cast<int>(std::clamp(std::floor(v * inv_cell), -kMaxCell, kMaxCell));
+  };
   // Counting sort of the triangles' padded boxes into the table.
   std::fill(bucket_start_.begin(), bucket_start_.end(), 0);
   const int nt = static_cast<int>(tri_.size()), n = static_cast<int>(built_.size());

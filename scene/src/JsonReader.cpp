@@ -6,6 +6,7 @@
 #include <sstream>
 
 #include "loom/cloth/Error.h"
+#include "loom/cloth/HiddenText.h"
 #include "loom/scene/SceneLimits.h"
 
 namespace loom::scene {
@@ -152,16 +153,12 @@ std::string JsonReader::string(const std::string& key, std::optional<std::string
   const nlohmann::json& v = at(key);
   if (!v.is_string()) fail(key, "expected a string, got " + type_name(v));
   std::string s = v.get<std::string>();
-  // Control characters (a newline, a NUL, an escape) would reach output files and terminals as they are.
-  for (size_t i = 0; i < s.size(); ++i) {
-    const unsigned char ch = static_cast<unsigned char>(s[i]);
-    if (ch < 0x20 || ch == 0x7f) {
-      char code[8];
-      std::snprintf(code, sizeof code, "0x%02x", ch);
-      fail(key, std::string("holds a control character (") + code + " at byte " + std::to_string(i) +
-                    "): not allowed in scene text");
-    }
-  }
+  // Control and invisible format characters (a newline, a NUL, an escape, a bidi override) would reach
+  // output files and terminals as they are (HiddenText.h).
+  const HiddenChar h = find_hidden_char(s);
+  if (h.length)
+    fail(key, "holds a control character (" + show_code(h.code) + " at byte " + std::to_string(h.byte) +
+                  "): control, bidirectional and zero-width characters are not allowed in scene text");
   if (!allowed.empty()) {
     bool ok = false;
     std::string list;

@@ -168,7 +168,30 @@ std::shared_ptr<const cloth::ClothMesh> parse_mesh(const JsonReader& r, Scene& s
   }
 }
 
-std::vector<cloth::PinSpec> parse_pins(const JsonReader& r, const cloth::ClothMesh& mesh) {
+namespace {
+// A moving pin's path: its speed on every segment, and the change of its velocity at every key, at most
+// `max_speed` m/s (before the first key and after the last the pin rests: those changes are the speeds).
+void check_pin_path_speed(const JsonReader& path, const cloth::PinSpec& spec, double max_speed,
+                          const std::string& why) {
+  auto speed = [](double v) { return v < kMaxShownCount ? show(v) : show_count(v); };
+  Vec3 before = Vec3::Zero();  // m/s, the velocity on the segment ending at key k
+  for (size_t k = 0; k + 1 < spec.times.size(); ++k) {
+    const Vec3 v = (spec.offsets[k + 1] - spec.offsets[k]) / (spec.times[k + 1] - spec.times[k]);
+    if (!(v.norm() <= max_speed))
+      path.fail("offsets", "moves the pin at " + speed(v.norm()) + " m/s from entry " + std::to_string(k) +
+                               " to " + std::to_string(k + 1) + "; at most " + show(max_speed) + " m/s " +
+                               why);
+    if (!((v - before).norm() <= max_speed))
+      path.fail("offsets", "changes the pin's velocity by " + speed((v - before).norm()) + " m/s at entry " +
+                               std::to_string(k) + "; at most " + show(max_speed) + " m/s " + why);
+    before = v;
+  }
+}
+}  // namespace
+
+// The cloth's pins; `fields` gets the JSON path of the entry each came from.
+std::vector<cloth::PinSpec> parse_pins(const JsonReader& r, const cloth::ClothMesh& mesh, double max_speed,
+                                       const std::string& why, std::vector<std::string>& fields) {
   std::vector<cloth::PinSpec> pins;
   if (!r.has("pins")) return pins;
   // One pin per vertex. The same entry given twice is refused, and so is a vertex that two entries reach
@@ -266,11 +289,14 @@ std::vector<cloth::PinSpec> parse_pins(const JsonReader& r, const cloth::ClothMe
       }
       for (size_t k = 1; k < spec.times.size(); ++k)
         if (!(spec.times[k] > spec.times[k - 1])) path.fail("times", "must increase strictly");
+      check_pin_path_speed(path, spec, max_speed, why);
       path.finish();
     }
     p.finish();
     hold(spec);
   }
+  for (size_t k = 0; k < pins.size(); ++k)
+    fields.push_back(r.child("pins") + "[" + std::to_string(entry_of[k]) + "]");
   return pins;
 }
 
@@ -316,7 +342,7 @@ void parse_header(const JsonReader& r, Scene& scene, const std::string& file) {
   scene.setup.frame_dt = 1.0 / fps;
   // Checked in double before the conversion to int (a huge duration would overflow it).
   if (scene.duration * fps > static_cast<double>(kMaxFrames))
-    r.fail(r.has("duration") ? "duration" : "fps", "gives " + show(scene.duration * fps) +
+    r.fail(r.has("duration") ? "duration" : "fps", "gives " + show_count(scene.duration * fps) +
                                                        " frames (duration x fps); at most " +
                                                        std::to_string(kMaxFrames));
   // At least one whole frame (to rounding): a shorter duration (5e-324 s) would run a frame it never asked
@@ -359,8 +385,8 @@ void parse_solver(const JsonReader& r, const nlohmann::json& root, Scene& scene,
       const double dt = s.number("dt", std::nullopt, 0.0, true);
       if (dt > scene.setup.frame_dt * (1.0 + 1e-12)) s.fail("dt", "must not exceed the frame time 1/fps");
       if (scene.setup.frame_dt / dt > static_cast<double>(kMaxSubsteps))
-        s.fail("dt", "gives " + show(scene.setup.frame_dt / dt) + " steps per frame (1/fps / dt); at most " +
-                         std::to_string(kMaxSubsteps));
+        s.fail("dt", "gives " + show_count(scene.setup.frame_dt / dt) +
+                         " steps per frame (1/fps / dt); at most " + std::to_string(kMaxSubsteps));
       scene.setup.substeps = static_cast<int>(std::ceil(scene.setup.frame_dt / dt - 1e-9));
     } else {
       scene.setup.substeps = s.integer("substeps", 1, 1, static_cast<int>(kMaxSubsteps));
@@ -516,7 +542,17 @@ void parse_cloths(const JsonReader& r, Scene& scene, const std::string& file) {
     }
     cs.initial_velocity = c.vec3("velocity", Vec3::Zero());
     if (c.has("pressure")) cs.pressure = parse_pressure(c.object("pressure"), *cs.mesh);
-    cs.pins = parse_pins(c, *cs.mesh);
+    // A pin moved at speed v strains the cloth behind it by about v / c, c = sqrt(E / rho) the speed of
+    // stretch waves (E the 2D Young's modulus, N/m; rho the areal density): the strain a bar's end carries
+    // when it is set moving at v (longitudinal impact; Graff 1975, Wave Motion in Elastic Solids). Past
+    // the guard's strain bound the run would only stop, so the path is refused here, by its field.
+    const double wave_speed =
+        std::sqrt(std::min(cs.material.stretch_weft, cs.material.stretch_warp) / cs.material.areal_density);
+    const double max_pin_speed = scene.setup.guard.max_strain * wave_speed;
+    cs.pins = parse_pins(c, *cs.mesh, max_pin_speed,
+                         "(guard.max_strain " + show(scene.setup.guard.max_strain) +
+                             " x the cloth's stretch-wave speed " + show(wave_speed) + " m/s)",
+                         cs.pin_fields);
     if (c.has("detail")) {  // Hybrid detail (CurvedFaces.h)
       const cloth::DetailSettings ds = parse_detail(c.object("detail"));
       scene.detail[static_cast<int>(scene.setup.cloths.size())] = ds;

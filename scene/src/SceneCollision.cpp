@@ -52,6 +52,9 @@ void parse_collision(const JsonReader& root, Scene& scene) {
     p.thickness = c.length("thickness", p.thickness, true);
     p.every = c.integer("every", tier.self_every, 1);
     p.padding = c.number("padding", p.padding, 0.0, true);
+    // A margin of motion between broad phases, not a reach: past a metre every pair of a garment would
+    // be a candidate on every run.
+    if (p.padding > 1.0) c.fail("padding", "must be <= 1 m (got " + show_count(p.padding) + " m)");
     scene.proximity = p;
   }
   if (c.has("friction_pairs")) {

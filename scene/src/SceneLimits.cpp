@@ -47,7 +47,15 @@ std::uint64_t memory_budget() {
   return budget;
 }
 
+std::string show_count(double count) {
+  if (!(count < kMaxShownCount)) return "more than 1e15";  // also inf and NaN: a message shows no inf
+  char s[32];
+  std::snprintf(s, sizeof s, "%.3g", count);
+  return s;
+}
+
 std::string show_bytes(double bytes) {
+  if (!(bytes < kMaxShownCount)) return "more than 1e6 GB";
   char s[48];
   if (bytes >= 1e9)
     std::snprintf(s, sizeof s, "%.3g GB", bytes / 1e9);
@@ -62,13 +70,12 @@ void reserve_vertices(Scene& scene, const std::string& field, double vertices) {
   scene.vertices += vertices;
   const double need = scene.vertices * static_cast<double>(kBytesPerVertex);
   const double budget = static_cast<double>(memory_budget());
-  if (need > budget) {
-    char count[32];
-    std::snprintf(count, sizeof count, "%.3g", scene.vertices);
+  // Also refused: a count that is not a number (the estimate of a degenerate field).
+  if (!(need <= budget)) {
     throw Error(scene.file, field,
-                "the scene's cloths would have about " + std::string(count) + " vertices, which need about " +
-                    show_bytes(need) + " of memory (" + std::to_string(kBytesPerVertex) +
-                    " bytes per vertex); " + show_bytes(budget) +
+                "the scene's cloths would have about " + show_count(scene.vertices) +
+                    " vertices, which need about " + show_bytes(need) + " of memory (" +
+                    std::to_string(kBytesPerVertex) + " bytes per vertex); " + show_bytes(budget) +
                     " is available: use fewer nodes or a coarser resolution");
   }
 }

@@ -361,6 +361,27 @@ const BadInput kCases[] = {
      "obj",
      "line 4",
      "unknown OBJ directive 'q'"},
+    {"obj_text_after_vertex",
+     nullptr,
+     {"@OBJ"},
+     "v 0 0 0\nv 1 0 0 junk\nv 0 1 0\nf 1 2 3\n",
+     "obj",
+     "line 2",
+     "unexpected 'junk' after the vertex's coordinates"},
+    {"obj_hexadecimal_coordinate",
+     nullptr,
+     {"@OBJ"},
+     "v 0 0 0\nv 0x1 0 0\nv 0 1 0\nf 1 2 3\n",
+     "obj",
+     "line 2",
+     "three numbers (decimal)"},
+    {"obj_face_given_twice_reversed",
+     nullptr,
+     {"@OBJ"},
+     "v 0 0 0\nv 1 0 0\nv 0 1 0\nf 1 2 3\nf 3 2 1\n",
+     "obj",
+     "triangle 1",
+     "same three vertices as triangle 0"},
     {"obj_non_manifold",
      nullptr,
      {"@OBJ"},
@@ -409,15 +430,15 @@ const BadInput kCases[] = {
      {"@BVH:190"},
      nullptr,
      "motion.bvh",
-     "character.bvh",
-     "Unexpected end of file"},
+     "Frames",
+     "says 2752 frames but the MOTION section holds 3 frame lines"},
     {"bvh_cut_after_motion",
      nullptr,
      {"@BVH:187"},
      nullptr,
      "motion.bvh",
-     "character.bvh",
-     "Unexpected end of file"},
+     "Frames",
+     "says 2752 frames but the MOTION section holds 0 frame lines"},
     {"bvh_missing", nullptr, {"@BVH:0"}, nullptr, "motion.bvh", "character.bvh", "cannot read motion"},
     // A BVH that reads but holds a number past double range (a corrupt digit string): the joint is named.
     {"bvh_infinite_key",
@@ -439,6 +460,14 @@ const BadInput kCases[] = {
      "scene",
      "character.garments[0].resolution",
      "of memory"},
+    // An estimate past double range shows a finite figure, never "inf".
+    {"garment_resolution_denormal",
+     nullptr,
+     {"@BVH:100000", "--set", "character.garments=[{\"type\":\"cape\",\"resolution\":5e-324}]"},
+     nullptr,
+     "scene",
+     "character.garments[0].resolution",
+     "about more than 1e15 vertices, which need about more than 1e6 GB"},
     // A BVH whose frame time or frame count makes no motion.
     {"bvh_frame_time_zero",
      nullptr,
@@ -448,7 +477,7 @@ const BadInput kCases[] = {
      " End Site\n {\n  OFFSET 0 5 0\n }\n}\nMOTION\nFrames: 2\nFrame Time: 0\n0 90 0 0 0 0\n1 90 0 0 0 0\n",
      "motion.bvh",
      "Frame Time",
-     "positive number of seconds"},
+     "must be in [1e-06, 3600] seconds"},
     {"bvh_frame_time_negative",
      nullptr,
      {"@BVHTEXT"},
@@ -458,7 +487,27 @@ const BadInput kCases[] = {
      "0\n",
      "motion.bvh",
      "Frame Time",
-     "positive number of seconds"},
+     "must be in [1e-06, 3600] seconds"},
+    {"bvh_frame_time_huge",
+     nullptr,
+     {"@BVHTEXT"},
+     "HIERARCHY\nROOT Hips\n{\n OFFSET 0 0 0\n CHANNELS 6 Xposition Yposition Zposition Zrotation Xrotation "
+     "Yrotation\n"
+     " End Site\n {\n  OFFSET 0 5 0\n }\n}\nMOTION\nFrames: 2\nFrame Time: 1e300\n0 90 0 0 0 0\n1 90 0 0 0 "
+     "0\n",
+     "motion.bvh",
+     "Frame Time",
+     "must be in [1e-06, 3600] seconds"},
+    // A frame count the file does not hold: refused before the reader reserves memory for it.
+    {"bvh_frame_count_past_file",
+     nullptr,
+     {"@BVHTEXT"},
+     "HIERARCHY\nROOT Hips\n{\n OFFSET 0 0 0\n CHANNELS 6 Xposition Yposition Zposition Zrotation Xrotation "
+     "Yrotation\n"
+     " End Site\n {\n  OFFSET 0 5 0\n }\n}\nMOTION\nFrames: 2000000000\nFrame Time: 0.03\n0 90 0 0 0 0\n",
+     "motion.bvh",
+     "Frames",
+     "says 2000000000 frames but the MOTION section holds 1 frame lines"},
     // Output folder and checkpoints.
     {"out_under_proc",
      nullptr,
@@ -562,6 +611,46 @@ INSTANTIATE_TEST_SUITE_P(Table, BadInputCli, ::testing::ValuesIn(kCases), bad_in
 
 TEST(BadInputCli, TableHasAtLeastSeventyCases) {
   EXPECT_GE(sizeof(kCases) / sizeof(kCases[0]) + loom::test::bad_input_limit_rows(), 75u);
+}
+
+// A UTF-8 byte order mark at the start of an OBJ file (written by some editors) is not a directive.
+TEST(BadInputCli, ObjWithByteOrderMarkAndColoursLoads) {
+  const fs::path dir = loom::test::test_dir();
+  std::ofstream(dir / "scene.json") << kValid;
+  std::ofstream(dir / "bom.obj") << "\xef\xbb\xbfv 0 0 0 1 0 0\nv 1 0 0\nv 0 1 0\nf 1 2 3\n";
+  fs::remove_all(dir / "out");
+  const loom::test::CliResult r = loom::test::run_loom(
+      "run '" + (dir / "scene.json").string() + "' --out '" + (dir / "out").string() +
+      "' --set 'cloths[0].mesh={\"type\":\"obj\",\"path\":\"bom.obj\"}' --set 'cloths[0].pins=[]'");
+  EXPECT_EQ(r.code, 0) << r.err;
+}
+
+// --resume continues the checkpoint's run: an option that would change it is refused by name (exit 2), not
+// dropped in silence.
+TEST(BadInputCli, ResumeRefusesOptionsItWouldIgnore) {
+  const std::string dir = loom::test::test_dir().string();
+  for (const std::string& extra :
+       std::vector<std::string>{"--set duration=1", "--out '" + dir + "/elsewhere'", "--render"}) {
+    const loom::test::CliResult r = loom::test::run_loom("run --resume '" + dir + "' " + extra);
+    EXPECT_EQ(r.code, 2) << extra << ": " << r.err;
+    EXPECT_NE(r.err.find(extra.substr(0, extra.find(' ')) + ": not with --resume"), std::string::npos)
+        << r.err;
+  }
+}
+
+// A pin path slow enough for the cloth's stretch waves but long enough to tear it (25 m away from the other
+// pin of a 1 m sheet) ends in the guard's strain stop, exit 3, and the message names the moving pin.
+TEST(BadInputCli, StrainStopNamesTheMovingPin) {
+  const fs::path dir = loom::test::test_dir();
+  std::ofstream(dir / "scene.json") << kValid;
+  fs::remove_all(dir / "out");
+  const loom::test::CliResult r = loom::test::run_loom(
+      "run '" + (dir / "scene.json").string() + "' --out '" + (dir / "out").string() +
+      "' --set 'cloths[0].pins=[{\"grid\":[0,0]},{\"grid\":[-1,0],\"path\":{\"times\":[0,0.05],"
+      "\"offsets\":[[0,0,0],[25,0,0]]}}]'");
+  EXPECT_EQ(r.code, 3) << r.err;
+  EXPECT_NE(r.err.find("the strain exploded"), std::string::npos) << r.err;
+  EXPECT_NE(r.err.find("the moving pin cloths[0].pins[1] (cloth 'sheet'"), std::string::npos) << r.err;
 }
 
 // Every numeric command-line option: the whole text one finite number in the option's range. nan, inf,

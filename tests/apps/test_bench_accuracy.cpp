@@ -148,3 +148,21 @@ TEST(BenchAccuracy, UnknownMethodIsAnErrorNotAnEmptyPass) {
   EXPECT_FALSE(fs::exists(dir / "out" / "accuracy.csv"));
   EXPECT_EQ(r.out.find("PASSED"), std::string::npos) << r.out;
 }
+
+// A selection that matches nothing (a label no configuration has, an empty list) measures nothing: an error
+// naming the option, never an empty table that passes its reference check.
+TEST(BenchAccuracy, EmptySelectionIsAnErrorNotAnEmptyPass) {
+  const fs::path dir = loom::test::test_dir();
+  const std::string out = " --out " + (dir / "out").string();
+  Result r = run("bench accuracy --quick --sizes 4 --methods verlet --configs nosuchlabel" + out, dir);
+  if (r.err.find("unknown command") != std::string::npos) GTEST_SKIP() << "built without the Bullet bridge";
+  EXPECT_EQ(r.code, 1) << r.out << r.err;
+  EXPECT_NE(r.err.find("--methods/--configs: selects no configuration"), std::string::npos) << r.err;
+  EXPECT_FALSE(fs::exists(dir / "out" / "accuracy.csv"));
+  EXPECT_EQ(r.out.find("PASSED"), std::string::npos) << r.out;
+  for (const char* empty : {"--methods ''", "--methods ,", "--configs ''"}) {
+    r = run(std::string("bench accuracy --quick ") + empty + out, dir);
+    EXPECT_EQ(r.code, 2) << empty << ": " << r.err;
+    EXPECT_NE(r.err.find(std::string(empty).substr(0, 9)), std::string::npos) << r.err;
+  }
+}

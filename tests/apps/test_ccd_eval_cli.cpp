@@ -4,6 +4,7 @@
 
 #include <cstdio>
 #include <cstdlib>
+#include <filesystem>
 #include <fstream>
 #include <regex>
 #include <sstream>
@@ -43,4 +44,11 @@ TEST(CcdEvalCli, ErrorsAndExitCodes) {
   EXPECT_NE(missing.err.find("missing.csv"), std::string::npos) << missing.err;
   EXPECT_EQ(ccd_eval(kData + "vertex-face/data_0_0.csv --scale-exp x").code, 2);
   EXPECT_EQ(ccd_eval("--help").code, 0);
+  // A file without queries measures nothing: refused, not reported as zero false negatives.
+  const std::filesystem::path empty = loom::test::test_dir() / "vertex-face" / "empty.csv";
+  std::filesystem::create_directories(empty.parent_path());
+  std::ofstream(empty) << "\n";
+  const CcdEvalRun none = ccd_eval(empty.string());
+  EXPECT_EQ(none.code, 1);
+  EXPECT_NE(none.err.find("empty.csv: holds no queries"), std::string::npos) << none.err;
 }

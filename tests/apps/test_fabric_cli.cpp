@@ -57,6 +57,9 @@ TEST(FabricTestCli, TextOutputAndErrors) {
   r = run("fabric-test tensile --model fem");
   EXPECT_EQ(r.code, 1);
   EXPECT_NE(r.err.find("--model"), std::string::npos) << r.err;
+  r = run("fabric-test tensile --material nosuch");
+  EXPECT_EQ(r.code, 1);
+  EXPECT_NE(r.err.find("--material: unknown material preset 'nosuch'"), std::string::npos) << r.err;
   r = run("fabric-test drape-everything");
   EXPECT_EQ(r.code, 1);
   EXPECT_NE(r.err.find("unknown fabric test"), std::string::npos) << r.err;

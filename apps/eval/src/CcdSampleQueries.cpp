@@ -90,6 +90,8 @@ std::vector<CcdQuery> read_ccd_queries(const std::string& path) {
   if (row != 0)
     throw loom::Error(path, "line " + std::to_string(line),
                       "incomplete query: the row count is not a multiple of 8");
+  // An empty file would report 0 false negatives over 0 queries: a pass that measured nothing.
+  if (out.empty()) throw loom::Error(path, "", "holds no queries (an empty file)");
   return out;
 }
 

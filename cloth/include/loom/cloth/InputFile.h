@@ -17,7 +17,8 @@ void check_input_file(const std::string& path, std::uint64_t max_bytes = kMaxInp
 std::string read_input_file(const std::string& path, std::uint64_t max_bytes = kMaxInputFileBytes);
 
 // The lines of `text`: a line ends at "\n", "\r\n" or a lone "\r" (old Mac line endings), so a line number
-// always counts the lines an editor shows, never the whole file as line 1.
+// always counts the lines an editor shows, never the whole file as line 1. A leading UTF-8 byte order mark
+// is dropped.
 std::vector<std::string> input_lines(const std::string& text);
 // "line N ('TEXT')": where an error in a text file is, quoting the faulty line itself (at most 80
 // characters, control characters shown as \xNN).

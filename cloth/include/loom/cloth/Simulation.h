@@ -34,6 +34,7 @@ struct ClothSetup {
   Material material;
   std::string model = "springs";  // one of model_names() (Model.h)
   std::vector<PinSpec> pins;
+  std::vector<std::string> pin_fields;       // where pins[k] was given (a scene's JSON path), for messages
   Vec3 initial_velocity = Vec3::Zero();      // m/s
   std::optional<PressureSettings> pressure;  // gas pressure inside a closed mesh; absent = no pressure term
 };
@@ -141,6 +142,9 @@ class Simulation {
   // before the first frame), E_pot(0) (J) and the kinematic vertices' work so far (J).
   double budget_ref_ = -1.0, budget_potential0_ = 0.0, pin_work_ = 0.0;
   std::string failure_;
+  // For a strain stop at time t: the moving pin that has moved farthest from its start by then (a path
+  // that stretches the cloth past the guard's bound), named by its field; empty without moving pins.
+  std::string moving_pin_note(double t) const;
   long rollbacks_ = 0, retried_frames_ = 0, failed_frames_ = 0;
   double guard_ms_ = 0.0;
 };

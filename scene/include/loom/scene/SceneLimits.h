@@ -37,7 +37,12 @@ std::uint64_t memory_budget();
 // Adds `vertices` cloth vertices (of the cloth at JSON path `field`) to the scene's count and refuses when
 // the estimate kBytesPerVertex x count exceeds memory_budget().
 void reserve_vertices(Scene& scene, const std::string& field, double vertices);
-// "1.5 GB": a byte count for messages.
+// Counts and byte figures in messages are finite: at or above kMaxShownCount (and inf, NaN) they read
+// "more than ...".
+constexpr double kMaxShownCount = 1e15;
+// "3.2e+07": an estimated count for messages; "more than 1e15" past kMaxShownCount.
+std::string show_count(double count);
+// "1.5 GB": a byte count for messages; "more than 1e6 GB" past kMaxShownCount bytes.
 std::string show_bytes(double bytes);
 
 }  // namespace loom::scene
