@@ -5,6 +5,7 @@
 #include <cstdio>
 
 #include "Numbers.h"
+#include "TriangleGather.h"
 #include "loom/cloth/Error.h"
 
 namespace loom::cloth {
@@ -92,12 +93,7 @@ void AeroTerm::add_forces(const EvalContext& c, Vec3s& f) const {
       const Vec3 v_mean = (c.v[tri[0]] + c.v[tri[1]] + c.v[tri[2]]) / 3.0;
       tri_force_[t] = triangle_force(s_, c.x[tri[0]], c.x[tri[1]], c.x[tri[2]], v_mean, w) / 3.0;
     }
-#pragma omp for schedule(static)
-    for (int i = 0; i < nv; ++i) {
-      Vec3 acc = Vec3::Zero();
-      for (int t : vertex_triangles_[i]) acc += tri_force_[t];
-      f[i] += acc;
-    }
+    gather_triangle_forces(tri_force_, vertex_triangles_, f);
   }
 }
 

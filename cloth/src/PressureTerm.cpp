@@ -3,6 +3,7 @@
 #include <cmath>
 #include <cstdio>
 
+#include "TriangleGather.h"
 #include "loom/cloth/Error.h"
 
 namespace loom::cloth {
@@ -70,12 +71,7 @@ void PressureTerm::add_forces(const EvalContext& c, Vec3s& f) const {
       const Tri& tri = triangles_[t];
       tri_force_[t] = k * (c.x[tri[1]] - c.x[tri[0]]).cross(c.x[tri[2]] - c.x[tri[0]]);
     }
-#pragma omp for schedule(static)
-    for (int i = 0; i < nv; ++i) {
-      Vec3 acc = Vec3::Zero();
-      for (int t : vertex_triangles_[i]) acc += tri_force_[t];
-      f[i] += acc;
-    }
+    gather_triangle_forces(tri_force_, vertex_triangles_, f);
   }
 }
 
