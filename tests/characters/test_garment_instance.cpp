@@ -258,22 +258,30 @@ TEST(GarmentInstance, WritesIntoTheCallersBufferWithStride) {
   EXPECT_NEAR(g.time(), 0.1, 1e-9);
 }
 
+// The message of the loom::Error that f() throws ("" if it throws none).
+template <class F>
+std::string error_message(F f) {
+  try {
+    f();
+  } catch (const loom::Error& e) {
+    return e.what();
+  }
+  return {};
+}
+
+// The error of a cape garment built with `edit` applied to its settings ("" if it builds).
+template <class Edit>
+std::string settings_error(Edit edit) {
+  Cape k = make_cape();
+  edit(k.settings);
+  return error_message(
+      [&] { GarmentInstance(k.bind, k.tris, k.skin, k.settings, pose_at(k, Iso::Identity()), "cape"); });
+}
+
 TEST(GarmentInstance, RejectsBadArgumentsNamingThem) {
   Cape c = make_cape();
-  auto message = [&](auto f) {
-    try {
-      f();
-    } catch (const loom::Error& e) {
-      return std::string(e.what());
-    }
-    return std::string();
-  };
-  auto with = [&](auto edit) {
-    Cape k = make_cape();
-    edit(k.settings);
-    return message(
-        [&] { GarmentInstance(k.bind, k.tris, k.skin, k.settings, pose_at(k, Iso::Identity()), "cape"); });
-  };
+  auto message = [](auto f) { return error_message(f); };
+  auto with = [](auto edit) { return settings_error(edit); };
   EXPECT_NE(
       with([](GarmentSettings& s) { s.constraints.max_distance[3] = -0.1; }).find("cape: max_distance[3]"),
       std::string::npos);
@@ -474,20 +482,8 @@ TEST(GarmentInstance, StrideLodRunsFewerStepsWithoutAPop) {
 }
 
 TEST(GarmentInstance, RejectsBadSleepAndLodValuesNamingThem) {
-  auto message = [](auto f) {
-    try {
-      f();
-    } catch (const loom::Error& e) {
-      return std::string(e.what());
-    }
-    return std::string();
-  };
-  auto with = [&](auto edit) {
-    Cape k = make_cape();
-    edit(k.settings);
-    return message(
-        [&] { GarmentInstance(k.bind, k.tris, k.skin, k.settings, pose_at(k, Iso::Identity()), "cape"); });
-  };
+  auto message = [](auto f) { return error_message(f); };
+  auto with = [](auto edit) { return settings_error(edit); };
   auto has = [](const std::string& m, const char* s) { return m.find(s) != std::string::npos; };
   EXPECT_TRUE(has(with([](GarmentSettings& s) { s.sleep.speed = -1; }), "cape: sleep.speed"));
   EXPECT_TRUE(has(with([](GarmentSettings& s) { s.sleep.settle_time = NAN; }), "cape: sleep.settle_time"));
