@@ -229,9 +229,29 @@ void GarmentInstance::fixed_step(int stride) {
   }
   solver_->step(*cloth_, time(), h, 1);
   constraints_.apply(target_, target_normal_, h, st.x, st.v);
+  if (contact_) run_contacts(h);
   ticks_ += stride;
   last_stride_ = stride;
   ++solver_steps_;
+}
+
+void GarmentInstance::run_contacts(double h) {
+  contact_cloths_.resize(1);
+  contact_cloths_[0] = std::move(cloth_);
+  cloth::StageContext ctx{contact_cloths_, time(), h, 1};
+  contact_->run(ctx);
+  cloth_ = std::move(contact_cloths_[0]);
+}
+
+void GarmentInstance::set_colliders(collision::ColliderSetPtr colliders,
+                                    const collision::RealtimeContactSettings& contact) {
+  check_range(contact.thickness, 0.0, HUGE_VAL, false, source_, "contact.thickness",
+              "must be finite and >= 0 m");
+  if (contact.passes < 1)
+    throw Error(source_, "contact.passes", std::to_string(contact.passes) + " must be >= 1");
+  colliders_ = std::move(colliders);
+  contact_.reset();
+  if (colliders_) contact_ = std::make_unique<collision::RealtimeBodyContactStage>(colliders_, contact);
 }
 
 void GarmentInstance::settle(const Iso& from, const Iso& to, double h) {

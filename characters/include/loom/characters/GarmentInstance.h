@@ -22,6 +22,9 @@
 //   and
 //      optional wind drag (AirDragTerm.h).
 //   4. SkinConstraints (drive, max distance, backstop; SkinConstraints.h).
+//   5. external colliders, when set_colliders gave some: the real-time body contact (RealtimeBodyContact.h)
+//      pushes the free vertices out of them; it runs last, so a collider wins over the max distance and the
+//      backstop where they disagree (a wall pressed into the cape).
 // Teleports: when the frame's origin moves farther than `teleport_distance` or turns by more than
 // `teleport_rotation` between two set_pose calls (or after teleport()), the whole cloth state is carried
 // rigidly by that frame change and the step interpolates only the pose's motion relative to the frame.
@@ -48,6 +51,7 @@
 #include "loom/cloth/Cloth.h"
 #include "loom/cloth/SkinConstraints.h"
 #include "loom/cloth/Solver.h"
+#include "loom/collision/RealtimeBodyContact.h"
 
 namespace loom::characters {
 
@@ -124,6 +128,17 @@ class GarmentInstance {
   void set_lod(double distance, bool visible = true);
   int step_stride() const { return stride_; }
 
+  // External colliders (Collider.h): a Bullet world's bodies (loom::bullet::BulletGarment), a game's own
+  // shapes, the character's capsules. Each fixed step [t, t + h] (t = time()) ends with the real-time contact
+  // against them (step 5 above): a collider with a `motion` is sampled at t and t + h, the others are used at
+  // their prev/curr poses as the owner set them; the reactions are summed into each collider's
+  // reaction_impulse (the owner clears them). Kinematic vertices (max distance 0) are not moved. nullptr
+  // removes them. Throws loom::Error(source, "contact.thickness" / "contact.passes", ...) for a negative or
+  // non-finite thickness or passes < 1.
+  void set_colliders(collision::ColliderSetPtr colliders,
+                     const collision::RealtimeContactSettings& contact = {});
+  const collision::ColliderSetPtr& colliders() const { return colliders_; }
+
   int num_vertices() const { return static_cast<int>(bind_.size()); }
   // Writes the render positions (xyz as floats) into dst[i * stride + 0..2]; stride >= 3 floats. No
   // allocation.
@@ -145,6 +160,7 @@ class GarmentInstance {
 
  private:
   void fixed_step(int stride);
+  void run_contacts(double h);  // step 5 (the contact stage sees the cloth through a one-cloth list)
   void render_positions(cloth::Vec3s& out) const;  // interpolated between the last two steps, plus the blend
   void settle(const Eigen::Isometry3d& from, const Eigen::Isometry3d& to, double h);
   void fall_asleep();
@@ -184,6 +200,9 @@ class GarmentInstance {
   Eigen::Isometry3d sleep_frame_ = Eigen::Isometry3d::Identity();
   cloth::Vec3 box_lo_ = cloth::Vec3::Zero(), box_hi_ = cloth::Vec3::Zero();  // m, the cloth's box asleep
   bool teleport_requested_ = false;
+  collision::ColliderSetPtr colliders_;                           // set_colliders (null: none)
+  std::unique_ptr<collision::RealtimeBodyContactStage> contact_;  // step 5, with colliders_
+  std::vector<std::unique_ptr<cloth::Cloth>> contact_cloths_;     // holds cloth_ while step 5 runs
 };
 
 }  // namespace loom::characters
