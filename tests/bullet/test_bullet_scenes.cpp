@@ -1,6 +1,6 @@
-// The Bullet-world scenes (trampoline, hammock, flag_on_pole, curtain_and_balls) run as `loom run` runs them
-// (BulletScene): the cloth's strain stays bounded under the heavy contacts, and the bodies do what the scene
-// says.
+// The Bullet-world scenes (trampoline, hammock, flag_on_pole, curtain_and_balls, character_cape_crates) run
+// as `loom run` runs them (BulletScene): the cloth's strain stays bounded under the heavy contacts, and the
+// bodies do what the scene says.
 #include <gtest/gtest.h>
 
 #include <cstdio>
@@ -8,7 +8,9 @@
 
 #include "loom/bullet/BulletCloth.h"
 #include "loom/bullet/BulletScene.h"
+#include "loom/collision/ColliderDistance.h"
 #include "loom/scene/Scene.h"
+#include "loom/scene/ScenePipeline.h"
 
 namespace loom::test {
 namespace {
@@ -83,6 +85,39 @@ TEST(BulletScenes, CurtainStrainBounded) {
 TEST(BulletScenes, FlagStrainBounded) {
   const SceneRun r = run_scene("flag_on_pole.json", 70);  // max at frame 62
   EXPECT_LT(r.max_strain, 0.3);
+}
+
+// A caped mocap character in a Bullet world (ScenePipeline: the garments in the BulletCloth, the character's
+// stage and capsule contact added): the whole 6 s run stays finite, no cape vertex ends a frame inside a
+// crate or a capsule deeper than 1 mm, and the cape pushes the light top crates of the second stacks.
+TEST(BulletScenes, CapedCharacterBrushesCrates) {
+  scene::Scene sc = scene::load_scene(std::string(LOOM_SOURCE_DIR) + "/scenes/character_cape_crates.json");
+  const int frames = sc.frames;
+  auto p = scene::build_pipeline(std::move(sc));
+  ASSERT_NE(p->bullet(), nullptr);
+  const size_t bodies = p->bullet()->num_bodies();
+  ASSERT_GT(p->colliders()->size(), bodies);  // the capsules are drawn after the bodies
+  std::vector<cloth::Vec3> start;
+  for (size_t b = 0; b < bodies; ++b) start.push_back(p->bullet()->body_position(b));
+  double deepest = 0.0;
+  for (int f = 1; f <= frames; ++f) {
+    ASSERT_TRUE(p->step_frame().finite) << "frame " << f;
+    for (const collision::Collider& c : *p->colliders())
+      for (const auto& cl : p->simulation().cloths())
+        for (const cloth::Vec3& x : cl->state().x)
+          deepest = std::max(deepest, -collision::signed_distance(c, c.curr, x, nullptr));
+  }
+  double pushed = 0.0;  // m, farthest a top crate moved
+  for (size_t b = 0; b < bodies; ++b) {
+    const double moved = (p->bullet()->body_position(b) - start[b]).norm();
+    if (p->scene().bodies[b].mass > 0.0) pushed = std::max(pushed, moved);
+    if (p->scene().bodies[b].mass == 0.0) {
+      EXPECT_EQ(moved, 0.0) << p->scene().bodies[b].name;
+    }
+  }
+  std::printf("character_cape_crates: deepest %.5f m, top crate pushed %.4f m\n", deepest, pushed);
+  EXPECT_LT(deepest, 1e-3);
+  EXPECT_GT(pushed, 0.005);
 }
 
 }  // namespace

@@ -2,7 +2,8 @@
 // ScenePipeline: what a scene runs, made by the one builder that every program running a scene uses
 // (`loom run`, loom-view, the benchmarks). A scene without rigid `bodies` runs one cloth::Simulation with
 // the stages of the effects it names (build_simulation, Build.h); a scene with `bodies` runs its cloths as
-// one BulletCloth inside a Bullet world with those bodies (bullet::BulletScene), when the bridge is built.
+// one BulletCloth inside a Bullet world with those bodies (bullet::BulletScene), when the bridge is built,
+// and a character's rig stage and capsule contact with them.
 // Scene-level defaults are applied here, once, for every program alike (apply_scene_defaults).
 #include <memory>
 
@@ -48,11 +49,13 @@ class ScenePipeline {
   std::shared_ptr<bullet::BulletScene> bullet_;  // shared_ptr: complete only where the bridge is linked
   cloth::Simulation* live_ = nullptr;
   collision::ColliderSetPtr colliders_;
+  collision::ColliderSetPtr capsules_;  // a character's capsules in a Bullet world (else null)
 };
 
 // Applies the scene defaults and builds what the scene runs. Throws loom::Error naming the scene file and
-// the field for what cannot be combined (`bodies` with `colliders` or a `character`, or `bodies` in a loom
-// built without the Bullet bridge).
+// the field for what cannot be combined (`bodies` with `colliders`, or `bodies` in a loom built without the
+// Bullet bridge). A `character` with `bodies` runs its garments in the Bullet world, its rig's stage and
+// capsule contact added to the BulletCloth's simulation.
 std::unique_ptr<ScenePipeline> build_pipeline(Scene scene);
 
 }  // namespace loom::scene
