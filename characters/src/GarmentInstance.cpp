@@ -369,6 +369,20 @@ void GarmentInstance::reset() {
   blend_start_ = -1.0;
 }
 
+void GarmentInstance::set_state(const Vec3s& x, const Vec3s& v) {
+  if (x.size() != bind_.size() || v.size() != bind_.size())
+    throw Error(source_, "state", "needs " + std::to_string(bind_.size()) + " positions and velocities");
+  for (size_t i = 0; i < x.size(); ++i)
+    if (!x[i].allFinite() || !v[i].allFinite())
+      throw Error(source_, "state", "vertex " + std::to_string(i) + " is not finite");
+  cloth::ClothState& st = cloth_->state();
+  st.x = x;
+  st.x_prev = x;
+  st.v = v;
+  render_prev_ = x;
+  blend_start_ = -1.0;
+}
+
 void GarmentInstance::set_max_distance_multiplier(double s) {
   constraints_.set_max_distance_multiplier(s, source_);
 }

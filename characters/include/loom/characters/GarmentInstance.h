@@ -111,6 +111,11 @@ class GarmentInstance {
   void teleport() { teleport_requested_ = true; }
   // Puts the cloth on the skinned mesh of the current pose, at rest.
   void reset();
+  // Puts the cloth at positions x (m, world) with velocities v (m/s), one per vertex, as the state after the
+  // last step and the render positions (no interpolation, no blend): a coarse-mesh LOD switch carries the
+  // state of another mesh over (GarmentMeshLod.h). Throws loom::Error(source, "state", ...) for a wrong size
+  // or a non-finite value.
+  void set_state(const cloth::Vec3s& x, const cloth::Vec3s& v);
   // Global multiplier of the max distances (SkinConstraintSettings): 0 fully skinned, ∞ fully simulated.
   void set_max_distance_multiplier(double s);
 
@@ -147,9 +152,10 @@ class GarmentInstance {
   // the first call (uses an internal buffer: not for concurrent calls on one instance).
   void write_normals(float* dst, size_t stride) const;
 
-  const cloth::Vec3s& positions() const { return cloth_->state().x; }  // m, state after the last step
-  const cloth::Vec3s& skinned() const { return skinned_curr_; }        // m, skinned mesh at the last set_pose
-  const cloth::Vec3s& targets() const { return target_; }              // m, skinned targets of the last step
+  const cloth::Vec3s& positions() const { return cloth_->state().x; }   // m, state after the last step
+  const cloth::Vec3s& velocities() const { return cloth_->state().v; }  // m/s, state after the last step
+  const cloth::Vec3s& skinned() const { return skinned_curr_; }  // m, skinned mesh at the last set_pose
+  const cloth::Vec3s& targets() const { return target_; }        // m, skinned targets of the last step
   const cloth::Vec3s& target_normals() const { return target_normal_; }
   const cloth::SkinConstraints& constraints() const { return constraints_; }
   double time() const { return static_cast<double>(ticks_) * settings_.fixed_dt; }  // s, simulated

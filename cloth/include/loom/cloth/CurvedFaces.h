@@ -78,6 +78,11 @@ class CurvedFaces {
   void evaluate(const Vec3s& coarse_x, Vec3s& fine_x) const;
   // The fine vertex that coincides with coarse vertex i.
   int fine_vertex_of(int coarse_vertex) const { return coarse_to_fine_[coarse_vertex]; }
+  // Where fine vertex i sits: its coarse triangle and the barycentric weights of that triangle's corners (to
+  // carry per-vertex data such as skin weights or weight maps from the coarse mesh to the fine one).
+  int sample_triangle(int fine_vertex) const { return samples_[fine_vertex].tri; }
+  const Vec3& sample_weights(int fine_vertex) const { return samples_[fine_vertex].bary; }
+  const std::vector<Tri>& coarse_triangles() const { return coarse_tris_; }
 
  private:
   struct Sample {
