@@ -6,6 +6,11 @@
 //   lod:  sleep on (defaults), set_lod(distance) with the default GarmentLodSettings.
 // Counters: us_per_char_full, us_per_char_lod (wall time per character per frame), ratio (full / lod),
 // asleep (capes asleep in the lod crowd at the end). 1 OpenMP thread.
+//
+// BM_GarmentMeshLod: one cape as a coarse 5 x 8 mesh (characters::GarmentMeshLod, levels 1: shown as the
+// 9 x 15 curved-face mesh) on the moving clip, twice in every iteration, timed separately: one simulating the
+// fine mesh (near), one the coarse mesh and evaluating its curved faces (far). Counters: us_fine, us_coarse
+// (wall time per frame), ratio (fine / coarse).
 #include <benchmark/benchmark.h>
 #include <omp.h>
 
@@ -15,6 +20,7 @@
 #include <vector>
 
 #include "loom/characters/GarmentInstance.h"
+#include "loom/characters/GarmentMeshLod.h"
 #include "loom/characters/Motion.h"
 #include "loom/cloth/ClothMesh.h"
 
@@ -42,7 +48,7 @@ struct Setup {
   characters::GarmentSettings settings;
 };
 
-Setup make_setup() {
+Setup make_setup(int nodes_u = 9, int nodes_v = 15) {
   Setup s;
   const characters::Motion motion = characters::Motion::load(LOOM_SOURCE_DIR "/tests/data/mocap/01_01.bvh");
   std::vector<characters::Transform> joints;
@@ -59,8 +65,8 @@ Setup make_setup() {
   cloth::GridSpec grid;
   grid.size_u = 0.4;
   grid.size_v = top.y() - low.y() + 0.15;
-  grid.nodes_u = 9;
-  grid.nodes_v = 15;
+  grid.nodes_u = nodes_u;
+  grid.nodes_v = nodes_v;
   grid.plane = cloth::GridPlane::kXY;
   grid.origin = cloth::Vec3(top.x() - 0.2, top.y() - 0.05 - grid.size_v, top.z() - 0.12);
   const auto mesh = cloth::ClothMesh::grid(grid);
@@ -147,6 +153,39 @@ void BM_GarmentCrowd(benchmark::State& state) {
 }
 
 BENCHMARK(BM_GarmentCrowd)->Unit(benchmark::kMillisecond)->MinTime(2.0);
+
+void BM_GarmentMeshLod(benchmark::State& state) {
+  omp_set_num_threads(1);
+  const Setup s = make_setup(5, 8);
+  characters::GarmentMeshLod near(s.bind, s.tris, s.skin, s.settings, s.poses[0], {}, "cape");
+  characters::GarmentMeshLod far(s.bind, s.tris, s.skin, s.settings, s.poses[0], {}, "cape");
+  near.force(true);
+  int f = 0;
+  auto frame = [&](characters::GarmentMeshLod& g) {
+    g.set_pose(s.poses[f % s.poses.size()]);
+    g.step(kFrame);
+  };
+  for (; f < 60; ++f) frame(near), frame(far);  // 1 s: the switch to fine and its blend are behind
+  double t_fine = 0, t_coarse = 0;
+  using Clock = std::chrono::steady_clock;
+  for (auto _ : state) {
+    const auto a = Clock::now();
+    frame(near);
+    const auto b = Clock::now();
+    frame(far);
+    const auto c = Clock::now();
+    ++f;
+    t_fine += std::chrono::duration<double>(b - a).count();
+    t_coarse += std::chrono::duration<double>(c - b).count();
+  }
+  const double n = static_cast<double>(state.iterations());
+  state.counters["us_fine"] = 1e6 * t_fine / n;
+  state.counters["us_coarse"] = 1e6 * t_coarse / n;
+  state.counters["ratio"] = t_coarse > 0 ? t_fine / t_coarse : 0.0;
+  state.counters["fine_vertices"] = far.num_vertices();
+}
+
+BENCHMARK(BM_GarmentMeshLod)->Unit(benchmark::kMillisecond)->MinTime(2.0);
 
 }  // namespace
 

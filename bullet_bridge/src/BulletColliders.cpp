@@ -4,6 +4,7 @@
 
 #include <algorithm>
 #include <cmath>
+#include <iterator>
 
 #include "BulletConvert.h"
 #include "loom/bullet/BulletCloth.h"
@@ -139,6 +140,9 @@ void BulletColliders::update(const Vec3& lo, const Vec3& hi, double t0, double t
       collider_body_.push_back(static_cast<int>(b));
     }
   }
+  // Bodies out of reach (or removed from the world) are forgotten: one seen again starts a new track.
+  for (auto it = tracks_.begin(); it != tracks_.end();)
+    it = it->second->seen == updates_ ? std::next(it) : tracks_.erase(it);
 }
 
 void BulletColliders::apply_reactions() {
@@ -161,7 +165,7 @@ void BulletColliders::apply_reactions() {
     rb->activate();
     rb->applyCentralImpulse(to_bt(impulse[b]));
     rb->applyTorqueImpulse(to_bt(moment[b]));
-    tracks_.at(rb)->applied += impulse[b];
+    applied_[rb] += impulse[b];
   }
 }
 
@@ -181,8 +185,8 @@ std::vector<std::pair<Vec3, Vec3>> BulletColliders::moved_boxes(double distance,
 }
 
 Vec3 BulletColliders::applied_impulse(const btRigidBody* body) const {
-  auto it = tracks_.find(body);
-  return it == tracks_.end() ? Vec3::Zero() : it->second->applied;
+  auto it = applied_.find(body);
+  return it == applied_.end() ? Vec3::Zero() : it->second;
 }
 
 }  // namespace loom::bullet

@@ -60,8 +60,9 @@ class BulletColliders {
   const std::vector<btRigidBody*>& bodies() const { return bodies_; }
   const std::vector<int>& collider_body() const { return collider_body_; }
   // Wake-up of a sleeping cloth: each body has a reference pose, the pose it had at its first update after
-  // the last reset_references() call. moved_boxes lists the world AABBs (m) of the last update's non-static
-  // bodies now farther than `distance` (m) or turned more than `angle` (rad) from their reference pose.
+  // the last reset_references() call (a body that left the query box and came back: since it came back).
+  // moved_boxes lists the world AABBs (m) of the last update's non-static bodies now farther than `distance`
+  // (m) or turned more than `angle` (rad) from their reference pose.
   void reset_references() { ++epoch_; }
   std::vector<std::pair<collision::Vec3, collision::Vec3>> moved_boxes(double distance, double angle) const;
   // Summed impulse (N s) apply_reactions gave `body` since construction.
@@ -79,7 +80,8 @@ class BulletColliders {
   collision::ColliderSetPtr colliders_;
   std::vector<btRigidBody*> bodies_;
   std::vector<int> collider_body_;
-  std::map<const btRigidBody*, std::unique_ptr<Track>> tracks_;
+  std::map<const btRigidBody*, std::unique_ptr<Track>> tracks_;  // the bodies of the last update
+  std::map<const btRigidBody*, collision::Vec3> applied_;        // N s, per body ever pushed
   std::vector<std::string> warnings_;
   long updates_ = 0;
   long epoch_ = 0;  // reset_references count
