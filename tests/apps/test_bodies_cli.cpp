@@ -86,5 +86,20 @@ TEST(BodiesCli, BodiesWithCollidersOrCheckpointsRefused) {
   EXPECT_FALSE(std::filesystem::exists(test_dir() / "col" / "summary.json"));
 }
 
+TEST(BodiesCli, CharacterWithBodiesRuns) {
+  if (!have_bullet()) GTEST_SKIP() << "loom built without the Bullet bridge";
+  const std::filesystem::path dir = test_dir() / "cape_crates";
+  const CliResult r =
+      run_loom("run " + std::string(LOOM_SOURCE_DIR) +
+               "/scenes/character_cape_crates.json --frames 30 --census --out " + dir.string());
+  ASSERT_EQ(r.code, 0) << r.err;
+  const nlohmann::json s = nlohmann::json::parse(slurp(dir / "summary.json"));
+  EXPECT_TRUE(s["finite"].get<bool>());
+  EXPECT_EQ(s["bodies"].size(), 8u);
+  EXPECT_LT(s["max_penetration"].get<double>(), 1e-3);  // crates and the character's capsules
+  EXPECT_TRUE(s["stages"].contains("character"));
+  EXPECT_TRUE(s["stages"].contains("bullet_contacts"));
+}
+
 }  // namespace
 }  // namespace loom::test
