@@ -93,6 +93,10 @@ int compare_main(int argc, char** argv) {
     return 2;
   }
   const scene::Scene sc = scene::load_scene(scene_path, sets);
+  // A character's garments in a Bullet world have no twin: the character comparison has no rigid bodies.
+  if (sc.character && !sc.bodies.empty())
+    throw Error(sc.file, "bodies",
+                "loom compare runs a character scene without rigid bodies (remove 'bodies')");
   // The folder is checked (and claimed) before the runs, so a refused folder costs nothing.
   eval::OutputFolder folder(out, "--out", overwrite, false);
 #ifdef LOOM_HAVE_CHARACTER_COMPARE

@@ -99,6 +99,12 @@ TEST(BodiesCli, CharacterWithBodiesRuns) {
   EXPECT_LT(s["max_penetration"].get<double>(), 1e-3);  // crates and the character's capsules
   EXPECT_TRUE(s["stages"].contains("character"));
   EXPECT_TRUE(s["stages"].contains("bullet_contacts"));
+  // loom compare has no twin of a character among rigid bodies: refused naming the field.
+  const CliResult c = run_loom("compare " + std::string(LOOM_SOURCE_DIR) +
+                               "/scenes/character_cape_crates.json --frames 2 --out " +
+                               (test_dir() / "cape_compare").string());
+  EXPECT_EQ(c.code, 1) << c.err;
+  EXPECT_NE(c.err.find("character_cape_crates.json: bodies"), std::string::npos) << c.err;
 }
 
 }  // namespace
