@@ -17,6 +17,7 @@
 #include <algorithm>
 #include <cmath>
 #include <string>
+#include <utility>
 
 #include "loom/bullet/BulletColliders.h"
 #include "loom/characters/GarmentInstance.h"
