@@ -454,14 +454,16 @@ BodyFit fit_body(const SkinnedMesh& mesh, const Motion& motion) {
         if (j != sides[s].hand && is_descendant(motion, j, sides[s].hand)) k = k_hand[s];
       S[j] = anchor[j] ? *anchor[j] : Vec3(S[p] + k * off);
     }
-    // Aim: the child found in the mesh (or the hand's tip).
+    // Aim: the only child off the joint, when it was found in the mesh (or the hand's tip).
     std::optional<Vec3> target;
     Vec3 local = Vec3::Zero();
+    int off_joint = 0, child = -1;
     for (int c = 0; c < nj; ++c)
-      if (joints[c].parent == j && anchor[c] && joints[c].rest.translation().norm() > 1e-9) {
-        target = *anchor[c];
-        local = joints[c].rest.translation();
-      }
+      if (joints[c].parent == j && joints[c].rest.translation().norm() > 1e-9) ++off_joint, child = c;
+    if (off_joint == 1 && anchor[child]) {
+      target = *anchor[child];
+      local = joints[child].rest.translation();
+    }
     for (int s = 0; s < 2; ++s)
       if (j == sides[s].hand && hand_far[s] != j) {
         target = hand_tip[s];

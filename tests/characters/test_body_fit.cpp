@@ -2,6 +2,7 @@
 // to the CMU skeleton of tests/data/mocap/01_01.bvh, driven by the clip.
 #include <gtest/gtest.h>
 
+#include <algorithm>
 #include <cmath>
 #include <cstdio>
 #include <filesystem>
@@ -316,8 +317,9 @@ TEST(BodyFit, SkinnedCapeOnTheBodyKeepsItsConstraintsThroughTheClip) {
     }
   }
   std::printf(
-      "body cape: worst over max distance %.3g m, behind backstop %.3g m, top row %.3g m, hem %.3f m\n",
-      worst_over, worst_behind, top_error, hem_motion);
+      "body cape (%d x %d nodes): worst over max distance %.3g m, behind backstop %.3g m, top row %.3g m, "
+      "hem %.3f m\n",
+      c.columns, c.rows, worst_over, worst_behind, top_error, hem_motion);
   EXPECT_LE(worst_over, 1e-12);
   EXPECT_LE(worst_behind, 1e-12);
   EXPECT_LE(top_error, 1e-9);   // the shoulders' row is skinned
@@ -351,4 +353,39 @@ TEST(BodyFit, RejectsBadInputNamingTheField) {
                         "MOTION\nFrames: 1\nFrame Time: 0.01\n0 0 0 0 0 0 0 0 0\n";
   const Motion spine = Motion::load(bvh.string());
   expect_error([&] { fit_body(load_static_mesh(body_path(), 0), spine); }, "joints", "no joint 'LeftUpLeg'");
+}
+
+TEST(BodyFit, FitsABiovisionSkeleton) {
+  // Boxing_Toes.bvh: Biovision names (LeftHip, LeftKnee, LeftCollar, LeftShoulder = upper arm, ...), no
+  // pelvis-side joints, centimetres.
+  const Motion m = Motion::load(loom::test::mocap("Boxing_Toes.bvh"));
+  const BodyFit fit = fit_body(load_static_mesh(body_path(), 0), m);
+  const std::vector<std::string> canon = canonical_joint_names(m);
+  auto at = [&](const std::string& n) {
+    const auto it = std::find(canon.begin(), canon.end(), n);
+    EXPECT_NE(it, canon.end()) << n;
+    return Vec3(fit.bind[it - canon.begin()].translation());
+  };
+  for (const char* side : {"Left", "Right"}) {
+    const std::string s = side;
+    for (const auto& [a, j, c] : std::vector<std::array<std::string, 3>>{
+             {s + "UpLeg", s + "Leg", s + "Foot"}, {s + "Arm", s + "ForeArm", s + "Hand"}}) {
+      const Vec3 n = (at(j) - at(a)).normalized() + (at(c) - at(j)).normalized();
+      const double d =
+          (nearest_loop(fit.body.positions, fit.body.triangles, at(j), n).centroid - at(j)).norm();
+      std::printf("Boxing_Toes %-12s %.4f m\n", j.c_str(), d);
+      EXPECT_LT(d, 0.01) << j;
+    }
+  }
+  const Vec3s x = [&] {
+    std::vector<Transform> g;
+    m.pose(2.0, g);
+    std::vector<Affine> pose, mats;
+    pose_from_motion(match_bones(fit.body.skin, m), g, pose);
+    fit.body.skin.skinning_matrices(pose, mats);
+    Vec3s out;
+    fit.body.skin.apply(mats, fit.body.positions, out);
+    return out;
+  }();
+  EXPECT_TRUE(std::all_of(x.begin(), x.end(), [](const Vec3& p) { return p.allFinite(); }));
 }
