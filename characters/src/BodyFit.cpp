@@ -532,6 +532,49 @@ BodyFit fit_body(const SkinnedMesh& mesh, const Motion& motion) {
   return fit;
 }
 
+BackCape make_back_cape(const BodyFit& fit, const Motion& motion, double width, double spacing, double gap,
+                        double hem_max_distance, const std::string& source) {
+  const double kMax = 100.0;  // m, larger than any body
+  for (const auto& [name, v] :
+       {std::pair<const char*, double>{"width", width}, {"spacing", spacing}, {"gap", gap}})
+    if (!(v > 0.0 && v <= kMax)) throw Error(source, name, std::to_string(v) + " is not in (0, 100] m");
+  if (!(hem_max_distance >= 0.0)) throw Error(source, "hem_max_distance", "must be >= 0 m");
+  if (static_cast<int>(fit.bind.size()) != motion.num_joints())
+    throw Error(source, "motion", "is not the motion the body was fitted to");
+  const std::vector<std::string> canon = canonical_joint_names(motion);
+  auto height = [&](const std::string& a, const std::string& b) {
+    const int ja = find_canonical(canon, a), jb = find_canonical(canon, b);
+    if (ja < 0 || jb < 0) throw Error(motion.source(), "joints", "no joint '" + (ja < 0 ? a : b) + "'");
+    return 0.5 * (fit.bind[ja].translation().y() + fit.bind[jb].translation().y());
+  };
+  const double top = height("LeftArm", "RightArm"), bottom = height("LeftLeg", "RightLeg");
+  BackCape c;
+  c.columns = std::max(2, static_cast<int>(std::lround(width / spacing)) + 1);
+  c.rows = std::max(2, static_cast<int>(std::floor((top - bottom) / spacing)) + 1);
+  double mid = 0.0;
+  for (const Vec3& p : fit.body.positions) mid += p.x();
+  mid /= static_cast<double>(fit.body.positions.size());
+  const double dx = width / (c.columns - 1);
+  double z = std::numeric_limits<double>::infinity();
+  for (int r = 0; r < c.rows; ++r) {
+    const double y = top - r * spacing;
+    for (const Vec3& p : fit.body.positions)
+      if (std::abs(p.y() - y) < 0.5 * spacing && std::abs(p.x() - mid) < 0.5 * width) z = std::min(z, p.z());
+    if (!std::isfinite(z)) throw Error(source, "width", "the cape's top row meets no part of the body");
+    for (int k = 0; k < c.columns; ++k) c.positions.push_back(Vec3(mid - 0.5 * width + k * dx, y, z - gap));
+    c.max_distance.insert(c.max_distance.end(), c.columns, hem_max_distance * r / (c.rows - 1));
+  }
+  for (int r = 0; r + 1 < c.rows; ++r)
+    for (int k = 0; k + 1 < c.columns; ++k) {
+      const int a = r * c.columns + k, b = a + 1, e = a + c.columns, g = e + 1;
+      c.triangles.push_back({a, b, e});  // (x, -y) order: normal along -z, away from the body
+      c.triangles.push_back({b, g, e});
+    }
+  c.skin = Skin::automatic(c.positions, fit.body.skin.bone_names(), fit.body.rest_pose, fit.body.bone_parent,
+                           Skin::kMaxInfluences, source);
+  return c;
+}
+
 std::map<std::string, double> body_capsule_radii(const BodyFit& fit, const Motion& motion, double quantile) {
   if (!(quantile >= 0.0 && quantile <= 1.0))
     throw Error(motion.source(), "quantile", std::to_string(quantile) + " is not in [0, 1]");

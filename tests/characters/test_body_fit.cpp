@@ -103,53 +103,17 @@ Vec3s body_at(const Fitted& f, double t) {
   return x;
 }
 
-// A cape over the fitted body's back at the bind pose: 0.5 m wide, from shoulder height to the knees,
-// 0.05 m rows and columns, 3 cm behind the back-most point of the body at or above each row (it hangs
-// straight past the buttocks); skinned with automatic weights; max distance 0 on the top row growing to
-// 0.3 m at the hem; a backstop plane 1 cm behind the skinned cape along its normal (pointing away from the
-// body).
+// The cape of make_back_cape (0.5 m wide, 5 cm grid, 3 cm behind the back, max distance 0 at the shoulders
+// to 0.3 m at the hem) with a backstop plane 1 cm behind its skinned surface and a coat fabric.
 struct BodyCape {
-  Vec3s bind;
-  std::vector<Tri> tris;
-  Skin skin;
+  BackCape cape;
   GarmentSettings settings;
-  int columns = 11, rows = 0;
 };
 
 BodyCape make_body_cape(const Fitted& f) {
-  const BodyFit& fit = f.fit;
-  const Motion& m = f.motion;
-  BodyCape c;
-  const double top = 0.5 * (fit.bind[joint(m, "LeftArm")].translation().y() +
-                            fit.bind[joint(m, "RightArm")].translation().y());
-  const double bottom = 0.5 * (fit.bind[joint(m, "LeftLeg")].translation().y() +
-                               fit.bind[joint(m, "RightLeg")].translation().y());
-  const double d = 0.05;
-  c.rows = static_cast<int>(std::floor((top - bottom) / d)) + 1;
-  double z = HUGE_VAL;
-  for (int r = 0; r < c.rows; ++r) {
-    const double y = top - r * d;
-    for (const Vec3& p : fit.body.positions)
-      if (std::abs(p.y() - y) < 0.5 * d && std::abs(p.x()) < 0.25) z = std::min(z, p.z());
-    for (int k = 0; k < c.columns; ++k) c.bind.push_back(Vec3(-0.25 + k * d, y, z - 0.03));
-  }
-  for (int r = 0; r + 1 < c.rows; ++r)
-    for (int k = 0; k + 1 < c.columns; ++k) {
-      const int a = r * c.columns + k, b = a + 1, e = a + c.columns, g = e + 1;
-      c.tris.push_back({a, e, b});
-      c.tris.push_back({b, e, g});
-    }
-  // Normals away from the body (-z).
-  const Tri& t0 = c.tris[0];
-  if ((c.bind[t0[1]] - c.bind[t0[0]]).cross(c.bind[t0[2]] - c.bind[t0[0]]).z() > 0)
-    for (Tri& t : c.tris) std::swap(t[1], t[2]);
-  c.skin = Skin::automatic(c.bind, fit.body.skin.bone_names(), fit.body.rest_pose, fit.body.bone_parent,
-                           Skin::kMaxInfluences, "cape");
-  for (int r = 0; r < c.rows; ++r)
-    for (int k = 0; k < c.columns; ++k) {
-      c.settings.constraints.max_distance.push_back(0.3 * r / (c.rows - 1));
-      c.settings.constraints.backstop_distance.push_back(0.01);
-    }
+  BodyCape c{make_back_cape(f.fit, f.motion), {}};
+  c.settings.constraints.max_distance = c.cape.max_distance;
+  c.settings.constraints.backstop_distance.assign(c.cape.positions.size(), 0.01);
   c.settings.material.bend_weft = c.settings.material.bend_warp = 1e-4;
   c.settings.material.damping = 0.05;
   return c;
@@ -298,8 +262,13 @@ TEST(BodyFit, CapsuleRadiiMatchTheBodysSections) {
 
 TEST(BodyFit, SkinnedCapeOnTheBodyKeepsItsConstraintsThroughTheClip) {
   const Fitted& f = fitted();
-  BodyCape c = make_body_cape(f);
-  GarmentInstance g(c.bind, c.tris, c.skin, c.settings, bones_at(f, 0.0), "cape");
+  const BodyCape c = make_body_cape(f);
+  const int columns = c.cape.columns, rows = c.cape.rows;
+  // Normals point away from the body: the cape's first triangle faces -z.
+  const Tri& t0 = c.cape.triangles[0];
+  const Vec3s& p = c.cape.positions;
+  EXPECT_LT((p[t0[1]] - p[t0[0]]).cross(p[t0[2]] - p[t0[0]]).z(), 0.0);
+  GarmentInstance g(c.cape.positions, c.cape.triangles, c.cape.skin, c.settings, bones_at(f, 0.0), "cape");
   double worst_over = 0, worst_behind = 0, hem_motion = 0, top_error = 0;
   for (int k = 1; k <= 180; ++k) {
     const double t = k / 60.0;
@@ -310,8 +279,8 @@ TEST(BodyFit, SkinnedCapeOnTheBodyKeepsItsConstraintsThroughTheClip) {
     for (int i = 0; i < g.num_vertices(); ++i) {
       const double d = (x[i] - g.targets()[i]).norm();
       worst_over = std::max(worst_over, d - c.settings.constraints.max_distance[i]);
-      if (i < c.columns) top_error = std::max(top_error, d);
-      if (i >= (c.rows - 1) * c.columns) hem_motion = std::max(hem_motion, d);
+      if (i < columns) top_error = std::max(top_error, d);
+      if (i >= (rows - 1) * columns) hem_motion = std::max(hem_motion, d);
       worst_behind = std::max(worst_behind,
                               g.constraints().backstop_depth(i, x[i], g.targets()[i], g.target_normals()[i]));
     }
@@ -319,7 +288,7 @@ TEST(BodyFit, SkinnedCapeOnTheBodyKeepsItsConstraintsThroughTheClip) {
   std::printf(
       "body cape (%d x %d nodes): worst over max distance %.3g m, behind backstop %.3g m, top row %.3g m, "
       "hem %.3f m\n",
-      c.columns, c.rows, worst_over, worst_behind, top_error, hem_motion);
+      columns, rows, worst_over, worst_behind, top_error, hem_motion);
   EXPECT_LE(worst_over, 1e-12);
   EXPECT_LE(worst_behind, 1e-12);
   EXPECT_LE(top_error, 1e-9);   // the shoulders' row is skinned
@@ -353,6 +322,15 @@ TEST(BodyFit, RejectsBadInputNamingTheField) {
                         "MOTION\nFrames: 1\nFrame Time: 0.01\n0 0 0 0 0 0 0 0 0\n";
   const Motion spine = Motion::load(bvh.string());
   expect_error([&] { fit_body(load_static_mesh(body_path(), 0), spine); }, "joints", "no joint 'LeftUpLeg'");
+  // The cape's arguments.
+  const Fitted& f = fitted();
+  expect_error([&] { make_back_cape(f.fit, f.motion, 0.0); }, "cape: width", "not in (0, 100] m");
+  expect_error([&] { make_back_cape(f.fit, f.motion, 0.5, NAN); }, "cape: spacing", "not in (0, 100] m");
+  expect_error([&] { make_back_cape(f.fit, f.motion, 0.5, 0.05, -0.01); }, "cape: gap", "not in (0, 100] m");
+  expect_error([&] { make_back_cape(f.fit, f.motion, 0.5, 0.05, 0.03, NAN); }, "cape: hem_max_distance",
+               ">= 0 m");
+  expect_error([&] { make_back_cape(f.fit, spine); }, "cape: motion",
+               "not the motion the body was fitted to");
 }
 
 TEST(BodyFit, FitsABiovisionSkeleton) {

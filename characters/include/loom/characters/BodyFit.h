@@ -66,6 +66,23 @@ struct BodyFit {
 //   arm section where one is expected).
 BodyFit fit_body(const SkinnedMesh& mesh, const Motion& motion);
 
+// A cape over the fitted body's back at the bind pose, for GarmentInstance: a grid `width` wide (m), rows
+// `spacing` apart (m) from the shoulder joints' height down to the knees', each row `gap` (m) behind the
+// back-most point of the body within the cape's width at or above it (so it hangs straight past the
+// buttocks), its normals pointing away from the body. Skinned with automatic weights to fit.body's bones;
+// max distance 0 on the top row (skinned at the shoulders) growing linearly to `hem_max_distance` (m) at the
+// hem. Throws loom::Error(source, "<argument>", ...) for a non-positive or non-finite width, spacing or gap
+// and a negative or NaN hem_max_distance.
+struct BackCape {
+  cloth::Vec3s positions;  // m, at the bind pose (the skin's bind space)
+  std::vector<cloth::Tri> triangles;
+  Skin skin;
+  std::vector<double> max_distance;  // m per vertex
+  int columns = 0, rows = 0;         // vertex i is row i / columns, column i % columns (row 0 at the top)
+};
+BackCape make_back_cape(const BodyFit& fit, const Motion& motion, double width = 0.5, double spacing = 0.05,
+                        double gap = 0.03, double hem_max_distance = 0.3, const std::string& source = "cape");
+
 // Capsule radii fitted to the body (m, keyed by bone file name, for CapsuleRig::build's overrides): for each
 // capsule bone, the `quantile` (0 to 1) of the distances from its segment at the bind pose to the fitted
 // body's vertices nearest to it. A bone with no vertex keeps its table radius.
