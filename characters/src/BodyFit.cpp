@@ -143,9 +143,16 @@ Leg find_leg(const BodySections& b, int sg) {
   leg.hip = c1 + (c1 - c2) * ((y_hip - c1.y()) / (c1.y() - c2.y()));
   // Foot tip: the farthest forward vertex below the ankle within 0.1 H of it across.
   leg.tip = leg.ankle;
+  double heel = leg.ankle.z();
   for (const Vec3& p : b.x())
-    if (p.y() < leg.ankle.y() && std::abs(p.x() - leg.ankle.x()) < 0.1 * h && p.z() > leg.tip.z())
-      leg.tip = p;
+    if (p.y() < leg.ankle.y() && std::abs(p.x() - leg.ankle.x()) < 0.1 * h) {
+      if (p.z() > leg.tip.z()) leg.tip = p;
+      heel = std::min(heel, p.z());
+    }
+  // The foot reaches farther forward (toes) than back (heel): a mesh facing -z has it the other way round.
+  if (leg.tip.z() - leg.ankle.z() < leg.ankle.z() - heel)
+    throw Error(b.source(), field,
+                "the foot points along -z: the mesh must face +z (turn it with the loader)");
   return leg;
 }
 

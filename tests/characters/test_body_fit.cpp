@@ -322,6 +322,11 @@ TEST(BodyFit, RejectsBadInputNamingTheField) {
                         "MOTION\nFrames: 1\nFrame Time: 0.01\n0 0 0 0 0 0 0 0 0\n";
   const Motion spine = Motion::load(bvh.string());
   expect_error([&] { fit_body(load_static_mesh(body_path(), 0), spine); }, "joints", "no joint 'LeftUpLeg'");
+  // The body turned to face -z.
+  Affine turn = Affine::Identity();
+  turn.rotate(Eigen::AngleAxisd(M_PI, Vec3::UnitY()));
+  expect_error([&] { fit_body(load_static_mesh(body_path(), 0, 1.0, turn), m); }, "left_leg",
+               "the mesh must face +z");
   // The cape's arguments.
   const Fitted& f = fitted();
   expect_error([&] { make_back_cape(f.fit, f.motion, 0.0); }, "cape: width", "not in (0, 100] m");

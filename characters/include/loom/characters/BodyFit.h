@@ -62,8 +62,8 @@ struct BodyFit {
 //   (motion.source(), "joints", "no joint 'LeftLeg' ...") when the skeleton lacks a joint the fit needs
 //   (canonical names, CapsuleRig.h: LeftUpLeg, LeftLeg, LeftFoot, LeftArm, LeftForeArm, LeftHand and the
 //   Right* twins);
-//   (mesh.source, "<landmark>", ...) when the mesh is not in the pose described above (no separate leg or
-//   arm section where one is expected).
+//   (mesh.source, "left_leg" / "right_arm" / ..., ...) when the mesh is not in the pose described above (no
+//   separate leg or arm section where one is expected, feet pointing along -z).
 BodyFit fit_body(const SkinnedMesh& mesh, const Motion& motion);
 
 // A cape over the fitted body's back at the bind pose, for GarmentInstance: a grid `width` wide (m), rows
