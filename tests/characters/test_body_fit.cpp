@@ -257,6 +257,15 @@ TEST(BodyFit, CapsuleRadiiMatchTheBodysSections) {
     std::printf("%s: capsule %.4f, section %.4f\n", a.c_str(), radii.at(a), section);
     EXPECT_NEAR(radii.at(a), section, 0.25 * section) << a;
   }
+  // The radii are CapsuleRig overrides: a rig built with them has them.
+  const CapsuleRig rig = CapsuleRig::build(m, radii);
+  int overridden = 0;
+  for (const Bone& b : rig.bones())
+    if (radii.count(b.name)) {
+      EXPECT_EQ(b.radius, radii.at(b.name)) << b.name;
+      ++overridden;
+    }
+  EXPECT_GE(overridden, 20);
   expect_error([&] { body_capsule_radii(f.fit, m, 1.5); }, "quantile", "not in [0, 1]");
 }
 
