@@ -14,6 +14,7 @@
 #include "loom/characters/BodyFit.h"
 #include "loom/characters/GarmentInstance.h"
 #include "loom/cloth/Error.h"
+#include "loom/collision/Distance.h"
 
 using namespace loom::characters;
 using loom::cloth::Tri;
@@ -278,12 +279,27 @@ TEST(BodyFit, SkinnedCapeOnTheBodyKeepsItsConstraintsThroughTheClip) {
   const Vec3s& p = c.cape.positions;
   EXPECT_LT((p[t0[1]] - p[t0[0]]).cross(p[t0[2]] - p[t0[0]]).z(), 0.0);
   GarmentInstance g(c.cape.positions, c.cape.triangles, c.cape.skin, c.settings, bones_at(f, 0.0), "cape");
-  double worst_over = 0, worst_behind = 0, hem_motion = 0, top_error = 0;
+  double worst_over = 0, worst_behind = 0, hem_motion = 0, top_error = 0, deepest = 0;
+  // Not a constraint of GarmentInstance (it has no body collision): how deep the cape goes into capsules
+  // fitted to the body, reported.
+  const CapsuleRig rig = CapsuleRig::build(f.motion, body_capsule_radii(f.fit, f.motion));
+  std::vector<Transform> joints;
+  auto depth = [&](const Vec3s& x, double t) {
+    f.motion.pose(t, joints);
+    double d = 0;
+    for (const Vec3& q : x)
+      for (const Bone& b : rig.bones())
+        d = std::max(d, b.radius - loom::collision::point_segment_distance(q, joints[b.joint].translation(),
+                                                                           joints[b.child].translation()));
+    return d;
+  };
+  const double deepest_at_start = depth(g.positions(), 0.0);
   for (int k = 1; k <= 180; ++k) {
     const double t = k / 60.0;
     g.set_pose(bones_at(f, t));
     g.step(1.0 / 60.0);
     const Vec3s& x = g.positions();
+    deepest = std::max(deepest, depth(x, g.time()));
     ASSERT_TRUE(std::all_of(x.begin(), x.end(), [](const Vec3& p) { return p.allFinite(); })) << t;
     for (int i = 0; i < g.num_vertices(); ++i) {
       const double d = (x[i] - g.targets()[i]).norm();
@@ -296,8 +312,8 @@ TEST(BodyFit, SkinnedCapeOnTheBodyKeepsItsConstraintsThroughTheClip) {
   }
   std::printf(
       "body cape (%d x %d nodes): worst over max distance %.3g m, behind backstop %.3g m, top row %.3g m, "
-      "hem %.3f m\n",
-      columns, rows, worst_over, worst_behind, top_error, hem_motion);
+      "hem %.3f m; deepest vertex in a body capsule %.3f m (%.3f m at the start)\n",
+      columns, rows, worst_over, worst_behind, top_error, hem_motion, deepest, deepest_at_start);
   EXPECT_LE(worst_over, 1e-12);
   EXPECT_LE(worst_behind, 1e-12);
   EXPECT_LE(top_error, 1e-9);   // the shoulders' row is skinned
