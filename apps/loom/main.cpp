@@ -6,6 +6,7 @@
 #include <new>
 #include <string>
 
+#include "BodyCommand.h"
 #include "CcdEvalCommand.h"
 #include "CliValue.h"
 #include "FabricTestCommand.h"
@@ -33,6 +34,7 @@ const char* kUsage =
     "  loom bench realtime [opts]   quality tiers and Bullet classic on the character and the sheet "
     "(--help)\n"
     "  loom compare SCENE [--out D] a scene in Loom, Bullet classic and deformable side by side\n"
+    "  loom body MESH CLIP.bvh      a body mesh fitted to a mocap skeleton, with a skinned cape\n"
     "  loom --help                  this text\n"
     "  loom run --help              the options of `run`\n"
     "\n"
@@ -198,6 +200,9 @@ int main(int argc, char** argv) {
 #endif
     if (cmd == "bench") return loom::eval::bench_main(argc, argv);
     if (cmd == "compare") return loom::app::compare_main(argc, argv);
+#endif
+#ifdef LOOM_HAVE_BODY
+    if (cmd == "body") return loom::app::body_main(argc, argv);
 #endif
     if (cmd == "ccd-eval") return loom::app::ccd_eval_main(argc, argv);
     if (cmd == "fabric-test") return loom::app::fabric_test_main(argc, argv);

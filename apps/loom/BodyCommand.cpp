@@ -1,0 +1,142 @@
+// `loom body`: a body mesh fitted to a mocap skeleton, with a skinned cape (BodyCommand.h).
+#include "BodyCommand.h"
+
+#include <algorithm>
+#include <cmath>
+#include <cstdio>
+#include <iostream>
+#include <string>
+#include <vector>
+
+#include "CliValue.h"
+#include "loom/characters/BodyFit.h"
+#include "loom/characters/GarmentInstance.h"
+#include "loom/cloth/Error.h"
+#ifdef LOOM_HAVE_RENDER
+#include "loom/render/Renderer.h"
+#endif
+
+namespace loom::app {
+namespace {
+
+namespace ch = loom::characters;
+
+const char* kBodyUsage =
+    "Usage: loom body MESH CLIP.bvh [--seconds S] [--image FILE.png]\n"
+    "\n"
+    "Fits MESH (its first mesh: a static human body standing upright, facing +z, in an A-pose, e.g.\n"
+    "tests/data/body/human.zae) to the skeleton of CLIP and skins it with automatic weights, puts a cape on\n"
+    "its back (skinned at the shoulders, free at the hem: max distance 0 to 0.3 m, a backstop 1 cm behind),\n"
+    "plays the clip for S seconds at 30 frames per second and prints one line:\n"
+    "  vertices=V joints=J frames=N cape_vertices=C worst_over_max_distance=D worst_behind_backstop=B\n"
+    "  hem_motion=H (m)\n"
+    "\n"
+    "Options:\n"
+    "  --seconds S      clip time to play (s; default 3, at most the clip's length)\n"
+    "  --image FILE.png render the last frame (body and cape, seen from behind) into FILE.png\n"
+    "  -h, --help       this text\n";
+
+}  // namespace
+
+int body_main(int argc, char** argv) {
+  std::vector<std::string> files;
+  double seconds = 3.0;
+  std::string image;
+  for (int i = 2; i < argc; ++i) {
+    const std::string a = argv[i];
+    auto value = [&]() -> const char* {
+      if (i + 1 >= argc) {
+        std::fprintf(stderr, "loom: error: %s needs a value (see loom body --help)\n", a.c_str());
+        std::exit(2);
+      }
+      return argv[++i];
+    };
+    if (a == "-h" || a == "--help") {
+      std::cout << kBodyUsage;
+      return 0;
+    } else if (a == "--seconds") {
+      seconds = cli_number(a, value(), 0.0, 3600.0);
+    } else if (a == "--image") {
+      image = value();
+    } else if (!a.empty() && a[0] == '-') {
+      std::fprintf(stderr, "loom: error: unknown option '%s' (see loom body --help)\n", printable(a).c_str());
+      return 2;
+    } else {
+      files.push_back(a);
+    }
+  }
+  if (files.size() != 2) {
+    std::fprintf(stderr, "loom: error: body needs MESH and CLIP.bvh (see loom body --help)\n");
+    return 2;
+  }
+#ifndef LOOM_HAVE_RENDER
+  if (!image.empty()) throw Error("--image", "", "this build has no renderer (OSMesa)");
+#endif
+  const ch::Motion motion = ch::Motion::load(files[1]);
+  const ch::BodyFit fit = ch::fit_body(ch::load_static_mesh(files[0], 0), motion);
+  const ch::BackCape cape = ch::make_back_cape(fit, motion);
+  ch::GarmentSettings settings;
+  settings.constraints.max_distance = cape.max_distance;
+  settings.constraints.backstop_distance.assign(cape.positions.size(), 0.01);
+  settings.material.bend_weft = settings.material.bend_warp = 1e-4;  // a coat fabric
+  settings.material.damping = 0.05;
+
+  const std::vector<int> joint_of_bone = ch::match_bones(fit.body.skin, motion, files[0]);
+  std::vector<ch::Transform> joints;
+  std::vector<ch::Affine> bones, matrices;
+  auto pose_at = [&](double t) {
+    motion.pose(t, joints);
+    ch::pose_from_motion(joint_of_bone, joints, bones);
+    return bones;
+  };
+  ch::GarmentInstance garment(cape.positions, cape.triangles, cape.skin, settings, pose_at(0.0), "cape");
+  const double fps = 30.0, end = std::min(seconds, motion.duration());
+  const int frames = static_cast<int>(std::floor(end * fps + 1e-9));
+  double worst_over = 0.0, worst_behind = 0.0, hem = 0.0;
+  for (int f = 1; f <= frames; ++f) {
+    garment.set_pose(pose_at(f / fps));
+    garment.step(1.0 / fps);
+    const cloth::Vec3s& x = garment.positions();
+    for (int i = 0; i < garment.num_vertices(); ++i) {
+      if (!x[i].allFinite()) throw Error("cape", "positions", "not finite at frame " + std::to_string(f));
+      const double d = (x[i] - garment.targets()[i]).norm();
+      worst_over = std::max(worst_over, d - cape.max_distance[i]);
+      worst_behind = std::max(worst_behind, garment.constraints().backstop_depth(
+                                                i, x[i], garment.targets()[i], garment.target_normals()[i]));
+      if (i >= (cape.rows - 1) * cape.columns) hem = std::max(hem, d);
+    }
+  }
+  std::printf(
+      "vertices=%zu joints=%d frames=%d cape_vertices=%d worst_over_max_distance=%.3g "
+      "worst_behind_backstop=%.3g hem_motion=%.3f\n",
+      fit.body.positions.size(), motion.num_joints(), frames, garment.num_vertices(), worst_over,
+      worst_behind, hem);
+#ifdef LOOM_HAVE_RENDER
+  if (!image.empty()) {
+    fit.body.skin.skinning_matrices(pose_at(frames / fps), matrices);
+    cloth::Vec3s body;
+    fit.body.skin.apply(matrices, fit.body.positions, body);
+    render::Bounds b;
+    for (const auto& p : body) b.add(p);
+    for (const auto& p : garment.positions()) b.add(p);
+    render::RenderSettings rs;
+    render::Camera cam;
+    cam.target = 0.5 * (b.lo + b.hi);
+    const double size = (b.hi - b.lo).norm();
+    cam.fov_deg = 35.0;
+    cam.eye = cam.target + 1.4 * size * cloth::Vec3(0.55, 0.2, -1.0).normalized();  // behind, to the right
+    rs.camera = cam;
+    render::RenderMesh body_mesh, cape_mesh;
+    body_mesh.triangles = fit.body.triangles;
+    body_mesh.color = cloth::Vec3(0.82, 0.64, 0.52);
+    cape_mesh.triangles = cape.triangles;
+    cape_mesh.color = cloth::Vec3(0.20, 0.30, 0.70);
+    render::Renderer renderer(rs, {body_mesh, cape_mesh});
+    renderer.frame(b);
+    render::write_png(image, renderer.render({&body, &garment.positions()}));
+  }
+#endif
+  return 0;
+}
+
+}  // namespace loom::app
