@@ -28,9 +28,19 @@
 //       Sec. 6.1): the relative tangential displacement of vertex and body point over the step is undone
 //       fully if below mu_s times the normal correction, else by mu_k times it, with both inverse masses;
 //   velocities: v = (x - x_prev) / h for cloth vertices; for bodies v = (x - x0) / h and
-//     w = 2 vec(q q0^-1) / h (Müller et al. 2020, Alg. 2).
+//     w = 2 vec(q q0^-1) / h (Müller et al. 2020, Alg. 2);
+//   no rebound from a cloth with pinned vertices (restitution 0, Müller et al. 2020, Sec. 3.6 with e = 0;
+//     a free cloth is left alone, so the pair's momentum stays exact): the change the step
+//     made to a body's velocity, dv = v - v_pred along d = dv / |dv|, may stop the body along d but not throw
+//     it: v.d is cut to max(0, v_pred.d). The position correction beyond that moves the body without giving
+//     it velocity, as split-impulse penetration recovery does in rigid-body solvers (Bullet's
+//     btContactSolverInfo::m_splitImpulse). Without it, a limit left violated at a step's end (a heavy
+//     body pressing the light cloth past its limit, which Gauss-Seidel corrects over many steps) becomes
+//     velocity: the cloth acts as a stiff undamped spring on the body and throws it back out of the bag.
 // Every correction between cloth and body is an equal and opposite positional impulse, so the pair
-// conserves linear and angular momentum exactly. Static and kinematic bodies have infinite mass (w_b = 0).
+// conserves linear and angular momentum exactly; with pinned vertices the no-rebound rule takes velocity
+// from a body the cloth would throw (the pins, external, absorb it). Static and kinematic bodies have
+// infinite mass (w_b = 0).
 #include <memory>
 #include <vector>
 
@@ -51,6 +61,7 @@ struct CoupledBody {
   Vec3 v = Vec3::Zero(), w = Vec3::Zero();  // m/s, rad/s
   Mat3 inv_inertia = Mat3::Zero();          // 1/(kg m²), world frame at `pose`
   bool touched = false;                     // a contact moved it in the current Bullet substep
+  Vec3 v_pred = Vec3::Zero();               // m/s, v at the cloth step's start (after predict: unchanged)
   bool dynamic() const { return inv_mass > 0.0; }
 };
 
@@ -103,11 +114,14 @@ class BodyCoupling {
   // Tethers, then edges in alternating sweep order.
   void solve_limits(cloth::ClothState& s, size_t index, int it);
   void apply_friction(cloth::ClothState& s);
+  // Body velocities from the pose change of the step, then the no-rebound cut (see above).
+  void update_body_velocities(double h);
 
   collision::ColliderSetPtr colliders_;
   BodyCouplingSettings settings_;
   std::unique_ptr<Work> work_;
   double last_penetration_ = 0.0;
+  bool anchored_ = false;  // some cloth has pinned (or attached) vertices
   long vertex_contacts_ = 0, face_contacts_ = 0;
 };
 

@@ -9,6 +9,7 @@
 #include <cstdio>
 #include <cstdlib>
 #include <sstream>
+#include <utility>
 
 #include "ClothSide.h"
 #include "loom/bullet/BulletCloth.h"
@@ -39,7 +40,14 @@ WorldRun run_world(const std::string& name, std::vector<std::string> sets = {}, 
   bullet::BulletSceneOptions options;
   options.realtime = std::getenv("LOOM_TOY_REALTIME") != nullptr;
   bullet::BulletScene bs(sc.setup, sc.bodies, options);
-  ClothSideTracker sides(bs, rest_normal(bs.simulation()));
+  // Kinematic bodies are checked while over the cloth, bodies the cloth is attached to not at all
+  // (ClothSide.h).
+  std::vector<char> modes;
+  for (const collision::RigidBodySpec& b : sc.bodies)
+    modes.push_back(!b.attachments.empty() ? ClothSideTracker::kSkip
+                    : b.motion             ? ClothSideTracker::kOverOnly
+                                           : ClothSideTracker::kAlways);
+  ClothSideTracker sides(bs, rest_normal(bs.simulation()), modes);
   WorldRun r;
   r.thickness = sc.setup.cloths[0].material.thickness;
   r.frames = frames > 0 ? frames : sc.frames;
