@@ -229,7 +229,8 @@ void BodyCoupling::build_limits(const cloth::Cloth& cloth, size_t index) {
     near.clear();
     for (int a : pinned) near.emplace_back((mesh.rest_positions()[a] - mesh.rest_positions()[i]).norm(), a);
     std::partial_sort(near.begin(), near.begin() + per, near.end());
-    for (int k = 0; k < per; ++k) cd.tethers.push_back({i, near[k].second, (1.0 + tau) * near[k].first});
+    for (int k = 0; k < per; ++k)
+      cd.tethers.push_back({i, near[k].second, (1.0 + settings_.tether_stretch) * near[k].first});
   }
   cd.vertex_tris.assign(n, {});
   for (int t = 0; t < static_cast<int>(mesh.triangles().size()); ++t)

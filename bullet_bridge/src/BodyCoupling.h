@@ -17,7 +17,9 @@
 //       body features (sphere centres, capsule axes, box and hull edges; FeatureContact.h) against cloth
 //       triangles likewise, the triangle's point weighted by barycentric coordinates (Bridson et al. 2002);
 //     tethers (Kim, Chentanez, Müller-Fischer 2012, "Long range attachments"): each free vertex stays within
-//       (1 + max_stretch) of its rest distance to each of its nearest pinned vertices;
+//       (1 + tether_stretch) of its rest distance to each of its nearest pinned vertices (0: the paper's
+//       inextensible tether; at the edges' 10 % a heavy body sinks the cloth until the curved path to the
+//       anchor stretches its edges past 10 % before the straight tether binds);
 //     strain limit (Provot 1995): structural and shear edges no longer than (1 + max_stretch) L.
 //     In tethers and edges a vertex in contact that would move into its body moves the body with it: along
 //     the contact normal n its inverse mass is that of the pair, w_c = w_v w_b / (w_v + w_b), and the body
@@ -67,7 +69,8 @@ struct CoupledBody {
 
 struct BodyCouplingSettings {
   double thickness = 0.005;      // m, contact offset
-  double max_stretch = 0.1;      // 1, edges and tethers at most (1 + max_stretch) times their rest length
+  double max_stretch = 0.1;      // 1, edges at most (1 + max_stretch) times their rest length
+  double tether_stretch = 0.0;   // 1, tethers at most (1 + tether_stretch) times their rest distance
   int iterations = 2;            // alternations of contacts, tethers and edges per cloth step
   int tether_anchors = 4;        // pinned vertices each free vertex is tethered to (nearest at rest); 0: none
   bool features = true;          // body features against cloth triangles
