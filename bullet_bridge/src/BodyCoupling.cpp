@@ -86,15 +86,7 @@ class BodyCoupling::Solve final : public cloth::Stage {
   void run(cloth::StageContext& ctx) override {
     o_.last_penetration_ = 0.0;
     for (size_t c = 0; c < ctx.cloths.size(); ++c) o_.solve(*ctx.cloths[c], c, ctx.h);
-    // Velocities of the bodies from their pose change (Müller et al. 2020, Alg. 2).
-    for (CoupledBody& b : o_.bodies) {
-      if (!b.dynamic()) continue;
-      b.v = (b.pose.translation() - b.pose0.translation()) / ctx.h;
-      Eigen::Quaterniond dq =
-          Eigen::Quaterniond(b.pose.linear()) * Eigen::Quaterniond(b.pose0.linear()).conjugate();
-      if (dq.w() < 0.0) dq.coeffs() = -dq.coeffs();
-      b.w = 2.0 * dq.vec() / ctx.h;
-    }
+    o_.update_body_velocities(ctx.h);
     collision::ColliderSet& cs = *o_.colliders_;
     for (size_t k = 0; k < cs.size(); ++k)
       if (o_.collider_body[k] >= 0) cs[k].curr = o_.bodies[o_.collider_body[k]].pose * o_.collider_local[k];
@@ -119,6 +111,7 @@ std::unique_ptr<cloth::Stage> BodyCoupling::make_solve_stage() { return std::mak
 void BodyCoupling::predict(double h) {
   for (CoupledBody& b : bodies) {
     b.pose0 = b.pose;
+    b.v_pred = b.v;
     if (!b.dynamic()) continue;
     b.pose.translation() += h * b.v;
     Eigen::Quaterniond q(b.pose.linear());
@@ -188,6 +181,27 @@ void BodyCoupling::move_vertex(cloth::ClothState& s, int i, double lam, const Ve
   apply_positional_impulse(b, (lam * mn * wv / (wv + wb)) * nrm, r);
 }
 
+void BodyCoupling::update_body_velocities(double h) {
+  for (CoupledBody& b : bodies) {
+    if (!b.dynamic()) continue;
+    // Müller et al. 2020, Alg. 2.
+    b.v = (b.pose.translation() - b.pose0.translation()) / h;
+    Eigen::Quaterniond dq =
+        Eigen::Quaterniond(b.pose.linear()) * Eigen::Quaterniond(b.pose0.linear()).conjugate();
+    if (dq.w() < 0.0) dq.coeffs() = -dq.coeffs();
+    b.w = 2.0 * dq.vec() / h;
+    // No rebound: v.d <= max(0, v_pred.d) along the direction d of the step's velocity change; only
+    // against a cloth with pinned vertices (a free cloth keeps the pair's momentum exactly).
+    if (!anchored_) continue;
+    const Vec3 dv = b.v - b.v_pred;
+    const double len = dv.norm();
+    if (!(len > 0.0)) continue;
+    const Vec3 d = dv / len;
+    const double excess = b.v.dot(d) - std::max(0.0, b.v_pred.dot(d));
+    if (excess > 0.0) b.v -= excess * d;
+  }
+}
+
 void BodyCoupling::build_limits(const cloth::Cloth& cloth, size_t index) {
   const cloth::ClothState& s = cloth.state();
   const cloth::ClothMesh& mesh = cloth.mesh();
@@ -207,6 +221,7 @@ void BodyCoupling::build_limits(const cloth::Cloth& cloth, size_t index) {
   std::vector<int> pinned;
   for (int i = 0; i < n; ++i)
     if (s.inv_mass[i] == 0.0) pinned.push_back(i);
+  anchored_ = anchored_ || !pinned.empty();
   const int per = std::min<int>(settings_.tether_anchors, static_cast<int>(pinned.size()));
   std::vector<std::pair<double, int>> near;
   for (int i = 0; i < n && per > 0; ++i) {
@@ -214,7 +229,8 @@ void BodyCoupling::build_limits(const cloth::Cloth& cloth, size_t index) {
     near.clear();
     for (int a : pinned) near.emplace_back((mesh.rest_positions()[a] - mesh.rest_positions()[i]).norm(), a);
     std::partial_sort(near.begin(), near.begin() + per, near.end());
-    for (int k = 0; k < per; ++k) cd.tethers.push_back({i, near[k].second, (1.0 + tau) * near[k].first});
+    for (int k = 0; k < per; ++k)
+      cd.tethers.push_back({i, near[k].second, (1.0 + settings_.tether_stretch) * near[k].first});
   }
   cd.vertex_tris.assign(n, {});
   for (int t = 0; t < static_cast<int>(mesh.triangles().size()); ++t)

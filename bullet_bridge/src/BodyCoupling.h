@@ -17,7 +17,9 @@
 //       body features (sphere centres, capsule axes, box and hull edges; FeatureContact.h) against cloth
 //       triangles likewise, the triangle's point weighted by barycentric coordinates (Bridson et al. 2002);
 //     tethers (Kim, Chentanez, Müller-Fischer 2012, "Long range attachments"): each free vertex stays within
-//       (1 + max_stretch) of its rest distance to each of its nearest pinned vertices;
+//       (1 + tether_stretch) of its rest distance to each of its nearest pinned vertices (0: the paper's
+//       inextensible tether; at the edges' 10 % a heavy body sinks the cloth until the curved path to the
+//       anchor stretches its edges past 10 % before the straight tether binds);
 //     strain limit (Provot 1995): structural and shear edges no longer than (1 + max_stretch) L.
 //     In tethers and edges a vertex in contact that would move into its body moves the body with it: along
 //     the contact normal n its inverse mass is that of the pair, w_c = w_v w_b / (w_v + w_b), and the body
@@ -28,9 +30,19 @@
 //       Sec. 6.1): the relative tangential displacement of vertex and body point over the step is undone
 //       fully if below mu_s times the normal correction, else by mu_k times it, with both inverse masses;
 //   velocities: v = (x - x_prev) / h for cloth vertices; for bodies v = (x - x0) / h and
-//     w = 2 vec(q q0^-1) / h (Müller et al. 2020, Alg. 2).
+//     w = 2 vec(q q0^-1) / h (Müller et al. 2020, Alg. 2);
+//   no rebound from a cloth with pinned vertices (restitution 0, Müller et al. 2020, Sec. 3.6 with e = 0;
+//     a free cloth is left alone, so the pair's momentum stays exact): the change the step
+//     made to a body's velocity, dv = v - v_pred along d = dv / |dv|, may stop the body along d but not throw
+//     it: v.d is cut to max(0, v_pred.d). The position correction beyond that moves the body without giving
+//     it velocity, as split-impulse penetration recovery does in rigid-body solvers (Bullet's
+//     btContactSolverInfo::m_splitImpulse). Without it, a limit left violated at a step's end (a heavy
+//     body pressing the light cloth past its limit, which Gauss-Seidel corrects over many steps) becomes
+//     velocity: the cloth acts as a stiff undamped spring on the body and throws it back out of the bag.
 // Every correction between cloth and body is an equal and opposite positional impulse, so the pair
-// conserves linear and angular momentum exactly. Static and kinematic bodies have infinite mass (w_b = 0).
+// conserves linear and angular momentum exactly; with pinned vertices the no-rebound rule takes velocity
+// from a body the cloth would throw (the pins, external, absorb it). Static and kinematic bodies have
+// infinite mass (w_b = 0).
 #include <memory>
 #include <vector>
 
@@ -51,12 +63,14 @@ struct CoupledBody {
   Vec3 v = Vec3::Zero(), w = Vec3::Zero();  // m/s, rad/s
   Mat3 inv_inertia = Mat3::Zero();          // 1/(kg m²), world frame at `pose`
   bool touched = false;                     // a contact moved it in the current Bullet substep
+  Vec3 v_pred = Vec3::Zero();               // m/s, v at the cloth step's start (after predict: unchanged)
   bool dynamic() const { return inv_mass > 0.0; }
 };
 
 struct BodyCouplingSettings {
   double thickness = 0.005;      // m, contact offset
-  double max_stretch = 0.1;      // 1, edges and tethers at most (1 + max_stretch) times their rest length
+  double max_stretch = 0.1;      // 1, edges at most (1 + max_stretch) times their rest length
+  double tether_stretch = 0.0;   // 1, tethers at most (1 + tether_stretch) times their rest distance
   int iterations = 2;            // alternations of contacts, tethers and edges per cloth step
   int tether_anchors = 4;        // pinned vertices each free vertex is tethered to (nearest at rest); 0: none
   bool features = true;          // body features against cloth triangles
@@ -103,11 +117,14 @@ class BodyCoupling {
   // Tethers, then edges in alternating sweep order.
   void solve_limits(cloth::ClothState& s, size_t index, int it);
   void apply_friction(cloth::ClothState& s);
+  // Body velocities from the pose change of the step, then the no-rebound cut (see above).
+  void update_body_velocities(double h);
 
   collision::ColliderSetPtr colliders_;
   BodyCouplingSettings settings_;
   std::unique_ptr<Work> work_;
   double last_penetration_ = 0.0;
+  bool anchored_ = false;  // some cloth has pinned (or attached) vertices
   long vertex_contacts_ = 0, face_contacts_ = 0;
 };
 

@@ -177,6 +177,7 @@ BulletCloth::BulletCloth(cloth::SimulationSetup setup, const BulletClothSettings
   if (settings.tier == BulletClothSettings::Tier::realtime) {
     if (settings.realtime_iterations < 1) throw Error("", "bullet.realtime_iterations", "must be >= 1");
     if (!(settings.max_stretch > 0.0)) throw Error("", "bullet.max_stretch", "must be > 0");
+    if (!(settings.tether_stretch >= 0.0)) throw Error("", "bullet.tether_stretch", "must be >= 0");
     setup.solver = cloth::SolverSettings{};
     setup.solver.method = settings.realtime_solver;
     if (settings.realtime_substeps < 1) throw Error("", "bullet.realtime_substeps", "must be >= 1");
@@ -194,6 +195,7 @@ BulletCloth::BulletCloth(cloth::SimulationSetup setup, const BulletClothSettings
     BodyCouplingSettings bs;
     bs.thickness = thickness;
     bs.max_stretch = settings.max_stretch;
+    bs.tether_stretch = settings.tether_stretch;
     bs.iterations = settings.coupling_iterations;
     bs.tether_anchors = settings.tether_anchors;
     bs.friction = settings.friction;

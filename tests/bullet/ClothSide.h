@@ -3,6 +3,12 @@
 // centre c to c + kReach n (n: the cloth's rest normal) crosses the cloth k times; the side is k mod 2. A
 // body changes side only by passing through the cloth or round its border; the scenes tested drop or throw
 // bodies onto the cloth's middle, so every change of side is counted as a body through the cloth.
+// A body marked kOverOnly (a kinematic body whose script carries it across the cloth's border, as the
+// toy box's paddle) is checked only while it is over the cloth (the line c +- kReach n meets it): its side
+// is taken when it comes over the cloth and a change counts only between two positions over the cloth.
+// A body marked kSkip (one the cloth is attached to: the ray starts on the cloth's attached vertices) is
+// not checked.
+#include <utility>
 #include <vector>
 
 #include "loom/bullet/BulletScene.h"
@@ -39,20 +45,28 @@ inline int crossings(const bullet::BulletScene& scene, const cloth::Vec3& from, 
 class ClothSideTracker {
  public:
   static constexpr double kReach = 10.0;  // m
-  ClothSideTracker(const bullet::BulletScene& scene, const cloth::Vec3& normal) : scene_(scene), n_(normal) {
+  enum Mode : char { kAlways = 0, kOverOnly = 1, kSkip = 2 };
+  ClothSideTracker(const bullet::BulletScene& scene, const cloth::Vec3& normal, std::vector<char> modes = {})
+      : scene_(scene), n_(normal), mode_(std::move(modes)) {
+    mode_.resize(scene.num_bodies(), kAlways);
     for (size_t b = 0; b < scene.num_bodies(); ++b) side_.push_back(side(b));
     crossed_.assign(side_.size(), 0);
   }
+  // k mod 2; -1 for a skipped body and for a kOverOnly body that is not over the cloth.
   int side(size_t b) const {
+    if (mode_[b] == kSkip) return -1;
     const cloth::Vec3 c = scene_.body_position(b);
-    return crossings(scene_, c, c + kReach * n_) % 2;
+    const int up = crossings(scene_, c, c + kReach * n_);
+    if (mode_[b] == kOverOnly && up == 0 && crossings(scene_, c, c - kReach * n_) == 0) return -1;
+    return up % 2;
   }
   // Checks every body (call once per frame); returns how many changed side since the last call.
   int update() {
     int changed = 0;
     for (size_t b = 0; b < side_.size(); ++b) {
       const int s = side(b);
-      if (s != side_[b]) ++changed, crossed_[b] = 1;
+      if (s < 0) continue;  // kSkip, or kOverOnly and off the cloth: keeps the side it had over it
+      if (side_[b] >= 0 && s != side_[b]) ++changed, crossed_[b] = 1;
       side_[b] = s;
     }
     return changed;
@@ -68,6 +82,7 @@ class ClothSideTracker {
  private:
   const bullet::BulletScene& scene_;
   cloth::Vec3 n_;
+  std::vector<char> mode_;
   std::vector<int> side_;
   std::vector<char> crossed_;
 };
