@@ -1,6 +1,12 @@
 #include "loom/cloth/StrainLimitStage.h"
 
+#include <cmath>
+
 namespace loom::cloth {
+
+namespace {
+constexpr double kSkip = 1.0 - 1e-9;  // 1, squared-length margin below which a spring is within the limit
+}  // namespace
 
 void StrainLimitStage::run(StageContext& ctx) {
   if (limited_.size() != ctx.cloths.size()) {
@@ -29,8 +35,12 @@ void StrainLimitStage::run(StageContext& ctx) {
         const double wi = s.inv_mass[sp.i], wj = s.inv_mass[sp.j];
         if (wi + wj == 0.0) continue;
         const Vec3 d = s.x[sp.j] - s.x[sp.i];
-        const double l = d.norm();
         const double l_max = stretch * sp.rest_length;
+        // Most springs are well within the limit: a squared test with a margin skips their square root
+        // (the exact test below decides the rest, so the result does not depend on the shortcut).
+        const double l2 = d.squaredNorm();
+        if (l2 < kSkip * l_max * l_max) continue;
+        const double l = std::sqrt(l2);
         if (l <= l_max) continue;
         // Provot 1995: move the ends along the spring so that l = (1 + τ) L.
         const Vec3 corr = ((l - l_max) / ((wi + wj) * l)) * d;
@@ -45,7 +55,9 @@ void StrainLimitStage::run(StageContext& ctx) {
       if (moved_[i]) s.v[i] = (s.x[i] - s.x_prev[i]) / ctx.h;
     for (int k : list) {
       const SpringDef& sp = springs[k];
-      if ((s.x[sp.j] - s.x[sp.i]).norm() > stretch * sp.rest_length * (1.0 + 1e-9)) ++remaining_;
+      const double l_max = stretch * sp.rest_length * (1.0 + 1e-9);
+      const double l2 = (s.x[sp.j] - s.x[sp.i]).squaredNorm();
+      if (l2 >= kSkip * l_max * l_max && std::sqrt(l2) > l_max) ++remaining_;
     }
   }
 }

@@ -105,6 +105,7 @@ void RealtimeBodyContactStage::run(cloth::StageContext& ctx) {
     if (c.motion) c.prev = c.motion(ctx.t), c.curr = c.motion(ctx.t + ctx.h);
     if (c.shape.type == ShapeType::convex || c.shape.type == ShapeType::mesh) prepare_collider(c);
   }
+  prepare_poses(*colliders_);
   for (auto& cl : ctx.cloths) run_cloth(*cl, ctx.h);
 }
 
@@ -139,12 +140,15 @@ void RealtimeBodyContactStage::run_cloth(cloth::Cloth& cloth, double h) {
   const ColliderGrid grid = build_grid(lo, hi);
 
   int cand[kMaxCandidates];
+  // Positions only: a collider whose box misses x cannot come within the thickness of x at the step's end
+  // (the box holds the collider at curr inflated by the thickness), so x0's colliders are not needed.
+  const bool end_only = settings_.positions_only;
   for (int i = 0; i < n; ++i) {
     const double m = s.mass[i];
     if (!(s.inv_mass[i] > 0.0)) continue;
     Vec3 x = s.x[i];
     const Vec3 x0 = s.x_prev[i];
-    const int nc = gather_candidates(grid, x, x0, cand);
+    const int nc = gather_candidates(grid, x, end_only ? x : x0, cand);
     if (nc == 0) continue;
     candidates_ += nc;
     Vec3 v = s.v[i];
@@ -156,17 +160,11 @@ void RealtimeBodyContactStage::run_cloth(cloth::Cloth& cloth, double h) {
   }
 }
 
-void RealtimeBodyContactStage::prepare_colliders(const ColliderSet& set, double material_thickness,
-                                                 const Vec3& lo, const Vec3& hi) {
+void RealtimeBodyContactStage::prepare_poses(const ColliderSet& set) {
   prepared_.resize(set.size());
-  active_.clear();
   for (size_t k = 0; k < set.size(); ++k) {
     const Collider& c = set[k];
     Prepared& pc = prepared_[k];
-    pc.thickness = thickness(c, material_thickness);
-    pc.mu_k = settings_.friction >= 0.0 ? settings_.friction : c.friction;
-    pc.mu_s =
-        std::max(pc.mu_k, settings_.static_friction >= 0.0 ? settings_.static_friction : c.static_friction);
     const double extent = bounding_radius(c.shape);
     const Vec3 c0 = c.prev.translation(), c1 = c.curr.translation();
     const double theta = rotation_angle(c.prev, c.curr);
@@ -175,15 +173,32 @@ void RealtimeBodyContactStage::prepare_colliders(const ColliderSet& set, double 
       const Vec3 axis = Vec3(0.0, c.shape.type == ShapeType::capsule ? c.shape.half_height : 0.0, 0.0);
       pc.a0 = c.prev * (-axis), pc.b0 = c.prev * axis, pc.a1 = c.curr * (-axis), pc.b1 = c.curr * axis;
       pc.radius = c.shape.radius;
-      const double r = pc.radius + pc.thickness;
-      pc.lo = pc.a0.cwiseMin(pc.b0).cwiseMin(pc.a1).cwiseMin(pc.b1) - Vec3::Constant(r);
-      pc.hi = pc.a0.cwiseMax(pc.b0).cwiseMax(pc.a1).cwiseMax(pc.b1) + Vec3::Constant(r);
-    } else if (std::isinf(extent)) {
+      pc.reach = pc.radius;
+      pc.core_lo = pc.a0.cwiseMin(pc.b0).cwiseMin(pc.a1).cwiseMin(pc.b1);
+      pc.core_hi = pc.a0.cwiseMax(pc.b0).cwiseMax(pc.a1).cwiseMax(pc.b1);
+    } else {
+      pc.reach = extent;
+      pc.core_lo = c0.cwiseMin(c1), pc.core_hi = c0.cwiseMax(c1);
+    }
+  }
+}
+
+void RealtimeBodyContactStage::prepare_colliders(const ColliderSet& set, double material_thickness,
+                                                 const Vec3& lo, const Vec3& hi) {
+  active_.clear();
+  for (size_t k = 0; k < set.size(); ++k) {
+    const Collider& c = set[k];
+    Prepared& pc = prepared_[k];
+    pc.thickness = thickness(c, material_thickness);
+    pc.mu_k = settings_.friction >= 0.0 ? settings_.friction : c.friction;
+    pc.mu_s =
+        std::max(pc.mu_k, settings_.static_friction >= 0.0 ? settings_.static_friction : c.static_friction);
+    if (std::isinf(pc.reach)) {
       pc.lo = Vec3::Constant(-kInf), pc.hi = Vec3::Constant(kInf);
     } else {
-      const double r = extent + pc.thickness;
-      pc.lo = c0.cwiseMin(c1) - Vec3::Constant(r);
-      pc.hi = c0.cwiseMax(c1) + Vec3::Constant(r);
+      const double r = pc.reach + pc.thickness;
+      pc.lo = pc.core_lo - Vec3::Constant(r);
+      pc.hi = pc.core_hi + Vec3::Constant(r);
     }
     // A discrete test goes wrong only when the relative motion can carry a vertex past the collider's middle
     // (the axis of a sphere or capsule, a box's smallest half extent); for other shapes, past the thickness.

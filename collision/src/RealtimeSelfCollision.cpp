@@ -2,6 +2,7 @@
 
 #include <algorithm>
 #include <cmath>
+#include <limits>
 #include <unordered_map>
 #ifdef __SSE2__
 #include <xmmintrin.h>
@@ -169,12 +170,40 @@ void RealtimeSelfCollisionStage::rest_neighbours() {
 bool RealtimeSelfCollisionStage::moved_too_far() const {
   const int n = static_cast<int>(built_.size());
   if (n == 0) return true;
-  Vec3 mean = Vec3::Zero();
-  for (int g = 0; g < n; ++g) mean += *xs_[g] - built_[g];
-  mean /= n;
-  const double limit2 = 0.25 * settings_.padding * settings_.padding;
-  for (int g = 0; g < n; ++g)
-    if ((*xs_[g] - built_[g] - mean).squaredNorm() > limit2) return true;
+  // A pair's vertex and triangle corners have moved by at most P relative to each other (the list holds
+  // it) when every displacement d lies within R of a common centre r and 2R <= P; or, per cloth c with
+  // centre r_c and radius R_c, when 2 R_c <= P within each cloth (self pairs) and R_a + R_b + |r_a - r_b|
+  // <= P between cloths. Centres: the middle of the displacements' box.
+  const int nc = static_cast<int>(offset_.size()) - 1;
+  Vec3 all_lo = Vec3::Constant(std::numeric_limits<double>::infinity()), all_hi = -all_lo;
+  centre_.resize(nc), radius_.resize(nc);
+  for (int c = 0; c < nc; ++c) {
+    Vec3 lo = Vec3::Constant(std::numeric_limits<double>::infinity()), hi = -lo;
+    for (int g = offset_[c]; g < offset_[c + 1]; ++g) {
+      const Vec3 d = *xs_[g] - built_[g];
+      lo = lo.cwiseMin(d), hi = hi.cwiseMax(d);
+    }
+    centre_[c] = 0.5 * (lo + hi);
+    all_lo = all_lo.cwiseMin(lo), all_hi = all_hi.cwiseMax(hi);
+  }
+  const Vec3 centre = 0.5 * (all_lo + all_hi);
+  double all_r2 = 0.0;
+  for (int c = 0; c < nc; ++c) {
+    double r2 = 0.0;
+    for (int g = offset_[c]; g < offset_[c + 1]; ++g) {
+      const Vec3 d = *xs_[g] - built_[g];
+      r2 = std::max(r2, (d - centre_[c]).squaredNorm());
+      all_r2 = std::max(all_r2, (d - centre).squaredNorm());
+    }
+    radius_[c] = std::sqrt(r2);
+  }
+  const double p = settings_.padding;
+  if (2.0 * std::sqrt(all_r2) <= p) return false;
+  for (int a = 0; a < nc; ++a) {
+    if (settings_.self && 2.0 * radius_[a] > p) return true;
+    for (int b = a + 1; b < nc; ++b)
+      if (radius_[a] + radius_[b] + (centre_[a] - centre_[b]).norm() > p) return true;
+  }
   return false;
 }
 

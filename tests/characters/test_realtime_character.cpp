@@ -58,14 +58,41 @@ Figures run(const std::string& name, const std::vector<std::string>& sets, int t
 TEST(RealtimeCharacter, DefaultSceneWholeClip) {
   const Figures f = run("character_layers", {});
   EXPECT_EQ(f.frames, 360);
-  EXPECT_LT(f.max_strain, 0.2);
+  EXPECT_LT(f.max_strain, 0.175);
 }
 
+// Bounds: the measured max strain (cape 0.187, skirt 0.127) plus a little, so that a regression fails.
 TEST(RealtimeCharacter, CapeAndSkirtScenes) {
-  for (const char* name : {"character_cape", "character_skirt"}) {
+  for (const auto& [name, strain] : {std::pair<const char*, double>{"character_cape", 0.195},
+                                     std::pair<const char*, double>{"character_skirt", 0.135}}) {
     const Figures f = run(name, {});
     EXPECT_EQ(f.frames, 360) << name;
-    EXPECT_LT(f.max_strain, 0.2) << name;
+    EXPECT_LT(f.max_strain, strain) << name;
+  }
+}
+
+// The default scene on the three CMU clips, to each clip's end from the scene's start at 1 s: no vertex
+// inside a capsule and no NaN at any frame end. KNOWN GAP: the proximity cloth-cloth collision lets a few
+// triangle pairs cross on 01_01 and many on Boxing_Toes (fast punches through the cape), and the skirt's hem
+// is stretched between the knees there; the bounds are the measured worst counts and strains, so that a
+// regression fails.
+TEST(RealtimeCharacter, DefaultSceneOnEveryClipToItsEnd) {
+  struct Clip {
+    const char* bvh;
+    const char* duration;  // s, from the scene's start to the clip's end
+    int frames;
+    long census;
+    double strain;
+  };
+  for (const Clip& c :
+       {Clip{"01_03_8.5s_to_11s.bvh", "1.4", 84, 0, 0.125}, Clip{"01_01.bvh", "21.9", 1314, 7, 0.185},
+        Clip{"Boxing_Toes.bvh", "29.6", 1776, 134, 0.64}}) {
+    const Figures f = run(
+        "character_layers",
+        {std::string("character.bvh=../tests/data/mocap/") + c.bvh, std::string("duration=") + c.duration}, 1,
+        c.census);
+    EXPECT_EQ(f.frames, c.frames) << c.bvh;
+    EXPECT_LT(f.max_strain, c.strain) << c.bvh;
   }
 }
 
@@ -73,9 +100,9 @@ TEST(RealtimeCharacter, CapeAndSkirtScenes) {
 // between arm and torso capsules closer than the proximity allows; the real-time tier keeps every vertex out
 // of the capsules but lets a few triangle pairs cross there (the reference tier's impact zones keep 0).
 TEST(RealtimeCharacter, ShirtPinchKeepsVerticesOutOfTheCapsules) {
-  const Figures f = run("character_shirt", {}, 1, 20);
+  const Figures f = run("character_shirt", {}, 1, 11);
   EXPECT_EQ(f.frames, 255);
-  EXPECT_LT(f.max_strain, 0.2);
+  EXPECT_LT(f.max_strain, 0.135);
 }
 
 TEST(RealtimeCharacter, ResultsDoNotDependOnTheThreadCount) {

@@ -62,6 +62,8 @@ class RealtimeBodyContactStage final : public cloth::Stage {
     Vec3 lo, hi;                    // m, world box over prev and curr, inflated by the thickness
     Vec3 a0, b0, a1, b1;            // m, capsule axis ends (sphere: a = b = centre) at prev and curr
     double radius = 0.0;            // m, sphere and capsule
+    Vec3 core_lo, core_hi;          // m, box over prev and curr of the axis ends (other shapes: origins)
+    double reach = 0.0;             // m, the shape's extent beyond that box (radius; bounding radius)
     double motion = 0.0;            // m, bound on any surface point's displacement over the step
     double thickness = 0.0;         // m
     double swept_threshold = 0.0;   // m, relative motion above which step 3 runs
@@ -73,7 +75,10 @@ class RealtimeBodyContactStage final : public cloth::Stage {
   struct ColliderGrid;  // the per-step collider grid over the cloth's box
 
   void run_cloth(cloth::Cloth& cloth, double h);
-  // Fills prepared_ for every collider and active_ with those whose box meets the cloth's box [lo, hi].
+  // Fills the pose data of prepared_ (the same for every cloth of the step).
+  void prepare_poses(const ColliderSet& set);
+  // Fills the rest of prepared_ for every collider and active_ with those whose box meets the cloth's box
+  // [lo, hi].
   void prepare_colliders(const ColliderSet& set, double material_thickness, const Vec3& lo, const Vec3& hi);
   ColliderGrid build_grid(const Vec3& lo, const Vec3& hi);
   // Writes into cand (kMaxCandidates at most) the active colliders whose box holds x or x0; their count.

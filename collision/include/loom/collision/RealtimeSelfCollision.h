@@ -8,9 +8,12 @@
 //      in the padded box of a triangle that does not hold it becomes a candidate pair, except pairs of one
 //      cloth closer than 2t at rest (a vertex and a neighbouring triangle on flat cloth: never contacts). The
 //      list is sorted by (vertex, triangle) without duplicates. With D the
-//      largest distance a vertex has moved since that broad phase relative to the cloths' mean motion, two
-//      vertices have moved by at most 2D relative to each other, so while 2D <= P the list holds every pair
-//      whose vertex lies in the triangle's box inflated by t now; the broad phase runs again when 2D > P;
+//      largest distance of a vertex's displacement since that broad phase from a common centre (the middle
+//      of the displacements' box), two vertices have moved by at most 2D relative to each other, so while
+//      2D <= P the list holds every pair whose vertex lies in the triangle's box inflated by t now; the same
+//      holds per cloth (2 R_c <= P within cloth c, R_a + R_b + |r_a - r_b| <= P between cloths a and b, with
+//      r_c and R_c the centre and radius of cloth c's displacements); the broad phase runs again when
+//      neither bound holds;
 //   2. narrow phase, for the candidates whose vertex lies in the triangle's box inflated by t at the run's
 //      start: where the vertex projects inside the triangle and lies closer than the thickness t to its
 //      plane, the pair is pushed apart to t along the triangle normal (t between cloths, a fraction of it
@@ -55,7 +58,8 @@ class RealtimeSelfCollisionStage final : public cloth::Stage {
  private:
   void prepare(const std::vector<std::unique_ptr<cloth::Cloth>>& cloths);
   long cell_key(int x, int y, int z) const;
-  // True when a vertex has moved more than P/2 relative to the mean motion since the broad phase at built_.
+  // False when no vertex can have moved more than P relative to the corners of a triangle it pairs with
+  // since the broad phase at built_ (step 1's bound); fills centre_ / radius_.
   bool moved_too_far() const;
   // Fills rest_start_ / rest_tri_.
   void rest_neighbours();
@@ -96,6 +100,8 @@ class RealtimeSelfCollisionStage final : public cloth::Stage {
   std::vector<cloth::Vec3*> xs_, vs_;      // scratch: each global vertex's position and velocity
   std::vector<double> w_;                  // scratch: each global vertex's inverse mass (1/kg)
   std::vector<int> fill_;                  // scratch: counting-sort cursors
+  mutable cloth::Vec3s centre_;            // scratch: m, per cloth, centre of its displacements
+  mutable std::vector<double> radius_;     // scratch: m, per cloth, largest distance from that centre
   long runs_ = 0, broad_phases_ = 0, candidates_ = 0, pairs_ = 0, contacts_ = 0;
 };
 
