@@ -338,11 +338,12 @@ TEST(RedteamCheckpoint, GltfClipBuffersAreHashedAndAChangedBufferIsRefused) {
   ASSERT_NE(at, std::string::npos);
   const std::string b64 = text.substr(at + prefix.size(), end - at - prefix.size());
   std::string bin;
-  int bits = 0, acc = 0;
+  int bits = 0;
+  unsigned acc = 0;  // the undecoded bits (at most 14 of them), kept small
   const std::string abc = "ABCDEFGHIJKLMNOPQRSTUVWXYZabcdefghijklmnopqrstuvwxyz0123456789+/";
   for (char c : b64) {
     if (abc.find(c) == std::string::npos) break;
-    acc = (acc << 6) | static_cast<int>(abc.find(c));
+    acc = ((acc << 6) | static_cast<unsigned>(abc.find(c))) & 0xffffu;
     if ((bits += 6) >= 8) bin.push_back(static_cast<char>((acc >> (bits -= 8)) & 0xff));
   }
   text.replace(at, end - at, "clip.bin");

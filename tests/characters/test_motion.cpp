@@ -330,12 +330,13 @@ TEST(Motion, GltfExternalBuffersAreRecordedAndChecked) {
   // Each embedded base64 buffer becomes its own file buf<k>.bin.
   auto decode = [](const std::string& b64) {
     std::string out;
-    int bits = 0, acc = 0;
+    int bits = 0;
+    unsigned acc = 0;  // the undecoded bits (at most 14 of them), kept small
     for (char c : b64) {
       const char* abc = "ABCDEFGHIJKLMNOPQRSTUVWXYZabcdefghijklmnopqrstuvwxyz0123456789+/";
       const char* at = std::strchr(abc, c);
       if (c == '=' || !at || !c) break;
-      acc = (acc << 6) | static_cast<int>(at - abc);
+      acc = ((acc << 6) | static_cast<unsigned>(at - abc)) & 0xffffu;
       bits += 6;
       if (bits >= 8) {
         bits -= 8;
