@@ -5,6 +5,7 @@
 #include <cstdlib>
 #include <iostream>
 #include <random>
+#include <set>
 #include <string>
 #include <vector>
 
@@ -37,6 +38,7 @@ int ccd_eval_main(int argc, char** argv) {
   int scale_exp = 0;
   double translate = 0;
   collision::CcdOptions options;
+  std::set<std::string> seen;  // options that take a value, given once
   for (int i = 2; i < argc; ++i) {
     const std::string a = argv[i];
     auto value = [&]() -> const char* {
@@ -44,6 +46,7 @@ int ccd_eval_main(int argc, char** argv) {
         std::fprintf(stderr, "loom: error: %s needs a value (see loom ccd-eval --help)\n", a.c_str());
         std::exit(2);
       }
+      cli_once(seen, a);
       return argv[++i];
     };
     if (a == "-h" || a == "--help") {

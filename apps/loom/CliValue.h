@@ -7,6 +7,7 @@
 #include <cmath>
 #include <cstdio>
 #include <cstdlib>
+#include <set>
 #include <string>
 
 #include "Terminal.h"
@@ -43,6 +44,14 @@ inline long long cli_integer(const std::string& flag, const std::string& text, l
   if (text.empty() || *end || errno == ERANGE || v < lo || v > hi)
     cli_refuse(flag, text, "a whole number in [" + std::to_string(lo) + ", " + std::to_string(hi) + "]");
   return v;
+}
+
+// An option that takes a value may be given once (`--set` excepted): a second `--out` or `--frames` would
+// silently win over the first. Records `flag` in `seen` and refuses it (exit 2) the second time.
+inline void cli_once(std::set<std::string>& seen, const std::string& flag) {
+  if (flag == "--set" || seen.insert(flag).second) return;
+  std::fprintf(stderr, "loom: error: %s given twice (give each option once)\n", printable(flag).c_str());
+  std::exit(2);
 }
 
 }  // namespace loom::app

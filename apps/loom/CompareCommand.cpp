@@ -6,6 +6,7 @@
 #include <fstream>
 #include <iostream>
 #include <nlohmann/json.hpp>
+#include <set>
 #include <string>
 #include <vector>
 
@@ -60,10 +61,12 @@ int compare_main(int argc, char** argv) {
   std::vector<std::string> sets;
   int frames = -1;
   bool overwrite = false;
+  std::set<std::string> seen;  // options that take a value, given once
   for (int i = 2; i < argc; ++i) {
     const std::string a = argv[i];
     auto value = [&](const char* name) -> std::string {
       if (i + 1 >= argc) throw Error("", name, "needs a value");
+      cli_once(seen, name);
       return argv[++i];
     };
     if (a == "-h" || a == "--help") {
@@ -98,7 +101,7 @@ int compare_main(int argc, char** argv) {
     throw Error(sc.file, "bodies",
                 "loom compare runs a character scene without rigid bodies (remove 'bodies')");
   // The folder is checked (and claimed) before the runs, so a refused folder costs nothing.
-  eval::OutputFolder folder(out, "--out", overwrite, false);
+  eval::OutputFolder folder(out, "--out", overwrite, false, {"compare.json", "compare.csv"});
 #ifdef LOOM_HAVE_CHARACTER_COMPARE
   if (sc.character) return compare_character(sc, frames, folder);  // Character scenes
 #endif

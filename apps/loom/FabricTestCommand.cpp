@@ -8,6 +8,7 @@
 #include <fstream>
 #include <iostream>
 #include <nlohmann/json.hpp>
+#include <set>
 #include <string>
 
 #include "CliValue.h"
@@ -134,10 +135,12 @@ int fabric_test_main(int argc, char** argv) {
   eval::FabricTestOptions o;
   std::string material = "cotton", out;
   bool json = false, have_test = false, model_given = false, overwrite = false;
+  std::set<std::string> seen;  // options that take a value, given once
   for (int i = 2; i < argc; ++i) {
     const std::string a = argv[i];
     auto value = [&]() -> const char* {
       if (i + 1 >= argc) throw Error("", a, "needs a value (see loom fabric-test --help)");
+      cli_once(seen, a);
       return argv[++i];
     };
     if (a == "-h" || a == "--help") {
@@ -199,7 +202,7 @@ int fabric_test_main(int argc, char** argv) {
   if (!known_model) throw Error("", "--model", "unknown model '" + o.model + "'");
   // The report folder is checked (and claimed) before the test runs, so a refused folder costs nothing.
   eval::OutputFolder folder(out.empty() ? fs::path("out") / "fabric-test" / o.test : fs::path(out), "--out",
-                            overwrite, false);
+                            overwrite, false, {"curve.csv", "report.md", "plot.gp", "plot.png"});
   const eval::FabricTestResult r = eval::run_fabric_test(o);
   write_report(folder, r);
   if (json) {

@@ -8,6 +8,7 @@
 #include <filesystem>
 #include <fstream>
 #include <iostream>
+#include <set>
 #include <string>
 #include <vector>
 
@@ -156,6 +157,7 @@ int bench_realtime(int argc, char** argv) {
   double seconds = 2.0;
   int sheet_n = 64, repeats = 1;
   bool overwrite = false;
+  std::set<std::string> seen;  // options that take a value, given once
   for (int i = 3; i < argc; ++i) {
     const std::string a = argv[i];
     auto value = [&]() -> std::string {
@@ -163,6 +165,7 @@ int bench_realtime(int argc, char** argv) {
         std::fprintf(stderr, "loom: error: %s needs a value (see loom bench realtime --help)\n", a.c_str());
         std::exit(2);
       }
+      cli_once(seen, a);
       return argv[++i];
     };
     if (a == "-h" || a == "--help") {
@@ -186,7 +189,10 @@ int bench_realtime(int argc, char** argv) {
       return 2;
     }
   }
-  eval::OutputFolder folder(out, "--out", overwrite, false);
+  std::vector<std::string> writes;
+  for (const char* name : {"character_realtime", "sheet_realtime"})
+    for (const char* ext : {".png", ".dat", ".gp", ".csv"}) writes.push_back(std::string(name) + ext);
+  eval::OutputFolder folder(out, "--out", overwrite, false, writes);
   const int frames = std::max(1, static_cast<int>(std::lround(seconds * 60.0)));
   const char* env = std::getenv("LOOM_SCENES");
   const std::string scenes = (env ? std::string(env) : std::string(LOOM_SOURCE_DIR) + "/scenes") + "/";

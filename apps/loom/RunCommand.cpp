@@ -276,10 +276,38 @@ void SceneRun::open_outputs() {
   out_ = o_.out.empty() ? fs::path("out") / sc_.name : fs::path(o_.out);
   if (o_.out.empty() && fs::path(sc_.name).filename() != fs::path(sc_.name))
     throw Error(scene_path_, "name", "is not a plain file name, so it cannot name the output folder");
-  folder_ =
-      std::make_unique<OutputFolder>(out_, resume_ ? "--resume" : "--out", o_.overwrite, resume_.has_value());
-  first_ = resume_ ? resume_->frame : 0;
+#ifndef LOOM_HAVE_RENDER
+  if (o_.render)
+    throw Error("", "--render",
+                "this loom was built without the offscreen renderer (Debian: libosmesa6-dev libstb-dev)");
+#endif
   shown_ = std::make_unique<DetailView>(sc_, *sim_);
+  // Every path this run may write, checked before the folder changes (a refused run leaves it as it was).
+  std::vector<std::string> writes = {"frames/",
+                                     "frames/frame_#.obj",
+                                     "stats.csv.partial",
+                                     "stats.csv",
+                                     "summary.json",
+                                     "summary.json.tmp",
+                                     "bodies.csv",
+                                     "checkpoint/",
+                                     "checkpoint/checkpoint.bin",
+                                     "checkpoint/checkpoint.bin.tmp",
+                                     "checkpoint/frames.bin",
+                                     "render/",
+                                     "render/frame_#.png",
+                                     "render.mp4",
+                                     "render.gif",
+                                     "animation.gltf",
+                                     "animation.gltf.tmp",
+                                     "animation.bin"};
+  for (const std::string& n : exporter::Exporters::file_names(shown_->cloths()))
+    writes.insert(writes.end(), {"pc2/", "pc2/" + n + ".obj", "pc2/" + n + ".pc2"});
+  std::vector<std::string> inputs = {scene_path_};
+  inputs.insert(inputs.end(), sc_.inputs.begin(), sc_.inputs.end());
+  folder_ = std::make_unique<OutputFolder>(out_, resume_ ? "--resume" : "--out", o_.overwrite,
+                                           resume_.has_value(), writes, inputs);
+  first_ = resume_ ? resume_->frame : 0;
   bool in_memory = o_.render;
   for (const std::string& f : sc_.output.formats) in_memory = in_memory || f == "pc2" || f == "gltf";
   std::string kept_rows;
@@ -323,10 +351,6 @@ void SceneRun::open_outputs() {
                                                    sc_.output.every);
 #ifdef LOOM_HAVE_RENDER
   if (o_.render) recording_ = std::make_unique<render::Recording>(shown_->cloths(), pipeline_->colliders());
-#else
-  if (o_.render)
-    throw Error("", "--render",
-                "this loom was built without the offscreen renderer (Debian: libosmesa6-dev libstb-dev)");
 #endif
 }
 

@@ -102,6 +102,7 @@ std::string non_empty(const char* flag, const char* value) {
 
 int run_main(int argc, char** argv) {
   loom::app::RunOptions o;
+  std::set<std::string> seen;  // options that take a value, given once
   for (int i = 2; i < argc; ++i) {
     const std::string a = argv[i];
     auto value = [&]() -> const char* {
@@ -109,6 +110,7 @@ int run_main(int argc, char** argv) {
         std::fprintf(stderr, "loom: error: %s needs a value (see loom run --help)\n", a.c_str());
         std::exit(2);
       }
+      loom::app::cli_once(seen, a);
       return argv[++i];
     };
     if (a == "-h" || a == "--help") {

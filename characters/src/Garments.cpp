@@ -9,6 +9,7 @@
 
 #include "loom/cloth/Error.h"
 #include "loom/cloth/InputFile.h"
+#include "loom/cloth/ObjFile.h"
 #include "loom/collision/Distance.h"
 
 namespace loom::characters {
@@ -138,34 +139,11 @@ const std::set<std::string> kUpperTorso = {"Spine1", "Chest",        "Neck",
 }  // namespace
 
 std::map<std::string, std::vector<int>> read_obj_groups(const std::string& path) {
-  // A regular file of bounded size, split at any line ending (InputFile.h).
-  const std::vector<std::string> lines = input_lines(read_input_file(path));
+  const cloth::ObjFile obj = cloth::read_obj_file(path);  // the one strict reader (ObjFile.h)
   std::map<std::string, std::set<int>> groups;
-  std::vector<std::string> current = {"default"};
-  int vertices = 0, line_no = 0;
-  for (const std::string& line : lines) {
-    ++line_no;
-    std::istringstream ls(line);
-    std::string tag;
-    if (!(ls >> tag)) continue;
-    if (tag == "v") {
-      ++vertices;
-    } else if (tag == "g") {
-      current.clear();
-      std::string name;
-      while (ls >> name) current.push_back(name);
-      if (current.empty()) current.push_back("default");
-    } else if (tag == "f") {
-      std::string corner;
-      while (ls >> corner) {
-        const long idx = std::strtol(corner.substr(0, corner.find('/')).c_str(), nullptr, 10);
-        const long v = idx > 0 ? idx - 1 : vertices + idx;
-        if (idx == 0 || v < 0 || v >= vertices)
-          throw Error(path, line_where(line_no, line), "bad vertex index '" + corner + "'");
-        for (const std::string& g : current) groups[g].insert(static_cast<int>(v));
-      }
-    }
-  }
+  for (const cloth::ObjFace& f : obj.faces)
+    for (const cloth::ObjCorner& c : f.corners)
+      for (const std::string& g : obj.groups[f.group]) groups[g].insert(c.v);
   std::map<std::string, std::vector<int>> out;
   for (const auto& [name, set] : groups) out[name] = std::vector<int>(set.begin(), set.end());
   return out;

@@ -5,6 +5,7 @@
 
 #include <algorithm>
 #include <assimp/Importer.hpp>
+#include <cctype>
 #include <cmath>
 #include <cstdlib>
 #include <filesystem>
@@ -14,6 +15,7 @@
 #include <limits>
 #include <map>
 
+#include "AssimpInput.h"
 #include "loom/cloth/Error.h"
 #include "loom/cloth/InputFile.h"
 
@@ -52,39 +54,60 @@ bool is_bvh(const std::string& path) {
 
 void check_bvh_nesting(const std::string& path) {
   if (!is_bvh(path)) return;
-  std::ifstream in(path, std::ios::binary);
+  const std::string text = read_input_file(path);  // a regular file of bounded size (InputFile.h)
+  // The file as whitespace-separated tokens, as assimp's BVH reader reads it (line breaks mean nothing).
+  size_t at = 0;
+  auto skip = [&]() {  // to the end of the next token; false at the end of the file
+    while (at < text.size() && std::isspace(static_cast<unsigned char>(text[at]))) ++at;
+    const size_t start = at;
+    while (at < text.size() && !std::isspace(static_cast<unsigned char>(text[at]))) ++at;
+    return at > start;
+  };
+  auto next = [&]() {  // the next token ("" at the end of the file)
+    if (!skip()) return std::string();
+    size_t start = at;
+    while (start > 0 && !std::isspace(static_cast<unsigned char>(text[start - 1]))) --start;
+    return text.substr(start, at - start);
+  };
   int depth = 0;
   bool opened = false;
-  for (char c; in.get(c);) {
-    if (c == '{' && ++depth > kMaxJointDepth)
+  unsigned long long channels = 0;  // numbers per frame: the sum of every joint's CHANNELS count
+  for (std::string tok = next(); !tok.empty(); tok = next()) {
+    if (tok == "{" && ++depth > kMaxJointDepth)
       throw Error(path, "HIERARCHY",
                   "joints nest more than " + std::to_string(kMaxJointDepth) + " levels deep");
-    opened = opened || c == '{';
-    if (c == '}') --depth;
+    opened = opened || tok == "{";
+    if (tok == "}") --depth;
+    if (tok == "CHANNELS") {
+      const std::string n = next();
+      if (n.empty() || n.size() > 2 || n.find_first_not_of("0123456789") != std::string::npos)
+        throw Error(path, "CHANNELS", "expected a channel count in [0, 99] (got '" + n + "')");
+      channels += std::stoull(n);
+    }
     if (opened && depth == 0) break;  // the root joint's block has closed: MOTION follows
   }
-  // "Frames: N" is what the reader reserves memory for: never more frames than the file has lines after
-  // "Frame Time" (a crafted count would allocate without bound before the first key is read).
-  std::string rest((std::istreambuf_iterator<char>(in)), std::istreambuf_iterator<char>());
-  const size_t at = rest.find("Frames:");
-  const size_t time_at = rest.find("Frame Time:");
-  if (at == std::string::npos || time_at == std::string::npos) return;  // the reader names what is missing
-  const unsigned long long frames = std::strtoull(rest.c_str() + at + 7, nullptr, 10);
-  unsigned long long lines = 0;
-  bool blank = true;
-  for (size_t i = rest.find('\n', time_at); i != std::string::npos && i < rest.size(); ++i) {
-    if (rest[i] == '\n' || rest[i] == '\r') {
-      if (!blank) ++lines;
-      blank = true;
-    } else if (rest[i] != ' ' && rest[i] != '\t') {
-      blank = false;
-    }
-  }
-  if (!blank) ++lines;
-  if (frames > lines)
+  // "Frames: N" is what the reader reserves memory for: never more frames than the MOTION section has
+  // numbers for (CHANNELS numbers per frame, however they are spread over lines), so a crafted count cannot
+  // allocate without bound before the first key is read.
+  std::string tok = next();
+  while (!tok.empty() && tok != "Frames:") tok = next();
+  if (tok.empty()) return;  // the reader names what is missing
+  const std::string count = next();
+  if (count.empty() || count.size() > 19 || count.find_first_not_of("0123456789") != std::string::npos)
+    throw Error(path, "Frames", "expected a whole number of frames (got '" + count + "')");
+  const unsigned long long frames = std::stoull(count);
+  // assimp's reader makes one key out of no data for "Frames: 0" (and a clip of 2^32 - 1 frame times).
+  if (frames == 0) throw Error(path, "Frames", "the MOTION section holds no frame (Frames must be >= 1)");
+  if (next() != "Frame" || next() != "Time:") return;  // the reader names what is missing
+  next();  // the frame time (checked against the animation's rate after reading)
+  unsigned long long numbers = 0;
+  while (skip()) ++numbers;
+  const unsigned long long per_frame = std::max(channels, 1ull);
+  if (frames > numbers / per_frame)
     throw Error(path, "Frames",
                 "says " + std::to_string(frames) + " frames but the MOTION section holds " +
-                    std::to_string(lines) + " frame lines");
+                    std::to_string(numbers) + " numbers: room for " + std::to_string(numbers / per_frame) +
+                    " frames of " + std::to_string(channels) + " channels");
 }
 
 void check_node_depth(const std::string& path, const aiNode* root) {
@@ -204,13 +227,11 @@ Motion Motion::load(const std::string& path, const MotionSettings& settings) {
                             : "no such file"));
   }
   check_bvh_nesting(path);
+  Motion m;
   Assimp::Importer importer;
-  const aiScene* scene = importer.ReadFile(path, 0);
-  if (!scene || !scene->mRootNode)
-    throw Error(path, "", std::string("cannot read motion: ") + importer.GetErrorString());
+  const aiScene* scene = read_with_assimp(importer, path, 0, "motion", m.files_);
   check_node_depth(path, scene->mRootNode);
 
-  Motion m;
   m.source_ = path;
   m.settings_ = settings;
   const aiAnimation* anim = scene->mNumAnimations > 0 ? scene->mAnimations[0] : nullptr;
@@ -222,6 +243,13 @@ Motion Motion::load(const std::string& path, const MotionSettings& settings) {
 
   HierarchyReader reader{path, channels, tps, m.joints_, m.tracks_, m.duration_};
   reader.walk(scene->mRootNode, -1);
+  // Joints are found by name (garment attachments, capsule radii, skins): a name given twice is ambiguous.
+  std::map<std::string, int> seen;
+  for (int k = 0; k < m.num_joints(); ++k)
+    if (!m.joints_[k].name.empty() && !seen.emplace(m.joints_[k].name, k).second)
+      throw Error(path, "joint '" + m.joints_[k].name + "'",
+                  "the name is given twice (joints " + std::to_string(seen[m.joints_[k].name]) + " and " +
+                      std::to_string(k) + "): joints are found by name");
   m.root_ = 0;
   for (int k = 0; k < m.num_joints(); ++k)
     if (m.joints_[k].animated) {

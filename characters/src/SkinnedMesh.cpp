@@ -8,6 +8,7 @@
 #include <functional>
 #include <map>
 
+#include "AssimpInput.h"
 #include "loom/cloth/Error.h"
 
 namespace loom::characters {
@@ -27,13 +28,11 @@ Affine rescale(Affine a, double scale) {
   return a;
 }
 
-const aiScene* read(Assimp::Importer& importer, const std::string& path) {
+const aiScene* read(Assimp::Importer& importer, const std::string& path, SkinnedMesh& out) {
   const unsigned flags = aiProcess_Triangulate | aiProcess_JoinIdenticalVertices |
                          aiProcess_LimitBoneWeights | aiProcess_SortByPType;
-  const aiScene* scene = importer.ReadFile(path, flags);
-  if (!scene || !scene->mRootNode)
-    throw Error(path, "", std::string("cannot read the mesh: ") + importer.GetErrorString());
-  return scene;
+  out.source = path;
+  return read_with_assimp(importer, path, flags, "the mesh", out.files);
 }
 
 void read_geometry(const aiMesh* m, double scale, const Affine& transform, const std::string& path,
@@ -74,10 +73,9 @@ const aiMesh* pick(const aiScene* scene, int mesh, bool need_bones, const std::s
 SkinnedMesh load_skinned_mesh(const std::string& path, int mesh, double scale) {
   if (!(scale > 0.0) || !std::isfinite(scale)) throw Error(path, "scale", "must be > 0");
   Assimp::Importer importer;
-  const aiScene* scene = read(importer, path);
-  const aiMesh* m = pick(scene, mesh, true, path);
   SkinnedMesh out;
-  out.source = path;
+  const aiScene* scene = read(importer, path, out);
+  const aiMesh* m = pick(scene, mesh, true, path);
   read_geometry(m, scale, Affine::Identity(), path, out);
 
   std::vector<std::string> names(m->mNumBones);
@@ -130,9 +128,8 @@ SkinnedMesh load_skinned_mesh(const std::string& path, int mesh, double scale) {
 SkinnedMesh load_static_mesh(const std::string& path, int mesh, double scale, const Affine& transform) {
   if (!(scale > 0.0) || !std::isfinite(scale)) throw Error(path, "scale", "must be > 0");
   Assimp::Importer importer;
-  const aiScene* scene = read(importer, path);
   SkinnedMesh out;
-  out.source = path;
+  const aiScene* scene = read(importer, path, out);
   read_geometry(pick(scene, mesh, false, path), scale, transform, path, out);
   return out;
 }

@@ -11,6 +11,7 @@
 
 #include "loom/cloth/Error.h"
 #include "loom/cloth/InputFile.h"
+#include "loom/cloth/ObjFile.h"
 
 namespace loom::cloth {
 
@@ -318,100 +319,20 @@ void ClothMesh::build_mesh_springs() {
 
 std::shared_ptr<const ClothMesh> ClothMesh::from_obj(const std::string& path, double scale,
                                                      const Vec3& translate) {
-  // A regular file of bounded size, split at any line ending (InputFile.h).
-  const std::vector<std::string> lines = input_lines(read_input_file(path));
-  Vec3s positions;
-  std::vector<Vec2> texcoords;
+  const ObjFile obj = read_obj_file(path);  // strict: file, line and problem on any fault (ObjFile.h)
+  Vec3s positions = obj.positions;
+  const std::vector<Vec2>& texcoords = obj.texcoords;
   std::vector<Tri> triangles;
   std::vector<std::array<int, 3>> tri_vt;
   bool any_vt = false, all_vt = true;
-  std::string line;
-  int line_no = 0;
-  auto fail = [&](const std::string& problem) { throw Error(path, line_where(line_no, line), problem); };
-  for (const std::string& text : lines) {
-    line = text;
-    ++line_no;
-    std::istringstream ls(line);
-    std::string tag;
-    if (!(ls >> tag) || tag[0] == '#') continue;
-    // One decimal number read with strtod, so that "nan" and "inf" are read and then rejected by name; never
-    // hexadecimal ("0x1p3"), which strtod would also read.
-    auto decimal = [](const std::string& tok, double& out) {
-      if (tok.find_first_of("xX") != std::string::npos) return false;
-      char* end = nullptr;
-      out = std::strtod(tok.c_str(), &end);
-      return end != tok.c_str() && !*end;
-    };
-    auto read_numbers = [&](int count, double* out) {
-      std::string tok;
-      for (int k = 0; k < count; ++k)
-        if (!(ls >> tok) || !decimal(tok, out[k])) return false;
-      return true;
-    };
-    // After the numbers a directive needs, only numbers may follow (a `v`'s weight or the common r g b
-    // colour extension, a `vt`'s w): never text.
-    auto only_numbers = [&](const char* what) {
-      std::string tok;
-      double extra = 0.0;
-      while (ls >> tok)
-        if (!decimal(tok, extra)) fail("unexpected '" + tok + "' after the " + what);
-    };
-    if (tag == "v") {
-      Vec3 p;
-      if (!read_numbers(3, p.data())) fail("'v' needs three numbers (decimal)");
-      only_numbers("vertex's coordinates");
-      if (!p.allFinite()) fail("vertex coordinate is not finite");
-      positions.push_back(p);
-    } else if (tag == "vt") {
-      Vec2 uv;
-      if (!read_numbers(2, uv.data())) fail("'vt' needs two numbers (decimal)");
-      only_numbers("texture coordinates");
-      if (!uv.allFinite()) fail("texture coordinate is not finite");
-      texcoords.push_back(uv);
-    } else if (tag == "f") {
-      std::vector<int> vi, ti;
-      std::string corner;
-      while (ls >> corner) {
-        // v, v/vt, v//vn or v/vt/vn; negative indices count back from the end.
-        const size_t slash = corner.find('/');
-        auto parse_index = [&](const std::string& s, size_t count, const char* what) {
-          size_t used = 0;
-          long idx = 0;
-          try {
-            idx = std::stol(s, &used);
-          } catch (...) {
-            fail(std::string("bad ") + what + " index '" + s + "'");
-          }
-          if (used != s.size()) fail(std::string("bad ") + what + " index '" + s + "'");
-          long resolved = idx > 0 ? idx - 1 : static_cast<long>(count) + idx;
-          if (idx == 0 || resolved < 0 || resolved >= static_cast<long>(count))
-            fail(std::string(what) + " index " + s + " is out of range (" + std::to_string(count) +
-                 " defined so far)");
-          return static_cast<int>(resolved);
-        };
-        vi.push_back(parse_index(corner.substr(0, slash), positions.size(), "vertex"));
-        int t = -1;
-        if (slash != std::string::npos) {
-          const size_t slash2 = corner.find('/', slash + 1);
-          const std::string vt =
-              corner.substr(slash + 1, slash2 == std::string::npos ? std::string::npos : slash2 - slash - 1);
-          if (!vt.empty()) t = parse_index(vt, texcoords.size(), "texture");
-        }
-        ti.push_back(t);
-      }
-      if (vi.size() < 3) fail("a face needs at least 3 vertices");
-      for (size_t k = 1; k + 1 < vi.size(); ++k) {
-        triangles.push_back({vi[0], vi[k], vi[k + 1]});
-        tri_vt.push_back({ti[0], ti[k], ti[k + 1]});
-        const bool has = ti[0] >= 0 && ti[k] >= 0 && ti[k + 1] >= 0;
-        any_vt = any_vt || has;
-        all_vt = all_vt && has;
-      }
-    } else if (tag == "vn" || tag == "o" || tag == "g" || tag == "s" || tag == "usemtl" || tag == "mtllib" ||
-               tag == "l" || tag == "vp") {
-      continue;
-    } else {
-      fail("unknown OBJ directive '" + tag + "'");
+  for (const ObjFace& f : obj.faces) {
+    const std::vector<ObjCorner>& c = f.corners;
+    for (size_t k = 1; k + 1 < c.size(); ++k) {  // polygons fan-split
+      triangles.push_back({c[0].v, c[k].v, c[k + 1].v});
+      tri_vt.push_back({c[0].vt, c[k].vt, c[k + 1].vt});
+      const bool has = c[0].vt >= 0 && c[k].vt >= 0 && c[k + 1].vt >= 0;
+      any_vt = any_vt || has;
+      all_vt = all_vt && has;
     }
   }
   for (Vec3& p : positions) p = scale * p + translate;

@@ -94,11 +94,11 @@ Simulation::Simulation(SimulationSetup setup, const std::string& file) : setup_(
   if (setup_.threads < 1) throw Error(file, "threads", "must be >= 1");
   if (setup_.strain_limit &&
       !(setup_.strain_limit->max_stretch >= 0.0 && setup_.strain_limit->max_stretch < 1e6))
-    throw Error(file, "constraints.strain_limit.max_stretch", "must be >= 0");
+    throw Error(file, "constraints.strain_limit.max_stretch", "must be in [0, 1e6)");
   if (setup_.strain_limit && setup_.strain_limit->iterations < 1)
     throw Error(file, "constraints.strain_limit.iterations", "must be >= 1");
   if (setup_.tethers && !(setup_.tethers->slack >= 0.0 && setup_.tethers->slack < 1e6))
-    throw Error(file, "constraints.tethers.slack", "must be >= 0");
+    throw Error(file, "constraints.tethers.slack", "must be in [0, 1e6)");
   if (!setup_.gravity.allFinite()) throw Error(file, "gravity", "must be finite");
   if (setup_.cloths.empty()) throw Error(file, "cloths", "a scene needs at least one cloth");
   if (setup_.wind) setup_.wind->validate(file, "effects.wind");

@@ -31,6 +31,14 @@ bool barycentric(const Vec3& a, const Vec3& b, const Vec3& c, const Vec3& p, dou
 constexpr double kInsideTolerance =
     0.02;  // 1, barycentric slack: a vertex over a shared edge sees both faces
 
+// Cells of side 1 / inv_cell that the box [lo, hi] overlaps, in double (no overflow; NaN for a NaN box,
+// which the callers count as large).
+double box_cells(const Vec3& lo, const Vec3& hi, double inv_cell) {
+  double cells = 1.0;
+  for (int k = 0; k < 3; ++k) cells *= std::floor(hi[k] * inv_cell) - std::floor(lo[k] * inv_cell) + 1.0;
+  return cells;
+}
+
 // True when p lies in the box [lo, hi] (x, y, z lanes; the fourth lane is ignored).
 inline bool in_box(const float* p, const float* lo, const float* hi) {
 #ifdef __SSE2__
@@ -58,7 +66,9 @@ std::vector<std::pair<std::string, double>> RealtimeSelfCollisionStage::counters
           {"broad_phases", static_cast<double>(broad_phases_)},
           {"candidates", static_cast<double>(candidates_)},
           {"pairs", static_cast<double>(pairs_)},
-          {"contacts", static_cast<double>(contacts_)}};
+          {"contacts", static_cast<double>(contacts_)},
+          {"large_boxes", static_cast<double>(large_boxes_)},
+          {"hash_entries", static_cast<double>(hash_entries_)}};
 }
 
 void RealtimeSelfCollisionStage::save_state(cloth::StateWriter& out) const {
@@ -145,18 +155,23 @@ void RealtimeSelfCollisionStage::rest_neighbours() {
     const double edge = std::max({(rb - ra).norm(), (rc - rb).norm(), (ra - rc).norm()});
     const Vec3 reach = Vec3::Constant(2.0 * t_self + kInsideTolerance * edge);
     const Vec3 lo = ra.cwiseMin(rb).cwiseMin(rc) - reach, hi = ra.cwiseMax(rb).cwiseMax(rc) + reach;
+    auto test = [&](int g) {
+      if (vert_cloth_[g] != tri_cloth_[q] || tri[0] == g || tri[1] == g || tri[2] == g) return;
+      double rbw[3];
+      if (std::abs((rest_[g] - ra).dot(rn)) < 2.0 * t_self && barycentric(ra, rb, rc, rest_[g], rbw) &&
+          inside_triangle(rbw))
+        pairs.emplace_back(g, q);
+    };
+    if (!(box_cells(lo, hi, inv_cell) <= kMaxBoxCells)) {  // every vertex once, not cell by cell
+      for (int g = offset_[tri_cloth_[q]]; g < offset_[tri_cloth_[q] + 1]; ++g) test(g);
+      continue;
+    }
     for (long x = cell_of(lo.x()); x <= cell_of(hi.x()); ++x)
       for (long y = cell_of(lo.y()); y <= cell_of(hi.y()); ++y)
         for (long z = cell_of(lo.z()); z <= cell_of(hi.z()); ++z) {
           const auto it = cells.find(key(x, y, z));
           if (it == cells.end()) continue;
-          for (int g : it->second) {
-            if (vert_cloth_[g] != tri_cloth_[q] || tri[0] == g || tri[1] == g || tri[2] == g) continue;
-            double rbw[3];
-            if (std::abs((rest_[g] - ra).dot(rn)) < 2.0 * t_self && barycentric(ra, rb, rc, rest_[g], rbw) &&
-                inside_triangle(rbw))
-              pairs.emplace_back(g, q);
-          }
+          for (int g : it->second) test(g);
         }
   }
   std::sort(pairs.begin(), pairs.end());
@@ -214,18 +229,23 @@ void RealtimeSelfCollisionStage::broad_phase() {
   // Clamped before the conversion (a cloth flung far from the origin must not overflow int); clamped cells
   // only gather more triangles into the end cells, the box test below stays exact.
   constexpr double kMaxCell = 1 << 30;
-  auto cell_of = [&](double v) {
-    return static_cast<int>(std::clamp(std::floor(v * inv_cell), -kMaxCell, kMaxCell));
+  auto cell_of = [&](double v) {  // NaN (a state the guard will stop) to the lowest cell, never cast
+    const double c = std::floor(v * inv_cell);
+    return static_cast<int>(c >= -kMaxCell ? std::min(c, kMaxCell) : -kMaxCell);
   };
   // Counting sort of the triangles' padded boxes into the table.
   std::fill(bucket_start_.begin(), bucket_start_.end(), 0);
   const int nt = static_cast<int>(tri_.size()), n = static_cast<int>(built_.size());
   tri_lo_.resize(nt), tri_hi_.resize(nt);
-  entry_key_.clear(), entry_tri_.clear();
+  entry_key_.clear(), entry_tri_.clear(), large_.clear();
   for (int q = 0; q < nt; ++q) {
     const Vec3 &a = built_[tri_[q][0]], &b = built_[tri_[q][1]], &c = built_[tri_[q][2]];
     tri_lo_[q] = a.cwiseMin(b).cwiseMin(c) - Vec3::Constant(reach);
     tri_hi_[q] = a.cwiseMax(b).cwiseMax(c) + Vec3::Constant(reach);
+    if (!(box_cells(tri_lo_[q], tri_hi_[q], inv_cell) <= kMaxBoxCells)) {
+      large_.push_back(q);  // scanned by every vertex below instead of entered in each of its cells
+      continue;
+    }
     auto& r = tri_range_[q];
     for (int k = 0; k < 3; ++k) r[k] = cell_of(tri_lo_[q][k]), r[k + 3] = cell_of(tri_hi_[q][k]);
     for (int x = r[0]; x <= r[3]; ++x)
@@ -237,6 +257,8 @@ void RealtimeSelfCollisionStage::broad_phase() {
           entry_tri_.push_back(q);
         }
   }
+  large_boxes_ += static_cast<long>(large_.size());
+  hash_entries_ += static_cast<long>(entry_key_.size());
   for (long k = 0; k < table; ++k) bucket_start_[k + 1] += bucket_start_[k];
   bucket_items_.resize(bucket_start_[table]);
   bucket_boxes_.resize(bucket_start_[table]);
@@ -264,19 +286,20 @@ void RealtimeSelfCollisionStage::broad_phase() {
                                      static_cast<float>(p.z()), 0.0f};
     const size_t first = cand_.size();
     const long key = cell_key(cell_of(p.x()), cell_of(p.y()), cell_of(p.z()));
-    for (int it = bucket_start_[key]; it < bucket_start_[key + 1]; ++it) {
-      const FloatBox& bx = bucket_boxes_[it];
-      if (!in_box(pf, bx.lo, bx.hi)) continue;
-      const int q = bucket_items_[it];
+    auto visit = [&](const FloatBox& bx, int q) {
+      if (!in_box(pf, bx.lo, bx.hi)) return;
       const auto& tri = tri_[q];
-      if (tri[0] == g || tri[1] == g || tri[2] == g) continue;
+      if (tri[0] == g || tri[1] == g || tri[2] == g) return;
       const bool same = tri_cloth_[q] == vert_cloth_[g];
-      if (same && !settings_.self) continue;
+      if (same && !settings_.self) return;
       if (same && std::find(rest_tri_.begin() + rest_start_[g], rest_tri_.begin() + rest_start_[g + 1], q) !=
                       rest_tri_.begin() + rest_start_[g + 1])
-        continue;  // neighbours on the rest shape are not contacts
+        return;  // neighbours on the rest shape are not contacts
       cand_.emplace_back(g, q);
-    }
+    };
+    for (int it = bucket_start_[key]; it < bucket_start_[key + 1]; ++it)
+      visit(bucket_boxes_[it], bucket_items_[it]);
+    for (int q : large_) visit(box_f_[q], q);
     // This vertex's triangles in order, each once (hash collisions list a triangle once per cell).
     std::sort(cand_.begin() + first, cand_.end());
     cand_.erase(std::unique(cand_.begin() + first, cand_.end()), cand_.end());

@@ -155,21 +155,25 @@ RenderReport render_recording(const std::string& out_dir, const Recording& rec,
                 "ffmpeg not found (Debian package: ffmpeg); the PNG frames are in " + dir.string());
   char rate[32];
   std::snprintf(rate, sizeof rate, "%.6g", fps);
-  const std::string input =
-      std::string("-framerate ") + rate + " -i " + quote((dir / "frame_%05d.png").string());
+  // ffmpeg reads the frames by a pattern in which '%' is special: a '%' of the folder's own path is doubled.
+  std::string pattern;
+  // Paths are absolute, so none starts with '-' (ffmpeg would read it as an option).
+  for (char c : std::filesystem::absolute(dir).string())
+    pattern += c == '%' ? std::string("%%") : std::string(1, c);
+  const std::string input = std::string("-framerate ") + rate + " -i " + quote(pattern + "/frame_%05d.png");
   rep.mp4 = (out / "render.mp4").string();
   // H.264 needs even sizes: pad by one pixel when the image is odd.
   run_ffmpeg(
       input +
           " -vf 'pad=ceil(iw/2)*2:ceil(ih/2)*2' -c:v libx264 -pix_fmt yuv420p -crf 20 -movflags +faststart " +
-          quote(rep.mp4),
+          quote(std::filesystem::absolute(rep.mp4).string()),
       rep.mp4);
   rep.gif = (out / "render.gif").string();
   run_ffmpeg(input +
                  " -t 4 -vf "
                  "'fps=15,scale=320:-1:flags=lanczos,split[a][b];[a]palettegen=max_colors=96[p];[b][p]"
                  "paletteuse=dither=bayer:bayer_scale=4' -loop 0 " +
-                 quote(rep.gif),
+                 quote(std::filesystem::absolute(rep.gif).string()),
              rep.gif);
   return rep;
 }

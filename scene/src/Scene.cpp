@@ -481,6 +481,9 @@ void parse_constraints(const JsonReader& r, Scene& scene) {
       const JsonReader sl = k.object("strain_limit");
       cloth::StrainLimitSettings s;
       s.max_stretch = sl.number("max_stretch", s.max_stretch, 0.0);
+      // The engine's own bound (Simulation.h), checked here so that the message names the scene file.
+      if (!(s.max_stretch < 1e6))
+        sl.fail("max_stretch", "must be below 1e6 (a stretch ratio; got " + show(s.max_stretch) + ")");
       s.iterations = sl.integer("iterations", s.iterations, 1, 100000);
       sl.finish();
       scene.setup.strain_limit = s;
@@ -489,6 +492,7 @@ void parse_constraints(const JsonReader& r, Scene& scene) {
       const JsonReader t = k.object("tethers");
       cloth::TetherSettings s;
       s.slack = t.number("slack", s.slack, 0.0);
+      if (!(s.slack < 1e6)) t.fail("slack", "must be below 1e6 (got " + show(s.slack) + ")");
       s.geodesic = t.string("distance", "geodesic", {"geodesic", "euclidean"}) == "geodesic";
       t.finish();
       scene.setup.tethers = s;

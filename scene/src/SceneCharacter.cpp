@@ -4,6 +4,7 @@
 #include <cmath>
 #include <filesystem>
 #include <map>
+#include <vector>
 
 #include "loom/cloth/Error.h"
 #include "loom/cloth/Model.h"
@@ -61,6 +62,10 @@ void parse_character(const JsonReader& root, Scene& scene) {
   } catch (const Error& e) {
     throw Error(file, c.child("bvh"), e.what());
   }
+  // The files the clip references (a glTF's .bin buffers) are inputs of the run too (checkpoints hash them).
+  for (const std::string& f : character->motion.files())
+    if (std::find(scene.inputs.begin(), scene.inputs.end(), f) == scene.inputs.end())
+      scene.inputs.push_back(f);
   std::map<std::string, double> radii;
   if (c.has("radii")) {
     const nlohmann::json& rj = c.raw("radii");
@@ -82,6 +87,14 @@ void parse_character(const JsonReader& root, Scene& scene) {
   character->friction = c.number("friction", character->friction, 0.0);
   character->thickness = c.length("thickness", character->thickness);
   if (c.has("garments")) {
+    double body = 0.0;  // m, the diagonal of the joints' box in the clip's first pose
+    {
+      std::vector<ch::Transform> pose;
+      character->motion.clip_pose(0.0, pose);
+      Eigen::AlignedBox3d box;
+      for (const ch::Transform& t : pose) box.extend(t.translation());
+      if (!box.isEmpty()) body = box.diagonal().norm();
+    }
     const auto garments = c.objects("garments");
     cloth::Vec3s layers;  // m, vertices of the garments made so far
     for (size_t k = 0; k < garments.size(); ++k) {
@@ -100,9 +113,12 @@ void parse_character(const JsonReader& root, Scene& scene) {
         g.fail("width", "must be in [0.01, 100] m");
       if (spec.type != "obj") {
         // Vertices of a generated garment, before it is made: its area over an equilateral triangle's
-        // (sqrt(3)/4 r^2) per vertex pair; the area is bounded by a 2.5 m x 2.5 m human-sized sheet unless
-        // length and width say more.
-        const double area = std::max(6.25, std::max(spec.length, 2.5) * std::max(spec.width, 2.5));
+        // (sqrt(3)/4 r^2) per vertex pair. A garment is fitted around the body, so its area is bounded by
+        // twice the square of the body's size (the diagonal of its joints' box in the first pose; a 2.5 m x
+        // 2.5 m sheet at least), or by length x width when they say more: a huge `scale` makes a huge
+        // garment, refused here rather than by the allocator.
+        const double area =
+            std::max({6.25, std::max(spec.length, 2.5) * std::max(spec.width, 2.5), 2.0 * body * body});
         reserve_vertices(scene, g.child("resolution"),
                          2.0 * area / (std::sqrt(3.0) * spec.resolution * spec.resolution));
       }

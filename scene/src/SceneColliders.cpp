@@ -9,6 +9,7 @@
 
 #include "loom/cloth/Error.h"
 #include "loom/cloth/InputFile.h"
+#include "loom/cloth/ObjFile.h"
 #include "loom/collision/ColliderGeometry.h"
 #include "loom/scene/SceneLimits.h"
 
@@ -82,47 +83,24 @@ std::vector<Vec3> parse_points(const JsonReader& r, const std::string& key) {
   return out;
 }
 
-// A minimal OBJ reader for collider geometry: `v x y z` and `f a b c ...` (1-based, v/vt/vn allowed,
-// polygons fan-split); other lines are ignored. Errors name the OBJ file and line.
+// Collider geometry from an OBJ file (the one strict reader, ObjFile.h): vertices times `scale`, polygons
+// fan-split. Errors name the OBJ file and line.
 void read_obj(const std::string& path, double scale, std::vector<Vec3>& vertices,
               std::vector<cloth::Tri>& tris) {
-  // A regular file of bounded size, split at any line ending (InputFile.h).
-  int number = 0;
-  for (const std::string& line : loom::input_lines(loom::read_input_file(path))) {
-    ++number;
-    const std::string where = loom::line_where(number, line);
-    std::istringstream ss(line);
-    std::string tag;
-    ss >> tag;
-    if (tag == "v") {
-      Vec3 p;
-      if (!(ss >> p.x() >> p.y() >> p.z()) || !p.allFinite()) throw Error(path, where, "bad vertex");
-      vertices.push_back(scale * p);
-      if (!(vertices.back().cwiseAbs().maxCoeff() <= kMaxCoordinate))
-        throw Error(path, where, "vertex (times scale) is beyond +-" + kCoordinateLimit + " m");
-    } else if (tag == "f") {
-      std::vector<int> idx;
-      std::string tok;
-      while (ss >> tok) {
-        int k = 0;
-        try {
-          k = std::stoi(tok.substr(0, tok.find('/')));
-        } catch (...) {
-          throw Error(path, where, "bad face index '" + tok + "'");
-        }
-        k = k < 0 ? static_cast<int>(vertices.size()) + k : k - 1;
-        if (k < 0 || k >= static_cast<int>(vertices.size()))
-          throw Error(path, where, "face index '" + tok + "' is out of range");
-        idx.push_back(k);
-      }
-      if (idx.size() < 3) throw Error(path, where, "a face needs at least 3 vertices");
-      for (size_t j = 1; j + 1 < idx.size(); ++j) {
-        tris.push_back({idx[0], idx[j], idx[j + 1]});
-        if (degenerate(vertices, tris.back()))
-          throw Error(path, where,
-                      "triangle " + std::to_string(tris.size() - 1) +
-                          " has zero area (repeated or collinear vertices: a degenerate triangle)");
-      }
+  const cloth::ObjFile obj = cloth::read_obj_file(path);
+  for (const Vec3& p : obj.positions) {
+    vertices.push_back(scale * p);
+    if (!(vertices.back().cwiseAbs().maxCoeff() <= kMaxCoordinate))
+      throw Error(path, "vertex " + std::to_string(vertices.size() - 1),
+                  "times the scale, it is beyond +-" + kCoordinateLimit + " m");
+  }
+  for (const cloth::ObjFace& f : obj.faces) {
+    for (size_t j = 1; j + 1 < f.corners.size(); ++j) {
+      tris.push_back({f.corners[0].v, f.corners[j].v, f.corners[j + 1].v});
+      if (degenerate(vertices, tris.back()))
+        throw Error(path, loom::line_where(f.line, f.text),
+                    "triangle " + std::to_string(tris.size() - 1) +
+                        " has zero area (repeated or collinear vertices: a degenerate triangle)");
     }
   }
   if (vertices.empty()) throw Error(path, "", "no vertices");

@@ -160,6 +160,14 @@ TEST(BenchAccuracy, EmptySelectionIsAnErrorNotAnEmptyPass) {
   EXPECT_NE(r.err.find("--methods/--configs: selects no configuration"), std::string::npos) << r.err;
   EXPECT_FALSE(fs::exists(dir / "out" / "accuracy.csv"));
   EXPECT_EQ(r.out.find("PASSED"), std::string::npos) << r.out;
+  // Refused before the reference run (the expensive part) and before the output folder exists.
+  EXPECT_EQ(r.out.find("reference:"), std::string::npos) << r.out;
+  EXPECT_FALSE(fs::exists(dir / "out")) << "a refused selection created its output folder";
+  // With several sizes, the first size that selects nothing is named before any size runs.
+  r = run("bench accuracy --quick --sizes 4,8 --methods verlet --configs substeps=999999" + out, dir);
+  EXPECT_EQ(r.code, 1) << r.out << r.err;
+  EXPECT_NE(r.err.find("selects no configuration at N=4"), std::string::npos) << r.err;
+  EXPECT_EQ(r.out.find("reference:"), std::string::npos) << r.out;
   for (const char* empty : {"--methods ''", "--methods ,", "--configs ''"}) {
     r = run(std::string("bench accuracy --quick ") + empty + out, dir);
     EXPECT_EQ(r.code, 2) << empty << ": " << r.err;

@@ -1,9 +1,13 @@
 // Skeleton and animation loading: sampling against assimp's own data, evaluated independently.
 #include <assimp/scene.h>
 #include <gtest/gtest.h>
+#include <sys/stat.h>
 
+#include <algorithm>
 #include <assimp/Importer.hpp>
 #include <cmath>
+#include <cstring>
+#include <filesystem>
 #include <fstream>
 #include <functional>
 #include <iostream>
@@ -260,6 +264,121 @@ TEST(Motion, DeeplyNestedJointsAreRefusedNamingTheHierarchy) {
     EXPECT_NE(std::string(e.what()).find("deep.bvh"), std::string::npos) << e.what();
   }
   EXPECT_NO_THROW(Motion::load(write_chain("chain.bvh", 40), ms));
+}
+
+}  // namespace
+
+namespace {
+
+// A one-joint BVH (6 channels) with `frames` declared and `body` as the MOTION numbers.
+std::string write_bvh(const std::string& name, const std::string& frames, const std::string& body) {
+  const std::string path = (loom::test::test_dir() / name).string();
+  std::ofstream(path) << "HIERARCHY\nROOT Hips\n{\nOFFSET 0 0 0\nCHANNELS 6 Xposition Yposition Zposition "
+                         "Zrotation Xrotation Yrotation\nEnd Site\n{\nOFFSET 0 1 0\n}\n}\nMOTION\nFrames: "
+                      << frames << "\nFrame Time: 0.1\n"
+                      << body;
+  return path;
+}
+
+std::string error_of(const std::function<void()>& f) {
+  try {
+    f();
+  } catch (const loom::Error& e) {
+    return e.what();
+  }
+  return "";
+}
+
+// assimp reads a BVH's MOTION numbers as a stream of tokens: several frames on one line, or one frame over
+// several lines, are the same file. The frame-count check counts numbers (CHANNELS per frame), not lines.
+TEST(Motion, FrameCountIsCheckedByNumbersNotLines) {
+  MotionSettings ms;
+  ms.scale = 1.0;
+  const Motion one_line =
+      Motion::load(write_bvh("one_line.bvh", "3", "0 0 0 0 0 0 1 0 0 0 0 0 2 0 0 0 0 0\n"), ms);
+  EXPECT_EQ(one_line.track(one_line.root()).position_times.size(), 3u);
+  EXPECT_NEAR(one_line.duration(), 0.2, 1e-6);  // assimp keeps the frame time in single precision
+  // The third frame's numbers (Xposition 2) are the third key, wherever the line breaks are.
+  EXPECT_NEAR(one_line.track(one_line.root()).positions[2].x(), 2.0, 1e-9);
+  const Motion split = Motion::load(write_bvh("split.bvh", "2", "0 0 0\n0 0 0\n1 0\n0\n0 0 0\n"), ms);
+  EXPECT_EQ(split.track(split.root()).position_times.size(), 2u);
+  EXPECT_NEAR(split.track(split.root()).positions[1].x(), 1.0, 1e-9);
+  std::string e = error_of(
+      [&] { Motion::load(write_bvh("short.bvh", "4", "0 0 0 0 0 0 1 0 0 0 0 0 2 0 0 0 0 0\n"), ms); });
+  EXPECT_NE(
+      e.find("short.bvh: Frames: says 4 frames but the MOTION section holds 18 numbers: room for 3 frames of "
+             "6 channels"),
+      std::string::npos)
+      << e;
+  for (const char* count : {"-1", "2x", "1e3", "99999999999999999999"}) {
+    e = error_of([&] { Motion::load(write_bvh("count.bvh", count, "0 0 0 0 0 0\n"), ms); });
+    EXPECT_NE(
+        e.find("count.bvh: Frames: expected a whole number of frames (got '" + std::string(count) + "')"),
+        std::string::npos)
+        << e;
+  }
+}
+
+// A glTF clip whose buffers are separate files: every file assimp opens is recorded (a checkpoint hashes
+// them) and each passes the input-file checks (a buffer that is a device is refused by name).
+TEST(Motion, GltfExternalBuffersAreRecordedAndChecked) {
+  const char* kSimpleSkin = "/usr/share/assimp/models/glTF2/simple_skin/simple_skin.gltf";
+  if (!std::ifstream(kSimpleSkin)) GTEST_SKIP() << kSimpleSkin << " not installed (assimp-testmodels)";
+  std::stringstream ss;
+  ss << std::ifstream(kSimpleSkin).rdbuf();
+  std::string text = ss.str();
+  // Each embedded base64 buffer becomes its own file buf<k>.bin.
+  auto decode = [](const std::string& b64) {
+    std::string out;
+    int bits = 0;
+    unsigned acc = 0;  // the undecoded bits (at most 14 of them), kept small
+    for (char c : b64) {
+      const char* abc = "ABCDEFGHIJKLMNOPQRSTUVWXYZabcdefghijklmnopqrstuvwxyz0123456789+/";
+      const char* at = std::strchr(abc, c);
+      if (c == '=' || !at || !c) break;
+      acc = ((acc << 6) | static_cast<unsigned>(at - abc)) & 0xffffu;
+      bits += 6;
+      if (bits >= 8) {
+        bits -= 8;
+        out.push_back(static_cast<char>((acc >> bits) & 0xff));
+      }
+    }
+    return out;
+  };
+  namespace fs = std::filesystem;
+  const fs::path dir = loom::test::test_dir();
+  const std::string prefix = "data:application/gltf-buffer;base64,";
+  std::vector<std::string> bins;
+  for (size_t at = text.find(prefix); at != std::string::npos; at = text.find(prefix)) {
+    const size_t end = text.find('"', at);
+    const std::string name = "buf" + std::to_string(bins.size()) + ".bin";
+    std::ofstream(dir / name, std::ios::binary)
+        << decode(text.substr(at + prefix.size(), end - at - prefix.size()));
+    text.replace(at, end - at, name);
+    bins.push_back((dir / name).string());
+  }
+  ASSERT_FALSE(bins.empty());
+  std::ofstream(dir / "clip.gltf") << text;
+  MotionSettings ms;
+  ms.scale = 1.0;
+  const Motion m = Motion::load((dir / "clip.gltf").string(), ms);
+  EXPECT_GT(m.duration(), 0.0);
+  for (const std::string& b : bins)
+    EXPECT_NE(std::find(m.files().begin(), m.files().end(), b), m.files().end()) << b << " not recorded";
+  EXPECT_EQ(m.files().front(), (dir / "clip.gltf").string());
+  // A buffer that is a pipe (opening it would block for ever, even to test that it exists) or a folder is
+  // refused, naming the buffer and the clip.
+  ASSERT_EQ(mkfifo((dir / "pipe.bin").c_str(), 0600), 0);
+  fs::create_directories(dir / "folder.bin");
+  for (const char* buffer : {"pipe.bin", "folder.bin"}) {
+    std::string bad = text;
+    bad.replace(bad.find("buf0.bin"), 8, buffer);
+    std::ofstream(dir / "bad.gltf") << bad;
+    const std::string e = error_of([&] { Motion::load((dir / "bad.gltf").string(), ms); });
+    EXPECT_NE(e.find("bad.gltf: cannot read motion: a file it references is refused: "), std::string::npos)
+        << e;
+    EXPECT_NE(e.find((dir / buffer).string()), std::string::npos) << e;
+  }
 }
 
 }  // namespace

@@ -75,6 +75,13 @@ const Case kCases[] = {
      "expected an integer"},
     {"sl_unknown_key", {"constraints.strain_limit.tau=0.1"}, "constraints.strain_limit.tau", "unknown key"},
     {"slack_negative", {"constraints.tethers.slack=-1"}, "constraints.tethers.slack", "must be >= 0"},
+    // The engine's bounds, refused by the scene with its file (scenes with rigid bodies built their
+    // simulation without a file name, so the engine's message named none).
+    {"max_stretch_huge",
+     {"constraints.strain_limit.max_stretch=1e308"},
+     "constraints.strain_limit.max_stretch",
+     "must be below 1e6 (a stretch ratio; got 1e+308)"},
+    {"slack_huge", {"constraints.tethers.slack=1e300"}, "constraints.tethers.slack", "must be below 1e6"},
     {"tether_distance",
      {"constraints.tethers.distance=manhattan"},
      "constraints.tethers.distance",

@@ -11,6 +11,7 @@
 #include <iostream>
 #include <map>
 #include <optional>
+#include <set>
 #include <sstream>
 
 #include "AccuracyBenchInternal.h"
@@ -148,6 +149,32 @@ void run_hybrid_rows(const AccuracyOptions& o, const Scene& s, const std::vector
   }
 }
 
+// Rows the selection (--methods, --configs) asks for at this size, counted without running anything: the
+// same filters as run_loom_rows, run_hybrid_rows and run_bullet_rows.
+size_t selected_rows(const AccuracyOptions& o, const Scene& s,
+                     const std::map<std::string, std::vector<SweepConfig>>& table,
+                     const std::vector<std::string>& registered) {
+  size_t count = 0;
+  for (const std::string& method : registered) {
+    if ((!o.methods.empty() && !o.methods.count(method)) || static_only(method)) continue;
+    auto it = table.find(method);
+    if (it == table.end()) {
+      count += o.configs.empty() ? 1 : 0;  // the default sweep's labels are not known before it runs
+      continue;
+    }
+    for (const SweepConfig& c : it->second)
+      if (o.configs.empty() || c.label().find(o.configs) != std::string::npos) ++count;
+  }
+  if ((s.n - 1) / 4 + 1 >= 3)
+    for (const char* method : {"implicit_euler", "imex"})
+      if ((o.methods.empty() || o.methods.count(method) || o.methods.count("hybrid")) &&
+          std::find(registered.begin(), registered.end(), method) != registered.end())
+        ++count;
+  for (const auto& kv : bullet_sweep_table(o.quick))
+    if (o.methods.empty() || o.methods.count(kv.first)) count += kv.second.size();
+  return count;
+}
+
 // Both Bullet twins over their sweep.
 void run_bullet_rows(const AccuracyOptions& o, const Scene& s, const std::vector<Vec3s>& ref,
                      std::vector<Row>& rows) {
@@ -222,8 +249,19 @@ bool write_results(const AccuracyOptions& o, OutputFolder& folder, const std::ve
 
 int bench_accuracy(const AccuracyOptions& o) {
   std::error_code ec;
-  OutputFolder folder(o.out, "--out", o.overwrite, false);  // refuses a folder Loom did not write
   const std::vector<std::string> registered = solver_names();
+  // A selection that runs nothing is refused before the folder or any (expensive) reference run.
+  for (int n : o.sizes) {
+    const Scene s = make_scene(n, o.duration, o.perturbation);
+    if (selected_rows(o, s, loom_sweep_table(s.explicit_steps, o.quick), registered) == 0)
+      throw loom::Error("", o.configs.empty() ? "--methods" : "--methods/--configs",
+                        "selects no configuration at N=" + std::to_string(n) +
+                            (o.configs.empty() ? "" : " (no label contains '" + o.configs + "')") +
+                            ": nothing would be measured");
+  }
+  OutputFolder folder(o.out, "--out", o.overwrite, false,
+                      {"accuracy.csv", "reference_check.csv", "accuracy.png", "accuracy_#.dat",
+                       "accuracy_#.gp", "accuracy_#.png"});  // refuses a folder Loom did not write
   std::vector<Row> rows;
   std::ostringstream refs;
   refs << "size,ref_substeps,check_substeps,ref_change,smallest_error,ratio,passed,ref_max_strain\n";
@@ -328,11 +366,16 @@ int bench_main(int argc, char** argv) {
   }
   AccuracyOptions o;
   bool sizes_given = false, duration_given = false;
+  std::set<std::string> seen;  // options that take a value, given once
   for (int i = 3; i < argc; ++i) {
     const std::string a = argv[i];
     auto value = [&]() -> std::string {
       if (i + 1 >= argc) {
         std::fprintf(stderr, "loom: error: %s needs a value (see loom bench --help)\n", a.c_str());
+        std::exit(2);
+      }
+      if (!seen.insert(a).second) {  // a second value would silently win over the first
+        std::fprintf(stderr, "loom: error: %s given twice (give each option once)\n", a.c_str());
         std::exit(2);
       }
       return argv[++i];

@@ -82,7 +82,75 @@ std::uint64_t read_run_id(const fs::path& dir) {
   return read_manifest(file, "--resume").run_id;
 }
 
-OutputFolder::OutputFolder(const fs::path& dir, const std::string& flag, bool overwrite, bool resume)
+namespace {
+
+// Refuses (naming the path) what would make writing `rel` fail: a symbolic link on the way or at the end, a
+// file where a folder is needed, a folder where a file is written. `rel` ending in '/' is a folder. Paths in
+// `gone` (an earlier run's manifest, deleted before this run writes) are not checked further.
+void check_writable(const fs::path& dir, const std::string& relative, const std::string& flag,
+                    const std::set<std::string>& gone = {}) {
+  const bool folder = !relative.empty() && relative.back() == '/';
+  const std::string rel = folder ? relative.substr(0, relative.size() - 1) : relative;
+  std::error_code ec;
+  fs::path at = dir;
+  std::string so_far;
+  const fs::path rp(rel);
+  for (auto it = rp.begin(); it != rp.end(); ++it) {
+    at /= *it;
+    so_far += (so_far.empty() ? "" : "/") + it->string();
+    const fs::file_status st = fs::symlink_status(at, ec);
+    // A listed file or link is deleted before the run writes (a listed folder only when left empty).
+    if ((gone.count(so_far) || gone.count(so_far + "/")) && !fs::is_directory(st)) return;
+    if (fs::is_symlink(st))
+      throw Error(at.string(), flag,
+                  "is a symbolic link: Loom never writes through a link in its output folder");
+    const bool last = std::next(it) == rp.end();
+    if (fs::exists(st) && !fs::is_directory(st) && (!last || folder))
+      throw Error(at.string(), flag, "is a file where Loom writes a folder");
+    if (last && !folder && fs::is_directory(st))
+      throw Error(at.string(), flag, "is a folder where Loom writes a file");
+    if (!fs::exists(st)) return;  // nothing below a missing component
+  }
+}
+
+// True when `name` matches `pattern`, in which one '#' stands for one or more decimal digits.
+bool matches(const std::string& name, const std::string& pattern) {
+  const size_t hash = pattern.find('#');
+  if (hash == std::string::npos) return name == pattern;
+  const std::string head = pattern.substr(0, hash), tail = pattern.substr(hash + 1);
+  if (name.size() <= head.size() + tail.size() || name.compare(0, head.size(), head) != 0 ||
+      name.compare(name.size() - tail.size(), tail.size(), tail) != 0)
+    return false;
+  const std::string digits = name.substr(head.size(), name.size() - head.size() - tail.size());
+  return digits.find_first_not_of("0123456789") == std::string::npos;
+}
+
+// check_writable for every path of `writes` (a '#' in the last component: every existing file of that
+// pattern in its folder).
+void check_all_writable(const fs::path& dir, const std::vector<std::string>& writes, const std::string& flag,
+                        const std::set<std::string>& gone) {
+  std::error_code ec;
+  for (const std::string& w : writes) {
+    const size_t slash = w.find_last_of('/', w.size() > 1 ? w.size() - 2 : 0);
+    const std::string parent = slash == std::string::npos ? "" : w.substr(0, slash + 1);
+    const std::string last = w.substr(parent.size());
+    if (last.find('#') == std::string::npos) {
+      check_writable(dir, w, flag, gone);
+      continue;
+    }
+    if (!parent.empty()) check_writable(dir, parent, flag, gone);
+    const fs::path folder = parent.empty() ? dir : dir / parent;
+    if (!fs::is_directory(fs::symlink_status(folder, ec))) continue;
+    for (fs::directory_iterator it(folder, ec), end; !ec && it != end; it.increment(ec))
+      if (matches(it->path().filename().string(), last))
+        check_writable(dir, parent + it->path().filename().string(), flag, gone);
+  }
+}
+
+}  // namespace
+
+OutputFolder::OutputFolder(const fs::path& dir, const std::string& flag, bool overwrite, bool resume,
+                           const std::vector<std::string>& writes, const std::vector<std::string>& inputs)
     : dir_(dir), flag_(flag) {
   if (dir.empty()) throw Error("", flag, "is empty: give the output folder");
   std::error_code ec;
@@ -95,13 +163,17 @@ OutputFolder::OutputFolder(const fs::path& dir, const std::string& flag, bool ov
                 "is a symbolic link: Loom never writes through a link; give the folder it points to");
   if (fs::exists(dir, ec) && !fs::is_directory(dir, ec))
     throw Error(dir.string(), flag, "cannot create output folder: a file of that name exists");
-  fs::create_directories(dir, ec);
-  if (ec || !fs::is_directory(dir))
-    throw Error(dir.string(), flag, "cannot create output folder: " + ec.message());
+  // Everything that could refuse the folder is checked before anything in it changes: a refused run leaves
+  // the folder as it found it (no manifest, no deleted file, no new folder).
+  const bool existed = fs::is_directory(dir, ec);
   const fs::path manifest = dir / kManifest;
   const fs::file_status ms = fs::symlink_status(manifest, ec);
   Manifest old;
-  if (fs::exists(ms)) {
+  if (!existed) {
+    if (resume)
+      throw Error(dir.string(), flag,
+                  "holds no " + std::string(kManifest) + ": not a folder written by loom run");
+  } else if (fs::exists(ms)) {
     if (!fs::is_regular_file(ms))
       throw Error(manifest.string(), flag,
                   "is not a regular file (a link or a folder): not a folder Loom owns");
@@ -118,6 +190,29 @@ OutputFolder::OutputFolder(const fs::path& dir, const std::string& flag, bool ov
               "): choose a new or empty folder, or pass --overwrite to write into it (files of the names "
               "Loom writes are then replaced; nothing else is deleted)");
   }
+  if (existed) {
+    const fs::path folder = fs::weakly_canonical(dir, ec);
+    for (const std::string& in : inputs) {
+      const fs::path rel = fs::weakly_canonical(in, ec).lexically_relative(folder);
+      if (rel.empty() || *rel.begin() == "..") continue;
+      const std::string r = rel.generic_string();
+      for (const std::string& w : writes) {
+        const size_t slash = w.find_last_of('/', w.size() > 1 ? w.size() - 2 : 0);
+        const std::string parent = slash == std::string::npos ? "" : w.substr(0, slash + 1);
+        if (r.compare(0, parent.size(), parent) == 0 &&
+            matches(r.substr(parent.size()), w.substr(parent.size())))
+          throw Error(in, flag,
+                      "is an input of this run and a file it writes in " + dir.string() +
+                          ": the run would replace its own input; choose another output folder");
+      }
+    }
+    std::set<std::string> gone;  // a new run deletes what the earlier runs listed (links themselves) first
+    if (!resume) gone.insert(old.entries.begin(), old.entries.end());
+    check_all_writable(dir, writes, flag, gone);
+  }
+  fs::create_directories(dir, ec);
+  if (ec || !fs::is_directory(dir))
+    throw Error(dir.string(), flag, "cannot create output folder: " + ec.message());
   if (resume) {
     run_id_ = old.run_id;
     listed_.insert(old.entries.begin(), old.entries.end());
@@ -167,28 +262,15 @@ fs::path OutputFolder::claim(const std::string& relative) {
   const std::string rel = folder ? relative.substr(0, relative.size() - 1) : relative;
   if (!valid_entry(rel))
     throw Error((dir_ / relative).string(), flag_, "is not a path inside the output folder");
-  std::error_code ec;
-  fs::path at = dir_;
-  const fs::path rp(rel);
-  for (auto it = rp.begin(); it != rp.end(); ++it) {
-    at /= *it;
-    const fs::file_status st = fs::symlink_status(at, ec);
-    if (fs::is_symlink(st))
-      throw Error(at.string(), flag_,
-                  "is a symbolic link: Loom never writes through a link in its output folder");
-    const bool last = std::next(it) == rp.end();
-    if (fs::exists(st) && !fs::is_directory(st) && (!last || folder))
-      throw Error(at.string(), flag_, "is a file where Loom writes a folder");
-    if (last && !folder && fs::is_directory(st))
-      throw Error(at.string(), flag_, "is a folder where Loom writes a file");
-  }
+  check_writable(dir_, relative, flag_);
   if (!listed_.count(relative)) {
     append(relative);
     listed_.insert(relative);
   }
   if (folder) {
-    fs::create_directories(at, ec);
-    if (ec) throw Error(at.string(), flag_, "cannot create folder: " + ec.message());
+    std::error_code ec;
+    fs::create_directories(dir_ / rel, ec);
+    if (ec) throw Error((dir_ / rel).string(), flag_, "cannot create folder: " + ec.message());
   }
   return dir_ / rel;
 }

@@ -55,6 +55,8 @@ class Motion {
   const JointTrack& track(int joint) const { return tracks_[joint]; }
   const MotionSettings& settings() const { return settings_; }
   const std::string& source() const { return source_; }
+  // Every file the clip was read from: the file itself and any it references (a glTF's .bin buffers).
+  const std::vector<std::string>& files() const { return files_; }
   double scale() const { return scale_; }              // m per file unit
   double duration() const { return duration_; }        // s, clip length (last key time)
   double rest_height() const { return rest_height_; }  // m, y extent of the rest pose's joints
@@ -77,6 +79,7 @@ class Motion {
   void set_root_motion();
 
   std::string source_;
+  std::vector<std::string> files_;
   MotionSettings settings_;
   std::vector<Joint> joints_;
   std::vector<JointTrack> tracks_;

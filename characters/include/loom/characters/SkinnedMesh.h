@@ -14,7 +14,8 @@ namespace loom::characters {
 
 struct SkinnedMesh {
   std::string source;
-  cloth::Vec3s positions;  // m, bind space (file units times the scale)
+  std::vector<std::string> files;  // every file read: the file itself and any it references (.bin buffers)
+  cloth::Vec3s positions;          // m, bind space (file units times the scale)
   std::vector<cloth::Tri> triangles;
   Skin skin;
   std::vector<int> bone_parent;   // per skin bone: the nearest ancestor among the skin's bones (-1: none)

@@ -48,9 +48,14 @@ class RealtimeSelfCollisionStage final : public cloth::Stage {
  public:
   explicit RealtimeSelfCollisionStage(RealtimeSelfSettings settings);
   const char* name() const override { return "realtime_self_collision"; }
+  // Cells a triangle's box may span in the hash: a triangle of a sane cloth spans a few per axis (cells are
+  // at least two mean edges wide), a stretched or exploding one could span billions. A larger box is not
+  // entered cell by cell but tested against every vertex (exact, bounded by vertices x such triangles).
+  static constexpr double kMaxBoxCells = 4096;
   void run(cloth::StageContext& ctx) override;
   // runs, broad_phases, candidates (pairs listed, summed over broad phases), pairs (narrow-phase tests
-  // past the box), contacts (projections).
+  // past the box), contacts (projections), large_boxes (triangles whose box spans more than kMaxBoxCells
+  // cells, tested against every vertex instead) and hash_entries (cell entries), summed over broad phases.
   std::vector<std::pair<std::string, double>> counters() const override;
   void save_state(cloth::StateWriter& out) const override;
   void load_state(cloth::StateReader& in) override;
@@ -91,8 +96,9 @@ class RealtimeSelfCollisionStage final : public cloth::Stage {
   std::vector<FloatBox> run_boxes_;         // per triangle: box inflated by the thickness at the run's start
   std::vector<FloatBox> bucket_boxes_;      // per bucket entry: its triangle's padded box
   std::vector<std::array<int, 6>> tri_range_;  // per triangle: cell range lo xyz, hi xyz
-  cloth::Vec3s tri_lo_, tri_hi_;               // m, per triangle: box inflated by the thickness, this run
-  std::vector<FloatPoint> start_;              // m, per global vertex: position at the run's start
+  std::vector<int> large_;         // triangles whose box spans too many cells: tested against every vertex
+  cloth::Vec3s tri_lo_, tri_hi_;   // m, per triangle: box inflated by the thickness, this run
+  std::vector<FloatPoint> start_;  // m, per global vertex: position at the run's start
   cloth::Vec3s built_;  // m, per global vertex: positions at the last broad phase (empty: none yet)
   std::vector<std::pair<int, int>> cand_;  // candidate (vertex, triangle) pairs of the last broad phase
   bool cand_valid_ = false;                // cand_ was built from built_
@@ -102,7 +108,8 @@ class RealtimeSelfCollisionStage final : public cloth::Stage {
   std::vector<int> fill_;                  // scratch: counting-sort cursors
   mutable cloth::Vec3s centre_;            // scratch: m, per cloth, centre of its displacements
   mutable std::vector<double> radius_;     // scratch: m, per cloth, largest distance from that centre
-  long runs_ = 0, broad_phases_ = 0, candidates_ = 0, pairs_ = 0, contacts_ = 0;
+  long runs_ = 0, broad_phases_ = 0, candidates_ = 0, pairs_ = 0, contacts_ = 0, large_boxes_ = 0,
+       hash_entries_ = 0;
 };
 
 }  // namespace loom::collision

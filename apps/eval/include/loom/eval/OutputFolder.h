@@ -16,6 +16,7 @@
 #include <fstream>
 #include <set>
 #include <string>
+#include <vector>
 
 namespace loom::eval {
 
@@ -23,7 +24,15 @@ class OutputFolder {
  public:
   // `flag` names the option the folder came from ("--out", "--resume") in error messages. `resume`: keep the
   // listed files (the run continues); otherwise the files listed by an earlier run are deleted first.
-  OutputFolder(const std::filesystem::path& dir, const std::string& flag, bool overwrite, bool resume);
+  // `writes`: every path the run will claim (a folder ends in '/'; one '#' in the last component stands for
+  // digits, e.g. "frames/frame_#.obj"). They are checked as claim() checks them before the folder changes,
+  // so a folder refused for any reason (a link planted where the run writes, a foreign folder) is left
+  // exactly as it was: no manifest written, nothing deleted, no folder created.
+  // `inputs`: the files the run reads; one that lies where the run writes (a scene or mesh named
+  // `summary.json` or `frames/frame_00001.obj` in the folder) is refused: the run would destroy its own
+  // input.
+  OutputFolder(const std::filesystem::path& dir, const std::string& flag, bool overwrite, bool resume,
+               const std::vector<std::string>& writes = {}, const std::vector<std::string>& inputs = {});
   const std::filesystem::path& dir() const { return dir_; }
   std::uint64_t run_id() const { return run_id_; }
   // Adds `relative` (a file or, ending in '/', a folder) to the manifest before it is written and returns
