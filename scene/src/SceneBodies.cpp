@@ -86,6 +86,9 @@ std::function<Transform(double)> parse_body_motion(const JsonReader& m, const Tr
 void parse_bodies(const JsonReader& root, Scene& scene) {
   if (!root.has("bodies")) return;
   const auto bodies = root.objects("bodies");
+  if (bodies.size() > kMaxBodies)
+    root.fail("bodies", "has " + std::to_string(bodies.size()) + " entries; at most " +
+                            std::to_string(kMaxBodies) + " are allowed");
   for (size_t i = 0; i < bodies.size(); ++i) {
     const JsonReader& r = bodies[i];
     RigidBodySpec b;

@@ -171,6 +171,9 @@ std::function<Transform(double)> parse_motion(const JsonReader& m, const Transfo
 void parse_colliders(const JsonReader& root, Scene& scene) {
   if (!root.has("colliders")) return;
   const std::vector<JsonReader> list = root.objects("colliders");
+  if (list.size() > kMaxColliders)
+    root.fail("colliders", "has " + std::to_string(list.size()) + " entries; at most " +
+                               std::to_string(kMaxColliders) + " are allowed");
   for (size_t i = 0; i < list.size(); ++i) {
     const JsonReader& r = list[i];
     Collider c;

@@ -3,10 +3,12 @@
 
 #include <filesystem>
 #include <fstream>
+#include <tuple>
 
 #include "TestDir.h"
 #include "loom/cloth/Error.h"
 #include "loom/scene/Scene.h"
+#include "loom/scene/SceneLimits.h"
 
 namespace loom::scene {
 namespace {
@@ -167,6 +169,35 @@ INSTANTIATE_TEST_SUITE_P(AllCases, SceneErrors, ::testing::ValuesIn(kCases),
                          [](const ::testing::TestParamInfo<Case>& info) {
                            return std::string(info.param.name);
                          });
+
+// A list of colliders or bodies past the scene bound is refused by its count before anything is built
+// (each collider is tested against every cloth each step).
+TEST(Scene, CollidersAndBodiesPastTheBoundAreRefusedByCount) {
+  for (const auto& [key, entry, limit] :
+       {std::tuple<std::string, std::string, size_t>{
+            "colliders", R"({"shape": "sphere", "position": [0, -1, 0], "radius": 0.01})", kMaxColliders},
+        {"bodies", R"({"shape": "sphere", "radius": 0.01, "position": [0, -1, 0]})", kMaxBodies}}) {
+    for (const size_t count : {limit, limit + 1}) {
+      std::string list = "[";
+      for (size_t i = 0; i < count; ++i) list += (i ? "," : "") + entry;
+      list += "]";
+      std::string msg = "(no error)";
+      try {
+        load_scene(write_scene(key + "_count.json", kValid), {key + "=" + list});
+      } catch (const Error& e) {
+        msg = e.what();
+      }
+      if (count == limit) {
+        EXPECT_EQ(msg, "(no error)") << key;
+      } else {
+        EXPECT_NE(
+            msg.find(key + ": has " + std::to_string(count) + " entries; at most " + std::to_string(limit)),
+            std::string::npos)
+            << msg;
+      }
+    }
+  }
+}
 
 TEST(Scene, ObjErrorsNameSceneMeshAndObjLine) {
   std::ofstream(test::test_dir() / "broken.obj") << "v 0 0 0\nv 1 0 0\nv 0 1 0\nf 1 2 9\n";

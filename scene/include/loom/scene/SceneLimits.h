@@ -2,6 +2,7 @@
 // The one place that bounds what a scene may ask for before anything is allocated or read: input files
 // (regular files of bounded size), coordinates, frame and step counts, and the memory of the cloth
 // vertices against what the machine has. Every refusal names the scene file, the field and the figure.
+#include <cstddef>
 #include <cstdint>
 #include <string>
 
@@ -21,6 +22,10 @@ constexpr double kMaxSpeed = 1e4;            // m/s, wind; rad/s, a collider's s
 constexpr double kMaxCoefficient = 1e12;     // a material stiffness, damping or drag coefficient (own unit)
 constexpr long long kMaxFrames = 10000000;   // frames of one run (duration x fps)
 constexpr long long kMaxSubsteps = 1000000;  // solver steps per frame (frame time / solver.dt)
+// Entries of a scene's `colliders` and of its `bodies`: every collider is tested against every cloth each
+// step, so the cost per frame grows with the count (a game scene has tens to hundreds).
+constexpr std::size_t kMaxColliders = 4096;
+constexpr std::size_t kMaxBodies = 4096;
 // Bytes per cloth vertex of a simulation: the peak resident memory of implicit runs (the heaviest solvers)
 // above the process's own, over the vertex count, rounded up (measured: docs/guarantees.md).
 constexpr std::uint64_t kBytesPerVertex = 8192;
