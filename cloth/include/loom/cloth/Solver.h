@@ -54,6 +54,11 @@ class Solver {
   virtual void step(Cloth& cloth, double t, double h, int threads) = 0;
   // Forget any history (multistep state); called when the step size or the state changes from outside.
   virtual void reset() {}
+  // A rigid frame (world from local, m) that moves with the cloth, e.g. a character's, for the next steps.
+  // Solvers that round positions to float express them in it, so their rounding, and with it the motion,
+  // does not depend on where the frame stands or which way it faces; the frame should lie within a few
+  // metres of the cloth. Solvers in double ignore it (FastXpbdSolver.h).
+  virtual void set_frame(const Eigen::Isometry3d& frame) { (void)frame; }
   // History kept between steps (multistep state, step sizes, warm starts), saved at each frame start by the
   // non-finite guard and in checkpoints, so a restored solver continues bit-identically. Solvers
   // whose step depends only on the cloth state keep the defaults.
