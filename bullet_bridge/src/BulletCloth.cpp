@@ -172,8 +172,12 @@ BulletCloth::BulletCloth(cloth::SimulationSetup setup, const BulletClothSettings
   if (!(settings.step_motion > 0.0)) throw Error("", "bullet.step_motion", "must be > 0");
   double thickness = settings.thickness;
   for (const cloth::ClothSetup& c : setup.cloths) thickness = std::max(thickness, c.material.thickness);
+  // setup.substeps 0 (the API's default): the solver's own step (Solver.h, default_substeps) when it is
+  // shorter than the Bullet step divided by cloth_substeps.
+  const int solver_steps =
+      setup.substeps == 0 ? cloth::default_substeps(setup.solver.method, settings.fixed_dt) : 1;
   setup.frame_dt = settings.fixed_dt;
-  setup.substeps = settings.cloth_substeps;
+  setup.substeps = std::max(settings.cloth_substeps, solver_steps);
   if (settings.tier == BulletClothSettings::Tier::realtime) {
     if (settings.realtime_iterations < 1) throw Error("", "bullet.realtime_iterations", "must be >= 1");
     if (!(settings.max_stretch > 0.0)) throw Error("", "bullet.max_stretch", "must be > 0");

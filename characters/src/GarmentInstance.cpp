@@ -50,6 +50,8 @@ GarmentInstance::GarmentInstance(const Vec3s& bind_positions, const std::vector<
   check_range(settings_.fixed_dt, 1e-6, 1.0, false, source, "fixed_dt", "must be in [1e-6, 1] s");
   if (settings_.iterations < 1)
     throw Error(source, "iterations", std::to_string(settings_.iterations) + " must be >= 1");
+  if (settings_.substeps < 1 || settings_.substeps > 1000)
+    throw Error(source, "substeps", std::to_string(settings_.substeps) + " is not in [1, 1000]");
   check_range(settings_.linear_inertia, 0.0, 1.0, false, source, "linear_inertia", "must be in [0, 1]");
   check_range(settings_.angular_inertia, 0.0, 1.0, false, source, "angular_inertia", "must be in [0, 1]");
   check_range(settings_.teleport_distance, 1e-9, HUGE_VAL, true, source, "teleport_distance", "must be > 0");
@@ -86,7 +88,7 @@ GarmentInstance::GarmentInstance(const Vec3s& bind_positions, const std::vector<
     cloth_->add_term(
         std::make_unique<cloth::AirDragTerm>(*settings_.wind, mesh->triangles(), mesh->vertex_areas()));
   cloth::SolverSettings solver;
-  solver.method = "xpbd";
+  solver.method = settings_.solver;
   solver.params["iterations"] = settings_.iterations;
   solver_ = cloth::make_solver(solver, source);
   solver_->check(*cloth_);
@@ -227,7 +229,11 @@ void GarmentInstance::fixed_step(int stride) {
       st.inv_mass[i] = 1.0 / mass_[i];
     }
   }
-  solver_->step(*cloth_, time(), h, 1);
+  // Float rounding in the character's frame (Solver::set_frame): the same local motion rounds the same way
+  // wherever the character stands and whichever way it faces.
+  solver_->set_frame(frame_sim_);
+  const double hs = h / settings_.substeps;
+  for (int k = 0; k < settings_.substeps; ++k) solver_->step(*cloth_, time() + k * hs, hs, 1);
   constraints_.apply(target_, target_normal_, h, st.x, st.v);
   if (contact_) run_contacts(h);
   ticks_ += stride;

@@ -30,6 +30,12 @@ void share(int begin, int end, int me, int team, int* b, int* e) {
 
 void FastXpbdSolver::check(const Cloth& cloth) const { check_spring_terms(cloth, name()); }
 
+void FastXpbdSolver::set_frame(const Eigen::Isometry3d& frame) {
+  origin_ = frame.translation();
+  axes_ = frame.linear();
+  framed_ = true;
+}
+
 std::vector<std::pair<std::string, double>> FastXpbdSolver::counters() const {
   return {{"springs", static_cast<double>(si_.size())}, {"sweeps", static_cast<double>(sweeps_)}};
 }
@@ -199,7 +205,10 @@ void FastXpbdSolver::step(Cloth& cloth, double t, double h, int threads) {
   p_.resize(n);
   x0_.resize(n);
   pred_.resize(n);
-  origin_ = n > 0 ? s.x[0] : Vec3::Zero();
+  if (!framed_) origin_ = n > 0 ? s.x[0] : Vec3::Zero();
+  // World axes need no rotation (and keep every rounding of the unframed step); a frame's axes do.
+  const bool turn = framed_ && axes_ != Mat3::Identity();
+  const Mat3 to_local = axes_.transpose();
   s.x_prev.resize(n);
   const bool with_lambda = iterations_ > 1;
 #pragma omp parallel num_threads(threads) if (threads > 1 && ns >= kMinParallelSprings)
@@ -215,7 +224,8 @@ void FastXpbdSolver::step(Cloth& cloth, double t, double h, int threads) {
     for (int i = 0; i < n; ++i) {
       const double w = s.inv_mass[i];
       pred_[i] = s.x[i] + h * (s.v[i] + (h * w) * f_[i]);
-      const Vec3 q = pred_[i] - origin_, q0 = s.x[i] - origin_;
+      Vec3 q = pred_[i] - origin_, q0 = s.x[i] - origin_;
+      if (turn) q = to_local * q, q0 = to_local * q0;
       p_[i] = Point{static_cast<float>(q.x()), static_cast<float>(q.y()), static_cast<float>(q.z()),
                     static_cast<float>(w)};
       x0_[i] =
@@ -234,12 +244,14 @@ void FastXpbdSolver::step(Cloth& cloth, double t, double h, int threads) {
       }
 #pragma omp for schedule(static)
     for (int i = 0; i < n; ++i) {
-      // x_new = p_pred + (p_f - p_f0): only the corrections pass through float.
-      const Vec3 q0 = pred_[i] - origin_;
-      const Vec3 q =
-          pred_[i] + Vec3(static_cast<double>(p_[i].x) - static_cast<double>(static_cast<float>(q0.x())),
-                          static_cast<double>(p_[i].y) - static_cast<double>(static_cast<float>(q0.y())),
-                          static_cast<double>(p_[i].z) - static_cast<double>(static_cast<float>(q0.z())));
+      // x_new = p_pred + R (q_f - q_f0): only the corrections pass through float.
+      Vec3 q0 = pred_[i] - origin_;
+      if (turn) q0 = to_local * q0;
+      Vec3 dq(static_cast<double>(p_[i].x) - static_cast<double>(static_cast<float>(q0.x())),
+              static_cast<double>(p_[i].y) - static_cast<double>(static_cast<float>(q0.y())),
+              static_cast<double>(p_[i].z) - static_cast<double>(static_cast<float>(q0.z())));
+      if (turn) dq = axes_ * dq;
+      const Vec3 q = pred_[i] + dq;
       s.x_prev[i] = s.x[i];
       if (s.inv_mass[i] > 0.0) s.v[i] = (q - s.x[i]) / h;
       s.x[i] = s.inv_mass[i] > 0.0 ? q : pred_[i];

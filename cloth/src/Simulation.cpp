@@ -90,7 +90,8 @@ class SolveStage final : public Stage {
 Simulation::Simulation(SimulationSetup setup, const std::string& file) : setup_(std::move(setup)) {
   if (!(setup_.frame_dt > 0.0) || !std::isfinite(setup_.frame_dt))
     throw Error(file, "fps", "frame time step must be > 0");
-  if (setup_.substeps < 1) throw Error(file, "solver.substeps", "must be >= 1");
+  if (setup_.substeps < 0) throw Error(file, "solver.substeps", "must be >= 1 (or 0: the solver's default)");
+  if (setup_.substeps == 0) setup_.substeps = default_substeps(setup_.solver.method, setup_.frame_dt);
   if (setup_.threads < 1) throw Error(file, "threads", "must be >= 1");
   if (setup_.strain_limit &&
       !(setup_.strain_limit->max_stretch >= 0.0 && setup_.strain_limit->max_stretch < 1e6))

@@ -1,3 +1,4 @@
+#include <algorithm>
 #include <cmath>
 #include <cstdio>
 #include <string>
@@ -146,6 +147,12 @@ std::unique_ptr<Solver> make_solver(const SolverSettings& settings, const std::s
   std::string known;
   for (const auto& n : solver_names()) known += (known.empty() ? "" : ", ") + n;
   throw Error(file, "solver.method", "unknown method '" + settings.method + "' (known: " + known + ")");
+}
+
+int default_substeps(const std::string& method, double frame_dt) {
+  if (method != "fast_xpbd" || !(frame_dt > 0.0) || !std::isfinite(frame_dt)) return 1;
+  constexpr double kFastXpbdStep = 1.0 / 720.0;  // s
+  return static_cast<int>(std::clamp(std::ceil(frame_dt / kFastXpbdStep - 1e-9), 1.0, 1e6));
 }
 
 std::vector<std::string> solver_names() {

@@ -365,6 +365,7 @@ void parse_header(const JsonReader& r, Scene& scene, const std::string& file) {
 void parse_solver(const JsonReader& r, const nlohmann::json& root, Scene& scene, const std::string& file) {
   scene.quality = parse_quality(r);
   const QualityTier& tier = scene.quality;
+  scene.setup.substeps = 1;  // a scene's default (docs/scene-format.md); the tier or `solver` may change it
   const std::string default_method = tier.method.empty() ? "symplectic_euler" : tier.method;
   // The tier's substeps and iterations go with its solver only.
   auto tier_solver = [&](const std::string& method, bool substeps_given, bool iterations_given) {

@@ -6,6 +6,7 @@
 #include <memory>
 #include <vector>
 
+#include "SymplecticSetup.h"
 #include "loom/bullet/BulletCloth.h"
 #include "loom/bullet/RigidBodies.h"
 #include "loom/cloth/ClothMesh.h"
@@ -56,7 +57,7 @@ struct TestWorld {
 // `origin`; symplectic Euler.
 inline cloth::SimulationSetup sheet(int n, double size, const Vec3& origin,
                                     const Vec3& gravity = Vec3(0, -9.81, 0)) {
-  cloth::SimulationSetup s;
+  cloth::SimulationSetup s = loom::test::symplectic_setup();
   s.gravity = gravity;
   s.solver.method = "symplectic_euler";
   cloth::ClothSetup c;

@@ -4,6 +4,7 @@
 
 #include <cmath>
 
+#include "SymplecticSetup.h"
 #include "loom/bullet/BulletTwin.h"
 #include "loom/cloth/Error.h"
 #include "loom/cloth/Material.h"
@@ -17,7 +18,7 @@ namespace {
 
 // The benchmark's hanging cloth: 1 m of cotton, 0.2 kg, horizontal, pinned at the corners of one edge.
 std::unique_ptr<Simulation> hanging_cloth(int n, bool pinned = true) {
-  SimulationSetup s;
+  SimulationSetup s = loom::test::symplectic_setup();
   ClothSetup c;
   GridSpec g;
   g.nodes_u = g.nodes_v = n;

@@ -204,38 +204,52 @@ TEST(GarmentInstance, TeleportCarriesTheClothRigidly) {
 }
 
 TEST(GarmentInstance, ZeroInertiaIsSimulationInTheCharactersFrame) {
-  // A: the character runs, sways and spins about the vertical (gravity's axis), inertia 0.
-  // B: the same local motion with the character standing at the origin. A = F(t) B at every frame.
-  Cape c = make_cape();
-  c.settings.linear_inertia = 0.0;
-  c.settings.angular_inertia = 0.0;
-  GarmentInstance a(c.bind, c.tris, c.skin, c.settings, pose_at(c, clip_frame(0), clip_bend(0)), "cape");
-  GarmentInstance b(c.bind, c.tris, c.skin, c.settings, pose_at(c, Iso::Identity(), clip_bend(0)), "cape");
-  // The character's frame is the hips bone's (F H in A, H in B), so A = F B.
-  double worst = 0;
-  for (int f = 1; f <= 120; ++f) {
-    const double t = f / 60.0;
-    a.set_pose(pose_at(c, clip_frame(t), clip_bend(t)));
-    b.set_pose(pose_at(c, Iso::Identity(), clip_bend(t)));
-    a.step(1.0 / 60.0);
-    b.step(1.0 / 60.0);
-    const Iso ft = clip_frame(t);
-    for (int i = 0; i < a.num_vertices(); ++i)
-      worst = std::max(worst, (a.positions()[i] - ft * b.positions()[i]).norm());
+  // A: the character runs, sways and spins about the vertical (gravity's axis), inertia 0. B: the same local
+  // motion with the character standing at the origin. A = F(t) B at every frame. On the default solver
+  // (fast_xpbd, float rounding in the character's frame) A also stands 10 km from the origin; on xpbd (double
+  // in world coordinates, one step of 4 sweeps) it stays near it: 10 km away double keeps 2e-12 m, which
+  // the clip's dynamics amplify past the bound.
+  for (const char* solver : {"fast_xpbd", "xpbd"}) {
+    Iso far = Iso::Identity();
+    if (std::string(solver) == "fast_xpbd") far.translate(Vec3(6000.0, 0.0, -8000.0));
+    auto frame_a = [&](double t) { return Iso(far * clip_frame(t)); };
+    Cape c = make_cape();
+    c.settings.solver = solver;
+    if (c.settings.solver == "xpbd") c.settings.substeps = 1, c.settings.iterations = 4;
+    c.settings.linear_inertia = 0.0;
+    c.settings.angular_inertia = 0.0;
+    GarmentInstance a(c.bind, c.tris, c.skin, c.settings, pose_at(c, frame_a(0), clip_bend(0)), "cape");
+    GarmentInstance b(c.bind, c.tris, c.skin, c.settings, pose_at(c, Iso::Identity(), clip_bend(0)), "cape");
+    // The character's frame is the hips bone's (F H in A, H in B), so A = F B.
+    double worst = 0;
+    for (int f = 1; f <= 120; ++f) {
+      const double t = f / 60.0;
+      a.set_pose(pose_at(c, frame_a(t), clip_bend(t)));
+      b.set_pose(pose_at(c, Iso::Identity(), clip_bend(t)));
+      a.step(1.0 / 60.0);
+      b.step(1.0 / 60.0);
+      const Iso ft = frame_a(t);
+      for (int i = 0; i < a.num_vertices(); ++i)
+        worst = std::max(worst, (a.positions()[i] - ft * b.positions()[i]).norm());
+    }
+    // Rounding differences, amplified by the dynamics over 2 s: double's, and float's (the solver rounds in
+    // the character's frame, about 1e-7 of the cape's size per step).
+    EXPECT_LT(worst, std::string(solver) == "xpbd" ? 1e-7 : 2e-5) << solver;
+    std::printf("inertia 0, %s: worst distance from the character-frame run %.3g m\n", solver, worst);
+    // With inertia 1 the same motion swings the cape differently.
+    Cape w = c;
+    w.settings.linear_inertia = w.settings.angular_inertia = 1.0;
+    GarmentInstance a1(w.bind, w.tris, w.skin, w.settings, pose_at(w, frame_a(0), clip_bend(0)), "cape");
+    double differs = 0;
+    for (int f = 1; f <= 120; ++f) {
+      const double t = f / 60.0;
+      a1.set_pose(pose_at(w, frame_a(t), clip_bend(t)));
+      a1.step(1.0 / 60.0);
+    }
+    for (int i = 0; i < a1.num_vertices(); ++i)
+      differs = std::max(differs, (a1.positions()[i] - a.positions()[i]).norm());
+    EXPECT_GT(differs, 0.01) << solver;
   }
-  EXPECT_LT(worst, 1e-7);  // rounding differences, amplified by the dynamics over 2 s
-  // With inertia 1 the same motion swings the cape differently.
-  Cape w = make_cape();
-  GarmentInstance a1(w.bind, w.tris, w.skin, w.settings, pose_at(w, clip_frame(0), clip_bend(0)), "cape");
-  double differs = 0;
-  for (int f = 1; f <= 120; ++f) {
-    const double t = f / 60.0;
-    a1.set_pose(pose_at(w, clip_frame(t), clip_bend(t)));
-    a1.step(1.0 / 60.0);
-  }
-  for (int i = 0; i < a1.num_vertices(); ++i)
-    differs = std::max(differs, (a1.positions()[i] - a.positions()[i]).norm());
-  EXPECT_GT(differs, 0.01);
 }
 
 TEST(GarmentInstance, WritesIntoTheCallersBufferWithStride) {
@@ -290,6 +304,12 @@ TEST(GarmentInstance, RejectsBadArgumentsNamingThem) {
   EXPECT_NE(with([](GarmentSettings& s) { s.angular_inertia = NAN; }).find("angular_inertia"),
             std::string::npos);
   EXPECT_NE(with([](GarmentSettings& s) { s.teleport_distance = -1; }).find("teleport_distance"),
+            std::string::npos);
+  EXPECT_NE(with([](GarmentSettings& s) { s.substeps = 0; }).find("cape: substeps: 0 is not in [1, 1000]"),
+            std::string::npos);
+  EXPECT_NE(with([](GarmentSettings& s) { s.solver = "nosuch"; }).find("cape: solver.method"),
+            std::string::npos);
+  EXPECT_NE(with([](GarmentSettings& s) { s.solver = "symplectic_euler"; }).find("cape: solver.iterations"),
             std::string::npos);
   GarmentInstance g(c.bind, c.tris, c.skin, c.settings, pose_at(c, Iso::Identity()), "cape");
   auto bad = pose_at(c, Iso::Identity());

@@ -4,6 +4,7 @@
 #include <fstream>
 
 #include "CharacterTestUtil.h"
+#include "SymplecticSetup.h"
 #include "TestDir.h"
 #include "loom/characters/Character.h"
 #include "loom/cloth/Error.h"
@@ -121,7 +122,7 @@ TEST(Garments, AttachedVerticesTrackTheirBonesAtEverySubstep) {
     ms.start = 1.0;  // into the motion
     c->motion = Motion::load(loom::test::mocap("Boxing_Toes.bvh"), ms);
     c->rig = CapsuleRig::build(c->motion);
-    SimulationSetup setup;
+    SimulationSetup setup = loom::test::symplectic_setup();
     setup.solver.method = method;
     setup.substeps = std::string(method) == "implicit_euler" ? 2 : 40;
     for (const char* type : {"skirt", "cape"}) {

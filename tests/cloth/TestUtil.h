@@ -4,6 +4,7 @@
 #include <memory>
 #include <random>
 
+#include "SymplecticSetup.h"
 #include "loom/cloth/BlockMatrix.h"
 #include "loom/cloth/Cloth.h"
 #include "loom/cloth/ClothMesh.h"
@@ -41,7 +42,7 @@ inline std::shared_ptr<const cloth::ClothMesh> small_grid() {
 
 // A 1 m cotton sheet of n x n nodes at height 1 m, 0.2 kg/m², two corners of one edge pinned.
 inline cloth::SimulationSetup hanging_sheet(int n) {
-  cloth::SimulationSetup s;
+  cloth::SimulationSetup s = loom::test::symplectic_setup();
   cloth::ClothSetup c;
   cloth::GridSpec g;
   g.nodes_u = g.nodes_v = n;

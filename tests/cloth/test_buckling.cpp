@@ -30,6 +30,7 @@
 #include <cstdio>
 #include <vector>
 
+#include "SymplecticSetup.h"
 #include "loom/cloth/Simulation.h"
 
 namespace loom::cloth {
@@ -61,7 +62,7 @@ std::vector<StepRecord> compress_strip(const std::string& model, int steps, bool
   g.size_v = width;
   g.plane = GridPlane::kXZ;
   g.origin = Vec3::Zero();
-  SimulationSetup s;
+  SimulationSetup s = loom::test::symplectic_setup();
   ClothSetup c;
   c.mesh = ClothMesh::grid(g);
   c.material = material_preset("cotton");

@@ -5,6 +5,7 @@
 #include <cmath>
 #include <random>
 
+#include "SymplecticSetup.h"
 #include "TestUtil.h"
 #include "loom/cloth/Error.h"
 #include "loom/cloth/FilteredPCG.h"
@@ -344,7 +345,7 @@ TEST(ImplicitSolvers, ConvergenceOrderAgainstAFineReference) {
 
 // A 9x9 cloth, one corner on a moving path, one fixed.
 SimulationSetup pinned_setup(const std::string& method, std::map<std::string, double> params) {
-  SimulationSetup s;
+  SimulationSetup s = loom::test::symplectic_setup();
   ClothSetup c;
   GridSpec g;
   g.nodes_u = g.nodes_v = 9;

@@ -6,6 +6,7 @@
 #include <map>
 #include <string>
 
+#include "SymplecticSetup.h"
 #include "TestUtil.h"
 #include "loom/cloth/Error.h"
 #include "loom/cloth/ImplicitSolver.h"
@@ -47,7 +48,7 @@ double run_bounded(SimulationSetup s, int frames, double* start_energy, long* co
 }
 
 SimulationSetup hanging(const std::string& method, int nodes, double fps, double stretch) {
-  SimulationSetup s;
+  SimulationSetup s = loom::test::symplectic_setup();
   ClothSetup c;
   GridSpec g;
   g.nodes_u = g.nodes_v = nodes;

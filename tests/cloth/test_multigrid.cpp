@@ -5,6 +5,7 @@
 
 #include <random>
 
+#include "SymplecticSetup.h"
 #include "loom/cloth/AggregationMultigrid.h"
 #include "loom/cloth/FilteredPCG.h"
 #include "loom/cloth/Simulation.h"
@@ -198,7 +199,7 @@ TEST(Multigrid, ImplicitEulerWithMultigridMatchesBlockJacobiAtTightTolerance) {
   Vec3s out[3];
   double its[3];
   for (int mg = 0; mg <= 2; ++mg) {
-    SimulationSetup s;
+    SimulationSetup s = loom::test::symplectic_setup();
     ClothSetup c;
     GridSpec g;
     g.nodes_u = g.nodes_v = 24;

@@ -6,6 +6,7 @@
 #include <cmath>
 #include <map>
 
+#include "SymplecticSetup.h"
 #include "TestUtil.h"
 #include "loom/cloth/Error.h"
 #include "loom/cloth/PressureTerm.h"
@@ -180,7 +181,7 @@ struct Inflation {
 };
 
 Inflation inflate(const std::string& method, int substeps, bool ideal_gas) {
-  SimulationSetup setup;
+  SimulationSetup setup = loom::test::symplectic_setup();
   ClothSetup c;
   c.name = "pillow";
   c.mesh = pillow(13, 0.5, 0.01);

@@ -7,6 +7,7 @@
 #include <cmath>
 #include <cstdio>
 
+#include "SymplecticSetup.h"
 #include "TestUtil.h"
 #include "loom/cloth/Error.h"
 #include "loom/cloth/Simulation.h"
@@ -38,7 +39,7 @@ TEST(Weil, CatenaryPointHasTheLengthAndEnds) {
 
 // A strip of length S = 1 m (101 x 2 nodes, 1 cm wide) hung by its two ends at span d.
 SimulationSetup strip(double d) {
-  SimulationSetup s;
+  SimulationSetup s = loom::test::symplectic_setup();
   ClothSetup c;
   GridSpec g;
   g.size_u = 1.0;
@@ -89,7 +90,7 @@ TEST(Weil, StripMatchesTheAnalyticCatenarySag) {
 }
 
 TEST(Weil, SquareHungFromFourCornersIsSymmetric) {
-  SimulationSetup s;
+  SimulationSetup s = loom::test::symplectic_setup();
   ClothSetup c;
   GridSpec g;
   g.nodes_u = g.nodes_v = 21;

@@ -9,6 +9,7 @@
 #include <string>
 
 #include "BodyContactTestUtil.h"
+#include "SymplecticSetup.h"
 #include "loom/cloth/Simulation.h"
 #include "loom/collision/BodyCollisionStage.h"
 #include "loom/collision/ColliderDistance.h"
@@ -23,7 +24,7 @@ using cloth::SimulationSetup;
 // A small sheet resting on the plane y = 0 under gravity tilted by theta (same as an incline). With `pair`,
 // the collider's own coefficients are 0.05 and the (cloth, plane) material pair gives 0.4 / 0.5.
 double incline_slide(double theta, double seconds, bool pair = false) {
-  SimulationSetup s;
+  SimulationSetup s = loom::test::symplectic_setup();
   s.cloths.push_back(sheet(3, 0.1, cloth::GridPlane::kXZ, Vec3(0, 0.002, 0)));
   s.gravity = 9.81 * Vec3(std::sin(theta), -std::cos(theta), 0.0);
   s.substeps = 100;
@@ -70,7 +71,7 @@ TEST(BodyCollision, FrictionPairWinsOverTheCollidersCoefficients) {
 // moves sideways at rate * 0.3 m/s, like a roller under the cloth; implicit Euler at 1/120 s. Returns the
 // patch's mean displacement along x after 0.3 s. Only friction can move it along x.
 double roller_drag(double mu, double rate) {
-  SimulationSetup s;
+  SimulationSetup s = loom::test::symplectic_setup();
   s.cloths.push_back(sheet(21, 0.2, cloth::GridPlane::kXZ, Vec3(-0.1, 0.806, -0.1)));
   s.cloths[0].material.areal_density = 0.25;
   s.solver.method = "implicit_euler";
@@ -118,7 +119,7 @@ TEST(BodyCollision, SweptHitsOnASpinningSphereFollowCoulombFriction) {
 }
 
 TEST(BodyCollision, ReactionImpulseIsMinusTheClothMomentumChange) {
-  SimulationSetup s;
+  SimulationSetup s = loom::test::symplectic_setup();
   s.cloths.push_back(sheet(9, 0.4, cloth::GridPlane::kYZ, Vec3(-0.3, -0.2, -0.2)));
   s.cloths[0].initial_velocity = Vec3(2.0, 0.0, 0.0);
   s.gravity = Vec3::Zero();
@@ -147,7 +148,7 @@ TEST(BodyCollision, ReactionImpulseIsMinusTheClothMomentumChange) {
 // and the axis) is pulled across the axis's height (edges with one end above and one below the axis, within
 // the middle of the capsule), it is ahead of the capsule: nothing slipped through.
 void capsule_shot(int threads, cloth::Vec3s* final_x) {
-  SimulationSetup s;
+  SimulationSetup s = loom::test::symplectic_setup();
   s.cloths.push_back(sheet(13, 0.6, cloth::GridPlane::kXY, Vec3(-0.3, 0.7, 0.0)));
   for (int i = 0; i < 13; ++i) s.cloths[0].pins.push_back({s.cloths[0].mesh->grid_index(i, 12), {}, {}, {}});
   s.substeps = 200;
@@ -192,7 +193,7 @@ TEST(BodyCollision, CapsuleAt30MetresPerSecondNeverPassesThroughTheSheet) { caps
 // pushes it into the other; after the passes it leaves the union along the sum of the normals: every free
 // vertex ends every step at least the thickness outside both capsules.
 TEST(BodyCollision, VertexInTheCreaseOfTwoCapsulesEndsOutsideBoth) {
-  SimulationSetup s;
+  SimulationSetup s = loom::test::symplectic_setup();
   // 3 x 3 nodes, 4 cm, centred on the crease's plane x = 0, its middle row 1.5 cm inside both capsules.
   s.cloths.push_back(sheet(3, 0.04, cloth::GridPlane::kXZ, Vec3(-0.02, 0.11, -0.02)));
   s.gravity = Vec3(0, -9.81, 0);
@@ -368,7 +369,7 @@ TEST(BodyCollision, OneAndTwoThreadsBitIdentical) {
 // A sheet thrown down at 20 m/s (0.33 m per frame, 10x the box's 4 cm thickness per step at 1 substep)
 // onto a thin static box: it lands on top, nothing gets inside or below.
 TEST(BodyCollision, FastFallingSheetLandsOnAThinBox) {
-  SimulationSetup s;
+  SimulationSetup s = loom::test::symplectic_setup();
   s.cloths.push_back(sheet(9, 0.4, cloth::GridPlane::kXZ, Vec3(-0.2, 0.5, -0.2)));
   s.cloths[0].initial_velocity = Vec3(0, -20.0, 0);
   s.substeps = 20;

@@ -8,6 +8,7 @@
 #include <string>
 
 #include "BodyContactTestUtil.h"
+#include "SymplecticSetup.h"
 #include "loom/cloth/Simulation.h"
 #include "loom/collision/BodyCollisionStage.h"
 #include "loom/collision/ColliderDistance.h"
@@ -22,7 +23,7 @@ using cloth::SimulationSetup;
 
 // The real-time set-up: fast_xpbd, one iteration, `substeps` per 60 Hz frame.
 SimulationSetup realtime(cloth::ClothSetup c, int substeps) {
-  SimulationSetup s;
+  SimulationSetup s = loom::test::symplectic_setup();
   s.cloths.push_back(std::move(c));
   s.solver.method = "fast_xpbd";
   s.substeps = substeps;

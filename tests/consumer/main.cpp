@@ -15,8 +15,7 @@ int main() {
   c.mesh = ClothMesh::grid(g);
   c.material = material_preset("cotton");
   c.pins = {PinSpec{0, {}, {}, {}}};
-  setup.cloths.push_back(c);
-  setup.substeps = 40;
+  setup.cloths.push_back(c);  // the API's default solver and steps: the real-time tier's (Solver.h)
   Simulation sim(setup);
   for (int f = 0; f < 10; ++f) sim.step_frame();
   const Vec3s& x = sim.cloths()[0]->state().x;

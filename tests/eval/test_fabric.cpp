@@ -4,6 +4,7 @@
 
 #include <cstdio>
 
+#include "SymplecticSetup.h"
 #include "loom/cloth/Error.h"
 #include "loom/cloth/Simulation.h"
 #include "loom/eval/FabricTests.h"
@@ -182,7 +183,7 @@ TEST(StaticSolver, CantileverAndCatenaryAgreeWithSettledDynamicsAndTheory) {
 }
 
 TEST(StaticSolver, RejectsNonConservativeTermsAtSetUp) {
-  SimulationSetup s;
+  SimulationSetup s = loom::test::symplectic_setup();
   ClothSetup c;
   c.mesh = ClothMesh::grid(GridSpec{});
   c.material = material_preset("cotton");

@@ -8,6 +8,7 @@
 #include <fstream>
 #include <sstream>
 
+#include "SymplecticSetup.h"
 #include "loom/cloth/Error.h"
 #include "loom/cloth/Simulation.h"
 #include "loom/export/Exporters.h"
@@ -35,7 +36,7 @@ fs::path fresh_dir(const std::string& name) {
 
 // Two small cloths (5x4 and 3x3 grids), one pinned at a corner, so every frame moves and differs.
 cloth::Simulation make_sim() {
-  cloth::SimulationSetup setup;
+  cloth::SimulationSetup setup = loom::test::symplectic_setup();
   cloth::GridSpec a;
   a.nodes_u = 5;
   a.nodes_v = 4;

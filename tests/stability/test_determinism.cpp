@@ -12,6 +12,7 @@
 #include <cstring>
 #include <memory>
 
+#include "SymplecticSetup.h"
 #include "loom/cloth/Error.h"
 #include "loom/cloth/Simulation.h"
 
@@ -36,7 +37,7 @@ void hash_state(std::uint64_t& h, const Simulation& sim) {
 
 // A pinned sheet of n x n nodes with drag and a moving pin, a small start bump: every stage runs.
 SimulationSetup sheet(const std::string& solver, int n, int threads) {
-  SimulationSetup s;
+  SimulationSetup s = loom::test::symplectic_setup();
   ClothSetup c;
   GridSpec g;
   g.nodes_u = g.nodes_v = n;

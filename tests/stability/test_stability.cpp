@@ -17,6 +17,7 @@
 #include <string>
 
 #include "StabilityExpect.h"
+#include "SymplecticSetup.h"
 #include "loom/cloth/Error.h"
 #include "loom/cloth/Simulation.h"
 
@@ -43,7 +44,7 @@ std::shared_ptr<const ClothMesh> grid(int n, double size = 1.0, Vec3 origin = Ve
 
 // 9x9 cotton sheet, 0.2 kg/m², two corners pinned, 60 Hz with 10 substeps.
 SimulationSetup base(int n = 9) {
-  SimulationSetup s;
+  SimulationSetup s = loom::test::symplectic_setup();
   ClothSetup c;
   c.mesh = grid(n);
   c.material = material_preset("cotton");

@@ -12,15 +12,16 @@
 //
 // One fixed step [t, t + h]:
 //   1. inertia: the character's frame F moves from F(t) to F(t + h) (origin o, rotation R). The cloth is
-//   carried
-//      by (1 - linear_inertia) of the origin's motion and (1 - angular_inertia) of the rotation's angle about
-//      the origin, velocities turned with it. 1 = world-space simulation; 0 = simulation in the character's
-//      frame (the cloth feels the frame's motion only through its skinned targets and gravity).
+//      carried by (1 - linear_inertia) of the origin's motion and (1 - angular_inertia) of the rotation's
+//      angle about the origin, velocities turned with it. 1 = world-space simulation; 0 = simulation in the
+//      character's frame (the cloth feels the frame's motion only through its skinned targets and gravity).
 //   2. skinned targets p(t + h) and normals n(t + h); vertices whose max distance is 0 become kinematic (pins
 //      with velocity (p - x) / h, Solver.h's contract); the others keep their mass.
-//   3. solver: XPBD (Macklin, Müller, Chentanez 2016) with `iterations` sweeps, gravity, the model's springs
-//   and
-//      optional wind drag (AirDragTerm.h).
+//   3. solver: `substeps` steps of h / substeps of `solver` (default fast_xpbd, the real-time tier's XPBD,
+//      Macklin, Müller, Chentanez 2016, in small steps with one iteration each: Macklin et al. 2019) with
+//      `iterations` sweeps, gravity, the model's springs and optional wind drag (AirDragTerm.h). The solver's
+//      float rounding is done in the character's frame (Solver::set_frame), so the motion does not depend
+//      on where the character stands or which way it faces.
 //   4. SkinConstraints (drive, max distance, backstop; SkinConstraints.h).
 //   5. external colliders, when set_colliders gave some: the real-time body contact (RealtimeBodyContact.h)
 //      pushes the free vertices out of them; it runs last, so a collider wins over the max distance and the
@@ -74,7 +75,9 @@ struct GarmentSettings {
   cloth::Material material;                   // fabric (Material.h)
   std::string model = "springs";              // elastic model (Model.h)
   double fixed_dt = 1.0 / 240.0;              // s, simulation step
-  int iterations = 4;                         // XPBD sweeps per step
+  std::string solver = "fast_xpbd";           // one of cloth::solver_names() that takes `iterations`
+  int substeps = 4;                           // >= 1, <= 1000: solver steps per fixed step
+  int iterations = 1;                         // >= 1: solver sweeps per solver step
   cloth::Vec3 gravity{0.0, -9.81, 0.0};       // m/s²
   cloth::SkinConstraintSettings constraints;  // per-vertex maps over the garment's vertices
   double linear_inertia = 1.0;                // 1, in [0, 1]
@@ -94,9 +97,9 @@ class GarmentInstance {
   // `bind_positions` (m, the skin's bind space) and `triangles` make the cloth's rest shape; the cloth starts
   // on the skinned mesh at `pose` (one global transform per skin bone). The character's frame is the rigid
   // part of bone 0 unless set_pose is given one. Throws loom::Error(source, field, problem) for invalid
-  // settings (fixed_dt, iterations, linear_inertia, angular_inertia, teleport_distance, teleport_rotation,
-  // max_steps_per_frame, sleep.*, lod.*, the constraint maps), a skin of another vertex count, an invalid
-  // mesh or pose.
+  // settings (fixed_dt, solver.method, substeps, iterations, linear_inertia, angular_inertia,
+  // teleport_distance, teleport_rotation, max_steps_per_frame, sleep.*, lod.*, the constraint maps), a skin
+  // of another vertex count, an invalid mesh or pose.
   GarmentInstance(const cloth::Vec3s& bind_positions, const std::vector<cloth::Tri>& triangles, Skin skin,
                   GarmentSettings settings, const std::vector<Affine>& pose,
                   const std::string& source = "garment");
@@ -161,7 +164,7 @@ class GarmentInstance {
   double time() const { return static_cast<double>(ticks_) * settings_.fixed_dt; }  // s, simulated
   double clock() const { return clock_; }                                           // s, frame time
   long steps() const { return ticks_; }                // simulated time in fixed steps (fixed_dt)
-  long solver_steps() const { return solver_steps_; }  // solver steps run (none while asleep)
+  long solver_steps() const { return solver_steps_; }  // fixed steps the solver ran (none while asleep)
   long teleports() const { return teleports_; }
 
  private:

@@ -6,15 +6,18 @@
 // speed:
 //   - springs as structure of arrays (vertex indices, and per spring in float: rest length, γ and the inverse
 //     denominator 1 / ((1 + γ)(w_i + w_j) + α̃), recomputed only when h or the inverse masses change);
-//   - predicted positions in float, relative to a per-step origin (the cloth's first vertex), padded to
-//     four with the inverse mass as the fourth entry, so one 16-byte load gives a vertex's position and
-//     weight; four springs of one colour are projected at once in SSE lanes (a 4x4 transpose in and out).
-//     Only the constraint corrections pass through float: x_new = p_pred + (p_f - p_f0) with p_pred in
-//     double, so gravity's per-substep increment (h² g, 19 µm at 1.4 ms) is kept exactly and the corrections
-//     carry a rounding of about 1e-7 of the cloth's size;
+//   - predicted positions in float, in local coordinates q = Rᵀ (p - o) of a per-step frame (o, R): by
+//     default o is the cloth's first vertex and R the world axes, or the frame given by set_frame (a
+//     character's), padded to four with the inverse mass as the fourth entry, so one 16-byte load gives a
+//     vertex's position and weight; four springs of one colour are projected at once in SSE lanes (a 4x4
+//     transpose in and out). Only the constraint corrections pass through float: x_new = p_pred +
+//     R (q_f - q_f0) with p_pred in double, so gravity's per-substep increment (h² g, 19 µm at 1.4 ms) is
+//     kept exactly and the corrections carry a rounding of about 1e-7 of the cloth's size. The double state
+//     never leaves world coordinates and the frame is taken afresh each step, so nothing pops when it moves,
+//     and the float rounding (hence the motion) does not depend on where in the world the cloth is, nor, with
+//     a frame that turns with it, on which way it faces;
 //   - springs grouped by colour (no shared vertex within a colour) and sorted by lower vertex index, so a
-//   colour
-//     can be split over threads with results independent of the thread count.
+//     colour can be split over threads with results independent of the thread count.
 // One step: p = x + h v + h² M⁻¹ f_ext (f_ext: gravity, drag), `iterations` Gauss-Seidel sweeps over the
 // colours, v = (p - x) / h, x = p. Kinematic vertices (inverse mass 0) move by exactly x += h v.
 #include <vector>
@@ -31,6 +34,7 @@ class FastXpbdSolver final : public Solver {
   void check(const Cloth& cloth) const override;
   void step(Cloth& cloth, double t, double h, int threads) override;
   void reset() override { h_ = 0.0; }
+  void set_frame(const Eigen::Isometry3d& frame) override;
   // springs (constraints per sweep), sweeps (substep-iterations run).
   std::vector<std::pair<std::string, double>> counters() const override;
 
@@ -61,10 +65,12 @@ class FastXpbdSolver final : public Solver {
   std::vector<float> inv_denom_;  // kg, 1 / ((1 + γ)(w_i + w_j) + α̃), 0 when both ends are kinematic
   std::vector<double> lambda_;    // N·s², per spring (more than one iteration only)
   std::vector<int> color_start_;
-  std::vector<Point> p_;          // projected positions (m, relative to origin_) and inverse masses
-  std::vector<Point> x0_;         // positions at the step's start (m, relative to origin_), for damping
+  std::vector<Point> p_;          // projected positions (m, local: Rᵀ (p - origin_)) and inverse masses
+  std::vector<Point> x0_;         // positions at the step's start (m, local), for damping
   Vec3s pred_;                    // m, predicted positions x + h v + h² w f (double)
   Vec3 origin_ = Vec3::Zero();    // m, this step's origin of p_ and x0_
+  Mat3 axes_ = Mat3::Identity();  // 1, R: the local axes in world coordinates (columns)
+  bool framed_ = false;           // set_frame was called: origin_ and axes_ are its frame's
   std::vector<double> inv_mass_;  // 1/kg, the inverse masses the denominators were computed for
   double h_ = 0.0;                // s, the step the denominators were computed for
   Vec3s f_;                       // N, external forces

@@ -47,9 +47,9 @@ struct SimulationSetup {
   // Constraint passes after the solver, in this order; absent = no stage (StrainLimitStage.h, TetherStage.h).
   std::optional<StrainLimitSettings> strain_limit;
   std::optional<TetherSettings> tethers;
-  SolverSettings solver;
+  SolverSettings solver;         // default: fast_xpbd, the real-time tier's solver (Solver.h)
   double frame_dt = 1.0 / 60.0;  // s
-  int substeps = 1;              // solver steps per frame
+  int substeps = 0;  // solver steps per frame; 0: the solver's default (default_substeps, Solver.h)
   int threads = 1;
   GuardSettings guard;  // non-finite / explosion guard: roll back and retry with smaller steps (Guard.h)
 };

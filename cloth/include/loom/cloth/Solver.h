@@ -16,7 +16,9 @@
 namespace loom::cloth {
 
 struct SolverSettings {
-  std::string method = "symplectic_euler";  // one of solver_names()
+  // One of solver_names(). The default is the real-time tier's solver (FastXpbdSolver.h: XPBD in small steps,
+  // one iteration each), what a game would pick; it takes the springs model only (ClothSetup::model).
+  std::string method = "fast_xpbd";
   // Solver-specific knobs by name (iterations, tolerance, ...): every key of the scene's `solver` object
   // other than method/substeps/dt. Each solver reads its own through SolverParams; others are errors.
   std::map<std::string, double> params;
@@ -54,6 +56,11 @@ class Solver {
   virtual void step(Cloth& cloth, double t, double h, int threads) = 0;
   // Forget any history (multistep state); called when the step size or the state changes from outside.
   virtual void reset() {}
+  // A rigid frame (world from local, m) that moves with the cloth, e.g. a character's, for the next steps.
+  // Solvers that round positions to float express them in it, so their rounding, and with it the motion,
+  // does not depend on where the frame stands or which way it faces; the frame should lie within a few
+  // metres of the cloth. Solvers in double ignore it (FastXpbdSolver.h).
+  virtual void set_frame(const Eigen::Isometry3d& frame) { (void)frame; }
   // History kept between steps (multistep state, step sizes, warm starts), saved at each frame start by the
   // non-finite guard and in checkpoints, so a restored solver continues bit-identically. Solvers
   // whose step depends only on the cloth state keep the defaults.
@@ -67,5 +74,8 @@ class Solver {
 // a parameter the method does not take or a value out of its range. Registry: SolverFactory.cpp.
 std::unique_ptr<Solver> make_solver(const SolverSettings& settings, const std::string& file = "");
 std::vector<std::string> solver_names();
+// Steps per frame of `frame_dt` (s) for SimulationSetup::substeps = 0 ("the solver's default"): fast_xpbd
+// takes steps of at most 1/720 s (12 per 60 Hz frame, the real-time tier's), every other method one step.
+int default_substeps(const std::string& method, double frame_dt);
 
 }  // namespace loom::cloth
