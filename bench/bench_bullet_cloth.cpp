@@ -12,8 +12,14 @@
 // run_bullet_twin), in the same process. Counters: ms_per_frame (wall, cloth and world), cpu_ms_per_frame
 // (process CPU time; the twin's includes building its world), cloth_ms_per_frame (system 0: the cloth
 // pipeline alone, wall).
-// Built twice from this file (BM_ToyBox only in the float one): loom_bench_bullet_cloth (float Bullet),
-// loom_bench_bullet_cloth_double.
+// BM_ClothOverFloor: a 33 x 33 cloth (1.2 m, implicit Euler, BulletClothSettings' defaults: the bridge's
+// vertex + edge contacts), 60 Bullet steps after a 60-step settle; floor 0: none, 1: btStaticPlaneShape,
+// 2: a 200 m btBoxShape, top at y = 0 both. place 0: tied at its four corners 1.5 m above the floor (out of
+// reach: the plane, infinite, is still a broad-phase candidate); place 1: free, released flat 5 mm above the
+// floor (resting on it; with no floor it falls freely). The ratio floor / no floor in one run is what a
+// large static shape costs. Counters: cpu_ms_per_step, cloth_steps_per_step, contact_ms_per_step and
+// contacts_per_step (the bridge's ContactStage). Built twice from this file (BM_ToyBox only in the float
+// one): loom_bench_bullet_cloth (float Bullet), loom_bench_bullet_cloth_double.
 #include <benchmark/benchmark.h>
 #include <btBulletDynamicsCommon.h>
 #include <time.h>
@@ -118,6 +124,78 @@ void BM_BulletStep(benchmark::State& state) {
 BENCHMARK(BM_BulletStep)
     ->ArgNames({"N", "phase"})
     ->ArgsProduct({{0, 17, 33}, {0, 1}})
+    ->Unit(benchmark::kMillisecond)
+    ->MeasureProcessCPUTime();
+
+// The bridge's contact stage: (ms, contacts) summed since the cloth was made.
+std::pair<double, double> contact_stage(const loom::bullet::BulletCloth& cloth) {
+  for (const loom::cloth::StageProfile& p : cloth.simulation().profile()) {
+    if (p.name != "bullet_contacts") continue;
+    double n = 0.0;
+    for (const auto& c : p.counters)
+      if (c.first == "contacts") n = c.second;
+    return {p.total_ms, n};
+  }
+  return {0.0, 0.0};
+}
+
+void BM_ClothOverFloor(benchmark::State& state) {
+  const int floor = static_cast<int>(state.range(0));
+  const bool resting = state.range(1) == 1;
+  constexpr int kN = 33, kSettle = 60, kSteps = 60;
+  double cpu = 0.0, contact_ms = 0.0, contacts = 0.0;
+  long cloth_steps = 0, bullet_steps = 0;
+  for (auto _ : state) {
+    state.PauseTiming();
+    auto w = std::make_unique<World>(0);  // ground plane, boxes and sphere: removed below
+    for (int k = w->world.getNumCollisionObjects() - 1; k >= 0; --k)
+      w->world.removeCollisionObject(w->world.getCollisionObjectArray()[k]);
+    if (floor == 1)
+      w->add(std::make_unique<btStaticPlaneShape>(btVector3(0, 1, 0), 0), 0, btVector3(0, 0, 0));
+    if (floor == 2) w->add(std::make_unique<btBoxShape>(btVector3(100, 100, 100)), 0, btVector3(0, -100, 0));
+    loom::cloth::SimulationSetup s;
+    s.solver.method = "implicit_euler";
+    loom::cloth::ClothSetup c;
+    loom::cloth::GridSpec g;
+    g.nodes_u = g.nodes_v = kN;
+    g.size_u = g.size_v = 1.2;
+    g.origin = loom::cloth::Vec3(-0.6, resting ? 0.005 : 1.5, -0.6);
+    c.mesh = loom::cloth::ClothMesh::grid(g);
+    c.material.damping = 0.001;
+    if (!resting)
+      for (int corner : {0, kN - 1, kN * (kN - 1), kN * kN - 1})
+        c.pins.push_back(loom::cloth::PinSpec{corner, {}, {}, {}});
+    s.cloths.push_back(c);
+    w->cloth = std::make_unique<loom::bullet::BulletCloth>(s, loom::bullet::BulletClothSettings{});
+    w->cloth->add_to(&w->world);
+    for (int k = 0; k < kSettle; ++k) w->step();
+    const long c0 = w->cloth->cloth_steps();
+    const auto s0 = contact_stage(*w->cloth);
+    state.ResumeTiming();
+    const double cpu0 = process_cpu_s();
+    for (int k = 0; k < kSteps; ++k) w->step();
+    cpu += process_cpu_s() - cpu0;
+    cloth_steps += w->cloth->cloth_steps() - c0;
+    const auto s1 = contact_stage(*w->cloth);
+    contact_ms += s1.first - s0.first;
+    contacts += s1.second - s0.second;
+    bullet_steps += kSteps;
+    state.PauseTiming();
+    w.reset();
+    state.ResumeTiming();
+  }
+  state.counters["cpu_ms_per_step"] = 1e3 * cpu / double(bullet_steps);
+  state.counters["cloth_steps_per_step"] = double(cloth_steps) / double(bullet_steps);
+  state.counters["contact_ms_per_step"] = contact_ms / double(bullet_steps);
+  state.counters["contacts_per_step"] = contacts / double(bullet_steps);
+  state.SetLabel(std::string(floor == 0   ? "no floor"
+                             : floor == 1 ? "static plane"
+                                          : "static 200 m box") +
+                 (resting ? ", cloth resting" : ", cloth tied above"));
+}
+BENCHMARK(BM_ClothOverFloor)
+    ->ArgNames({"floor", "place"})
+    ->ArgsProduct({{0, 1, 2}, {0, 1}})
     ->Unit(benchmark::kMillisecond)
     ->MeasureProcessCPUTime();
 

@@ -29,32 +29,47 @@ class ClothObject final : public btCollisionObject {
   }
 };
 
-// Radius (m) of a ball around the body origin holding the collider (0 for planes: static or moving flat).
-double reach_from_origin(const Collider& c) {
+// Radius (m) of a ball around the shape's own origin holding it (0 for planes).
+double shape_radius(const collision::Shape& s) {
   using collision::ShapeType;
-  const collision::Shape& s = c.shape;
   double r = 0.0;
   switch (s.type) {
     case ShapeType::plane:
       return 0.0;
     case ShapeType::sphere:
-      r = s.radius;
-      break;
+      return s.radius;
     case ShapeType::capsule:
-      r = s.radius + s.half_height;
-      break;
+      return s.radius + s.half_height;
     case ShapeType::box:
-      r = s.half_extents.norm();
-      break;
+      return s.half_extents.norm();
     case ShapeType::cylinder:
-      r = std::hypot(s.radius, s.half_height);
-      break;
+      return std::hypot(s.radius, s.half_height);
     case ShapeType::convex:
     case ShapeType::mesh:
       for (const Vec3& v : s.vertices) r = std::max(r, v.norm());
-      break;
+      return r;
   }
-  return r + c.curr.translation().norm();
+  return r;
+}
+
+// Radius (m) of a ball around the body origin holding the collider (0 for planes: static or moving flat).
+double reach_from_origin(const Collider& c) {
+  if (c.shape.type == collision::ShapeType::plane) return 0.0;
+  return shape_radius(c.shape) + c.curr.translation().norm();
+}
+
+// A lower bound (m) of the distance from the box [lo, hi] to the collider `c` (body frame) on a body at
+// `body`: a plane's least signed distance over the box's corners (negative below it); otherwise the
+// distance from the shape's bounding ball.
+double distance_bound(const Collider& c, const Transform& body, const Vec3& lo, const Vec3& hi) {
+  const Transform pose = body * c.curr;
+  if (c.shape.type == collision::ShapeType::plane) {
+    const Vec3 n = pose.linear().col(1);  // the plane's local +y
+    const Vec3 corner(n.x() < 0 ? hi.x() : lo.x(), n.y() < 0 ? hi.y() : lo.y(), n.z() < 0 ? hi.z() : lo.z());
+    return n.dot(corner - pose.translation());
+  }
+  const Vec3 p = pose.translation();
+  return (p - p.cwiseMax(lo).cwiseMin(hi)).norm() - shape_radius(c.shape);
 }
 
 Transform slerp(const Transform& a, const Transform& b, double f) {
@@ -484,18 +499,33 @@ int BulletCloth::cloth_step_count(const std::vector<btRigidBody*>& bodies, doubl
   int steps =
       coupling_ ? std::max(settings_.cloth_substeps, settings_.realtime_substeps) : settings_.cloth_substeps;
   if (settings_.max_cloth_substeps > steps && !colliders_->empty()) {
+    double v_cloth = 0.0;  // m/s
+    for (const auto& c : sim_->cloths())
+      for (const Vec3& v : c->state().v) v_cloth = std::max(v_cloth, v.squaredNorm());
+    const double cloth_motion = std::sqrt(v_cloth) * dt;  // m
+    Vec3 lo, hi;
+    cloth_aabb(lo, hi);
+    // Only a body the cloth can reach in this substep needs the finer steps: one whose colliders come
+    // within the cloth's and its own motion, the contact thickness and the query margin of the cloth's
+    // box (a ground plane far under a hanging cloth is a broad-phase candidate at every substep).
     double motion = 0.0;  // m
+    bool near = false;
     for (btRigidBody* rb : bodies) {
       const BodyTrack& tr = *tracks_.at(rb);
       double reach = 0.0;
       for (const Collider& c : tr.local) reach = std::max(reach, reach_from_origin(c));
       const double angle = Eigen::AngleAxisd(tr.end.linear() * tr.start.linear().transpose()).angle();
-      motion = std::max(motion, (tr.end.translation() - tr.start.translation()).norm() + angle * reach);
+      const double body_motion = (tr.end.translation() - tr.start.translation()).norm() + angle * reach;
+      const double gap = body_motion + cloth_motion + contacts_thickness() + settings_.query_margin;
+      bool body_near = false;
+      for (const Collider& c : tr.local)
+        body_near |= std::min(distance_bound(c, tr.start, lo, hi), distance_bound(c, tr.end, lo, hi)) < gap;
+      if (!body_near) continue;
+      near = true;
+      motion = std::max(motion, body_motion);
     }
-    double v_cloth = 0.0;  // m/s
-    for (const auto& c : sim_->cloths())
-      for (const Vec3& v : c->state().v) v_cloth = std::max(v_cloth, v.squaredNorm());
-    motion += std::sqrt(v_cloth) * dt;
+    if (!near) return steps;
+    motion += cloth_motion;
     const double need = std::ceil(motion / (settings_.step_motion * contacts_thickness()));
     if (need > steps) steps = static_cast<int>(std::min<double>(need, settings_.max_cloth_substeps));
   }

@@ -4,6 +4,7 @@
 #include <cmath>
 #include <cstdio>
 #include <cstdlib>
+#include <utility>
 
 namespace loom::bullet {
 
@@ -33,6 +34,28 @@ double bounding_radius(const collision::Shape& s) {
   return HUGE_VAL;
 }
 
+// The axis-aligned box (lo, hi) of a cloth's vertices.
+std::pair<Vec3, Vec3> cloth_box(const cloth::ClothState& s) {
+  Vec3 lo = Vec3::Constant(HUGE_VAL), hi = Vec3::Constant(-HUGE_VAL);
+  for (const Vec3& x : s.x) lo = lo.cwiseMin(x), hi = hi.cwiseMax(x);
+  return {lo, hi};
+}
+
+// A lower bound (m) of the collider's signed distance over the box (every cloth point, vertex or on an
+// edge, lies in it): a plane's least value over the box's corners; otherwise the distance from the
+// shape's bounding ball at curr.
+double bound_distance(const collision::Collider& c, const std::pair<Vec3, Vec3>& box) {
+  const Vec3 &lo = box.first, &hi = box.second;
+  if (!(lo.array() <= hi.array()).all()) return HUGE_VAL;  // no vertices
+  if (c.shape.type == collision::ShapeType::plane) {
+    const Vec3 n = c.curr.linear().col(1);  // the plane's local +y
+    const Vec3 corner(n.x() < 0 ? hi.x() : lo.x(), n.y() < 0 ? hi.y() : lo.y(), n.z() < 0 ? hi.z() : lo.z());
+    return n.dot(corner - c.curr.translation());
+  }
+  const Vec3 p = c.curr.translation();
+  return (p - p.cwiseMax(lo).cwiseMin(hi)).norm() - bounding_radius(c.shape);
+}
+
 }  // namespace
 
 const HullPlanes* ContactStage::hull_for(const collision::Collider& c) {
@@ -55,6 +78,7 @@ void ContactStage::run(cloth::StageContext& ctx) {
     const double mu = col.friction;
     for (auto& cl : ctx.cloths) {
       cloth::ClothState& s = cl->state();
+      if (!(bound_distance(col, cloth_box(s)) < thickness_)) continue;  // no vertex or edge within reach
       for (int i = 0; i < s.size(); ++i) {
         if (s.inv_mass[i] == 0.0) continue;  // pinned / attached: prescribed
         Vec3& x = s.x[i];
@@ -111,6 +135,14 @@ void ContactStage::edge_contacts(collision::Collider& col, const HullPlanes* hul
     const double dd = d.squaredNorm();
     const double tc = dd > 0.0 ? std::clamp((centre - xi).dot(d) / dd, 0.0, 1.0) : 0.0;
     if ((xi + tc * d - centre).squaredNorm() > reach2) continue;
+    // Cull by the ends (exact for a convex phi, whose returned normal is a subgradient): phi(x(t)) >=
+    // phi_i + t n_i·d, so n_i·d >= 0 puts the minimum at t = 0; likewise n_j·d <= 0 puts it at t = 1. A
+    // plane (phi affine) or a large box under the cloth (both ends over one face) never reaches the search.
+    // phi is 1-Lipschitz, so phi(x(t)) >= (phi_i + phi_j - |d|) / 2: an edge that far away is skipped too.
+    Vec3 ni, nj;
+    const double phi_i = phi_at(xi, &ni), phi_j = phi_at(xj, &nj);
+    if (ni.dot(d) >= 0.0 || nj.dot(d) <= 0.0) continue;
+    if (0.5 * (phi_i + phi_j - std::sqrt(dd)) >= thickness_) continue;
     // Golden-section search of the convex phi(t) on [0, 1].
     constexpr double g = 0.6180339887498949;
     double a = 0.0, b = 1.0;
@@ -134,7 +166,7 @@ void ContactStage::edge_contacts(collision::Collider& col, const HullPlanes* hul
     const double phi = phi_at(p, &n);
     if (!(phi < thickness_)) continue;
     // Only a true interior minimum: deeper than both ends (otherwise the vertex pass has it).
-    if (!(phi < std::min(phi_at(xi, nullptr), phi_at(xj, nullptr)) - 1e-9)) continue;
+    if (!(phi < std::min(phi_i, phi_j) - 1e-9)) continue;
     // Push across the edge, not along it: the normal's part perpendicular to the cloth edge. At a smooth
     // surface the interior minimum already has n ⟂ d; at a box edge the nearest face's normal would slide
     // the cloth edge off the corner, while the perpendicular part is the edge-edge normal (it wraps the

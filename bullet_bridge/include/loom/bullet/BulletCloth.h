@@ -71,7 +71,9 @@ struct BulletClothSettings {
 
   // Adaptive cloth steps: a Bullet substep runs n = ceil(relative motion / (step_motion * thickness)) cloth
   // steps, cloth_substeps <= n <= max_cloth_substeps, where the relative motion (m) is the farthest any point
-  // of a nearby body moves in the substep plus the fastest cloth vertex's v dt. Vertex contacts are found by
+  // of a nearby body moves in the substep plus the fastest cloth vertex's v dt; nearby: its colliders come
+  // within both motions, the thickness and query_margin of the cloth's box (with none nearby, n =
+  // cloth_substeps: a ground plane far under the cloth adds no steps). Vertex contacts are found by
   // proximity after each step, so a body must not move deeper than the contact offset per step: a body that
   // moves farther leaves vertices nearer its side than its face, and they are pushed out sideways.
   double step_motion = 0.5;  // 1, relative motion per cloth step in thicknesses
