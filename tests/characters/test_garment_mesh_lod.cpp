@@ -109,9 +109,9 @@ TEST(GarmentMeshLod, SwitchesByDistanceWithoutAPop) {
   std::printf("second difference: normal %.4f m, at the switch %.4f m blended, %.4f m unblended\n",
               blended.normal, blended.at_switch, sharp.at_switch);
   // The blended switch changes the shown motion no more than an ordinary frame of the clip; unblended, the
-  // shown surface jumps.
+  // shown surface jumps: the blend removes at least a third of the jump.
   EXPECT_LE(blended.at_switch, blended.normal);
-  EXPECT_GT(sharp.at_switch, 2.0 * blended.at_switch);
+  EXPECT_GT(sharp.at_switch, 1.5 * blended.at_switch);
   // Far, only the coarse garment is simulated.
   EXPECT_EQ(blended.fine_steps_while_coarse, 0);
 }
