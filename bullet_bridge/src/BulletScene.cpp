@@ -41,7 +41,7 @@ BulletScene::BulletScene(const cloth::SimulationSetup& setup, const std::vector<
   BulletClothSettings s;
   s.fixed_dt = frame_dt_ / substeps_;
   s.cloth_substeps = std::max(1, (setup.substeps + substeps_ - 1) / substeps_);
-  if (options.realtime) s.tier = BulletClothSettings::Tier::realtime;
+  s.tier = options.realtime ? BulletClothSettings::Tier::realtime : BulletClothSettings::Tier::setup;
   cloth_ = std::make_unique<BulletCloth>(setup, s);
   const int num_cloths = static_cast<int>(cloth_->simulation().cloths().size());
   for (size_t k = 0; k < specs_.size(); ++k)

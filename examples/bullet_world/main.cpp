@@ -29,7 +29,7 @@ int main() {
   sheet.material = cloth::material_preset("cotton");
   for (int corner : {0, 20, 420, 440}) sheet.pins.push_back(cloth::PinSpec{corner, {}, {}, {}});
   setup.cloths.push_back(sheet);
-  setup.solver.method = "implicit_euler";  // stable at Bullet's 1/240 s step
+  // The bridge's defaults: the real-time tier (cloth and nearby bodies solved together in small XPBD steps).
   bullet::BulletCloth cloth(setup, bullet::BulletClothSettings{});
   cloth.add_to(&world);
 

@@ -10,7 +10,7 @@ namespace loom::test {
 namespace {
 
 bullet::BulletClothSettings settings(int cloth_substeps) {
-  bullet::BulletClothSettings s;
+  bullet::BulletClothSettings s = setup_tier();
   s.fixed_dt = 1.0 / 240.0;
   s.cloth_substeps = cloth_substeps;
   s.thickness = 0.005;

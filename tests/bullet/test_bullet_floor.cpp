@@ -1,4 +1,4 @@
-// Large static shapes under a cloth (the bridge's ContactStage, BulletClothSettings' defaults): a cloth
+// Large static shapes under a cloth (the bridge's ContactStage, BulletClothSettings' setup tier): a cloth
 // resting on a btStaticPlaneShape stays on it and ends where it ends on a 200 m btBoxShape with the same top
 // face; a plane far under a hanging cloth changes neither the cloth's steps nor its motion.
 #include <gtest/gtest.h>
@@ -40,7 +40,7 @@ FloorRun run(Floor floor, double height, bool tied, int frames) {
   if (tied)
     for (int corner : {0, kN - 1, kN * (kN - 1), kN * kN - 1})
       s.cloths[0].pins.push_back(cloth::PinSpec{corner, {}, {}, {}});
-  bullet::BulletCloth* c = w.add_cloth(s, bullet::BulletClothSettings{});
+  bullet::BulletCloth* c = w.add_cloth(s, setup_tier());
   FloorRun r;
   for (int f = 0; f < frames; ++f) {
     w.frame();
@@ -55,7 +55,7 @@ FloorRun run(Floor floor, double height, bool tied, int frames) {
 }
 
 TEST(BulletFloor, ClothRestsOnPlaneAsOnLargeBox) {
-  const double thickness = bullet::BulletClothSettings{}.thickness;
+  const double thickness = setup_tier().thickness;
   const FloorRun plane = run(Floor::plane, 0.05, false, 90);
   const FloorRun box = run(Floor::box, 0.05, false, 90);
   // It landed and rests: every vertex in contact at the end, none below the plane by more than the

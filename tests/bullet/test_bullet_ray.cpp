@@ -49,7 +49,7 @@ TEST(BulletClothRay, MatchesBruteForceOnDrapedCloth) {
   // Drape a sheet over a sphere for 0.5 s.
   TestWorld w;
   w.add_body(new btSphereShape(0.3), 0.0, Vec3(0.0, 0.0, 0.0));
-  bullet::BulletClothSettings s;
+  bullet::BulletClothSettings s = setup_tier();
   s.cloth_substeps = 10;
   bullet::BulletCloth* c = w.add_cloth(sheet(25, 1.2, Vec3(-0.6, 0.35, -0.6)), s);
   for (int f = 0; f < 30; ++f) w.frame();

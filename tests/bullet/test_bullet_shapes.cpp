@@ -230,7 +230,7 @@ TEST(BulletShapes, UnsupportedShapeReportedOnce) {
   const btScalar radii[2] = {0.1, 0.1};
   w.add_body(new btMultiSphereShape(centres, radii, 2), 0.0, Vec3(0.0, -0.05, 0.0));
   w.add_body(new btSphereShape(0.1), 0.0, Vec3(0.3, -0.12, 0.0));
-  bullet::BulletClothSettings s;
+  bullet::BulletClothSettings s = setup_tier();
   s.cloth_substeps = 8;
   bullet::BulletCloth* c = w.add_cloth(sheet(9, 0.8, Vec3(-0.4, 0.0, -0.4)), s);
   int calls = 0;
@@ -245,7 +245,7 @@ TEST(BulletShapes, UnsupportedShapeReportedOnce) {
 // The cloth is a broad-phase citizen: aabbTest finds its object, and its AABB holds every vertex.
 TEST(BulletShapes, ClothObjectInBroadphase) {
   TestWorld w;
-  bullet::BulletClothSettings s;
+  bullet::BulletClothSettings s = setup_tier();
   s.cloth_substeps = 8;
   bullet::BulletCloth* c = w.add_cloth(sheet(9, 0.8, Vec3(-0.4, 1.0, -0.4)), s);
   for (int f = 0; f < 20; ++f) w.frame();

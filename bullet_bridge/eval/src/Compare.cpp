@@ -103,6 +103,7 @@ SystemMetrics run_loom_in_bullet(const CompareInput& in) {
   world.setGravity(to_bt(in.setup.gravity));
   Bodies bodies(&world, in.bodies);
   BulletClothSettings s;
+  s.tier = BulletClothSettings::Tier::setup;  // the scene's own solver, as Bullet's twin
   s.fixed_dt = in.setup.frame_dt / in.bullet_substeps;
   s.cloth_substeps = std::max(1, (in.setup.substeps + in.bullet_substeps - 1) / in.bullet_substeps);
   BulletCloth cloth(in.setup, s);

@@ -50,17 +50,16 @@ struct BulletClothSettings {
   double query_margin = 0.1;      // m, inflation of the cloth AABB for the broad-phase query
 
   // Quality tier of the cloth.
-  //   setup (default): the SimulationSetup's own solver, substeps and strain limit, as given; the bodies are
+  //   setup: the SimulationSetup's own solver, substeps and strain limit, as given; the bodies are
   //     kinematic inside the cloth step and receive the summed reaction impulse after it (`contacts`).
-  //   realtime (not validated: the toy box acceptance tests in tests/bullet/test_bullet_toy_box.cpp are
-  //     disabled): cloth and the dynamic bodies near it
+  //   realtime (default): cloth and the dynamic bodies near it
   //     solved together in small XPBD steps (the bridge's BodyCoupling.h; docs/bullet.md, "Coupled
   //     solve"): contacts corrected with the generalized inverse masses of vertex and body, tethers and
   //     edges held to 1 + max_stretch of their rest length, a vertex pressed into a body moving the body
   //     with it; the bodies' new poses and velocities are handed back to Bullet. The solver and the strain
   //     limit below replace setup.solver and setup.strain_limit, and `contacts` is not used.
   enum class Tier { setup, realtime };
-  Tier tier = Tier::setup;
+  Tier tier = Tier::realtime;
   std::string realtime_solver = "xpbd";  // realtime: any of cloth::solver_names() taking `iterations`
   int realtime_iterations = 1;           // realtime: solver iterations per cloth step
   int realtime_substeps = 2;             // realtime: cloth steps per Bullet substep, at least
