@@ -638,7 +638,7 @@ std::map<std::string, double> body_capsule_radii(const BodyFit& fit, const Motio
     double r = quantile_of(dist[k][4]);
     // Torso, neck and head: the bone lies off the section's centre (a mocap spine runs close to the back),
     // so one radius around it cannot follow the surface on every side; the capsule takes its thinnest side
-    // (of the sides holding at least 5 vertices and 2 % of the bone's) and stays inside the body.
+    // (of the sides holding at least 5 vertices and 2 % of the bone's), following the back.
     if (!kLimbBones.count(bones[k].canonical))
       for (int side = 0; side < 4; ++side)
         if (dist[k][side].size() >= std::max<size_t>(5, dist[k][4].size() / 50))

@@ -89,8 +89,9 @@ BackCape make_back_cape(const BodyFit& fit, const Motion& motion, double width =
 // body's vertices nearest to it and beside it (projecting inside the segment, not onto its ends). Limb bones
 // (arms, legs) take the quantile of all their vertices; the torso, neck and head, whose mocap bones run off
 // the section's centre (the spine close to the back), take the smallest of the quantiles on each side of the
-// bone (front, back and the two across it), so their capsules stay inside the body instead of bulging out of
-// the back. A bone with fewer than 20 such vertices keeps its table radius.
+// bone (front, back and the two across it, each holding at least 5 vertices and 2 % of the bone's), so their
+// capsules follow the back instead of bulging out of it (the chest and belly lie outside them). A bone with
+// no vertex beside it keeps its table radius.
 std::map<std::string, double> body_capsule_radii(const BodyFit& fit, const Motion& motion,
                                                  double quantile = 0.5);
 
