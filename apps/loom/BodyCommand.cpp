@@ -12,6 +12,7 @@
 #include "loom/characters/BodyFit.h"
 #include "loom/characters/GarmentInstance.h"
 #include "loom/cloth/Error.h"
+#include "loom/collision/Distance.h"
 #ifdef LOOM_HAVE_RENDER
 #include "loom/render/Renderer.h"
 #endif
@@ -27,9 +28,11 @@ const char* kBodyUsage =
     "Fits MESH (its first mesh: a static human body standing upright, facing +z, in an A-pose, e.g.\n"
     "tests/data/body/human.zae) to the skeleton of CLIP and skins it with automatic weights, puts a cape on\n"
     "its back (skinned at the shoulders, free at the hem: max distance 0 to 0.3 m, a backstop 1 cm behind),\n"
-    "plays the clip for S seconds at 30 frames per second and prints one line:\n"
+    "colliding with capsules fitted to the body (5 mm contact thickness) that move with the clip, plays the\n"
+    "clip for S seconds at 30 frames per second and prints one line:\n"
     "  vertices=V joints=J frames=N cape_vertices=C worst_over_max_distance=D worst_behind_backstop=B\n"
-    "  hem_motion=H (m)\n"
+    "  hem_motion=H deepest_in_body_capsules=P (m; P: the cape's deepest vertex inside a capsule, 0 if "
+    "none)\n"
     "\n"
     "Options:\n"
     "  --seconds S      clip time to play (s; default 3, at most the clip's length)\n"
@@ -90,13 +93,24 @@ int body_main(int argc, char** argv) {
     return bones;
   };
   ch::GarmentInstance garment(cape.positions, cape.triangles, cape.skin, settings, pose_at(0.0), "cape");
+  // The body's fitted capsules, moving with the clip, collide with the cape after its constraints.
+  collision::RealtimeContactSettings contact;
+  contact.thickness = 0.005;
+  garment.set_colliders(ch::body_colliders(fit, motion), contact);
+  const ch::CapsuleRig rig = ch::CapsuleRig::build(motion, ch::body_capsule_radii(fit, motion));
   const double fps = 30.0, end = std::min(seconds, motion.duration());
   const int frames = static_cast<int>(std::floor(end * fps + 1e-9));
-  double worst_over = 0.0, worst_behind = 0.0, hem = 0.0;
+  double worst_over = 0.0, worst_behind = 0.0, hem = 0.0, deepest = 0.0;
   for (int f = 1; f <= frames; ++f) {
     garment.set_pose(pose_at(f / fps));
     garment.step(1.0 / fps);
     const cloth::Vec3s& x = garment.positions();
+    motion.pose(garment.time(), joints);
+    for (const cloth::Vec3& p : x)
+      for (const ch::Bone& b : rig.bones())
+        deepest =
+            std::max(deepest, b.radius - collision::point_segment_distance(p, joints[b.joint].translation(),
+                                                                           joints[b.child].translation()));
     for (int i = 0; i < garment.num_vertices(); ++i) {
       if (!x[i].allFinite()) throw Error("cape", "positions", "not finite at frame " + std::to_string(f));
       const double d = (x[i] - garment.targets()[i]).norm();
@@ -108,9 +122,9 @@ int body_main(int argc, char** argv) {
   }
   std::printf(
       "vertices=%zu joints=%d frames=%d cape_vertices=%d worst_over_max_distance=%.3g "
-      "worst_behind_backstop=%.3g hem_motion=%.3f\n",
+      "worst_behind_backstop=%.3g hem_motion=%.3f deepest_in_body_capsules=%.4f\n",
       fit.body.positions.size(), motion.num_joints(), frames, garment.num_vertices(), worst_over,
-      worst_behind, hem);
+      worst_behind, hem, deepest);
 #ifdef LOOM_HAVE_RENDER
   if (!image.empty()) {
     fit.body.skin.skinning_matrices(pose_at(frames / fps), matrices);

@@ -1,12 +1,14 @@
 #include "loom/characters/BodyFit.h"
 
 #include <algorithm>
+#include <array>
 #include <cmath>
 #include <cstdint>
 #include <functional>
 #include <limits>
 #include <numeric>
 #include <optional>
+#include <set>
 #include <unordered_map>
 
 #include "loom/cloth/Error.h"
@@ -26,6 +28,12 @@ constexpr double kShoulderWidth = 0.259;   // biacromial width
 constexpr double kUpperArm = 0.186;
 constexpr double kForearm = 0.146;
 constexpr double kHand = 0.108;
+
+// Canonical names of the limb bones (arms and legs, CapsuleRig.h): their sections are round about the bone.
+const std::set<std::string> kLimbBones = {"LeftUpLeg",  "LeftLeg",      "LeftFoot",  "LeftToeBase",
+                                          "LeftArm",    "LeftForeArm",  "LeftHand",  "LeftFingerBase",
+                                          "RightUpLeg", "RightLeg",     "RightFoot", "RightToeBase",
+                                          "RightArm",   "RightForeArm", "RightHand", "RightFingerBase"};
 
 int find_canonical(const std::vector<std::string>& canon, const std::string& name) {
   for (size_t j = 0; j < canon.size(); ++j)
@@ -153,6 +161,11 @@ Leg find_leg(const BodySections& b, int sg) {
   if (leg.tip.z() - leg.ankle.z() < leg.ankle.z() - heel)
     throw Error(b.source(), field,
                 "the foot points along -z: the mesh must face +z (turn it with the loader)");
+  // The section at ankle height also cuts the heel and the instep: the ankle is on the shin's axis (through
+  // its sections at 0.10 H and 0.20 H, above the malleoli) at that height.
+  const double y3 = b.at(0.10), y4 = b.at(0.20);
+  const Vec3 c3 = need(b.leg(y3, sg), y3, "shin"), c4 = need(b.leg(y4, sg), y4, "shin");
+  leg.ankle = c3 + (c3 - c4) * ((y_ankle - c3.y()) / (c3.y() - c4.y()));
   return leg;
 }
 
@@ -587,7 +600,9 @@ std::map<std::string, double> body_capsule_radii(const BodyFit& fit, const Motio
     throw Error(motion.source(), "quantile", std::to_string(quantile) + " is not in [0, 1]");
   const CapsuleRig rig = CapsuleRig::build(motion);
   const auto& bones = rig.bones();
-  std::vector<std::vector<double>> dist(bones.size());
+  // Per bone: the distances of its nearest vertices, by side (0, 1: front and back, along the body's +z made
+  // perpendicular to the bone; 2, 3: the two sides across it) and all together (4).
+  std::vector<std::array<std::vector<double>, 5>> dist(bones.size());
   for (const Vec3& p : fit.body.positions) {
     double best = std::numeric_limits<double>::infinity();
     int which = -1;
@@ -597,17 +612,44 @@ std::map<std::string, double> body_capsule_radii(const BodyFit& fit, const Motio
                                                          fit.bind[bones[k].child].translation());
       if (d < best) best = d, which = static_cast<int>(k);
     }
-    if (which >= 0) dist[which].push_back(best);
+    if (which < 0) continue;
+    const Vec3 a = fit.bind[bones[which].joint].translation(), e = fit.bind[bones[which].child].translation();
+    const Vec3 u = (e - a).normalized();
+    // Only vertices beside the segment (not beyond its ends, where the distance measures the caps).
+    const double along = (p - a).dot(u);
+    if (along <= 0.0 || along >= (e - a).norm()) continue;
+    Vec3 front = Vec3::UnitZ() - Vec3::UnitZ().dot(u) * u;
+    if (front.norm() < 0.1) front = Vec3::UnitX() - Vec3::UnitX().dot(u) * u;
+    front.normalize();
+    const Vec3 across = u.cross(front), r = p - a;
+    const double f = r.dot(front), c = r.dot(across);
+    const int side = std::abs(f) >= std::abs(c) ? (f >= 0.0 ? 0 : 1) : (c >= 0.0 ? 2 : 3);
+    dist[which][side].push_back(best);
+    dist[which][4].push_back(best);
   }
-  std::map<std::string, double> radii;
-  for (size_t k = 0; k < bones.size(); ++k) {
-    if (dist[k].empty() || radii.count(bones[k].name)) continue;
-    auto& d = dist[k];
+  auto quantile_of = [&](std::vector<double>& d) {
     const size_t q = std::min(d.size() - 1, static_cast<size_t>(quantile * static_cast<double>(d.size())));
     std::nth_element(d.begin(), d.begin() + static_cast<long>(q), d.end());
-    radii[bones[k].name] = d[q];
+    return d[q];
+  };
+  std::map<std::string, double> radii;
+  for (size_t k = 0; k < bones.size(); ++k) {
+    if (dist[k][4].empty() || radii.count(bones[k].name)) continue;
+    double r = quantile_of(dist[k][4]);
+    // Torso, neck and head: the bone lies off the section's centre (a mocap spine runs close to the back),
+    // so one radius around it cannot follow the surface on every side; the capsule takes its thinnest side
+    // (of the sides holding at least 5 vertices and 2 % of the bone's), following the back.
+    if (!kLimbBones.count(bones[k].canonical))
+      for (int side = 0; side < 4; ++side)
+        if (dist[k][side].size() >= std::max<size_t>(5, dist[k][4].size() / 50))
+          r = std::min(r, quantile_of(dist[k][side]));
+    radii[bones[k].name] = r;
   }
   return radii;
+}
+
+collision::ColliderSetPtr body_colliders(const BodyFit& fit, const Motion& motion) {
+  return CapsuleRig::build(motion, body_capsule_radii(fit, motion)).clip_colliders(motion);
 }
 
 }  // namespace loom::characters

@@ -3,6 +3,7 @@
 #include <algorithm>
 #include <cmath>
 #include <limits>
+#include <memory>
 #include <set>
 
 #include "loom/cloth/Error.h"
@@ -192,6 +193,35 @@ std::vector<collision::Collider> CapsuleRig::make_colliders(const std::vector<Tr
     out.push_back(std::move(c));
   }
   return out;
+}
+
+collision::ColliderSetPtr CapsuleRig::clip_colliders(const Motion& motion) const {
+  // The capsule poses at the last two sampled times, shared by the colliders (the contact stage samples
+  // every collider at a step's start and end, one collider after the other).
+  struct Clip {
+    Clip(const CapsuleRig& r, const Motion& m) : rig(r), motion(m) {}
+    CapsuleRig rig;
+    Motion motion;
+    double t[2] = {std::nan(""), std::nan("")};
+    std::vector<Transform> poses[2], joints;
+    int next = 0;
+    const Transform& at(double time, size_t k) {
+      for (int s = 0; s < 2; ++s)
+        if (t[s] == time) return poses[s][k];
+      const int s = next;
+      next = 1 - next;
+      motion.pose(time, joints);
+      rig.capsule_poses(joints, poses[s]);
+      t[s] = time;
+      return poses[s][k];
+    }
+  };
+  auto clip = std::make_shared<Clip>(*this, motion);
+  std::vector<Transform> start;
+  motion.pose(0.0, start);
+  auto set = std::make_shared<collision::ColliderSet>(make_colliders(start));
+  for (size_t k = 0; k < set->size(); ++k) (*set)[k].motion = [clip, k](double t) { return clip->at(t, k); };
+  return set;
 }
 
 namespace {

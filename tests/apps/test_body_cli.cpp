@@ -35,9 +35,12 @@ TEST(BodyCli, FitsTheBodyAndKeepsTheCapesConstraints) {
   EXPECT_EQ(field(r.out, "frames"), 30);
   EXPECT_EQ(field(r.out, "joints"), 38);
   EXPECT_GT(field(r.out, "vertices"), 13000);
-  EXPECT_LE(field(r.out, "worst_over_max_distance"), 1e-12);
+  // The body's capsules collide last and may push the cape past its max distance by less than the contact
+  // thickness (5 mm); never behind the backstop.
+  EXPECT_LE(field(r.out, "worst_over_max_distance"), 0.005);
   EXPECT_LE(field(r.out, "worst_behind_backstop"), 1e-12);
   EXPECT_GT(field(r.out, "hem_motion"), 0.01);
+  EXPECT_LE(field(r.out, "deepest_in_body_capsules"), 0.005);  // the contact thickness
 }
 
 TEST(BodyCli, RefusesBadInputNamingIt) {

@@ -8,8 +8,9 @@
 // below the crotch. The fit:
 //   1. scales the mesh uniformly so that its height H equals the skeleton's rest height;
 //   2. finds the joints in the mesh from horizontal cross-sections (closed loops of the cut, mesh_section):
-//      knee and ankle at the centroid of the leg's section at 0.285 H and 0.039 H above the floor; hip on the
-//      thigh's axis (the line through two thigh-section centroids) at 0.530 H; the shoulder on the upper
+//      knee at the centroid of the leg's section at 0.285 H above the floor; ankle on the shin's axis (the
+//      line through its section centroids at 0.10 H and 0.20 H) at 0.039 H; hip on the thigh's axis (the
+//      line through two thigh-section centroids) at 0.530 H; the shoulder on the upper
 //      arm's axis where it lies 0.259 H / 2 minus the arm's radius from the midline; elbow and wrist on the
 //      arm's centre line (section centroids from the armpit to the fingertip) at arc lengths in the ratio
 //      upper arm : forearm : hand = 0.186 : 0.146 : 0.108 (segment lengths as fractions of height, Drillis
@@ -85,8 +86,17 @@ BackCape make_back_cape(const BodyFit& fit, const Motion& motion, double width =
 
 // Capsule radii fitted to the body (m, keyed by bone file name, for CapsuleRig::build's overrides): for each
 // capsule bone, the `quantile` (0 to 1) of the distances from its segment at the bind pose to the fitted
-// body's vertices nearest to it. A bone with no vertex keeps its table radius.
+// body's vertices nearest to it and beside it (projecting inside the segment, not onto its ends). Limb bones
+// (arms, legs) take the quantile of all their vertices; the torso, neck and head, whose mocap bones run off
+// the section's centre (the spine close to the back), take the smallest of the quantiles on each side of the
+// bone (front, back and the two across it, each holding at least 5 vertices and 2 % of the bone's), so their
+// capsules follow the back instead of bulging out of it (the chest and belly lie outside them). A bone with
+// no vertex beside it keeps its table radius.
 std::map<std::string, double> body_capsule_radii(const BodyFit& fit, const Motion& motion,
                                                  double quantile = 0.5);
+
+// The body's colliders for a garment on it (GarmentInstance::set_colliders): the capsules of a CapsuleRig
+// with body_capsule_radii(fit, motion), moving with the clip (CapsuleRig::clip_colliders).
+collision::ColliderSetPtr body_colliders(const BodyFit& fit, const Motion& motion);
 
 }  // namespace loom::characters

@@ -51,6 +51,10 @@ class CapsuleRig {
   void capsule_poses(const std::vector<Transform>& global, std::vector<Transform>& poses) const;
   // One Collider per bone (shape capsule), named "character/<bone>", with the poses at `global`.
   std::vector<collision::Collider> make_colliders(const std::vector<Transform>& global) const;
+  // The same colliders moving with `motion`'s clip, for GarmentInstance::set_colliders: each one's `motion`
+  // is its capsule's pose at the clip's time t (s, Motion::pose), so the contact stage samples the clip at
+  // both ends of every fixed step. The set holds copies of the rig and the motion.
+  collision::ColliderSetPtr clip_colliders(const Motion& motion) const;
   // Fits the table radii to the motion: mocap limbs pass through the table's round capsules (a forearm
   // swinging past the hip overlaps the pelvis capsule), and cloth
   // caught between two overlapping capsules cannot be outside both. For every pair of an arm bone
