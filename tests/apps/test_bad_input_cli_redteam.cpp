@@ -369,5 +369,18 @@ TEST(RedteamCheckpoint, GltfClipBuffersAreHashedAndAChangedBufferIsRefused) {
       << resumed.err;
 }
 
+// A body contact thickness far larger than the cloth (1e6 m) flings the cloth in the first frame: the guard
+// rolls the frame back and retries it, which restores the self-collision stage to its state before its first
+// run; the run then stops with the guard's named cause (exit 3), never a crash, and writes no NaN.
+TEST(RedteamGuard, AFirstFrameRetryWithSelfCollisionStopsByTheGuard) {
+  const fs::path dir = test_dir(), out = dir / "out";
+  const auto r =
+      run_loom("run " + std::string(LOOM_SOURCE_DIR) +
+               "/scenes/character_cape.json --frames 1 --set character.thickness=1e6 --out " + out.string());
+  EXPECT_EQ(r.code, 3) << r.err;
+  EXPECT_NE(r.err.find("exploded"), std::string::npos) << r.err;
+  EXPECT_NE(r.err.find("in frame 1"), std::string::npos) << r.err;
+}
+
 }  // namespace
 }  // namespace loom::test
