@@ -324,8 +324,14 @@ void RealtimeSelfCollisionStage::run(cloth::StageContext& ctx) {
     for (int i = 0; i < s.size(); ++i)
       xs[offset_[c] + i] = &s.x[i], vs[offset_[c] + i] = &s.v[i], w[offset_[c] + i] = s.inv_mass[i];
   }
-  // Step 1, when the list may miss a pair.
-  if (moved_too_far()) {
+  // A state loaded before the first run (the guard's frame-start snapshot of a rolled-back first frame, a
+  // checkpoint) holds no sides: the current positions, as prepare() takes them.
+  if (last_.size() != static_cast<size_t>(n)) {
+    last_.resize(n);
+    for (int g = 0; g < n; ++g) last_[g] = *xs[g];
+  }
+  // Step 1, when the list may miss a pair (always when no list matches the vertices).
+  if (built_.size() != static_cast<size_t>(n) || moved_too_far()) {
     built_.resize(n);
     for (int g = 0; g < n; ++g) built_[g] = *xs[g];
     cand_valid_ = false;

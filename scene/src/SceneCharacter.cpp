@@ -3,7 +3,9 @@
 #include <algorithm>
 #include <cmath>
 #include <filesystem>
+#include <iomanip>
 #include <map>
+#include <sstream>
 #include <vector>
 
 #include "loom/cloth/Error.h"
@@ -24,6 +26,12 @@ std::string resolve(const std::string& path, const std::string& scene_file) {
   std::filesystem::path p(path);
   if (p.is_relative()) p = std::filesystem::path(scene_file).parent_path() / p;
   return p.string();
+}
+
+std::string show_size(double v) {  // 3 significant digits
+  std::ostringstream o;
+  o << std::setprecision(3) << v;
+  return o.str();
 }
 
 }  // namespace
@@ -62,6 +70,23 @@ void parse_character(const JsonReader& root, Scene& scene) {
   } catch (const Error& e) {
     throw Error(file, c.child("bvh"), e.what());
   }
+  // The figure's size: the diagonal of the joints' box in the clip's first pose (m). Fields that scale the
+  // figure are bounded by it (a figure under 10 cm has no bones a garment could hang from); radii and
+  // clearances are bounded relative to it.
+  double body = 0.0;
+  {
+    std::vector<ch::Transform> pose;
+    character->motion.clip_pose(0.0, pose);
+    Eigen::AlignedBox3d box;
+    for (const ch::Transform& t : pose) box.extend(t.translation());
+    if (!box.isEmpty()) body = box.diagonal().norm();
+  }
+  constexpr double kMinFigure = 0.1;  // m
+  if (!(body >= kMinFigure)) {
+    const std::string field = ms.scale > 0.0 ? "scale" : c.has("height") ? "height" : "bvh";
+    c.fail(field, "makes the figure " + show_size(body) + " m across its joints; at least " +
+                      show_size(kMinFigure) + " m (height is in metres, scale in metres per file unit)");
+  }
   // The files the clip references (a glTF's .bin buffers) are inputs of the run too (checkpoints hash them).
   for (const std::string& f : character->motion.files())
     if (std::find(scene.inputs.begin(), scene.inputs.end(), f) == scene.inputs.end())
@@ -71,7 +96,11 @@ void parse_character(const JsonReader& root, Scene& scene) {
     const nlohmann::json& rj = c.raw("radii");
     if (!rj.is_object()) c.fail("radii", "expected an object {\"BoneName\": radius in m}");
     const JsonReader rr = c.object("radii");
-    for (auto it = rj.begin(); it != rj.end(); ++it) radii[it.key()] = rr.length(it.key());
+    for (auto it = rj.begin(); it != rj.end(); ++it) {
+      radii[it.key()] = rr.length(it.key());
+      if (radii[it.key()] > 0.25 * body)
+        rr.fail(it.key(), "must be <= 0.25 x the figure's size (" + show_size(0.25 * body) + " m)");
+    }
     rr.finish();
   }
   try {
@@ -87,14 +116,6 @@ void parse_character(const JsonReader& root, Scene& scene) {
   character->friction = c.number("friction", character->friction, 0.0);
   character->thickness = c.length("thickness", character->thickness);
   if (c.has("garments")) {
-    double body = 0.0;  // m, the diagonal of the joints' box in the clip's first pose
-    {
-      std::vector<ch::Transform> pose;
-      character->motion.clip_pose(0.0, pose);
-      Eigen::AlignedBox3d box;
-      for (const ch::Transform& t : pose) box.extend(t.translation());
-      if (!box.isEmpty()) body = box.diagonal().norm();
-    }
     const auto garments = c.objects("garments");
     cloth::Vec3s layers;  // m, vertices of the garments made so far
     for (size_t k = 0; k < garments.size(); ++k) {
@@ -104,6 +125,8 @@ void parse_character(const JsonReader& root, Scene& scene) {
       const std::string name = g.string("name", spec.type);
       spec.resolution = g.number("resolution", spec.resolution, 0.0, true);
       spec.clearance = g.length("clearance", spec.clearance);
+      if (spec.clearance > 0.25 * body)
+        g.fail("clearance", "must be <= 0.25 x the figure's size (" + show_size(0.25 * body) + " m)");
       spec.length = g.number("length", spec.length, 0.0);
       if (spec.type == "cape") spec.width = g.number("width", spec.width, 0.0);
       // A garment shorter than 1 cm would be degenerate: refused by its field, not by a triangle.
@@ -122,7 +145,11 @@ void parse_character(const JsonReader& root, Scene& scene) {
         reserve_vertices(scene, g.child("resolution"),
                          2.0 * area / (std::sqrt(3.0) * spec.resolution * spec.resolution));
       }
-      if (spec.type == "skirt") spec.flare = g.number("flare", spec.flare, 0.0, true);
+      if (spec.type == "skirt") {
+        spec.flare = g.number("flare", spec.flare, 0.0, true);
+        if (!(spec.flare >= 0.1 && spec.flare <= 10.0))
+          g.fail("flare", "must be in [0.1, 10] (hem over waist)");
+      }
       if (spec.type == "obj") {
         spec.path = input_file(scene, g.child("path"), g.string("path"));
         spec.scale = g.length("scale", 1.0, true);
@@ -138,8 +165,16 @@ void parse_character(const JsonReader& root, Scene& scene) {
       cloth::Material material = parse_material(g, file);
       const std::string model = g.string("model", "springs", cloth::model_names());
       // Later garments are fitted outside the earlier ones (layers).
-      const ch::Garment garment =
-          ch::make_garment(spec, character->motion, character->rig, file, g.path(), layers);
+      // A garment the fields above could not make: the message names the fields it is made from.
+      const ch::Garment garment = [&] {
+        try {
+          return ch::make_garment(spec, character->motion, character->rig, file, g.path(), layers);
+        } catch (const Error& e) {
+          throw Error(
+              std::string(e.what()) + " (the garment is made from " + g.path() +
+              ".resolution, clearance, length, width, flare and the character's height, scale and radii)");
+        }
+      }();
       layers.insert(layers.end(), garment.mesh->rest_positions().begin(),
                     garment.mesh->rest_positions().end());
       if (g.has("mass"))

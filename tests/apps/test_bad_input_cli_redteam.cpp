@@ -369,5 +369,49 @@ TEST(RedteamCheckpoint, GltfClipBuffersAreHashedAndAChangedBufferIsRefused) {
       << resumed.err;
 }
 
+// A body contact thickness far larger than the cloth (1e6 m) flings the cloth in the first frame: the guard
+// rolls the frame back and retries it, which restores the self-collision stage to its state before its first
+// run; the run then stops with the guard's named cause (exit 3), never a crash, and writes no NaN.
+TEST(RedteamGuard, AFirstFrameRetryWithSelfCollisionStopsByTheGuard) {
+  const fs::path dir = test_dir(), out = dir / "out";
+  const auto r =
+      run_loom("run " + std::string(LOOM_SOURCE_DIR) +
+               "/scenes/character_cape.json --frames 1 --set character.thickness=1e6 --out " + out.string());
+  EXPECT_EQ(r.code, 3) << r.err;
+  EXPECT_NE(r.err.find("exploded"), std::string::npos) << r.err;
+  EXPECT_NE(r.err.find("in frame 1"), std::string::npos) << r.err;
+}
+
+// A field that makes a garment impossible is refused by that field, never by the garment's first bad
+// triangle or vertex: a figure under 10 cm (height, scale), a capsule radius or clearance beyond a quarter of
+// the figure, a skirt flare outside [0.1, 10].
+TEST(RedteamCharacter, AGarmentFailureNamesTheFieldThatCausedIt) {
+  const std::string dir = std::string(LOOM_SOURCE_DIR) + "/scenes/";
+  const struct {
+    const char* scene;
+    const char* set;
+    const char* where;
+    const char* problem;
+  } cases[] = {
+      {"character_cape.json", "character.height=5e-324", "character.height", "at least 0.1 m"},
+      {"character_cape.json", "character.scale=5e-324", "character.scale", "at least 0.1 m"},
+      {"character_cape.json", "character.radii={\"LeftArm\":1e6}", "character.radii.LeftArm",
+       "must be <= 0.25 x the figure's size"},
+      {"character_cape.json", "character.garments[0].clearance=1e6", "character.garments[0].clearance",
+       "must be <= 0.25 x the figure's size"},
+      {"character_skirt.json", "character.garments[0].flare=1e308", "character.garments[0].flare",
+       "must be in [0.1, 10]"},
+  };
+  for (const auto& c : cases) {
+    const fs::path out = test_dir() / "out";
+    const auto r =
+        run_loom("run " + dir + c.scene + " --frames 1 --set '" + c.set + "' --out " + out.string());
+    EXPECT_EQ(r.code, 1) << c.set << ": " << r.err;
+    EXPECT_NE(r.err.find(std::string(c.where) + ": "), std::string::npos) << c.set << ": " << r.err;
+    EXPECT_NE(r.err.find(c.problem), std::string::npos) << c.set << ": " << r.err;
+    EXPECT_FALSE(fs::exists(out / "summary.json")) << c.set;
+  }
+}
+
 }  // namespace
 }  // namespace loom::test

@@ -10,6 +10,7 @@
 #include "loom/cloth/Cloth.h"
 #include "loom/cloth/ClothMesh.h"
 #include "loom/cloth/Stage.h"
+#include "loom/cloth/StateArchive.h"
 #include "loom/collision/RealtimeSelfCollision.h"
 
 namespace loom::collision {
@@ -59,6 +60,33 @@ TEST(RealtimeSelfBounds, ASaneSheetUsesTheHashOnly) {
   stage.run(ctx);
   EXPECT_EQ(counters_of(stage).at("large_boxes"), 0.0);
   EXPECT_GT(counters_of(stage).at("hash_entries"), 0.0);
+}
+
+// The guard saves every stage's state at the frame start and restores it when it retries a frame; for the
+// first frame that state was saved before the stage ever ran (no sides, no list). A run after such a restore
+// takes the current positions as it does at the first run, and resolves the contact.
+TEST(RealtimeSelfBounds, AStateSavedBeforeTheFirstRunRestoresCleanly) {
+  auto cloths = sheet();
+  RealtimeSelfCollisionStage stage(RealtimeSelfSettings{});
+  cloth::StateWriter before;
+  stage.save_state(before);
+  cloth::StageContext ctx{cloths, 0.0, 1e-3, 1};
+  stage.run(ctx);
+  cloth::StateReader in(before.data(), "frame start");
+  stage.load_state(in);
+  // The last vertex laid on the middle of a far triangle, 1 mm above it: a self contact.
+  const auto& mesh = cloths[0]->mesh();
+  cloth::ClothState& s = cloths[0]->state();
+  const cloth::Tri t = mesh.triangles()[0];
+  const cloth::Vec3 a = s.x[t[0]], b = s.x[t[1]], c = s.x[t[2]];
+  const cloth::Vec3 nrm = (b - a).cross(c - a).normalized();
+  const int n = s.size();
+  s.x[n - 1] = (a + b + c) / 3.0 + 1e-3 * nrm;
+  stage.run(ctx);
+  EXPECT_GE(counters_of(stage).at("contacts"), 1.0);
+  for (const auto& x : s.x) EXPECT_TRUE(x.allFinite());
+  // Pushed out to the self thickness on the side it started on.
+  EXPECT_GT((s.x[n - 1] - s.x[t[0]]).dot(nrm), 0.0);
 }
 
 }  // namespace
