@@ -165,7 +165,9 @@ void BulletColliders::apply_reactions() {
     rb->activate();
     rb->applyCentralImpulse(to_bt(impulse[b]));
     rb->applyTorqueImpulse(to_bt(moment[b]));
-    applied_[rb] += impulse[b];
+    // try_emplace with an explicit zero: map::operator[] would value-initialise the Eigen vector, which
+    // leaves its coefficients uninitialised.
+    applied_.try_emplace(rb, Vec3::Zero()).first->second += impulse[b];
   }
 }
 

@@ -232,8 +232,12 @@ void GarmentInstance::fixed_step(int stride) {
   // Float rounding in the character's frame (Solver::set_frame): the same local motion rounds the same way
   // wherever the character stands and whichever way it faces.
   solver_->set_frame(frame_sim_);
+  // The solver's substeps leave x_prev at the start of the last one; the state after the fixed step keeps
+  // x_prev at the start of [t, t + h] (the contact stage's swept test and friction span the whole step).
+  if (settings_.substeps > 1) step_start_ = st.x;
   const double hs = h / settings_.substeps;
   for (int k = 0; k < settings_.substeps; ++k) solver_->step(*cloth_, time() + k * hs, hs, 1);
+  if (settings_.substeps > 1) st.x_prev.swap(step_start_);
   constraints_.apply(target_, target_normal_, h, st.x, st.v);
   if (contact_) run_contacts(h);
   ticks_ += stride;

@@ -190,6 +190,7 @@ class GarmentInstance {
   // m, skinned mesh in the character's frame at clock_prev2_, clock_prev_ and clock_
   cloth::Vec3s local_prev2_, local_prev_, local_curr_;
   cloth::Vec3s target_, target_normal_, render_prev_;
+  cloth::Vec3s step_start_;  // m, positions at the start of the fixed step (substeps > 1)
   mutable cloth::Vec3s scratch_, scratch_normals_;
   std::vector<double> mass_;
   Eigen::Isometry3d frame_prev2_ = Eigen::Isometry3d::Identity(), frame_prev_ = Eigen::Isometry3d::Identity();
