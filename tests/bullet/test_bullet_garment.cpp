@@ -8,6 +8,7 @@
 #include <memory>
 #include <string>
 
+#include "../characters/TestCape.h"
 #include "BulletTestWorld.h"
 #include "loom/bullet/BulletGarment.h"
 #include "loom/characters/GarmentInstance.h"
@@ -33,37 +34,9 @@ namespace {
 constexpr double kThickness = 0.005;  // m, the contact offset of these tests
 constexpr double kFrame = 1.0 / 60.0;
 
-// A 0.5 m x 0.6 m cape (11 x 13 nodes) in the plane z = -0.15 behind a spine along y (hips at y = 1, neck
-// at 1.6), skinned with automatic weights; max distance 0 on the top row growing to 0.3 m at the hem.
-struct Cape {
-  Vec3s bind;
-  std::vector<loom::cloth::Tri> tris;
-  Skin skin;
-  GarmentSettings settings;
-  std::vector<Affine> bind_pose;
-};
+using Cape = loom::test::TestCape;
 
-Cape make_cape() {
-  Cape c;
-  loom::cloth::GridSpec g;
-  g.size_u = 0.5;
-  g.size_v = 0.6;
-  g.nodes_u = 11;
-  g.nodes_v = 13;
-  g.plane = loom::cloth::GridPlane::kXY;
-  g.origin = Vec3(-0.25, 1.0, -0.15);
-  auto mesh = loom::cloth::ClothMesh::grid(g);
-  c.bind = mesh->rest_positions();
-  c.tris = mesh->triangles();
-  c.bind_pose.assign(2, Affine::Identity());
-  c.bind_pose[0].translation() = Vec3(0, 1.0, 0);
-  c.bind_pose[1].translation() = Vec3(0, 1.6, 0);
-  c.skin = Skin::automatic(c.bind, {"hips", "neck"}, c.bind_pose, {-1, 0}, 2, "cape");
-  for (const Vec3& p : c.bind) c.settings.constraints.max_distance.push_back(0.5 * (1.6 - p.y()));
-  c.settings.material.bend_weft = c.settings.material.bend_warp = 1e-4;
-  c.settings.material.damping = 0.05;
-  return c;
-}
+Cape make_cape() { return loom::test::make_test_cape({11, 13, -1.0, true, 0.05}); }
 
 std::vector<Affine> pose_at(const Cape& c, const Iso& frame) {
   return {frame * c.bind_pose[0], frame * c.bind_pose[1]};

@@ -6,6 +6,7 @@
 #include <memory>
 #include <string>
 
+#include "TestCape.h"
 #include "loom/characters/GarmentInstance.h"
 #include "loom/cloth/ClothMesh.h"
 #include "loom/cloth/Error.h"
@@ -20,35 +21,9 @@ using Iso = Eigen::Isometry3d;
 
 namespace {
 
-// A 0.5 m x 0.6 m cape hanging in the plane z = -0.15 from a still two-bone spine; top row skinned.
-struct Cape {
-  Vec3s bind;
-  std::vector<loom::cloth::Tri> tris;
-  Skin skin;
-  GarmentSettings settings;
-  std::vector<Affine> pose;
-};
+using Cape = loom::test::TestCape;
 
-Cape make_cape() {
-  Cape c;
-  loom::cloth::GridSpec g;
-  g.size_u = 0.5;
-  g.size_v = 0.6;
-  g.nodes_u = 11;
-  g.nodes_v = 13;
-  g.plane = loom::cloth::GridPlane::kXY;
-  g.origin = Vec3(-0.25, 1.0, -0.15);
-  auto mesh = loom::cloth::ClothMesh::grid(g);
-  c.bind = mesh->rest_positions();
-  c.tris = mesh->triangles();
-  c.pose.assign(2, Affine::Identity());
-  c.pose[0].translation() = Vec3(0, 1.0, 0);
-  c.pose[1].translation() = Vec3(0, 1.6, 0);
-  c.skin = Skin::automatic(c.bind, {"hips", "neck"}, c.pose, {-1, 0}, 2, "cape");
-  for (const Vec3& p : c.bind) c.settings.constraints.max_distance.push_back(0.5 * (1.6 - p.y()));
-  c.settings.material.damping = 0.05;
-  return c;
-}
+Cape make_cape() { return loom::test::make_test_cape({11, 13, -1.0, false, 0.05}); }
 
 // A 10 cm ball that sweeps through the cape's lower half along +z at 0.5 m/s from t = 0.2 s (centre z =
 // -0.45 -> +0.15, at y = 1.15).
@@ -69,8 +44,8 @@ Collider moving_ball() {
 
 TEST(GarmentColliders, MovingBallPushesTheCapeAndFeelsItsReaction) {
   const Cape c = make_cape();
-  GarmentInstance free(c.bind, c.tris, c.skin, c.settings, c.pose, "cape");
-  GarmentInstance hit(c.bind, c.tris, c.skin, c.settings, c.pose, "cape");
+  GarmentInstance free(c.bind, c.tris, c.skin, c.settings, c.bind_pose, "cape");
+  GarmentInstance hit(c.bind, c.tris, c.skin, c.settings, c.bind_pose, "cape");
   auto set = std::make_shared<ColliderSet>(ColliderSet{moving_ball()});
   loom::collision::RealtimeContactSettings contact;
   contact.thickness = 0.005;
@@ -78,7 +53,7 @@ TEST(GarmentColliders, MovingBallPushesTheCapeAndFeelsItsReaction) {
   double min_gap = HUGE_VAL, pushed = 0.0;
   for (int f = 1; f <= 90; ++f) {  // 1.5 s
     for (GarmentInstance* g : {&free, &hit}) {
-      g->set_pose(c.pose);
+      g->set_pose(c.bind_pose);
       g->step(1.0 / 60.0);
     }
     const Vec3 centre = set->front().motion(hit.time()).translation();
@@ -99,8 +74,8 @@ TEST(GarmentColliders, MovingBallPushesTheCapeAndFeelsItsReaction) {
 
 TEST(GarmentColliders, CollidersFarAwayChangeNothingAndNullRemovesThem) {
   const Cape c = make_cape();
-  GarmentInstance a(c.bind, c.tris, c.skin, c.settings, c.pose, "cape");
-  GarmentInstance b(c.bind, c.tris, c.skin, c.settings, c.pose, "cape");
+  GarmentInstance a(c.bind, c.tris, c.skin, c.settings, c.bind_pose, "cape");
+  GarmentInstance b(c.bind, c.tris, c.skin, c.settings, c.bind_pose, "cape");
   Collider far;
   far.name = "far";
   far.shape.type = ShapeType::sphere;
@@ -110,7 +85,7 @@ TEST(GarmentColliders, CollidersFarAwayChangeNothingAndNullRemovesThem) {
   for (int f = 0; f < 30; ++f)
     for (GarmentInstance* g : {&a, &b}) {
       if (f == 15 && g == &b) g->set_colliders(nullptr);
-      g->set_pose(c.pose);
+      g->set_pose(c.bind_pose);
       g->step(1.0 / 60.0);
     }
   EXPECT_EQ(b.colliders(), nullptr);
@@ -119,7 +94,7 @@ TEST(GarmentColliders, CollidersFarAwayChangeNothingAndNullRemovesThem) {
 
 TEST(GarmentColliders, BadContactSettingsNameTheField) {
   const Cape c = make_cape();
-  GarmentInstance g(c.bind, c.tris, c.skin, c.settings, c.pose, "cape");
+  GarmentInstance g(c.bind, c.tris, c.skin, c.settings, c.bind_pose, "cape");
   auto message = [&](const loom::collision::RealtimeContactSettings& s) -> std::string {
     try {
       g.set_colliders(std::make_shared<ColliderSet>(), s);

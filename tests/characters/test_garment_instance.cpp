@@ -7,6 +7,7 @@
 #include <cstdio>
 #include <random>
 
+#include "TestCape.h"
 #include "loom/characters/GarmentInstance.h"
 #include "loom/cloth/ClothMesh.h"
 #include "loom/cloth/Error.h"
@@ -18,44 +19,9 @@ using Iso = Eigen::Isometry3d;
 
 namespace {
 
-// A 0.5 m x 0.6 m cape (11 x 13 nodes) hanging in the xy plane from y = 1.6 to 1.0, skinned to a two-bone
-// spine (hips at y = 1, neck at 1.6) with automatic weights. Max distance 0 on the top row, growing to 0.3 m
-// at the hem; a plane backstop 2 cm behind the skinned surface.
-struct Cape {
-  Vec3s bind;
-  std::vector<loom::cloth::Tri> tris;
-  Skin skin;
-  GarmentSettings settings;
-  std::vector<Affine> bind_pose;
-};
+using Cape = loom::test::TestCape;
 
-Cape make_cape() {
-  Cape c;
-  loom::cloth::GridSpec g;
-  g.size_u = 0.5;
-  g.size_v = 0.6;
-  g.nodes_u = 11;
-  g.nodes_v = 13;
-  g.plane = loom::cloth::GridPlane::kXY;
-  g.origin = Vec3(-0.25, 1.0, -0.15);
-  auto mesh = loom::cloth::ClothMesh::grid(g);
-  c.bind = mesh->rest_positions();
-  c.tris = mesh->triangles();
-  c.bind_pose.assign(2, Affine::Identity());
-  c.bind_pose[0].translation() = Vec3(0, 1.0, 0);
-  c.bind_pose[1].translation() = Vec3(0, 1.6, 0);
-  c.skin = Skin::automatic(c.bind, {"hips", "neck"}, c.bind_pose, {-1, 0}, 2, "cape");
-  for (const Vec3& p : c.bind) {
-    c.settings.constraints.max_distance.push_back(0.5 * (1.6 - p.y()));
-    c.settings.constraints.backstop_distance.push_back(0.02);
-  }
-  // A coat fabric (bending 1e-4 N m, damping 0.05 s). The default thin fabric (1e-5 N m) buckles at the
-  // grid's scale when the cape is compressed, and buckling amplifies any difference (even rounding) by about
-  // 10x per 0.1 s: comparisons between runs need a garment that is not chaotic over the clip.
-  c.settings.material.bend_weft = c.settings.material.bend_warp = 1e-4;
-  c.settings.material.damping = 0.05;
-  return c;
-}
+Cape make_cape() { return loom::test::make_test_cape({11, 13, 0.02, true, 0.05}); }
 
 // The bones at a character frame F: both bones carried rigidly, the neck also turned by `bend` about z.
 std::vector<Affine> pose_at(const Cape& c, const Iso& frame, double bend = 0.0) {
