@@ -49,7 +49,8 @@ constexpr const char* kDefaultScene = "character_layers.json";
 constexpr const char* kDefaultScene = "hanging_cloth.json";
 #endif
 
-// Ctrl-C (SIGINT): the run stops at the next frame boundary, writes a checkpoint and valid outputs.
+// Ctrl-C (SIGINT): the run stops within the frame in progress (the simulation checks the flag between its
+// steps and the guard's retries and goes back to the frame's start), writes a checkpoint and valid outputs.
 volatile std::sig_atomic_t g_interrupted = 0;
 extern "C" void on_sigint(int) { g_interrupted = 1; }
 
@@ -499,18 +500,24 @@ bool SceneRun::stopped_non_finite(const cloth::FrameStats& s, int f) {
   return false;
 }
 
-// Ctrl-C (SIGINT) stops the loop at the next frame boundary; the run then writes a checkpoint and valid
-// outputs.
+// Ctrl-C (SIGINT) stops the loop within the frame in progress (that frame is dropped, the state is the last
+// frame written); the run then writes a checkpoint and valid outputs. A scene with rigid bodies stops at the
+// next frame boundary (the Bullet world has no frame-start snapshot).
 void SceneRun::step_frames() {
   ProgressBar bar(frames_);
   g_interrupted = 0;
   auto old_handler = std::signal(SIGINT, on_sigint);
+  if (resumable_) sim_->set_stop_flag(&g_interrupted);
   for (int f = first_ + 1; f <= frames_ && finite_; ++f) {
     if (g_interrupted) {
       interrupted_ = true;
       break;
     }
     const cloth::FrameStats s = pipeline_->step_frame();
+    if (sim_->interrupted()) {
+      interrupted_ = true;
+      break;
+    }
     sim_ms_ += s.total_ms;
     if (stopped_non_finite(s, f)) {
       finite_ = false;
@@ -532,6 +539,7 @@ void SceneRun::step_frames() {
     bar.update(done_ - first_, sim_ms_ / std::max(1, done_ - first_));
   }
   if (g_interrupted) interrupted_ = done_ < frames_;
+  sim_->set_stop_flag(nullptr);
   std::signal(SIGINT, old_handler);
   if (interrupted_ && resumable_) save_checkpoint();
   bar.finish();

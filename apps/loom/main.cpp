@@ -20,6 +20,7 @@
 #include "loom/cloth/Error.h"
 #include "loom/cloth/Material.h"
 #include "loom/cloth/Solver.h"
+#include "loom/scene/SceneLimits.h"
 
 namespace {
 
@@ -193,6 +194,12 @@ int main(int argc, char** argv) {
     return argc < 2 ? 2 : 0;
   }
   const std::string cmd = argv[1];
+  try {  // the environment is part of the command line: a malformed LOOM_MEMORY_LIMIT is never ignored
+    loom::scene::memory_limit_env();
+  } catch (const loom::Error& e) {
+    std::cerr << "loom: error: " << loom::app::printable(e.what()) << "\n";
+    return 2;
+  }
   try {
     if (cmd == "run") return run_main(argc, argv);
 #ifdef LOOM_HAVE_BENCH_ACCURACY

@@ -233,6 +233,10 @@ std::string Simulation::run_substeps(int n, bool stop_on_violation) {
     }
     // Time advanced by counting steps, not by summing h, so it does not drift.
     t_ = (frame_ + static_cast<double>(s + 1) / n) * setup_.frame_dt;
+    if (stop_requested()) {
+      why = "stopped on request";
+      break;
+    }
     if (stop_on_violation) {
       for (const auto& stage : stages_) {
         why = stage->violation();
@@ -252,8 +256,18 @@ std::string Simulation::run_substeps(int n, bool stop_on_violation) {
 FrameStats Simulation::step_frame() {
   const std::vector<StageProfile> before = profile();
   FrameStats stats;
+  interrupted_ = false;
   if (!setup_.guard.enabled) {
+    if (stop_flag_) {  // a stop mid-frame goes back to the frame start
+      snapshot_.clear();
+      save_state(snapshot_);
+    }
     run_substeps(setup_.substeps);
+    if (stop_requested()) {
+      StateReader in(snapshot_.data(), "(frame snapshot)");
+      load_state(in);
+      interrupted_ = true;
+    }
     const auto start = Clock::now();
     fill_stats(stats);
     stats_total_ms_ += ms_since(start);
@@ -273,8 +287,20 @@ FrameStats Simulation::step_frame() {
     save_state(snapshot_);
     guard_ms_ += ms_since(start);
     failure_.clear();
+    long steps = 0;  // solver steps of this frame, every try
     for (int attempt = 0;; ++attempt) {
-      std::string why = run_substeps(setup_.substeps << attempt, true);
+      const long n = static_cast<long>(setup_.substeps) << attempt;
+      steps += n;
+      std::string why = run_substeps(static_cast<int>(n), true);
+      if (stop_requested()) {  // back to the frame start, the frame neither accepted nor failed
+        StateReader in(snapshot_.data(), "(frame snapshot)");
+        const GuardSample kept = *start_sample_;
+        load_state(in);
+        start_sample_ = kept;
+        interrupted_ = true;
+        fill_stats(stats);
+        break;
+      }
       start = Clock::now();
       stats = FrameStats();
       fill_stats(stats);
@@ -295,11 +321,16 @@ FrameStats Simulation::step_frame() {
       load_state(in);  // back to the frame start: the last good state
       start_sample_ = kept;
       guard_ms_ += ms_since(start);
-      if (attempt >= setup_.guard.max_halvings || (setup_.substeps << (attempt + 1)) > (1 << 24)) {
+      const bool capped = steps + 2 * n > kMaxStepsPerFrame;
+      if (attempt >= setup_.guard.max_halvings || capped) {
         ++failed_frames_;
         failure_ = why + " in frame " + std::to_string(frame_ + 1) + " (t = " + std::to_string(t_) + " to " +
-                   std::to_string((frame_ + 1) * setup_.frame_dt) + " s), also with " +
-                   std::to_string(setup_.substeps << attempt) + " substeps";
+                   std::to_string((frame_ + 1) * setup_.frame_dt) + " s), also with " + std::to_string(n) +
+                   " substeps";
+        if (capped && attempt < setup_.guard.max_halvings)
+          failure_ += "; no further retry: one with " + std::to_string(2 * n) + " substeps would bring the " +
+                      "frame to " + std::to_string(steps + 2 * n) + " solver steps, above the " +
+                      std::to_string(kMaxStepsPerFrame) + " a frame may take (guard.max_halvings)";
         if (why.rfind("the strain", 0) == 0) failure_ += moving_pin_note((frame_ + 1) * setup_.frame_dt);
         stats.finite = false;  // the frame failed; the simulation holds the last good frame
         break;

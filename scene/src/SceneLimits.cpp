@@ -1,10 +1,12 @@
 #include "loom/scene/SceneLimits.h"
 
+#include <cerrno>
 #include <cstdio>
 #include <cstdlib>
 #include <filesystem>
 #include <fstream>
 #include <limits>
+#include <optional>
 
 #include "loom/cloth/Error.h"
 #include "loom/cloth/InputFile.h"
@@ -39,12 +41,25 @@ std::uint64_t memory_budget() {
   std::string unit;
   while (in >> key >> kb >> unit)
     if (key == "MemAvailable:") budget = kb * 1024;
-  if (const char* env = std::getenv("LOOM_MEMORY_LIMIT")) {
-    char* end = nullptr;
-    const unsigned long long v = std::strtoull(env, &end, 10);
-    if (end != env && *end == '\0' && v < budget) budget = v;
-  }
+  if (const std::optional<std::uint64_t> limit = memory_limit_env(); limit && *limit < budget)
+    budget = *limit;
   return budget;
+}
+
+std::optional<std::uint64_t> memory_limit_env() {
+  const char* env = std::getenv("LOOM_MEMORY_LIMIT");
+  if (!env) return std::nullopt;
+  const std::string text = env;
+  // Digits only (no sign, no space, no exponent, no fraction), at most 2^64 - 1.
+  const bool digits =
+      !text.empty() && text.size() <= 20 && text.find_first_not_of("0123456789") == std::string::npos;
+  errno = 0;
+  char* end = nullptr;
+  const unsigned long long v = digits ? std::strtoull(text.c_str(), &end, 10) : 0;
+  if (!digits || errno == ERANGE || v == 0)
+    throw Error("", "LOOM_MEMORY_LIMIT",
+                "must be a whole number of bytes in [1, 18446744073709551615] (got '" + text + "')");
+  return static_cast<std::uint64_t>(v);
 }
 
 std::string show_count(double count) {
@@ -76,6 +91,7 @@ void reserve_vertices(Scene& scene, const std::string& field, double vertices) {
                 "the scene's cloths would have about " + show_count(scene.vertices) +
                     " vertices, which need about " + show_bytes(need) + " of memory (" +
                     std::to_string(kBytesPerVertex) + " bytes per vertex); " + show_bytes(budget) +
+                    (memory_limit_env() == memory_budget() ? " (set by LOOM_MEMORY_LIMIT)" : "") +
                     " is available: use fewer nodes or a coarser resolution");
   }
 }

@@ -7,7 +7,12 @@
 //   - a refused run leaves its output folder exactly as it found it (no manifest, nothing deleted);
 //   - a checkpoint hashes every file the run read, a glTF clip's external buffers included.
 #include <gtest/gtest.h>
+#include <signal.h>
+#include <sys/stat.h>
+#include <sys/wait.h>
+#include <unistd.h>
 
+#include <chrono>
 #include <cstdlib>
 #include <filesystem>
 #include <fstream>
@@ -15,6 +20,7 @@
 #include <nlohmann/json.hpp>
 #include <sstream>
 #include <string>
+#include <thread>
 #include <vector>
 
 #include "BadInputCli.h"
@@ -194,6 +200,8 @@ std::map<std::string, std::string> snapshot(const fs::path& dir) {
       m[rel.string()] = "link to " + fs::read_symlink(it->path()).string();
     else if (fs::is_directory(st))
       m[rel.string()] = "folder";
+    else if (!fs::is_regular_file(st))
+      m[rel.string()] = "special";  // a FIFO is never opened (reading one without a writer blocks)
     else
       m[rel.string()] = "file " + slurp(it->path());
   }
@@ -240,6 +248,103 @@ TEST(RedteamOutputFolder, ARefusedRunLeavesTheFolderExactlyAsItFoundIt) {
       EXPECT_EQ(slurp(victim), "precious");
     }
   }
+}
+
+// A FIFO (or any file that is not a regular one) planted at a path the run writes refuses the run by that
+// path before the folder changes: opening a FIFO without a reader to write would block the run forever.
+TEST(RedteamOutputFolder, AFifoWhereTheRunWritesIsRefusedNotOpened) {
+  const fs::path dir = test_dir();
+  std::ofstream(dir / "scene.json") << kScene;
+  const std::string scene = (dir / "scene.json").string();
+  // In a folder of an earlier run (one frame) the FIFO sits where that run wrote nothing (a listed path is
+  // deleted before the run writes).
+  const std::vector<std::pair<std::string, bool>> cases = {{"stats.csv.partial", true},
+                                                           {"frames/frame_00001.obj", true},
+                                                           {"pc2/sheet.obj", true},
+                                                           {"checkpoint/checkpoint.bin.tmp", true},
+                                                           {"animation.bin", true},
+                                                           {"animation.gltf.tmp", true},
+                                                           {"summary.json.tmp", true},
+                                                           {"frames/frame_00002.obj", false},
+                                                           {"checkpoint/checkpoint.bin", false}};
+  for (const auto& [planted, foreign] : cases) {
+    {
+      const fs::path out = dir / "out";
+      fs::remove_all(out);
+      if (foreign) {
+        fs::create_directories(out);
+        std::ofstream(out / "notes.txt") << "user data";
+      } else {
+        ASSERT_EQ(run_loom("run " + scene + " --frames 1 --out " + out.string()).code, 0);
+      }
+      fs::create_directories((out / planted).parent_path());
+      fs::remove_all(out / planted);
+      ASSERT_EQ(::mkfifo((out / planted).c_str(), 0600), 0) << planted;
+      const auto before = snapshot(out);
+      const auto r = run_loom("run " + scene + " --checkpoint-every 1 --overwrite --out " + out.string());
+      EXPECT_EQ(r.code, 1) << planted << ": " << r.err;
+      EXPECT_NE(r.err.find((out / planted).string() + ": --out: is not a regular file (a FIFO"),
+                std::string::npos)
+          << planted << ": " << r.err;
+      EXPECT_EQ(snapshot(out), before) << planted << (foreign ? " (foreign folder)" : " (Loom's folder)");
+    }
+  }
+}
+
+// The guard's retries double the substeps; a frame never takes more than 1,000,000 solver steps in all: the
+// retry that would pass that is not run and the frame fails naming the cap (the red-team's settings:
+// 2^20 retries of a cloth that explodes at every step count).
+TEST(RedteamGuard, RetriesStopAtTheStepsAFrameMayTake) {
+  const fs::path out = test_dir() / "out";
+  const std::string scene = std::string(LOOM_SOURCE_DIR) + "/scenes/hanging_cloth.json";
+  const auto r = run_loom("run " + scene + " --out " + out.string() +
+                          " --frames 1 --set guard.max_halvings=20 --set cloths[0].material.stretch=1e12"
+                          " --set 'cloths[0].mesh.nodes=[3,3]'");
+  EXPECT_EQ(r.code, 3) << r.err;
+  EXPECT_NE(r.err.find("above the 1000000 a frame may take (guard.max_halvings)"), std::string::npos)
+      << r.err;
+  const auto summary = nlohmann::json::parse(slurp(out / "summary.json"));
+  EXPECT_EQ(summary["frames"], 0);
+  EXPECT_EQ(summary["finite"], false);
+}
+
+// Ctrl-C stops the frame in progress (the simulation reads the flag between steps): a frame of 1,000,000
+// steps is dropped, the run ends as an interrupted run with frame 0 written and a checkpoint to resume.
+TEST(RedteamInterrupt, SigintStopsWithinALongFrame) {
+  const fs::path out = test_dir() / "out";
+  const std::string scene = std::string(LOOM_SOURCE_DIR) + "/scenes/hanging_cloth.json";
+  const std::string err = (test_dir() / "sigint_err.txt").string();
+  const pid_t pid = ::fork();
+  ASSERT_GE(pid, 0);
+  if (pid == 0) {
+    if (!std::freopen(err.c_str(), "w", stderr) || !std::freopen("/dev/null", "w", stdout)) ::_exit(99);
+    ::execl(LOOM_BINARY, LOOM_BINARY, "run", scene.c_str(), "--out", out.c_str(), "--frames", "3", "--set",
+            "solver.substeps=1000000", static_cast<char*>(nullptr));
+    ::_exit(98);
+  }
+  // Frame 0 is written before the first long frame starts.
+  for (int k = 0; k < 600 && !fs::exists(out / "frames" / "frame_00000.obj"); ++k)
+    std::this_thread::sleep_for(std::chrono::milliseconds(100));
+  std::this_thread::sleep_for(std::chrono::milliseconds(300));
+  ASSERT_EQ(::kill(pid, SIGINT), 0);
+  int status = 0;
+  // Three frames of 1,000,000 steps each take minutes; an interrupted run ends long before this wait ends.
+  int waited = 0;
+  for (; waited < 600 && ::waitpid(pid, &status, WNOHANG) == 0; ++waited)
+    std::this_thread::sleep_for(std::chrono::milliseconds(100));
+  if (waited == 600) {
+    ::kill(pid, SIGKILL);
+    ::waitpid(pid, &status, 0);
+    FAIL() << "the run did not stop on SIGINT";
+  }
+  ASSERT_TRUE(WIFEXITED(status));
+  EXPECT_EQ(WEXITSTATUS(status), 130) << slurp(err);
+  EXPECT_NE(slurp(err).find("loom: interrupted after frame 0 of 3"), std::string::npos) << slurp(err);
+  const auto summary = nlohmann::json::parse(slurp(out / "summary.json"));
+  EXPECT_EQ(summary["frames"], 0);
+  EXPECT_EQ(summary["interrupted"], true);
+  EXPECT_EQ(summary["completed"], false);
+  EXPECT_TRUE(fs::exists(out / "checkpoint" / "checkpoint.bin"));
 }
 
 // A NUL inside a token is text, not its end: "3<NUL>junk" is no index (for cloth and collider meshes alike).

@@ -216,6 +216,7 @@ TEST(Resources, MemoryIsEstimatedBeforeAllocating) {
   EXPECT_NE(err.find(scene), std::string::npos) << err;
   EXPECT_NE(err.find("cloths[0].mesh"), std::string::npos) << err;
   EXPECT_NE(err.find("GB of memory"), std::string::npos) << err;
+  EXPECT_NE(err.find("1 GB (set by LOOM_MEMORY_LIMIT) is available"), std::string::npos) << err;
   EXPECT_FALSE(fs::exists(dir / "out"));
   // The documented largest grid, 4096 x 4096, within the same 1 GB.
   const std::string big = std::string("LOOM_MEMORY_LIMIT=1000000000 ") + LOOM_BINARY + " run " + scene +
@@ -223,6 +224,21 @@ TEST(Resources, MemoryIsEstimatedBeforeAllocating) {
                           (dir / "out").string() + " 2>" + (dir / "e.txt").string();
   EXPECT_EQ(WEXITSTATUS(std::system(big.c_str())), 1);
   EXPECT_NE(slurp(dir / "e.txt").find("of memory"), std::string::npos) << slurp(dir / "e.txt");
+}
+
+// A malformed LOOM_MEMORY_LIMIT is a bad command line (exit 2) naming the variable, never ignored.
+TEST(Resources, AMalformedMemoryLimitIsRefusedByName) {
+  const fs::path dir = loom::test::test_dir();
+  const std::string scene = write_scene(dir);
+  for (const std::string value : {"abc", "-1", "1.5", "1e999", "18446744073709551616", "0", "", " 5"}) {
+    const std::string cmd = "LOOM_MEMORY_LIMIT='" + value + "' " + LOOM_BINARY + " run " + scene +
+                            " --frames 1 --out " + (dir / "out").string() + " 2>" + (dir / "e.txt").string();
+    EXPECT_EQ(WEXITSTATUS(std::system(cmd.c_str())), 2) << value;
+    const std::string err = slurp(dir / "e.txt");
+    EXPECT_NE(err.find("LOOM_MEMORY_LIMIT: must be a whole number of bytes"), std::string::npos) << err;
+    EXPECT_NE(err.find("(got '" + value + "')"), std::string::npos) << err;
+    EXPECT_FALSE(fs::exists(dir / "out")) << value;
+  }
 }
 
 TEST(Resources, ThreadsAreCappedAtTheMachine) {

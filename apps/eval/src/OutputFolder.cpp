@@ -109,6 +109,11 @@ void check_writable(const fs::path& dir, const std::string& relative, const std:
       throw Error(at.string(), flag, "is a file where Loom writes a folder");
     if (last && !folder && fs::is_directory(st))
       throw Error(at.string(), flag, "is a folder where Loom writes a file");
+    // A FIFO, socket or device: opening it to write would block (a FIFO without a reader) or reach
+    // something that is not a file.
+    if (last && !folder && fs::exists(st) && !fs::is_regular_file(st))
+      throw Error(at.string(), flag,
+                  "is not a regular file (a FIFO, socket or device) where Loom writes a file: remove it");
     if (!fs::exists(st)) return;  // nothing below a missing component
   }
 }

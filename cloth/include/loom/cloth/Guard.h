@@ -3,8 +3,9 @@
 // frame (StateArchive.h: every cloth's x, v, x_prev, solver and stage history). A frame whose end state is
 // non-finite or exploding is rolled back to that snapshot and run again with twice the substeps, up to
 // `max_halvings` times; if the last try fails too, the state stays at the last good frame and the frame is
-// reported as failed with its cause (Simulation::failure()). A run that never rolls back is bit-identical
-// to a run without the guard (the snapshot only reads the state).
+// reported as failed with its cause (Simulation::failure()). The retries stop early when the next one
+// would bring the frame's solver steps (all tries together) past kMaxStepsPerFrame. A run that never rolls
+// back is bit-identical to a run without the guard (the snapshot only reads the state).
 //
 // "Exploding" at the end of a frame, with E_kin, E_el the kinetic and elastic energies (J), ΔE_pot the drop
 // of gravitational energy over the frame and E_ref = Σ m (|g| L + ½ v_ref²) an energy scale of the scene
@@ -33,6 +34,10 @@
 #include <string>
 
 namespace loom::cloth {
+
+// Solver steps one frame may take in all, the guard's retries included: a retry that would bring the
+// frame past it is not run and the frame fails with that cause.
+constexpr long kMaxStepsPerFrame = 1000000;
 
 struct GuardSettings {
   bool enabled = true;

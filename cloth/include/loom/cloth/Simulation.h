@@ -3,6 +3,7 @@
 //   pins (only with pins) -> solve (terms) -> [constraint passes, collision: later issues] -> stats
 // Only the effects the setup names exist: no drag term without drag, no pin stage without pins.
 #include <chrono>
+#include <csignal>
 #include <map>
 #include <memory>
 #include <optional>
@@ -87,6 +88,11 @@ class Simulation {
 
   // Runs `substeps` pipeline steps and returns the frame's statistics.
   FrameStats step_frame();
+  // A stop request (a SIGINT handler's flag, nullptr: none), read between steps and between the guard's
+  // retries: once it is non-zero the frame in progress is abandoned and the state restored to the frame's
+  // start (interrupted() is then true until the next step_frame()).
+  void set_stop_flag(const volatile std::sig_atomic_t* flag) { stop_flag_ = flag; }
+  bool interrupted() const { return interrupted_; }
   // Statistics of the current state (no stepping); used for frame 0.
   FrameStats measure() const;
 
@@ -147,6 +153,9 @@ class Simulation {
   std::string moving_pin_note(double t) const;
   long rollbacks_ = 0, retried_frames_ = 0, failed_frames_ = 0;
   double guard_ms_ = 0.0;
+  const volatile std::sig_atomic_t* stop_flag_ = nullptr;
+  bool interrupted_ = false;
+  bool stop_requested() const { return stop_flag_ && *stop_flag_; }
 };
 
 }  // namespace loom::cloth

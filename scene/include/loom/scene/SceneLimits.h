@@ -4,6 +4,7 @@
 // vertices against what the machine has. Every refusal names the scene file, the field and the figure.
 #include <cstddef>
 #include <cstdint>
+#include <optional>
 #include <string>
 
 #include "loom/cloth/InputFile.h"
@@ -39,6 +40,9 @@ std::string input_file(Scene& scene, const std::string& field, const std::string
 // Memory a run may use, in bytes: MemAvailable of /proc/meminfo, or LOOM_MEMORY_LIMIT (bytes) when set and
 // smaller; the largest 64-bit value when neither is known.
 std::uint64_t memory_budget();
+// LOOM_MEMORY_LIMIT: nullopt when unset, else its value, a whole number of bytes in [1, 2^64 - 1] written
+// in decimal digits only; anything else (abc, -1, 1.5, 1e9, past 64 bits) throws Error naming the variable.
+std::optional<std::uint64_t> memory_limit_env();
 // Adds `vertices` cloth vertices (of the cloth at JSON path `field`) to the scene's count and refuses when
 // the estimate kBytesPerVertex x count exceeds memory_budget().
 void reserve_vertices(Scene& scene, const std::string& field, double vertices);
