@@ -178,6 +178,11 @@ void parse_colliders(const JsonReader& root, Scene& scene) {
     const JsonReader& r = list[i];
     Collider c;
     c.name = r.string("name", "collider" + std::to_string(i));
+    // collision.friction_pairs name colliders: two of one name would make a pair ambiguous.
+    for (size_t j = 0; j < scene.colliders.size(); ++j)
+      if (scene.colliders[j].name == c.name)
+        r.fail("name", "'" + c.name + "' is also the name of colliders[" + std::to_string(j) +
+                           "]: collider names must be unique (collision.friction_pairs name them)");
     const std::string shape =
         r.string("shape", std::nullopt, {"plane", "sphere", "capsule", "box", "cylinder", "convex", "mesh"});
     collision::Shape& s = c.shape;

@@ -158,6 +158,11 @@ const Case kCases[] = {
       "\"position\": [0, 2, 0], \"velocity\": [0, 1e300, 0]}]"},
      "bodies[0].velocity",
      "at most 1000 m/s"},
+    {"collider_name_twice",
+     {"colliders=[{\"name\": \"x\", \"shape\": \"plane\"}, {\"name\": \"x\", \"shape\": \"sphere\", "
+      "\"radius\": 0.1}]"},
+     "colliders[1].name",
+     "also the name of colliders[0]"},
     {"body_oscillation_frequency_huge",
      {"bodies=[{\"name\": \"b\", \"shape\": \"sphere\", \"radius\": 0.05, \"position\": [0, 2, 0], "
       "\"motion\": {\"oscillate\": {\"amplitude\": [0.1, 0, 0], \"frequency\": 1e308}}}]"},
