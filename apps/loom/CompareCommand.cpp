@@ -15,6 +15,7 @@
 #include "loom/cloth/Error.h"
 #include "loom/eval/OutputFolder.h"
 #include "loom/scene/Scene.h"
+#include "loom/scene/ScenePipeline.h"
 
 #ifdef LOOM_HAVE_CHARACTER_COMPARE
 #include "CompareCharacter.h"
@@ -31,6 +32,9 @@ const char* kCompareUsage =
     "and\n"
     "  DIR/compare.json (default DIR: out/compare). Metrics: ms_per_frame, max_strain, mean_strain,\n"
     "  max_penetration, diverged. Everything but ms_per_frame is deterministic run to run.\n"
+    "  Loom runs the scene's `quality`: in a Bullet world \"realtime\" and \"balanced\" are the bridge's\n"
+    "  coupled tier, \"reference\" (no key) its setup tier with the scene's solver (compare.json: "
+    "loom_tier).\n"
     "  A scene with a `character` runs its garments in Loom (the scene's own pipeline) and as Bullet "
     "classic\n"
     "  soft bodies anchored to the character's capsules, kinematic rigid bodies driven by the clip.\n"
@@ -109,6 +113,7 @@ int compare_main(int argc, char** argv) {
   in.setup = sc.setup;
   in.bodies = sc.bodies;
   in.frames = frames > 0 ? frames : sc.frames;
+  in.options = scene::bullet_scene_options(sc);
   std::vector<bullet::SystemMetrics> results;
   results.push_back(bullet::run_loom_in_bullet(in));
   results.push_back(bullet::run_bullet_twin(in, bullet::TwinKind::kClassic));
@@ -120,6 +125,8 @@ int compare_main(int argc, char** argv) {
   j["frame_dt"] = sc.setup.frame_dt;
   j["bullet_substeps"] = in.bullet_substeps;
   j["bodies"] = sc.bodies.size();
+  j["quality"] = sc.quality.name;
+  j["loom_tier"] = results[0].tier;  // the bridge's tier Loom ran: "coupled" or "setup"
   for (const auto& m : results) j[m.system] = to_json(m);
   std::ofstream(folder.claim("compare.json")) << j.dump(2) << "\n";
   std::ofstream csv(folder.claim("compare.csv"));
@@ -134,6 +141,7 @@ int compare_main(int argc, char** argv) {
     }
     csv << line;
   }
+  std::printf("loom: quality %s, the bridge's %s tier\n", sc.quality.name.c_str(), results[0].tier.c_str());
   std::printf("%-18s %12s %12s %12s %16s %9s\n", "system", "ms/frame", "max_strain", "mean_strain",
               "max_penetration", "diverged");
   for (const auto& m : results) {

@@ -608,7 +608,8 @@ nlohmann::ordered_json SceneRun::summary() const {
   if (interrupted_) j["interrupted"] = true;
   if (resume_) j["resumed_from_frame"] = first_;
   j["rollbacks"] = sim_->rollbacks();
-  j["solver"] = sc_.setup.solver.method;
+  j["quality"] = sc_.quality.name;
+  j["solver"] = sim_->setup().solver.method;  // in a Bullet world: the solver the bridge's tier runs
   j["substeps"] = sc_.setup.substeps;
   j["dt"] = sim_->step_size();
   j["threads"] = sc_.setup.threads;
@@ -621,6 +622,7 @@ nlohmann::ordered_json SceneRun::summary() const {
   j["triangles"] = triangles;
   if (!render_summary_.is_null()) j["render"] = render_summary_;
 #ifdef LOOM_HAVE_BULLET
+  if (bodies_world_) j["bullet_tier"] = bullet::tier_name(bodies_world_->options());
   if (bodies_world_) {  // the rigid bodies' end state; the trajectories are in bodies.csv
     nlohmann::ordered_json bj = nlohmann::ordered_json::array();
     for (size_t k = 0; k < bodies_world_->num_bodies(); ++k) {

@@ -28,9 +28,39 @@ struct BulletScene::World {
   void add(const RigidBodySpec& b, size_t index) { rigid.add(b, index); }
 };
 
+namespace {
+
+// fixed_dt = frame_dt / bullet_substeps; Tier::setup spreads setup.substeps over the Bullet substeps;
+// Tier::realtime takes the options' coupled-solve values over BulletClothSettings' defaults.
+BulletClothSettings scene_cloth_settings(const cloth::SimulationSetup& setup, const BulletSceneOptions& o) {
+  if (o.bullet_substeps < 1) throw Error("", "bullet_substeps", "must be >= 1");
+  auto per_substep = [&](int per_frame) {
+    return std::max(1, (per_frame + o.bullet_substeps - 1) / o.bullet_substeps);
+  };
+  BulletClothSettings s;
+  s.fixed_dt = setup.frame_dt / o.bullet_substeps;
+  if (!o.realtime) {
+    s.tier = BulletClothSettings::Tier::setup;
+    s.cloth_substeps = per_substep(setup.substeps);
+    return s;
+  }
+  s.tier = BulletClothSettings::Tier::realtime;
+  s.cloth_substeps = 1;  // the coupled solve's own steps (realtime_substeps), not the setup's
+  if (!o.realtime_solver.empty()) s.realtime_solver = o.realtime_solver;
+  if (o.realtime_iterations > 0) s.realtime_iterations = o.realtime_iterations;
+  if (o.frame_steps > 0) s.realtime_substeps = per_substep(o.frame_steps);
+  if (o.coupling_iterations > 0) s.coupling_iterations = o.coupling_iterations;
+  if (o.max_stretch > 0.0) s.max_stretch = o.max_stretch;
+  if (o.tether_stretch >= 0.0) s.tether_stretch = o.tether_stretch;
+  return s;
+}
+
+}  // namespace
+
 BulletScene::BulletScene(const cloth::SimulationSetup& setup, const std::vector<RigidBodySpec>& bodies,
                          const BulletSceneOptions& options)
     : specs_(bodies),
+      options_(options),
       world_(std::make_unique<World>()),
       body_colliders_(std::make_shared<collision::ColliderSet>()) {
   if (options.bullet_substeps < 1) throw Error("", "bullet_substeps", "must be >= 1");
@@ -38,11 +68,7 @@ BulletScene::BulletScene(const cloth::SimulationSetup& setup, const std::vector<
   substeps_ = options.bullet_substeps;
   world_->world.setGravity(to_bt(setup.gravity));
   for (size_t k = 0; k < specs_.size(); ++k) world_->add(specs_[k], k);
-  BulletClothSettings s;
-  s.fixed_dt = frame_dt_ / substeps_;
-  s.cloth_substeps = std::max(1, (setup.substeps + substeps_ - 1) / substeps_);
-  s.tier = options.realtime ? BulletClothSettings::Tier::realtime : BulletClothSettings::Tier::setup;
-  cloth_ = std::make_unique<BulletCloth>(setup, s);
+  cloth_ = std::make_unique<BulletCloth>(setup, scene_cloth_settings(setup, options));
   const int num_cloths = static_cast<int>(cloth_->simulation().cloths().size());
   for (size_t k = 0; k < specs_.size(); ++k)
     for (size_t a = 0; a < specs_[k].attachments.size(); ++a) {

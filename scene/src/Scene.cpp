@@ -634,6 +634,45 @@ void check_weil(const Scene& scene, const std::string& file) {
   }
 }
 
+// A scene with `bodies`: how its cloths run in the Bullet world (SceneQuality.h, WorldTier). In the coupled
+// tier the bridge solves cloth, contacts, edges and tethers together, so the tier's tether pass is dropped
+// and the explicit values that apply become its settings.
+void parse_world_tier(const JsonReader& r, Scene& scene) {
+  if (scene.bodies.empty()) return;
+  WorldTier w = world_tier(scene.quality.name);
+  const std::string method = scene.setup.solver.method;
+  const bool solver_given = r.has("solver") && r.object("solver").has("method");
+  if (w.coupled && solver_given && method != "pbd" && method != "xpbd" && method != "fast_xpbd")
+    w.coupled = false;  // the scene's own solver wins: the setup tier runs it
+  scene.world = w;
+  if (!w.coupled) return;
+  WorldTier& out = scene.world;
+  if (solver_given) out.solver = method;
+  if (r.has("solver")) {
+    const JsonReader s = r.object("solver");
+    if (s.has("iterations")) out.iterations = static_cast<int>(scene.setup.solver.params.at("iterations"));
+    if (s.has("substeps") || s.has("dt")) out.substeps = scene.setup.substeps;
+    for (const auto& [key, value] : scene.setup.solver.params)
+      if (key != "iterations" && s.has(key))
+        s.fail(key, "is not used by the coupled solve of a Bullet world (quality \"" + scene.quality.name +
+                        "\"); remove it, or run the setup tier with \"quality\": \"reference\"");
+  }
+  if (r.has("constraints")) {
+    const JsonReader k = r.object("constraints");
+    if (k.has("strain_limit") && k.object("strain_limit").has("max_stretch"))
+      out.max_stretch = scene.setup.strain_limit->max_stretch;
+    if (k.has("tethers")) {
+      const JsonReader t = k.object("tethers");
+      if (t.has("distance"))
+        t.fail("distance", "is not used by the coupled solve of a Bullet world (its tethers run to the " +
+                               std::string("nearest pins); remove it, or set \"quality\": \"reference\""));
+      if (t.has("slack")) out.tether_stretch = scene.setup.tethers->slack;
+    }
+  }
+  scene.setup.tethers.reset();  // the coupled solve's own tethers
+  scene.strain_limit_after_contact.reset();
+}
+
 }  // namespace
 
 Scene parse_scene(const nlohmann::json& root, const std::string& file) {
@@ -644,9 +683,10 @@ Scene parse_scene(const nlohmann::json& root, const std::string& file) {
   parse_effects(r, scene);
   parse_constraints(r, scene);
   parse_cloths(r, scene, file);
-  parse_bodies(r, scene);     // Bullet rigid bodies (SceneBodies.cpp)
-  parse_colliders(r, scene);  // Rigid colliders and their motion (SceneColliders.cpp)
-  parse_collision(r, scene);  // Self- and cloth-cloth collision, friction pairs (SceneCollision.cpp)
+  parse_bodies(r, scene);      // Bullet rigid bodies (SceneBodies.cpp)
+  parse_colliders(r, scene);   // Rigid colliders and their motion (SceneColliders.cpp)
+  parse_collision(r, scene);   // Self- and cloth-cloth collision, friction pairs (SceneCollision.cpp)
+  parse_world_tier(r, scene);  // a Bullet world's tier (SceneQuality.h)
 
   parse_output(r, scene);
   r.finish();

@@ -22,6 +22,21 @@ bool cloth_collision(const Scene& s) {
 
 }  // namespace
 
+#ifdef LOOM_HAVE_BULLET
+bullet::BulletSceneOptions bullet_scene_options(const Scene& scene) {
+  bullet::BulletSceneOptions o;
+  const WorldTier& w = scene.world;
+  o.realtime = w.coupled;
+  o.realtime_solver = w.solver;
+  o.realtime_iterations = w.iterations;
+  o.frame_steps = w.substeps;
+  o.coupling_iterations = w.coupling_iterations;
+  o.max_stretch = w.max_stretch;
+  o.tether_stretch = w.tether_stretch;
+  return o;
+}
+#endif
+
 void apply_scene_defaults(Scene& scene) {
   // Exact cloth-cloth collision gets the guard's per-step intersection check; the tiers' proximity collision
   // samples its checks instead (`loom run --census`).
@@ -60,7 +75,7 @@ std::unique_ptr<ScenePipeline> build_pipeline(Scene scene) {
                 "cannot be combined with 'bodies': give static shapes as bodies (mass 0)");
   // The cloths as one BulletCloth in a Bullet world with the bodies; cloth-cloth collision as in
   // build_simulation. The colliders drawn and censused are the bodies at their poses.
-  p->bullet_ = std::make_shared<bullet::BulletScene>(scene.setup, scene.bodies);
+  p->bullet_ = std::make_shared<bullet::BulletScene>(scene.setup, scene.bodies, bullet_scene_options(scene));
   p->colliders_ = p->bullet_->body_colliders();
 #ifdef LOOM_HAVE_CHARACTERS
   if (scene.character) {

@@ -28,6 +28,16 @@ std::optional<QualityTier> quality_tier(const std::string& name) {
   return std::nullopt;
 }
 
+WorldTier world_tier(const std::string& quality) {
+  WorldTier w;
+  w.coupled = quality == "realtime" || quality == "balanced";
+  if (quality == "balanced") {
+    w.substeps = 16;  // 4 cloth steps per Bullet substep at 4 Bullet substeps per frame
+    w.coupling_iterations = 4;
+  }
+  return w;
+}
+
 QualityTier parse_quality(const JsonReader& root) {
   const std::string name = root.string("quality", "reference", {"realtime", "balanced", "reference"});
   return *quality_tier(name);

@@ -61,13 +61,57 @@ TEST(BodiesCli, TrampolineBoxBouncesBack) {
   EXPECT_EQ(s["bullet_substeps"], 4);
   EXPECT_GE(s["cloth_steps"].get<long>(), 200);   // 50 frames x 4 Bullet substeps, more during the impact
   EXPECT_LT(s["max_strain"].get<double>(), 0.5);  // bounded under the impact
+  // The scene's reference tier (no `quality`, implicit Euler): the bridge's setup tier.
+  EXPECT_EQ(s["quality"], "reference");
+  EXPECT_EQ(s["bullet_tier"], "setup");
+  EXPECT_EQ(s["solver"], "implicit_euler");
   EXPECT_TRUE(s["stages"].contains("bullet_contacts"));
+  EXPECT_FALSE(s["stages"].contains("body_coupling"));
   // The usual outputs: stats rows for frames 0..50, OBJ frames.
   std::istringstream stats(slurp(dir / "stats.csv"));
   int rows = 0;
   while (std::getline(stats, line)) ++rows;
   EXPECT_EQ(rows, 52);
   EXPECT_TRUE(std::filesystem::exists(dir / "frames" / "frame_00050.obj"));
+}
+
+// `--set quality=...` picks the bridge's tier; an explicit solver the coupled tier cannot run wins (the setup
+// tier runs it); a bad tier name is refused naming the field.
+TEST(BodiesCli, QualityPicksTheBridgeTier) {
+  if (!have_bullet()) GTEST_SKIP() << "loom built without the Bullet bridge";
+  const std::string scene = std::string(LOOM_SOURCE_DIR) + "/scenes/trampoline.json";
+  auto summary = [&](const std::string& sets, const std::string& sub) {
+    const auto dir = test_dir() / sub;
+    const CliResult r = run_loom("run " + scene + " --frames 3 --set cloths.0.mesh.nodes=[9,9] " + sets +
+                                 " --out " + dir.string());
+    EXPECT_EQ(r.code, 0) << sets << ": " << r.err;
+    return nlohmann::json::parse(slurp(dir / "summary.json"));
+  };
+  nlohmann::json s = summary("--set quality=realtime --set 'solver={}'", "realtime");
+  EXPECT_EQ(s["quality"], "realtime");
+  EXPECT_EQ(s["bullet_tier"], "coupled");
+  EXPECT_EQ(s["solver"], "xpbd");
+  EXPECT_TRUE(s["stages"].contains("body_coupling"));
+  EXPECT_FALSE(s["stages"].contains("bullet_contacts"));
+  s = summary("--set quality=balanced --set 'solver={}'", "balanced");
+  EXPECT_EQ(s["bullet_tier"], "coupled");
+  EXPECT_TRUE(s["stages"].contains("body_coupling"));
+  s = summary("--set quality=realtime", "explicit");  // the scene's explicit implicit_euler wins
+  EXPECT_EQ(s["quality"], "realtime");
+  EXPECT_EQ(s["bullet_tier"], "setup");
+  EXPECT_EQ(s["solver"], "implicit_euler");
+  EXPECT_TRUE(s["stages"].contains("bullet_contacts"));
+  const CliResult bad =
+      run_loom("run " + scene + " --frames 1 --set quality=fast --out " + (test_dir() / "bad").string());
+  EXPECT_EQ(bad.code, 1);
+  EXPECT_NE(bad.err.find("trampoline.json: quality"), std::string::npos) << bad.err;
+  const CliResult unused = run_loom(
+      "run " + scene +
+      " --frames 1 --set quality=realtime --set 'solver={\"method\":\"xpbd\",\"compliance_scale\":0.5}' "
+      "--out " +
+      (test_dir() / "unused").string());
+  EXPECT_EQ(unused.code, 1);
+  EXPECT_NE(unused.err.find("solver.compliance_scale"), std::string::npos) << unused.err;
 }
 
 TEST(BodiesCli, BodiesWithCollidersOrCheckpointsRefused) {
@@ -98,7 +142,8 @@ TEST(BodiesCli, CharacterWithBodiesRuns) {
   EXPECT_EQ(s["bodies"].size(), 8u);
   EXPECT_LT(s["max_penetration"].get<double>(), 1e-3);  // crates and the character's capsules
   EXPECT_TRUE(s["stages"].contains("character"));
-  EXPECT_TRUE(s["stages"].contains("bullet_contacts"));
+  EXPECT_EQ(s["bullet_tier"], "coupled");  // the scene's "quality": "realtime"
+  EXPECT_TRUE(s["stages"].contains("body_coupling"));
   // loom compare has no twin of a character among rigid bodies: refused naming the field.
   const CliResult c = run_loom("compare " + std::string(LOOM_SOURCE_DIR) +
                                "/scenes/character_cape_crates.json --frames 2 --out " +

@@ -21,11 +21,16 @@ struct SceneRun {
   std::vector<double> final_y;  // m, the bodies' heights at the end
 };
 
+// The bridge's setup tier (BulletClothSettings::Tier::setup) with implicit Euler at the Bullet step: the
+// scenes declare the coupled tier ("quality": "realtime"; test_bullet_toy_box.cpp), these bounds are the
+// setup tier's.
 SceneRun run_scene(const std::string& name, int frames = -1) {
-  std::vector<std::string> sets;
+  std::vector<std::string> sets = {"quality=reference",
+                                   R"(solver={"method": "implicit_euler", "dt": 0.004166666666666667})"};
   if (const char* e = std::getenv("LOOM_DIAG_SET")) sets.push_back(e);
   const scene::Scene sc = scene::load_scene(std::string(LOOM_SOURCE_DIR) + "/scenes/" + name, sets);
-  bullet::BulletScene bs(sc.setup, sc.bodies);
+  bullet::BulletScene bs(sc.setup, sc.bodies, scene::bullet_scene_options(sc));
+  EXPECT_FALSE(bs.options().realtime);
   SceneRun r;
   const int n = frames > 0 ? frames : sc.frames;
   const bool diag = std::getenv("LOOM_DIAG") != nullptr;

@@ -1,6 +1,7 @@
 // Bodies in a Bullet world never pass through a BulletCloth: the toy box (a corner-tied cloth, twelve small
 // boxes, spheres and capsules dropped on it, a kinematic paddle sweeping through them) and the other Bullet
-// scenes, run as `loom run` runs them (BulletScene) with the bridge's default (real-time) settings. Every
+// scenes, run as `loom run` runs them (BulletScene with the scene's tier: "quality": "realtime", the bridge's
+// coupled tier; the setup tier pinned by kSetupTier). Every
 // frame each body's centre is checked against the cloth's surface (ClothSide.h); the cloth's deepest vertex
 // inside a body and its largest edge strain are tracked.
 #include <gtest/gtest.h>
@@ -15,6 +16,7 @@
 #include "loom/bullet/BulletCloth.h"
 #include "loom/bullet/BulletScene.h"
 #include "loom/scene/Scene.h"
+#include "loom/scene/ScenePipeline.h"
 
 namespace loom::test {
 namespace {
@@ -30,18 +32,20 @@ struct WorldRun {
   bool finite = true;
   int round_border = 0;  // side changes (ray parity) with no surface crossing: round the cloth's border
   std::vector<double> final_y;  // m
+  bool coupled = false;         // the run was in the bridge's coupled tier
 };
 
-WorldRun run_world(const std::string& name, std::vector<std::string> sets = {}, int frames = -1,
-                   bool realtime = false) {
+// The bridge's setup tier with the scenes' former solver: implicit Euler at the Bullet step.
+const std::vector<std::string> kSetupTier = {
+    "quality=reference", R"(solver={"method": "implicit_euler", "dt": 0.004166666666666667})"};
+
+WorldRun run_world(const std::string& name, std::vector<std::string> sets = {}, int frames = -1) {
   if (const char* e = std::getenv("LOOM_TOY_SET")) {
     std::stringstream ss(e);
     for (std::string s; std::getline(ss, s, ';');) sets.push_back(s);
   }
   const scene::Scene sc = scene::load_scene(std::string(LOOM_SOURCE_DIR) + "/scenes/" + name, sets);
-  bullet::BulletSceneOptions options;
-  options.realtime = realtime || std::getenv("LOOM_TOY_REALTIME") != nullptr;
-  bullet::BulletScene bs(sc.setup, sc.bodies, options);
+  bullet::BulletScene bs(sc.setup, sc.bodies, scene::bullet_scene_options(sc));
   // Kinematic bodies are checked while over the cloth, bodies the cloth is attached to not at all
   // (ClothSide.h).
   std::vector<char> modes;
@@ -51,6 +55,7 @@ WorldRun run_world(const std::string& name, std::vector<std::string> sets = {}, 
                                            : ClothSideTracker::kAlways);
   ClothSideTracker sides(bs, rest_normal(bs.simulation()), modes);
   WorldRun r;
+  r.coupled = bs.options().realtime;
   r.thickness = sc.setup.cloths[0].material.thickness;
   r.frames = frames > 0 ? frames : sc.frames;
   for (int f = 1; f <= r.frames; ++f) {
@@ -98,13 +103,12 @@ void expect_world_invariants(const WorldRun& r) {
   EXPECT_LE(r.max_strain, 0.10 + 1e-9);
 }
 
-// Disabled: these do not hold yet with the bridge's default tier (BulletClothSettings::Tier::setup:
-// the scene's solver and strain limit, vertex contacts; figures in bench/results/bullet_world.txt). Run them
-// with --gtest_also_run_disabled_tests; LOOM_TOY_SET="path=value;..." applies scene overrides (e.g.
-// solver.method=implicit_euler); LOOM_TOY_REALTIME=1 runs the bridge's coupled solve
-// (BulletClothSettings::Tier::realtime). Each body whose centre meets the cloth is printed with the frame,
-// its position and velocity. What fails in the coupled solve (LOOM_TOY_REALTIME=1, whole runs;
-// docs/bullet.md, "Coupled solve"):
+// Disabled: these do not hold yet in the bridge's setup tier (BulletClothSettings::Tier::setup, kSetupTier:
+// implicit Euler, the scenes' strain limit, vertex contacts; figures in bench/results/bullet_world.txt). Run
+// them with --gtest_also_run_disabled_tests; LOOM_TOY_SET="path=value;..." applies scene overrides after
+// kSetupTier (e.g. quality=realtime runs the coupled solve). Each body whose centre meets the cloth is
+// printed with the frame, its position and velocity. What fails in the coupled solve (the scenes' own tier,
+// whole runs; docs/bullet.md, "Coupled solve"):
 //   ToyBox33: 0 bodies through, no vertex inside a body; max strain 0.181 (limit 0.10); 4 side changes round
 //     the border (the paddle coming over the cloth and leaving it);
 //   ToyBox17: 0 through; max strain 0.112;
@@ -114,27 +118,40 @@ void expect_world_invariants(const WorldRun& r) {
 //     their centres meeting the cloth: they pass under the hem of the curtain, which swung out with them;
 //     max strain 0.118;
 //   FlagOnPole: 0 through; max strain 0.117.
-TEST(BulletWorld, DISABLED_ToyBox33NoBodyThrough) { expect_world_invariants(run_world("toy_box.json")); }
+std::vector<std::string> setup_tier(std::vector<std::string> sets = {}) {
+  sets.insert(sets.begin(), kSetupTier.begin(), kSetupTier.end());
+  return sets;
+}
+
+TEST(BulletWorld, DISABLED_ToyBox33NoBodyThrough) {
+  expect_world_invariants(run_world("toy_box.json", setup_tier()));
+}
 
 TEST(BulletWorld, DISABLED_ToyBox17NoBodyThrough) {
-  expect_world_invariants(run_world("toy_box.json", {"cloths.0.mesh.nodes=[17,17]"}));
+  expect_world_invariants(run_world("toy_box.json", setup_tier({"cloths.0.mesh.nodes=[17,17]"})));
 }
 
 // The other Bullet-world scenes under the same invariants over their whole duration (test_bullet_scenes.cpp
 // checks their strain and held bodies over the impact only).
-TEST(BulletWorld, DISABLED_TrampolineNoBodyThrough) { expect_world_invariants(run_world("trampoline.json")); }
-TEST(BulletWorld, DISABLED_HammockNoBodyThrough) { expect_world_invariants(run_world("hammock.json")); }
+TEST(BulletWorld, DISABLED_TrampolineNoBodyThrough) {
+  expect_world_invariants(run_world("trampoline.json", setup_tier()));
+}
+TEST(BulletWorld, DISABLED_HammockNoBodyThrough) {
+  expect_world_invariants(run_world("hammock.json", setup_tier()));
+}
 TEST(BulletWorld, DISABLED_CurtainAndBallsNoBodyThrough) {
-  expect_world_invariants(run_world("curtain_and_balls.json"));
+  expect_world_invariants(run_world("curtain_and_balls.json", setup_tier()));
 }
 TEST(BulletWorld, DISABLED_FlagOnPoleNoBodyThrough) {
-  expect_world_invariants(run_world("flag_on_pole.json"));
+  expect_world_invariants(run_world("flag_on_pole.json", setup_tier()));
 }
 
-// The coupled solve (BulletClothSettings::Tier::realtime) on every Bullet-world scene, whole runs: no body's
-// centre ever meets the cloth, no cloth vertex inside a body deeper than the thickness, finite. Its strain is
-// held to what it reaches today (the 10 % bound above is not met yet), so a regression fails.
+// The coupled solve (BulletClothSettings::Tier::realtime, which the scenes' "quality": "realtime" picks) on
+// every Bullet-world scene, whole runs: no body's centre ever meets the cloth, no cloth vertex inside a body
+// deeper than the thickness, finite. Its strain is held to what it reaches today (the 10 % bound above is not
+// met yet), so a regression fails.
 void expect_contact_invariants(const WorldRun& r, double max_strain) {
+  EXPECT_TRUE(r.coupled);
   EXPECT_TRUE(r.finite);
   EXPECT_EQ(r.bodies_through, 0);
   EXPECT_LE(r.max_pen, r.thickness);
@@ -142,7 +159,7 @@ void expect_contact_invariants(const WorldRun& r, double max_strain) {
 }
 
 WorldRun run_coupled(const std::string& name, std::vector<std::string> sets = {}) {
-  return run_world(name, std::move(sets), -1, true);
+  return run_world(name, std::move(sets));
 }
 
 TEST(BulletWorld, CoupledToyBox33NoBodyThrough) {
@@ -152,7 +169,8 @@ TEST(BulletWorld, CoupledToyBox17NoBodyThrough) {
   expect_contact_invariants(run_coupled("toy_box.json", {"cloths.0.mesh.nodes=[17,17]"}), 0.125);
 }
 TEST(BulletWorld, CoupledTrampolineNoBodyThrough) {
-  expect_contact_invariants(run_coupled("trampoline.json"), 0.115);
+  // The trampoline keeps the reference tier for its rebound: the coupled tier pinned here.
+  expect_contact_invariants(run_coupled("trampoline.json", {"quality=realtime", "solver={}"}), 0.115);
 }
 TEST(BulletWorld, CoupledHammockNoBodyThrough) {
   expect_contact_invariants(run_coupled("hammock.json"), 0.32);

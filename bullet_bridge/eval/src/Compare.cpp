@@ -11,7 +11,6 @@
 #include "BulletConvert.h"
 #include "ShapeDistance.h"
 #include "TwinAccess.h"
-#include "loom/bullet/BulletCloth.h"
 #include "loom/bullet/RigidBodies.h"
 #include "loom/cloth/Error.h"
 
@@ -95,35 +94,33 @@ struct Tally {
 SystemMetrics run_loom_in_bullet(const CompareInput& in) {
   SystemMetrics m;
   m.system = "loom";
-  btDefaultCollisionConfiguration config;
-  btCollisionDispatcher dispatcher(&config);
-  btDbvtBroadphase broadphase;
-  btSequentialImpulseConstraintSolver solver;
-  btDiscreteDynamicsWorld world(&dispatcher, &broadphase, &solver, &config);
-  world.setGravity(to_bt(in.setup.gravity));
-  Bodies bodies(&world, in.bodies);
-  BulletClothSettings s;
-  s.tier = BulletClothSettings::Tier::setup;  // the scene's own solver, as Bullet's twin
-  s.fixed_dt = in.setup.frame_dt / in.bullet_substeps;
-  s.cloth_substeps = std::max(1, (in.setup.substeps + in.bullet_substeps - 1) / in.bullet_substeps);
-  BulletCloth cloth(in.setup, s);
-  for (size_t k = 0; k < in.bodies.size(); ++k)
-    for (const collision::BodyAttachment& a : in.bodies[k].attachments)
-      cloth.attach(a.cloth, a.vertex, bodies.bodies[k].get());
-  cloth.add_to(&world);
-  const cloth::Cloth& c0 = *cloth.simulation().cloths()[0];
+  BulletSceneOptions options = in.options;
+  options.bullet_substeps = in.bullet_substeps;
+  m.tier = tier_name(options);
+  BulletScene scene(in.setup, in.bodies, options);
+  if (in.prepare) in.prepare(scene.simulation());
+  const cloth::Cloth& c0 = *scene.simulation().cloths()[0];
   Tally tally;
+  FrameSample sample;
+  auto report = [&](int f) {
+    if (!in.on_frame) return;
+    sample.frame = f;
+    sample.x = &c0.state().x;
+    sample.centres.clear();
+    for (size_t k = 0; k < scene.num_bodies(); ++k) sample.centres.push_back(scene.body_position(k));
+    in.on_frame(sample);
+  };
+  report(0);
   for (int f = 1; f <= in.frames; ++f) {
     const auto t0 = Clock::now();
-    bodies.drive(f * in.setup.frame_dt);
-    world.stepSimulation(btScalar(in.setup.frame_dt), in.bullet_substeps + 1, btScalar(s.fixed_dt));
+    scene.step_frame();
     const double ms = std::chrono::duration<double, std::milli>(Clock::now() - t0).count();
-    tally.add(c0.mesh(), c0.state().x, bodies.penetration(c0.state().x), ms);
+    tally.add(c0.mesh(), c0.state().x, scene.max_penetration(), ms);
+    report(f);
     if (tally.diverged) break;
   }
   tally.fill(m, c0.state().x);
-  cloth.remove_from(&world);
-  if (!cloth.warnings().empty()) m.note = "unsupported shapes: " + cloth.warnings()[0];
+  if (!scene.warnings().empty()) m.note = "unsupported shapes: " + scene.warnings()[0];
   return m;
 }
 
@@ -140,6 +137,7 @@ SystemMetrics run_bullet_twin(const CompareInput& in, TwinKind kind) {
   cloth::SimulationSetup one = in.setup;
   one.cloths.resize(1);
   cloth::Simulation sim(one);
+  if (in.prepare) in.prepare(sim);
   TwinSettings ts;
   ts.frame_dt = in.setup.frame_dt;
   ts.substeps = in.bullet_substeps;
@@ -161,6 +159,18 @@ SystemMetrics run_bullet_twin(const CompareInput& in, TwinKind kind) {
   const cloth::ClothMesh& mesh = sim.cloths()[0]->mesh();
   Tally tally;
   cloth::Vec3s x;
+  auto report = [&](int f) {
+    if (!in.on_frame) return;
+    FrameSample sample;
+    sample.frame = f;
+    sample.x = &x;
+    for (const auto& b : bodies.bodies) sample.centres.push_back(to_eigen(b->getCenterOfMassPosition()));
+    in.on_frame(sample);
+  };
+  if (in.on_frame) {
+    twin.positions(x);
+    report(0);
+  }
   for (int f = 1; f <= in.frames; ++f) {
     const auto t0 = Clock::now();
     bodies.drive(f * in.setup.frame_dt);
@@ -168,6 +178,7 @@ SystemMetrics run_bullet_twin(const CompareInput& in, TwinKind kind) {
     const double ms = std::chrono::duration<double, std::milli>(Clock::now() - t0).count();
     twin.positions(x);
     tally.add(mesh, x, bodies.penetration(x), ms);
+    report(f);
     if (!twin.simulating()) tally.diverged = true;
     if (tally.diverged) break;
   }

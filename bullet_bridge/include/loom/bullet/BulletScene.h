@@ -22,7 +22,18 @@ class BulletCloth;
 struct BulletSceneOptions {
   int bullet_substeps = 4;  // Bullet fixed steps per scene frame (1/240 s at 60 fps)
   bool realtime = false;    // BulletClothSettings::Tier::realtime (the coupled solve) instead of setup
+  // Tier::realtime only (0 or empty: BulletClothSettings' default). The setup's solver, substeps, strain
+  // limit and tethers are not used there: the coupled solve has its own.
+  std::string realtime_solver;   // pbd, xpbd or fast_xpbd
+  int realtime_iterations = 0;   // solver iterations per cloth step
+  int frame_steps = 0;           // cloth steps per scene frame (ceil over bullet_substeps: per substep)
+  int coupling_iterations = 0;   // contact, tether and edge sweeps per cloth step
+  double max_stretch = 0.0;      // 1, edge strain limit
+  double tether_stretch = -1.0;  // 1, tether slack (< 0: the default)
 };
+
+// The tier a BulletScene runs: "coupled" (Tier::realtime) or "setup".
+inline const char* tier_name(const BulletSceneOptions& o) { return o.realtime ? "coupled" : "setup"; }
 
 class BulletScene {
  public:
@@ -42,6 +53,7 @@ class BulletScene {
   double time() const;                           // s
   double frame_dt() const { return frame_dt_; }  // s
   int bullet_substeps() const { return substeps_; }
+  const BulletSceneOptions& options() const { return options_; }
   long cloth_steps() const;  // cloth pipeline steps run so far (adaptive: BulletClothSettings)
 
   cloth::Simulation& simulation();
@@ -67,6 +79,7 @@ class BulletScene {
   void refresh_colliders();
 
   std::vector<collision::RigidBodySpec> specs_;
+  BulletSceneOptions options_;
   std::unique_ptr<World> world_;
   std::unique_ptr<BulletCloth> cloth_;
   collision::ColliderSetPtr body_colliders_;

@@ -60,6 +60,7 @@ struct Scene {
   // right after the solver: absent when the scene names `constraints.strain_limit` or the tier has none.
   std::optional<cloth::StrainLimitSettings> strain_limit_after_contact;
   std::vector<collision::RigidBodySpec> bodies;  // `bodies` (SceneBodies.cpp): Bullet rigid bodies
+  WorldTier world;  // with `bodies`: how the Bullet world runs the cloths (the tier and explicit values)
   std::vector<collision::Collider>
       colliders;  // `colliders` (SceneColliders.cpp): rigid shapes, kinematic motion
   std::shared_ptr<characters::Character> character;  // `character` (SceneCharacter.cpp); null without one

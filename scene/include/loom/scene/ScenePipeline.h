@@ -10,6 +10,9 @@
 #include "loom/cloth/Simulation.h"
 #include "loom/collision/Collider.h"
 #include "loom/scene/Scene.h"
+#ifdef LOOM_HAVE_BULLET
+#include "loom/bullet/BulletScene.h"
+#endif
 
 namespace loom::bullet {
 class BulletScene;
@@ -42,6 +45,11 @@ class ScenePipeline {
 
  private:
   friend std::unique_ptr<ScenePipeline> build_pipeline(Scene scene);
+
+#ifdef LOOM_HAVE_BULLET
+  // The Bullet world options of a scene with `bodies`: its WorldTier (SceneQuality.h) as the bridge takes it.
+  bullet::BulletSceneOptions bullet_scene_options(const Scene& scene);
+#endif
   ScenePipeline() = default;
 
   Scene scene_;
@@ -57,5 +65,10 @@ class ScenePipeline {
 // Bullet bridge). A `character` with `bodies` runs its garments in the Bullet world, its rig's stage and
 // capsule contact added to the BulletCloth's simulation.
 std::unique_ptr<ScenePipeline> build_pipeline(Scene scene);
+
+#ifdef LOOM_HAVE_BULLET
+// The Bullet world options of a scene with `bodies`: its WorldTier (SceneQuality.h) as the bridge takes it.
+bullet::BulletSceneOptions bullet_scene_options(const Scene& scene);
+#endif
 
 }  // namespace loom::scene
