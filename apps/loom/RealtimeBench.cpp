@@ -9,10 +9,13 @@
 #include <fstream>
 #include <iostream>
 #include <set>
+#include <sstream>
 #include <string>
 #include <vector>
 
 #include "CliValue.h"
+#include "loom/bullet/BodyCrossings.h"
+#include "loom/bullet/Compare.h"
 #include "loom/collision/MultiClothCensus.h"
 #include "loom/eval/AccuracyPlot.h"
 #include "loom/eval/OutputFolder.h"
@@ -45,6 +48,7 @@ struct Row {
   std::string system;
   double ms = 0.0, rms = NAN, depth = 0.0, strain = 0.0;
   bool finite = true;
+  int through = 0;  // bodies whose centre met the cloth (bullet::BodyCrossings); Bullet-world rows only
 };
 
 // The perturbation that fixes the flat sheet's buckling direction (as `loom bench accuracy`):
@@ -104,40 +108,97 @@ double rms(const Run& a, const Run& ref) {
   return count ? std::sqrt(sum / count) : NAN;
 }
 
+// A Bullet-world run (bullet::run_loom_in_bullet or Bullet classic's twin): cloth 0 per frame, time per
+// frame of the whole world step (cloth + Bullet, as `loom compare`), bodies through the cloth.
+struct WorldRun {
+  Run run;
+  int through = 0;
+};
+
+WorldRun world_run(const scene::Scene& sc, const bullet::BulletSceneOptions& options, bool twin, int frames,
+                   int repeats) {
+  WorldRun best;
+  for (int r = 0; r < repeats; ++r) {
+    WorldRun out;
+    cloth::Simulation start(sc.setup);  // the mesh (and the start state) of cloth 0
+    std::vector<char> modes;
+    for (const collision::RigidBodySpec& b : sc.bodies)
+      modes.push_back(b.attachments.empty() ? bullet::BodyCrossings::kAlways : bullet::BodyCrossings::kSkip);
+    std::unique_ptr<bullet::BodyCrossings> crossings;
+    bullet::CompareInput in;
+    in.setup = sc.setup;
+    in.bodies = sc.bodies;
+    in.frames = frames;
+    in.options = options;
+    in.on_frame = [&](const bullet::FrameSample& s) {
+      if (s.frame == 0) {
+        crossings = std::make_unique<bullet::BodyCrossings>(
+            std::vector<const cloth::ClothMesh*>{&start.cloths()[0]->mesh()}, std::vector<Vec3s>{*s.x},
+            s.centres, modes);
+        return;
+      }
+      crossings->update({*s.x}, s.centres);
+      out.run.frames.push_back(*s.x);
+    };
+    const bullet::SystemMetrics m =
+        twin ? bullet::run_bullet_twin(in, bullet::TwinKind::kClassic) : bullet::run_loom_in_bullet(in);
+    out.run.ms = m.ms_per_frame;
+    out.run.max_strain = m.max_strain;
+    out.run.depth = m.max_penetration;
+    out.run.finite = !m.diverged && static_cast<int>(out.run.frames.size()) == frames;
+    out.through = crossings ? crossings->bodies_through() : 0;
+    if (r == 0 || out.run.ms < best.run.ms) best = std::move(out);
+  }
+  return best;
+}
+
 scene::Scene with(const std::string& path, const std::vector<std::string>& sets) {
   return scene::load_scene(path, sets);
 }
 
+// `bodies`: the CSV gets a bodies_through column (the Bullet-world scene).
 void write(eval::OutputFolder& folder, const std::string& name, const std::string& title,
-           const std::vector<Row>& rows) {
+           const std::vector<Row>& rows, bool bodies = false) {
   for (const char* ext : {".png", ".dat", ".gp"}) folder.claim(name + ext);  // the plot's files
   std::ofstream csv(folder.claim(name + ".csv"));
-  csv << "system,ms_per_frame,rms_error_m,max_penetration_m,max_strain,finite\n";
+  csv << "system,ms_per_frame,rms_error_m,max_penetration_m,max_strain,finite"
+      << (bodies ? ",bodies_through\n" : "\n");
   std::vector<PlotPoint> points;
   for (const Row& r : rows) {
     char line[256];
-    std::snprintf(line, sizeof line, "%s,%.6g,%.6g,%.6g,%.6g,%d\n", r.system.c_str(), r.ms, r.rms, r.depth,
+    std::snprintf(line, sizeof line, "%s,%.6g,%.6g,%.6g,%.6g,%d", r.system.c_str(), r.ms, r.rms, r.depth,
                   r.strain, r.finite ? 1 : 0);
     csv << line;
-    std::printf("%-30s %10.3f ms %12.5g m rms %12.5g m deep %10.4f strain%s\n", r.system.c_str(), r.ms, r.rms,
-                r.depth, r.strain, r.finite ? "" : "  (stopped)");
+    if (bodies) csv << "," << r.through;
+    csv << "\n";
+    std::printf("%-30s %10.3f ms %12.5g m rms %12.5g m deep %10.4f strain", r.system.c_str(), r.ms, r.rms,
+                r.depth, r.strain);
+    if (bodies) std::printf(" %3d through", r.through);
+    std::printf("%s\n", r.finite ? "" : "  (stopped)");
     if (std::isfinite(r.rms) && r.rms > 0.0) points.push_back({r.system, r.ms, r.rms});
   }
   plot_accuracy(points, title, (folder.dir() / (name + ".png")).string());
 }
 
 const char* kUsage =
-    "Usage: loom bench realtime [--out DIR] [--overwrite] [--seconds S] [--sheet N] [--repeats R] [--quick]\n"
+    "Usage: loom bench realtime [--out DIR] [--overwrite] [--seconds S] [--sheet N] [--toy N] [--repeats R]\n"
+    "                           [--scenes LIST] [--quick]\n"
     "\n"
-    "Every quality tier (realtime, balanced, reference) of the character scene "
-    "(scenes/character_layers.json)\n"
-    "and of the hanging sheet (1 m cotton, 0.2 kg, two corners pinned, N x N nodes), and Bullet classic's "
-    "twin\n"
-    "of the character, as time per frame (1 thread, the pipeline's own timing, fastest of R runs) against "
-    "the\n"
-    "error from a converged reference run of the same scene: the character's reference variant at twice its\n"
-    "substeps, the sheet at implicit Euler with 64 substeps. Errors: RMS vertex distance over all frames,\n"
-    "deepest penetration into a collider and max strain. Writes DIR/character_realtime.csv, "
+    "Every quality tier (realtime, balanced, reference) and Bullet classic's twin of three scenes, as time\n"
+    "per frame (1 thread, fastest of R runs) against the error from a converged reference run of the same\n"
+    "scene (RMS vertex distance over all frames), with the deepest penetration into a collider or body, the\n"
+    "max strain and, in the Bullet world, the bodies whose centre met the cloth:\n"
+    "  character_layers (scenes/character_layers_reference.json's garments and motion): reference = that\n"
+    "    variant at twice its substeps; the pipeline's own timing; the twin has no RMS (no per-frame\n"
+    "    positions).\n"
+    "  toy_box (scenes/toy_box.json, N x N cloth): the bridge's coupled tier (realtime, balanced) and its\n"
+    "    setup tier (reference: implicit Euler at the 1/240 s Bullet step); reference = the setup tier at\n"
+    "    16 implicit steps per frame, strain limit 10 % with 32 iterations, checked by halving its step "
+    "(the\n"
+    "    row loom:converged_half_step); time = the whole world step, cloth and Bullet, as loom compare.\n"
+    "  the hanging sheet (1 m cotton, 0.2 kg, two corners pinned, N x N nodes): reference = implicit Euler\n"
+    "    at 64 substeps; the pipeline's own timing.\n"
+    "Writes DIR/character_realtime.csv, DIR/toy_box_realtime.csv (with bodies_through), "
     "DIR/sheet_realtime.csv\n"
     "and a PNG of each (RMS error against ms per frame).\n"
     "\n"
@@ -147,15 +208,18 @@ const char* kUsage =
     "  --seconds S    simulated seconds of each run (default 2; chaotic motion makes long runs diverge from\n"
     "                 any reference)\n"
     "  --sheet N      nodes per side of the sheet (default 64)\n"
+    "  --toy N        nodes per side of the toy box's cloth (default 33)\n"
+    "  --scenes LIST  only these of character,toy_box,sheet (default: all three)\n"
     "  --repeats R    runs per point, the fastest kept (default 1)\n"
-    "  --quick        tiny run for tests: 0.1 s, N = 12\n";
+    "  --quick        tiny run for tests: 0.1 s, sheet N = 12, toy box N = 17\n";
 
 }  // namespace
 
 int bench_realtime(int argc, char** argv) {
   std::string out = "out/bench_realtime";
   double seconds = 2.0;
-  int sheet_n = 64, repeats = 1;
+  int sheet_n = 64, toy_n = 33, repeats = 1;
+  std::set<std::string> only = {"character", "toy_box", "sheet"};
   bool overwrite = false;
   std::set<std::string> seen;  // options that take a value, given once
   for (int i = 3; i < argc; ++i) {
@@ -180,17 +244,29 @@ int bench_realtime(int argc, char** argv) {
       seconds = cli_number(a, value(), 0.001, 60.0);
     } else if (a == "--sheet") {
       sheet_n = static_cast<int>(cli_integer(a, value(), 3, 512));
+    } else if (a == "--scenes") {
+      only.clear();
+      std::stringstream list(value());
+      for (std::string name; std::getline(list, name, ',');)
+        if (name == "character" || name == "toy_box" || name == "sheet") {
+          only.insert(name);
+        } else {
+          cli_refuse(a, name, "character, toy_box or sheet");
+        }
+      if (only.empty()) cli_refuse(a, "", "a list of character, toy_box, sheet");
+    } else if (a == "--toy") {
+      toy_n = static_cast<int>(cli_integer(a, value(), 3, 256));
     } else if (a == "--repeats") {
       repeats = static_cast<int>(cli_integer(a, value(), 1, 100));
     } else if (a == "--quick") {
-      seconds = 0.1, sheet_n = 12;
+      seconds = 0.1, sheet_n = 12, toy_n = 17;
     } else {
       std::fprintf(stderr, "loom: error: unknown option '%s' (see loom bench realtime --help)\n", a.c_str());
       return 2;
     }
   }
   std::vector<std::string> writes;
-  for (const char* name : {"character_realtime", "sheet_realtime"})
+  for (const char* name : {"character_realtime", "toy_box_realtime", "sheet_realtime"})
     for (const char* ext : {".png", ".dat", ".gp", ".csv"}) writes.push_back(std::string(name) + ext);
   eval::OutputFolder folder(out, "--out", overwrite, false, writes);
   const int frames = std::max(1, static_cast<int>(std::lround(seconds * 60.0)));
@@ -199,7 +275,7 @@ int bench_realtime(int argc, char** argv) {
   const std::vector<std::string> tiers = {"realtime", "balanced", "reference"};
 
   // The character: tiers on the reference variant's garments and motion; the reference tier is that file.
-  {
+  if (only.count("character")) {
     const std::string ref_path = scenes + "character_layers_reference.json";
     const int ref_substeps = scene::load_scene(ref_path).setup.substeps;
     const Run ref =
@@ -230,8 +306,41 @@ int bench_realtime(int argc, char** argv) {
     std::printf("# character_layers, %d frames, 1 thread\n", frames);
     write(folder, "character_realtime", "character_layers: RMS error vs time per frame", rows);
   }
+  // The Bullet-world scene: every tier of the bridge and Bullet classic's twin, against a converged run of
+  // the setup tier (implicit Euler at 16 steps per frame, strain limit 10 % with 32 iterations), checked by
+  // halving its step.
+  if (only.count("toy_box")) {
+    const std::string path = scenes + "toy_box.json";
+    const std::string nodes =
+        "cloths.0.mesh.nodes=[" + std::to_string(toy_n) + "," + std::to_string(toy_n) + "]";
+    auto setup_tier = [&](int steps, int iterations) {
+      return with(path, {nodes, "quality=reference",
+                         R"(solver={"method": "implicit_euler", "substeps": )" + std::to_string(steps) + "}",
+                         "constraints.strain_limit.iterations=" + std::to_string(iterations)});
+    };
+    const scene::Scene ref_scene = setup_tier(16, 32);
+    const WorldRun ref = world_run(ref_scene, scene::bullet_scene_options(ref_scene), false, frames, 1);
+    const scene::Scene check_scene = setup_tier(8, 32);
+    const WorldRun check = world_run(check_scene, scene::bullet_scene_options(check_scene), false, frames, 1);
+    std::vector<Row> rows;
+    auto row = [&](const std::string& system, const WorldRun& w) {
+      rows.push_back(
+          {system, w.run.ms, rms(w.run, ref.run), w.run.depth, w.run.max_strain, w.run.finite, w.through});
+    };
+    for (const std::string& t : tiers) {
+      // reference: the setup tier with the scene's former solver, implicit Euler at the Bullet step.
+      const scene::Scene sc = t == "reference" ? setup_tier(4, 8) : with(path, {nodes, "quality=" + t});
+      row("loom:" + t, world_run(sc, scene::bullet_scene_options(sc), false, frames, repeats));
+    }
+    row("bullet_classic", world_run(with(path, {nodes}), {}, true, frames, repeats));
+    row("loom:converged_half_step", check);  // the reference at half its steps: how far from converged
+    rows.push_back(
+        {"loom:converged", ref.run.ms, 0.0, ref.run.depth, ref.run.max_strain, ref.run.finite, ref.through});
+    std::printf("# toy_box %dx%d, %d frames, 1 thread (ms: cloth and Bullet world)\n", toy_n, toy_n, frames);
+    write(folder, "toy_box_realtime", "toy_box: RMS error vs time per frame", rows, true);
+  }
   // The hanging sheet: JSON per tier, the same start bump.
-  {
+  if (only.count("sheet")) {
     const std::string text = R"({"duration": 1, "fps": 60,
       "cloths": [{"name": "sheet", "mesh": {"type": "grid", "size": [1, 1], "nodes": [@N, @N], "plane": "xz",
                   "origin": [-0.5, 1.5, -0.5]}, "material": {"preset": "cotton"}, "mass": 0.2,
@@ -259,6 +368,26 @@ int bench_realtime(int argc, char** argv) {
           run(sheet({{"quality", "realtime"}, {"solver", {{"substeps", sub}}}}), frames, sheet_n, repeats);
       rows.push_back({"loom:fast_xpbd substeps=" + std::to_string(sub), r.ms, rms(r, ref), r.depth,
                       r.max_strain, r.finite});
+    }
+    {  // Bullet classic's twin of the sheet (1/240 s steps, as `loom compare`), from the same start bump
+      const scene::Scene sc = sheet({{"solver", {{"method", "implicit_euler"}, {"substeps", 4}}}});
+      bullet::CompareInput in;
+      in.setup = sc.setup;
+      in.frames = frames;
+      in.prepare = [&](cloth::Simulation& sim) { perturb_sheet(sim, sheet_n); };
+      Run best;
+      for (int r = 0; r < repeats; ++r) {
+        Run twin;
+        in.on_frame = [&](const bullet::FrameSample& f) {
+          if (f.frame > 0) twin.frames.push_back(*f.x);
+        };
+        const bullet::SystemMetrics m = bullet::run_bullet_twin(in, bullet::TwinKind::kClassic);
+        twin.ms = m.ms_per_frame;
+        twin.max_strain = m.max_strain;
+        twin.finite = !m.diverged;
+        if (r == 0 || twin.ms < best.ms) best = std::move(twin);
+      }
+      rows.push_back({"bullet_classic", best.ms, rms(best, ref), 0.0, best.max_strain, best.finite});
     }
     std::printf("# hanging sheet N=%d, %d frames, 1 thread\n", sheet_n, frames);
     write(folder, "sheet_realtime", "hanging sheet: RMS error vs time per frame", rows);

@@ -679,6 +679,8 @@ TEST(BadInputCli, NumericOptionsRefuseNonFiniteAndMalformedNumbersByName) {
       {"compare " + scene + " --frames 1.5", "--frames"},
       {"bench realtime --seconds nan", "--seconds"},
       {"bench realtime --sheet 12x", "--sheet"},
+      {"bench realtime --scenes toy_box,cloth", "--scenes"},
+      {"bench realtime --toy 2", "--toy"},
       {"bench accuracy --duration nan", "--duration"},
       {"bench accuracy --perturbation inf", "--perturbation"},
   };
