@@ -106,9 +106,9 @@ void expect_world_invariants(const WorldRun& r) {
 // Disabled: these do not hold yet in the bridge's setup tier (BulletClothSettings::Tier::setup, kSetupTier:
 // implicit Euler, the scenes' strain limit, vertex contacts; figures in bench/results/bullet_world.txt). Run
 // them with --gtest_also_run_disabled_tests; LOOM_TOY_SET="path=value;..." applies scene overrides after
-// kSetupTier (e.g. quality=realtime runs the coupled solve). Each body whose centre meets the cloth is
-// printed with the frame, its position and velocity. What fails in the coupled solve (the scenes' own tier,
-// whole runs; docs/bullet.md, "Coupled solve"):
+// kSetupTier (e.g. "quality=realtime;solver={}" runs the coupled solve). Each body whose centre meets the
+// cloth is printed with the frame, its position and velocity. What fails in the coupled solve (the scenes'
+// own tier, whole runs; docs/bullet.md, "Coupled solve"):
 //   ToyBox33: 0 bodies through, no vertex inside a body; max strain 0.181 (limit 0.10); 4 side changes round
 //     the border (the paddle coming over the cloth and leaving it);
 //   ToyBox17: 0 through; max strain 0.112;
