@@ -207,6 +207,7 @@ CharacterMetrics run_bullet_character(const CharacterCompareInput& in) {
       simulating = simulating && g->twin->simulating();
     }
     tally.add(t, meshes, x, ms);
+    if (in.on_frame) in.on_frame(f, x);
     if (!simulating) tally.diverged = true;
     if (tally.diverged) break;
   }

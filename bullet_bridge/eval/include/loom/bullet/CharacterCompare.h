@@ -36,6 +36,9 @@ struct CharacterCompareInput {
   int frames = 60;
   int bullet_substeps = 4;   // fixed Bullet steps per frame (1/240 s at 60 fps)
   double thickness = 0.001;  // m, the capsules' contact offset (Bullet: the soft body's margin)
+  // Optional: called after every frame of run_bullet_character with every garment's vertices (m), in
+  // setup.cloths order.
+  std::function<void(int frame, const std::vector<const cloth::Vec3s*>& x)> on_frame;
 };
 
 struct CharacterMetrics {
