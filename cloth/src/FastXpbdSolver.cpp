@@ -12,6 +12,7 @@
 
 #include <algorithm>
 #include <cmath>
+#include <cstring>
 
 #include "loom/cloth/GravityTerm.h"
 #include "loom/cloth/SpringSolverSupport.h"
@@ -170,11 +171,15 @@ LOOM_AVX inline void store8(float* p, const int* i, __m256 x, __m256 y, __m256 z
 template <bool kDamped>
 LOOM_AVX void project_avx(const Kernel& q, int begin, int end) {
   const __m256 min_l2 = _mm256_set1_ps(kMinLength2), one = _mm256_set1_ps(1.0f), zero = _mm256_setzero_ps();
-  float* p = q.p;
+  float* const p = q.p;
+  const int* const si = q.si;
+  const int* const sj = q.sj;
+  const float* const rest = q.rest;
+  const float* const inv_denom = q.inv_denom;
   int k = begin;
   for (; k + 8 <= end; k += 8) {
-    const int* i = q.si + k;
-    const int* j = q.sj + k;
+    const int* i = si + k;
+    const int* j = sj + k;
     __m256 ax, ay, az, aw, bx, by, bz, bw;
     load8(p, i, ax, ay, az, aw);
     load8(p, j, bx, by, bz, bw);
@@ -183,8 +188,8 @@ LOOM_AVX void project_avx(const Kernel& q, int begin, int end) {
         _mm256_add_ps(_mm256_add_ps(_mm256_mul_ps(dx, dx), _mm256_mul_ps(dy, dy)), _mm256_mul_ps(dz, dz));
     const __m256 ok = _mm256_cmp_ps(l2, min_l2, _CMP_GT_OQ);
     const __m256 l = _mm256_sqrt_ps(l2);
-    const __m256 inv_l = _mm256_div_ps(one, _mm256_blendv_ps(one, l, ok));
-    const __m256 c = _mm256_sub_ps(l, _mm256_loadu_ps(q.rest + k));
+    const __m256 inv_l = _mm256_div_ps(one, _mm256_or_ps(_mm256_and_ps(ok, l), _mm256_andnot_ps(ok, one)));
+    const __m256 c = _mm256_sub_ps(l, _mm256_loadu_ps(rest + k));
     __m256 num = _mm256_sub_ps(zero, c);
     if (kDamped) {  // the damping term needs the step-start positions
       __m256 a0x, a0y, a0z, a0w, b0x, b0y, b0z, b0w;
@@ -197,7 +202,7 @@ LOOM_AVX void project_avx(const Kernel& q, int begin, int end) {
       num = _mm256_sub_ps(num, _mm256_mul_ps(_mm256_loadu_ps(q.gamma + k), _mm256_mul_ps(rate, inv_l)));
     }
     const __m256 s =
-        _mm256_and_ps(ok, _mm256_mul_ps(_mm256_mul_ps(num, _mm256_loadu_ps(q.inv_denom + k)), inv_l));
+        _mm256_and_ps(ok, _mm256_mul_ps(_mm256_mul_ps(num, _mm256_loadu_ps(inv_denom + k)), inv_l));
     const __m256 sa = _mm256_mul_ps(aw, s), sb = _mm256_mul_ps(bw, s);
     ax = _mm256_sub_ps(ax, _mm256_mul_ps(sa, dx)), ay = _mm256_sub_ps(ay, _mm256_mul_ps(sa, dy));
     az = _mm256_sub_ps(az, _mm256_mul_ps(sa, dz));
@@ -290,7 +295,10 @@ void FastXpbdSolver::prepare(const Cloth& cloth) {
 }
 
 void FastXpbdSolver::update_denominators(const ClothState& s, double h) {
-  if (h == h_ && inv_mass_ == s.inv_mass) return;
+  // Unchanged bits are unchanged values (the converse need not hold: a -0 for a 0 only recomputes).
+  if (h == h_ && inv_mass_.size() == s.inv_mass.size() &&
+      std::memcmp(inv_mass_.data(), s.inv_mass.data(), s.inv_mass.size() * sizeof(double)) == 0)
+    return;
   const int ns = static_cast<int>(si_.size());
   const double inv_h2 = 1.0 / (h * h);
   for (int k = 0; k < ns; ++k) {
@@ -344,22 +352,24 @@ void FastXpbdSolver::project_lambda(int begin, int end) {
 
 // Prediction (Macklin 2016, Alg. 1 line 3): p = x + h (v + h w f), f the external forces, or m g when gravity
 // is the only external force (the same operations: f_i = m_i g). Kinematic vertices have w = 0, so
-// p = x + h v exactly.
+// p = x + h v exactly. Evaluated twice per step, before and after the projections, with the same bits (the
+// state is not changed in between), rather than stored.
+inline Vec3 predicted(const ClothState& s, const Vec3s& f, double h, const double* gravity_mass,
+                      const Vec3& g, int i) {
+  const double w = s.inv_mass[i];
+  return s.x[i] + h * (s.v[i] + (h * w) * (gravity_mass ? Vec3(gravity_mass[i] * g) : f[i]));
+}
+
 template <bool kTurn>
 void FastXpbdSolver::predict(const ClothState& s, double h, const double* gravity_mass, const Vec3& g,
                              int begin, int end) {
   const Mat3 to_local = axes_.transpose();
   const bool start = damped_ || iterations_ > 1;
   for (int i = begin; i < end; ++i) {
-    const double w = s.inv_mass[i];
-    const Vec3 f = gravity_mass ? Vec3(gravity_mass[i] * g) : f_[i];
-    const Vec3 pred = s.x[i] + h * (s.v[i] + (h * w) * f);
-    pred_[i] = pred;
-    Vec3 q = pred - origin_;
+    Vec3 q = predicted(s, f_, h, gravity_mass, g, i) - origin_;
     if (kTurn) q = to_local * q;
     p_[i] = Point{static_cast<float>(q.x()), static_cast<float>(q.y()), static_cast<float>(q.z()),
-                  static_cast<float>(w)};
-    p0_[i] = p_[i];
+                  static_cast<float>(s.inv_mass[i])};
     if (start) {
       Vec3 q0 = s.x[i] - origin_;
       if (kTurn) q0 = to_local * q0;
@@ -369,25 +379,30 @@ void FastXpbdSolver::predict(const ClothState& s, double h, const double* gravit
   }
 }
 
-// x_new = p_pred + R (q_f - q_f0): only the corrections pass through float; v = (x_new - x) / h.
+// x_new = p_pred + R (q_f - q_f0), q_f0 the float prediction: only the corrections pass through float;
+// v = (x_new - x) / h.
 template <bool kTurn>
-void FastXpbdSolver::finish(ClothState& s, double h, int begin, int end) {
+void FastXpbdSolver::finish(ClothState& s, double h, const double* gravity_mass, const Vec3& g, int begin,
+                            int end) {
+  const Mat3 to_local = axes_.transpose();
   const double inv_h = 1.0 / h;
   for (int i = begin; i < end; ++i) {
-    const Point& a = p_[i];
-    const Point& a0 = p0_[i];
-    Vec3 dq(static_cast<double>(a.x) - static_cast<double>(a0.x),
-            static_cast<double>(a.y) - static_cast<double>(a0.y),
-            static_cast<double>(a.z) - static_cast<double>(a0.z));
-    if (kTurn) dq = axes_ * dq;
+    const Vec3 pred = predicted(s, f_, h, gravity_mass, g, i);
     s.x_prev[i] = s.x[i];
-    if (s.inv_mass[i] > 0.0) {
-      const Vec3 q = pred_[i] + dq;
-      s.v[i] = (q - s.x[i]) * inv_h;
-      s.x[i] = q;
-    } else {
-      s.x[i] = pred_[i];
+    if (!(s.inv_mass[i] > 0.0)) {
+      s.x[i] = pred;
+      continue;
     }
+    Vec3 q0 = pred - origin_;
+    if (kTurn) q0 = to_local * q0;
+    const Point& a = p_[i];
+    Vec3 dq(static_cast<double>(a.x) - static_cast<double>(static_cast<float>(q0.x())),
+            static_cast<double>(a.y) - static_cast<double>(static_cast<float>(q0.y())),
+            static_cast<double>(a.z) - static_cast<double>(static_cast<float>(q0.z())));
+    if (kTurn) dq = axes_ * dq;
+    const Vec3 q = pred + dq;
+    s.v[i] = (q - s.x[i]) * inv_h;
+    s.x[i] = q;
   }
 }
 
@@ -412,16 +427,16 @@ void FastXpbdSolver::step(Cloth& cloth, double t, double h, int threads) {
   const double* gravity_mass = nullptr;
   Vec3 g = Vec3::Zero();
   if (others == 0) {
-    if (gravity) gravity_mass = gravity->mass().data(), g = gravity->g();
-    f_.assign(n, Vec3::Zero());  // no external force at all when there is no gravity either
+    if (gravity)
+      gravity_mass = gravity->mass().data(), g = gravity->g();
+    else
+      f_.assign(n, Vec3::Zero());  // no external force at all
   } else {
     external_forces(cloth, s.x, s.v, t, threads, f_);
   }
   p_.resize(n + 1);
-  p0_.resize(n + 1);
   x0_.resize(n + 1);
-  p_[n] = p0_[n] = x0_[n] = Point{0.0f, 0.0f, 0.0f, 0.0f};  // the padding springs' spare vertex
-  pred_.resize(n);
+  p_[n] = x0_[n] = Point{0.0f, 0.0f, 0.0f, 0.0f};  // the padding springs' spare vertex
   if (!framed_) origin_ = n > 0 ? s.x[0] : Vec3::Zero();
   // World axes need no rotation (and keep every rounding of the unframed step); a frame's axes do.
   const bool turn = framed_ && axes_ != Mat3::Identity();
@@ -452,9 +467,9 @@ void FastXpbdSolver::step(Cloth& cloth, double t, double h, int threads) {
 #pragma omp barrier
       }
     if (turn)
-      finish<true>(s, h, vb, ve);
+      finish<true>(s, h, gravity_mass, g, vb, ve);
     else
-      finish<false>(s, h, vb, ve);
+      finish<false>(s, h, gravity_mass, g, vb, ve);
   }
   sweeps_ += iterations_;
 }

@@ -57,7 +57,7 @@ class FastXpbdSolver final : public Solver {
   template <bool kTurn>
   void predict(const ClothState& s, double h, const double* gravity_mass, const Vec3& g, int begin, int end);
   template <bool kTurn>
-  void finish(ClothState& s, double h, int begin, int end);
+  void finish(ClothState& s, double h, const double* gravity_mass, const Vec3& g, int begin, int end);
   // Projects springs [begin, end) of one colour; begin and end are multiples of 8 (whole batches).
   void project(int begin, int end);
   void project_lambda(int begin, int end);
@@ -81,9 +81,7 @@ class FastXpbdSolver final : public Solver {
   int vertices_ = 0;      // the prepared cloth's vertex count, also the spare vertex's index
   // n + 1 points: the cloth's vertices and the spare vertex of the padding springs.
   std::vector<Point> p_;          // projected positions (m, local: Rᵀ (p - origin_)) and inverse masses
-  std::vector<Point> p0_;         // p_ as predicted, before the projections
   std::vector<Point> x0_;         // positions at the step's start (m, local), for damping
-  Vec3s pred_;                    // m, predicted positions x + h v + h² w f (double)
   Vec3 origin_ = Vec3::Zero();    // m, this step's origin of p_ and x0_
   Mat3 axes_ = Mat3::Identity();  // 1, R: the local axes in world coordinates (columns)
   bool framed_ = false;           // set_frame was called: origin_ and axes_ are its frame's
