@@ -294,14 +294,9 @@ void FastXpbdSolver::prepare(const Cloth& cloth) {
   prepared_for_ = &cloth;
 }
 
-void FastXpbdSolver::update_denominators(const ClothState& s, double h) {
-  // Unchanged bits are unchanged values (the converse need not hold: a -0 for a 0 only recomputes).
-  if (h == h_ && inv_mass_.size() == s.inv_mass.size() &&
-      std::memcmp(inv_mass_.data(), s.inv_mass.data(), s.inv_mass.size() * sizeof(double)) == 0)
-    return;
-  const int ns = static_cast<int>(si_.size());
+void FastXpbdSolver::update_denominators(const ClothState& s, double h, int begin, int end) {
   const double inv_h2 = 1.0 / (h * h);
-  for (int k = 0; k < ns; ++k) {
+  for (int k = begin; k < end; ++k) {
     if (si_[k] >= vertices_) continue;  // padding keeps γ = α̃ = 1 / denominator = 0
     const double w = s.inv_mass[si_[k]] + s.inv_mass[sj_[k]];
     const double gamma = beta_[k] / h, alpha_t = alpha_[k] * inv_h2;
@@ -309,8 +304,6 @@ void FastXpbdSolver::update_denominators(const ClothState& s, double h) {
     alpha_t_[k] = static_cast<float>(alpha_t);
     inv_denom_[k] = w > 0.0 ? static_cast<float>(1.0 / ((1.0 + gamma) * w + alpha_t)) : 0.0f;
   }
-  h_ = h;
-  inv_mass_ = s.inv_mass;
 }
 
 void FastXpbdSolver::project(int begin, int end) {
@@ -354,10 +347,9 @@ void FastXpbdSolver::project_lambda(int begin, int end) {
 // is the only external force (the same operations: f_i = m_i g). Kinematic vertices have w = 0, so
 // p = x + h v exactly. Evaluated twice per step, before and after the projections, with the same bits (the
 // state is not changed in between), rather than stored.
-inline Vec3 predicted(const ClothState& s, const Vec3s& f, double h, const double* gravity_mass,
-                      const Vec3& g, int i) {
-  const double w = s.inv_mass[i];
-  return s.x[i] + h * (s.v[i] + (h * w) * (gravity_mass ? Vec3(gravity_mass[i] * g) : f[i]));
+inline Vec3 predicted(const Vec3* x, const Vec3* v, const double* inv_mass, const Vec3* f, double h,
+                      const double* gravity_mass, const Vec3& g, int i) {
+  return x[i] + h * (v[i] + (h * inv_mass[i]) * (gravity_mass ? Vec3(gravity_mass[i] * g) : f[i]));
 }
 
 template <bool kTurn>
@@ -365,13 +357,18 @@ void FastXpbdSolver::predict(const ClothState& s, double h, const double* gravit
                              int begin, int end) {
   const Mat3 to_local = axes_.transpose();
   const bool start = damped_ || iterations_ > 1;
+  const Vec3* const x = s.x.data();
+  const Vec3* const v = s.v.data();
+  const double* const inv_mass = s.inv_mass.data();
+  const Vec3* const f = f_.data();
+  Point* const p = p_.data();
   for (int i = begin; i < end; ++i) {
-    Vec3 q = predicted(s, f_, h, gravity_mass, g, i) - origin_;
+    Vec3 q = predicted(x, v, inv_mass, f, h, gravity_mass, g, i) - origin_;
     if (kTurn) q = to_local * q;
-    p_[i] = Point{static_cast<float>(q.x()), static_cast<float>(q.y()), static_cast<float>(q.z()),
-                  static_cast<float>(s.inv_mass[i])};
+    p[i] = Point{static_cast<float>(q.x()), static_cast<float>(q.y()), static_cast<float>(q.z()),
+                 static_cast<float>(inv_mass[i])};
     if (start) {
-      Vec3 q0 = s.x[i] - origin_;
+      Vec3 q0 = x[i] - origin_;
       if (kTurn) q0 = to_local * q0;
       x0_[i] =
           Point{static_cast<float>(q0.x()), static_cast<float>(q0.y()), static_cast<float>(q0.z()), 0.0f};
@@ -386,23 +383,29 @@ void FastXpbdSolver::finish(ClothState& s, double h, const double* gravity_mass,
                             int end) {
   const Mat3 to_local = axes_.transpose();
   const double inv_h = 1.0 / h;
+  Vec3* const x = s.x.data();
+  Vec3* const v = s.v.data();
+  Vec3* const x_prev = s.x_prev.data();
+  const double* const inv_mass = s.inv_mass.data();
+  const Vec3* const f = f_.data();
+  const Point* const p = p_.data();
   for (int i = begin; i < end; ++i) {
-    const Vec3 pred = predicted(s, f_, h, gravity_mass, g, i);
-    s.x_prev[i] = s.x[i];
-    if (!(s.inv_mass[i] > 0.0)) {
-      s.x[i] = pred;
+    const Vec3 pred = predicted(x, v, inv_mass, f, h, gravity_mass, g, i);
+    x_prev[i] = x[i];
+    if (!(inv_mass[i] > 0.0)) {
+      x[i] = pred;
       continue;
     }
     Vec3 q0 = pred - origin_;
     if (kTurn) q0 = to_local * q0;
-    const Point& a = p_[i];
+    const Point& a = p[i];
     Vec3 dq(static_cast<double>(a.x) - static_cast<double>(static_cast<float>(q0.x())),
             static_cast<double>(a.y) - static_cast<double>(static_cast<float>(q0.y())),
             static_cast<double>(a.z) - static_cast<double>(static_cast<float>(q0.z())));
     if (kTurn) dq = axes_ * dq;
     const Vec3 q = pred + dq;
-    s.v[i] = (q - s.x[i]) * inv_h;
-    s.x[i] = q;
+    v[i] = (q - x[i]) * inv_h;
+    x[i] = q;
   }
 }
 
@@ -412,7 +415,10 @@ void FastXpbdSolver::step(Cloth& cloth, double t, double h, int threads) {
   const int n = s.size();
   const int ns = static_cast<int>(si_.size());
   const int num_colors = static_cast<int>(color_start_.size()) - 1;
-  update_denominators(s, h);
+  // The denominators are recomputed when h or an inverse mass changed since they were (each thread compares
+  // its share of the inverse masses bitwise: a -0 for a 0 only recomputes).
+  int stale = !(h == h_);
+  if (inv_mass_.size() != s.inv_mass.size()) inv_mass_.assign(n, 0.0), stale = 1;
   // Gravity alone is folded into the prediction; other external forces are summed first.
   const GravityTerm* gravity = nullptr;
   int others = 0;
@@ -456,7 +462,17 @@ void FastXpbdSolver::step(Cloth& cloth, double t, double h, int threads) {
       predict<true>(s, h, gravity_mass, g, vb, ve);
     else
       predict<false>(s, h, gravity_mass, g, vb, ve);
+    if (ve > vb && std::memcmp(inv_mass_.data() + vb, s.inv_mass.data() + vb, (ve - vb) * sizeof(double))) {
+#pragma omp atomic write
+      stale = 1;
+    }
 #pragma omp barrier
+    if (stale) {
+      share(0, ns, me, team, &b, &e);
+      update_denominators(s, h, b, e);
+      std::copy(s.inv_mass.begin() + vb, s.inv_mass.begin() + ve, inv_mass_.begin() + vb);
+#pragma omp barrier
+    }
     for (int it = 0; it < iterations_; ++it)
       for (int c = 0; c < num_colors; ++c) {
         share(color_start_[c], color_start_[c + 1], me, team, &b, &e);
@@ -471,6 +487,7 @@ void FastXpbdSolver::step(Cloth& cloth, double t, double h, int threads) {
     else
       finish<false>(s, h, gravity_mass, g, vb, ve);
   }
+  h_ = h;
   sweeps_ += iterations_;
 }
 

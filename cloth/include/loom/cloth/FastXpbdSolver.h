@@ -53,7 +53,8 @@ class FastXpbdSolver final : public Solver {
     float w;  // 1/kg, inverse mass
   };
   void prepare(const Cloth& cloth);
-  void update_denominators(const ClothState& s, double h);
+  // γ, α̃ and the inverse denominators of springs [begin, end) for step h.
+  void update_denominators(const ClothState& s, double h, int begin, int end);
   template <bool kTurn>
   void predict(const ClothState& s, double h, const double* gravity_mass, const Vec3& g, int begin, int end);
   template <bool kTurn>
