@@ -382,7 +382,6 @@ template <bool kTurn>
 void FastXpbdSolver::finish(ClothState& s, double h, const double* gravity_mass, const Vec3& g, int begin,
                             int end) {
   const Mat3 to_local = axes_.transpose();
-  const double inv_h = 1.0 / h;
   Vec3* const x = s.x.data();
   Vec3* const v = s.v.data();
   Vec3* const x_prev = s.x_prev.data();
@@ -404,7 +403,7 @@ void FastXpbdSolver::finish(ClothState& s, double h, const double* gravity_mass,
             static_cast<double>(a.z) - static_cast<double>(static_cast<float>(q0.z())));
     if (kTurn) dq = axes_ * dq;
     const Vec3 q = pred + dq;
-    v[i] = (q - x[i]) * inv_h;
+    v[i] = (q - x[i]) / h;
     x[i] = q;
   }
 }
