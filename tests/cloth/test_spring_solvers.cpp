@@ -5,11 +5,13 @@
 #include <Eigen/SparseCholesky>
 #include <cmath>
 #include <random>
+#include <set>
 #include <stdexcept>
 
 #include "TestUtil.h"
 #include "loom/cloth/DesbrunSolver.h"
 #include "loom/cloth/Error.h"
+#include "loom/cloth/FastXpbdSolver.h"
 #include "loom/cloth/ProjectiveSolver.h"
 #include "loom/cloth/Simulation.h"
 #include "loom/cloth/SplitCholesky.h"
@@ -449,6 +451,63 @@ TEST(SpringSolvers, ResultsDoNotDependOnTheThreadCount) {
       x[t] = sim.cloths()[0]->state().x;
     }
     for (size_t i = 0; i < x[0].size(); ++i) ASSERT_EQ(x[0][i], x[1][i]) << method;
+  }
+}
+
+// fast_xpbd's colours: every spring of the cloth exactly once, and no vertex twice within one colour (so a
+// colour's springs can be projected in any order, in SIMD lanes or on several threads).
+TEST(FastXpbd, EverySpringOnceAndNoSharedVertexWithinAColour) {
+  Simulation sim(sheet(48, "symplectic_euler"));
+  Cloth& cloth = *sim.cloths()[0];
+  FastXpbdSolver solver(1, 1.0);
+  EXPECT_TRUE(solver.spring_colors().empty());
+  solver.step(cloth, 0.0, kH, 1);
+  const auto colors = solver.spring_colors();
+  ASSERT_GE(colors.size(), 2u);
+  std::set<std::pair<int, int>> seen;
+  size_t total = 0;
+  for (size_t c = 0; c < colors.size(); ++c) {
+    std::set<int> vertices;
+    for (const auto& ij : colors[c]) {
+      EXPECT_TRUE(vertices.insert(ij.first).second) << "colour " << c << " vertex " << ij.first;
+      EXPECT_TRUE(vertices.insert(ij.second).second) << "colour " << c << " vertex " << ij.second;
+      seen.insert({std::min(ij.first, ij.second), std::max(ij.first, ij.second)});
+    }
+    total += colors[c].size();
+  }
+  std::set<std::pair<int, int>> expected;
+  for (const Spring& sp : collect_springs(cloth))
+    if (sp.k > 0.0) expected.insert({std::min(sp.i, sp.j), std::max(sp.i, sp.j)});
+  EXPECT_EQ(total, expected.size());
+  EXPECT_EQ(seen, expected);
+}
+
+// The coloured step on one or two threads, in AVX, SSE or scalar lanes (those this processor runs): the
+// same bits after ten steps, damped and undamped.
+TEST(FastXpbd, ThreadsAndVectorFormsGiveTheSameBits) {
+  for (double damping : {0.0, 1e-3}) {
+    Vec3s first;
+    for (int lanes : {8, 4, 1})
+      for (int threads : {1, 2}) {
+        SimulationSetup setup = sheet(48, "symplectic_euler");
+        setup.cloths[0].material.damping = damping;
+        Simulation sim(setup);
+        Cloth& cloth = *sim.cloths()[0];
+        disturb(cloth.state(), 5);
+        FastXpbdSolver solver(1, 1.0);
+        solver.set_lanes(lanes);
+        for (int k = 0; k < 10; ++k) solver.step(cloth, k * kH, kH, threads);
+        const Vec3s& x = cloth.state().x;
+        ASSERT_TRUE(cloth.state().is_finite());
+        if (first.empty()) {
+          first = x;
+          EXPECT_GT(rms_difference(x, sheet_start(48)), 1e-3) << "the steps moved the sheet";
+          continue;
+        }
+        for (size_t i = 0; i < x.size(); ++i)
+          ASSERT_EQ(x[i], first[i]) << "lanes " << lanes << " threads " << threads << " damping " << damping
+                                    << " vertex " << i;
+      }
   }
 }
 

@@ -173,6 +173,13 @@ SimulationSetup loom_setup(const Scene& s, const std::string& method, const Swee
   if (!c.model.empty()) setup.cloths[0].model = c.model;
   setup.solver.method = method;
   setup.solver.params = c.params;
+  // The real-time tier's long-range attachments to the pins (TetherStage.h), as the configuration key
+  // "tether_slack" (not the solver's).
+  auto slack = setup.solver.params.find("tether_slack");
+  if (slack != setup.solver.params.end()) {
+    setup.tethers = cloth::TetherSettings{slack->second, true};
+    setup.solver.params.erase(slack);
+  }
   setup.frame_dt = kFrameDt;
   setup.substeps = c.substeps;
   setup.threads = threads;

@@ -77,6 +77,11 @@ std::map<std::string, std::vector<SweepConfig>> loom_sweep_table(int explicit_st
   // XPBD "small steps" (Macklin et al. 2019: many substeps of one iteration), the games' 2 ms-class setting,
   // between 16 and 64 substeps; and projective dynamics at one substep with few Chebyshev iterations.
   append(t["xpbd"], grid({8, 32}, "iterations", {1}));
+  // The real-time tier's XPBD (FastXpbdSolver.h): one iteration per substep, from the 2 ms class (at most 20
+  // substeps at N=64) to many substeps, where it nears the dynamics the reference integrates.
+  t["fast_xpbd"] = grid({8, 12, 16, 20, 24, 32, 64, 128, 256}, "iterations", {1});
+  // With the tier's long-range attachments to the pins (AccuracyRuns.cpp, loom_setup).
+  append(t["fast_xpbd"], grid({8, 12, 16, 20}, "tether_slack", {0.08}, {{"iterations", 1}}));
   t["projective"] = grid({1, 4, 16}, "iterations", {4, 16});
   append(t["projective"], grid({1}, "iterations", {4, 8}, {{"chebyshev", 1}}));
   append(t["projective"], grid({1, 4}, "iterations", {16}, {{"chebyshev", 1}}));

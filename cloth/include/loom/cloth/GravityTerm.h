@@ -15,6 +15,7 @@ class GravityTerm final : public Term {
   bool symmetric_jacobians(const JacobianOptions&) const override { return true; }  // adds nothing
   long work_items() const override { return static_cast<long>(mass_.size()); }
   const Vec3& g() const { return g_; }
+  const std::vector<double>& mass() const { return mass_; }  // kg, per vertex: f_i = mass()[i] g
 
  private:
   std::vector<double> mass_;  // kg
