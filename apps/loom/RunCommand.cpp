@@ -145,11 +145,14 @@ namespace {
 
 // A resumed state is an input like any other (its checksum can be recomputed by whoever edits it): every
 // position and velocity finite, positions within the scene bound kMaxCoordinate, speeds at most
-// kMaxResumedSpeed, every pinned vertex at its pin's target, the clock at the checkpoint's frame. Refused
-// naming the checkpoint file and the cloth, vertex and quantity.
+// kMaxResumedSpeed (and so the previous step's positions within a frame's motion at that speed), every pinned
+// vertex at its pin's target (`pins_own_paths`: the pins follow their own paths; a character's garments move
+// theirs with the body), the clock at the checkpoint's frame. Refused naming the checkpoint file and the
+// cloth, vertex and quantity.
 constexpr double kMaxResumedSpeed = 1e5;  // m/s
 constexpr double kPinTolerance = 1e-4;    // m, a pinned vertex's distance from its target
-void check_resumed_state(const std::string& file, const cloth::Simulation& sim, int frame, double frame_dt) {
+void check_resumed_state(const std::string& file, const cloth::Simulation& sim, int frame, double frame_dt,
+                         bool pins_own_paths) {
   const double expected = frame * frame_dt;
   if (!(std::abs(sim.time() - expected) <= 1e-9 * std::max(1.0, expected)))
     throw Error(file, "state: time",
@@ -166,9 +169,14 @@ void check_resumed_state(const std::string& file, const cloth::Simulation& sim, 
       if (i < st.v.size() && !(st.v[i].norm() <= kMaxResumedSpeed))
         throw Error(file, who + std::to_string(i) + " velocity",
                     "is not finite or faster than 1e5 m/s: not a state a run writes");
+      // The position at the start of the last step: at most a frame's motion at that speed away.
+      if (i < st.x_prev.size() && !((st.x_prev[i] - st.x[i]).norm() <= kMaxResumedSpeed * frame_dt))
+        throw Error(file, who + std::to_string(i) + " previous position",
+                    "is not finite or farther from the position than 1e5 m/s moves in a frame: not a state a "
+                    "run writes");
     }
     for (const cloth::Pin& p : c->pins())
-      if (p.vertex >= 0 && static_cast<size_t>(p.vertex) < st.x.size() &&
+      if (pins_own_paths && p.vertex >= 0 && static_cast<size_t>(p.vertex) < st.x.size() &&
           !((st.x[p.vertex] - p.target(sim.time())).norm() <= kPinTolerance))
         throw Error(file, who + std::to_string(p.vertex) + " position",
                     "is pinned but lies " + std::to_string((st.x[p.vertex] - p.target(sim.time())).norm()) +
@@ -383,7 +391,8 @@ void SceneRun::open_outputs() {
   if (resume_) {
     cloth::StateReader in(resume_->state, (out_ / "checkpoint" / "checkpoint.bin").string());
     sim_->load_state(in);
-    check_resumed_state((out_ / "checkpoint" / "checkpoint.bin").string(), *sim_, first_, sc_.setup.frame_dt);
+    check_resumed_state((out_ / "checkpoint" / "checkpoint.bin").string(), *sim_, first_, sc_.setup.frame_dt,
+                        !sc_.character);
     kept_rows = kept_stats_rows(out_, first_);
     check_state_matches_stats((out_ / "checkpoint" / "checkpoint.bin").string(), sim_->measure(), first_,
                               kept_rows);
