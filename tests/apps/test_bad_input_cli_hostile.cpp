@@ -301,7 +301,8 @@ TEST(HostileOutputFolder, AHardLinkWhereTheRunWritesIsRefused) {
   std::ofstream(dir / "keep" / "notes.txt") << "precious notes";
   std::ofstream(dir / "scene.json") << R"({"name":"hl","duration":0.05,"fps":60,
     "solver":{"method":"symplectic_euler","substeps":20},
-    "cloths":[{"name":"c","mesh":{"type":"obj","path":"cloth.obj"},"material":"cotton","pins":[{"vertex":0}]}],
+    "cloths":[{"name":"c","mesh":{"type":"obj","path":"cloth.obj"},"material":"cotton",
+               "pins":[{"vertex":0}]}],
     "output":{"formats":["obj","pc2"]}})";
   const std::string run = "run " + (dir / "scene.json").string() + " --overwrite --out " + out.string();
   // The run's own input, hard-linked where the run writes pc2/c.obj: refused naming the input.
