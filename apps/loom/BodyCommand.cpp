@@ -1,9 +1,15 @@
 // `loom body`: a body mesh fitted to a mocap skeleton, with a skinned cape (BodyCommand.h).
 #include "BodyCommand.h"
 
+#include <fcntl.h>
+#include <sys/stat.h>
+#include <unistd.h>
+
 #include <algorithm>
+#include <cerrno>
 #include <cmath>
 #include <cstdio>
+#include <cstring>
 #include <iostream>
 #include <string>
 #include <vector>
@@ -39,12 +45,66 @@ const char* kBodyUsage =
     "  --image FILE.png render the last frame (body and cape, seen from behind) into FILE.png\n"
     "  -h, --help       this text\n";
 
+// --image FILE: checked before the clip runs. Refused by name: a symbolic link (never written through),
+// anything but a regular file (a device such as /dev/full, a FIFO, a folder), a file another name shares (a
+// hard link), an input of this run (by device and inode), a folder that does not exist.
+void check_image_path(const std::string& image, const std::vector<std::string>& inputs) {
+  struct stat st;
+  if (::lstat(image.c_str(), &st) == 0) {
+    if (S_ISLNK(st.st_mode))
+      throw Error(image, "--image", "is a symbolic link: loom body never writes through a link");
+    if (!S_ISREG(st.st_mode))
+      throw Error(image, "--image", "is not a regular file (a folder, device or FIFO): give a PNG file path");
+    if (st.st_nlink > 1)
+      throw Error(image, "--image",
+                  "is a hard link (other names share this file): writing it would change them too");
+    for (const std::string& in : inputs) {
+      struct stat is;
+      if (::stat(in.c_str(), &is) == 0 && is.st_dev == st.st_dev && is.st_ino == st.st_ino)
+        throw Error(image, "--image", "is the input " + in + ": writing the image would destroy it");
+    }
+  } else if (errno != ENOENT) {
+    throw Error(image, "--image", std::string("cannot be written: ") + std::strerror(errno));
+  }
+  std::string parent =
+      image.substr(0, image.find_last_of('/') == std::string::npos ? 0 : image.find_last_of('/') + 1);
+  if (parent.empty()) parent = ".";
+  if (::stat(parent.c_str(), &st) != 0 || !S_ISDIR(st.st_mode))
+    throw Error(image, "--image", "its folder does not exist");
+}
+
+// Writes `bytes` to `path` through a new temporary file (O_EXCL | O_NOFOLLOW, never an existing file or a
+// link) and a rename, so `path` is whole or untouched; every failed write or close is an error.
+[[maybe_unused]] void write_file_replacing(const std::string& path, const std::string& bytes) {
+  const std::string tmp = path + ".tmp" + std::to_string(::getpid());
+  const int fd = ::open(tmp.c_str(), O_WRONLY | O_CREAT | O_EXCL | O_NOFOLLOW | O_CLOEXEC, 0644);
+  if (fd < 0) throw Error(tmp, "--image", std::string("cannot create: ") + std::strerror(errno));
+  size_t done = 0;
+  int err = 0;
+  while (done < bytes.size()) {
+    const ssize_t n = ::write(fd, bytes.data() + done, bytes.size() - done);
+    if (n < 0 && errno == EINTR) continue;
+    if (n <= 0) {
+      err = n < 0 ? errno : EIO;
+      break;
+    }
+    done += static_cast<size_t>(n);
+  }
+  if (::close(fd) != 0 && !err) err = errno;
+  if (!err && ::rename(tmp.c_str(), path.c_str()) != 0) err = errno;
+  if (err) {
+    ::unlink(tmp.c_str());
+    throw Error(path, "--image", std::string("write failed: ") + std::strerror(err));
+  }
+}
+
 }  // namespace
 
 int body_main(int argc, char** argv) {
   std::vector<std::string> files;
   double seconds = 3.0;
   std::string image;
+  bool image_given = false;
   for (int i = 2; i < argc; ++i) {
     const std::string a = argv[i];
     auto value = [&]() -> const char* {
@@ -61,6 +121,7 @@ int body_main(int argc, char** argv) {
       seconds = cli_number(a, value(), 0.0, 3600.0);
     } else if (a == "--image") {
       image = value();
+      image_given = true;
     } else if (!a.empty() && a[0] == '-') {
       std::fprintf(stderr, "loom: error: unknown option '%s' (see loom body --help)\n", printable(a).c_str());
       return 2;
@@ -72,10 +133,19 @@ int body_main(int argc, char** argv) {
     std::fprintf(stderr, "loom: error: body needs MESH and CLIP.bvh (see loom body --help)\n");
     return 2;
   }
+  if (image_given && image.empty()) {
+    std::fprintf(stderr, "loom: error: --image: is empty: give the PNG file to write\n");
+    return 2;
+  }
 #ifndef LOOM_HAVE_RENDER
   if (!image.empty()) throw Error("--image", "", "this build has no renderer (OSMesa)");
 #endif
   const ch::Motion motion = ch::Motion::load(files[1]);
+  if (!image.empty()) {
+    std::vector<std::string> inputs = files;
+    inputs.insert(inputs.end(), motion.files().begin(), motion.files().end());
+    check_image_path(image, inputs);
+  }
   const ch::BodyFit fit = ch::fit_body(ch::load_static_mesh(files[0], 0), motion);
   const ch::BackCape cape = ch::make_back_cape(fit, motion);
   ch::GarmentSettings settings;
@@ -112,7 +182,10 @@ int body_main(int argc, char** argv) {
             std::max(deepest, b.radius - collision::point_segment_distance(p, joints[b.joint].translation(),
                                                                            joints[b.child].translation()));
     for (int i = 0; i < garment.num_vertices(); ++i) {
-      if (!x[i].allFinite()) throw Error("cape", "positions", "not finite at frame " + std::to_string(f));
+      if (!x[i].allFinite())
+        throw Error(
+            files[1], "cape positions",
+            "not finite at frame " + std::to_string(f) + " of the clip (with the body " + files[0] + ")");
       const double d = (x[i] - garment.targets()[i]).norm();
       worst_over = std::max(worst_over, d - cape.max_distance[i]);
       worst_behind = std::max(worst_behind, garment.constraints().backstop_depth(
@@ -147,7 +220,7 @@ int body_main(int argc, char** argv) {
     cape_mesh.color = cloth::Vec3(0.20, 0.30, 0.70);
     render::Renderer renderer(rs, {body_mesh, cape_mesh});
     renderer.frame(b);
-    render::write_png(image, renderer.render({&body, &garment.positions()}));
+    write_file_replacing(image, render::encode_png(renderer.render({&body, &garment.positions()})));
   }
 #endif
   return 0;

@@ -104,6 +104,22 @@ int compare_main(int argc, char** argv) {
   if (sc.character && !sc.bodies.empty())
     throw Error(sc.file, "bodies",
                 "loom compare runs a character scene without rigid bodies (remove 'bodies')");
+  // What the Bullet twins cannot run is refused by field before the folder is claimed: they bridge fixed
+  // pins only (a pin with a `path` moves).
+  if (!sc.character)
+    for (size_t c = 0; c < sc.setup.cloths.size(); ++c) {
+      const cloth::ClothSetup& cs = sc.setup.cloths[c];
+      for (size_t k = 0; k < cs.pins.size(); ++k)
+        if (!cs.pins[k].times.empty())
+          throw Error(sc.file,
+                      (k < cs.pin_fields.size()
+                           ? cs.pin_fields[k]
+                           : "cloths[" + std::to_string(c) + "].pins[" + std::to_string(k) + "]") +
+                          ".path",
+                      "moves vertex " + std::to_string(cs.pins[k].vertex) +
+                          ": loom compare's Bullet twins hold fixed pins only; compare a scene without pin "
+                          "paths");
+    }
   // The folder is checked (and claimed) before the runs, so a refused folder costs nothing.
   eval::OutputFolder folder(out, "--out", overwrite, false, {"compare.json", "compare.csv"});
 #ifdef LOOM_HAVE_CHARACTER_COMPARE

@@ -18,6 +18,7 @@
 #include "loom/bullet/Compare.h"
 #include "loom/collision/MultiClothCensus.h"
 #include "loom/eval/AccuracyPlot.h"
+#include "loom/eval/CsvNumber.h"
 #include "loom/eval/OutputFolder.h"
 #include "loom/scene/Scene.h"
 #include "loom/scene/ScenePipeline.h"
@@ -165,16 +166,18 @@ void write(eval::OutputFolder& folder, const std::string& name, const std::strin
       << (bodies ? ",bodies_through\n" : "\n");
   std::vector<PlotPoint> points;
   for (const Row& r : rows) {
-    char line[256];
-    std::snprintf(line, sizeof line, "%s,%.6g,%.6g,%.6g,%.6g,%d", r.system.c_str(), r.ms, r.rms, r.depth,
-                  r.strain, r.finite ? 1 : 0);
-    csv << line;
+    // A figure a run has not (no reference error for Bullet, a stopped run's) is an empty field, never nan.
+    csv << r.system << ',' << eval::csv_number(r.ms) << ',' << eval::csv_number(r.rms) << ','
+        << eval::csv_number(r.depth) << ',' << eval::csv_number(r.strain) << ',' << (r.finite ? 1 : 0);
     if (bodies) csv << "," << r.through;
-    csv << "\n";
-    std::printf("%-30s %10.3f ms %12.5g m rms %12.5g m deep %10.4f strain", r.system.c_str(), r.ms, r.rms,
-                r.depth, r.strain);
+    csv << "
+";
+    auto shown = [](double v) { return std::isfinite(v) ? eval::csv_number(v) : std::string("-"); };
+    std::printf("%-30s %10s ms %12s m rms %12s m deep %10s strain", r.system.c_str(), shown(r.ms).c_str(),
+                shown(r.rms).c_str(), shown(r.depth).c_str(), shown(r.strain).c_str());
     if (bodies) std::printf(" %3d through", r.through);
-    std::printf("%s\n", r.finite ? "" : "  (stopped)");
+    std::printf("%s
+", r.finite ? "" : "  (stopped)");
     if (std::isfinite(r.rms) && r.rms > 0.0) points.push_back({r.system, r.ms, r.rms});
   }
   plot_accuracy(points, title, (folder.dir() / (name + ".png")).string());
@@ -270,7 +273,9 @@ int bench_realtime(int argc, char** argv) {
   eval::OutputFolder folder(out, "--out", overwrite, false, writes);
   const int frames = std::max(1, static_cast<int>(std::lround(seconds * 60.0)));
   const char* env = std::getenv("LOOM_SCENES");
-  const std::string scenes = (env ? std::string(env) : std::string(LOOM_SOURCE_DIR) + "/scenes") + "/";
+  // An empty LOOM_SCENES (an unset shell variable exported) is unset: never "/" or the working directory.
+  const std::string scenes =
+      (env && *env ? std::string(env) : std::string(LOOM_SOURCE_DIR) + "/scenes") + "/";
   const std::vector<std::string> tiers = {"realtime", "balanced", "reference"};
 
   // The character: tiers on the reference variant's garments and motion; the reference tier is that file.

@@ -134,12 +134,88 @@ void print_profile(const cloth::Simulation& sim, int frames) {
 }  // namespace
 
 std::string default_scene_path() {
-  if (const char* env = std::getenv("LOOM_SCENES")) return (fs::path(env) / kDefaultScene).string();
+  // An empty LOOM_SCENES (an unset shell variable exported) is unset: never the working directory.
+  if (const char* env = std::getenv("LOOM_SCENES"); env && *env)
+    return (fs::path(env) / kDefaultScene).string();
   if (fs::exists(fs::path("scenes") / kDefaultScene)) return (fs::path("scenes") / kDefaultScene).string();
   return (fs::path(LOOM_SOURCE_DIR) / "scenes" / kDefaultScene).string();
 }
 
 namespace {
+
+// A resumed state is an input like any other (its checksum can be recomputed by whoever edits it): every
+// position and velocity finite, positions within the scene bound kMaxCoordinate, speeds at most
+// kMaxResumedSpeed (and so the previous step's positions within a frame's motion at that speed), every pinned
+// vertex at its pin's target (`pins_own_paths`: the pins follow their own paths; a character's garments move
+// theirs with the body), the clock at the checkpoint's frame. Refused naming the checkpoint file and the
+// cloth, vertex and quantity.
+constexpr double kMaxResumedSpeed = 1e5;  // m/s
+constexpr double kPinTolerance = 1e-4;    // m, a pinned vertex's distance from its target
+void check_resumed_state(const std::string& file, const cloth::Simulation& sim, int frame, double frame_dt,
+                         bool pins_own_paths) {
+  const double expected = frame * frame_dt;
+  if (!(std::abs(sim.time() - expected) <= 1e-9 * std::max(1.0, expected)))
+    throw Error(file, "state: time",
+                "is " + std::to_string(sim.time()) + " s, not the checkpoint's frame " +
+                    std::to_string(frame) + " (" + std::to_string(expected) +
+                    " s): the state does not belong to this checkpoint");
+  for (const auto& c : sim.cloths()) {
+    const cloth::ClothState& st = c->state();
+    const std::string who = "state: cloth '" + c->name() + "' vertex ";
+    for (size_t i = 0; i < st.x.size(); ++i) {
+      if (!(st.x[i].cwiseAbs().maxCoeff() <= scene::kMaxCoordinate))
+        throw Error(file, who + std::to_string(i) + " position",
+                    "is not finite or beyond 1e6 m: not a state a run writes");
+      if (i < st.v.size() && !(st.v[i].norm() <= kMaxResumedSpeed))
+        throw Error(file, who + std::to_string(i) + " velocity",
+                    "is not finite or faster than 1e5 m/s: not a state a run writes");
+      // The position at the start of the last step: at most a frame's motion at that speed away.
+      if (i < st.x_prev.size() && !((st.x_prev[i] - st.x[i]).norm() <= kMaxResumedSpeed * frame_dt))
+        throw Error(file, who + std::to_string(i) + " previous position",
+                    "is not finite or farther from the position than 1e5 m/s moves in a frame: not a state a "
+                    "run writes");
+    }
+    for (const cloth::Pin& p : c->pins())
+      if (pins_own_paths && p.vertex >= 0 && static_cast<size_t>(p.vertex) < st.x.size() &&
+          !((st.x[p.vertex] - p.target(sim.time())).norm() <= kPinTolerance))
+        throw Error(file, who + std::to_string(p.vertex) + " position",
+                    "is pinned but lies " + std::to_string((st.x[p.vertex] - p.target(sim.time())).norm()) +
+                        " m from its pin: not a state a run writes");
+  }
+}
+
+// The state's energies and strains against stats.csv's row of the checkpoint's frame, which the run wrote
+// from that same state (10 significant digits): a state changed since (a nudged vertex, an edited velocity,
+// with its checksum recomputed) no longer gives them. Refused naming the checkpoint and the quantity.
+void check_state_matches_stats(const std::string& file, const cloth::FrameStats& now, int frame,
+                               const std::string& rows) {
+  std::string last;
+  std::istringstream in(rows);
+  for (std::string line; std::getline(in, line);)
+    if (!line.empty()) last = line;
+  std::vector<double> cell;
+  std::istringstream row(last);
+  for (std::string c; std::getline(row, c, ',');) cell.push_back(std::strtod(c.c_str(), nullptr));
+  if (cell.size() < 7 || cell[0] != frame)
+    throw Error(file, "state",
+                "stats.csv has no row of the checkpoint's frame " + std::to_string(frame) +
+                    ": the run's outputs and its checkpoint do not belong together");
+  const std::pair<const char*, double> state[] = {{"kinetic_energy", now.kinetic},
+                                                  {"potential_energy", now.potential},
+                                                  {"elastic_energy", now.elastic},
+                                                  {"max_strain", now.max_strain},
+                                                  {"mean_strain", now.mean_strain}};
+  for (int k = 0; k < 5; ++k) {
+    const double written = cell[k + 2], value = state[k].second;
+    if (!(std::abs(value - written) <= 1e-8 * std::max(std::abs(value), std::abs(written)) + 1e-300)) {
+      std::ostringstream why;
+      why << std::setprecision(10) << "is " << value << " in the state but " << written
+          << " in stats.csv's row of frame " << frame
+          << ", written from the same state: the state was changed after it was saved";
+      throw Error(file, std::string("state: ") + state[k].first, why.str());
+    }
+  }
+}
 
 // --resume DIR: the run's options come from DIR's checkpoint, after its run id and every input it read
 // (scene, meshes, motion clips) are checked against what the checkpoint recorded.
@@ -315,7 +391,11 @@ void SceneRun::open_outputs() {
   if (resume_) {
     cloth::StateReader in(resume_->state, (out_ / "checkpoint" / "checkpoint.bin").string());
     sim_->load_state(in);
+    check_resumed_state((out_ / "checkpoint" / "checkpoint.bin").string(), *sim_, first_, sc_.setup.frame_dt,
+                        !sc_.character);
     kept_rows = kept_stats_rows(out_, first_);
+    check_state_matches_stats((out_ / "checkpoint" / "checkpoint.bin").string(), sim_->measure(), first_,
+                              kept_rows);
   }
   if (in_memory)
     log_ = std::make_unique<FrameLog>(*folder_, resume_ ? resume_->logged_frames : 0,

@@ -7,6 +7,7 @@
 #include <assimp/Importer.hpp>
 #include <cctype>
 #include <cmath>
+#include <cstdio>
 #include <cstdlib>
 #include <filesystem>
 #include <fstream>
@@ -46,6 +47,7 @@ std::pair<size_t, double> bracket(const std::vector<double>& times, double tau) 
 // so a crafted file nested thousands deep would exhaust the stack: a BVH's brace depth is checked before
 // assimp reads it, and every format's node tree after.
 constexpr int kMaxJointDepth = 256;
+constexpr double kMaxPosition = 1e6;  // m, a joint's offset or position key after the clip's scale
 
 bool is_bvh(const std::string& path) {
   return path.size() >= 4 &&
@@ -283,6 +285,27 @@ void Motion::set_units() {
   for (Joint& j : joints_) j.rest.translation() *= scale_;
   for (JointTrack& t : tracks_)
     for (Vec3& p : t.positions) p *= scale_;
+  // Joint positions (in metres, after the scale) within kMaxPosition, so the colliders posed from them stay
+  // where double arithmetic is exact to well under a millimetre; a clip past it is refused by its channel.
+  const char* kAxis[3] = {"Xposition", "Yposition", "Zposition"};
+  for (int k = 0; k < num_joints(); ++k) {
+    const Vec3 o = joints_[k].rest.translation();
+    for (int a = 0; a < 3; ++a)
+      if (!(std::abs(o[a]) <= kMaxPosition))
+        throw Error(source_, "joint '" + joints_[k].name + "' OFFSET",
+                    "is " + std::to_string(o[a]) + " m on " + "xyz"[a] + " after the clip's scale " +
+                        std::to_string(scale_) + ": joint positions must be within 1e6 m");
+    const JointTrack& t = tracks_[k];
+    for (size_t f = 0; f < t.positions.size(); ++f)
+      for (int a = 0; a < 3; ++a)
+        if (!(std::abs(t.positions[f][a]) <= kMaxPosition)) {
+          char v[32];
+          std::snprintf(v, sizeof v, "%g", t.positions[f][a]);
+          throw Error(source_, "joint '" + joints_[k].name + "' " + kAxis[a],
+                      "frame " + std::to_string(f + 1) + " places it " + v + " m (after the clip's scale " +
+                          std::to_string(scale_) + ") from the origin: joint positions must be within 1e6 m");
+        }
+  }
 }
 
 void Motion::set_root_motion() {

@@ -66,6 +66,7 @@ ObjFile read_obj_file(const std::string& path) {
       only_numbers("vertex's coordinates");
       if (!p.allFinite()) fail("vertex coordinate is not finite");
       obj.positions.push_back(p);
+      obj.position_lines.push_back(line_no);
     } else if (tag == "vt") {
       Vec2 uv;
       if (!read_numbers(2, uv.data())) fail("'vt' needs two numbers (decimal)");

@@ -66,7 +66,17 @@ double JsonReader::number(const std::string& key, std::optional<double> fallback
   if (min && (strict_min ? !(d > *min) : !(d >= *min)))
     fail(key, "must be " + std::string(strict_min ? "> " : ">= ") + show_number(*min) + " (got " +
                   show_number(d) + ")");
+  // Refused in finish(), after the field's own checks, which name its own limit when it has one.
+  if (min && *min >= 0.0 && d != 0.0 && d < kMinPositive) tiny_.push_back({key, d, strict_min});
   return d;
+}
+
+std::string JsonReader::name(const std::string& key, const std::string& fallback) const {
+  const std::string s = string(key, fallback);
+  if (s.empty() || s.size() > kMaxNameBytes)
+    fail(key, "must be 1 to " + std::to_string(kMaxNameBytes) + " bytes long (got " +
+                  std::to_string(s.size()) + "): a name becomes a file name or a table cell");
+  return s;
 }
 
 int JsonReader::integer(const std::string& key, std::optional<int> fallback, std::optional<int> min,
@@ -213,6 +223,19 @@ std::vector<JsonReader> JsonReader::objects(const std::string& key) const {
 void JsonReader::finish() const {
   for (auto it = j_.begin(); it != j_.end(); ++it)
     if (!read_.count(it.key())) fail(it.key(), "unknown key");
+  for (const Tiny& t : tiny_)
+    fail(t.key, "must be " + std::string(t.strict ? "" : "0 or ") + "at least " + show_number(kMinPositive) +
+                    " (got " + show_number(t.value) +
+                    "): a smaller value is no physical setting and overflows the solver");
+}
+
+void check_keyframe_speed(const JsonReader& k, double t0, double t1, const cloth::Vec3& p0,
+                          const cloth::Vec3& p1) {
+  const double distance = (p1 - p0).norm();
+  if (!(distance <= kMaxSpeed * (t1 - t0)))
+    k.fail("t", "is " + show_number(t1 - t0) + " s after the keyframe before, which is " +
+                    show_number(distance) + " m away: at most " + show_number(kMaxSpeed) +
+                    " m/s between keyframes (give the keyframes further apart)");
 }
 
 }  // namespace loom::scene

@@ -12,6 +12,7 @@
 
 #include "loom/cloth/Error.h"
 #include "loom/cloth/Model.h"
+#include "loom/cloth/ObjFile.h"
 #include "loom/scene/JsonReader.h"
 #include "loom/scene/SceneBodies.h"
 #include "loom/scene/SceneCharacter.h"
@@ -153,6 +154,21 @@ std::shared_ptr<const cloth::ClothMesh> parse_mesh(const JsonReader& r, Scene& s
       return build([&] { return cloth::ClothMesh::from_obj(p.string(), scale, translate); });
     input_file(scene, r.child("path"),
                path);  // as written: input_file resolves it against the scene's folder
+    // Coordinates first, by their line: a vertex past the bound (1e308) would otherwise be blamed on a
+    // triangle's area.
+    build([&] {
+      const cloth::ObjFile obj = cloth::read_obj_file(p.string());
+      for (size_t i = 0; i < obj.positions.size(); ++i) {
+        const Vec3 x = scale * obj.positions[i] + translate;
+        if (!(x.cwiseAbs().maxCoeff() <= kMaxCoordinate))
+          throw Error(p.string(), "line " + std::to_string(obj.position_lines[i]),
+                      "vertex " + std::to_string(i + 1) + " lies at (" + show(x.x()) + ", " + show(x.y()) +
+                          ", " + show(x.z()) + ") m after " + r.child("scale") + " and " +
+                          r.child("translate") + ": coordinates must be within +-" +
+                          std::to_string(static_cast<long>(kMaxCoordinate)) + " m");
+      }
+      return 0;
+    });
     auto mesh = build([&] { return cloth::ClothMesh::from_obj(p.string(), scale, translate); });
     for (const Vec3& x : mesh->rest_positions())
       if (!(x.cwiseAbs().maxCoeff() <= kMaxCoordinate))
@@ -532,7 +548,7 @@ void parse_cloths(const JsonReader& r, Scene& scene, const std::string& file) {
   if (cloths.empty() && scene.setup.cloths.empty()) r.fail("cloths", "a scene needs at least one cloth");
   for (const JsonReader& c : cloths) {
     cloth::ClothSetup cs;
-    cs.name = c.string("name", "cloth" + std::to_string(scene.setup.cloths.size()));
+    cs.name = c.name("name", "cloth" + std::to_string(scene.setup.cloths.size()));
     cs.mesh = parse_mesh(c.object("mesh"), scene);
     cs.material = parse_material(c, file);
     cs.model = c.string("model", "springs", cloth::model_names());

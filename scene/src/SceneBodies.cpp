@@ -2,7 +2,10 @@
 
 #include <algorithm>
 #include <cmath>
+#include <cstdio>
+#include <map>
 #include <string>
+#include <utility>
 
 #include "loom/scene/SceneLimits.h"
 
@@ -14,6 +17,23 @@ using collision::ShapeType;
 using collision::Transform;
 
 namespace {
+
+// A number in a message, as written ("0.001", "1e+39").
+std::string show_limit(double v) {
+  char s[32];
+  std::snprintf(s, sizeof s, "%.9g", v);
+  return s;
+}
+
+// A body's radius or half height (m): in [kMinBodySize, kMaxCoordinate], so Bullet's float holds it and a
+// body never has size 0.
+double body_size(const JsonReader& r, const char* key) {
+  const double v = r.number(key);
+  if (!(v >= kMinBodySize && v <= kMaxCoordinate))
+    r.fail(key, "must be in [" + show_limit(kMinBodySize) + ", " + show_limit(kMaxCoordinate) + "] m (got " +
+                    show_limit(v) + ")");
+  return v;
+}
 
 Transform parse_body_pose(const JsonReader& r) {
   Transform t = Transform::Identity();
@@ -63,6 +83,9 @@ std::function<Transform(double)> parse_body_motion(const JsonReader& m, const Tr
     k.finish();
     if (times.size() > 1 && !(times.back() > times[times.size() - 2]))
       k.fail("t", "keyframe times must increase strictly");
+    if (times.size() > 1)
+      check_keyframe_speed(k, times[times.size() - 2], times.back(), positions[positions.size() - 2],
+                           positions.back());
   }
   if (times.empty()) m.fail("keyframes", "needs at least one keyframe");
   m.finish();
@@ -89,31 +112,40 @@ void parse_bodies(const JsonReader& root, Scene& scene) {
   if (bodies.size() > kMaxBodies)
     root.fail("bodies", "has " + std::to_string(bodies.size()) + " entries; at most " +
                             std::to_string(kMaxBodies) + " are allowed");
+  // (cloth, vertex) -> the attach entry that holds it: a vertex held twice (by one body or two) is refused.
+  std::map<std::pair<int, int>, std::string> held;
   for (size_t i = 0; i < bodies.size(); ++i) {
     const JsonReader& r = bodies[i];
     RigidBodySpec b;
-    b.name = r.string("name", "body" + std::to_string(i));
+    b.name = r.name("name", "body" + std::to_string(i));
     const std::string shape =
         r.string("shape", std::nullopt, {"plane", "sphere", "capsule", "box", "cylinder"});
     if (shape == "plane") {
       b.shape.type = ShapeType::plane;
     } else if (shape == "sphere") {
       b.shape.type = ShapeType::sphere;
-      b.shape.radius = r.length("radius", std::nullopt, true);
+      b.shape.radius = body_size(r, "radius");
     } else if (shape == "capsule" || shape == "cylinder") {
       b.shape.type = shape == "capsule" ? ShapeType::capsule : ShapeType::cylinder;
-      b.shape.radius = r.length("radius", std::nullopt, true);
-      b.shape.half_height = r.length("half_height", std::nullopt, true);
+      b.shape.radius = body_size(r, "radius");
+      b.shape.half_height = body_size(r, "half_height");
     } else {
       b.shape.type = ShapeType::box;
       b.shape.half_extents = r.vec3("half_extents");
-      if (!(b.shape.half_extents.minCoeff() > 0.0) || !(b.shape.half_extents.maxCoeff() <= kMaxCoordinate))
+      if (!(b.shape.half_extents.minCoeff() >= kMinBodySize) ||
+          !(b.shape.half_extents.maxCoeff() <= kMaxCoordinate))
         r.fail("half_extents",
-               "all three must be in (0, " + std::to_string(static_cast<long>(kMaxCoordinate)) + "] m");
+               "all three must be in [" + show_limit(kMinBodySize) + ", " + show_limit(kMaxCoordinate) +
+                   "] m (got [" + show_limit(b.shape.half_extents.x()) + ", " +
+                   show_limit(b.shape.half_extents.y()) + ", " + show_limit(b.shape.half_extents.z()) + "])");
     }
     b.pose = parse_body_pose(r);
     b.mass = r.number("mass", 0.0, 0.0);
     if (b.mass > 0.0 && shape == "plane") r.fail("mass", "a plane is static (mass 0)");
+    // Bullet keeps the mass as a float: 1e-50 would be 0 (a static body), 1e39 infinite.
+    if (b.mass != 0.0 && !(b.mass >= kMinBodyMass && b.mass <= kMaxBodyMass))
+      r.fail("mass", "must be 0 (static) or in [" + show_limit(kMinBodyMass) + ", " +
+                         show_limit(kMaxBodyMass) + "] kg (got " + show_limit(b.mass) + ")");
     b.velocity = r.vec3("velocity", Vec3::Zero());
     if (!(b.velocity.norm() <= 1000.0)) r.fail("velocity", "must be at most 1000 m/s");
     b.angular_velocity = r.vec3("angular_velocity", Vec3::Zero());
@@ -128,6 +160,7 @@ void parse_bodies(const JsonReader& root, Scene& scene) {
       const auto att = r.objects("attach");
       for (size_t k = 0; k < att.size(); ++k) {
         const JsonReader& a = att[k];
+        const size_t first = b.attachments.size();
         collision::BodyAttachment ba;
         ba.cloth = a.integer("cloth", 0, 0, static_cast<int>(scene.setup.cloths.size()) - 1);
         const cloth::ClothMesh& mesh = *scene.setup.cloths[ba.cloth].mesh;
@@ -151,9 +184,13 @@ void parse_bodies(const JsonReader& root, Scene& scene) {
             if (v.is_string() && v.get<std::string>() == "all") {
               for (int k2 = 0; k2 < n; ++k2) out.push_back(k2);
             } else if (v.is_number_integer()) {
-              int k2 = v.get<int>();
+              // Compared as a 64-bit value before narrowing: 2^32 + 1 is out of range, never 1.
+              if (!JsonReader::in_range(v, -n, n - 1))
+                a.fail("grid", std::string(what) + " " + v.dump() + " is outside the " + std::to_string(nu) +
+                                   "x" + std::to_string(nv) + " grid (" + what + " in [" +
+                                   std::to_string(-n) + ", " + std::to_string(n - 1) + "])");
+              int k2 = static_cast<int>(v.get<long long>());
               if (k2 < 0) k2 += n;
-              if (k2 < 0 || k2 >= n) a.fail("grid", std::string(what) + " out of range");
               out.push_back(k2);
             } else {
               a.fail("grid", "expected an integer or \"all\"");
@@ -167,6 +204,14 @@ void parse_bodies(const JsonReader& root, Scene& scene) {
             }
         }
         a.finish();
+        for (size_t n = first; n < b.attachments.size(); ++n) {
+          const auto [it, added] =
+              held.emplace(std::make_pair(b.attachments[n].cloth, b.attachments[n].vertex), a.path());
+          if (!added)
+            a.fail("", "attaches vertex " + std::to_string(b.attachments[n].vertex) + " of cloths[" +
+                           std::to_string(b.attachments[n].cloth) + "], which " + it->second +
+                           " attaches already: a vertex follows one body, once");
+        }
       }
     }
     r.finish();

@@ -122,7 +122,7 @@ void parse_character(const JsonReader& root, Scene& scene) {
       const JsonReader& g = garments[k];
       ch::GarmentSpec spec;
       spec.type = g.string("type", std::nullopt, {"cape", "skirt", "shirt", "obj"});
-      const std::string name = g.string("name", spec.type);
+      const std::string name = g.name("name", spec.type);
       spec.resolution = g.number("resolution", spec.resolution, 0.0, true);
       spec.clearance = g.length("clearance", spec.clearance);
       if (spec.clearance > 0.25 * body)

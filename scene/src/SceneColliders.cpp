@@ -88,10 +88,11 @@ std::vector<Vec3> parse_points(const JsonReader& r, const std::string& key) {
 void read_obj(const std::string& path, double scale, std::vector<Vec3>& vertices,
               std::vector<cloth::Tri>& tris) {
   const cloth::ObjFile obj = cloth::read_obj_file(path);
-  for (const Vec3& p : obj.positions) {
-    vertices.push_back(scale * p);
+  for (size_t i = 0; i < obj.positions.size(); ++i) {
+    vertices.push_back(scale * obj.positions[i]);
     if (!(vertices.back().cwiseAbs().maxCoeff() <= kMaxCoordinate))
-      throw Error(path, "vertex " + std::to_string(vertices.size() - 1),
+      throw Error(path,
+                  "line " + std::to_string(obj.position_lines[i]) + " (vertex " + std::to_string(i) + ")",
                   "times the scale, it is beyond +-" + kCoordinateLimit + " m");
   }
   for (const cloth::ObjFace& f : obj.faces) {
@@ -123,6 +124,9 @@ std::function<Transform(double)> parse_motion(const JsonReader& m, const Transfo
       k.finish();
       if (times.size() > 1 && !(times.back() > times[times.size() - 2]))
         k.fail("t", "keyframe times must increase strictly");
+      if (!poses.empty())
+        check_keyframe_speed(k, times[times.size() - 2], times.back(), poses.back().translation(),
+                             p.translation());
       poses.push_back(p);
     }
     if (times.empty()) m.fail("keyframes", "needs at least one keyframe");
@@ -177,7 +181,7 @@ void parse_colliders(const JsonReader& root, Scene& scene) {
   for (size_t i = 0; i < list.size(); ++i) {
     const JsonReader& r = list[i];
     Collider c;
-    c.name = r.string("name", "collider" + std::to_string(i));
+    c.name = r.name("name", "collider" + std::to_string(i));
     // collision.friction_pairs name colliders: two of one name would make a pair ambiguous.
     for (size_t j = 0; j < scene.colliders.size(); ++j)
       if (scene.colliders[j].name == c.name)

@@ -548,7 +548,7 @@ const BadInput kLimitCases[] = {
      nullptr,
      "scene",
      "bodies[0].radius",
-     "must be <= 1000000 m"},
+     "must be in [0.001, 1000000] m (got 1e+300)"},
     // Character fields that would make a garment degenerate or non-finite: blamed on the field, not on a
     // garment vertex or triangle.
     {"character_height_huge",

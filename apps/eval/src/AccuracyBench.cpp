@@ -18,7 +18,9 @@
 #include "loom/cloth/Error.h"
 #include "loom/eval/AccuracyPlot.h"
 #include "loom/eval/AccuracySweep.h"
+#include "loom/eval/CsvNumber.h"
 #include "loom/eval/OutputFolder.h"
+#include "loom/scene/SceneLimits.h"
 
 namespace loom::eval {
 
@@ -205,8 +207,11 @@ void check_reference(int n, const ReferenceRun& ref, const std::vector<Row>& row
       "reference max strain %.4g\n",
       n, ref.steps / 2, ref.steps, ref.change, smallest, 100.0 * ratio,
       passed ? "PASSED (< 1%)" : "FAILED (>= 1%)", ref.max_strain);
-  refs << n << ',' << ref.steps << ',' << ref.steps / 2 << ',' << num(ref.change) << ',' << num(smallest)
-       << ',' << num(ratio) << ',' << (passed ? 1 : 0) << ',' << num(ref.max_strain) << "\n";
+  const std::string none;  // no finite error reported: the smallest error and the ratio are left empty
+  refs << n << ',' << ref.steps << ',' << ref.steps / 2 << ',' << csv_number(ref.change) << ','
+       << (smallest < 1e300 ? csv_number(smallest) : none) << ','
+       << (smallest < 1e300 ? csv_number(ratio) : none) << ',' << (passed ? 1 : 0) << ','
+       << csv_number(ref.max_strain) << "\n";
 }
 
 // The time-vs-error points of one size's single-thread rows that did not diverge.
@@ -233,9 +238,9 @@ bool write_results(const AccuracyOptions& o, OutputFolder& folder, const std::ve
          "energy_drift,diverged\n";
   for (const Row& r : rows)
     csv << r.system << ',' << r.method << ',' << r.size << ',' << r.config << ',' << r.threads << ','
-        << num(r.ms_per_frame) << ',' << num(r.rms_error_max) << ',' << num(r.rms_error_end) << ','
-        << num(r.max_strain) << ',' << num(r.mean_strain) << ',' << num(r.energy_drift) << ','
-        << (r.diverged ? 1 : 0) << "\n";
+        << csv_number(r.ms_per_frame) << ',' << csv_number(r.rms_error_max) << ','
+        << csv_number(r.rms_error_end) << ',' << csv_number(r.max_strain) << ',' << csv_number(r.mean_strain)
+        << ',' << csv_number(r.energy_drift) << ',' << (r.diverged ? 1 : 0) << "\n";
   std::ofstream rf(folder.claim("reference_check.csv"));
   rf << refs.str();
   if (!csv || !rf) {
@@ -250,6 +255,22 @@ bool write_results(const AccuracyOptions& o, OutputFolder& folder, const std::ve
 int bench_accuracy(const AccuracyOptions& o) {
   std::error_code ec;
   const std::vector<std::string> registered = solver_names();
+  // Memory before anything is allocated (a 4096x4096 grid is 16.8 million vertices): the simulation's
+  // kBytesPerVertex (SceneLimits.h) plus the two reference runs' frames kept for the comparison (three
+  // doubles per vertex and frame each); refused naming --sizes with the estimate and the budget.
+  for (int n : o.sizes) {
+    const double frames = std::max(1.0, std::round(o.duration * 60.0)) + 1.0;
+    const double bytes =
+        static_cast<double>(n) * n * (static_cast<double>(scene::kBytesPerVertex) + 2.0 * 24.0 * frames);
+    const std::uint64_t budget = scene::memory_budget();
+    if (bytes > static_cast<double>(budget))
+      throw loom::Error(
+          "", "--sizes",
+          "N=" + std::to_string(n) + " (" + std::to_string(static_cast<long long>(n) * n) + " vertices, " +
+              scene::show_count(frames) + " frames) needs about " + scene::show_bytes(bytes) +
+              " of memory, more than the " + scene::show_bytes(static_cast<double>(budget)) + " available" +
+              (scene::memory_limit_env() ? " (LOOM_MEMORY_LIMIT)" : "") + "; give a smaller size");
+  }
   // A selection that runs nothing is refused before the folder or any (expensive) reference run.
   for (int n : o.sizes) {
     const Scene s = make_scene(n, o.duration, o.perturbation);

@@ -371,7 +371,7 @@ Row run_bullet(const Scene& s, bullet::TwinKind kind, const SweepConfig& c, cons
 }
 
 std::string num(double v) {
-  if (std::isnan(v)) return "nan";
+  if (!std::isfinite(v)) return "-";  // a diverged run's figure: never "nan" on the terminal
   char b[64];
   std::snprintf(b, sizeof b, "%.6g", v);
   return b;

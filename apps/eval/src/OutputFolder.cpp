@@ -1,7 +1,10 @@
 #include "loom/eval/OutputFolder.h"
 
+#include <sys/stat.h>
+
 #include <algorithm>
 #include <cstdio>
+#include <map>
 #include <random>
 #include <sstream>
 #include <vector>
@@ -84,6 +87,57 @@ std::uint64_t read_run_id(const fs::path& dir) {
 
 namespace {
 
+// Refuses (naming the path) a regular file at a path the run writes whose data another name shares (a hard
+// link: st_nlink > 1): a write or an append in place there would change the other file too, which may lie
+// outside the folder or be an input of the run.
+void refuse_shared_file(const fs::path& at, const std::string& flag) {
+  struct stat st;
+  if (::lstat(at.c_str(), &st) == 0 && S_ISREG(st.st_mode) && st.st_nlink > 1)
+    throw Error(at.string(), flag,
+                "is a hard link (" + std::to_string(st.st_nlink) +
+                    " names share this file) where Loom writes: writing it would change the other names' "
+                    "file too; remove it");
+}
+
+bool matches(const std::string& name, const std::string& pattern);
+
+// True when the folder-relative path `r` is one of `writes` (patterns as OutputFolder's constructor takes).
+bool is_written(const std::string& r, const std::vector<std::string>& writes) {
+  for (const std::string& w : writes) {
+    const size_t slash = w.find_last_of('/', w.size() > 1 ? w.size() - 2 : 0);
+    const std::string parent = slash == std::string::npos ? "" : w.substr(0, slash + 1);
+    if (r.compare(0, parent.size(), parent) == 0 && matches(r.substr(parent.size()), w.substr(parent.size())))
+      return true;
+  }
+  return false;
+}
+
+// Refuses an input of the run (the scene, a mesh, a clip) that is, by identity (device and inode, so also
+// through a hard link or another path to it), a file at a path the run writes in `dir`.
+void refuse_inputs_written(const fs::path& dir, const std::vector<std::string>& writes,
+                           const std::vector<std::string>& inputs, const std::string& flag) {
+  std::map<std::pair<dev_t, ino_t>, std::string> ids;
+  for (const std::string& in : inputs) {
+    struct stat st;
+    if (::stat(in.c_str(), &st) == 0 && S_ISREG(st.st_mode))
+      ids.emplace(std::make_pair(st.st_dev, st.st_ino), in);
+  }
+  if (ids.empty()) return;
+  std::error_code ec;
+  for (fs::recursive_directory_iterator it(dir, ec), end; !ec && it != end; it.increment(ec)) {
+    struct stat st;
+    if (::lstat(it->path().c_str(), &st) != 0 || !S_ISREG(st.st_mode)) continue;
+    const auto found = ids.find({st.st_dev, st.st_ino});
+    if (found == ids.end()) continue;
+    const std::string r = it->path().lexically_relative(dir).generic_string();
+    if (is_written(r, writes))
+      throw Error(found->second, flag,
+                  "is an input of this run and the same file as " + it->path().string() +
+                      ", which the run writes: the run would replace its own input; choose another output "
+                      "folder");
+  }
+}
+
 // Refuses (naming the path) what would make writing `rel` fail: a symbolic link on the way or at the end, a
 // file where a folder is needed, a folder where a file is written. `rel` ending in '/' is a folder. Paths in
 // `gone` (an earlier run's manifest, deleted before this run writes) are not checked further.
@@ -103,7 +157,7 @@ void check_writable(const fs::path& dir, const std::string& relative, const std:
     if ((gone.count(so_far) || gone.count(so_far + "/")) && !fs::is_directory(st)) return;
     if (fs::is_symlink(st))
       throw Error(at.string(), flag,
-                  "is a symbolic link: Loom never writes through a link in its output folder");
+                  "is a symbolic link inside the output folder: Loom never writes through a link there");
     const bool last = std::next(it) == rp.end();
     if (fs::exists(st) && !fs::is_directory(st) && (!last || folder))
       throw Error(at.string(), flag, "is a file where Loom writes a folder");
@@ -114,6 +168,7 @@ void check_writable(const fs::path& dir, const std::string& relative, const std:
     if (last && !folder && fs::exists(st) && !fs::is_regular_file(st))
       throw Error(at.string(), flag,
                   "is not a regular file (a FIFO, socket or device) where Loom writes a file: remove it");
+    if (last && !folder && fs::is_regular_file(st)) refuse_shared_file(at, flag);
     if (!fs::exists(st)) return;  // nothing below a missing component
   }
 }
@@ -200,17 +255,12 @@ OutputFolder::OutputFolder(const fs::path& dir, const std::string& flag, bool ov
     for (const std::string& in : inputs) {
       const fs::path rel = fs::weakly_canonical(in, ec).lexically_relative(folder);
       if (rel.empty() || *rel.begin() == "..") continue;
-      const std::string r = rel.generic_string();
-      for (const std::string& w : writes) {
-        const size_t slash = w.find_last_of('/', w.size() > 1 ? w.size() - 2 : 0);
-        const std::string parent = slash == std::string::npos ? "" : w.substr(0, slash + 1);
-        if (r.compare(0, parent.size(), parent) == 0 &&
-            matches(r.substr(parent.size()), w.substr(parent.size())))
-          throw Error(in, flag,
-                      "is an input of this run and a file it writes in " + dir.string() +
-                          ": the run would replace its own input; choose another output folder");
-      }
+      if (is_written(rel.generic_string(), writes))
+        throw Error(in, flag,
+                    "is an input of this run and a file it writes in " + dir.string() +
+                        ": the run would replace its own input; choose another output folder");
     }
+    refuse_inputs_written(dir, writes, inputs, flag);
     std::set<std::string> gone;  // a new run deletes what the earlier runs listed (links themselves) first
     if (!resume) gone.insert(old.entries.begin(), old.entries.end());
     check_all_writable(dir, writes, flag, gone);
@@ -229,7 +279,9 @@ OutputFolder::OutputFolder(const fs::path& dir, const std::string& flag, bool ov
   std::vector<std::string> entries = old.entries;
   std::sort(entries.begin(), entries.end(),
             [](const std::string& a, const std::string& b) { return a.size() > b.size(); });
-  for (const std::string& rel : entries) {
+  for (const std::string& entry : entries) {
+    // A folder entry ("frames/") is looked at without its '/': with it, a link there would be followed.
+    const std::string rel = entry.back() == '/' ? entry.substr(0, entry.size() - 1) : entry;
     if (under_a_link(dir, rel)) continue;
     const fs::path p = dir / rel;
     const fs::file_status st = fs::symlink_status(p, ec);

@@ -27,7 +27,8 @@ struct ObjFace {
 
 struct ObjFile {
   std::string path;
-  Vec3s positions;  // file units
+  Vec3s positions;                   // file units
+  std::vector<long> position_lines;  // 1-based line of each position
   std::vector<Vec2> texcoords;
   std::vector<ObjFace> faces;
   std::vector<std::vector<std::string>> groups;  // groups[0] = {"default"}; one entry per `g` line after

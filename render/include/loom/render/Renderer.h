@@ -98,5 +98,7 @@ class Renderer {
 
 // PNG through stb_image_write; throws loom::Error naming the file on failure.
 void write_png(const std::string& path, const Image& image);
+// The bytes of `image` as a PNG file, for a caller that writes them through its own safe open.
+std::string encode_png(const Image& image);
 
 }  // namespace loom::render

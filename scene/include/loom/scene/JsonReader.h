@@ -20,12 +20,17 @@ class JsonReader {
   bool has(const std::string& key) const;
   [[noreturn]] void fail(const std::string& key, const std::string& problem) const;
 
-  // Each getter marks the key as read. `min`/`max` bound the value; strict bounds exclude the limit.
+  // Each getter marks the key as read. `min`/`max` bound the value; strict bounds exclude the limit. A
+  // field with a `min` of 0 or more (a positive or non-negative quantity) with a non-zero value below
+  // kMinPositive (SceneLimits.h), subnormals included, is refused by finish(), after the field's own
+  // checks (which name its own limit): one check for every such field of a scene.
   double number(const std::string& key, std::optional<double> fallback = std::nullopt,
                 std::optional<double> min = std::nullopt, bool strict_min = false) const;
   // An integer in [min, max] (default [-1e9, 1e9]): the message gives the field's own limit.
   int integer(const std::string& key, std::optional<int> fallback = std::nullopt,
               std::optional<int> min = std::nullopt, std::optional<int> max = std::nullopt) const;
+  // A name (of a cloth, garment, body or collider): a string of 1 to kMaxNameBytes bytes.
+  std::string name(const std::string& key, const std::string& fallback) const;
   bool boolean(const std::string& key, std::optional<bool> fallback = std::nullopt) const;
   std::string string(const std::string& key, std::optional<std::string> fallback = std::nullopt,
                      const std::vector<std::string>& allowed = {}) const;
@@ -48,7 +53,8 @@ class JsonReader {
   JsonReader object(const std::string& key) const;
   std::vector<JsonReader> objects(const std::string& key) const;  // an array of objects
   const nlohmann::json& raw(const std::string& key) const;        // marks as read, no type check
-  // Throws for every key of this object that was never read.
+  // Throws for every key of this object that was never read, then for a positive or non-negative number
+  // read here that is non-zero and below kMinPositive (see number()).
   void finish() const;
 
   std::string child(const std::string& key) const { return path_.empty() ? key : path_ + "." + key; }
@@ -61,6 +67,17 @@ class JsonReader {
   std::string path_;
   std::string file_;
   mutable std::set<std::string> read_;
+  struct Tiny {
+    std::string key;
+    double value;
+    bool strict;
+  };
+  mutable std::vector<Tiny> tiny_;  // numbers below kMinPositive, refused by finish()
 };
+
+// Refuses (naming keyframe `k`'s `t`) a keyframe reached from the one before (time t0, position p0) faster
+// than kMaxSpeed m/s: keyframe times that close (1 m in 1e-300 s) would teleport a collider or a body.
+void check_keyframe_speed(const JsonReader& k, double t0, double t1, const cloth::Vec3& p0,
+                          const cloth::Vec3& p1);
 
 }  // namespace loom::scene

@@ -15,11 +15,21 @@ struct Scene;
 
 constexpr std::uint64_t kMaxInputBytes = std::uint64_t(1) << 30;  // a scene, mesh or motion file: 1 GiB
 static_assert(kMaxInputBytes <= loom::kMaxInputFileBytes, "one bound for every input file");
-constexpr double kMaxCoordinate = 1e6;       // m, |x| of a mesh size, origin, translation, anchor, collider
-constexpr double kMinMeshSize = 1e-3;        // m, a grid's side and an OBJ cloth's extent (after scale)
-constexpr double kMinMeshScale = 1e-6;       // an OBJ cloth's or collider's scale
-constexpr double kMaxAcceleration = 1e4;     // m/s^2, each component of gravity
-constexpr double kMaxSpeed = 1e4;            // m/s, wind; rad/s, a collider's spin rate
+constexpr double kMaxCoordinate = 1e6;    // m, |x| of a mesh size, origin, translation, anchor, collider
+constexpr double kMinMeshSize = 1e-3;     // m, a grid's side and an OBJ cloth's extent (after scale)
+constexpr double kMinMeshScale = 1e-6;    // an OBJ cloth's or collider's scale
+constexpr double kMaxAcceleration = 1e4;  // m/s^2, each component of gravity
+constexpr double kMaxSpeed = 1e4;         // m/s, wind and keyframed motion; rad/s, a collider's spin rate
+// The smallest magnitude of a non-zero value of a field that must be positive or non-negative (a stiffness,
+// time, length, density, coefficient): below it (a subnormal such as 1e-310 included) a value is no
+// physical setting, and its reciprocal or square overflows the solver.
+constexpr double kMinPositive = 1e-12;
+// Bytes of a name that can become a file name (a cloth's `name` names its PC2 files) or a CSV cell.
+constexpr std::size_t kMaxNameBytes = 200;
+// A rigid body's mass (kg) and each of its sizes (m: radius, half height, half extent): Bullet stores them
+// as floats, where a mass below ~1e-38 is 0 (a static body) and above ~3e38 infinite.
+constexpr double kMinBodyMass = 1e-4, kMaxBodyMass = 1e6;
+constexpr double kMinBodySize = 1e-3;
 constexpr double kMaxCoefficient = 1e12;     // a material stiffness, damping or drag coefficient (own unit)
 constexpr long long kMaxFrames = 10000000;   // frames of one run (duration x fps)
 constexpr long long kMaxSubsteps = 1000000;  // solver steps per frame (frame time / solver.dt)

@@ -1,0 +1,503 @@
+// The bad-input table of `loom run`, fourth part: a third red-team pass. Each class is tested by more than
+// its first example:
+//   - every positive or non-negative real refuses a non-zero value below 1e-12 (subnormals included) by
+//   field;
+//   - rigid bodies: mass and sizes inside what Bullet's floats hold; attachments by checked integers, a
+//     vertex attached once;
+//   - names that become file names are bounded before the run;
+//   - coordinates (OBJ vertices, BVH joint positions, keyframe speeds) are refused by their line, channel or
+//     keyframe;
+//   - the output folder: a listed folder replaced by a link is removed (the link), a hard link where the run
+//     writes is refused, inputs are compared by identity;
+//   - `loom body --image`, `loom compare`, `loom bench` follow the same rules as `loom run`;
+//   - a checkpoint's state is validated as an input.
+#include <gtest/gtest.h>
+#include <sys/wait.h>
+
+#include <cstdint>
+#include <cstdlib>
+#include <cstring>
+#include <filesystem>
+#include <fstream>
+#include <limits>
+#include <nlohmann/json.hpp>
+#include <sstream>
+#include <string>
+#include <vector>
+
+#include "BadInputCli.h"
+#include "CliRunner.h"
+
+namespace loom::test {
+namespace {
+
+namespace fs = std::filesystem;
+
+const std::string kLongName(300, 'a');
+const std::string kLongNameSet = "cloths[0].name=" + kLongName;
+const std::string kLongColliderSet =
+    "colliders=[{\"name\":\"" + kLongName + "\",\"shape\":\"sphere\",\"radius\":0.1}]";
+
+const char* kBody =
+    "bodies=[{\"name\":\"b\",\"shape\":\"sphere\",\"radius\":0.1,\"mass\":1,\"position\":[0,3,0]}]";
+
+const BadInput kHostileCases[] = {
+    // Subnormal and tiny values of positive reals: one check, by field, for every such field.
+    {"material_bend_subnormal",
+     nullptr,
+     {"--set", "cloths[0].material.bend=1e-310", "--set", "solver={\"method\":\"xpbd\",\"substeps\":4}"},
+     nullptr,
+     "scene",
+     "cloths[0].material.bend",
+     "must be 0 or at least 1e-12 (got 1e-310)"},
+    {"material_stretch_subnormal",
+     nullptr,
+     {"--set", "cloths[0].material.stretch=1e-310"},
+     nullptr,
+     "scene",
+     "cloths[0].material.stretch",
+     "must be at least 1e-12 (got 1e-310)"},
+    {"material_shear_tiny",
+     nullptr,
+     {"--set", "cloths[0].material.shear=1e-300"},
+     nullptr,
+     "scene",
+     "cloths[0].material.shear",
+     "must be 0 or at least 1e-12"},
+    {"guard_energy_bound_subnormal",
+     nullptr,
+     {"--set", "guard={\"energy_bound\":4e-320}"},
+     nullptr,
+     "scene",
+     "guard.energy_bound",
+     "must be 0 or at least 1e-12"},
+    {"collision_friction_subnormal",
+     nullptr,
+     {"--set", "collision={\"friction\":1e-320}"},
+     nullptr,
+     "scene",
+     "collision.friction",
+     "must be 0 or at least 1e-12"},
+    // Rigid bodies: Bullet keeps mass and sizes as floats.
+    {"body_mass_below_float",
+     nullptr,
+     {"--set", kBody, "--set", "bodies[0].mass=1e-50"},
+     nullptr,
+     "scene",
+     "bodies[0].mass",
+     "must be 0 (static) or in [0.0001, 1000000] kg (got 1e-50)"},
+    {"body_mass_above_float",
+     nullptr,
+     {"--set", kBody, "--set", "bodies[0].mass=1e39"},
+     nullptr,
+     "scene",
+     "bodies[0].mass",
+     "must be 0 (static) or in [0.0001, 1000000] kg (got 1e+39)"},
+    {"body_radius_tiny",
+     nullptr,
+     {"--set", kBody, "--set", "bodies[0].radius=1e-50"},
+     nullptr,
+     "scene",
+     "bodies[0].radius",
+     "must be in [0.001, 1000000] m (got 1e-50)"},
+    {"body_half_extents_tiny",
+     nullptr,
+     {"--set",
+      "bodies=[{\"shape\":\"box\",\"half_extents\":[0.1,1e-300,0.1],\"mass\":1,\"position\":[0,3,0]}]"},
+     nullptr,
+     "scene",
+     "bodies[0].half_extents",
+     "all three must be in [0.001, 1000000] m"},
+    {"body_capsule_half_height_subnormal",
+     nullptr,
+     {"--set",
+      "bodies=[{\"shape\":\"capsule\",\"radius\":0.1,\"half_height\":1e-310,\"mass\":1,\"position\":[0,3,0]}"
+      "]"},
+     nullptr,
+     "scene",
+     "bodies[0].half_height",
+     "must be in [0.001, 1000000] m"},
+    // Attachments: checked integers, the value and range shown; a vertex held once.
+    {"attach_grid_past_32_bits",
+     nullptr,
+     {"--set",
+      "bodies=[{\"shape\":\"box\",\"half_extents\":[0.1,0.1,0.1],\"attach\":[{\"cloth\":0,\"grid\":["
+      "4294967297,0]}]}]"},
+     nullptr,
+     "scene",
+     "bodies[0].attach[0].grid",
+     "iu 4294967297 is outside the 5x5 grid (iu in [-5, 4])"},
+    {"attach_grid_past_64_bits",
+     nullptr,
+     {"--set",
+      "bodies=[{\"shape\":\"box\",\"half_extents\":[0.1,0.1,0.1],\"attach\":[{\"grid\":[0,"
+      "18446744073709551615]}]}]"},
+     nullptr,
+     "scene",
+     "bodies[0].attach[0].grid",
+     "iv 18446744073709551615 is outside the 5x5 grid"},
+    {"attach_same_vertex_twice_in_one_body",
+     nullptr,
+     {"--set",
+      "bodies=[{\"shape\":\"box\",\"half_extents\":[0.1,0.1,0.1],\"attach\":[{\"vertex\":2},{\"grid\":[2,0]}]"
+      "}]"},
+     nullptr,
+     "scene",
+     "bodies[0].attach[1]",
+     "attaches vertex 2 of cloths[0], which bodies[0].attach[0] attaches already"},
+    {"attach_same_vertices_by_two_bodies",
+     nullptr,
+     {"--set",
+      "bodies=[{\"shape\":\"box\",\"half_extents\":[0.1,0.1,0.1],\"attach\":[{\"grid\":[\"all\",0]}]},"
+      "{\"shape\":\"box\",\"half_extents\":[0.1,0.1,0.1],\"position\":[2,0,0],\"attach\":[{\"grid\":[0,"
+      "\"all\"]}]}]"},
+     nullptr,
+     "scene",
+     "bodies[1].attach[0]",
+     "which bodies[0].attach[0] attaches already"},
+    // Names that become file names (a cloth's PC2 files) or table cells, bounded before the run.
+    {"cloth_name_past_200_bytes",
+     nullptr,
+     {"--set", kLongNameSet.c_str(), "--set", "output={\"formats\":[\"pc2\"]}"},
+     nullptr,
+     "scene",
+     "cloths[0].name",
+     "must be 1 to 200 bytes long (got 300)"},
+    {"collider_name_past_200_bytes",
+     nullptr,
+     {"--set", kLongColliderSet.c_str()},
+     nullptr,
+     "scene",
+     "colliders[0].name",
+     "must be 1 to 200 bytes long (got 300)"},
+    {"body_name_empty",
+     nullptr,
+     {"--set", kBody, "--set", "bodies[0].name=\"\""},
+     nullptr,
+     "scene",
+     "bodies[0].name",
+     "must be 1 to 200 bytes long (got 0)"},
+    // Keyframes that would teleport a collider or a body.
+    {"collider_keyframes_teleport",
+     nullptr,
+     {"--set",
+      "colliders=[{\"shape\":\"sphere\",\"radius\":0.1,\"motion\":{\"keyframes\":[{\"t\":0,\"position\":[0,0,"
+      "0]},"
+      "{\"t\":1e-300,\"position\":[1,0,0]}]}}]"},
+     nullptr,
+     "scene",
+     "colliders[0].motion.keyframes[1].t",
+     "at most 10000 m/s between keyframes"},
+    {"body_keyframes_teleport",
+     nullptr,
+     {"--set",
+      "bodies=[{\"shape\":\"box\",\"half_extents\":[0.1,0.1,0.1],\"motion\":{\"keyframes\":[{\"t\":0,"
+      "\"position\":"
+      "[0,0,0]},{\"t\":0.5,\"position\":[0,0,0]},{\"t\":0.5000001,\"position\":[0,5,0]}]}}]"},
+     nullptr,
+     "scene",
+     "bodies[0].motion.keyframes[2].t",
+     "at most 10000 m/s between keyframes"},
+    // OBJ coordinates are checked first, by their line (a huge one read as a zero-area triangle).
+    {"obj_vertex_past_double_bound",
+     nullptr,
+     {"@OBJ"},
+     "v 1e308 1 0\nv 0.1 1 0\nv 0 1 0.1\nv 0.1 1 0.1\nf 1 2 4\nf 1 4 3\n",
+     "obj",
+     "line 1",
+     "coordinates must be within +-1000000 m"},
+    {"obj_vertex_past_bound_among_small_ones",
+     nullptr,
+     {"@OBJ"},
+     "v 0 1 0\nv 0.1 1 0\nv 0 1 0.1\nv 5e6 1 0.1\nf 1 2 4\nf 1 4 3\n",
+     "obj",
+     "line 4",
+     "vertex 4 lies at (5000000, 1, 0.1) m"},
+    {"obj_vertex_past_bound_after_scale",
+     nullptr,
+     {"@OBJ", "--set", "cloths[0].mesh.scale=1000"},
+     "v 0 1 0\nv 0.1 1 0\nv 0 1 0.1\nv 2000 1 0.1\nf 1 2 4\nf 1 4 3\n",
+     "obj",
+     "line 4",
+     "after cloths[0].mesh.scale and cloths[0].mesh.translate"},
+    {"collider_obj_vertex_past_bound",
+     nullptr,
+     {"--set", "colliders=[{\"shape\":\"mesh\",\"obj\":\"mesh.obj\"}]"},
+     "v 0 0 0\nv 1 0 0\nv 1e308 0 1\nf 1 2 3\n",
+     "obj",
+     "line 3 (vertex 2)",
+     "times the scale, it is beyond +-1000000 m"},
+    // A clip whose joints leave the bounds: refused by file, joint channel and frame.
+    {"bvh_root_position_huge",
+     nullptr,
+     {"@BVHTEXT"},
+     "HIERARCHY\nROOT Hips\n{\n OFFSET 0 0 0\n CHANNELS 6 Xposition Yposition Zposition Zrotation Xrotation "
+     "Yrotation\n End Site\n {\n  OFFSET 0 5 0\n }\n}\nMOTION\nFrames: 2\nFrame Time: 0.03\n"
+     "0 17 0 0 0 0\n1e30 17 0 0 0 0\n",
+     "motion.bvh",
+     "joint 'Hips' Xposition",
+     "frame 2 places it"},
+    {"bvh_root_position_huge_on_z",
+     nullptr,
+     {"@BVHTEXT"},
+     "HIERARCHY\nROOT Hips\n{\n OFFSET 0 0 0\n CHANNELS 6 Xposition Yposition Zposition Zrotation Xrotation "
+     "Yrotation\n End Site\n {\n  OFFSET 0 5 0\n }\n}\nMOTION\nFrames: 2\nFrame Time: 0.03\n"
+     "0 17 -1e29 0 0 0\n0 17 0 0 0 0\n",
+     "motion.bvh",
+     "joint 'Hips' Zposition",
+     "frame 1 places it"},
+};
+
+INSTANTIATE_TEST_SUITE_P(Hostile, BadInputCli, ::testing::ValuesIn(kHostileCases), bad_input_name);
+
+const char* kScene = R"({
+  "duration": 0.05, "fps": 60,
+  "solver": {"method": "symplectic_euler", "substeps": 4},
+  "cloths": [{"name": "sheet",
+              "mesh": {"type": "grid", "size": [1, 1], "nodes": [5, 5], "origin": [0.25, 1.5, 0.125]},
+              "material": {"preset": "cotton"}, "mass": 0.2,
+              "pins": [{"grid": [0, 0]}, {"grid": [-1, 0]}]}],
+  "output": {"formats": ["obj", "pc2"]}
+})";
+
+std::string read_bytes(const fs::path& p) {
+  std::ifstream in(p, std::ios::binary);
+  std::stringstream s;
+  s << in.rdbuf();
+  return s.str();
+}
+
+// A listed folder (frames/) that the user replaced by a link since: the link itself is removed as any
+// listed path is, its target is never entered, and the run goes ahead (a refused run would leave the folder
+// as it found it; this one is not refused).
+TEST(HostileOutputFolder, AListedFolderReplacedByALinkIsRemovedNeverFollowed) {
+  const fs::path dir = test_dir(), out = dir / "out", elsewhere = dir / "elsewhere";
+  std::ofstream(dir / "scene.json") << kScene;
+  const std::string run = "run " + (dir / "scene.json").string() + " --frames 2 --out " + out.string();
+  ASSERT_EQ(run_loom(run).code, 0);
+  fs::rename(out / "frames", elsewhere);
+  fs::create_symlink(elsewhere, out / "frames");
+  std::ofstream(elsewhere / "notes.txt") << "precious";
+  const std::string before = read_bytes(elsewhere / "frame_00001.obj");
+  const auto r = run_loom(run);
+  EXPECT_EQ(r.code, 0) << r.err;
+  EXPECT_TRUE(fs::is_directory(fs::symlink_status(out / "frames"))) << "the link was not replaced";
+  EXPECT_TRUE(fs::exists(out / "summary.json"));
+  EXPECT_TRUE(fs::exists(out / "stats.csv"));
+  EXPECT_EQ(read_bytes(elsewhere / "notes.txt"), "precious");
+  EXPECT_EQ(read_bytes(elsewhere / "frame_00001.obj"), before) << "a file behind the link was written";
+  EXPECT_TRUE(fs::exists(elsewhere / "frame_00002.obj")) << "a file behind the link was deleted";
+}
+
+// A file at a path the run writes that shares its data with another name (a hard link to the run's input
+// mesh, to a file outside the folder, a frame log hard-linked to a backup) is refused by path before the
+// folder changes; the other names keep their bytes.
+TEST(HostileOutputFolder, AHardLinkWhereTheRunWritesIsRefused) {
+  const fs::path dir = test_dir(), out = dir / "out";
+  fs::create_directories(out / "pc2");
+  fs::create_directories(dir / "keep");
+  const std::string mesh = "v 0 1 0\nv 0.1 1 0\nv 0 1 0.1\nv 0.1 1 0.1\nf 1 2 4\nf 1 4 3\n";
+  std::ofstream(dir / "cloth.obj") << mesh;
+  std::ofstream(dir / "keep" / "notes.txt") << "precious notes";
+  std::ofstream(dir / "scene.json") << R"({"name":"hl","duration":0.05,"fps":60,
+    "solver":{"method":"symplectic_euler","substeps":20},
+    "cloths":[{"name":"c","mesh":{"type":"obj","path":"cloth.obj"},"material":"cotton",
+               "pins":[{"vertex":0}]}],
+    "output":{"formats":["obj","pc2"]}})";
+  const std::string run = "run " + (dir / "scene.json").string() + " --overwrite --out " + out.string();
+  // The run's own input, hard-linked where the run writes pc2/c.obj: refused naming the input.
+  fs::create_hard_link(dir / "cloth.obj", out / "pc2" / "c.obj");
+  auto r = run_loom(run);
+  EXPECT_EQ(r.code, 1) << r.err;
+  EXPECT_NE(
+      r.err.find((dir / "cloth.obj").string() + ": --out: is an input of this run and the same file as " +
+                 (out / "pc2" / "c.obj").string()),
+      std::string::npos)
+      << r.err;
+  EXPECT_EQ(read_bytes(dir / "cloth.obj"), mesh);
+  EXPECT_FALSE(fs::exists(out / ".loom-manifest"));
+  // A file outside the folder, hard-linked where the run writes pc2/c.pc2: refused naming that path.
+  fs::remove(out / "pc2" / "c.obj");
+  fs::create_hard_link(dir / "keep" / "notes.txt", out / "pc2" / "c.pc2");
+  r = run_loom(run);
+  EXPECT_EQ(r.code, 1) << r.err;
+  EXPECT_NE(
+      r.err.find((out / "pc2" / "c.pc2").string() + ": --out: is a hard link (2 names share this file)"),
+      std::string::npos)
+      << r.err;
+  EXPECT_EQ(read_bytes(dir / "keep" / "notes.txt"), "precious notes");
+  EXPECT_FALSE(fs::exists(out / ".loom-manifest"));
+  fs::remove(out / "pc2" / "c.pc2");
+  ASSERT_EQ(run_loom(run).code, 0);
+
+  // --resume appends to checkpoint/frames.bin: a frame log hard-linked to a backup is refused, unchanged.
+  const fs::path out2 = dir / "out2";
+  std::ofstream(dir / "sheet.json") << kScene;
+  ASSERT_EQ(run_loom("run " + (dir / "sheet.json").string() + " --frames 3 --checkpoint-every 1 --out " +
+                     out2.string())
+                .code,
+            0);
+  fs::copy_file(out2 / "checkpoint" / "frames.bin", dir / "backup.bin");
+  fs::remove(out2 / "checkpoint" / "frames.bin");
+  fs::create_hard_link(dir / "backup.bin", out2 / "checkpoint" / "frames.bin");
+  const std::string backup = read_bytes(dir / "backup.bin");
+  r = run_loom("run --resume " + out2.string() + " --frames 5");
+  EXPECT_EQ(r.code, 1) << r.err;
+  EXPECT_NE(r.err.find((out2 / "checkpoint" / "frames.bin").string() + ": --resume: is a hard link"),
+            std::string::npos)
+      << r.err;
+  EXPECT_EQ(read_bytes(dir / "backup.bin"), backup);
+}
+
+// FNV-1a 64 of the checkpoint's bytes before its last 8 (what anyone editing it can recompute).
+void resum(std::string& data) {
+  std::uint64_t h = 0xcbf29ce484222325ull;
+  for (size_t i = 0; i + 8 < data.size(); ++i) {
+    h ^= static_cast<unsigned char>(data[i]);
+    h *= 0x100000001b3ull;
+  }
+  std::memcpy(&data[data.size() - 8], &h, 8);
+}
+
+// A checkpoint whose state was edited and its checksum recomputed is refused by what the state holds: a
+// pinned vertex off its pin (1 cm), a position past the scene bound, a non-finite velocity, a clock that is
+// not the checkpoint's frame, energies that are not those of stats.csv's row of that frame (written from the
+// saved state). The message names the checkpoint file and the quantity.
+TEST(HostileCheckpoint, AForgedStateWithARecomputedChecksumIsRefused) {
+  const fs::path dir = test_dir(), out = dir / "out";
+  std::ofstream(dir / "scene.json") << kScene;
+  ASSERT_EQ(run_loom("run " + (dir / "scene.json").string() + " --frames 4 --checkpoint-every 2 --out " +
+                     out.string())
+                .code,
+            0);
+  const fs::path ckpt = out / "checkpoint" / "checkpoint.bin";
+  const std::string original = read_bytes(ckpt);
+  // The state: tag "loom-simulation-state-3", the time, ..., tag "cloth:sheet", then x, v (25 triples each).
+  const size_t state_tag = original.find("loom-simulation-state-3");
+  const size_t cloth_tag = original.find("cloth:sheet");
+  ASSERT_NE(state_tag, std::string::npos);
+  ASSERT_NE(cloth_tag, std::string::npos);
+  const size_t time_at = state_tag + std::strlen("loom-simulation-state-3");
+  const size_t x_at = cloth_tag + std::strlen("cloth:sheet") + 8;
+  std::int64_t count = 0;
+  std::memcpy(&count, original.data() + x_at - 8, 8);
+  ASSERT_EQ(count, 25);
+  const size_t v_at = x_at + 25 * 24 + 8;
+  struct Forgery {
+    size_t at;
+    double value;
+    bool add;
+    const char* field;
+    const char* problem;
+  };
+  const Forgery forgeries[] = {
+      {x_at, 0.01, true, "state: cloth 'sheet' vertex 0 position", "is pinned but lies 0.01"},
+      {x_at + 12 * 24 + 8, 1e300, false, "state: cloth 'sheet' vertex 12 position", "beyond 1e6 m"},
+      {v_at + 7 * 24, std::numeric_limits<double>::quiet_NaN(), false,
+       "state: cloth 'sheet' vertex 7 velocity", "is not finite"},
+      {time_at, 99.0, false, "state: time", "not the checkpoint's frame 2"},
+      // A plausible state (1 mm along x, within every bound) that is not the one the run saved.
+      {x_at + 12 * 24, 1e-3, true, "state: elastic_energy", "in the state but"},
+  };
+  for (const Forgery& f : forgeries) {
+    std::string data = original;
+    double d;
+    std::memcpy(&d, data.data() + f.at, 8);
+    d = f.add ? d + f.value : f.value;
+    std::memcpy(&data[f.at], &d, 8);
+    resum(data);
+    std::ofstream(ckpt, std::ios::binary | std::ios::trunc) << data;
+    const auto r = run_loom("run --resume " + out.string());
+    EXPECT_EQ(r.code, 1) << f.field << ": " << r.err;
+    EXPECT_NE(r.err.find(ckpt.string() + ": " + f.field), std::string::npos) << r.err;
+    EXPECT_NE(r.err.find(f.problem), std::string::npos) << r.err;
+  }
+  std::ofstream(ckpt, std::ios::binary | std::ios::trunc) << original;
+  const auto r = run_loom("run --resume " + out.string());
+  EXPECT_EQ(r.code, 0) << "the untouched checkpoint resumes: " << r.err;
+}
+
+// `loom body --image` writes by the output rules of `loom run`: never through a link, never over an input,
+// never to a device; an empty path is exit 2; the image is whole or absent.
+TEST(HostileBody, TheImageFollowsTheOutputRules) {
+  const fs::path dir = test_dir();
+  const std::string data = LOOM_TEST_DATA;
+  fs::copy_file(data + "/body/human.zae", dir / "human.zae");
+  const std::string mesh = (dir / "human.zae").string(), clip = data + "/mocap/arm_swing.bvh";
+  const std::string body = "body " + mesh + " " + clip + " --seconds 0.05 --image ";
+  const std::string input = read_bytes(dir / "human.zae");
+  std::ofstream(dir / "outside.txt") << "precious";
+  fs::create_symlink(dir / "outside.txt", dir / "link.png");
+  auto r = run_loom(body + (dir / "link.png").string());
+  if (r.err.find("no renderer") != std::string::npos) GTEST_SKIP() << "no renderer";
+  EXPECT_EQ(r.code, 1) << r.err;
+  EXPECT_NE(r.err.find((dir / "link.png").string() + ": --image: is a symbolic link"), std::string::npos)
+      << r.err;
+  EXPECT_EQ(read_bytes(dir / "outside.txt"), "precious");
+  r = run_loom(body + mesh);
+  EXPECT_EQ(r.code, 1) << r.err;
+  EXPECT_NE(r.err.find(mesh + ": --image: is the input"), std::string::npos) << r.err;
+  EXPECT_EQ(read_bytes(dir / "human.zae"), input);
+  r = run_loom(body + "''");
+  EXPECT_EQ(r.code, 2) << r.err;
+  EXPECT_NE(r.err.find("--image: is empty"), std::string::npos) << r.err;
+  r = run_loom(body + "/dev/full");
+  EXPECT_EQ(r.code, 1) << r.err;
+  EXPECT_NE(r.err.find("/dev/full: --image: is not a regular file"), std::string::npos) << r.err;
+  r = run_loom(body + (dir / "no_such_folder" / "x.png").string());
+  EXPECT_EQ(r.code, 1) << r.err;
+  EXPECT_NE(r.err.find("its folder does not exist"), std::string::npos) << r.err;
+  r = run_loom(body + (dir / "cape.png").string());
+  EXPECT_EQ(r.code, 0) << r.err;
+  EXPECT_EQ(read_bytes(dir / "cape.png").substr(1, 3), "PNG");
+  for (const auto& e : fs::directory_iterator(dir))
+    EXPECT_EQ(e.path().filename().string().find(".tmp"), std::string::npos) << "left " << e.path();
+}
+
+// `loom compare` refuses what its Bullet twins cannot run (a moving pin) by the scene file and the pin's
+// field, before the output folder is created.
+TEST(HostileCompare, AMovingPinIsRefusedByFieldBeforeTheFolder) {
+  const fs::path dir = test_dir(), out = dir / "out";
+  const std::string scene = std::string(LOOM_SOURCE_DIR) + "/scenes/buckling_wrinkles.json";
+  const auto r = run_loom("compare " + scene + " --frames 2 --out " + out.string());
+  if (r.err.find("unknown command") != std::string::npos) GTEST_SKIP() << "no Bullet bridge";
+  EXPECT_EQ(r.code, 1) << r.err;
+  EXPECT_NE(r.err.find(scene + ": cloths[0].pins["), std::string::npos) << r.err;
+  EXPECT_NE(r.err.find("].path: moves vertex"), std::string::npos) << r.err;
+  EXPECT_FALSE(fs::exists(out));
+}
+
+// `loom bench accuracy --sizes N` estimates its memory before allocating: refused by the option, with the
+// figure, before the output folder.
+TEST(HostileBench, AccuracySizesAreEstimatedBeforeAllocating) {
+  const fs::path out = test_dir() / "out";
+  const std::string cmd = "LOOM_MEMORY_LIMIT=1000000000 " + std::string(LOOM_BINARY) +
+                          " bench accuracy --quick --sizes 8,1024 --out " + out.string() + " 2>" +
+                          (test_dir() / "err.txt").string() + " >/dev/null";
+  const int status = std::system(cmd.c_str());
+  const std::string err = slurp(test_dir() / "err.txt");
+  if (err.find("unknown command") != std::string::npos) GTEST_SKIP() << "no Bullet bridge";
+  EXPECT_TRUE(WIFEXITED(status) && WEXITSTATUS(status) == 1) << err;
+  EXPECT_NE(err.find("--sizes: N=1024 (1048576 vertices"), std::string::npos) << err;
+  EXPECT_NE(err.find("(LOOM_MEMORY_LIMIT)"), std::string::npos) << err;
+  EXPECT_FALSE(fs::exists(out)) << "the folder was claimed before the estimate";
+}
+
+// An empty LOOM_SCENES (an unset shell variable exported) is unset: `loom run` never reads the working
+// directory's character_layers.json.
+TEST(HostileEnv, AnEmptyScenesVariableIsUnset) {
+  const fs::path dir = test_dir(), out = dir / "out";
+  std::ofstream(dir / "character_layers.json") << "{\"decoy\": true}";
+  const std::string cmd = "cd " + dir.string() + " && LOOM_SCENES= " + std::string(LOOM_BINARY) +
+                          " run --frames 1 --out " + out.string() + " 2>" + (dir / "err.txt").string() +
+                          " >/dev/null";
+  const int status = std::system(cmd.c_str());
+  const std::string err = slurp(dir / "err.txt");
+  EXPECT_TRUE(WIFEXITED(status) && WEXITSTATUS(status) == 0) << err;
+  EXPECT_EQ(err.find("decoy"), std::string::npos) << err;
+  const auto summary = nlohmann::json::parse(slurp(out / "summary.json"));
+  EXPECT_NE(summary["scene"].get<std::string>(), (dir / "character_layers.json").string());
+}
+
+}  // namespace
+}  // namespace loom::test
