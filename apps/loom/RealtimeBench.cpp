@@ -170,14 +170,12 @@ void write(eval::OutputFolder& folder, const std::string& name, const std::strin
     csv << r.system << ',' << eval::csv_number(r.ms) << ',' << eval::csv_number(r.rms) << ','
         << eval::csv_number(r.depth) << ',' << eval::csv_number(r.strain) << ',' << (r.finite ? 1 : 0);
     if (bodies) csv << "," << r.through;
-    csv << "
-";
+    csv << "\n";
     auto shown = [](double v) { return std::isfinite(v) ? eval::csv_number(v) : std::string("-"); };
     std::printf("%-30s %10s ms %12s m rms %12s m deep %10s strain", r.system.c_str(), shown(r.ms).c_str(),
                 shown(r.rms).c_str(), shown(r.depth).c_str(), shown(r.strain).c_str());
     if (bodies) std::printf(" %3d through", r.through);
-    std::printf("%s
-", r.finite ? "" : "  (stopped)");
+    std::printf("%s\n", r.finite ? "" : "  (stopped)");
     if (std::isfinite(r.rms) && r.rms > 0.0) points.push_back({r.system, r.ms, r.rms});
   }
   plot_accuracy(points, title, (folder.dir() / (name + ".png")).string());
