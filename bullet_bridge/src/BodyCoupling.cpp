@@ -55,7 +55,10 @@ struct BodyCoupling::Placed {
   Transform pose = Transform::Identity(), inverse = Transform::Identity();
   Transform prev = Transform::Identity();  // at the cloth step's start
   std::vector<Vec3> a, b;
+  std::vector<double> length;  // m, per feature |b - a|
   Vec3 lo = Vec3::Zero(), hi = Vec3::Zero();
+  Vec3 centre = Vec3::Zero();  // m, the middle of the features' end points' box
+  double extent = 0.0;         // m, the largest distance of an end point from `centre`
 };
 
 struct BodyCoupling::Work {
@@ -182,8 +185,16 @@ const BodyCoupling::Placed& BodyCoupling::placed_features(int k) {
   }
   // A contact needs a feature's part over the triangle within its reach of the plane at one end: that part
   // is within the reach plus the feature's length of the triangle.
+  pl.length.resize(f.a.size());
   double length = 0.0;
-  for (size_t e = 0; e < f.a.size(); ++e) length = std::max(length, (f.b[e] - f.a[e]).norm());
+  for (size_t e = 0; e < f.a.size(); ++e) {
+    pl.length[e] = (f.b[e] - f.a[e]).norm();
+    length = std::max(length, pl.length[e]);
+  }
+  pl.centre = 0.5 * (pl.lo + pl.hi);
+  pl.extent = 0.0;
+  for (size_t e = 0; e < f.a.size(); ++e)
+    pl.extent = std::max({pl.extent, (pl.a[e] - pl.centre).norm(), (pl.b[e] - pl.centre).norm()});
   const double grow = f.radius + settings_.thickness + length;
   pl.lo.array() -= grow;
   pl.hi.array() += grow;
@@ -410,23 +421,33 @@ void BodyCoupling::solve_feature_contacts(cloth::Cloth& cloth, int it) {
       const Vec3 thi = s.x[ia].cwiseMax(s.x[ib]).cwiseMax(s.x[ic]);
       if ((tlo.array() > pl.hi.array()).any() || (thi.array() < pl.lo.array()).any()) continue;
     }
-    const Transform inverse = pl.inverse;
+    const Transform& inverse = pl.inverse;
     const std::vector<Vec3>&fa = pl.a, &fb = pl.b;
     const double reach = f.radius + thick;
+    // The triangle's unit normal, recomputed only after a contact moved its vertices.
+    Vec3 nrm;
+    double area = 0.0;
+    bool moved = true;
     for (size_t e = 0; e < f.a.size(); ++e) {
       const Vec3 &a = s.x[ia], &bb = s.x[ib], &c = s.x[ic];
       const Vec3 &A = fa[e], &B = fb[e];
       // The segment's box grown by the reach and its length against the triangle's box (as in
       // placed_features).
-      const double grow = reach + (B - A).norm();
+      const double grow = reach + pl.length[e];
       const Vec3 slo = A.cwiseMin(B).array() - grow, shi = A.cwiseMax(B).array() + grow;
       if ((a.array() < slo.array() && bb.array() < slo.array() && c.array() < slo.array()).any() ||
           (a.array() > shi.array() && bb.array() > shi.array() && c.array() > shi.array()).any())
         continue;
-      Vec3 nrm = (bb - a).cross(c - a);
-      const double area = nrm.norm();
-      if (!(area > 1e-14)) break;
-      nrm /= area;
+      if (moved) {
+        nrm = (bb - a).cross(c - a);
+        area = nrm.norm();
+        if (!(area > 1e-14)) break;
+        nrm /= area;
+        moved = false;
+        // Every feature point farther than the reach on one side of the plane: no contact.
+        const double sc = (pl.centre - a).dot(nrm);
+        if (std::abs(sc) > pl.extent + reach + 1e-9) break;
+      }
       const double sA = (A - a).dot(nrm), sB = (B - a).dot(nrm);
       if ((sA > reach && sB > reach) || (sA < -reach && sB < -reach)) continue;
       double u0 = 0.0, u1 = 1.0;
@@ -463,6 +484,7 @@ void BodyCoupling::solve_feature_contacts(cloth::Cloth& cloth, int it) {
       const double wbody = generalized_inv_mass(b, r, N);
       const double dl = depth / (w_tri + wbody);
       s.x[ia] += (wa * ba * dl) * N, s.x[ib] += (wb_ * bbw * dl) * N, s.x[ic] += (wc_ * bc * dl) * N;
+      moved = true;
       // The triangle's vertices are in contact with the body at the feature's surface point: tethers and
       // edges pulling them into it move the body too.
       const Vec3 surface = inverse * (p + f.radius * N);
