@@ -514,7 +514,7 @@ void BodyCoupling::solve_limits(cloth::ClothState& s, size_t index, int it) {
     const double len = std::sqrt(len2);
     if (!(len > l.length)) continue;
     const Vec3 m = -d / len;
-    if (w.contact[l.i] < 0) {  // not touching a body: the vertex alone
+    if (w.contact[l.i] < 0) {  // not touching a body: the vertex alone (move_vertex's lam = C / w, times w)
       const double wi = s.inv_mass[l.i];
       if (!(wi > 0.0)) continue;
       s.x[l.i] += ((len - l.length) / wi * wi) * m;
