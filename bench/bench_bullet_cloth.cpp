@@ -6,12 +6,13 @@
 //                     many while it moves fast),
 //   phase 1 "draped": the second second, the cloth resting on the bodies.
 // Counters: cpu_ms_per_step (process CPU time, all threads), ms_per_step (wall), cloth_steps_per_step.
-// BM_ToyBox: scenes/toy_box.json (33 x 33 corner-tied cloth, 12 small bodies, a kinematic paddle) for its
-// first `frames` 60 Hz frames, as `loom run` builds it (BulletScene) in BulletClothSettings' real-time tier
-// (system 0) and as Bullet's classic btSoftBody twin with the same bodies (system 1, `loom compare`'s
-// run_bullet_twin), in the same process. Counters: ms_per_frame (wall, cloth and world), cpu_ms_per_frame
-// (process CPU time; the twin's includes building its world), cloth_ms_per_frame (system 0: the cloth
-// pipeline alone, wall).
+// BM_ToyBox: scenes/toy_box.json (corner-tied cloth of `nodes` x `nodes`, 33 in the scene; 12 small bodies,
+// a kinematic paddle) for its first `frames` 60 Hz frames, as `loom run` builds it (BulletScene) in
+// BulletClothSettings' real-time tier (system 0) and as Bullet's classic btSoftBody twin with the same bodies
+// (system 1, `loom compare`'s run_bullet_twin), in the same process. Counters: ms_per_frame (wall, cloth and
+// world), cpu_ms_per_frame (process CPU time; the twin's includes building its world), cloth_ms_per_frame
+// (system 0: the cloth pipeline alone, wall).
+//
 // BM_ClothOverFloor: a 33 x 33 cloth (1.2 m, implicit Euler, BulletClothSettings' setup tier: the bridge's
 // vertex + edge contacts), 60 Bullet steps after a 60-step settle; floor 0: none, 1: btStaticPlaneShape,
 // 2: a 200 m btBoxShape, top at y = 0 both. place 0: tied at its four corners 1.5 m above the floor (out of
@@ -210,8 +211,10 @@ BENCHMARK(BM_ClothOverFloor)
 void BM_ToyBox(benchmark::State& state) {
   const int system = static_cast<int>(state.range(0));
   const int frames = static_cast<int>(state.range(1));
-  const loom::scene::Scene sc =
-      loom::scene::load_scene(std::string(LOOM_SOURCE_DIR) + "/scenes/toy_box.json");
+  const int nodes = static_cast<int>(state.range(2));
+  const loom::scene::Scene sc = loom::scene::load_scene(
+      std::string(LOOM_SOURCE_DIR) + "/scenes/toy_box.json",
+      {"cloths.0.mesh.nodes=[" + std::to_string(nodes) + "," + std::to_string(nodes) + "]"});
   double ms = 0.0, cloth_ms = 0.0, cpu_s = 0.0, max_strain = 0.0;
   long runs = 0;
   for (auto _ : state) {
@@ -257,8 +260,8 @@ void BM_ToyBox(benchmark::State& state) {
   state.SetLabel(system == 0 ? "Loom BulletCloth, real-time tier" : "Bullet classic btSoftBody twin");
 }
 BENCHMARK(BM_ToyBox)
-    ->ArgNames({"system", "frames"})
-    ->ArgsProduct({{0, 1}, {60}})
+    ->ArgNames({"system", "frames", "nodes"})
+    ->ArgsProduct({{0, 1}, {60}, {33, 17}})
     ->Unit(benchmark::kMillisecond)
     ->Iterations(1);
 #endif

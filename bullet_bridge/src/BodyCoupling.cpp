@@ -20,6 +20,8 @@ constexpr double kCornerShare = 0.2;
 // A vertex in contact moves its body only while it is within kTouch thicknesses of the contact point along
 // the normal (1: at the contact offset).
 constexpr double kTouch = 1.25;
+// Vertices per block of the candidate search's culling boxes.
+constexpr int kBlock = 16;
 
 // Generalized inverse mass of body point r (m, from the centre of mass) along unit n (Müller et al. 2020,
 // eq. 2): 1/M + (r x n)^T I^-1 (r x n).
@@ -40,14 +42,30 @@ void apply_positional_impulse(CoupledBody& b, const Vec3& P, const Vec3& r) {
   q.coeffs() += 0.5 * dq.coeffs();
   b.pose.linear() = q.normalized().toRotationMatrix();
   b.touched = true;
+  ++b.version;
 }
 
 }  // namespace
 
+// Collider k placed in the world now: its pose, the inverse, its features' end points, and their box grown
+// by the features' radius, the thickness and the longest feature's length (m). Valid while `version` is its
+// body's (0: no coupled body).
+struct BodyCoupling::Placed {
+  long version = -1, features_version = -1;  // of pose and inverse; of a, b, lo and hi
+  Transform pose = Transform::Identity(), inverse = Transform::Identity();
+  Transform prev = Transform::Identity();  // at the cloth step's start
+  std::vector<Vec3> a, b;
+  std::vector<double> length;  // m, per feature |b - a|
+  Vec3 lo = Vec3::Zero(), hi = Vec3::Zero();
+  Vec3 centre = Vec3::Zero();  // m, the middle of the features' end points' box
+  double extent = 0.0;         // m, the largest distance of an end point from `centre`
+};
+
 struct BodyCoupling::Work {
   struct Limit {
     int i = 0, j = 0;
-    double length = 0.0;  // m, the largest allowed distance
+    double length = 0.0;         // m, the largest allowed distance
+    double length2_below = 0.0;  // m², a little below its square (1 - 1e-9 of it)
   };
   struct ClothData {
     bool built = false;
@@ -66,7 +84,8 @@ struct BodyCoupling::Work {
   std::vector<std::pair<int, int>> tri_pairs;     // (triangle, collider)
   std::vector<int> stamp;
   std::vector<collision::ColliderFeatures> features;
-  std::vector<Transform> curr;  // per collider, pose now
+  std::vector<Placed> placed;            // per collider
+  std::vector<Vec3> block_lo, block_hi;  // m, per block of kBlock vertices: the box of their positions
 };
 
 class BodyCoupling::Predict final : public cloth::Stage {
@@ -119,6 +138,7 @@ void BodyCoupling::predict(double h) {
     q.coeffs() += 0.5 * h * dq.coeffs();
     const Mat3 R = q.normalized().toRotationMatrix();
     b.pose.linear() = R;
+    ++b.version;
     b.inv_inertia = R * b.inv_inertia_local.asDiagonal() * R.transpose();
   }
   collision::ColliderSet& cs = *colliders_;
@@ -135,9 +155,50 @@ CoupledBody* BodyCoupling::body_of(int k) {
                                                                              : nullptr;
 }
 
-Transform BodyCoupling::pose_of(int k) {
+const BodyCoupling::Placed& BodyCoupling::placed(int k) {
+  Placed& pl = work_->placed[k];
   const CoupledBody* b = body_of(k);
-  return b ? b->pose * collider_local[k] : (*colliders_)[k].curr;
+  const long version = b ? b->version : 0;
+  if (pl.version != version) {
+    pl.version = version;
+    pl.pose = b ? b->pose * collider_local[k] : (*colliders_)[k].curr;
+    pl.inverse = pl.pose.inverse(Eigen::Isometry);
+  }
+  return pl;
+}
+
+const BodyCoupling::Placed& BodyCoupling::placed_features(int k) {
+  Placed& pl = work_->placed[k];
+  placed(k);
+  if (pl.features_version == pl.version) return pl;
+  pl.features_version = pl.version;
+  const collision::ColliderFeatures& f = work_->features[k];
+  pl.a.resize(f.a.size());
+  pl.b.resize(f.b.size());
+  pl.lo = Vec3::Constant(HUGE_VAL);
+  pl.hi = Vec3::Constant(-HUGE_VAL);
+  for (size_t e = 0; e < f.a.size(); ++e) {
+    pl.a[e] = pl.pose * f.a[e];
+    pl.b[e] = pl.pose * f.b[e];
+    pl.lo = pl.lo.cwiseMin(pl.a[e]).cwiseMin(pl.b[e]);
+    pl.hi = pl.hi.cwiseMax(pl.a[e]).cwiseMax(pl.b[e]);
+  }
+  // A contact needs a feature's part over the triangle within its reach of the plane at one end: that part
+  // is within the reach plus the feature's length of the triangle.
+  pl.length.resize(f.a.size());
+  double length = 0.0;
+  for (size_t e = 0; e < f.a.size(); ++e) {
+    pl.length[e] = (f.b[e] - f.a[e]).norm();
+    length = std::max(length, pl.length[e]);
+  }
+  pl.centre = 0.5 * (pl.lo + pl.hi);
+  pl.extent = 0.0;
+  for (size_t e = 0; e < f.a.size(); ++e)
+    pl.extent = std::max({pl.extent, (pl.a[e] - pl.centre).norm(), (pl.b[e] - pl.centre).norm()});
+  const double grow = f.radius + settings_.thickness + length;
+  pl.lo.array() -= grow;
+  pl.hi.array() += grow;
+  return pl;
 }
 
 // A vertex moving along unit m with multiplier lam (displacement lam W m): contact-aware (see header).
@@ -150,7 +211,7 @@ double BodyCoupling::effective_inv_mass(const cloth::ClothState& s, int i, const
   const double mn = m.dot(w.normal[i]);
   if (mn >= 0.0) return wv;
   const CoupledBody& b = *body_of(k);
-  const Vec3 p = pose_of(k) * w.point_local[i];
+  const Vec3 p = placed(k).pose * w.point_local[i];
   if ((s.x[i] - p).dot(w.normal[i]) > kTouch * thick) return wv;  // no longer touching
   const double wb = generalized_inv_mass(b, p - b.pose.translation(), w.normal[i]);
   const double wc = wv * wb / (wv + wb);
@@ -167,8 +228,12 @@ void BodyCoupling::move_vertex(cloth::ClothState& s, int i, double lam, const Ve
   const int k = w.contact[i];
   const bool coupled = k >= 0 && body_of(k) && body_of(k)->dynamic();
   const double mn = coupled ? m.dot(w.normal[i]) : 0.0;
-  const Vec3 p = coupled ? Vec3(pose_of(k) * w.point_local[i]) : Vec3::Zero();
-  if (!coupled || mn >= 0.0 || (s.x[i] - p).dot(w.normal[i]) > kTouch * thick) {
+  if (!coupled || mn >= 0.0) {
+    s.x[i] += (lam * wv) * m;
+    return;
+  }
+  const Vec3 p = placed(k).pose * w.point_local[i];
+  if ((s.x[i] - p).dot(w.normal[i]) > kTouch * thick) {
     s.x[i] += (lam * wv) * m;
     return;
   }
@@ -214,7 +279,8 @@ void BodyCoupling::build_limits(const cloth::Cloth& cloth, size_t index) {
         sp.kind != cloth::SpringKind::kEdge)
       continue;
     const double L = (mesh.rest_positions()[sp.j] - mesh.rest_positions()[sp.i]).norm();
-    cd.edges.push_back({sp.i, sp.j, (1.0 + tau) * L});
+    const double length = (1.0 + tau) * L;
+    cd.edges.push_back({sp.i, sp.j, length, (1.0 - 1e-9) * length * length});
     cd.max_edge = std::max(cd.max_edge, (1.0 + tau) * L);
   }
   // Tethers to the nearest pinned vertices at rest (straight rest distance).
@@ -229,8 +295,10 @@ void BodyCoupling::build_limits(const cloth::Cloth& cloth, size_t index) {
     near.clear();
     for (int a : pinned) near.emplace_back((mesh.rest_positions()[a] - mesh.rest_positions()[i]).norm(), a);
     std::partial_sort(near.begin(), near.begin() + per, near.end());
-    for (int k = 0; k < per; ++k)
-      cd.tethers.push_back({i, near[k].second, (1.0 + settings_.tether_stretch) * near[k].first});
+    for (int k = 0; k < per; ++k) {
+      const double length = (1.0 + settings_.tether_stretch) * near[k].first;
+      cd.tethers.push_back({i, near[k].second, length, (1.0 - 1e-9) * length * length});
+    }
   }
   cd.vertex_tris.assign(n, {});
   for (int t = 0; t < static_cast<int>(mesh.triangles().size()); ++t)
@@ -245,6 +313,15 @@ void BodyCoupling::find_candidates(const cloth::Cloth& cloth, size_t index) {
   collision::ColliderSet& cs = *colliders_;
   const int nc = static_cast<int>(cs.size());
   const double thick = settings_.thickness;
+  // Boxes of blocks of kBlock consecutive vertices (neighbours in a grid's row, mostly), so a collider
+  // skips the blocks out of its reach.
+  const int blocks = (n + kBlock - 1) / kBlock;
+  w.block_lo.assign(blocks, Vec3::Constant(HUGE_VAL));
+  w.block_hi.assign(blocks, Vec3::Constant(-HUGE_VAL));
+  for (int i = 0; i < n; ++i) {
+    w.block_lo[i / kBlock] = w.block_lo[i / kBlock].cwiseMin(s.x[i]);
+    w.block_hi[i / kBlock] = w.block_hi[i / kBlock].cwiseMax(s.x[i]);
+  }
   // Candidates: vertices in the collider's box grown by the thickness (contacts), triangles touching a
   // vertex in the box grown by the longest edge (features).
   for (int k = 0; k < nc; ++k) {
@@ -254,6 +331,8 @@ void BodyCoupling::find_candidates(const cloth::Cloth& cloth, size_t index) {
     const CoupledBody* b = body_of(k);
     w.features[k] = settings_.features && b && b->dynamic() ? collision::collider_features(col)
                                                             : collision::ColliderFeatures{};
+    w.placed[k].version = w.placed[k].features_version = -1;
+    w.placed[k].prev = b ? b->pose0 * collider_local[k] : col.prev;
     if (col.shape.type == ShapeType::plane) {
       for (int i = 0; i < n; ++i) w.vertex_pairs.emplace_back(i, k);
       continue;
@@ -274,6 +353,11 @@ void BodyCoupling::find_candidates(const cloth::Cloth& cloth, size_t index) {
     const Vec3 flo = blo.array() - far, fhi = bhi.array() + far;
     const Vec3 nlo = blo.array() - near, nhi = bhi.array() + near;
     for (int i = 0; i < n; ++i) {
+      if (i % kBlock == 0 && ((w.block_hi[i / kBlock].array() < flo.array()).any() ||
+                              (w.block_lo[i / kBlock].array() > fhi.array()).any())) {
+        i += kBlock - 1;
+        continue;
+      }
       const Vec3& x = s.x[i];
       if ((x.array() < flo.array()).any() || (x.array() > fhi.array()).any()) continue;
       if ((x.array() >= nlo.array()).all() && (x.array() <= nhi.array()).all())
@@ -294,21 +378,21 @@ void BodyCoupling::solve_vertex_contacts(cloth::ClothState& s, int it) {
     const double wv = s.inv_mass[i];
     if (wv == 0.0) continue;
     const Collider& col = cs[k];
-    const Transform curr = pose_of(k);
+    const Placed& pl = placed(k);
     Vec3 nl;
-    const double d = collision::local_signed_distance(col.shape, col.geometry.get(),
-                                                      curr.inverse(Eigen::Isometry) * s.x[i], &nl);
+    const double d =
+        collision::local_signed_distance(col.shape, col.geometry.get(), pl.inverse * s.x[i], &nl);
     if (!(d < thick)) continue;
     if (it == 0) last_penetration_ = std::max(last_penetration_, -d);
     ++vertex_contacts_;
-    const Vec3 nrm = curr.linear() * nl;
+    const Vec3 nrm = pl.pose.linear() * nl;
     const Vec3 p = s.x[i] - d * nrm;  // on the surface
+    w.point_local[i] = pl.inverse * p;
     CoupledBody* b = body_of(k);
     const Vec3 r = b ? Vec3(p - b->pose.translation()) : Vec3::Zero();
     const double wb = b ? generalized_inv_mass(*b, r, nrm) : 0.0;
     const double dl = (thick - d) / (wv + wb);
     s.x[i] += (wv * dl) * nrm;
-    w.point_local[i] = curr.inverse(Eigen::Isometry) * p;
     if (b) apply_positional_impulse(*b, -dl * nrm, r);
     w.depth[i] += thick - d;
     w.contact[i] = k;
@@ -329,16 +413,41 @@ void BodyCoupling::solve_feature_contacts(cloth::Cloth& cloth, int it) {
     const int ia = tris[t][0], ib = tris[t][1], ic = tris[t][2];
     const double wa = s.inv_mass[ia], wb_ = s.inv_mass[ib], wc_ = s.inv_mass[ic];
     if (wa == 0.0 && wb_ == 0.0 && wc_ == 0.0) continue;
-    const Transform curr = pose_of(k);
-    const Transform prev = b.pose0 * collider_local[k];
+    // The collider where it is at this pair's start (its features' positions are not updated for the body's
+    // motion by this triangle's own contacts). Culling: the triangle's box against the features' box.
+    const Placed& pl = placed_features(k);
+    {
+      const Vec3 tlo = s.x[ia].cwiseMin(s.x[ib]).cwiseMin(s.x[ic]);
+      const Vec3 thi = s.x[ia].cwiseMax(s.x[ib]).cwiseMax(s.x[ic]);
+      if ((tlo.array() > pl.hi.array()).any() || (thi.array() < pl.lo.array()).any()) continue;
+    }
+    const Transform& inverse = pl.inverse;
+    const std::vector<Vec3>&fa = pl.a, &fb = pl.b;
     const double reach = f.radius + thick;
+    // The triangle's unit normal, recomputed only after a contact moved its vertices.
+    Vec3 nrm;
+    double area = 0.0;
+    bool moved = true;
     for (size_t e = 0; e < f.a.size(); ++e) {
       const Vec3 &a = s.x[ia], &bb = s.x[ib], &c = s.x[ic];
-      Vec3 nrm = (bb - a).cross(c - a);
-      const double area = nrm.norm();
-      if (!(area > 1e-14)) break;
-      nrm /= area;
-      const Vec3 A = curr * f.a[e], B = curr * f.b[e];
+      const Vec3 &A = fa[e], &B = fb[e];
+      // The segment's box grown by the reach and its length against the triangle's box (as in
+      // placed_features).
+      const double grow = reach + pl.length[e];
+      const Vec3 slo = A.cwiseMin(B).array() - grow, shi = A.cwiseMax(B).array() + grow;
+      if ((a.array() < slo.array() && bb.array() < slo.array() && c.array() < slo.array()).any() ||
+          (a.array() > shi.array() && bb.array() > shi.array() && c.array() > shi.array()).any())
+        continue;
+      if (moved) {
+        nrm = (bb - a).cross(c - a);
+        area = nrm.norm();
+        if (!(area > 1e-14)) break;
+        nrm /= area;
+        moved = false;
+        // Every feature point farther than the reach on one side of the plane: no contact.
+        const double sc = (pl.centre - a).dot(nrm);
+        if (std::abs(sc) > pl.extent + reach + 1e-9) break;
+      }
       const double sA = (A - a).dot(nrm), sB = (B - a).dot(nrm);
       if ((sA > reach && sB > reach) || (sA < -reach && sB < -reach)) continue;
       double u0 = 0.0, u1 = 1.0;
@@ -352,9 +461,9 @@ void BodyCoupling::solve_feature_contacts(cloth::Cloth& cloth, int it) {
         Vec3 n0 = (b0 - a0).cross(c0 - a0);
         n0 = n0.norm() > 1e-14 ? n0.normalized() : nrm;
         const double um = 0.5 * (u0 + u1);
-        const Vec3 A0 = prev * f.a[e], B0 = prev * f.b[e];
+        const Vec3 A0 = pl.prev * f.a[e], B0 = pl.prev * f.b[e];
         const double s0 = (A0 + um * (B0 - A0) - a0).dot(n0);
-        const double sc = (prev.translation() - a0).dot(n0);
+        const double sc = (pl.prev.translation() - a0).dot(n0);
         side = std::abs(s0) >= 0.5 * thick ? (s0 > 0.0 ? 1.0 : -1.0) : (sc >= 0.0 ? 1.0 : -1.0);
       }
       const double h0 = side * (sA + u0 * (sB - sA)), h1 = side * (sA + u1 * (sB - sA));
@@ -375,9 +484,10 @@ void BodyCoupling::solve_feature_contacts(cloth::Cloth& cloth, int it) {
       const double wbody = generalized_inv_mass(b, r, N);
       const double dl = depth / (w_tri + wbody);
       s.x[ia] += (wa * ba * dl) * N, s.x[ib] += (wb_ * bbw * dl) * N, s.x[ic] += (wc_ * bc * dl) * N;
+      moved = true;
       // The triangle's vertices are in contact with the body at the feature's surface point: tethers and
       // edges pulling them into it move the body too.
-      const Vec3 surface = curr.inverse(Eigen::Isometry) * (p + f.radius * N);
+      const Vec3 surface = inverse * (p + f.radius * N);
       const int corner_ids[3] = {ia, ib, ic};
       const double weights[3] = {ba, bbw, bc};
       for (int j = 0; j < 3; ++j) {
@@ -394,13 +504,22 @@ void BodyCoupling::solve_feature_contacts(cloth::Cloth& cloth, int it) {
 }
 
 void BodyCoupling::solve_limits(cloth::ClothState& s, size_t index, int it) {
-  const Work::ClothData& cd = work_->cloths[index];
+  const Work& w = *work_;
+  const Work::ClothData& cd = w.cloths[index];
   // Tethers.
   for (const Work::Limit& l : cd.tethers) {
     const Vec3 d = s.x[l.i] - s.x[l.j];
-    const double len = d.norm();
+    const double len2 = d.squaredNorm();
+    if (len2 < l.length2_below) continue;  // clearly within (no square root)
+    const double len = std::sqrt(len2);
     if (!(len > l.length)) continue;
     const Vec3 m = -d / len;
+    if (w.contact[l.i] < 0) {  // not touching a body: the vertex alone (move_vertex's lam = C / w, times w)
+      const double wi = s.inv_mass[l.i];
+      if (!(wi > 0.0)) continue;
+      s.x[l.i] += ((len - l.length) / wi * wi) * m;
+      continue;
+    }
     const double wi = effective_inv_mass(s, l.i, m);
     if (!(wi > 0.0)) continue;
     move_vertex(s, l.i, (len - l.length) / wi, m);
@@ -410,9 +529,19 @@ void BodyCoupling::solve_limits(cloth::ClothState& s, size_t index, int it) {
   for (int q = 0; q < ne; ++q) {
     const Work::Limit& l = cd.edges[it % 2 == 0 ? q : ne - 1 - q];
     const Vec3 d = s.x[l.j] - s.x[l.i];
-    const double len = d.norm();
+    const double len2 = d.squaredNorm();
+    if (len2 < l.length2_below) continue;  // clearly within (no square root)
+    const double len = std::sqrt(len2);
     if (!(len > l.length)) continue;
     const Vec3 u = d / len;
+    if (w.contact[l.i] < 0 && w.contact[l.j] < 0) {  // neither touches a body
+      const double wi = s.inv_mass[l.i], wj = s.inv_mass[l.j];
+      if (!(wi + wj > 0.0)) continue;
+      const double lam = (len - l.length) / (wi + wj);
+      s.x[l.i] += (lam * wi) * u;
+      s.x[l.j] -= (lam * wj) * u;
+      continue;
+    }
     const double wi = effective_inv_mass(s, l.i, u), wj = effective_inv_mass(s, l.j, -u);
     if (!(wi + wj > 0.0)) continue;
     const double lam = (len - l.length) / (wi + wj);
@@ -424,17 +553,14 @@ void BodyCoupling::solve_limits(cloth::ClothState& s, size_t index, int it) {
 // Friction (Macklin et al. 2014, Sec. 6.1) on the vertex contacts; needs the step-start positions.
 void BodyCoupling::apply_friction(cloth::ClothState& s) {
   const Work& w = *work_;
-  const collision::ColliderSet& cs = *colliders_;
   const int n = s.size();
   const double mu_k = settings_.friction, mu_s = std::max(settings_.friction, settings_.static_friction);
   for (int i = 0; i < n; ++i) {
     const int k = w.contact[i];
     if (k < 0 || s.inv_mass[i] == 0.0) continue;
     const Vec3& nrm = w.normal[i];
-    const Transform curr = pose_of(k);
-    const CoupledBody* bc = body_of(k);
-    const Transform prev = bc ? bc->pose0 * collider_local[k] : cs[k].prev;
-    const Vec3 p = curr * w.point_local[i], p0 = prev * w.point_local[i];
+    const Placed& pl = placed(k);
+    const Vec3 p = pl.pose * w.point_local[i], p0 = pl.prev * w.point_local[i];
     const Vec3 dp = (s.x[i] - s.x_prev[i]) - (p - p0);
     const Vec3 dt = dp - dp.dot(nrm) * nrm;
     const double len = dt.norm();
@@ -471,7 +597,7 @@ void BodyCoupling::solve(cloth::Cloth& cloth, size_t index, double h) {
   w.tri_pairs.clear();
   w.stamp.assign(mesh.triangles().size(), -1);
   w.features.resize(nc);
-  w.curr.resize(nc);
+  w.placed.resize(nc);
   find_candidates(cloth, index);
 
   const bool have_prev = s.x_prev.size() == s.x.size();

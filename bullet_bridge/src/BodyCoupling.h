@@ -64,6 +64,7 @@ struct CoupledBody {
   Mat3 inv_inertia = Mat3::Zero();          // 1/(kg m²), world frame at `pose`
   bool touched = false;                     // a contact moved it in the current Bullet substep
   Vec3 v_pred = Vec3::Zero();               // m/s, v at the cloth step's start (after predict: unchanged)
+  long version = 0;                         // counts the changes of `pose` (the coupling's pose caches)
   bool dynamic() const { return inv_mass > 0.0; }
 };
 
@@ -105,7 +106,11 @@ class BodyCoupling {
   void solve(cloth::Cloth& cloth, size_t index, double h);
   // The body collider k belongs to (nullptr: not coupled) and its current pose.
   CoupledBody* body_of(int k);
-  Transform pose_of(int k);
+  // Collider k's pose now and its inverse; with placed_features also its features in world and their box
+  // (cached until its body moves).
+  struct Placed;
+  const Placed& placed(int k);
+  const Placed& placed_features(int k);
   double effective_inv_mass(const cloth::ClothState& s, int i, const Vec3& m);
   void move_vertex(cloth::ClothState& s, int i, double lam, const Vec3& m);
   // The cloth's limited edges, its tethers and its vertex-to-triangle lists (once per cloth).
