@@ -278,28 +278,37 @@ void RealtimeSelfCollisionStage::broad_phase() {
     bucket_items_[slot] = entry_tri_[e];
     bucket_boxes_[slot] = box_f_[entry_tri_[e]];
   }
-  // Every vertex against the triangles of its cell.
+  // Every vertex against the triangles of its cell: the box tests first, without branches (the entries
+  // that pass are written to hit_ by stream compaction), then the filters on the few that passed.
   cand_.clear();
+  hit_.resize(bucket_items_.size() + large_.size());
   for (int g = 0; g < n; ++g) {
     const Vec3& p = built_[g];
     alignas(16) const float pf[4] = {static_cast<float>(p.x()), static_cast<float>(p.y()),
                                      static_cast<float>(p.z()), 0.0f};
     const size_t first = cand_.size();
     const long key = cell_key(cell_of(p.x()), cell_of(p.y()), cell_of(p.z()));
-    auto visit = [&](const FloatBox& bx, int q) {
-      if (!in_box(pf, bx.lo, bx.hi)) return;
+    int nh = 0;
+    for (int it = bucket_start_[key]; it < bucket_start_[key + 1]; ++it) {
+      hit_[nh] = bucket_items_[it];
+      nh += in_box(pf, bucket_boxes_[it].lo, bucket_boxes_[it].hi);
+    }
+    for (int q : large_) {
+      hit_[nh] = q;
+      nh += in_box(pf, box_f_[q].lo, box_f_[q].hi);
+    }
+    const auto rest_begin = rest_tri_.begin() + rest_start_[g],
+               rest_end = rest_tri_.begin() + rest_start_[g + 1];
+    for (int k = 0; k < nh; ++k) {
+      const int q = hit_[k];
       const auto& tri = tri_[q];
-      if (tri[0] == g || tri[1] == g || tri[2] == g) return;
+      if (tri[0] == g || tri[1] == g || tri[2] == g) continue;
       const bool same = tri_cloth_[q] == vert_cloth_[g];
-      if (same && !settings_.self) return;
-      if (same && std::find(rest_tri_.begin() + rest_start_[g], rest_tri_.begin() + rest_start_[g + 1], q) !=
-                      rest_tri_.begin() + rest_start_[g + 1])
-        return;  // neighbours on the rest shape are not contacts
+      if (same && !settings_.self) continue;
+      if (same && std::find(rest_begin, rest_end, q) != rest_end)
+        continue;  // neighbours on the rest shape are not contacts
       cand_.emplace_back(g, q);
-    };
-    for (int it = bucket_start_[key]; it < bucket_start_[key + 1]; ++it)
-      visit(bucket_boxes_[it], bucket_items_[it]);
-    for (int q : large_) visit(box_f_[q], q);
+    }
     // This vertex's triangles in order, each once (hash collisions list a triangle once per cell).
     std::sort(cand_.begin() + first, cand_.end());
     cand_.erase(std::unique(cand_.begin() + first, cand_.end()), cand_.end());

@@ -96,6 +96,7 @@ class RealtimeSelfCollisionStage final : public cloth::Stage {
   std::vector<FloatBox> run_boxes_;         // per triangle: box inflated by the thickness at the run's start
   std::vector<FloatBox> bucket_boxes_;      // per bucket entry: its triangle's padded box
   std::vector<std::array<int, 6>> tri_range_;  // per triangle: cell range lo xyz, hi xyz
+  std::vector<int> hit_;                       // scratch: one vertex's triangles whose box holds it
   std::vector<int> large_;         // triangles whose box spans too many cells: tested against every vertex
   cloth::Vec3s tri_lo_, tri_hi_;   // m, per triangle: box inflated by the thickness, this run
   std::vector<FloatPoint> start_;  // m, per global vertex: position at the run's start
