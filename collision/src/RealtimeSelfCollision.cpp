@@ -233,9 +233,17 @@ void RealtimeSelfCollisionStage::broad_phase() {
     const double c = std::floor(v * inv_cell);
     return static_cast<int>(c >= -kMaxCell ? std::min(c, kMaxCell) : -kMaxCell);
   };
-  // Counting sort of the triangles' padded boxes into the table.
+  // Counting sort of the triangles' padded boxes into the table, only into the slots a vertex reads (the
+  // vertices' slots first).
   std::fill(bucket_start_.begin(), bucket_start_.end(), 0);
   const int nt = static_cast<int>(tri_.size()), n = static_cast<int>(built_.size());
+  occupied_.assign(table, 0);
+  vert_key_.resize(n);
+  for (int g = 0; g < n; ++g) {
+    const Vec3& p = built_[g];
+    vert_key_[g] = cell_key(cell_of(p.x()), cell_of(p.y()), cell_of(p.z()));
+    occupied_[vert_key_[g]] = 1;
+  }
   tri_lo_.resize(nt), tri_hi_.resize(nt);
   entry_key_.clear(), entry_tri_.clear(), large_.clear();
   for (int q = 0; q < nt; ++q) {
@@ -252,6 +260,7 @@ void RealtimeSelfCollisionStage::broad_phase() {
       for (int y = r[1]; y <= r[4]; ++y)
         for (int z = r[2]; z <= r[5]; ++z) {
           const long key = cell_key(x, y, z);
+          if (!occupied_[key]) continue;
           ++bucket_start_[key + 1];
           entry_key_.push_back(static_cast<int>(key));
           entry_tri_.push_back(q);
@@ -287,7 +296,7 @@ void RealtimeSelfCollisionStage::broad_phase() {
     alignas(16) const float pf[4] = {static_cast<float>(p.x()), static_cast<float>(p.y()),
                                      static_cast<float>(p.z()), 0.0f};
     const size_t first = cand_.size();
-    const long key = cell_key(cell_of(p.x()), cell_of(p.y()), cell_of(p.z()));
+    const long key = vert_key_[g];
     int nh = 0;
     for (int it = bucket_start_[key]; it < bucket_start_[key + 1]; ++it) {
       hit_[nh] = bucket_items_[it];
