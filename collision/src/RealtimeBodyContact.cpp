@@ -106,7 +106,24 @@ void RealtimeBodyContactStage::run(cloth::StageContext& ctx) {
     if (c.shape.type == ShapeType::convex || c.shape.type == ShapeType::mesh) prepare_collider(c);
   }
   prepare_poses(*colliders_);
-  for (auto& cl : ctx.cloths) run_cloth(*cl, ctx.h);
+  const size_t nc = ctx.cloths.size();
+  for (size_t c = 0; c < nc; ++c) {
+    // Unchanged since the earlier stage's projection: a vertex it left outside every collider.
+    const cloth::Vec3s* unchanged = earlier_ && earlier_->after_.size() == nc &&
+                                            earlier_->after_[c].size() == ctx.cloths[c]->state().x.size()
+                                        ? &earlier_->after_[c]
+                                        : nullptr;
+    if (unsettled_.size() < nc) unsettled_.resize(nc);
+    unsettled_[c].clear();
+    run_cloth(*ctx.cloths[c], ctx.h, unchanged, unsettled_[c]);
+  }
+  after_.resize(nc);
+  for (size_t c = 0; c < nc; ++c) {
+    after_[c] = ctx.cloths[c]->state().x;
+    // A vertex the passes did not settle: never skipped by a later stage (NaN equals nothing).
+    if (c < unsettled_.size())
+      for (int i : unsettled_[c]) after_[c][i] = Vec3::Constant(std::numeric_limits<double>::quiet_NaN());
+  }
 }
 
 // A coarse grid over the cloth's box: each cell lists the active colliders whose box meets it, so a vertex
@@ -123,29 +140,34 @@ struct RealtimeBodyContactStage::ColliderGrid {
   }
 };
 
-void RealtimeBodyContactStage::run_cloth(cloth::Cloth& cloth, double h) {
+void RealtimeBodyContactStage::run_cloth(cloth::Cloth& cloth, double h, const cloth::Vec3s* unchanged,
+                                         std::vector<int>& unsettled) {
   ColliderSet& set = *colliders_;
   ClothState& s = cloth.state();
   const int n = s.size();
   if (n == 0 || set.empty()) return;
   if (static_cast<int>(s.x_prev.size()) != n) s.x_prev = s.x;
-  // The cloth's box over the step (start and end positions).
+  // Positions only: a collider whose box misses x cannot come within the thickness of x at the step's end
+  // (the box holds the collider at curr inflated by the thickness), so x0's colliders are not needed.
+  const bool end_only = settings_.positions_only;
+  // The vertices to visit (with an earlier stage: those moved since it), and their box over the step (end
+  // positions only when end_only).
+  visit_.clear();
   Vec3 lo = Vec3::Constant(kInf), hi = Vec3::Constant(-kInf);
   for (int i = 0; i < n; ++i) {
-    lo = lo.cwiseMin(s.x[i]).cwiseMin(s.x_prev[i]);
-    hi = hi.cwiseMax(s.x[i]).cwiseMax(s.x_prev[i]);
+    if (!(s.inv_mass[i] > 0.0) || (unchanged && (*unchanged)[i] == s.x[i])) continue;
+    visit_.push_back(i);
+    lo = lo.cwiseMin(s.x[i]), hi = hi.cwiseMax(s.x[i]);
+    if (!end_only) lo = lo.cwiseMin(s.x_prev[i]), hi = hi.cwiseMax(s.x_prev[i]);
   }
+  if (visit_.empty()) return;
   prepare_colliders(set, cloth.material().thickness, lo, hi);
   if (active_.empty()) return;
   const ColliderGrid grid = build_grid(lo, hi);
 
   int cand[kMaxCandidates];
-  // Positions only: a collider whose box misses x cannot come within the thickness of x at the step's end
-  // (the box holds the collider at curr inflated by the thickness), so x0's colliders are not needed.
-  const bool end_only = settings_.positions_only;
-  for (int i = 0; i < n; ++i) {
+  for (int i : visit_) {
     const double m = s.mass[i];
-    if (!(s.inv_mass[i] > 0.0)) continue;
     Vec3 x = s.x[i];
     const Vec3 x0 = s.x_prev[i];
     const int nc = gather_candidates(grid, x, end_only ? x : x0, cand);
@@ -154,7 +176,7 @@ void RealtimeBodyContactStage::run_cloth(cloth::Cloth& cloth, double h) {
     Vec3 v = s.v[i];
     if (settings_.continuous && !settings_.positions_only) sweep(set, cand, nc, x0, x);
     const bool moved = project(set, cand, nc, m, x0, h, x, v);
-    if (moved) pinch_exit(set, cand, nc, x);
+    if (moved) pinch_exit(set, cand, nc, x), unsettled.push_back(i);
     s.x[i] = x;
     s.v[i] = v;
   }

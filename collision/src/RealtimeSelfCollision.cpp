@@ -233,9 +233,17 @@ void RealtimeSelfCollisionStage::broad_phase() {
     const double c = std::floor(v * inv_cell);
     return static_cast<int>(c >= -kMaxCell ? std::min(c, kMaxCell) : -kMaxCell);
   };
-  // Counting sort of the triangles' padded boxes into the table.
+  // Counting sort of the triangles' padded boxes into the table, only into the slots a vertex reads (the
+  // vertices' slots first).
   std::fill(bucket_start_.begin(), bucket_start_.end(), 0);
   const int nt = static_cast<int>(tri_.size()), n = static_cast<int>(built_.size());
+  occupied_.assign(table, 0);
+  vert_key_.resize(n);
+  for (int g = 0; g < n; ++g) {
+    const Vec3& p = built_[g];
+    vert_key_[g] = cell_key(cell_of(p.x()), cell_of(p.y()), cell_of(p.z()));
+    occupied_[vert_key_[g]] = 1;
+  }
   tri_lo_.resize(nt), tri_hi_.resize(nt);
   entry_key_.clear(), entry_tri_.clear(), large_.clear();
   for (int q = 0; q < nt; ++q) {
@@ -252,6 +260,7 @@ void RealtimeSelfCollisionStage::broad_phase() {
       for (int y = r[1]; y <= r[4]; ++y)
         for (int z = r[2]; z <= r[5]; ++z) {
           const long key = cell_key(x, y, z);
+          if (!occupied_[key]) continue;
           ++bucket_start_[key + 1];
           entry_key_.push_back(static_cast<int>(key));
           entry_tri_.push_back(q);
@@ -278,28 +287,37 @@ void RealtimeSelfCollisionStage::broad_phase() {
     bucket_items_[slot] = entry_tri_[e];
     bucket_boxes_[slot] = box_f_[entry_tri_[e]];
   }
-  // Every vertex against the triangles of its cell.
+  // Every vertex against the triangles of its cell: the box tests first, without branches (the entries
+  // that pass are written to hit_ by stream compaction), then the filters on the few that passed.
   cand_.clear();
+  hit_.resize(bucket_items_.size() + large_.size());
   for (int g = 0; g < n; ++g) {
     const Vec3& p = built_[g];
     alignas(16) const float pf[4] = {static_cast<float>(p.x()), static_cast<float>(p.y()),
                                      static_cast<float>(p.z()), 0.0f};
     const size_t first = cand_.size();
-    const long key = cell_key(cell_of(p.x()), cell_of(p.y()), cell_of(p.z()));
-    auto visit = [&](const FloatBox& bx, int q) {
-      if (!in_box(pf, bx.lo, bx.hi)) return;
+    const long key = vert_key_[g];
+    int nh = 0;
+    for (int it = bucket_start_[key]; it < bucket_start_[key + 1]; ++it) {
+      hit_[nh] = bucket_items_[it];
+      nh += in_box(pf, bucket_boxes_[it].lo, bucket_boxes_[it].hi);
+    }
+    for (int q : large_) {
+      hit_[nh] = q;
+      nh += in_box(pf, box_f_[q].lo, box_f_[q].hi);
+    }
+    const auto rest_begin = rest_tri_.begin() + rest_start_[g],
+               rest_end = rest_tri_.begin() + rest_start_[g + 1];
+    for (int k = 0; k < nh; ++k) {
+      const int q = hit_[k];
       const auto& tri = tri_[q];
-      if (tri[0] == g || tri[1] == g || tri[2] == g) return;
+      if (tri[0] == g || tri[1] == g || tri[2] == g) continue;
       const bool same = tri_cloth_[q] == vert_cloth_[g];
-      if (same && !settings_.self) return;
-      if (same && std::find(rest_tri_.begin() + rest_start_[g], rest_tri_.begin() + rest_start_[g + 1], q) !=
-                      rest_tri_.begin() + rest_start_[g + 1])
-        return;  // neighbours on the rest shape are not contacts
+      if (same && !settings_.self) continue;
+      if (same && std::find(rest_begin, rest_end, q) != rest_end)
+        continue;  // neighbours on the rest shape are not contacts
       cand_.emplace_back(g, q);
-    };
-    for (int it = bucket_start_[key]; it < bucket_start_[key + 1]; ++it)
-      visit(bucket_boxes_[it], bucket_items_[it]);
-    for (int q : large_) visit(box_f_[q], q);
+    }
     // This vertex's triangles in order, each once (hash collisions list a triangle once per cell).
     std::sort(cand_.begin() + first, cand_.end());
     cand_.erase(std::unique(cand_.begin() + first, cand_.end()), cand_.end());

@@ -31,14 +31,19 @@ std::unique_ptr<cloth::Simulation> build_simulation(const Scene& scene,
     sim->add_stage(std::make_unique<collision::RealtimeSelfCollisionStage>(*scene.proximity));
   collision::BodyCollisionStage* body_stage = nullptr;
   if (!colliders->empty() && scene.realtime_contact) {
-    sim->add_stage(std::make_unique<collision::RealtimeBodyContactStage>(colliders));
-    // The tier's strain limiting after contact, then contact again (positions only): strain limiting has
-    // the last word on the stretch a contact caused, body contact on penetration.
+    auto contact = std::make_unique<collision::RealtimeBodyContactStage>(colliders);
+    const collision::RealtimeBodyContactStage* first = contact.get();
+    sim->add_stage(std::move(contact));
+    // The tier's strain limiting after contact, then contact again (positions only) on the vertices the
+    // strain limiting moved: strain limiting has the last word on the stretch a contact caused, body
+    // contact on penetration.
     if (scene.strain_limit_after_contact) {
       sim->add_stage(std::make_unique<cloth::StrainLimitStage>(*scene.strain_limit_after_contact));
       collision::RealtimeContactSettings last;
       last.positions_only = true;
-      sim->add_stage(std::make_unique<collision::RealtimeBodyContactStage>(colliders, last));
+      auto final_contact = std::make_unique<collision::RealtimeBodyContactStage>(colliders, last);
+      final_contact->set_earlier(first);
+      sim->add_stage(std::move(final_contact));
     }
   } else if (!colliders->empty()) {
     collision::BodyCollisionSettings body;

@@ -56,6 +56,10 @@ class RealtimeBodyContactStage final : public cloth::Stage {
   // unresolved (vertices left inside a collider after the passes, summed over steps).
   std::vector<std::pair<std::string, double>> counters() const override;
   const ColliderSetPtr& colliders() const { return colliders_; }
+  // A positions-only stage after a constraint pass: `earlier` is the contact stage that ran before that
+  // pass on the same colliders in the same step; vertices it left where they still are (not moved by the
+  // pass) are skipped, they are outside every collider by its projection.
+  void set_earlier(const RealtimeBodyContactStage* earlier) { earlier_ = earlier; }
 
   // What one collider is this step (world data for the closed-form distances); public for the helpers.
   struct Prepared {
@@ -74,7 +78,9 @@ class RealtimeBodyContactStage final : public cloth::Stage {
  private:
   struct ColliderGrid;  // the per-step collider grid over the cloth's box
 
-  void run_cloth(cloth::Cloth& cloth, double h);
+  // unchanged: positions after the earlier stage (set_earlier), or null; unsettled: gets the vertices whose
+  // last projection pass still moved them.
+  void run_cloth(cloth::Cloth& cloth, double h, const cloth::Vec3s* unchanged, std::vector<int>& unsettled);
   // Fills the pose data of prepared_ (the same for every cloth of the step).
   void prepare_poses(const ColliderSet& set);
   // Fills the rest of prepared_ for every collider and active_ with those whose box meets the cloth's box
@@ -93,8 +99,13 @@ class RealtimeBodyContactStage final : public cloth::Stage {
   RealtimeContactSettings settings_;
   std::vector<Prepared> prepared_;
   std::vector<int> active_;  // scratch: indices of active colliders
+  std::vector<int> visit_;   // scratch: the vertices of a cloth this run visits
   std::vector<int> grid_start_, grid_items_,
       grid_fill_;  // scratch: the per-step collider grid (counting sort)
+  const RealtimeBodyContactStage* earlier_ = nullptr;
+  std::vector<cloth::Vec3s> after_;          // per cloth: positions at the end of this stage's last run (NaN:
+                                             // a vertex its passes did not settle)
+  std::vector<std::vector<int>> unsettled_;  // scratch: per cloth, vertices whose last pass moved them
   long candidates_ = 0, contacts_ = 0, ccd_tests_ = 0, ccd_hits_ = 0, unresolved_ = 0;
 };
 

@@ -2,10 +2,11 @@
 // RealtimeSelfCollisionStage ("realtime_self_collision"): the real-time tier's self- and cloth-cloth
 // collision, proximity only, on a budget. Every `every`-th step it
 //   1. broad phase, only when the cloths have moved far enough since the last one: every triangle of every
-//      cloth (its box inflated by the thickness t plus a padding P) goes into a spatial hash of cells of
-//      about one mean edge length (Teschner et al. 2003, "Optimized spatial hashing for collision detection
-//      of deformable objects": counting sort into a fixed table, no allocation per step); every vertex
-//      in the padded box of a triangle that does not hold it becomes a candidate pair, except pairs of one
+//      cloth (its box inflated by the thickness t plus a padding P) goes into the cells of a spatial hash of
+//      about two mean edge lengths that hold a vertex (Teschner et al. 2003, "Optimized spatial hashing for
+//      collision detection of deformable objects": counting sort into a fixed table, no allocation per
+//      step); every vertex in the padded box of a triangle of its cell that does not hold it (box tests
+//      without branches) becomes a candidate pair, except pairs of one
 //      cloth closer than 2t at rest (a vertex and a neighbouring triangle on flat cloth: never contacts). The
 //      list is sorted by (vertex, triangle) without duplicates. With D the
 //      largest distance of a vertex's displacement since that broad phase from a common centre (the middle
@@ -55,7 +56,8 @@ class RealtimeSelfCollisionStage final : public cloth::Stage {
   void run(cloth::StageContext& ctx) override;
   // runs, broad_phases, candidates (pairs listed, summed over broad phases), pairs (narrow-phase tests
   // past the box), contacts (projections), large_boxes (triangles whose box spans more than kMaxBoxCells
-  // cells, tested against every vertex instead) and hash_entries (cell entries), summed over broad phases.
+  // cells, tested against every vertex instead) and hash_entries (cell entries made: cells that hold a
+  // vertex), summed over broad phases.
   std::vector<std::pair<std::string, double>> counters() const override;
   void save_state(cloth::StateWriter& out) const override;
   void load_state(cloth::StateReader& in) override;
@@ -96,6 +98,9 @@ class RealtimeSelfCollisionStage final : public cloth::Stage {
   std::vector<FloatBox> run_boxes_;         // per triangle: box inflated by the thickness at the run's start
   std::vector<FloatBox> bucket_boxes_;      // per bucket entry: its triangle's padded box
   std::vector<std::array<int, 6>> tri_range_;  // per triangle: cell range lo xyz, hi xyz
+  std::vector<long> vert_key_;                 // scratch: per vertex, its table slot at the broad phase
+  std::vector<char> occupied_;                 // scratch: per table slot, a vertex reads it
+  std::vector<int> hit_;                       // scratch: one vertex's triangles whose box holds it
   std::vector<int> large_;         // triangles whose box spans too many cells: tested against every vertex
   cloth::Vec3s tri_lo_, tri_hi_;   // m, per triangle: box inflated by the thickness, this run
   std::vector<FloatPoint> start_;  // m, per global vertex: position at the run's start

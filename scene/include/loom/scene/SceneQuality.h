@@ -13,7 +13,8 @@
 //   "realtime": fast_xpbd at 12 substeps with 1 iteration (Macklin et al. 2019), tethers, cloth-cloth by
 //       proximity on a spatial hash every 2nd substep (RealtimeSelfCollisionStage), discrete per-substep body
 //       contact with culling and swept tests only where a motion could pass a collider's middle
-//       (RealtimeBodyContactStage), strain limiting to 10 % after contact, then contact again on positions.
+//       (RealtimeBodyContactStage), strain limiting to 10 % after contact, then contact again on positions
+//       (the vertices the strain limiting moved).
 //       Guarantees: no vertex inside a collider at a step's end (save pinches between colliders, counted).
 //       Gives up: stiffness beyond what 12 sweeps reach, cloth-cloth crossings faster than the proximity per
 //       2 substeps and edge-edge crossings, cloth edges against colliders thinner than the vertex spacing.
