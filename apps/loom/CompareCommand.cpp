@@ -13,6 +13,7 @@
 #include "CliValue.h"
 #include "loom/bullet/Compare.h"
 #include "loom/cloth/Error.h"
+#include "loom/cloth/OutputFile.h"
 #include "loom/eval/OutputFolder.h"
 #include "loom/scene/Scene.h"
 
@@ -121,8 +122,8 @@ int compare_main(int argc, char** argv) {
   j["bullet_substeps"] = in.bullet_substeps;
   j["bodies"] = sc.bodies.size();
   for (const auto& m : results) j[m.system] = to_json(m);
-  std::ofstream(folder.claim("compare.json")) << j.dump(2) << "\n";
-  std::ofstream csv(folder.claim("compare.csv"));
+  OutputFile(folder.claim("compare.json")) << j.dump(2) << "\n";
+  OutputFile csv(folder.claim("compare.csv"));
   csv << "system,available,ms_per_frame,max_strain,mean_strain,max_penetration,diverged\n";
   char line[512];
   for (const auto& m : results) {

@@ -224,6 +224,8 @@ TEST(RedteamOutputFolder, ARefusedRunLeavesTheFolderExactlyAsItFoundIt) {
                                                            {"animation.bin", true},
                                                            {"checkpoint", true},
                                                            {"frames", true},
+                                                           {".loom-manifest.tmp", true},
+                                                           {".loom-manifest.tmp", false},
                                                            {"frames/frame_00002.obj", false},
                                                            {"checkpoint/checkpoint.bin", false}};
   for (const auto& [planted, foreign] : cases) {
@@ -265,6 +267,8 @@ TEST(RedteamOutputFolder, AFifoWhereTheRunWritesIsRefusedNotOpened) {
                                                            {"animation.bin", true},
                                                            {"animation.gltf.tmp", true},
                                                            {"summary.json.tmp", true},
+                                                           {".loom-manifest.tmp", true},
+                                                           {".loom-manifest.tmp", false},
                                                            {"frames/frame_00002.obj", false},
                                                            {"checkpoint/checkpoint.bin", false}};
   for (const auto& [planted, foreign] : cases) {

@@ -16,6 +16,8 @@
 
 #include "AccuracyBenchInternal.h"
 #include "loom/cloth/Error.h"
+#include "loom/cloth/InputFile.h"
+#include "loom/cloth/OutputFile.h"
 #include "loom/eval/AccuracyPlot.h"
 #include "loom/eval/AccuracySweep.h"
 #include "loom/eval/OutputFolder.h"
@@ -228,7 +230,7 @@ std::vector<PlotPoint> plot_points(const std::vector<Row>& rows, size_t first) {
 // measured. False (and a message) when they cannot be written.
 bool write_results(const AccuracyOptions& o, OutputFolder& folder, const std::vector<Row>& rows,
                    const std::ostringstream& refs) {
-  std::ofstream csv(folder.claim("accuracy.csv"));
+  OutputFile csv(folder.claim("accuracy.csv"));
   csv << "system,method,size,config,threads,ms_per_frame,rms_error_max,rms_error_end,max_strain,mean_strain,"
          "energy_drift,diverged\n";
   for (const Row& r : rows)
@@ -236,7 +238,7 @@ bool write_results(const AccuracyOptions& o, OutputFolder& folder, const std::ve
         << num(r.ms_per_frame) << ',' << num(r.rms_error_max) << ',' << num(r.rms_error_end) << ','
         << num(r.max_strain) << ',' << num(r.mean_strain) << ',' << num(r.energy_drift) << ','
         << (r.diverged ? 1 : 0) << "\n";
-  std::ofstream rf(folder.claim("reference_check.csv"));
+  OutputFile rf(folder.claim("reference_check.csv"));
   rf << refs.str();
   if (!csv || !rf) {
     std::cerr << "loom: error: " << o.out << ": cannot write the results\n";
@@ -302,7 +304,8 @@ int bench_accuracy(const AccuracyOptions& o) {
                               ", cotton, 1 m, 0.2 kg, " + num(o.duration) + " s, damping off";
     if (!write_results(o, folder, rows, refs)) return 1;
     if (plot_accuracy(pts, title, png) && n == o.sizes.back())
-      fs::copy_file(png, folder.claim("accuracy.png"), fs::copy_options::overwrite_existing, ec);
+      write_file_atomically(folder.claim("accuracy.png").string(), folder.claim("accuracy.png.tmp").string(),
+                            read_input_file(png));
   }
   run_static_scenes(o, registered, rows);
   if (!write_results(o, folder, rows, refs)) return 1;
