@@ -15,7 +15,13 @@ struct Scene;
 
 constexpr std::uint64_t kMaxInputBytes = std::uint64_t(1) << 30;  // a scene, mesh or motion file: 1 GiB
 static_assert(kMaxInputBytes <= loom::kMaxInputFileBytes, "one bound for every input file");
-constexpr double kMaxCoordinate = 1e6;       // m, |x| of a mesh size, origin, translation, anchor, collider
+constexpr double kMaxCoordinate = 1e6;  // m, |x| of a mesh size, origin, translation, anchor, collider
+// m, a contact thickness: a collider's, a cloth material's, the collision block's (`thickness`, `layers`) and
+// a character's. It is the gap contact keeps between a cloth and what it touches; a collider padded by more
+// than this pushes cloth by metres in one step.
+constexpr double kMaxContactThickness = 0.1;
+// A Coulomb friction coefficient (kinetic or static); real fabric pairs lie below 2.
+constexpr double kMaxFriction = 10.0;
 constexpr double kMinMeshSize = 1e-3;        // m, a grid's side and an OBJ cloth's extent (after scale)
 constexpr double kMinMeshScale = 1e-6;       // an OBJ cloth's or collider's scale
 constexpr double kMaxAcceleration = 1e4;     // m/s^2, each component of gravity
