@@ -10,6 +10,7 @@
 
 #include "loom/cloth/Error.h"
 #include "loom/cloth/InputFile.h"
+#include "loom/cloth/OutputFile.h"
 #include "loom/eval/Hex.h"
 #include "loom/eval/OutputFolder.h"
 
@@ -198,15 +199,7 @@ void write_checkpoint(OutputFolder& out, const Checkpoint& c) {
   out.claim("checkpoint/");
   const fs::path path = out.claim("checkpoint/checkpoint.bin");
   const fs::path tmp = out.claim("checkpoint/checkpoint.bin.tmp");
-  {
-    std::ofstream f(tmp, std::ios::binary | std::ios::trunc);
-    f << encode_checkpoint(c);
-    f.flush();
-    if (!f) throw Error(tmp.string(), "", "cannot write checkpoint");
-  }
-  std::error_code ec;
-  fs::rename(tmp, path, ec);
-  if (ec) throw Error(path.string(), "", "cannot move the checkpoint into place: " + ec.message());
+  write_file_atomically(path.string(), tmp.string(), encode_checkpoint(c));
 }
 
 Checkpoint read_checkpoint(const fs::path& out) {
@@ -284,10 +277,8 @@ FrameLog::FrameLog(OutputFolder& out, long keep, std::uint64_t hash,
     if (hash_ != hash)
       throw Error(path_.string(), "--resume",
                   "the frame log changed since the checkpoint was written (hash mismatch)");
-    std::error_code ec;
-    fs::resize_file(path_, bytes, ec);
-    if (ec) throw Error(path_.string(), "", "cannot truncate the frame log: " + ec.message());
-    file_.open(path_, std::ios::binary | std::ios::app);
+    file_.open(path_.string(), OutputMode::kAppend);
+    file_.truncate(bytes);
   } else {
     file_.open(path_, std::ios::binary | std::ios::trunc);
   }

@@ -17,6 +17,7 @@
 #include <string>
 #include <vector>
 
+#include "loom/cloth/OutputFile.h"
 #include "loom/cloth/Simulation.h"
 
 namespace loom::eval {
@@ -108,7 +109,7 @@ class FrameLog {
  private:
   void put(const void* p, size_t n);
   std::filesystem::path path_;
-  std::ofstream file_;
+  OutputFile file_;
   long entries_ = 0;
   std::uint64_t hash_ = 0;
   std::vector<FrameLogEntry> kept_;

@@ -8,6 +8,7 @@
 
 #include "loom/bullet/CharacterCompare.h"
 #include "loom/characters/Character.h"
+#include "loom/cloth/OutputFile.h"
 #include "loom/scene/ScenePipeline.h"
 
 namespace loom::app {
@@ -102,8 +103,8 @@ int compare_character(const scene::Scene& sc, int frames, eval::OutputFolder& fo
   j["bullet_deformable"] = {{"available", false},    {"note", deformable_note}, {"ms_per_frame", nullptr},
                             {"max_strain", nullptr}, {"mean_strain", nullptr},  {"max_penetration", nullptr},
                             {"diverged", nullptr}};
-  std::ofstream(folder.claim("compare.json")) << j.dump(2) << "\n";
-  std::ofstream csv(folder.claim("compare.csv"));
+  OutputFile(folder.claim("compare.json")) << j.dump(2) << "\n";
+  OutputFile csv(folder.claim("compare.csv"));
   csv << "system,available,ms_per_frame,max_strain,mean_strain,max_penetration,diverged\n";
   char line[512];
   for (const bullet::CharacterMetrics* r : {&loom, &classic}) {

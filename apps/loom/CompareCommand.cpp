@@ -13,6 +13,7 @@
 #include "CliValue.h"
 #include "loom/bullet/Compare.h"
 #include "loom/cloth/Error.h"
+#include "loom/cloth/OutputFile.h"
 #include "loom/eval/OutputFolder.h"
 #include "loom/scene/Scene.h"
 #include "loom/scene/ScenePipeline.h"
@@ -144,8 +145,8 @@ int compare_main(int argc, char** argv) {
   j["quality"] = sc.quality.name;
   j["loom_tier"] = results[0].tier;  // the bridge's tier Loom ran: "coupled" or "setup"
   for (const auto& m : results) j[m.system] = to_json(m);
-  std::ofstream(folder.claim("compare.json")) << j.dump(2) << "\n";
-  std::ofstream csv(folder.claim("compare.csv"));
+  OutputFile(folder.claim("compare.json")) << j.dump(2) << "\n";
+  OutputFile csv(folder.claim("compare.csv"));
   csv << "system,available,ms_per_frame,max_strain,mean_strain,max_penetration,diverged\n";
   char line[512];
   for (const auto& m : results) {

@@ -14,6 +14,7 @@
 #include "CliValue.h"
 #include "loom/cloth/Error.h"
 #include "loom/cloth/Model.h"
+#include "loom/cloth/OutputFile.h"
 #include "loom/eval/FabricTests.h"
 #include "loom/eval/OutputFolder.h"
 
@@ -59,13 +60,13 @@ void write_report(eval::OutputFolder& folder, const eval::FabricTestResult& r) {
   const fs::path& dir = folder.dir();
   for (const char* f : {"curve.csv", "report.md", "plot.gp", "plot.png"}) folder.claim(f);
   {
-    std::ofstream csv(dir / "curve.csv");
+    OutputFile csv(dir / "curve.csv");
     csv << "series,x,y\n";
     for (const auto& [x, y] : r.curve) csv << "simulated," << x << ',' << y << "\n";
     for (const auto& [x, y] : r.theory_curve) csv << "theory," << x << ',' << y << "\n";
     if (!csv) throw Error((dir / "curve.csv").string(), "", "write failed");
   }
-  std::ofstream md(dir / "report.md");
+  OutputFile md(dir / "report.md");
   md << "# Fabric test: " << r.test << "\n\n"
      << "| | |\n|---|---|\n"
      << "| material | " << r.material << " |\n| model | " << r.model << " |\n| resolution | " << r.resolution
@@ -79,7 +80,7 @@ void write_report(eval::OutputFolder& folder, const eval::FabricTestResult& r) {
   // The plot, through gnuplot when it is installed.
   const std::string gp = (dir / "plot.gp").string();
   {
-    std::ofstream g(gp);
+    OutputFile g(gp);
     const bool shape = r.test == "cantilever" || r.test == "catenary" || r.test == "drape";
     g << "set terminal pngcairo size 640,480 noenhanced\nset output '" << (dir / "plot.png").string() << "'\n"
       << "set datafile separator ','\nset key bottom left\nset grid\n"
@@ -97,7 +98,7 @@ void write_report(eval::OutputFolder& folder, const eval::FabricTestResult& r) {
     script.assign(std::istreambuf_iterator<char>(in), {});
   }
   for (size_t p; (p = script.find("$1 eq")) != std::string::npos;) script.replace(p, 5, "strcol(1) eq");
-  std::ofstream(gp) << script;
+  OutputFile(gp) << script;
   if (std::system("command -v gnuplot >/dev/null 2>&1") == 0 &&
       std::system(("gnuplot '" + gp + "' >/dev/null 2>&1").c_str()) == 0) {
     md << "![plot](plot.png)\n";

@@ -25,6 +25,7 @@
 #ifdef LOOM_HAVE_CHARACTER_COMPARE
 #include "CompareCharacter.h"
 #include "loom/bullet/CharacterCompare.h"
+#include "loom/cloth/OutputFile.h"
 #endif
 
 namespace loom::app {
@@ -161,7 +162,7 @@ scene::Scene with(const std::string& path, const std::vector<std::string>& sets)
 void write(eval::OutputFolder& folder, const std::string& name, const std::string& title,
            const std::vector<Row>& rows, bool bodies = false) {
   for (const char* ext : {".png", ".dat", ".gp"}) folder.claim(name + ext);  // the plot's files
-  std::ofstream csv(folder.claim(name + ".csv"));
+  OutputFile csv(folder.claim(name + ".csv"));
   csv << "system,ms_per_frame,rms_error_m,max_penetration_m,max_strain,finite"
       << (bodies ? ",bodies_through\n" : "\n");
   std::vector<PlotPoint> points;

@@ -30,6 +30,7 @@
 #ifdef LOOM_HAVE_BULLET
 #include "loom/bullet/BulletScene.h"
 #endif
+#include "loom/cloth/OutputFile.h"
 #include "loom/collision/MultiClothCensus.h"
 #include "loom/scene/Scene.h"
 #include "loom/scene/SceneLimits.h"
@@ -55,7 +56,7 @@ volatile std::sig_atomic_t g_interrupted = 0;
 extern "C" void on_sigint(int) { g_interrupted = 1; }
 
 void write_obj(const fs::path& path, const std::vector<std::unique_ptr<cloth::Cloth>>& cloths) {
-  std::ofstream out(path);
+  OutputFile out(path);
   if (!out) throw Error(path.string(), "", "cannot write frame");
   out << std::setprecision(9);
   int base = 1;
@@ -66,19 +67,13 @@ void write_obj(const fs::path& path, const std::vector<std::unique_ptr<cloth::Cl
       out << "f " << t[0] + base << ' ' << t[1] + base << ' ' << t[2] + base << "\n";
     base += c->state().size();
   }
+  out.close();
   if (!out) throw Error(path.string(), "", "write failed");
 }
 
 // Writes `text` to `path` through a temporary file `tmp` and a rename, so a reader never sees half a file.
 void write_atomically(const fs::path& path, const fs::path& tmp, const std::string& text) {
-  {
-    std::ofstream out(tmp);
-    out << text;
-    if (!out) throw Error(path.string(), "", "write failed");
-  }
-  std::error_code ec;
-  fs::rename(tmp, path, ec);
-  if (ec) throw Error(path.string(), "", "cannot move into place: " + ec.message());
+  write_file_atomically(path.string(), tmp.string(), text);
 }
 
 // The first cloth (by name) with a non-finite position, or an empty string.
@@ -294,7 +289,7 @@ class SceneRun {
   int digits_ = 5;
   bool obj_ = false;
   fs::path stats_partial_;
-  std::ofstream csv_, bodies_csv_;
+  OutputFile csv_, bodies_csv_;
   std::unique_ptr<exporter::Exporters> exports_;
 #ifdef LOOM_HAVE_RENDER
   std::unique_ptr<render::Recording> recording_;  // --render: positions kept, rendered after the run
@@ -581,20 +576,21 @@ bool SceneRun::stopped_non_finite(const cloth::FrameStats& s, int f) {
 }
 
 // Ctrl-C (SIGINT) stops the loop within the frame in progress (that frame is dropped, the state is the last
-// frame written); the run then writes a checkpoint and valid outputs. A scene with rigid bodies stops at the
-// next frame boundary (the Bullet world has no frame-start snapshot).
+// frame written); the run then writes a checkpoint and valid outputs. A scene with rigid bodies stops within
+// the frame too (the cloth within its step, the Bullet world's remaining substeps without cloth) and writes
+// no checkpoint (the Bullet world is not saved); its outputs hold the frames before.
 void SceneRun::step_frames() {
   ProgressBar bar(frames_);
   g_interrupted = 0;
   auto old_handler = std::signal(SIGINT, on_sigint);
-  if (resumable_) sim_->set_stop_flag(&g_interrupted);
+  sim_->set_stop_flag(&g_interrupted);
   for (int f = first_ + 1; f <= frames_ && finite_; ++f) {
     if (g_interrupted) {
       interrupted_ = true;
       break;
     }
     const cloth::FrameStats s = pipeline_->step_frame();
-    if (sim_->interrupted()) {
+    if (pipeline_->interrupted()) {
       interrupted_ = true;
       break;
     }
@@ -726,7 +722,10 @@ int SceneRun::finish() {
   render_video();
   csv_.close();
   if (!csv_) throw Error(stats_partial_.string(), "", "write failed");
-  fs::rename(stats_partial_, folder_->claim("stats.csv"));
+  const fs::path stats = folder_->claim("stats.csv");
+  std::error_code ec;
+  fs::rename(stats_partial_, stats, ec);
+  if (ec) throw Error(stats.string(), "", "cannot move into place: " + ec.message());
   write_atomically(folder_->claim("summary.json"), folder_->claim("summary.json.tmp"),
                    summary().dump(2) + "\n");
   if (o_.profile) print_profile(*sim_, done_);

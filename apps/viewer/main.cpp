@@ -26,6 +26,7 @@
 #include "gl/ColliderShapes.h"
 #include "gl/Draw.h"
 #include "loom/cloth/Error.h"
+#include "loom/cloth/OutputFile.h"
 #include "loom/cloth/Solver.h"
 #include "loom/scene/Scene.h"
 
@@ -270,7 +271,16 @@ void save_screenshot(const std::string& file, int w, int h) {
   glReadBuffer(GL_BACK);
   glReadPixels(0, 0, w, h, GL_RGB, GL_UNSIGNED_BYTE, rgb.data());
   stbi_flip_vertically_on_write(1);
-  if (!stbi_write_png(file.c_str(), w, h, 3, rgb.data(), 3 * w)) throw Error(file, "", "cannot write PNG");
+  std::string png;
+  const auto append = [](void* context, void* data, int size) {
+    static_cast<std::string*>(context)->append(static_cast<const char*>(data), static_cast<size_t>(size));
+  };
+  if (!stbi_write_png_to_func(append, &png, w, h, 3, rgb.data(), 3 * w))
+    throw Error(file, "", "cannot encode PNG");
+  OutputFile out(file);  // never through a link or into a FIFO at the path
+  out << png;
+  out.close();
+  if (!out) throw Error(file, "", "write failed");
 }
 
 int run(const Options& o) {

@@ -335,6 +335,9 @@ void BulletCloth::updateAction(btCollisionWorld* world, btScalar dt_bt) {
     throw Error("", "BulletCloth",
                 "Bullet substep " + std::to_string(dt) + " s differs from fixed_dt " +
                     std::to_string(settings_.fixed_dt) + " s (use stepSimulation(frame, max, fixed_dt))");
+  // A stop request (Simulation::set_stop_flag): no cloth step, no reaction on the bodies, for the rest of
+  // the frame (BulletScene::interrupted).
+  if (sim_->stop_requested()) return;
   const std::vector<btRigidBody*> bodies = candidate_bodies(world);
   std::vector<btRigidBody*> coupled;  // Tier::realtime: dynamic bodies solved with the cloth
   make_colliders(bodies, dt, coupled);
@@ -346,6 +349,7 @@ void BulletCloth::updateAction(btCollisionWorld* world, btScalar dt_bt) {
   substep_t0_ = sim_->time();
   double pen = 0.0;
   last_stats_ = sim_->step_frame();
+  if (sim_->interrupted()) return;  // back at this substep's start: no reaction from an abandoned step
   pen = coupling_   ? coupling_->last_penetration()
         : contacts_ ? contacts_->last_penetration()
         : features_ ? features_->last_penetration()

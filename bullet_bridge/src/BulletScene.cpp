@@ -148,6 +148,7 @@ cloth::FrameStats BulletScene::step_frame() {
   world_->world.addAction(&tap);  // after the cloth: actions run in the order added
   world_->world.stepSimulation(btScalar(frame_dt_), substeps_ + 1, btScalar(frame_dt_ / substeps_));
   world_->world.removeAction(&tap);
+  interrupted_ = simulation().stop_requested();
   ++frame_;
   cloth::FrameStats out = cloth_->substeps() > before ? cloth_->last_stats() : simulation().measure();
   out.frame = frame_;

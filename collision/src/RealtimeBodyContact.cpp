@@ -126,6 +126,17 @@ void RealtimeBodyContactStage::run(cloth::StageContext& ctx) {
   }
 }
 
+namespace {
+
+// floor(v) clamped to [lo, hi] for any v: NaN and values past int give a bound, never an out-of-range cast.
+int clamped_cell(double v, int lo, int hi) {
+  if (!(v >= lo)) return lo;
+  if (v >= hi) return hi;
+  return static_cast<int>(v);
+}
+
+}  // namespace
+
 // A coarse grid over the cloth's box: each cell lists the active colliders whose box meets it, so a vertex
 // tests the boxes of a few colliders (a character's neighbouring bones), not of all of them.
 struct RealtimeBodyContactStage::ColliderGrid {
@@ -133,7 +144,7 @@ struct RealtimeBodyContactStage::ColliderGrid {
   int dims[3];
   Vec3 inv_cell;
   int cell_of(const Vec3& p, int a) const {
-    return std::clamp(static_cast<int>((p[a] - lo[a]) * inv_cell[a]), 0, dims[a] - 1);
+    return clamped_cell((p[a] - lo[a]) * inv_cell[a], 0, dims[a] - 1);
   }
   int cell_index(const Vec3& p) const {
     return (cell_of(p, 2) * dims[1] + cell_of(p, 1)) * dims[0] + cell_of(p, 0);
@@ -245,7 +256,7 @@ RealtimeBodyContactStage::ColliderGrid RealtimeBodyContactStage::build_grid(cons
   g.lo = lo;
   int* dims = g.dims;
   const Vec3 extent = (hi - lo).cwiseMax(Vec3::Constant(1e-9));
-  for (int a = 0; a < 3; ++a) dims[a] = std::clamp(static_cast<int>(extent[a] / kGridCell), 1, kMaxGridDim);
+  for (int a = 0; a < 3; ++a) dims[a] = clamped_cell(extent[a] / kGridCell, 1, kMaxGridDim);
   g.inv_cell = Vec3(dims[0] / extent.x(), dims[1] / extent.y(), dims[2] / extent.z());
   const int num_cells = dims[0] * dims[1] * dims[2];
   grid_start_.assign(num_cells + 1, 0);

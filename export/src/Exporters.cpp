@@ -8,6 +8,7 @@
 #include <set>
 
 #include "loom/cloth/Error.h"
+#include "loom/cloth/OutputFile.h"
 
 namespace loom::exporter {
 
@@ -20,7 +21,7 @@ bool has(const std::vector<std::string>& v, const char* s) {
 }
 
 void write_mesh_obj(const fs::path& path, const cloth::Cloth& c) {
-  std::ofstream out(path);
+  OutputFile out(path);
   if (!out) throw Error(path.string(), "", "cannot write");
   out << std::setprecision(9) << "o " << c.name() << "\n";
   for (const cloth::Vec3& p : c.state().x) out << "v " << p.x() << ' ' << p.y() << ' ' << p.z() << "\n";

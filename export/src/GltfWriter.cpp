@@ -7,6 +7,7 @@
 #include <nlohmann/json.hpp>
 
 #include "loom/cloth/Error.h"
+#include "loom/cloth/OutputFile.h"
 
 namespace loom::exporter {
 
@@ -169,12 +170,7 @@ void GltfWriter::finish() {
   j["accessors"] = accessors;
 
   const std::string tmp = gltf_path_ + ".tmp";
-  {
-    std::ofstream out(tmp);
-    out << j.dump() << "\n";
-    if (!out) throw Error(gltf_path_, "", "write failed");
-  }
-  fs::rename(tmp, gltf_path_);
+  write_file_atomically(gltf_path_, tmp, j.dump() + "\n");
 }
 
 }  // namespace loom::exporter

@@ -6,6 +6,7 @@
 #include <cstdio>
 #include <cstdlib>
 #include <filesystem>
+#include <string>
 
 #include "gl/ColliderShapes.h"
 #include "loom/cloth/Error.h"
@@ -108,11 +109,22 @@ std::string quote(const std::string& s) {
   return q + "'";
 }
 
-void run_ffmpeg(const std::string& args, const std::string& target) {
-  const std::string cmd = "ffmpeg -hide_banner -loglevel error -y " + args + " </dev/null";
+// ffmpeg writes `target` as a new file in a private folder made by mkdtemp (mode 0700, a fresh random name)
+// inside `out`, which is then renamed into place: ffmpeg never opens a path where something could have been
+// planted (a link it would follow, a FIFO it would block on). `args` ends with the output format option.
+void run_ffmpeg(const fs::path& out, const std::string& args, const std::string& target) {
+  std::string tmpl = (out / ".loom-ffmpeg-XXXXXX").string();
+  if (!::mkdtemp(tmpl.data())) throw Error(out.string(), "--render", "cannot create a temporary folder");
+  const fs::path staged = fs::path(tmpl) / fs::path(target).filename();
+  const std::string cmd = "ffmpeg -hide_banner -loglevel error -n " + args + " " +
+                          quote(fs::absolute(staged).string()) + " </dev/null";
   const int status = std::system(cmd.c_str());
-  if (status != 0 || !fs::exists(target))
-    throw Error(target, "--render", "ffmpeg failed (command: " + cmd + ")");
+  std::error_code ec;
+  const bool made = fs::is_regular_file(fs::symlink_status(staged, ec));
+  if (status == 0 && made) fs::rename(staged, target, ec);
+  const bool moved = status == 0 && made && !ec;
+  fs::remove_all(tmpl, ec);
+  if (!moved) throw Error(target, "--render", "ffmpeg failed (command: " + cmd + ")");
 }
 
 }  // namespace
@@ -163,17 +175,17 @@ RenderReport render_recording(const std::string& out_dir, const Recording& rec,
   const std::string input = std::string("-framerate ") + rate + " -i " + quote(pattern + "/frame_%05d.png");
   rep.mp4 = (out / "render.mp4").string();
   // H.264 needs even sizes: pad by one pixel when the image is odd.
-  run_ffmpeg(
-      input +
-          " -vf 'pad=ceil(iw/2)*2:ceil(ih/2)*2' -c:v libx264 -pix_fmt yuv420p -crf 20 -movflags +faststart " +
-          quote(std::filesystem::absolute(rep.mp4).string()),
-      rep.mp4);
+  run_ffmpeg(out,
+             input +
+                 " -vf 'pad=ceil(iw/2)*2:ceil(ih/2)*2' -c:v libx264 -pix_fmt yuv420p -crf 20 "
+                 "-movflags +faststart -f mp4",
+             rep.mp4);
   rep.gif = (out / "render.gif").string();
-  run_ffmpeg(input +
+  run_ffmpeg(out,
+             input +
                  " -t 4 -vf "
                  "'fps=15,scale=320:-1:flags=lanczos,split[a][b];[a]palettegen=max_colors=96[p];[b][p]"
-                 "paletteuse=dither=bayer:bayer_scale=4' -loop 0 " +
-                 quote(std::filesystem::absolute(rep.gif).string()),
+                 "paletteuse=dither=bayer:bayer_scale=4' -loop 0 -f gif",
              rep.gif);
   return rep;
 }

@@ -137,6 +137,22 @@ double JsonReader::length(const std::string& key, std::optional<double> fallback
   return v;
 }
 
+double JsonReader::thickness(const std::string& key, std::optional<double> fallback, bool strict) const {
+  const double v = number(key, fallback, 0.0, strict);
+  if (v > kMaxContactThickness)
+    fail(key, "must be <= " + show_number(kMaxContactThickness) + " m, a contact thickness (got " +
+                  show_number(v) + ")");
+  return v;
+}
+
+double JsonReader::friction(const std::string& key, std::optional<double> fallback) const {
+  const double v = number(key, fallback, 0.0);
+  if (v > kMaxFriction)
+    fail(key,
+         "must be <= " + show_number(kMaxFriction) + ", a Coulomb coefficient (got " + show_number(v) + ")");
+  return v;
+}
+
 cloth::Vec3 JsonReader::point(const std::string& key, std::optional<cloth::Vec3> fallback) const {
   const cloth::Vec3 p = vec3(key, fallback);
   if (!(p.cwiseAbs().maxCoeff() <= kMaxCoordinate))

@@ -56,13 +56,15 @@ cloth::Material parse_material(const JsonReader& cloth_reader, const std::string
     cloth::CloStyleParameters p;
     p.weight = c.number("weight", p.weight, 0.0, true);
     p.thickness = c.number("thickness", p.thickness, 0.0);  // mm
-    if (p.thickness > 1000.0 * kMaxCoordinate) c.fail("thickness", "must be <= 1e9 mm");
+    if (p.thickness > 1000.0 * kMaxContactThickness)
+      c.fail("thickness",
+             "must be <= " + show(1000.0 * kMaxContactThickness) + " mm (got " + show(p.thickness) + ")");
     p.stretch_weft = c.number("stretch_weft", p.stretch_weft, 0.0, true);
     p.stretch_warp = c.number("stretch_warp", p.stretch_warp, 0.0, true);
     p.shear = c.number("shear", p.shear, 0.0);
     p.bending_weft = c.number("bending_weft", p.bending_weft, 0.0);
     p.bending_warp = c.number("bending_warp", p.bending_warp, 0.0);
-    p.friction = c.number("friction", p.friction, 0.0);
+    p.friction = c.friction("friction", p.friction);
     p.internal_damping = c.number("internal_damping", p.internal_damping, 0.0);
     c.finish();
     m = cloth::from_clo_style(p);
@@ -85,8 +87,8 @@ cloth::Material parse_material(const JsonReader& cloth_reader, const std::string
   non_negative("bend_warp", m.bend_warp);
   positive("areal_density", m.areal_density);
   non_negative("damping", m.damping);
-  non_negative("friction", m.friction);
-  m.thickness = r.length("thickness", m.thickness);
+  m.friction = r.friction("friction", m.friction);
+  m.thickness = r.thickness("thickness", m.thickness);
   r.finish();
   return m;
 }

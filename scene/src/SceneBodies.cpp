@@ -150,8 +150,11 @@ void parse_bodies(const JsonReader& root, Scene& scene) {
     if (!(b.velocity.norm() <= 1000.0)) r.fail("velocity", "must be at most 1000 m/s");
     b.angular_velocity = r.vec3("angular_velocity", Vec3::Zero());
     if (!(b.angular_velocity.norm() <= 10000.0)) r.fail("angular_velocity", "must be at most 10000 rad/s");
-    b.friction = r.number("friction", b.friction, 0.0);
+    b.friction = r.friction("friction", b.friction);
+    // Restitution above 1 gives energy at every bounce.
     b.restitution = r.number("restitution", b.restitution, 0.0);
+    if (b.restitution > 1.0)
+      r.fail("restitution", "must be in [0, 1] (got " + show_count(b.restitution) + ")");
     if (r.has("motion")) {
       if (b.mass > 0.0) r.fail("motion", "a kinematic body has mass 0");
       b.motion = parse_body_motion(r.object("motion"), b.pose);

@@ -113,8 +113,8 @@ void parse_character(const JsonReader& root, Scene& scene) {
   const double capsule_gap = c.length("capsule_gap", 0.02);  // m
   const bool fit_radii = c.boolean("fit_radii", true);
   if (fit_radii) character->rig.fit_to_motion(character->motion, capsule_gap);
-  character->friction = c.number("friction", character->friction, 0.0);
-  character->thickness = c.length("thickness", character->thickness);
+  character->friction = c.friction("friction", character->friction);
+  character->thickness = c.thickness("thickness", character->thickness);
   if (c.has("garments")) {
     const auto garments = c.objects("garments");
     cloth::Vec3s layers;  // m, vertices of the garments made so far

@@ -1,9 +1,11 @@
 #include "loom/scene/SceneColliders.h"
 
 #include <algorithm>
+#include <array>
 #include <cmath>
 #include <filesystem>
 #include <fstream>
+#include <map>
 #include <optional>
 #include <sstream>
 
@@ -51,6 +53,23 @@ bool degenerate(const std::vector<Vec3>& x, const cloth::Tri& t) {
   return !(e1.cross(e2).norm() > 1e-10 * longest);
 }
 
+// The triangles seen so far by their three vertices (in any order and winding): a triangle repeated (the
+// same face twice, or once per side) gives a two-sided mesh collider two coincident faces whose contacts
+// count twice and whose normals may oppose each other.
+class TriangleSet {
+ public:
+  // The index of the earlier triangle with the vertices of `t`, or -1 (and `t` is recorded as `index`).
+  long long repeat_of(const cloth::Tri& t, long long index) {
+    std::array<int, 3> key = {t[0], t[1], t[2]};
+    std::sort(key.begin(), key.end());
+    const auto [it, added] = seen_.emplace(key, index);
+    return added ? -1 : it->second;
+  }
+
+ private:
+  std::map<std::array<int, 3>, long long> seen_;
+};
+
 // `rotation`: {"axis": [x, y, z], "degrees": a} (right-handed about the axis).
 Eigen::Matrix3d parse_rotation(const JsonReader& r, const std::string& key) {
   if (!r.has(key)) return Eigen::Matrix3d::Identity();
@@ -95,6 +114,7 @@ void read_obj(const std::string& path, double scale, std::vector<Vec3>& vertices
                   "line " + std::to_string(obj.position_lines[i]) + " (vertex " + std::to_string(i) + ")",
                   "times the scale, it is beyond +-" + kCoordinateLimit + " m");
   }
+  TriangleSet seen;
   for (const cloth::ObjFace& f : obj.faces) {
     for (size_t j = 1; j + 1 < f.corners.size(); ++j) {
       tris.push_back({f.corners[0].v, f.corners[j].v, f.corners[j + 1].v});
@@ -102,6 +122,11 @@ void read_obj(const std::string& path, double scale, std::vector<Vec3>& vertices
         throw Error(path, loom::line_where(f.line, f.text),
                     "triangle " + std::to_string(tris.size() - 1) +
                         " has zero area (repeated or collinear vertices: a degenerate triangle)");
+      const long long index = static_cast<long long>(tris.size()) - 1;
+      if (const long long earlier = seen.repeat_of(tris.back(), index); earlier >= 0)
+        throw Error(path, loom::line_where(f.line, f.text),
+                    "triangle " + std::to_string(index) + " repeats triangle " + std::to_string(earlier) +
+                        " (the same three vertices): a mesh collider's faces must be distinct");
     }
   }
   if (vertices.empty()) throw Error(path, "", "no vertices");
@@ -226,6 +251,7 @@ void parse_colliders(const JsonReader& root, Scene& scene) {
           const nlohmann::json& t = r.raw("triangles");
           if (!t.is_array() || t.empty())
             r.fail("triangles", "expected an array of [i, j, k] vertex indices");
+          TriangleSet seen;
           for (size_t k = 0; k < t.size(); ++k) {
             const auto& e = t[k];
             const std::string where = "triangles[" + std::to_string(k) + "]";
@@ -242,6 +268,9 @@ void parse_colliders(const JsonReader& root, Scene& scene) {
             if (degenerate(s.vertices, tri))
               r.fail(where, "triangle " + std::to_string(k) +
                                 " has zero area (repeated or collinear vertices: a degenerate triangle)");
+            if (const long long earlier = seen.repeat_of(tri, static_cast<long long>(k)); earlier >= 0)
+              r.fail(where, "repeats triangles[" + std::to_string(earlier) +
+                                "] (the same three vertices): a mesh collider's faces must be distinct");
           }
         }
       }
@@ -256,9 +285,9 @@ void parse_colliders(const JsonReader& root, Scene& scene) {
     }
     const Transform start = parse_pose(r);
     c.prev = c.curr = start;
-    c.thickness = r.length("thickness", 0.0, false);
-    c.friction = r.number("friction", c.friction, 0.0);
-    c.static_friction = r.number("static_friction", std::max(c.static_friction, c.friction), 0.0);
+    c.thickness = r.thickness("thickness", 0.0);
+    c.friction = r.friction("friction", c.friction);
+    c.static_friction = r.friction("static_friction", std::max(c.static_friction, c.friction));
     if (c.static_friction < c.friction) r.fail("static_friction", "must be >= friction");
     if (r.has("motion")) {
       c.motion = parse_motion(r.object("motion"), start, scene.duration);

@@ -13,7 +13,7 @@ void parse_collision(const JsonReader& root, Scene& scene) {
   collision::SelfCollisionSettings s;
   s.self = c.boolean("self", true);
   const int n = static_cast<int>(scene.setup.cloths.size());
-  const double all = c.length("thickness", 0.0);  // 0: each cloth's material thickness
+  const double all = c.thickness("thickness", 0.0);  // 0: each cloth's material thickness
   s.thickness.assign(n, 0.0);
   for (int i = 0; i < n; ++i) s.thickness[i] = all > 0.0 ? all : scene.setup.cloths[i].material.thickness;
   if (c.has("layers")) {
@@ -22,16 +22,17 @@ void parse_collision(const JsonReader& root, Scene& scene) {
       c.fail("layers", "expected one thickness per cloth (" + std::to_string(n) + "), got " +
                            std::to_string(layers.size()));
     for (int i = 0; i < n; ++i) {
-      if (!(layers[i] > 0.0) || layers[i] > kMaxCoordinate)
-        c.fail("layers", "entry " + std::to_string(i) + " must be in (0, " +
-                             std::to_string(static_cast<long>(kMaxCoordinate)) + "] m");
+      if (!(layers[i] > 0.0) || layers[i] > kMaxContactThickness)
+        c.fail("layers[" + std::to_string(i) + "]", "must be in (0, " + show_count(kMaxContactThickness) +
+                                                        "] m, a contact thickness (got " +
+                                                        show_count(layers[i]) + ")");
       s.thickness[i] = layers[i];
     }
   }
   for (int i = 0; i < n; ++i)
     if (!(s.thickness[i] > 0.0)) c.fail("thickness", "cloth " + std::to_string(i) + " has no thickness > 0");
-  if (c.has("friction")) s.friction = c.number("friction", std::nullopt, 0.0);
-  if (c.has("static_friction")) s.static_friction = c.number("static_friction", std::nullopt, 0.0);
+  if (c.has("friction")) s.friction = c.friction("friction");
+  if (c.has("static_friction")) s.static_friction = c.friction("static_friction");
   if (s.static_friction >= 0.0 && s.friction >= 0.0 && s.static_friction < s.friction)
     c.fail("static_friction", "must be >= friction");
   s.passes = c.integer("passes", s.passes, 0, 1000);
@@ -49,7 +50,7 @@ void parse_collision(const JsonReader& root, Scene& scene) {
   if (method == "proximity") {
     collision::RealtimeSelfSettings p;
     p.self = s.self;
-    p.thickness = c.length("thickness", p.thickness, true);
+    p.thickness = c.thickness("thickness", p.thickness, true);
     p.every = c.integer("every", tier.self_every, 1);
     p.padding = c.number("padding", p.padding, 0.0, true);
     // A margin of motion between broad phases, not a reach: past a metre every pair of a garment would
@@ -76,8 +77,8 @@ void parse_collision(const JsonReader& root, Scene& scene) {
           if (scene.colliders[k].name == b) fp.collider = static_cast<int>(k);
         if (fp.collider < 0) f.fail("b", "no cloth or collider named '" + b + "'");
       }
-      fp.friction = f.number("friction", std::nullopt, 0.0);
-      fp.static_friction = f.number("static_friction", fp.friction, 0.0);
+      fp.friction = f.friction("friction");
+      fp.static_friction = f.friction("static_friction", fp.friction);
       if (fp.static_friction < fp.friction) f.fail("static_friction", "must be >= friction");
       f.finish();
       s.friction_pairs.push_back(fp);

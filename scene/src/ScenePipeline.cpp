@@ -60,6 +60,13 @@ cloth::FrameStats ScenePipeline::step_frame() {
   return sim_->step_frame();
 }
 
+bool ScenePipeline::interrupted() const {
+#ifdef LOOM_HAVE_BULLET
+  if (bullet_) return bullet_->interrupted();
+#endif
+  return live_->interrupted();
+}
+
 std::unique_ptr<ScenePipeline> build_pipeline(Scene scene) {
   apply_scene_defaults(scene);
   std::unique_ptr<ScenePipeline> p(new ScenePipeline());

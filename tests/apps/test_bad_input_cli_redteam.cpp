@@ -224,6 +224,8 @@ TEST(RedteamOutputFolder, ARefusedRunLeavesTheFolderExactlyAsItFoundIt) {
                                                            {"animation.bin", true},
                                                            {"checkpoint", true},
                                                            {"frames", true},
+                                                           {".loom-manifest.tmp", true},
+                                                           {".loom-manifest.tmp", false},
                                                            {"frames/frame_00002.obj", false},
                                                            {"checkpoint/checkpoint.bin", false}};
   for (const auto& [planted, foreign] : cases) {
@@ -265,6 +267,8 @@ TEST(RedteamOutputFolder, AFifoWhereTheRunWritesIsRefusedNotOpened) {
                                                            {"animation.bin", true},
                                                            {"animation.gltf.tmp", true},
                                                            {"summary.json.tmp", true},
+                                                           {".loom-manifest.tmp", true},
+                                                           {".loom-manifest.tmp", false},
                                                            {"frames/frame_00002.obj", false},
                                                            {"checkpoint/checkpoint.bin", false}};
   for (const auto& [planted, foreign] : cases) {
@@ -474,17 +478,25 @@ TEST(RedteamCheckpoint, GltfClipBuffersAreHashedAndAChangedBufferIsRefused) {
       << resumed.err;
 }
 
-// A body contact thickness far larger than the cloth (1e6 m) flings the cloth in the first frame: the guard
-// rolls the frame back and retries it, which restores the self-collision stage to its state before its first
-// run; the run then stops with the guard's named cause (exit 3), never a crash, and writes no NaN.
+// A cloth that explodes in the first frame (a stretch stiffness of 1e12 N/m) with the proximity
+// self-collision: the guard rolls the frame back and retries it, which restores the self-collision stage to
+// its state before its first run; the run then stops with the guard's named cause (exit 3), never a crash,
+// and writes no NaN. (A contact thickness far larger than the cloth, the other way to fling it in frame 1, is
+// refused by the scene: the `*_thickness_*` rows.)
 TEST(RedteamGuard, AFirstFrameRetryWithSelfCollisionStopsByTheGuard) {
   const fs::path dir = test_dir(), out = dir / "out";
-  const auto r =
-      run_loom("run " + std::string(LOOM_SOURCE_DIR) +
-               "/scenes/character_cape.json --frames 1 --set character.thickness=1e6 --out " + out.string());
+  const auto r = run_loom("run " + std::string(LOOM_SOURCE_DIR) +
+                          "/scenes/hanging_cloth.json --frames 1 --set 'collision={\"method\":\"proximity\"}'"
+                          " --set cloths[0].material.stretch=1e12 --set 'cloths[0].mesh.nodes=[9,9]'"
+                          " --set guard.max_halvings=2 --out " +
+                          out.string());
   EXPECT_EQ(r.code, 3) << r.err;
-  EXPECT_NE(r.err.find("exploded"), std::string::npos) << r.err;
+  EXPECT_NE(r.err.find("non-finite"), std::string::npos) << r.err;
   EXPECT_NE(r.err.find("in frame 1"), std::string::npos) << r.err;
+  EXPECT_NE(r.err.find("also with 400 substeps"), std::string::npos) << r.err;  // retried twice
+  const auto summary = nlohmann::json::parse(slurp(out / "summary.json"));
+  EXPECT_EQ(summary["frames"], 0);
+  EXPECT_EQ(summary["finite"], false);
 }
 
 // A field that makes a garment impossible is refused by that field, never by the garment's first bad

@@ -16,6 +16,8 @@
 
 #include "AccuracyBenchInternal.h"
 #include "loom/cloth/Error.h"
+#include "loom/cloth/InputFile.h"
+#include "loom/cloth/OutputFile.h"
 #include "loom/eval/AccuracyPlot.h"
 #include "loom/eval/AccuracySweep.h"
 #include "loom/eval/CsvNumber.h"
@@ -233,7 +235,7 @@ std::vector<PlotPoint> plot_points(const std::vector<Row>& rows, size_t first) {
 // measured. False (and a message) when they cannot be written.
 bool write_results(const AccuracyOptions& o, OutputFolder& folder, const std::vector<Row>& rows,
                    const std::ostringstream& refs) {
-  std::ofstream csv(folder.claim("accuracy.csv"));
+  OutputFile csv(folder.claim("accuracy.csv"));
   csv << "system,method,size,config,threads,ms_per_frame,rms_error_max,rms_error_end,max_strain,mean_strain,"
          "energy_drift,diverged\n";
   for (const Row& r : rows)
@@ -241,7 +243,7 @@ bool write_results(const AccuracyOptions& o, OutputFolder& folder, const std::ve
         << csv_number(r.ms_per_frame) << ',' << csv_number(r.rms_error_max) << ','
         << csv_number(r.rms_error_end) << ',' << csv_number(r.max_strain) << ',' << csv_number(r.mean_strain)
         << ',' << csv_number(r.energy_drift) << ',' << (r.diverged ? 1 : 0) << "\n";
-  std::ofstream rf(folder.claim("reference_check.csv"));
+  OutputFile rf(folder.claim("reference_check.csv"));
   rf << refs.str();
   if (!csv || !rf) {
     std::cerr << "loom: error: " << o.out << ": cannot write the results\n";
@@ -323,7 +325,8 @@ int bench_accuracy(const AccuracyOptions& o) {
                               ", cotton, 1 m, 0.2 kg, " + num(o.duration) + " s, damping off";
     if (!write_results(o, folder, rows, refs)) return 1;
     if (plot_accuracy(pts, title, png) && n == o.sizes.back())
-      fs::copy_file(png, folder.claim("accuracy.png"), fs::copy_options::overwrite_existing, ec);
+      write_file_atomically(folder.claim("accuracy.png").string(), folder.claim("accuracy.png.tmp").string(),
+                            read_input_file(png));
   }
   run_static_scenes(o, registered, rows);
   if (!write_results(o, folder, rows, refs)) return 1;

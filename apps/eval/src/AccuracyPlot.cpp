@@ -8,6 +8,8 @@
 #include <map>
 #include <numeric>
 
+#include "loom/cloth/OutputFile.h"
+
 namespace loom::eval {
 
 std::vector<size_t> pareto_front(const std::vector<PlotPoint>& points) {
@@ -31,7 +33,7 @@ bool plot_accuracy(const std::vector<PlotPoint>& points, const std::string& titl
   const std::string dat = stem + ".dat", gp = stem + ".gp";
   std::map<std::string, std::vector<size_t>> series;
   for (size_t i = 0; i < points.size(); ++i) series[points[i].series].push_back(i);
-  std::ofstream d(dat);
+  OutputFile d(dat);
   std::vector<std::string> names;
   for (const auto& kv : series) {
     d << "# " << kv.first << "\n";
@@ -47,7 +49,7 @@ bool plot_accuracy(const std::vector<PlotPoint>& points, const std::string& titl
     std::cerr << "loom: error: cannot write " << dat << "\n";
     return false;
   }
-  std::ofstream g(gp);
+  OutputFile g(gp);
   g << "set terminal pngcairo size 900,600 font ',10' noenhanced\n"
     << "set output '" << png << "'\n"
     << "set title '" << title << "'\n"

@@ -10,6 +10,7 @@
 #include <vector>
 
 #include "loom/cloth/Error.h"
+#include "loom/cloth/OutputFile.h"
 #include "loom/eval/Hex.h"
 
 namespace fs = std::filesystem;
@@ -264,6 +265,7 @@ OutputFolder::OutputFolder(const fs::path& dir, const std::string& flag, bool ov
     std::set<std::string> gone;  // a new run deletes what the earlier runs listed (links themselves) first
     if (!resume) gone.insert(old.entries.begin(), old.entries.end());
     check_all_writable(dir, writes, flag, gone);
+    if (!resume) check_writable(dir, std::string(kManifest) + ".tmp", flag);  // the new manifest's way in
   }
   fs::create_directories(dir, ec);
   if (ec || !fs::is_directory(dir))
@@ -271,8 +273,7 @@ OutputFolder::OutputFolder(const fs::path& dir, const std::string& flag, bool ov
   if (resume) {
     run_id_ = old.run_id;
     listed_.insert(old.entries.begin(), old.entries.end());
-    manifest_.open(manifest, std::ios::binary | std::ios::app);
-    if (!manifest_) throw Error(manifest.string(), flag, "output folder is not writable");
+    manifest_.open(manifest.string(), OutputMode::kAppend);
     return;
   }
   // A new run: what the earlier runs listed goes (files, then folders that are left empty, deepest first).
@@ -296,16 +297,8 @@ OutputFolder::OutputFolder(const fs::path& dir, const std::string& flag, bool ov
   run_id_ = (static_cast<std::uint64_t>(rd()) << 32) ^ rd() ^ 0x9e3779b97f4a7c15ull;
   if (run_id_ == 0) run_id_ = 1;
   const fs::path tmp = dir / (std::string(kManifest) + ".tmp");
-  fs::remove(tmp, ec);
-  {
-    std::ofstream out(tmp, std::ios::binary | std::ios::trunc);
-    out << kHeader << hex(run_id_) << "\n";
-    if (!out) throw Error(dir.string(), flag, "output folder is not writable");
-  }
-  fs::rename(tmp, manifest, ec);
-  if (ec) throw Error(manifest.string(), flag, "cannot write the manifest: " + ec.message());
-  manifest_.open(manifest, std::ios::binary | std::ios::app);
-  if (!manifest_) throw Error(manifest.string(), flag, "output folder is not writable");
+  write_file_atomically(manifest.string(), tmp.string(), kHeader + hex(run_id_) + "\n");
+  manifest_.open(manifest.string(), OutputMode::kAppend);
 }
 
 void OutputFolder::append(const std::string& line) {

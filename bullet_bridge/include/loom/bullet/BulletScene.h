@@ -49,6 +49,10 @@ class BulletScene {
   // One scene frame. Returns the frame's statistics (energies and strain of the cloth state at its end,
   // stage times summed over the cloth steps, finite = every cloth step stayed finite).
   cloth::FrameStats step_frame();
+  // The last step_frame() met the simulation's stop flag (Simulation::set_stop_flag): the cloth stopped
+  // within a Bullet substep (back to that substep's start) and ran no later substep, so the frame is
+  // incomplete and the world is left mid-frame.
+  bool interrupted() const { return interrupted_; }
   int frame() const { return frame_; }
   double time() const;                           // s
   double frame_dt() const { return frame_dt_; }  // s
@@ -86,6 +90,7 @@ class BulletScene {
   double frame_dt_ = 0.0;
   int substeps_ = 4;
   int frame_ = 0;
+  bool interrupted_ = false;
 };
 
 }  // namespace loom::bullet

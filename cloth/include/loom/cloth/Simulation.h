@@ -93,6 +93,8 @@ class Simulation {
   // start (interrupted() is then true until the next step_frame()).
   void set_stop_flag(const volatile std::sig_atomic_t* flag) { stop_flag_ = flag; }
   bool interrupted() const { return interrupted_; }
+  // True once the stop flag is set (a frame stepped now would be abandoned at once).
+  bool stop_requested() const { return stop_flag_ && *stop_flag_; }
   // Statistics of the current state (no stepping); used for frame 0.
   FrameStats measure() const;
 
@@ -155,7 +157,6 @@ class Simulation {
   double guard_ms_ = 0.0;
   const volatile std::sig_atomic_t* stop_flag_ = nullptr;
   bool interrupted_ = false;
-  bool stop_requested() const { return stop_flag_ && *stop_flag_; }
 };
 
 }  // namespace loom::cloth

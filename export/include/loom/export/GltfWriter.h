@@ -14,6 +14,7 @@
 #include <string>
 #include <vector>
 
+#include "loom/cloth/OutputFile.h"
 #include "loom/cloth/Types.h"
 
 namespace loom::exporter {
@@ -53,7 +54,7 @@ class GltfWriter {
 
   std::string gltf_path_, bin_path_;
   std::vector<AnimatedMesh> meshes_;
-  std::ofstream bin_;
+  OutputFile bin_;
   size_t bin_size_ = 0;
   std::vector<View> views_;
   std::vector<double> times_;       // s

@@ -7,6 +7,7 @@
 #include <string>
 #include <vector>
 
+#include "loom/cloth/OutputFile.h"
 #include "loom/cloth/Types.h"
 
 namespace loom::exporter {
@@ -27,7 +28,7 @@ class Pc2Writer {
 
  private:
   std::string path_;
-  std::ofstream out_;
+  OutputFile out_;
   int points_;
   int samples_ = 0;
   bool finished_ = false;

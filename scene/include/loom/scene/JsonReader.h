@@ -46,6 +46,11 @@ class JsonReader {
   // kMaxCoordinate (SceneLimits.h), so no size anywhere in a scene can overflow the geometry built from it.
   double length(const std::string& key, std::optional<double> fallback = std::nullopt,
                 bool strict = false) const;
+  // A contact thickness in metres: > 0 (`strict`) or >= 0 and at most kMaxContactThickness (SceneLimits.h).
+  double thickness(const std::string& key, std::optional<double> fallback = std::nullopt,
+                   bool strict = false) const;
+  // A Coulomb friction coefficient in [0, kMaxFriction].
+  double friction(const std::string& key, std::optional<double> fallback = std::nullopt) const;
   // A point or offset in metres: every coordinate within +-kMaxCoordinate.
   cloth::Vec3 point(const std::string& key, std::optional<cloth::Vec3> fallback = std::nullopt) const;
   // `key` as exactly `count` integers, each in [min, max].

@@ -15,7 +15,14 @@ struct Scene;
 
 constexpr std::uint64_t kMaxInputBytes = std::uint64_t(1) << 30;  // a scene, mesh or motion file: 1 GiB
 static_assert(kMaxInputBytes <= loom::kMaxInputFileBytes, "one bound for every input file");
-constexpr double kMaxCoordinate = 1e6;    // m, |x| of a mesh size, origin, translation, anchor, collider
+constexpr double kMaxCoordinate = 1e6;  // m, |x| of a mesh size, origin, translation, anchor, collider
+// m, a contact thickness: a collider's, a cloth material's, the collision block's (`thickness`, `layers`,
+// the proximity gap) and a character's. It is the gap contact keeps between a cloth and what it touches, and
+// cloth found inside it is pushed out to it in one step: a push of a few centimetres over a curved collider
+// already stretches the sheet enough for its springs to fling it.
+constexpr double kMaxContactThickness = 0.02;
+// A Coulomb friction coefficient (kinetic or static); real fabric pairs lie below 2.
+constexpr double kMaxFriction = 10.0;
 constexpr double kMinMeshSize = 1e-3;     // m, a grid's side and an OBJ cloth's extent (after scale)
 constexpr double kMinMeshScale = 1e-6;    // an OBJ cloth's or collider's scale
 constexpr double kMaxAcceleration = 1e4;  // m/s^2, each component of gravity

@@ -34,6 +34,10 @@ class ScenePipeline {
   const cloth::Simulation& simulation() const { return *live_; }
   // One scene frame; in a Bullet world the bodies and the cloth step together.
   cloth::FrameStats step_frame();
+  // The last step_frame() was abandoned on the simulation's stop flag (Simulation::set_stop_flag): the
+  // frame is not a frame of the run. In a Bullet world the flag stops the cloth within the Bullet substep in
+  // progress and the remaining substeps run no cloth step; the world is then mid-frame (not resumable).
+  bool interrupted() const;
   // What to draw and census: the scene's colliders and a rig's capsules at their current poses, or the
   // rigid bodies at theirs (never null).
   const collision::ColliderSetPtr& colliders() const { return colliders_; }

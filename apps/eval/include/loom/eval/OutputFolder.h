@@ -18,6 +18,8 @@
 #include <string>
 #include <vector>
 
+#include "loom/cloth/OutputFile.h"
+
 namespace loom::eval {
 
 class OutputFolder {
@@ -50,7 +52,7 @@ class OutputFolder {
   std::string flag_;
   std::uint64_t run_id_ = 0;
   std::set<std::string> listed_;
-  std::ofstream manifest_;
+  OutputFile manifest_;
 };
 
 // Reads the run id of DIR/.loom-manifest (0 without a manifest).
