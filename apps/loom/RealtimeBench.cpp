@@ -247,14 +247,16 @@ int bench_realtime(int argc, char** argv) {
       sheet_n = static_cast<int>(cli_integer(a, value(), 3, 512));
     } else if (a == "--scenes") {
       only.clear();
-      std::stringstream list(value());
+      const std::string given = value();
+      std::stringstream list(given);
       for (std::string name; std::getline(list, name, ',');)
         if (name == "character" || name == "toy_box" || name == "sheet") {
           only.insert(name);
         } else {
           cli_refuse(a, name, "character, toy_box or sheet");
         }
-      if (only.empty()) cli_refuse(a, "", "a list of character, toy_box, sheet");
+      // getline drops a trailing empty entry ("sheet,"): refused as the leading one is.
+      if (only.empty() || given.back() == ',') cli_refuse(a, "", "a list of character, toy_box, sheet");
     } else if (a == "--toy") {
       toy_n = static_cast<int>(cli_integer(a, value(), 3, 256));
     } else if (a == "--repeats") {

@@ -208,6 +208,14 @@ void parse_bodies(const JsonReader& root, Scene& scene) {
         }
         a.finish();
         for (size_t n = first; n < b.attachments.size(); ++n) {
+          // A pinned vertex is held by its pin already: attached too, the body and the pin pull it apart.
+          const cloth::ClothSetup& c = scene.setup.cloths[b.attachments[n].cloth];
+          for (size_t p = 0; p < c.pins.size(); ++p)
+            if (c.pins[p].vertex == b.attachments[n].vertex)
+              a.fail("", "attaches vertex " + std::to_string(b.attachments[n].vertex) + " of cloths[" +
+                             std::to_string(b.attachments[n].cloth) + "], which " +
+                             (p < c.pin_fields.size() ? c.pin_fields[p] : "a pin") +
+                             " pins already: a vertex is pinned or attached, not both");
           const auto [it, added] =
               held.emplace(std::make_pair(b.attachments[n].cloth, b.attachments[n].vertex), a.path());
           if (!added)

@@ -117,6 +117,7 @@ void parse_character(const JsonReader& root, Scene& scene) {
   character->thickness = c.thickness("thickness", character->thickness);
   if (c.has("garments")) {
     const auto garments = c.objects("garments");
+    if (garments.empty()) c.fail("garments", "is empty: give at least one garment, or no `garments` key");
     cloth::Vec3s layers;  // m, vertices of the garments made so far
     for (size_t k = 0; k < garments.size(); ++k) {
       const JsonReader& g = garments[k];
@@ -124,6 +125,9 @@ void parse_character(const JsonReader& root, Scene& scene) {
       spec.type = g.string("type", std::nullopt, {"cape", "skirt", "shirt", "obj"});
       const std::string name = g.name("name", spec.type);
       spec.resolution = g.number("resolution", spec.resolution, 0.0, true);
+      // Past a quarter of the figure a garment is its minimum grid whatever the value: refused, not clamped.
+      if (spec.resolution > 0.25 * body)
+        g.fail("resolution", "must be <= 0.25 x the figure's size (" + show_size(0.25 * body) + " m)");
       spec.clearance = g.length("clearance", spec.clearance);
       if (spec.clearance > 0.25 * body)
         g.fail("clearance", "must be <= 0.25 x the figure's size (" + show_size(0.25 * body) + " m)");

@@ -680,6 +680,7 @@ TEST(BadInputCli, NumericOptionsRefuseNonFiniteAndMalformedNumbersByName) {
       {"bench realtime --seconds nan", "--seconds"},
       {"bench realtime --sheet 12x", "--sheet"},
       {"bench realtime --scenes toy_box,cloth", "--scenes"},
+      {"bench realtime --scenes sheet,", "--scenes"},
       {"bench realtime --toy 2", "--toy"},
       {"bench accuracy --duration nan", "--duration"},
       {"bench accuracy --perturbation inf", "--perturbation"},
