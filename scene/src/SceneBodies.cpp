@@ -3,6 +3,7 @@
 #include <algorithm>
 #include <cmath>
 #include <cstdio>
+#include <limits>
 #include <map>
 #include <string>
 #include <utility>
@@ -102,6 +103,25 @@ std::function<Transform(double)> parse_body_motion(const JsonReader& m, const Tr
     }
     return out;
   };
+}
+
+// m, how far past its bounding sphere a dynamic body may hold a cloth vertex.
+constexpr double kAttachReach = 0.05;
+
+// m, the radius of the sphere about the body's origin that holds the shape (a plane has none: infinite).
+double bounding_radius(const collision::Shape& s) {
+  switch (s.type) {
+    case collision::ShapeType::sphere:
+      return s.radius;
+    case collision::ShapeType::capsule:
+      return s.radius + s.half_height;
+    case collision::ShapeType::box:
+      return s.half_extents.norm();
+    case collision::ShapeType::cylinder:
+      return std::hypot(s.radius, s.half_height);
+    default:
+      return std::numeric_limits<double>::infinity();
+  }
 }
 
 }  // namespace
@@ -208,6 +228,19 @@ void parse_bodies(const JsonReader& root, Scene& scene) {
         }
         a.finish();
         for (size_t n = first; n < b.attachments.size(); ++n) {
+          // A dynamic body holds its vertices at their start offsets as a rigid lever: a vertex beyond the
+          // body's bounding sphere plus kAttachReach turns a light body into a long lever that the coupled
+          // solve cannot keep finite, so the vertex must start on or near the body.
+          if (b.mass > 0.0) {
+            const cloth::ClothMesh& m = *scene.setup.cloths[b.attachments[n].cloth].mesh;
+            const double d = (m.rest_positions()[b.attachments[n].vertex] - b.pose.translation()).norm();
+            const double reach = bounding_radius(b.shape) + kAttachReach;
+            if (d > reach)
+              a.fail("", "attaches vertex " + std::to_string(b.attachments[n].vertex) + " of cloths[" +
+                             std::to_string(b.attachments[n].cloth) + "], " + show_limit(d) +
+                             " m from the centre of a dynamic body that reaches " + show_limit(reach) +
+                             " m: place the body at its vertices");
+          }
           // A pinned vertex is held by its pin already: attached too, the body and the pin pull it apart.
           const cloth::ClothSetup& c = scene.setup.cloths[b.attachments[n].cloth];
           for (size_t p = 0; p < c.pins.size(); ++p)

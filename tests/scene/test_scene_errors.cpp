@@ -204,6 +204,12 @@ const Case kCases[] = {
       "\"attach\": [{\"grid\": [2, \"all\"]}, {\"vertex\": 7}]}]"},
      "bodies[0].attach[1]",
      "attaches vertex 7 of cloths[0], which bodies[0].attach[0] attaches already"},
+    {"body_attach_far_from_a_dynamic_body",
+     {"bodies=[{\"shape\": \"box\", \"half_extents\": [0.05, 0.05, 0.05], \"mass\": 1, \"position\": [5, 5, "
+      "5], "
+      "\"attach\": [{\"vertex\": 12}]}]"},
+     "bodies[0].attach[0]",
+     "from the centre of a dynamic body that reaches"},
     {"body_attach_pinned",
      {"bodies=[{\"shape\": \"box\", \"half_extents\": [0.1, 0.1, 0.1], \"attach\": [{\"vertex\": 4}]}]"},
      "bodies[0].attach[0]",
