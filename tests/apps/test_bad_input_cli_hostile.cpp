@@ -148,8 +148,8 @@ const BadInput kHostileCases[] = {
     {"attach_same_vertices_by_two_bodies",
      nullptr,
      {"--set",
-      "bodies=[{\"shape\":\"box\",\"half_extents\":[0.1,0.1,0.1],\"attach\":[{\"grid\":[\"all\",0]}]},"
-      "{\"shape\":\"box\",\"half_extents\":[0.1,0.1,0.1],\"position\":[2,0,0],\"attach\":[{\"grid\":[0,"
+      "bodies=[{\"shape\":\"box\",\"half_extents\":[0.1,0.1,0.1],\"attach\":[{\"grid\":[\"all\",2]}]},"
+      "{\"shape\":\"box\",\"half_extents\":[0.1,0.1,0.1],\"position\":[2,0,0],\"attach\":[{\"grid\":[2,"
       "\"all\"]}]}]"},
      nullptr,
      "scene",

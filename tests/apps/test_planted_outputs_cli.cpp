@@ -119,18 +119,22 @@ TEST(PlantedOutputs, ALinkPlantedAtTheSummaryTemporaryIsRefusedAndItsTargetUntou
   EXPECT_EQ(slurp(victim), "precious");
 }
 
-// A hard link to a user's file planted at a frame path: the frame is written as a new file, the user's file
-// keeps its bytes, and the run completes.
-TEST(PlantedOutputs, AHardLinkPlantedAtALaterFrameIsReplacedNotWrittenThrough) {
+// A hard link to a user's file planted at a frame path during the run: the output folder's claim of that
+// frame refuses it by name (as it does before the run, OutputFolder.h), and the user's file keeps its bytes.
+TEST(PlantedOutputs, AHardLinkPlantedAtALaterFrameIsRefusedNotWrittenThrough) {
   const fs::path dir = test_dir(), out = dir / "out", victim = dir / "victim.txt";
   std::ofstream(victim) << "precious";
   const Child c = start_loom(slow_run(out));
   ASSERT_TRUE(wait_for(out / "frames" / "frame_00000.obj", 120)) << slurp(c.err);
-  fs::create_hard_link(victim, out / "frames" / "frame_00004.obj");
+  const fs::path link = out / "frames" / "frame_00004.obj";
+  fs::create_hard_link(victim, link);
   const int code = wait_exit(c, 300);
-  EXPECT_EQ(code, 0) << slurp(c.err);
+  ASSERT_NE(code, -1) << slurp(c.err);
+  EXPECT_EQ(code, 1) << slurp(c.err);
+  EXPECT_NE(slurp(c.err).find(link.string() + ": "), std::string::npos) << slurp(c.err);
+  EXPECT_NE(slurp(c.err).find("is a hard link"), std::string::npos) << slurp(c.err);
   EXPECT_EQ(slurp(victim), "precious");
-  EXPECT_NE(slurp(out / "frames" / "frame_00004.obj").find("o sheet"), std::string::npos);
+  EXPECT_EQ(slurp(link), "precious");  // left where it was planted, not written through
 }
 
 // Ctrl-C in a Bullet-world scene: a frame of 1,000,000 cloth steps (minutes) is abandoned within the frame;
