@@ -46,6 +46,7 @@ nlohmann::json to_json(const bullet::SystemMetrics& m) {
   nlohmann::json j;
   j["available"] = m.available;
   if (!m.note.empty()) j["note"] = m.note;
+  if (!m.diverged_why.empty()) j["diverged_why"] = m.diverged_why;
   if (m.available) {
     j["ms_per_frame"] = m.ms_per_frame;
     j["max_strain"] = m.max_strain;
@@ -168,6 +169,7 @@ int compare_main(int argc, char** argv) {
     }
     std::printf("%-18s %12.3f %12.5f %12.6f %16.6f %9s\n", m.system.c_str(), m.ms_per_frame, m.max_strain,
                 m.mean_strain, m.max_penetration, m.diverged ? "yes" : "no");
+    if (!m.diverged_why.empty()) std::printf("%-18s diverged: %s\n", "", m.diverged_why.c_str());
   }
   std::printf("wrote %s/compare.csv and %s/compare.json\n", out.c_str(), out.c_str());
   return 0;

@@ -113,10 +113,23 @@ SystemMetrics run_loom_in_bullet(const CompareInput& in) {
   report(0);
   for (int f = 1; f <= in.frames; ++f) {
     const auto t0 = Clock::now();
-    scene.step_frame();
+    const cloth::FrameStats s = scene.step_frame();
     const double ms = std::chrono::duration<double, std::milli>(Clock::now() - t0).count();
     tally.add(c0.mesh(), c0.state().x, scene.max_penetration(), ms);
     report(f);
+    // The test `loom run` stops at: a frame the guard failed (the simulation holds the last good state) or
+    // a non-finite body.
+    if (!s.finite) {
+      tally.diverged = true;
+      m.diverged_why = scene.simulation().failure().empty()
+                           ? "the state became non-finite in frame " + std::to_string(f)
+                           : scene.simulation().failure();
+    }
+    for (size_t k = 0; m.diverged_why.empty() && k < scene.num_bodies(); ++k)
+      if (!scene.body_position(k).allFinite() || !scene.body_velocity(k).allFinite()) {
+        tally.diverged = true;
+        m.diverged_why = "body '" + in.bodies[k].name + "' became non-finite in frame " + std::to_string(f);
+      }
     if (tally.diverged) break;
   }
   tally.fill(m, c0.state().x);

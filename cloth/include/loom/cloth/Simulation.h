@@ -110,6 +110,11 @@ class Simulation {
     t_ = frame * setup_.frame_dt;
   }
 
+  // A host that steps this simulation in substeps of its own output frames (a Bullet world steps it once per
+  // Bullet substep) names the output frame in progress here; failure() then names that frame instead of this
+  // simulation's own frame count. 0: failure() names this simulation's frame (frame() + 1).
+  void set_output_frame(int frame) { output_frame_ = frame; }
+
   // The whole changing state: time, frame, every cloth's x, v, x_prev, every stage's and solver's
   // history. load_state restores it bit-identically (checkpoints; the guard's per-frame snapshot).
   void save_state(StateWriter& out) const;
@@ -142,6 +147,7 @@ class Simulation {
   std::vector<double> last_term_ms_;  // term totals at the previous frame, to report per-frame deltas
   double t_ = 0.0;
   int frame_ = 0;
+  int output_frame_ = 0;  // set_output_frame; 0: none
   // Guard (SimulationState.cpp): frame-start snapshot, the frame-start sample, counters.
   StateWriter snapshot_;
   std::optional<GuardSample> start_sample_;

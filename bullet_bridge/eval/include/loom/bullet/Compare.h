@@ -45,7 +45,10 @@ struct SystemMetrics {
   double max_strain = 0.0;       // 1, largest stretch l/L - 1 over structural springs, over all frames
   double mean_strain = 0.0;      // 1, mean over frames of the mean |l/L - 1| over structural springs
   double max_penetration = 0.0;  // m, deepest cloth vertex inside a rigid body, over all frames
-  bool diverged = false;         // non-finite positions, max strain > 10, or Bullet switched the body off
+  // Non-finite positions, max strain > 10, Bullet switched the body off, or (loom) the frame `loom run`
+  // stops at: the guard failed it (energy explosion, strain, ...) or a body became non-finite.
+  bool diverged = false;
+  std::string diverged_why;  // loom: the cause `loom run` reports for that frame ("" if not diverged so)
   std::vector<double> final_positions;  // m, cloth 0's vertex coordinates at the end (x0 y0 z0 x1 ...)
 };
 

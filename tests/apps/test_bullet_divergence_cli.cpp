@@ -1,0 +1,56 @@
+// A Bullet-world scene (scenes/toy_box.json) whose cloth the energy guard stops: a rigid box tied to the
+// middle (or a corner) of the cloth tears it apart within a few frames. `loom run` names the output frame
+// (60 Hz), not the Bullet substep (1/240 s) the guard failed in: frame N spans t in ((N - 1) / fps, N / fps],
+// and frames up to N - 1 are valid. `loom compare` marks Loom's row diverged by the same guard and prints
+// why.
+#include <gtest/gtest.h>
+
+#include <cmath>
+#include <filesystem>
+#include <nlohmann/json.hpp>
+#include <regex>
+#include <string>
+
+#include "CliRunner.h"
+
+namespace {
+
+namespace fs = std::filesystem;
+using loom::test::run_loom;
+using loom::test::slurp;
+using loom::test::test_dir;
+
+const std::string kToyBox = std::string(LOOM_SOURCE_DIR) + "/scenes/toy_box.json";
+
+TEST(BulletDivergenceCli, TheGuardNamesTheOutputFrameNotTheBulletSubstep) {
+  const fs::path out = test_dir() / "out";
+  const auto r = run_loom("run " + kToyBox + " --out " + out.string() +
+                          " --frames 8 --set 'bodies[0].attach=[{\"cloth\":0,\"grid\":[16,16]}]'");
+  ASSERT_EQ(r.code, 3) << r.err;
+  std::smatch m;
+  const std::regex re(R"(in frame (\d+) \(t = ([0-9.]+) to ([0-9.]+) s\).*frames up to (\d+) are valid)");
+  ASSERT_TRUE(std::regex_search(r.err, m, re)) << r.err;
+  const int frame = std::stoi(m[1]), valid = std::stoi(m[4]);
+  const double t0 = std::stod(m[2]), t1 = std::stod(m[3]), fps = 60.0;
+  // The failed interval lies inside the named output frame, the frame after the last valid one.
+  EXPECT_EQ(frame, static_cast<int>(std::floor(t0 * fps + 1e-6)) + 1) << r.err;
+  EXPECT_LE(t1, frame / fps + 1e-6) << r.err;
+  EXPECT_EQ(valid, frame - 1) << r.err;
+}
+
+TEST(BulletDivergenceCli, CompareMarksTheRunTheGuardStopsAsDiverged) {
+  const fs::path out = test_dir() / "out";
+  const auto r = run_loom("compare " + kToyBox + " --out " + out.string() +
+                          " --frames 4 --set 'bodies[0].attach=[{\"cloth\":0,\"grid\":[0,0]}]'");
+  ASSERT_EQ(r.code, 0) << r.err;
+  EXPECT_NE(r.out.find("diverged: the energy exploded"), std::string::npos) << r.out;
+  const auto j = nlohmann::json::parse(slurp(out / "compare.json"));
+  EXPECT_EQ(j["loom"]["diverged"], true) << j.dump(1);
+  EXPECT_NE(j["loom"]["diverged_why"].get<std::string>().find("energy exploded"), std::string::npos);
+  const std::string csv = slurp(out / "compare.csv");
+  EXPECT_NE(csv.find("\nloom,1,"), std::string::npos) << csv;
+  EXPECT_NE(csv.find(",1\nbullet_classic"), std::string::npos) << csv;  // loom's diverged column
+  for (const char* bad : {"nan", "inf"}) EXPECT_EQ(csv.find(bad), std::string::npos) << csv;
+}
+
+}  // namespace
