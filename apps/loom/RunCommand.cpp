@@ -341,6 +341,13 @@ SceneRun::SceneRun(const RunOptions& options) : o_(options) {
   open_outputs();
 }
 
+// A frame rate as the message shows it: 6 significant digits.
+std::string video_rate_text(double hz) {
+  char text[32];
+  std::snprintf(text, sizeof text, "%.6g", hz);
+  return text;
+}
+
 // The output folder (OutputFolder.h): out/<scene name> by default (the scene layer keeps `name` a plain file
 // name); a run writes only paths it claims in the folder's manifest and deletes only listed ones. On --resume
 // everything is checked before a file changes: the state, the frame log, the stats rows.
@@ -352,6 +359,22 @@ void SceneRun::open_outputs() {
   if (o_.render)
     throw Error("", "--render",
                 "this loom was built without the offscreen renderer (Debian: libosmesa6-dev libstb-dev)");
+#else
+  if (o_.render) {
+    // The video runs after the whole simulation: what would stop it is refused before the run. Its frame
+    // rate is fps / output.render.every; ffmpeg's encoders fail below 1 Hz (or run without bound making
+    // the GIF), and no player shows more than 1000.
+    const double video_fps = 1.0 / (sc_.setup.frame_dt * sc_.output.render.every);
+    if (!(video_fps >= 1.0 && video_fps <= 1000.0))
+      throw Error(
+          scene_path_, "fps",
+          "with --render, fps / output.render.every is the video's frame rate and must be in [1, 1000] "
+          "(got " +
+              video_rate_text(video_fps) + ")");
+    if (std::system("command -v ffmpeg >/dev/null 2>&1") != 0)
+      throw Error("ffmpeg", "--render",
+                  "ffmpeg not found (Debian package: ffmpeg); install it or run without --render");
+  }
 #endif
   shown_ = std::make_unique<DetailView>(sc_, *sim_);
   // Every path this run may write, checked before the folder changes (a refused run leaves it as it was).

@@ -522,5 +522,32 @@ TEST(HostileEnv, AnEmptyScenesVariableIsUnset) {
   EXPECT_NE(summary["scene"].get<std::string>(), (dir / "character_layers.json").string());
 }
 
+// --render makes its video after the whole run: a frame rate the encoders cannot take (fps, or fps /
+// output.render.every, below 1 Hz) and a missing ffmpeg are refused before the run, by field, and the
+// output folder is never made.
+TEST(HostileRender, AVideoThatCannotBeMadeIsRefusedBeforeTheRun) {
+  const fs::path dir = test_dir();
+  std::ofstream(dir / "scene.json") << kScene;
+  const std::string scene = (dir / "scene.json").string();
+  for (const std::string& set : {std::string("--set fps=0.5 --set duration=10"),
+                                 std::string("--set 'output.render={\"every\":100}'")}) {
+    const fs::path out = dir / "slow";
+    const auto r = run_loom("run " + scene + " --render " + set + " --out " + out.string());
+    if (r.err.find("built without the offscreen renderer") != std::string::npos) GTEST_SKIP() << r.err;
+    EXPECT_EQ(r.code, 1) << set << ": " << r.err;
+    EXPECT_NE(r.err.find(scene + ": fps: with --render"), std::string::npos) << set << ": " << r.err;
+    EXPECT_NE(r.err.find("must be in [1, 1000]"), std::string::npos) << set << ": " << r.err;
+    EXPECT_FALSE(fs::exists(out)) << set;
+  }
+  const char* path = std::getenv("PATH");
+  const std::string saved = path ? path : "";
+  ::setenv("PATH", "/nonexistent", 1);  // std::system runs /bin/sh by its absolute path
+  const auto r = run_loom("run " + scene + " --render --out " + (dir / "no_ffmpeg").string());
+  ::setenv("PATH", saved.c_str(), 1);
+  EXPECT_EQ(r.code, 1) << r.err;
+  EXPECT_NE(r.err.find("ffmpeg: --render: ffmpeg not found"), std::string::npos) << r.err;
+  EXPECT_FALSE(fs::exists(dir / "no_ffmpeg"));
+}
+
 }  // namespace
 }  // namespace loom::test
