@@ -1,4 +1,4 @@
-// The bad-input table of `loom run`, fourth part: a third red-team pass. Each class is tested by more than
+// The bad-input table of `loom run`, fourth part. Each class is tested by more than
 // its first example:
 //   - every positive or non-negative real refuses a non-zero value below 1e-12 (subnormals included) by
 //   field;
