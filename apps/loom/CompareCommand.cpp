@@ -17,6 +17,7 @@
 #include "loom/eval/OutputFolder.h"
 #include "loom/scene/Scene.h"
 #include "loom/scene/ScenePipeline.h"
+#include "loom/scene/SceneRegime.h"
 
 #ifdef LOOM_HAVE_CHARACTER_COMPARE
 #include "CompareCharacter.h"
@@ -134,6 +135,7 @@ int compare_main(int argc, char** argv) {
   in.options = scene::bullet_scene_options(sc);
   std::vector<bullet::SystemMetrics> results;
   results.push_back(bullet::run_loom_in_bullet(in));
+  if (!results[0].diverged_why.empty()) results[0].diverged_why += scene::divergence_suspects(sc);
   results.push_back(bullet::run_bullet_twin(in, bullet::TwinKind::kClassic));
   results.push_back(bullet::run_bullet_twin(in, bullet::TwinKind::kDeformable));
 

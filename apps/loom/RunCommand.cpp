@@ -35,6 +35,7 @@
 #include "loom/scene/Scene.h"
 #include "loom/scene/SceneLimits.h"
 #include "loom/scene/ScenePipeline.h"
+#include "loom/scene/SceneRegime.h"
 
 namespace fs = std::filesystem;
 
@@ -579,13 +580,14 @@ bool SceneRun::stopped_non_finite(const cloth::FrameStats& s, int f) {
     error_ = (sim_->failure().empty() ? "the state became non-finite in frame " + std::to_string(f) +
                                             " (t = " + std::to_string(s.time) + " s)"
                                       : sim_->failure()) +
-             valid;
+             valid + scene::divergence_suspects(sc_);
     return true;
   }
 #ifdef LOOM_HAVE_BULLET
   for (size_t k = 0; bodies_world_ && k < bodies_world_->num_bodies(); ++k)
     if (!bodies_world_->body_position(k).allFinite() || !bodies_world_->body_velocity(k).allFinite()) {
-      error_ = "body '" + sc_.bodies[k].name + "' became non-finite in frame " + std::to_string(f) + valid;
+      error_ = "body '" + sc_.bodies[k].name + "' became non-finite in frame " + std::to_string(f) + valid +
+               scene::divergence_suspects(sc_);
       return true;
     }
 #endif
@@ -667,8 +669,19 @@ void SceneRun::render_video() {
   rs.height = sc_.output.render.height;
   if (sc_.output.render.camera)
     rs.camera = render::Camera{sc_.output.render.eye, sc_.output.render.target, sc_.output.render.fov};
-  const render::RenderReport rep = render::render_recording(
-      out_.string(), *recording_, rs, 1.0 / (sc_.setup.frame_dt * sc_.output.render.every));
+  // ffmpeg's private folder, listed before it exists: a run killed while ffmpeg works leaves only listed
+  // paths.
+  const fs::path staging = folder_->claim_private_folder(".loom-ffmpeg-", {"render.mp4", "render.gif"});
+  struct RemoveWhenDone {
+    fs::path dir;
+    ~RemoveWhenDone() {
+      std::error_code ec;
+      fs::remove(dir, ec);  // empty once ffmpeg's files are renamed into place (or removed on failure)
+    }
+  } remove_staging{staging};
+  const render::RenderReport rep =
+      render::render_recording(out_.string(), *recording_, rs,
+                               1.0 / (sc_.setup.frame_dt * sc_.output.render.every), true, staging.string());
   render_summary_ = {
       {"frames", rep.frames}, {"ms_per_frame", rep.ms_per_frame}, {"width", rs.width}, {"height", rs.height}};
   std::cout << "loom: rendered " << rep.frames << " frames (" << std::fixed << std::setprecision(1)

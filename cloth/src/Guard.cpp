@@ -20,11 +20,13 @@ std::string guard_violation(const GuardSettings& g, const GuardSample& start, co
   const double e_end = end.kinetic + std::max(0.0, end.elastic);
   if (e_end > g.energy_growth * budget) {
     why << "the energy exploded (kinetic + elastic " << e_end << " J at the frame end, from "
-        << start.kinetic + std::max(0.0, start.elastic) << " J; bound " << g.energy_growth * budget << " J)";
+        << start.kinetic + std::max(0.0, start.elastic) << " J; bound " << g.energy_growth * budget
+        << " J, guard.energy_growth " << g.energy_growth << ")";
     return why.str();
   }
   if (end.max_strain > g.max_strain) {
-    why << "the strain exploded (max l/L - 1 = " << end.max_strain << ", limit " << g.max_strain << ")";
+    why << "the strain exploded (max l/L - 1 = " << end.max_strain << ", limit guard.max_strain "
+        << g.max_strain << ")";
     return why.str();
   }
   return "";

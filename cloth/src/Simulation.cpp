@@ -385,8 +385,8 @@ std::string Simulation::energy_budget_violation(const FrameStats& end, double* p
   if (e <= bound) return "";
   std::ostringstream why;
   why << "the energy exploded (E_kin + E_el + E_pot - E_pot(0) = " << e << " J, above the budget " << bound
-      << " J: " << setup_.guard.energy_bound << " x " << budget_ref_ << " J at the start + "
-      << pin_work_ + w + stage_work << " J of work put in)";
+      << " J: guard.energy_bound " << setup_.guard.energy_bound << " x " << budget_ref_
+      << " J at the start + " << pin_work_ + w + stage_work << " J of work put in)";
   return why.str();
 }
 

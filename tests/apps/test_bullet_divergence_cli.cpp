@@ -38,6 +38,8 @@ TEST(BulletDivergenceCli, TheGuardNamesTheOutputFrameNotTheBulletSubstep) {
   EXPECT_EQ(frame, static_cast<int>(std::floor(t0 * fps + 1e-6)) + 1) << r.err;
   EXPECT_LE(t1, frame / fps + 1e-6) << r.err;
   EXPECT_EQ(valid, frame - 1) << r.err;
+  EXPECT_NE(r.err.find("limit guard.max_strain 0.05"), std::string::npos) << r.err;  // the bound, by field
+  EXPECT_NE(r.err.find("solver.substeps"), std::string::npos) << r.err;  // inside the regime: the step fields
 }
 
 TEST(BulletDivergenceCli, CompareMarksTheRunTheGuardStopsAsDiverged) {
@@ -50,6 +52,7 @@ TEST(BulletDivergenceCli, CompareMarksTheRunTheGuardStopsAsDiverged) {
   const auto j = nlohmann::json::parse(slurp(out / "compare.json"));
   EXPECT_EQ(j["loom"]["diverged"], true) << j.dump(1);
   EXPECT_NE(j["loom"]["diverged_why"].get<std::string>().find("strain exploded"), std::string::npos);
+  EXPECT_NE(j["loom"]["diverged_why"].get<std::string>().find("guard.max_halvings"), std::string::npos);
   const std::string csv = slurp(out / "compare.csv");
   EXPECT_NE(csv.find("\nloom,1,"), std::string::npos) << csv;
   EXPECT_NE(csv.find(",1\nbullet_classic"), std::string::npos) << csv;  // loom's diverged column

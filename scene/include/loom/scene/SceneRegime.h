@@ -1,0 +1,28 @@
+#pragma once
+// Why a scene's run may have stopped on divergence (the guard, a non-finite state): the scene's values that
+// lie outside the regime Loom is validated in, each named by its JSON field with its figure. Every value
+// here is legal on its own (SceneLimits.h bounds what can be read at all); together they can ask for more
+// than a frame's steps can carry, and the guard then stops the run. The report turns "the strain exploded"
+// into "gravity is 1766 g".
+
+#include <string>
+
+#include "loom/scene/Scene.h"
+
+namespace loom::scene {
+
+// The bounds of the validated regime (docs/validation.md: the bundled scenes and the stability suite stay
+// well inside them).
+constexpr double kRegimeAcceleration = 98.1;        // m/s^2, 10 g: gravity
+constexpr double kRegimeWindAcceleration = 1e4;     // m/s^2: a wind's push on a light cloth (a flag: ~760)
+constexpr double kRegimeWaveSpeed = 1e4;       // m/s, stretch waves sqrt(E / rho): above steel's 5e3
+constexpr double kRegimeSpeed = 100.0;         // m/s, initial cloth and body speeds
+constexpr double kRegimeCourant = 1.0;         // 1, c h / l_min for the explicit solvers (CFL number)
+constexpr double kRegimeDampingSteps = 1.0;    // 1, (drag / rho) h: the drag's relaxation per step
+
+// "; the values outside the validated regime: gravity (|g| = 1.73e+04 m/s^2, more than 98.1), ..."; when no
+// value is outside it, the fields that give the frame more steps (solver.substeps, guard.max_halvings).
+// Never empty: a divergence message always names a field.
+std::string divergence_suspects(const Scene& scene);
+
+}  // namespace loom::scene

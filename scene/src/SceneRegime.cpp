@@ -1,0 +1,100 @@
+// The divergence report (SceneRegime.h).
+#include "loom/scene/SceneRegime.h"
+
+#include <algorithm>
+#include <cmath>
+#include <cstdio>
+#include <vector>
+
+#include "loom/cloth/Solver.h"
+
+namespace loom::scene {
+
+namespace {
+
+std::string fig(double v) {  // 3 significant digits
+  char s[32];
+  std::snprintf(s, sizeof s, "%.3g", v);
+  return s;
+}
+
+bool explicit_method(const std::string& m) {
+  return m == "explicit_euler" || m == "symplectic_euler" || m == "verlet";
+}
+
+double min_rest_edge(const cloth::ClothMesh& mesh) {
+  double l = INFINITY;
+  const cloth::Vec3s& x = mesh.rest_positions();
+  for (const auto& e : mesh.edges()) l = std::min(l, (x[e.i] - x[e.j]).norm());
+  return l;
+}
+
+}  // namespace
+
+std::string divergence_suspects(const Scene& scene) {
+  const cloth::SimulationSetup& s = scene.setup;
+  std::vector<std::string> out;
+  const int substeps = s.substeps > 0 ? s.substeps : cloth::default_substeps(s.solver.method, s.frame_dt);
+  const double h = s.frame_dt / std::max(1, substeps);  // s, one solver step
+  const double g = s.gravity.norm();
+  if (g > kRegimeAcceleration)
+    out.push_back("gravity (|g| = " + fig(g) + " m/s^2, " + fig(g / 9.81) + " g; validated up to " +
+                  fig(kRegimeAcceleration) + ")");
+  double cloth_mass = 0.0;
+  for (size_t i = 0; i < s.cloths.size(); ++i) {
+    const cloth::ClothSetup& c = s.cloths[i];
+    const std::string at = "cloths[" + std::to_string(i) + "]";
+    const double rho = c.material.areal_density;  // kg/m^2
+    cloth_mass += rho * c.mesh->total_area();
+    const double wave = std::sqrt(std::max(c.material.stretch_weft, c.material.stretch_warp) / rho);
+    if (wave > kRegimeWaveSpeed)
+      out.push_back(at + ".material stretch with its areal density (stretch waves at " + fig(wave) +
+                    " m/s; validated up to " + fig(kRegimeWaveSpeed) + ")");
+    if (explicit_method(s.solver.method)) {
+      const double courant = wave * h / min_rest_edge(*c.mesh);
+      if (courant > kRegimeCourant)
+        out.push_back("solver.substeps for " + at + " (a stretch wave crosses " + fig(courant) +
+                      " edges per step of the explicit " + s.solver.method + "; stable below " +
+                      fig(kRegimeCourant) + ")");
+    }
+    if (c.initial_velocity.norm() > kRegimeSpeed)
+      out.push_back(at + ".velocity (" + fig(c.initial_velocity.norm()) + " m/s; validated up to " +
+                    fig(kRegimeSpeed) + ")");
+    if (s.drag) {  // AirDragTerm.h: f = -c A (v - w), so a = c |w| / rho and a relaxation rate c / rho
+      const double coef = std::max(s.drag->isotropic, s.drag->normal);
+      const double a = coef * s.drag->wind.norm() * (1.0 + std::abs(s.drag->gust_amplitude)) / rho;
+      if (a > kRegimeWindAcceleration)
+        out.push_back("effects.drag.wind with " + at + "'s areal density (the wind pushes at " + fig(a) +
+                      " m/s^2; validated up to " + fig(kRegimeWindAcceleration) + ")");
+      if (coef / rho * h > kRegimeDampingSteps)
+        out.push_back(std::string("effects.drag.") + (s.drag->isotropic >= s.drag->normal ? "isotropic" : "normal") +
+                      " with " + at + "'s areal density (the drag relaxes the velocity " +
+                      fig(coef / rho * h) + " times per step; validated up to " + fig(kRegimeDampingSteps) + ")");
+    }
+    if (s.wind) {  // AeroTerm.h: |f| <= 1/2 rho_air max(C_D, C_L) |w|^2 A
+      const double w = s.wind->max_speed();
+      const double a = 0.5 * s.wind->density * std::max(s.wind->drag, s.wind->lift) * w * w / rho;
+      if (a > kRegimeWindAcceleration)
+        out.push_back("effects.wind with " + at + "'s areal density (the wind pushes at " + fig(a) +
+                      " m/s^2; validated up to " + fig(kRegimeWindAcceleration) + ")");
+    }
+  }
+  for (size_t k = 0; k < scene.bodies.size(); ++k) {
+    const collision::RigidBodySpec& b = scene.bodies[k];
+    const std::string at = "bodies[" + std::to_string(k) + "]";
+    if (b.velocity.norm() > kRegimeSpeed)
+      out.push_back(at + ".velocity (" + fig(b.velocity.norm()) + " m/s; validated up to " + fig(kRegimeSpeed) +
+                    ")");
+    if (cloth_mass > 0.0 && b.mass > 1e3 * cloth_mass)
+      out.push_back(at + ".mass (" + fig(b.mass / cloth_mass) + " times the cloths' mass; validated up to 1000)");
+  }
+  if (out.empty())
+    return "; no scene value is outside the validated regime: more solver.substeps (now " +
+           std::to_string(substeps) + " per frame), a larger guard.max_halvings, or \"quality\": \"reference\" " +
+           "may carry the frame";
+  std::string text = "; the scene's values outside the validated regime: ";
+  for (size_t k = 0; k < out.size(); ++k) text += (k ? "; " : "") + out[k];
+  return text;
+}
+
+}  // namespace loom::scene

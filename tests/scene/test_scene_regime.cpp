@@ -1,0 +1,98 @@
+// The divergence report (SceneRegime.h): each value outside the validated regime is named by its field, a
+// scene inside it names the fields that give a frame more steps, and no bundled scene is outside it.
+#include <gtest/gtest.h>
+
+#include <filesystem>
+#include <nlohmann/json.hpp>
+#include <string>
+#include <vector>
+
+#include "loom/scene/Scene.h"
+#include "loom/scene/SceneRegime.h"
+
+namespace loom::test {
+namespace {
+
+const char* kSheet = R"({
+  "name": "sheet", "duration": 0.1, "fps": 60,
+  "solver": {"method": "symplectic_euler", "substeps": 40},
+  "cloths": [{"name": "sheet",
+              "mesh": {"type": "grid", "size": [1, 1], "nodes": [9, 9], "origin": [0, 1.5, 0]},
+              "material": {"preset": "cotton"}, "mass": 0.2,
+              "pins": [{"grid": [0, 0]}, {"grid": [-1, 0]}]}]
+})";
+
+std::string suspects(const std::vector<std::string>& overrides) {
+  const nlohmann::json root = nlohmann::json::parse(kSheet);
+  nlohmann::json j = root;
+  for (const std::string& o : overrides) scene::apply_override(j, o, "sheet.json");
+  return scene::divergence_suspects(scene::parse_scene(j, "sheet.json"));
+}
+
+struct RegimeCase {
+  std::vector<std::string> overrides;
+  const char* field;   // the field the report must name
+  const char* figure;  // and its figure
+};
+
+TEST(SceneRegime, EachValueOutsideTheRegimeIsNamedByItsFieldWithItsFigure) {
+  const RegimeCase cases[] = {
+      {{"gravity=[1e4,1e4,1e4]"}, "gravity (|g| = 1.73e+04 m/s^2", "1.77e+03 g"},
+      {{"gravity=[0,-200,0]"}, "gravity (|g| = 200 m/s^2", "validated up to 98.1"},
+      {{"cloths[0].material.stretch=1e12", "solver.method=implicit_euler"},
+       "cloths[0].material stretch with its areal density",
+       "stretch waves at 2.24e+06 m/s"},
+      {{"cloths[0].material.stretch=1e7"}, "solver.substeps for cloths[0]", "explicit symplectic_euler"},
+      {{"cloths[0].velocity=[0,300,0]"}, "cloths[0].velocity (300 m/s", "validated up to 100"},
+      {{"effects={\"drag\":{\"isotropic\":10,\"wind\":[1000,0,0]}}"}, "effects.drag.wind", "pushes at 5e+04 m/s^2"},
+      {{"effects={\"drag\":{\"normal\":1e6}}"}, "effects.drag.normal", "relaxes the velocity"},
+      {{"effects={\"wind\":{\"velocity\":[300,0,0]}}"}, "effects.wind", "pushes at 2.7e+05 m/s^2"},
+  };
+  for (const RegimeCase& c : cases) {
+    const std::string text = suspects(c.overrides);
+    SCOPED_TRACE(c.overrides[0]);
+    EXPECT_NE(text.find("outside the validated regime: "), std::string::npos) << text;
+    EXPECT_NE(text.find(c.field), std::string::npos) << text;
+    EXPECT_NE(text.find(c.figure), std::string::npos) << text;
+  }
+}
+
+TEST(SceneRegime, AValueJustInsideTheRegimeIsNotNamed) {
+  for (const std::string& o :
+       {std::string("gravity=[0,-98,0]"), std::string("cloths[0].velocity=[0,99,0]"),
+        std::string("effects={\"wind\":{\"velocity\":[10,0,0]}}")}) {
+    const std::string text = suspects({o});
+    EXPECT_NE(text.find("no scene value is outside the validated regime"), std::string::npos) << o << ": " << text;
+  }
+}
+
+TEST(SceneRegime, ASceneInsideTheRegimeNamesTheFieldsThatGiveAFrameMoreSteps) {
+  const std::string text = suspects({});
+  EXPECT_NE(text.find("solver.substeps (now 40 per frame)"), std::string::npos) << text;
+  EXPECT_NE(text.find("guard.max_halvings"), std::string::npos) << text;
+  EXPECT_NE(text.find("\"quality\": \"reference\""), std::string::npos) << text;
+}
+
+// The regime is what the bundled scenes stay inside: none of them is reported.
+TEST(SceneRegime, NoBundledSceneIsOutsideTheRegime) {
+  int loaded = 0;
+  for (const auto& e : std::filesystem::directory_iterator(std::string(LOOM_SOURCE_DIR) + "/scenes")) {
+    if (e.path().extension() != ".json") continue;
+    scene::Scene sc;
+    try {
+      sc = scene::load_scene(e.path().string());
+    } catch (const std::exception& ex) {  // a scene needing a part this build lacks (Bullet, characters)
+      const std::string what = ex.what();
+      if (what.find("built without") != std::string::npos) continue;
+      ADD_FAILURE() << e.path() << ": " << what;
+      continue;
+    }
+    ++loaded;
+    EXPECT_NE(scene::divergence_suspects(sc).find("no scene value is outside"), std::string::npos)
+        << e.path() << ": " << scene::divergence_suspects(sc);
+  }
+  EXPECT_GE(loaded, 20);
+}
+
+}  // namespace
+}  // namespace loom::test
