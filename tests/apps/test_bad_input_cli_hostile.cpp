@@ -11,9 +11,12 @@
 //     writes is refused, inputs are compared by identity;
 //   - `loom body --image`, `loom compare`, `loom bench` follow the same rules as `loom run`;
 //   - a checkpoint's state is validated as an input.
+#include <fcntl.h>
 #include <gtest/gtest.h>
 #include <sys/wait.h>
+#include <unistd.h>
 
+#include <csignal>
 #include <cstdint>
 #include <cstdlib>
 #include <cstring>
@@ -547,6 +550,77 @@ TEST(HostileRender, AVideoThatCannotBeMadeIsRefusedBeforeTheRun) {
   EXPECT_EQ(r.code, 1) << r.err;
   EXPECT_NE(r.err.find("ffmpeg: --render: ffmpeg not found"), std::string::npos) << r.err;
   EXPECT_FALSE(fs::exists(dir / "no_ffmpeg"));
+}
+
+// loom killed by a signal while ffmpeg makes the video: ffmpeg dies with it (it runs with a death signal),
+// and the private folder ffmpeg wrote in is listed in the manifest, so the next run into the folder deletes
+// it. A stand-in ffmpeg on PATH records its pid and its output path, then waits; the test kills loom then.
+TEST(HostileRender, AKilledRunLeavesNoFfmpegRunningAndTheNextRunRemovesItsFolder) {
+  const fs::path dir = test_dir();
+  std::ofstream(dir / "scene.json") << kScene;
+  const fs::path bin = dir / "bin", marker = dir / "ffmpeg.pid";
+  fs::create_directories(bin);
+  std::ofstream(bin / "ffmpeg") << "#!/bin/sh\n"
+                                   "for a in \"$@\"; do last=\"$a\"; done\n"
+                                   ": > \"$last\"\n"  // a partial video, as a real ffmpeg leaves one
+                                   "echo $$ > " +
+                                       marker.string() +
+                                       ".tmp\n"
+                                       "mv " +
+                                       marker.string() + ".tmp " + marker.string() +
+                                       "\n"
+                                       "exec sleep 600\n";
+  fs::permissions(bin / "ffmpeg", fs::perms::owner_all);
+  const fs::path out = dir / "out";
+  const std::string saved = std::getenv("PATH") ? std::getenv("PATH") : "";
+  ::setenv("PATH", (bin.string() + ":" + saved).c_str(), 1);
+  const pid_t loom = ::fork();
+  if (loom == 0) {
+    const int err = ::open((dir / "err.txt").c_str(), O_WRONLY | O_CREAT | O_TRUNC, 0600);
+    ::dup2(err, 2);
+    ::execl(LOOM_BINARY, "loom", "run", (dir / "scene.json").c_str(), "--render", "--out", out.c_str(),
+            static_cast<char*>(nullptr));
+    ::_exit(127);
+  }
+  ::setenv("PATH", saved.c_str(), 1);
+  ASSERT_GT(loom, 0);
+  int status = 0;
+  bool exited = false;
+  for (int i = 0; i < 6000 && !fs::exists(marker); ++i) {  // up to 60 s: the run, its frames, then ffmpeg
+    if (::waitpid(loom, &status, WNOHANG) == loom) {
+      exited = true;
+      break;
+    }
+    ::usleep(10000);
+  }
+  if (exited && slurp(dir / "err.txt").find("built without the offscreen renderer") != std::string::npos)
+    GTEST_SKIP() << "loom built without the renderer";
+  ASSERT_FALSE(exited) << "loom ended before ffmpeg ran: " << slurp(dir / "err.txt");
+  ASSERT_TRUE(fs::exists(marker));
+  const pid_t ffmpeg = std::stoi(slurp(marker));
+  ASSERT_EQ(::kill(ffmpeg, 0), 0) << "the stand-in ffmpeg is running";
+  ::kill(loom, SIGKILL);
+  ::waitpid(loom, &status, 0);
+  bool gone = false;  // dead: no such process, or a zombie waiting for its new parent to reap it
+  for (int i = 0; i < 500 && !gone; ++i) {
+    std::ifstream st("/proc/" + std::to_string(ffmpeg) + "/stat");
+    std::string pid, comm, state;
+    gone = !(st >> pid >> comm >> state) || state == "Z";
+    if (!gone) ::usleep(10000);
+  }
+  EXPECT_TRUE(gone) << "ffmpeg " << ffmpeg << " outlived the killed loom";
+  std::vector<fs::path> staging;
+  for (const auto& e : fs::directory_iterator(out))
+    if (e.path().filename().string().rfind(".loom-ffmpeg-", 0) == 0) staging.push_back(e.path());
+  ASSERT_EQ(staging.size(), 1u);
+  const std::string manifest = slurp(out / ".loom-manifest");
+  const std::string name = staging[0].filename().string();
+  EXPECT_NE(manifest.find("\n" + name + "/\n"), std::string::npos) << manifest;
+  EXPECT_NE(manifest.find("\n" + name + "/render.mp4\n"), std::string::npos) << manifest;
+  // The next run into the folder deletes what the killed one listed, the private folder included.
+  const auto r = run_loom("run " + (dir / "scene.json").string() + " --frames 1 --out " + out.string());
+  EXPECT_EQ(r.code, 0) << r.err;
+  EXPECT_FALSE(fs::exists(staging[0])) << name;
 }
 
 }  // namespace

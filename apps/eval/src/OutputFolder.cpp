@@ -3,7 +3,9 @@
 #include <sys/stat.h>
 
 #include <algorithm>
+#include <cerrno>
 #include <cstdio>
+#include <cstring>
 #include <map>
 #include <random>
 #include <sstream>
@@ -331,6 +333,27 @@ void OutputFolder::remove_owned(const std::string& relative) {
   const fs::path p = dir_ / relative;
   const fs::file_status st = fs::symlink_status(p, ec);
   if (fs::exists(st) && !fs::is_directory(st)) fs::remove(p, ec);
+}
+
+fs::path OutputFolder::claim_private_folder(const std::string& stem, const std::vector<std::string>& files) {
+  std::random_device rd;
+  for (int attempt = 0; attempt < 16; ++attempt) {
+    const std::string name = stem + std::to_string(rd() % 1000000000u) + "/";
+    if (!valid_entry(name.substr(0, name.size() - 1)))
+      throw Error((dir_ / name).string(), flag_, "is not a path inside the output folder");
+    if (listed_.count(name)) continue;
+    append(name);  // listed first: deleted by the next run, empty or not, once its files are gone
+    listed_.insert(name);
+    for (const std::string& f : files) {
+      append(name + f);
+      listed_.insert(name + f);
+    }
+    const fs::path p = dir_ / name;
+    if (::mkdir(p.c_str(), 0700) == 0) return p;
+    if (errno != EEXIST)
+      throw Error(p.string(), flag_, std::string("cannot create folder: ") + std::strerror(errno));
+  }
+  throw Error((dir_ / stem).string(), flag_, "cannot find a fresh name for a private folder");
 }
 
 }  // namespace loom::eval

@@ -49,8 +49,11 @@ struct RenderReport {
 // Renders `rec` into `out` (see above): out/render/frame_NNNNN.png (frame 0 to rec.frames() - 1),
 // out/render.mp4 and out/render.gif. Deletes nothing: the caller owns `out` and its earlier files. `fps`:
 // frames per second of the video (the rendered frames' rate). `video`: also run ffmpeg (throws loom::Error
-// when ffmpeg is missing or fails).
+// when ffmpeg is missing or fails). `staging`: a private folder (mode 0700, made fresh by the caller, e.g.
+// OutputFolder::claim_private_folder) where ffmpeg writes each file before it is renamed into place; empty:
+// one is made by mkdtemp inside `out` and removed after. ffmpeg runs as a child that dies with this process
+// (PR_SET_PDEATHSIG): a loom killed by a signal leaves no ffmpeg running.
 RenderReport render_recording(const std::string& out, const Recording& rec, const RenderSettings& settings,
-                              double fps, bool video = true);
+                              double fps, bool video = true, const std::string& staging = "");
 
 }  // namespace loom::render
