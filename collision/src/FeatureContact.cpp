@@ -5,6 +5,7 @@
 #include <map>
 #include <utility>
 
+#include "GridCell.h"
 #include "loom/collision/ColliderDistance.h"
 #include "loom/collision/ColliderGeometry.h"
 #include "loom/collision/SweptCollider.h"
@@ -77,17 +78,6 @@ ColliderFeatures collider_features(const Collider& c) {
 }
 
 // A uniform grid over one cloth's vertices and triangle centroids (counting sort into cells).
-namespace {
-
-// v clamped to [lo, hi] and truncated: NaN and values past int give a bound, never an out-of-range cast.
-int clamped_int(double v, int lo, int hi) {
-  if (!(v >= lo)) return lo;
-  if (v >= hi) return hi;
-  return static_cast<int>(v);
-}
-
-}  // namespace
-
 struct FeatureContactStage::Grid {
   Vec3 lo = Vec3::Zero();
   double cell = 1.0;  // m
@@ -95,7 +85,7 @@ struct FeatureContactStage::Grid {
   std::vector<int> vert_start, verts, tri_start, tris;
   double tri_reach = 0.0;  // m, largest centroid-to-corner distance
 
-  int clamp_index(double v, int n) const { return clamped_int(std::floor(v / cell), 0, n - 1); }
+  int clamp_index(double v, int n) const { return clamped_cell(std::floor(v / cell), 0, n - 1); }
   int cell_of(const Vec3& p) const {
     const Vec3 q = p - lo;
     return (clamp_index(q.z(), nz) * ny + clamp_index(q.y(), ny)) * nx + clamp_index(q.x(), nx);
@@ -120,9 +110,9 @@ struct FeatureContactStage::Grid {
     const Vec3 ext = (hi - lo).cwiseMax(Vec3::Zero());
     // At most 64 cells per axis: a larger cloth gets larger cells.
     cell = std::max(cell, ext.maxCoeff() / 64.0);
-    nx = clamped_int(std::ceil(ext.x() / cell), 1, 64);
-    ny = clamped_int(std::ceil(ext.y() / cell), 1, 64);
-    nz = clamped_int(std::ceil(ext.z() / cell), 1, 64);
+    nx = clamped_cell(std::ceil(ext.x() / cell), 1, 64);
+    ny = clamped_cell(std::ceil(ext.y() / cell), 1, 64);
+    nz = clamped_cell(std::ceil(ext.z() / cell), 1, 64);
     const int cells = nx * ny * nz;
     std::vector<int> c(s.x.size());
     for (size_t i = 0; i < s.x.size(); ++i) c[i] = cell_of(s.x[i]);

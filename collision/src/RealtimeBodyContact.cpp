@@ -4,6 +4,7 @@
 #include <cmath>
 #include <limits>
 
+#include "GridCell.h"
 #include "loom/collision/ColliderDistance.h"
 #include "loom/collision/ColliderGeometry.h"
 #include "loom/collision/FrictionPair.h"
@@ -125,17 +126,6 @@ void RealtimeBodyContactStage::run(cloth::StageContext& ctx) {
       for (int i : unsettled_[c]) after_[c][i] = Vec3::Constant(std::numeric_limits<double>::quiet_NaN());
   }
 }
-
-namespace {
-
-// floor(v) clamped to [lo, hi] for any v: NaN and values past int give a bound, never an out-of-range cast.
-int clamped_cell(double v, int lo, int hi) {
-  if (!(v >= lo)) return lo;
-  if (v >= hi) return hi;
-  return static_cast<int>(v);
-}
-
-}  // namespace
 
 // A coarse grid over the cloth's box: each cell lists the active colliders whose box meets it, so a vertex
 // tests the boxes of a few colliders (a character's neighbouring bones), not of all of them.

@@ -67,9 +67,10 @@ std::string divergence_suspects(const Scene& scene) {
         out.push_back("effects.drag.wind with " + at + "'s areal density (the wind pushes at " + fig(a) +
                       " m/s^2; validated up to " + fig(kRegimeWindAcceleration) + ")");
       if (coef / rho * h > kRegimeDampingSteps)
-        out.push_back(std::string("effects.drag.") + (s.drag->isotropic >= s.drag->normal ? "isotropic" : "normal") +
-                      " with " + at + "'s areal density (the drag relaxes the velocity " +
-                      fig(coef / rho * h) + " times per step; validated up to " + fig(kRegimeDampingSteps) + ")");
+        out.push_back(std::string("effects.drag.") +
+                      (s.drag->isotropic >= s.drag->normal ? "isotropic" : "normal") + " with " + at +
+                      "'s areal density (the drag relaxes the velocity " + fig(coef / rho * h) +
+                      " times per step; validated up to " + fig(kRegimeDampingSteps) + ")");
     }
     if (s.wind) {  // AeroTerm.h: |f| <= 1/2 rho_air max(C_D, C_L) |w|^2 A
       const double w = s.wind->max_speed();
@@ -83,15 +84,16 @@ std::string divergence_suspects(const Scene& scene) {
     const collision::RigidBodySpec& b = scene.bodies[k];
     const std::string at = "bodies[" + std::to_string(k) + "]";
     if (b.velocity.norm() > kRegimeSpeed)
-      out.push_back(at + ".velocity (" + fig(b.velocity.norm()) + " m/s; validated up to " + fig(kRegimeSpeed) +
-                    ")");
+      out.push_back(at + ".velocity (" + fig(b.velocity.norm()) + " m/s; validated up to " +
+                    fig(kRegimeSpeed) + ")");
     if (cloth_mass > 0.0 && b.mass > 1e3 * cloth_mass)
-      out.push_back(at + ".mass (" + fig(b.mass / cloth_mass) + " times the cloths' mass; validated up to 1000)");
+      out.push_back(at + ".mass (" + fig(b.mass / cloth_mass) +
+                    " times the cloths' mass; validated up to 1000)");
   }
   if (out.empty())
     return "; no scene value is outside the validated regime: more solver.substeps (now " +
-           std::to_string(substeps) + " per frame), a larger guard.max_halvings, or \"quality\": \"reference\" " +
-           "may carry the frame";
+           std::to_string(substeps) +
+           " per frame), a larger guard.max_halvings, or \"quality\": \"reference\" " + "may carry the frame";
   std::string text = "; the scene's values outside the validated regime: ";
   for (size_t k = 0; k < out.size(); ++k) text += (k ? "; " : "") + out[k];
   return text;

@@ -208,6 +208,23 @@ std::map<std::string, std::string> snapshot(const fs::path& dir) {
   return m;
 }
 
+// DIR/out made afresh, for a test to plant something at `planted` inside it (the path is cleared, its
+// folder made): a foreign folder (the user's notes.txt and `foreign_dir`, if any) or the folder of an
+// earlier one-frame run of `scene`. Returns false when that run failed.
+bool folder_to_plant_in(const fs::path& out, const std::string& scene, const std::string& planted,
+                        bool foreign, const char* foreign_dir = "") {
+  fs::remove_all(out);
+  if (foreign) {
+    fs::create_directories(out / foreign_dir);
+    std::ofstream(out / "notes.txt") << "user data";
+  } else if (run_loom("run " + scene + " --frames 1 --out " + out.string()).code != 0) {
+    return false;
+  }
+  fs::create_directories((out / planted).parent_path());
+  fs::remove_all(out / planted);
+  return true;
+}
+
 // A link planted at any path the run writes refuses the run before the folder changes: a foreign folder
 // (with --overwrite) gets no manifest, and a folder of an earlier run keeps every file of that run.
 TEST(RedteamOutputFolder, ARefusedRunLeavesTheFolderExactlyAsItFoundIt) {
@@ -231,15 +248,7 @@ TEST(RedteamOutputFolder, ARefusedRunLeavesTheFolderExactlyAsItFoundIt) {
   for (const auto& [planted, foreign] : cases) {
     {
       const fs::path out = dir / "out";
-      fs::remove_all(out);
-      if (foreign) {
-        fs::create_directories(out / "frames");
-        std::ofstream(out / "notes.txt") << "user data";
-      } else {
-        ASSERT_EQ(run_loom("run " + scene + " --frames 1 --out " + out.string()).code, 0);
-      }
-      fs::create_directories((out / planted).parent_path());
-      fs::remove_all(out / planted);
+      ASSERT_TRUE(folder_to_plant_in(out, scene, planted, foreign, "frames"));
       fs::create_symlink(victim, out / planted);
       const auto before = snapshot(out);
       const auto r = run_loom("run " + scene + " --checkpoint-every 1 --overwrite --out " + out.string());
@@ -274,15 +283,7 @@ TEST(RedteamOutputFolder, AFifoWhereTheRunWritesIsRefusedNotOpened) {
   for (const auto& [planted, foreign] : cases) {
     {
       const fs::path out = dir / "out";
-      fs::remove_all(out);
-      if (foreign) {
-        fs::create_directories(out);
-        std::ofstream(out / "notes.txt") << "user data";
-      } else {
-        ASSERT_EQ(run_loom("run " + scene + " --frames 1 --out " + out.string()).code, 0);
-      }
-      fs::create_directories((out / planted).parent_path());
-      fs::remove_all(out / planted);
+      ASSERT_TRUE(folder_to_plant_in(out, scene, planted, foreign));
       ASSERT_EQ(::mkfifo((out / planted).c_str(), 0600), 0) << planted;
       const auto before = snapshot(out);
       const auto r = run_loom("run " + scene + " --checkpoint-every 1 --overwrite --out " + out.string());

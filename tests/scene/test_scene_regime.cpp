@@ -44,7 +44,9 @@ TEST(SceneRegime, EachValueOutsideTheRegimeIsNamedByItsFieldWithItsFigure) {
        "stretch waves at 2.24e+06 m/s"},
       {{"cloths[0].material.stretch=1e7"}, "solver.substeps for cloths[0]", "explicit symplectic_euler"},
       {{"cloths[0].velocity=[0,300,0]"}, "cloths[0].velocity (300 m/s", "validated up to 100"},
-      {{"effects={\"drag\":{\"isotropic\":10,\"wind\":[1000,0,0]}}"}, "effects.drag.wind", "pushes at 5e+04 m/s^2"},
+      {{"effects={\"drag\":{\"isotropic\":10,\"wind\":[1000,0,0]}}"},
+       "effects.drag.wind",
+       "pushes at 5e+04 m/s^2"},
       {{"effects={\"drag\":{\"normal\":1e6}}"}, "effects.drag.normal", "relaxes the velocity"},
       {{"effects={\"wind\":{\"velocity\":[300,0,0]}}"}, "effects.wind", "pushes at 2.7e+05 m/s^2"},
   };
@@ -58,11 +60,11 @@ TEST(SceneRegime, EachValueOutsideTheRegimeIsNamedByItsFieldWithItsFigure) {
 }
 
 TEST(SceneRegime, AValueJustInsideTheRegimeIsNotNamed) {
-  for (const std::string& o :
-       {std::string("gravity=[0,-98,0]"), std::string("cloths[0].velocity=[0,99,0]"),
-        std::string("effects={\"wind\":{\"velocity\":[10,0,0]}}")}) {
+  for (const std::string& o : {std::string("gravity=[0,-98,0]"), std::string("cloths[0].velocity=[0,99,0]"),
+                               std::string("effects={\"wind\":{\"velocity\":[10,0,0]}}")}) {
     const std::string text = suspects({o});
-    EXPECT_NE(text.find("no scene value is outside the validated regime"), std::string::npos) << o << ": " << text;
+    EXPECT_NE(text.find("no scene value is outside the validated regime"), std::string::npos)
+        << o << ": " << text;
   }
 }
 

@@ -13,12 +13,12 @@ namespace loom::scene {
 
 // The bounds of the validated regime (docs/validation.md: the bundled scenes and the stability suite stay
 // well inside them).
-constexpr double kRegimeAcceleration = 98.1;        // m/s^2, 10 g: gravity
-constexpr double kRegimeWindAcceleration = 1e4;     // m/s^2: a wind's push on a light cloth (a flag: ~760)
-constexpr double kRegimeWaveSpeed = 1e4;       // m/s, stretch waves sqrt(E / rho): above steel's 5e3
-constexpr double kRegimeSpeed = 100.0;         // m/s, initial cloth and body speeds
-constexpr double kRegimeCourant = 1.0;         // 1, c h / l_min for the explicit solvers (CFL number)
-constexpr double kRegimeDampingSteps = 1.0;    // 1, (drag / rho) h: the drag's relaxation per step
+constexpr double kRegimeAcceleration = 98.1;     // m/s^2, 10 g: gravity
+constexpr double kRegimeWindAcceleration = 1e4;  // m/s^2: a wind's push on a light cloth (a flag: ~760)
+constexpr double kRegimeWaveSpeed = 1e4;         // m/s, stretch waves sqrt(E / rho): above steel's 5e3
+constexpr double kRegimeSpeed = 100.0;           // m/s, initial cloth and body speeds
+constexpr double kRegimeCourant = 1.0;           // 1, c h / l_min for the explicit solvers (CFL number)
+constexpr double kRegimeDampingSteps = 1.0;      // 1, (drag / rho) h: the drag's relaxation per step
 
 // "; the values outside the validated regime: gravity (|g| = 1.73e+04 m/s^2, more than 98.1), ..."; when no
 // value is outside it, the fields that give the frame more steps (solver.substeps, guard.max_halvings).
