@@ -9,6 +9,7 @@
 #include <iostream>
 #include <nlohmann/json.hpp>
 #include <set>
+#include <sstream>
 #include <string>
 
 #include "CliValue.h"
@@ -16,6 +17,7 @@
 #include "loom/cloth/Model.h"
 #include "loom/cloth/OutputFile.h"
 #include "loom/eval/FabricTests.h"
+#include "loom/eval/HelperProgram.h"
 #include "loom/eval/OutputFolder.h"
 
 namespace fs = std::filesystem;
@@ -77,34 +79,22 @@ void write_report(eval::OutputFolder& folder, const eval::FabricTestResult& r) {
   md << "| solver | " << r.solver << " |\n| settle frames | " << r.settle_frames
      << (r.settled ? " (settled)" : " (not settled)") << " |\n| wall time | " << r.seconds
      << " s |\n| CPU time | " << r.cpu_seconds << " s |\n\n";
-  // The plot, through gnuplot when it is installed.
-  const std::string gp = (dir / "plot.gp").string();
-  {
-    OutputFile g(gp);
-    const bool shape = r.test == "cantilever" || r.test == "catenary" || r.test == "drape";
-    g << "set terminal pngcairo size 640,480 noenhanced\nset output '" << (dir / "plot.png").string() << "'\n"
-      << "set datafile separator ','\nset key bottom left\nset grid\n"
-      << "set title '" << r.test << ": " << r.material << ", " << r.model << "'\n"
-      << (shape ? "set size ratio -1\nset xlabel 'x'\nset ylabel 'y'\n"
-                : "set xlabel 'extension (%)'\nset ylabel 'load (gf/cm)'\n")
-      << "plot '" << (dir / "curve.csv").string()
-      << "' using ($1 eq 'simulated' ? $2 : 1/0):3 with linespoints title 'simulated', \\\n"
-      << "     '' using ($1 eq 'theory' ? $2 : 1/0):3 with lines lw 2 title 'theory'\n";
-  }
-  // Column 1 is a string: compare with strcol.
-  std::string script;
-  {
-    std::ifstream in(gp);
-    script.assign(std::istreambuf_iterator<char>(in), {});
-  }
-  for (size_t p; (p = script.find("$1 eq")) != std::string::npos;) script.replace(p, 5, "strcol(1) eq");
-  OutputFile(gp) << script;
-  if (std::system("command -v gnuplot >/dev/null 2>&1") == 0 &&
-      std::system(("gnuplot '" + gp + "' >/dev/null 2>&1").c_str()) == 0) {
+  // The plot, through gnuplot when it is installed; column 1 is a string: compared with strcol.
+  const bool shape = r.test == "cantilever" || r.test == "catenary" || r.test == "drape";
+  std::ostringstream g;
+  g << "set datafile separator ','\nset key bottom left\nset grid\n"
+    << "set title " << eval::gnuplot_quote(r.test + ": " + r.material + ", " + r.model) << "\n"
+    << (shape ? "set size ratio -1\nset xlabel 'x'\nset ylabel 'y'\n"
+              : "set xlabel 'extension (%)'\nset ylabel 'load (gf/cm)'\n")
+    << "plot 'curve.csv' using (strcol(1) eq 'simulated' ? $2 : 1/0):3 with linespoints title 'simulated', "
+       "\\\n"
+    << "     '' using (strcol(1) eq 'theory' ? $2 : 1/0):3 with lines lw 2 title 'theory'\n";
+  const std::string why =
+      eval::gnuplot_png(folder, "plot", "set terminal pngcairo size 640,480 noenhanced", g.str());
+  if (why.empty())
     md << "![plot](plot.png)\n";
-  } else {
-    md << "(gnuplot is not installed: no plot; the data is in curve.csv)\n";
-  }
+  else
+    md << "(no plot: " << why << "; the data is in curve.csv)\n";
 }
 
 }  // namespace

@@ -161,7 +161,6 @@ scene::Scene with(const std::string& path, const std::vector<std::string>& sets)
 // `bodies`: the CSV gets a bodies_through column (the Bullet-world scene).
 void write(eval::OutputFolder& folder, const std::string& name, const std::string& title,
            const std::vector<Row>& rows, bool bodies = false) {
-  for (const char* ext : {".png", ".dat", ".gp"}) folder.claim(name + ext);  // the plot's files
   OutputFile csv(folder.claim(name + ".csv"));
   csv << "system,ms_per_frame,rms_error_m,max_penetration_m,max_strain,finite"
       << (bodies ? ",bodies_through\n" : "\n");
@@ -179,7 +178,7 @@ void write(eval::OutputFolder& folder, const std::string& name, const std::strin
     std::printf("%s\n", r.finite ? "" : "  (stopped)");
     if (std::isfinite(r.rms) && r.rms > 0.0) points.push_back({r.system, r.ms, r.rms});
   }
-  plot_accuracy(points, title, (folder.dir() / (name + ".png")).string());
+  plot_accuracy(folder, points, title, name);
 }
 
 const char* kUsage =

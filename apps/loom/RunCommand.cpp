@@ -22,6 +22,7 @@
 #include "DetailView.h"
 #include "Terminal.h"
 #include "loom/cloth/Error.h"
+#include "loom/eval/HelperProgram.h"
 #include "loom/eval/OutputFolder.h"
 #include "loom/export/Exporters.h"
 #ifdef LOOM_HAVE_RENDER
@@ -372,7 +373,7 @@ void SceneRun::open_outputs() {
           "with --render, fps / output.render.every is the video's frame rate and must be in [1, 1000] "
           "(got " +
               video_rate_text(video_fps) + ")");
-    if (std::system("command -v ffmpeg >/dev/null 2>&1") != 0)
+    if (!eval::program_on_path("ffmpeg"))
       throw Error("ffmpeg", "--render",
                   "ffmpeg not found (Debian package: ffmpeg); install it or run without --render");
   }
@@ -669,24 +670,26 @@ void SceneRun::render_video() {
   rs.height = sc_.output.render.height;
   if (sc_.output.render.camera)
     rs.camera = render::Camera{sc_.output.render.eye, sc_.output.render.target, sc_.output.render.fov};
-  // ffmpeg's private folder, listed before it exists: a run killed while ffmpeg works leaves only listed
-  // paths.
-  const fs::path staging = folder_->claim_private_folder(".loom-ffmpeg-", {"render.mp4", "render.gif"});
-  struct RemoveWhenDone {
-    fs::path dir;
-    ~RemoveWhenDone() {
-      std::error_code ec;
-      fs::remove(dir, ec);  // empty once ffmpeg's files are renamed into place (or removed on failure)
-    }
-  } remove_staging{staging};
-  const render::RenderReport rep =
-      render::render_recording(out_.string(), *recording_, rs,
-                               1.0 / (sc_.setup.frame_dt * sc_.output.render.every), true, staging.string());
+  const double fps = 1.0 / (sc_.setup.frame_dt * sc_.output.render.every);
+  const render::RenderReport rep = render::render_recording(out_.string(), *recording_, rs, fps);
+  if (rep.frames > 0) {
+    // H.264 needs even sizes: pad by one pixel when the image is odd. The GIF: the first 4 s, 15 fps, 320 px.
+    eval::ffmpeg_video(*folder_, "render", fps,
+                       {"-vf", "pad=ceil(iw/2)*2:ceil(ih/2)*2", "-c:v", "libx264", "-pix_fmt", "yuv420p",
+                        "-crf", "20", "-movflags", "+faststart", "-f", "mp4"},
+                       "render.mp4", "--render");
+    eval::ffmpeg_video(*folder_, "render", fps,
+                       {"-t", "4", "-vf",
+                        "fps=15,scale=320:-1:flags=lanczos,split[a][b];[a]palettegen=max_colors=96[p];[b][p]"
+                        "paletteuse=dither=bayer:bayer_scale=4",
+                        "-loop", "0", "-f", "gif"},
+                       "render.gif", "--render");
+  }
   render_summary_ = {
       {"frames", rep.frames}, {"ms_per_frame", rep.ms_per_frame}, {"width", rs.width}, {"height", rs.height}};
   std::cout << "loom: rendered " << rep.frames << " frames (" << std::fixed << std::setprecision(1)
-            << rep.ms_per_frame << " ms/frame) -> " << (out_ / "render").string() << "/, " << rep.mp4 << ", "
-            << rep.gif << "\n";
+            << rep.ms_per_frame << " ms/frame) -> " << (out_ / "render").string() << "/, "
+            << (out_ / "render.mp4").string() << ", " << (out_ / "render.gif").string() << "\n";
 #endif
 }
 

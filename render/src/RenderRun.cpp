@@ -1,12 +1,6 @@
 #include "loom/render/RenderRun.h"
 
-#include <signal.h>
-#include <sys/prctl.h>
-#include <sys/wait.h>
-#include <unistd.h>
-
 #include <algorithm>
-#include <cerrno>
 #include <chrono>
 #include <cmath>
 #include <cstdio>
@@ -109,64 +103,10 @@ std::vector<cloth::Vec3> tracked_targets(const Recording& rec, double fps, doubl
   return targets;
 }
 
-std::string quote(const std::string& s) {
-  std::string q = "'";
-  for (char c : s) q += c == '\'' ? std::string("'\\''") : std::string(1, c);
-  return q + "'";
-}
-
-// Runs `command` by /bin/sh as a child that gets SIGKILL when this process dies (PR_SET_PDEATHSIG, kept
-// across exec), so a loom killed while ffmpeg works leaves no ffmpeg behind. Returns the child's exit status
-// (-1 when it could not run or was killed).
-int run_child(const std::string& command) {
-  const pid_t parent = ::getpid();
-  const pid_t pid = ::fork();
-  if (pid < 0) return -1;
-  if (pid == 0) {
-    ::prctl(PR_SET_PDEATHSIG, SIGKILL);
-    if (::getppid() != parent) ::_exit(127);  // the parent died before prctl took effect
-    ::execl("/bin/sh", "sh", "-c", command.c_str(), static_cast<char*>(nullptr));
-    ::_exit(127);
-  }
-  int status = 0;
-  while (::waitpid(pid, &status, 0) < 0)
-    if (errno != EINTR) return -1;
-  return WIFEXITED(status) ? WEXITSTATUS(status) : -1;
-}
-
-// ffmpeg writes `target` as a new file in a private folder (mode 0700, a name that did not exist: `staging`,
-// or one made here by mkdtemp inside `out`), from which it is renamed into place: ffmpeg never opens a path
-// where something could have been planted (a link it would follow, a FIFO it would block on). `args` ends
-// with the output format option.
-void run_ffmpeg(const fs::path& out, const std::string& staging, const std::string& args,
-                const std::string& target) {
-  std::string folder = staging;
-  if (folder.empty()) {
-    folder = (out / ".loom-ffmpeg-XXXXXX").string();
-    if (!::mkdtemp(folder.data())) throw Error(out.string(), "--render", "cannot create a temporary folder");
-  }
-  const fs::path staged = fs::path(folder) / fs::path(target).filename();
-  // exec: ffmpeg replaces the shell, so the death signal reaches ffmpeg itself.
-  const std::string cmd = "exec ffmpeg -hide_banner -loglevel error -n " + args + " " +
-                          quote(fs::absolute(staged).string()) + " </dev/null";
-  const int status = run_child(cmd);
-  std::error_code ec;
-  const bool made = fs::is_regular_file(fs::symlink_status(staged, ec));
-  if (status == 0 && made) fs::rename(staged, target, ec);
-  const bool moved = status == 0 && made && !ec;
-  if (staging.empty()) {
-    fs::remove_all(folder, ec);
-  } else if (!moved) {
-    fs::remove(staged, ec);
-  }
-  if (!moved) throw Error(target, "--render", "ffmpeg failed (command: " + cmd.substr(5) + ")");
-}
-
 }  // namespace
 
 RenderReport render_recording(const std::string& out_dir, const Recording& rec,
-                              const RenderSettings& settings, double fps, bool video,
-                              const std::string& staging) {
+                              const RenderSettings& settings, double fps) {
   const fs::path out(out_dir), dir = out / "render";
   std::error_code ec;  // the caller owns the folder and removes its earlier files (RenderRun.h)
   fs::create_directories(dir, ec);
@@ -196,33 +136,6 @@ RenderReport render_recording(const std::string& out_dir, const Recording& rec,
           ? std::chrono::duration<double, std::milli>(std::chrono::steady_clock::now() - start).count() /
                 rec.frames()
           : 0.0;
-  if (!video || rec.frames() == 0) return rep;
-
-  if (std::system("command -v ffmpeg >/dev/null 2>&1") != 0)
-    throw Error("ffmpeg", "--render",
-                "ffmpeg not found (Debian package: ffmpeg); the PNG frames are in " + dir.string());
-  char rate[32];
-  std::snprintf(rate, sizeof rate, "%.6g", fps);
-  // ffmpeg reads the frames by a pattern in which '%' is special: a '%' of the folder's own path is doubled.
-  std::string pattern;
-  // Paths are absolute, so none starts with '-' (ffmpeg would read it as an option).
-  for (char c : std::filesystem::absolute(dir).string())
-    pattern += c == '%' ? std::string("%%") : std::string(1, c);
-  const std::string input = std::string("-framerate ") + rate + " -i " + quote(pattern + "/frame_%05d.png");
-  rep.mp4 = (out / "render.mp4").string();
-  // H.264 needs even sizes: pad by one pixel when the image is odd.
-  run_ffmpeg(out, staging,
-             input +
-                 " -vf 'pad=ceil(iw/2)*2:ceil(ih/2)*2' -c:v libx264 -pix_fmt yuv420p -crf 20 "
-                 "-movflags +faststart -f mp4",
-             rep.mp4);
-  rep.gif = (out / "render.gif").string();
-  run_ffmpeg(out, staging,
-             input +
-                 " -t 4 -vf "
-                 "'fps=15,scale=320:-1:flags=lanczos,split[a][b];[a]palettegen=max_colors=96[p];[b][p]"
-                 "paletteuse=dither=bayer:bayer_scale=4' -loop 0 -f gif",
-             rep.gif);
   return rep;
 }
 

@@ -554,7 +554,8 @@ TEST(HostileRender, AVideoThatCannotBeMadeIsRefusedBeforeTheRun) {
 
 // loom killed by a signal while ffmpeg makes the video: ffmpeg dies with it (it runs with a death signal),
 // and the private folder ffmpeg wrote in is listed in the manifest, so the next run into the folder deletes
-// it. A stand-in ffmpeg on PATH records its pid and its output path, then waits; the test kills loom then.
+// it. A stand-in ffmpeg on PATH writes its output (a partial video) and records its pid, then waits; the
+// test kills loom then.
 TEST(HostileRender, AKilledRunLeavesNoFfmpegRunningAndTheNextRunRemovesItsFolder) {
   const fs::path dir = test_dir();
   std::ofstream(dir / "scene.json") << kScene;
@@ -611,7 +612,7 @@ TEST(HostileRender, AKilledRunLeavesNoFfmpegRunningAndTheNextRunRemovesItsFolder
   EXPECT_TRUE(gone) << "ffmpeg " << ffmpeg << " outlived the killed loom";
   std::vector<fs::path> staging;
   for (const auto& e : fs::directory_iterator(out))
-    if (e.path().filename().string().rfind(".loom-ffmpeg-", 0) == 0) staging.push_back(e.path());
+    if (e.path().filename().string().rfind(".loom-helper-", 0) == 0) staging.push_back(e.path());
   ASSERT_EQ(staging.size(), 1u);
   const std::string manifest = slurp(out / ".loom-manifest");
   const std::string name = staging[0].filename().string();
@@ -621,6 +622,38 @@ TEST(HostileRender, AKilledRunLeavesNoFfmpegRunningAndTheNextRunRemovesItsFolder
   const auto r = run_loom("run " + (dir / "scene.json").string() + " --frames 1 --out " + out.string());
   EXPECT_EQ(r.code, 0) << r.err;
   EXPECT_FALSE(fs::exists(staging[0])) << name;
+}
+
+// Paths and names reach gnuplot and ffmpeg as text, never as commands: an output folder whose name holds
+// quotes, a ';', `$(...)` and backquotes gets its plot and video, and nothing the name spells is run.
+TEST(HostileHelpers, AnOutputPathThatSpellsCommandsIsNeverRun) {
+  const fs::path dir = test_dir();
+  std::ofstream(dir / "scene.json") << kScene;
+  const std::string name = "q'x;touch PWNED;'$(touch PWNED2)`touch PWNED3`\"; set output 'x";
+  const fs::path fabric = dir / ("fabric " + name), video = dir / ("video " + name);
+  auto quoted = [](const fs::path& p) {  // for the test's own shell only
+    std::string q = "'";
+    for (char c : p.string()) q += c == '\'' ? std::string("'\\''") : std::string(1, c);
+    return q + "'";
+  };
+  const auto f = run_loom("fabric-test tensile --out " + quoted(fabric));
+  EXPECT_EQ(f.code, 0) << f.err;
+  const std::string report = slurp(fabric / "report.md");
+  if (std::system("command -v gnuplot >/dev/null 2>&1") == 0) {
+    EXPECT_NE(report.find("![plot](plot.png)"), std::string::npos) << report;
+    EXPECT_TRUE(fs::is_regular_file(fabric / "plot.png"));
+  }
+  const auto r = run_loom("run " + (dir / "scene.json").string() + " --render --out " + quoted(video));
+  if (r.err.find("built without the offscreen renderer") == std::string::npos) {
+    EXPECT_EQ(r.code, 0) << r.err;
+    EXPECT_TRUE(fs::is_regular_file(video / "render.mp4")) << r.err;
+    EXPECT_TRUE(fs::is_regular_file(video / "render.gif")) << r.err;
+  }
+  for (const fs::path& d : {fs::current_path(), dir, fabric, video})
+    for (const char* p : {"PWNED", "PWNED2", "PWNED3", "x"}) EXPECT_FALSE(fs::exists(d / p)) << d / p;
+  for (const fs::path& d : {fabric, video})  // no private folder is left
+    for (const auto& e : fs::directory_iterator(d))
+      EXPECT_NE(e.path().filename().string().rfind(".loom-helper-", 0), 0u) << e.path();
 }
 
 }  // namespace

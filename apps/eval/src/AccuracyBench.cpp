@@ -319,12 +319,11 @@ int bench_accuracy(const AccuracyOptions& o) {
     check_reference(n, ref, rows, first, refs);
     const std::vector<PlotPoint> pts = plot_points(rows, first);
     const std::string stem = "accuracy_" + std::to_string(n);
-    for (const char* ext : {".dat", ".gp"}) folder.claim(stem + ext);
-    const std::string png = folder.claim(stem + ".png").string();
+    const std::string png = (folder.dir() / (stem + ".png")).string();
     const std::string title = "hanging cloth " + std::to_string(n) + "x" + std::to_string(n) +
                               ", cotton, 1 m, 0.2 kg, " + num(o.duration) + " s, damping off";
     if (!write_results(o, folder, rows, refs)) return 1;
-    if (plot_accuracy(pts, title, png) && n == o.sizes.back())
+    if (plot_accuracy(folder, pts, title, stem) && n == o.sizes.back())
       write_file_atomically(folder.claim("accuracy.png").string(), folder.claim("accuracy.png.tmp").string(),
                             read_input_file(png));
   }

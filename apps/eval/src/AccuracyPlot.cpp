@@ -2,13 +2,14 @@
 
 #include <algorithm>
 #include <cstdio>
-#include <cstdlib>
 #include <fstream>
 #include <iostream>
 #include <map>
 #include <numeric>
+#include <sstream>
 
 #include "loom/cloth/OutputFile.h"
+#include "loom/eval/HelperProgram.h"
 
 namespace loom::eval {
 
@@ -28,12 +29,12 @@ std::vector<size_t> pareto_front(const std::vector<PlotPoint>& points) {
   return front;
 }
 
-bool plot_accuracy(const std::vector<PlotPoint>& points, const std::string& title, const std::string& png) {
-  const std::string stem = png.size() > 4 ? png.substr(0, png.size() - 4) : png;
-  const std::string dat = stem + ".dat", gp = stem + ".gp";
+bool plot_accuracy(OutputFolder& folder, const std::vector<PlotPoint>& points, const std::string& title,
+                   const std::string& stem) {
+  const std::string dat = stem + ".dat";
   std::map<std::string, std::vector<size_t>> series;
   for (size_t i = 0; i < points.size(); ++i) series[points[i].series].push_back(i);
-  OutputFile d(dat);
+  OutputFile d(folder.claim(dat));
   std::vector<std::string> names;
   for (const auto& kv : series) {
     d << "# " << kv.first << "\n";
@@ -46,39 +47,28 @@ bool plot_accuracy(const std::vector<PlotPoint>& points, const std::string& titl
   for (size_t i : front) d << points[i].ms << ' ' << points[i].error << "\n";
   d.close();
   if (!d) {
-    std::cerr << "loom: error: cannot write " << dat << "\n";
+    std::cerr << "loom: error: cannot write " << (folder.dir() / dat).string() << "\n";
     return false;
   }
-  OutputFile g(gp);
-  g << "set terminal pngcairo size 900,600 font ',10' noenhanced\n"
-    << "set output '" << png << "'\n"
-    << "set title '" << title << "'\n"
+  std::ostringstream g;
+  g << "set title " << gnuplot_quote(title) << "\n"
     << "set logscale xy\nset grid\nset format y '%g'\n"
     << "set xlabel 'wall ms per 60 Hz frame (1 thread)'\n"
     << "set ylabel 'max over the run of mass-weighted RMS position error (m)'\n"
     << "set key outside right top\n"
     << "plot ";
   const int kTypes[] = {7, 5, 9, 11, 13, 4, 6, 8, 10, 12};
+  const std::string q = gnuplot_quote(dat);
   for (size_t s = 0; s < names.size(); ++s)
-    g << "'" << dat << "' index " << s << " using 1:2 with points pt " << kTypes[s % 10] << " ps 1.2 title '"
-      << names[s] << "', ";
-  g << "'" << dat << "' index " << names.size()
-    << " using 1:2 with steps lw 2 lc rgb 'black' title 'Pareto front', '" << dat << "' index "
-    << names.size() << " using 1:2 with points pt 6 ps 2.2 lc rgb 'black' notitle\n";
-  g.close();
-  const std::string cmd = "gnuplot '" + gp + "' 2>&1";
-  FILE* p = popen(cmd.c_str(), "r");
-  if (!p) {
-    std::cerr << "loom: warning: cannot run gnuplot; " << png << " not written\n";
-    return false;
-  }
-  char buf[512];
-  std::string out;
-  while (fgets(buf, sizeof buf, p)) out += buf;
-  const int rc = pclose(p);
-  if (rc != 0) {
-    std::cerr << "loom: warning: gnuplot failed (is gnuplot-nox installed?); " << png << " not written\n"
-              << out;
+    g << q << " index " << s << " using 1:2 with points pt " << kTypes[s % 10] << " ps 1.2 title "
+      << gnuplot_quote(names[s]) << ", ";
+  g << q << " index " << names.size() << " using 1:2 with steps lw 2 lc rgb 'black' title 'Pareto front', "
+    << q << " index " << names.size() << " using 1:2 with points pt 6 ps 2.2 lc rgb 'black' notitle\n";
+  const std::string why =
+      gnuplot_png(folder, stem, "set terminal pngcairo size 900,600 font ',10' noenhanced", g.str());
+  if (!why.empty()) {
+    std::cerr << "loom: warning: " << why << "; " << (folder.dir() / (stem + ".png")).string()
+              << " not written\n";
     return false;
   }
   return true;

@@ -348,7 +348,7 @@ fs::path OutputFolder::claim_private_folder(const std::string& stem, const std::
       append(name + f);
       listed_.insert(name + f);
     }
-    const fs::path p = dir_ / name;
+    const fs::path p = dir_ / name.substr(0, name.size() - 1);  // no trailing '/': filename() is the name
     if (::mkdir(p.c_str(), 0700) == 0) return p;
     if (errno != EEXIST)
       throw Error(p.string(), flag_, std::string("cannot create folder: ") + std::strerror(errno));

@@ -1,8 +1,7 @@
 #pragma once
 // `loom run --render`: keeps the positions of every rendered frame while the simulation runs, then (so
 // the camera can be framed on the whole motion) renders DIR/render/frame_00000.png ... (numbered by
-// rendered frame), encodes DIR/render.mp4 (H.264, yuv420p) and a short DIR/render.gif preview (first
-// 4 s, 15 fps, 320 px wide) with ffmpeg.
+// rendered frame). The CLI encodes the video from them (loom/eval/HelperProgram.h, ffmpeg_video).
 #include <memory>
 #include <string>
 #include <vector>
@@ -43,17 +42,12 @@ class Recording {
 struct RenderReport {
   int frames = 0;
   double ms_per_frame = 0.0;  // wall time of rendering + PNG writing, per frame
-  std::string mp4, gif;       // empty when not written
 };
 
-// Renders `rec` into `out` (see above): out/render/frame_NNNNN.png (frame 0 to rec.frames() - 1),
-// out/render.mp4 and out/render.gif. Deletes nothing: the caller owns `out` and its earlier files. `fps`:
-// frames per second of the video (the rendered frames' rate). `video`: also run ffmpeg (throws loom::Error
-// when ffmpeg is missing or fails). `staging`: a private folder (mode 0700, made fresh by the caller, e.g.
-// OutputFolder::claim_private_folder) where ffmpeg writes each file before it is renamed into place; empty:
-// one is made by mkdtemp inside `out` and removed after. ffmpeg runs as a child that dies with this process
-// (PR_SET_PDEATHSIG): a loom killed by a signal leaves no ffmpeg running.
+// Renders `rec` into `out` (see above): out/render/frame_NNNNN.png (frame 0 to rec.frames() - 1). Deletes
+// nothing: the caller owns `out` and its earlier files. `fps`: frames per second of the rendered frames (the
+// camera's tracking is smoothed over time).
 RenderReport render_recording(const std::string& out, const Recording& rec, const RenderSettings& settings,
-                              double fps, bool video = true, const std::string& staging = "");
+                              double fps);
 
 }  // namespace loom::render

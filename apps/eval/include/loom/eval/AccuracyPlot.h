@@ -4,6 +4,8 @@
 #include <string>
 #include <vector>
 
+#include "loom/eval/OutputFolder.h"
+
 namespace loom::eval {
 
 struct PlotPoint {
@@ -16,8 +18,10 @@ struct PlotPoint {
 // increasing time.
 std::vector<size_t> pareto_front(const std::vector<PlotPoint>& points);
 
-// Writes `png` (and `png` with .dat/.gp in place of .png). Returns false with a message on stderr if
-// gnuplot is missing or fails; the CSV stays the result.
-bool plot_accuracy(const std::vector<PlotPoint>& points, const std::string& title, const std::string& png);
+// Writes DIR/<stem>.dat and .gp and, through gnuplot, DIR/<stem>.png (each claimed in `folder`; gnuplot
+// runs as HelperProgram.h runs helpers). Returns false with a message on stderr if gnuplot is missing or
+// fails; the CSV stays the result.
+bool plot_accuracy(OutputFolder& folder, const std::vector<PlotPoint>& points, const std::string& title,
+                   const std::string& stem);
 
 }  // namespace loom::eval
