@@ -563,7 +563,7 @@ void SceneRun::start() {
             ? "the detail surface of cloth '" + shown_bad + "' is not finite at the start (cloths[].detail)"
             : "the start state's energy is not finite (an initial velocity, pin offset or anchor too large "
               "for double precision)";
-    error_ += "; stopped before frame 0, nothing written";
+    error_ += "; stopped before frame 0, nothing written" + scene::divergence_suspects(sc_);
     return;
   }
   write_row(s0);

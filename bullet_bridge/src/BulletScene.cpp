@@ -122,7 +122,7 @@ cloth::FrameStats BulletScene::step_frame() {
   for (size_t k = 0; k < specs_.size(); ++k)
     if (specs_[k].motion)
       world_->bodies[k]->getMotionState()->setWorldTransform(to_bt(specs_[k].motion(t_end)));
-  simulation().set_output_frame(frame_ + 1);  // a failure names this output frame, not the Bullet substep
+  simulation().set_output_frame(frame_ + 1, frame_dt_);  // a failure names this output frame, not the substep
   const long before = cloth_->substeps();
   std::vector<double> stage_ms;
   double total_ms = 0.0;

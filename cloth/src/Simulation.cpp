@@ -324,9 +324,12 @@ FrameStats Simulation::step_frame() {
       const bool capped = steps + 2 * n > kMaxStepsPerFrame;
       if (attempt >= setup_.guard.max_halvings || capped) {
         ++failed_frames_;
-        failure_ = why + " in frame " + std::to_string(output_frame_ > 0 ? output_frame_ : frame_ + 1) +
-                   " (t = " + std::to_string(t_) + " to " + std::to_string((frame_ + 1) * setup_.frame_dt) +
-                   " s), also with " + std::to_string(n) + " substeps";
+        const bool out = output_frame_ > 0;  // the output frame's span, not this step's
+        const double t0 = out ? (output_frame_ - 1) * output_frame_dt_ : t_;
+        const double t1 = out ? output_frame_ * output_frame_dt_ : (frame_ + 1) * setup_.frame_dt;
+        failure_ = why + " in frame " + std::to_string(out ? output_frame_ : frame_ + 1) +
+                   " (t = " + std::to_string(t0) + " to " + std::to_string(t1) + " s), also with " +
+                   std::to_string(n) + " substeps";
         if (capped && attempt < setup_.guard.max_halvings)
           failure_ += "; no further retry: one with " + std::to_string(2 * n) + " substeps would bring the " +
                       "frame to " + std::to_string(steps + 2 * n) + " solver steps, above the " +

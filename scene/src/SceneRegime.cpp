@@ -57,6 +57,41 @@ std::string divergence_suspects(const Scene& scene) {
                       " edges per step of the explicit " + s.solver.method + "; stable below " +
                       fig(kRegimeCourant) + ")");
     }
+    const double l_min = min_rest_edge(*c.mesh);
+    // Stiffness-proportional damping (Material.h: c = damping k) relaxes an edge's stretch at the rate
+    // damping omega^2, omega = wave / l_min: an explicit step must not exceed it; any solver past 1 s.
+    const double damping_steps = c.material.damping * (wave / l_min) * (wave / l_min) * h;
+    if (c.material.damping > kRegimeDamping ||
+        (explicit_method(s.solver.method) && damping_steps > kRegimeDampingSteps))
+      out.push_back(at + ".material.damping (" + fig(c.material.damping) + " s, relaxing an edge " +
+                    fig(damping_steps) + " times per step; validated up to " + fig(kRegimeDamping) +
+                    " s and " + fig(kRegimeDampingSteps) + " per step)");
+    // A pin whose first target lies far from its vertex moves the vertex there in the first step.
+    cloth::Vec3 lo = c.mesh->rest_positions()[0], hi = lo;
+    for (const cloth::Vec3& x : c.mesh->rest_positions()) {
+      lo = lo.cwiseMin(x);
+      hi = hi.cwiseMax(x);
+    }
+    const double reach = kRegimePinReach * std::max((hi - lo).norm(), l_min);
+    for (size_t k = 0; k < c.pins.size(); ++k) {
+      const cloth::PinSpec& p = c.pins[k];
+      if (p.vertex < 0 || p.vertex >= c.mesh->num_vertices()) continue;
+      const cloth::Vec3 start = c.mesh->rest_positions()[p.vertex];
+      cloth::Vec3 target = p.anchor.value_or(start);
+      if (!p.offsets.empty()) target += p.offsets.front();
+      const double d = (target - start).norm();
+      if (d > reach)
+        out.push_back((k < c.pin_fields.size() ? c.pin_fields[k] : at + ".pins[" + std::to_string(k) + "]") +
+                      " (its first target lies " + fig(d) + " m from its vertex; validated up to " +
+                      fig(reach) + " m, a quarter of the cloth's size)");
+    }
+    if (c.pressure) {  // PressureTerm.h: |f| = |p| A on a face, so a = |p| / rho
+      const double p =
+          std::abs(c.pressure->overpressure) + (c.pressure->ideal_gas ? c.pressure->ambient : 0.0);
+      if (p / rho > kRegimeWindAcceleration)
+        out.push_back(at + ".pressure (" + fig(p) + " Pa pushes the cloth at " + fig(p / rho) +
+                      " m/s^2; validated up to " + fig(kRegimeWindAcceleration) + ")");
+    }
     if (c.initial_velocity.norm() > kRegimeSpeed)
       out.push_back(at + ".velocity (" + fig(c.initial_velocity.norm()) + " m/s; validated up to " +
                     fig(kRegimeSpeed) + ")");
@@ -86,6 +121,23 @@ std::string divergence_suspects(const Scene& scene) {
     if (b.velocity.norm() > kRegimeSpeed)
       out.push_back(at + ".velocity (" + fig(b.velocity.norm()) + " m/s; validated up to " +
                     fig(kRegimeSpeed) + ")");
+    if (b.motion) {  // a kinematic body's speed, sampled at 240 Hz over the scene (at most 1e5 samples)
+      const double dt = std::max(1.0 / 240.0, scene.duration / 1e5);
+      double v = 0.0;
+      for (double t = 0.0; t < scene.duration; t += dt)
+        v = std::max(v, (b.motion(t + dt).translation() - b.motion(t).translation()).norm() / dt);
+      if (v > kRegimeSpeed)
+        out.push_back(at + ".motion (moves at up to " + fig(v) + " m/s; validated up to " +
+                      fig(kRegimeSpeed) + ")");
+    }
+    double carried = 0.0;  // kg, the cloths that hang from this body
+    for (const collision::BodyAttachment& a : b.attachments)
+      if (a.cloth >= 0 && a.cloth < static_cast<int>(s.cloths.size()))
+        carried = std::max(carried,
+                           s.cloths[a.cloth].material.areal_density * s.cloths[a.cloth].mesh->total_area());
+    if (b.mass > 0.0 && !b.motion && carried > 0.0 && b.mass < 1e-2 * carried)
+      out.push_back(at + ".mass (" + fig(b.mass) + " kg carries a cloth of " + fig(carried) +
+                    " kg; validated down to a hundredth of it)");
     if (cloth_mass > 0.0 && b.mass > 1e3 * cloth_mass)
       out.push_back(at + ".mass (" + fig(b.mass / cloth_mass) +
                     " times the cloths' mass; validated up to 1000)");

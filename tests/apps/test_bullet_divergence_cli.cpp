@@ -36,7 +36,8 @@ TEST(BulletDivergenceCli, TheGuardNamesTheOutputFrameNotTheBulletSubstep) {
   const double t0 = std::stod(m[2]), t1 = std::stod(m[3]), fps = 60.0;
   // The failed interval lies inside the named output frame, the frame after the last valid one.
   EXPECT_EQ(frame, static_cast<int>(std::floor(t0 * fps + 1e-6)) + 1) << r.err;
-  EXPECT_LE(t1, frame / fps + 1e-6) << r.err;
+  EXPECT_NEAR(t0, (frame - 1) / fps, 1e-6) << r.err;  // the output frame's whole span, not a substep's
+  EXPECT_NEAR(t1, frame / fps, 1e-6) << r.err;
   EXPECT_EQ(valid, frame - 1) << r.err;
   EXPECT_NE(r.err.find("limit guard.max_strain 0.05"), std::string::npos) << r.err;  // the bound, by field
   EXPECT_NE(r.err.find("solver.substeps"), std::string::npos) << r.err;  // inside the regime: the step fields

@@ -39,7 +39,9 @@ TEST(HelperProgram, AGnuplotStringHoldsAnyTextAsOneLiteral) {
   EXPECT_EQ(eval::gnuplot_quote("plain"), "'plain'");
   EXPECT_EQ(eval::gnuplot_quote("it's"), "'it''s'");
   EXPECT_EQ(eval::gnuplot_quote("a'; system(\"touch x\"); '"), "'a''; system(\"touch x\"); '''");
-  EXPECT_EQ(eval::gnuplot_quote("line\nbreak\r\x7f"), "'line?break?" "?'");
+  EXPECT_EQ(eval::gnuplot_quote("line\nbreak\r\x7f"),
+            "'line?break?"
+            "?'");
 }
 
 }  // namespace

@@ -49,6 +49,12 @@ TEST(SceneRegime, EachValueOutsideTheRegimeIsNamedByItsFieldWithItsFigure) {
        "pushes at 5e+04 m/s^2"},
       {{"effects={\"drag\":{\"normal\":1e6}}"}, "effects.drag.normal", "relaxes the velocity"},
       {{"effects={\"wind\":{\"velocity\":[300,0,0]}}"}, "effects.wind", "pushes at 2.7e+05 m/s^2"},
+      {{"cloths[0].material={\"preset\":\"cotton\",\"damping\":2}"},
+       "cloths[0].material.damping (2 s",
+       "per step"},
+      {{"cloths[0].pins[0]={\"grid\":[0,0],\"anchor\":[0,1.5,-3]}"},
+       "cloths[0].pins[0] (its first target lies 3 m from its vertex",
+       "a quarter of the cloth's size"},
   };
   for (const RegimeCase& c : cases) {
     const std::string text = suspects(c.overrides);

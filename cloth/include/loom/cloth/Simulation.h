@@ -111,9 +111,13 @@ class Simulation {
   }
 
   // A host that steps this simulation in substeps of its own output frames (a Bullet world steps it once per
-  // Bullet substep) names the output frame in progress here; failure() then names that frame instead of this
-  // simulation's own frame count. 0: failure() names this simulation's frame (frame() + 1).
-  void set_output_frame(int frame) { output_frame_ = frame; }
+  // Bullet substep) names the output frame in progress and its length (s) here; failure() then names that
+  // frame and its time span instead of this simulation's own. 0: failure() names this simulation's frame
+  // (frame() + 1).
+  void set_output_frame(int frame, double frame_dt) {
+    output_frame_ = frame;
+    output_frame_dt_ = frame_dt;
+  }
 
   // The whole changing state: time, frame, every cloth's x, v, x_prev, every stage's and solver's
   // history. load_state restores it bit-identically (checkpoints; the guard's per-frame snapshot).
@@ -147,7 +151,8 @@ class Simulation {
   std::vector<double> last_term_ms_;  // term totals at the previous frame, to report per-frame deltas
   double t_ = 0.0;
   int frame_ = 0;
-  int output_frame_ = 0;  // set_output_frame; 0: none
+  int output_frame_ = 0;          // set_output_frame; 0: none
+  double output_frame_dt_ = 0.0;  // s, the output frame's length (set_output_frame)
   // Guard (SimulationState.cpp): frame-start snapshot, the frame-start sample, counters.
   StateWriter snapshot_;
   std::optional<GuardSample> start_sample_;

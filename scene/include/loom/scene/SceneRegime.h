@@ -18,7 +18,9 @@ constexpr double kRegimeWindAcceleration = 1e4;  // m/s^2: a wind's push on a li
 constexpr double kRegimeWaveSpeed = 1e4;         // m/s, stretch waves sqrt(E / rho): above steel's 5e3
 constexpr double kRegimeSpeed = 100.0;           // m/s, initial cloth and body speeds
 constexpr double kRegimeCourant = 1.0;           // 1, c h / l_min for the explicit solvers (CFL number)
-constexpr double kRegimeDampingSteps = 1.0;      // 1, (drag / rho) h: the drag's relaxation per step
+constexpr double kRegimeDampingSteps = 1.0;      // 1, a damping's relaxation per step (drag, material)
+constexpr double kRegimeDamping = 1.0;           // s, stiffness-proportional material damping
+constexpr double kRegimePinReach = 0.25;         // 1, a pin's first target from its vertex, per cloth size
 
 // "; the values outside the validated regime: gravity (|g| = 1.73e+04 m/s^2, more than 98.1), ..."; when no
 // value is outside it, the fields that give the frame more steps (solver.substeps, guard.max_halvings).

@@ -35,6 +35,7 @@ std::string gnuplot_png(OutputFolder& folder, const std::string& name, const std
 // output options (filters, codec, ending with `-f <format>`), one argument each. Throws loom::Error naming
 // `field` when ffmpeg is missing or fails. Claims <file> in `folder`.
 void ffmpeg_video(OutputFolder& folder, const std::string& frames, double fps,
-                  const std::vector<std::string>& format_args, const std::string& file, const std::string& field);
+                  const std::vector<std::string>& format_args, const std::string& file,
+                  const std::string& field);
 
 }  // namespace loom::eval
