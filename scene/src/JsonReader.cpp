@@ -91,6 +91,13 @@ int JsonReader::integer(const std::string& key, std::optional<int> fallback, std
 
 long long JsonReader::integer_value(const nlohmann::json& v, const std::string& where, long long min,
                                     long long max) const {
+  if (v.is_number_float() && std::isfinite(v.get<double>()) &&
+      v.get<double>() == std::floor(v.get<double>()) &&
+      !(v.get<double>() >= static_cast<double>(min) && v.get<double>() <= static_cast<double>(max)))
+    throw Error(file_,
+                where,  // a whole number too large for an integer type (1e300): its range, not "fractional"
+                "must be in [" + std::to_string(min) + ", " + std::to_string(max) + "] (got " +
+                    show_number(v.get<double>()) + ")");
   if (!v.is_number_integer())
     throw Error(
         file_, where,

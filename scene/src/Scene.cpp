@@ -11,6 +11,7 @@
 #include <sstream>
 
 #include "loom/cloth/Error.h"
+#include "loom/cloth/HiddenText.h"
 #include "loom/cloth/Model.h"
 #include "loom/cloth/ObjFile.h"
 #include "loom/scene/JsonReader.h"
@@ -353,10 +354,17 @@ void parse_header(const JsonReader& r, Scene& scene, const std::string& file) {
            "must be a plain file name of 1 to 200 characters without '/' or '\\' and not '.' or '..' "
            "(it names the default output folder out/<name>; got '" +
                scene.name + "')");
+  // A name taken from the file name is checked as scene text is (JsonReader::string): no control,
+  // bidirectional or zero-width character reaches a folder name or a terminal.
+  if (!r.has("name"))
+    if (const HiddenChar h = find_hidden_char(scene.name); h.length)
+      r.fail("name", "is not given, and the scene's file name holds a control character (" +
+                         show_code(h.code) + " at byte " + std::to_string(h.byte) +
+                         "): give a \"name\" or rename the file");
   if (r.has("description")) r.string("description");
   scene.duration = r.number("duration", 1.0, 0.0, true);
   const double fps = r.number("fps", 60.0, 0.0, true);
-  if (fps > 100000.0) r.fail("fps", "must be <= 100000");
+  if (fps > 100000.0 || fps < 1e-6) r.fail("fps", "must be in [1e-06, 100000] Hz (got " + show(fps) + ")");
   scene.setup.frame_dt = 1.0 / fps;
   // Checked in double before the conversion to int (a huge duration would overflow it).
   if (scene.duration * fps > static_cast<double>(kMaxFrames))
@@ -441,7 +449,10 @@ cloth::WindSettings parse_wind(const JsonReader& w) {
       cloth::Gust gust;
       gust.amplitude = g.number("amplitude");
       gust.frequency = g.number("frequency");
-      gust.phase = g.number("phase", 0.0) * kDegree;
+      gust.phase = g.number("phase", 0.0);  // degrees, bounded as written, then in radians
+      if (!(std::abs(gust.phase) <= 1e6))
+        g.fail("phase", "must be in [-1000000, 1000000] degrees (got " + show(gust.phase) + ")");
+      gust.phase *= kDegree;
       g.finish();
       ws.gusts.push_back(gust);
     }

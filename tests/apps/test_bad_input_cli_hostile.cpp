@@ -656,5 +656,21 @@ TEST(HostileHelpers, AnOutputPathThatSpellsCommandsIsNeverRun) {
       EXPECT_NE(e.path().filename().string().rfind(".loom-helper-", 0), 0u) << e.path();
 }
 
+// A scene without "name" is named after its file; that name follows the rules of scene text: a file name
+// holding a newline or a bidi override is refused by `name`, and no folder is made.
+TEST(HostileNames, ANameTakenFromTheFileNameHoldsNoControlCharacter) {
+  const fs::path dir = test_dir();
+  for (const std::string& file : {std::string("nl\nname.json"), std::string("bidi\u202Egnp.json")}) {
+    nlohmann::json j = nlohmann::json::parse(kScene);
+    std::ofstream(dir / file) << j.dump();
+    const auto r = run_loom("run '" + (dir / file).string() + "' --frames 1");
+    EXPECT_EQ(r.code, 1) << r.err;
+    EXPECT_NE(r.err.find("name: is not given, and the scene's file name holds a control character"),
+              std::string::npos)
+        << r.err;
+    EXPECT_FALSE(fs::exists(fs::path("out") / file.substr(0, file.size() - 5)));
+  }
+}
+
 }  // namespace
 }  // namespace loom::test
