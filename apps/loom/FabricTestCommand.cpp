@@ -16,6 +16,7 @@
 #include "loom/cloth/Error.h"
 #include "loom/cloth/Model.h"
 #include "loom/cloth/OutputFile.h"
+#include "loom/eval/CsvNumber.h"
 #include "loom/eval/FabricTests.h"
 #include "loom/eval/HelperProgram.h"
 #include "loom/eval/OutputFolder.h"
@@ -56,6 +57,15 @@ const char* kFabricUsage =
     "  --out DIR             report folder (default: out/fabric-test/<test>): report.md, curve.csv, "
     "plot.png\n";
 
+// A figure of the report: "-" for one the test has not (no theory value, a run that measured nothing),
+// never nan or inf.
+std::string shown(double v, const std::string& unit) {
+  if (!std::isfinite(v)) return "-";
+  std::ostringstream s;
+  s << v << (unit.empty() ? "" : " " + unit);
+  return s.str();
+}
+
 // The report folder is owned as `loom run` owns its output folder (OutputFolder.h): a foreign non-empty
 // folder is refused without --overwrite, and only the report's own files are written.
 void write_report(eval::OutputFolder& folder, const eval::FabricTestResult& r) {
@@ -64,8 +74,10 @@ void write_report(eval::OutputFolder& folder, const eval::FabricTestResult& r) {
   {
     OutputFile csv(dir / "curve.csv");
     csv << "series,x,y\n";
-    for (const auto& [x, y] : r.curve) csv << "simulated," << x << ',' << y << "\n";
-    for (const auto& [x, y] : r.theory_curve) csv << "theory," << x << ',' << y << "\n";
+    for (const auto& [x, y] : r.curve)
+      csv << "simulated," << eval::csv_number(x) << ',' << eval::csv_number(y) << "\n";
+    for (const auto& [x, y] : r.theory_curve)
+      csv << "theory," << eval::csv_number(x) << ',' << eval::csv_number(y) << "\n";
     if (!csv) throw Error((dir / "curve.csv").string(), "", "write failed");
   }
   OutputFile md(dir / "report.md");
@@ -73,9 +85,9 @@ void write_report(eval::OutputFolder& folder, const eval::FabricTestResult& r) {
      << "| | |\n|---|---|\n"
      << "| material | " << r.material << " |\n| model | " << r.model << " |\n| resolution | " << r.resolution
      << " |\n"
-     << "| " << r.quantity << " measured | " << r.measured << " " << r.unit << " |\n"
-     << "| theory | " << r.theory << " " << r.unit << " |\n| error | " << r.error << " " << r.unit << " |\n";
-  for (const auto& [k, v] : r.fields) md << "| " << k << " | " << v << " |\n";
+     << "| " << r.quantity << " measured | " << shown(r.measured, r.unit) << " |\n"
+     << "| theory | " << shown(r.theory, r.unit) << " |\n| error | " << shown(r.error, r.unit) << " |\n";
+  for (const auto& [k, v] : r.fields) md << "| " << k << " | " << shown(v, "") << " |\n";
   md << "| solver | " << r.solver << " |\n| settle frames | " << r.settle_frames
      << (r.settled ? " (settled)" : " (not settled)") << " |\n| wall time | " << r.seconds
      << " s |\n| CPU time | " << r.cpu_seconds << " s |\n\n";
@@ -196,6 +208,15 @@ int fabric_test_main(int argc, char** argv) {
                             overwrite, false, {"curve.csv", "report.md", "plot.gp", "plot.png"});
   const eval::FabricTestResult r = eval::run_fabric_test(o);
   write_report(folder, r);
+  if (!std::isfinite(r.measured)) {  // the report says "-"; the run is not passed off as a measurement
+    std::fprintf(
+        stderr,
+        "loom: error: %s: measured no finite %s (solver %s, %s after %d frames): try --solver static "
+        "(the default) or more --settle-frames; the report in %s holds no measurement\n",
+        r.test.c_str(), r.quantity.c_str(), r.solver.c_str(), r.settled ? "settled" : "not settled",
+        r.settle_frames, folder.dir().c_str());
+    return 3;
+  }
   if (json) {
     nlohmann::ordered_json j;
     j["test"] = r.test;
