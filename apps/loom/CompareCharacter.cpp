@@ -9,7 +9,9 @@
 #include "loom/bullet/CharacterCompare.h"
 #include "loom/characters/Character.h"
 #include "loom/cloth/OutputFile.h"
+#include "loom/eval/CsvNumber.h"
 #include "loom/scene/ScenePipeline.h"
+#include "loom/scene/SceneRegime.h"
 
 namespace loom::app {
 
@@ -67,6 +69,7 @@ nlohmann::json to_json(const bullet::CharacterMetrics& r) {
   j["mean_strain"] = r.m.mean_strain;
   j["max_penetration"] = r.m.max_penetration;
   j["diverged"] = r.m.diverged;
+  if (!r.m.diverged_why.empty()) j["diverged_why"] = r.m.diverged_why;
   j["penetrating_vertices"] = r.penetrating_vertices;
   j["max_attachment_error"] = r.max_attachment_error;
   return j;
@@ -85,7 +88,11 @@ int compare_character(const scene::Scene& sc, int frames, eval::OutputFolder& fo
                      : (sc.setup.cloths.empty() ? 0.001 : sc.setup.cloths[0].material.thickness);
   auto pipeline = scene::build_pipeline(sc);
   cloth::Simulation* sim = &pipeline->simulation();
-  const bullet::CharacterMetrics loom = bullet::run_loom_character(*sim, in);
+  const bullet::CharacterMetrics loom = [&] {
+    bullet::CharacterMetrics r = bullet::run_loom_character(*sim, in);
+    if (!r.m.diverged_why.empty()) r.m.diverged_why += scene::divergence_suspects(sc);
+    return r;
+  }();
   const bullet::CharacterMetrics classic = bullet::run_bullet_character(in);
   const std::string deformable_note =
       "the deformable world is not run on characters (docs/bullet.md: NaN nodes against rigid bodies)";
@@ -106,11 +113,10 @@ int compare_character(const scene::Scene& sc, int frames, eval::OutputFolder& fo
   OutputFile(folder.claim("compare.json")) << j.dump(2) << "\n";
   OutputFile csv(folder.claim("compare.csv"));
   csv << "system,available,ms_per_frame,max_strain,mean_strain,max_penetration,diverged\n";
-  char line[512];
   for (const bullet::CharacterMetrics* r : {&loom, &classic}) {
-    std::snprintf(line, sizeof line, "%s,1,%.6g,%.9g,%.9g,%.9g,%d\n", r->m.system.c_str(), r->m.ms_per_frame,
-                  r->m.max_strain, r->m.mean_strain, r->m.max_penetration, r->m.diverged ? 1 : 0);
-    csv << line;
+    csv << r->m.system << ",1," << eval::csv_number(r->m.ms_per_frame) << ','
+        << eval::csv_number(r->m.max_strain, 9) << ',' << eval::csv_number(r->m.mean_strain, 9) << ','
+        << eval::csv_number(r->m.max_penetration, 9) << ',' << (r->m.diverged ? 1 : 0) << "\n";
   }
   csv << "bullet_deformable,0,,,,,\n";
   std::printf("%-18s %12s %12s %12s %16s %9s %12s %12s\n", "system", "ms/frame", "max_strain", "mean_strain",
@@ -119,6 +125,9 @@ int compare_character(const scene::Scene& sc, int frames, eval::OutputFolder& fo
     std::printf("%-18s %12.3f %12.5f %12.6f %16.6f %9s %12ld %12.6f\n", r->m.system.c_str(),
                 r->m.ms_per_frame, r->m.max_strain, r->m.mean_strain, r->m.max_penetration,
                 r->m.diverged ? "yes" : "no", r->penetrating_vertices, r->max_attachment_error);
+  for (const bullet::CharacterMetrics* r : {&loom, &classic})
+    if (!r->m.diverged_why.empty())
+      std::printf("%-18s diverged: %s\n", r->m.system.c_str(), r->m.diverged_why.c_str());
   std::printf("%-18s not run: %s\n", "bullet_deformable", deformable_note.c_str());
   std::printf("wrote %s/compare.csv and %s/compare.json\n", out.c_str(), out.c_str());
   return 0;

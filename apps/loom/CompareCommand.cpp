@@ -14,6 +14,7 @@
 #include "loom/bullet/Compare.h"
 #include "loom/cloth/Error.h"
 #include "loom/cloth/OutputFile.h"
+#include "loom/eval/CsvNumber.h"
 #include "loom/eval/OutputFolder.h"
 #include "loom/scene/Scene.h"
 #include "loom/scene/ScenePipeline.h"
@@ -151,15 +152,13 @@ int compare_main(int argc, char** argv) {
   OutputFile(folder.claim("compare.json")) << j.dump(2) << "\n";
   OutputFile csv(folder.claim("compare.csv"));
   csv << "system,available,ms_per_frame,max_strain,mean_strain,max_penetration,diverged\n";
-  char line[512];
   for (const auto& m : results) {
-    if (m.available) {
-      std::snprintf(line, sizeof line, "%s,1,%.6g,%.9g,%.9g,%.9g,%d\n", m.system.c_str(), m.ms_per_frame,
-                    m.max_strain, m.mean_strain, m.max_penetration, m.diverged ? 1 : 0);
-    } else {
-      std::snprintf(line, sizeof line, "%s,0,,,,,\n", m.system.c_str());
-    }
-    csv << line;
+    if (m.available)
+      csv << m.system << ",1," << eval::csv_number(m.ms_per_frame) << ',' << eval::csv_number(m.max_strain, 9)
+          << ',' << eval::csv_number(m.mean_strain, 9) << ',' << eval::csv_number(m.max_penetration, 9) << ','
+          << (m.diverged ? 1 : 0) << "\n";
+    else
+      csv << m.system << ",0,,,,,\n";
   }
   std::printf("loom: quality %s, the bridge's %s tier\n", sc.quality.name.c_str(), results[0].tier.c_str());
   std::printf("%-18s %12s %12s %12s %16s %9s\n", "system", "ms/frame", "max_strain", "mean_strain",

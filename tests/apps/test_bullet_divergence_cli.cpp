@@ -60,4 +60,23 @@ TEST(BulletDivergenceCli, CompareMarksTheRunTheGuardStopsAsDiverged) {
   for (const char* bad : {"nan", "inf"}) EXPECT_EQ(csv.find(bad), std::string::npos) << csv;
 }
 
+// A character scene's compare (Bullet classic's twin on the character's capsules) says why a system
+// diverged too, in the table, compare.json and with the divergence report's fields.
+TEST(BulletDivergenceCli, CharacterCompareSaysWhyLoomDiverged) {
+  const fs::path out = test_dir() / "out";
+  const auto r = run_loom("compare " + std::string(LOOM_SOURCE_DIR) + "/scenes/character_cape.json --out " +
+                          out.string() + " --frames 6 --set guard.max_strain=0.001");
+  if (r.err.find("unknown command") != std::string::npos || r.err.find("built without") != std::string::npos)
+    GTEST_SKIP() << "loom built without Bullet or characters";
+  ASSERT_EQ(r.code, 0) << r.err;
+  EXPECT_NE(r.out.find("loom               diverged: the strain exploded"), std::string::npos) << r.out;
+  const auto j = nlohmann::json::parse(slurp(out / "compare.json"));
+  EXPECT_EQ(j["loom"]["diverged"], true) << j.dump(1);
+  const std::string why = j["loom"]["diverged_why"].get<std::string>();
+  EXPECT_NE(why.find("limit guard.max_strain 0.001"), std::string::npos) << why;
+  EXPECT_NE(why.find("guard.max_halvings"), std::string::npos) << why;
+  const std::string csv = slurp(out / "compare.csv");
+  for (const char* bad : {"nan", "inf"}) EXPECT_EQ(csv.find(bad), std::string::npos) << csv;
+}
+
 }  // namespace

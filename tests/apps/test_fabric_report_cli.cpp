@@ -16,7 +16,8 @@ namespace fs = std::filesystem;
 void expect_finite_text(const fs::path& file) {
   const std::string text = slurp(file);
   EXPECT_FALSE(text.empty()) << file;
-  for (const char* bad : {"nan", "inf"}) EXPECT_EQ(text.find(bad), std::string::npos) << file << ":\n" << text;
+  for (const char* bad : {"nan", "inf"})
+    EXPECT_EQ(text.find(bad), std::string::npos) << file << ":\n" << text;
 }
 
 TEST(FabricReport, ATestThatMeasuresNothingExitsThreeAndWritesNoInf) {

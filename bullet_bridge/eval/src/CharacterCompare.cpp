@@ -25,6 +25,7 @@ struct CharacterTally {
   double max_strain = 0.0, mean_sum = 0.0, pen = 0.0, track = 0.0, ms = 0.0;
   long inside = 0;
   bool diverged = false;
+  std::string why;  // the first cause of `diverged`, with its frame
   int frames = 0;
   std::vector<std::vector<Vec3>> targets;  // per body attachment: the vertex in the body's frame at t = 0
 
@@ -36,6 +37,14 @@ struct CharacterTally {
       for (const collision::BodyAttachment& a : b.attachments)
         targets.back().push_back(p0.inverse() * (*x0[a.cloth])[a.vertex]);
     }
+  }
+
+  // Marks the run diverged at the frame being added; the first cause is kept.
+  void stop(const std::string& cause) {
+    if (why.empty())  // a simulation's failure names its frame already
+      why = cause.find(" in frame ") != std::string::npos ? cause
+                                                          : cause + " in frame " + std::to_string(frames + 1);
+    diverged = true;
   }
 
   // x[c]: positions of garment c at time t (s); meshes[c] its mesh.
@@ -50,7 +59,7 @@ struct CharacterTally {
         const double r = (mesh.rest_positions()[s.i] - mesh.rest_positions()[s.j]).norm();
         const double e = ((*x[c])[s.i] - (*x[c])[s.j]).norm() / r - 1.0;
         if (!std::isfinite(e)) {
-          diverged = true;
+          stop("an edge's strain became non-finite");
           continue;
         }
         max_strain = std::max(max_strain, e);
@@ -63,7 +72,7 @@ struct CharacterTally {
     for (size_t c = 0; c < x.size(); ++c)
       for (const Vec3& p : *x[c]) {
         if (!p.allFinite()) {
-          diverged = true;
+          stop("a vertex position became non-finite");
           continue;
         }
         double depth = 0.0;
@@ -80,7 +89,7 @@ struct CharacterTally {
         track = std::max(track, ((*x[a.cloth])[a.vertex] - poses[k] * targets[k][j]).norm());
       }
     inside = std::max(inside, inside_now);
-    if (max_strain > 10.0) diverged = true;
+    if (max_strain > 10.0) stop("the strain exceeded 10 (max l/L - 1 = " + std::to_string(max_strain) + ")");
     mean_sum += springs ? mean / springs : 0.0;
     ms += ms_now;
     ++frames;
@@ -94,6 +103,7 @@ struct CharacterTally {
     r.m.mean_strain = frames ? mean_sum / frames : 0.0;
     r.m.max_penetration = pen;
     r.m.diverged = diverged;
+    r.m.diverged_why = why;
     r.penetrating_vertices = inside;
     r.max_attachment_error = track;
     return r;
@@ -114,8 +124,9 @@ CharacterMetrics run_loom_character(cloth::Simulation& sim, const CharacterCompa
     const auto t0 = Clock::now();
     const cloth::FrameStats s = sim.step_frame();
     const double ms = std::chrono::duration<double, std::milli>(Clock::now() - t0).count();
+    if (!s.finite)
+      tally.stop(sim.failure().empty() ? std::string("the state became non-finite") : sim.failure());
     tally.add(sim.time(), meshes, x, ms);
-    if (!s.finite) tally.diverged = true;
     if (tally.diverged) break;
   }
   CharacterMetrics r = tally.fill("loom");
@@ -208,7 +219,7 @@ CharacterMetrics run_bullet_character(const CharacterCompareInput& in) {
     }
     tally.add(t, meshes, x, ms);
     if (in.on_frame) in.on_frame(f, x);
-    if (!simulating) tally.diverged = true;
+    if (!simulating) tally.stop("Bullet's soft body stopped simulating (a non-finite node)");
     if (tally.diverged) break;
   }
   CharacterMetrics r = tally.fill("bullet_classic");

@@ -66,12 +66,18 @@ void strain(const cloth::ClothMesh& mesh, const cloth::Vec3s& x, double& max_s, 
 struct Tally {
   double max_strain = 0.0, mean_sum = 0.0, pen = 0.0, ms = 0.0;
   bool diverged = false;
+  std::string why;  // the first cause of `diverged`, with its frame
   int frames = 0;
   void add(const cloth::ClothMesh& mesh, const cloth::Vec3s& x, double pen_now, double ms_now) {
     double mx = 0.0, mn = 0.0;
     bool finite = true;
     for (const Vec3& p : x) finite &= p.allFinite();
     strain(mesh, x, mx, mn);
+    if ((!finite || !std::isfinite(mx) || mx > 10.0) && !diverged)
+      why = std::string(finite && std::isfinite(mx)
+                            ? "the strain exceeded 10 (max l/L - 1 = " + std::to_string(mx) + ")"
+                            : "a vertex position became non-finite") +
+            " in frame " + std::to_string(frames + 1);
     if (!finite || !std::isfinite(mx) || mx > 10.0) diverged = true;
     max_strain = std::max(max_strain, std::isfinite(mx) ? mx : HUGE_VAL);
     mean_sum += mn;
@@ -85,6 +91,7 @@ struct Tally {
     m.mean_strain = frames ? mean_sum / frames : 0.0;
     m.max_penetration = pen;
     m.diverged = diverged;
+    if (m.diverged_why.empty()) m.diverged_why = why;
     for (const Vec3& p : x) m.final_positions.insert(m.final_positions.end(), {p.x(), p.y(), p.z()});
   }
 };
@@ -192,7 +199,10 @@ SystemMetrics run_bullet_twin(const CompareInput& in, TwinKind kind) {
     twin.positions(x);
     tally.add(mesh, x, bodies.penetration(x), ms);
     report(f);
-    if (!twin.simulating()) tally.diverged = true;
+    if (!twin.simulating() && !tally.diverged) {
+      tally.diverged = true;
+      tally.why = "Bullet's soft body stopped simulating (a non-finite node) in frame " + std::to_string(f);
+    }
     if (tally.diverged) break;
   }
   tally.fill(m, x);

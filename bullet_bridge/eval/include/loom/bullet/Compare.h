@@ -48,7 +48,9 @@ struct SystemMetrics {
   // Non-finite positions, max strain > 10, Bullet switched the body off, or (loom) the frame `loom run`
   // stops at: the guard failed it (energy explosion, strain, ...) or a body became non-finite.
   bool diverged = false;
-  std::string diverged_why;  // loom: the cause `loom run` reports for that frame ("" if not diverged so)
+  // Why `diverged`, with the frame ("" when not diverged): for Loom the cause `loom run` reports (the
+  // guard's), else the first non-finite vertex, a strain past 10, or a twin that stopped simulating.
+  std::string diverged_why;
   std::vector<double> final_positions;  // m, cloth 0's vertex coordinates at the end (x0 y0 z0 x1 ...)
 };
 
