@@ -66,6 +66,15 @@ std::function<Transform(double)> parse_body_motion(const JsonReader& m, const Tr
     if (!(amp.cwiseAbs().maxCoeff() <= 1000.0)) o.fail("amplitude", "must be within 1000 m on each axis");
     const double twist = o.number("twist", 0.0);
     if (!(std::abs(twist) <= 100.0)) o.fail("twist", "must be within 100 rad");
+    // The peak speeds 2 pi f |A| and 2 pi f |twist| are bounded as keyframed motion is (kMaxSpeed).
+    if (!(2.0 * M_PI * f * amp.norm() <= kMaxSpeed))
+      o.fail("amplitude", "with frequency " + show_count(f) + " Hz moves the body at up to " +
+                              show_count(2.0 * M_PI * f * amp.norm()) + " m/s: at most " +
+                              std::to_string(static_cast<long>(kMaxSpeed)) + " m/s");
+    if (!(2.0 * M_PI * f * std::abs(twist) <= kMaxSpeed))
+      o.fail("twist", "with frequency " + show_count(f) + " Hz turns the body at up to " +
+                          show_count(2.0 * M_PI * f * std::abs(twist)) + " rad/s: at most " +
+                          std::to_string(static_cast<long>(kMaxSpeed)) + " rad/s");
     o.finish();
     m.finish();
     return [start, amp, f, twist](double t) {

@@ -149,9 +149,17 @@ std::function<Transform(double)> parse_motion(const JsonReader& m, const Transfo
       k.finish();
       if (times.size() > 1 && !(times.back() > times[times.size() - 2]))
         k.fail("t", "keyframe times must increase strictly");
-      if (!poses.empty())
+      if (!poses.empty()) {
         check_keyframe_speed(k, times[times.size() - 2], times.back(), poses.back().translation(),
                              p.translation());
+        // The turn between keyframes (slerp: the shortest angle) at most kMaxSpeed rad/s, as a spin.
+        const double angle = Eigen::AngleAxisd(poses.back().linear().transpose() * p.linear()).angle();
+        if (!(angle <= kMaxSpeed * (times.back() - times[times.size() - 2])))
+          k.fail("rotation", "turns " + show_count(angle) + " rad in " +
+                                 show_count(times.back() - times[times.size() - 2]) +
+                                 " s after the keyframe before: at most " +
+                                 std::to_string(static_cast<long>(kMaxSpeed)) + " rad/s between keyframes");
+      }
       poses.push_back(p);
     }
     if (times.empty()) m.fail("keyframes", "needs at least one keyframe");
