@@ -327,6 +327,10 @@ SceneRun::SceneRun(const RunOptions& options) : o_(options) {
     throw Error(
         scene_path_, "--frames",
         "at most " + std::to_string(scene::kMaxFrames) + " frames (got " + std::to_string(frames_) + ")");
+  if (sc_.setup.solver.method == "weil" && frames_ > 1)  // one static shape (Scene.cpp, check_weil)
+    throw Error(scene_path_, "--frames",
+                "the weil drape (solver.method \"weil\") is one static shape: at most 1 frame (got " +
+                    std::to_string(frames_) + ")");
   if (!sc_.bodies.empty() && (resume_ || o_.checkpoint_every > 0))
     throw Error(
         scene_path_, "bodies",

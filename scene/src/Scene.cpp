@@ -663,6 +663,24 @@ void check_weil(const Scene& scene, const std::string& file) {
   }
 }
 
+// The static solver finds an equilibrium (StaticSolver.h): under gravity a cloth that nothing holds (no
+// pin, no body or character attachment) has none, and the Newton steps would carry it away without bound.
+void check_static(const Scene& scene, const std::string& file) {
+  if (scene.setup.solver.method != "static" || scene.setup.gravity.norm() == 0.0 || scene.character) return;
+  for (size_t i = 0; i < scene.setup.cloths.size(); ++i) {
+    bool held = !scene.setup.cloths[i].pins.empty();
+    for (const collision::RigidBodySpec& b : scene.bodies)
+      for (const collision::BodyAttachment& a : b.attachments) held = held || a.cloth == static_cast<int>(i);
+    if (!held)
+      throw Error(
+          file, "cloths[" + std::to_string(i) + "].pins",
+          "the static solver (solver.method \"static\") needs a held cloth: cloth '" +
+              scene.setup.cloths[i].name +
+              "' has no pin and no attachment, so under gravity it has no equilibrium (pin it or use a "
+              "dynamic solver)");
+  }
+}
+
 // A scene with `bodies`: how its cloths run in the Bullet world (SceneQuality.h, WorldTier). In the coupled
 // tier the bridge solves cloth, contacts, edges and tethers together, so the tier's tether pass is dropped
 // and the explicit values that apply become its settings.
@@ -720,6 +738,7 @@ Scene parse_scene(const nlohmann::json& root, const std::string& file) {
   parse_output(r, scene);
   r.finish();
   check_weil(scene, file);
+  check_static(scene, file);
   return scene;
 }
 
