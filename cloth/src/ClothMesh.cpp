@@ -217,6 +217,15 @@ void ClothMesh::build_topology(const std::string& source) {
         throw Error(source, "triangle " + std::to_string(std::get<2>(half[s + 1])),
                     "has the same three vertices as triangle " + std::to_string(std::get<2>(half[s])) +
                         " (a face given twice)");
+      // Wings at one point (two vertices at the same position): the triangles lie folded onto each other
+      // and the hinge's bending (its angle, its wing-to-wing spring of rest length 0) is undefined.
+      const double wings = (rest_positions_[h.o0] - rest_positions_[h.o1]).norm();
+      if (!(wings > 1e-9 * (rest_positions_[a] - rest_positions_[b]).norm()))
+        throw Error(source, "triangle " + std::to_string(std::get<2>(half[s + 1])),
+                    "lies folded onto triangle " + std::to_string(std::get<2>(half[s])) + " across edge (" +
+                        std::to_string(a) + ", " + std::to_string(b) + "): their vertices " +
+                        std::to_string(h.o0) + " and " + std::to_string(h.o1) +
+                        " are at the same position (merge them or move one)");
       hinges_.push_back(h);
     }
     s = e;

@@ -245,7 +245,7 @@ const BadInput kCases[] = {
      "guard.halvings",
      "unknown key"},
     // Out-of-range values.
-    {"fps_too_high", nullptr, {"--set", "fps=1e6"}, nullptr, "scene", "fps", "must be <= 100000"},
+    {"fps_too_high", nullptr, {"--set", "fps=1e6"}, nullptr, "scene", "fps", "must be in [1e-06, 100000] Hz"},
     {"substeps_too_many",
      nullptr,
      {"--set", "solver.substeps=2000000"},

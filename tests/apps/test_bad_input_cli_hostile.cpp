@@ -250,6 +250,13 @@ const BadInput kHostileCases[] = {
      "bodies[0].motion.keyframes[2].t",
      "at most 10000 m/s between keyframes"},
     // OBJ coordinates are checked first, by their line (a huge one read as a zero-area triangle).
+    {"obj_faces_folded_onto_each_other",
+     nullptr,
+     {"@OBJ"},
+     "v 0 1 0\nv 0.1 1 0\nv 0 1 0.1\nv 0 1 0\nf 1 2 3\nf 4 2 3\n",
+     "obj",
+     "triangle 1",
+     "lies folded onto triangle 0 across edge (1, 2): their vertices 0 and 3 are at the same position"},
     {"obj_vertex_past_double_bound",
      nullptr,
      {"@OBJ"},
