@@ -58,8 +58,9 @@ std::string read_text_file(const std::string& path, std::uint64_t max_bytes) {
 InputFile fingerprint(const std::string& path) {
   InputFile f;
   std::error_code ec;
-  const fs::path abs = fs::absolute(path, ec);
-  f.path = (ec ? fs::path(path) : abs.lexically_normal()).string();
+  // Resolved as the system resolves it: a link followed before a ".." (lexically, "lk/../x" names ./x).
+  const fs::path abs = fs::weakly_canonical(fs::absolute(path), ec);
+  f.path = (ec ? fs::path(path) : abs).string();
   const std::string data = read_text_file(f.path);
   f.bytes = data.size();
   f.hash = fnv1a(data);

@@ -309,8 +309,11 @@ SceneRun::SceneRun(const RunOptions& options) : o_(options) {
   resume_ = apply_resume(o_);
   scene_path_ = o_.scene.empty() ? default_scene_path() : o_.scene;
   sc_ = scene::load_scene(scene_path_, o_.sets);
-  // The scene by absolute path, so --resume works from any folder.
-  scene_abs_ = fs::absolute(scene_path_).lexically_normal().string();
+  // The scene by absolute path, so --resume works from any folder; resolved as the system resolves it (a
+  // link followed before a "..": lexical normalisation would name another file).
+  std::error_code canon_ec;
+  const fs::path canon = fs::weakly_canonical(fs::absolute(scene_path_), canon_ec);
+  scene_abs_ = (canon_ec ? fs::absolute(scene_path_).lexically_normal() : canon).string();
   scene_text_ = read_text_file(scene_path_);
   inputs_ = {fingerprint(scene_path_)};
   for (const std::string& f : sc_.inputs) inputs_.push_back(fingerprint(f));

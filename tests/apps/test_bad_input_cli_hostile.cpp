@@ -704,5 +704,23 @@ TEST(HostileNames, ANameTakenFromTheFileNameHoldsNoControlCharacter) {
   }
 }
 
+// A scene path through a link and then ".." names the file the system opens (the link's target's parent),
+// not the one a lexical clean-up would name: summary.json records it and --resume finds it.
+TEST(HostilePaths, AScenePathThroughALinkThenDotDotNamesTheFileOpened) {
+  const fs::path dir = test_dir();
+  fs::create_directories(dir / "deep" / "sub");
+  fs::create_directory_symlink(dir / "deep" / "sub", dir / "lk");
+  std::ofstream(dir / "deep" / "x.json") << kScene;
+  std::ofstream(dir / "x.json") << "{\"decoy\": true}";  // what lexical normalisation would name
+  const fs::path out = dir / "out";
+  const auto r = run_loom("run " + (dir / "lk" / ".." / "x.json").string() +
+                          " --frames 2 --checkpoint-every 1 --out " + out.string());
+  ASSERT_EQ(r.code, 0) << r.err;
+  const auto j = nlohmann::json::parse(slurp(out / "summary.json"));
+  EXPECT_EQ(j["scene"].get<std::string>(), fs::canonical(dir / "deep" / "x.json").string());
+  const auto resumed = run_loom("run --resume " + out.string() + " --frames 3");
+  EXPECT_EQ(resumed.code, 0) << resumed.err;
+}
+
 }  // namespace
 }  // namespace loom::test
