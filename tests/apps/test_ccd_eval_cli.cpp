@@ -9,6 +9,7 @@
 #include <regex>
 #include <sstream>
 #include <string>
+#include <vector>
 
 #include "CliRunner.h"
 
@@ -51,4 +52,39 @@ TEST(CcdEvalCli, ErrorsAndExitCodes) {
   const CcdEvalRun none = ccd_eval(empty.string());
   EXPECT_EQ(none.code, 1);
   EXPECT_NE(none.err.find("empty.csv: holds no queries"), std::string::npos) << none.err;
+}
+
+// Exact means exact: a number with a blank inside ("1 0", which GMP would read as 10) is refused by line,
+// and a --scale-exp that would overflow or underflow a coordinate is refused by the option.
+TEST(CcdEvalCli, InexactInputsAreRefusedNeverReadApproximately) {
+  const std::filesystem::path dir = loom::test::test_dir() / "vertex-face";
+  std::filesystem::create_directories(dir);
+  std::ifstream in(kData + "vertex-face/data_0_0.csv");
+  std::vector<std::string> rows;
+  for (std::string line; rows.size() < 8 && std::getline(in, line);) rows.push_back(line);
+  ASSERT_EQ(rows.size(), 8u);
+  auto write = [&](const std::string& name, const std::string& first_cell) {
+    std::ofstream out(dir / name);
+    out << first_cell << rows[0].substr(rows[0].find(',')) << "\n";
+    for (size_t i = 1; i < rows.size(); ++i) out << rows[i] << "\n";
+    return (dir / name).string();
+  };
+  const CcdEvalRun blank = ccd_eval(write("blank.csv", "1 0"));
+  EXPECT_EQ(blank.code, 1) << blank.err;
+  EXPECT_NE(blank.err.find("blank.csv: line 1: '1 0/"), std::string::npos) << blank.err;
+  EXPECT_NE(blank.err.find("is not a rational of integers"), std::string::npos) << blank.err;
+  std::string big = "1";  // 2^900 in decimal, a double exactly; times 2^200 past the double range
+  for (int i = 0; i < 900; ++i) {
+    int carry = 0;
+    for (auto d = big.rbegin(); d != big.rend(); ++d) {
+      const int v = (*d - '0') * 2 + carry;
+      *d = static_cast<char>('0' + v % 10);
+      carry = v / 10;
+    }
+    if (carry) big.insert(big.begin(), static_cast<char>('0' + carry));
+  }
+  const CcdEvalRun over = ccd_eval(write("big.csv", big) + " --scale-exp 200");
+  EXPECT_NE(over.code, 0) << over.err;
+  EXPECT_NE(over.err.find("--scale-exp: 200: a coordinate"), std::string::npos) << over.err;
+  EXPECT_NE(over.err.find("overflows or underflows"), std::string::npos) << over.err;
 }

@@ -5,6 +5,7 @@
 
 #include <chrono>
 #include <cmath>
+#include <cstdio>
 #include <fstream>
 #include <sstream>
 
@@ -16,8 +17,14 @@ namespace {
 
 // Exact rational -> double; throws when the rational is not exactly a double.
 double exact_double(const std::string& num, const std::string& den, const std::string& file, int line) {
+  // Digits only, an optional sign: GMP's set_str skips blanks inside a number ("1 0" would read as 10).
+  auto integer_text = [](const std::string& t) {
+    const size_t start = !t.empty() && (t[0] == '-' || t[0] == '+') ? 1 : 0;
+    return t.size() > start && t.find_first_not_of("0123456789", start) == std::string::npos;
+  };
   mpz_class n, d;
-  if (n.set_str(num, 10) != 0 || d.set_str(den, 10) != 0)
+  if (!integer_text(num) || !integer_text(den) || n.set_str(num[0] == '+' ? num.substr(1) : num, 10) != 0 ||
+      d.set_str(den[0] == '+' ? den.substr(1) : den, 10) != 0)
     throw loom::Error(file, "line " + std::to_string(line),
                       "'" + num + "/" + den + "' is not a rational of integers");
   if (d == 0)
@@ -97,7 +104,17 @@ std::vector<CcdQuery> read_ccd_queries(const std::string& path) {
 
 Vec3 scale_translate_exactly(CcdQuery& query, int k, const Vec3& offset) {
   for (Vec3& p : query.points)
-    p *= std::ldexp(1.0, k);  // exact for the ranges in use (no overflow/underflow)
+    for (int axis = 0; axis < 3; ++axis) {  // exact unless it overflows or underflows: refused then
+      const double scaled = std::ldexp(p[axis], k);
+      if (!std::isfinite(scaled) || std::ldexp(scaled, -k) != p[axis]) {
+        char text[160];
+        std::snprintf(text, sizeof text,
+                      "%d: a coordinate %.17g x 2^%d is not a double exactly (it overflows or underflows)", k,
+                      p[axis], k);
+        throw loom::Error("", "--scale-exp", text);
+      }
+      p[axis] = scaled;
+    }
   Vec3 applied = Vec3::Zero();
   for (int axis = 0; axis < 3; ++axis) {
     int g = 1 << 20;
