@@ -81,6 +81,16 @@ void parse_collision(const JsonReader& root, Scene& scene) {
       fp.static_friction = f.friction("static_friction", fp.friction);
       if (fp.static_friction < fp.friction) f.fail("static_friction", "must be >= friction");
       f.finish();
+      // One entry per pair, in either order: a second would silently win or lose.
+      for (size_t k = 0; k < s.friction_pairs.size(); ++k) {
+        const collision::FrictionPair& o = s.friction_pairs[k];
+        const bool same = o.collider == fp.collider &&
+                          ((o.cloth == fp.cloth && o.other_cloth == fp.other_cloth) ||
+                           (fp.collider < 0 && o.cloth == fp.other_cloth && o.other_cloth == fp.cloth));
+        if (same)
+          f.fail("b", "the pair '" + a + "' / '" + b + "' is already given by friction_pairs[" +
+                          std::to_string(k) + "]: give each pair once");
+      }
       s.friction_pairs.push_back(fp);
     }
   }

@@ -87,6 +87,11 @@ const Case kCases[] = {
     {"solver_param_type", {"solver.iterations=\"many\""}, "solver.iterations", "expected a number"},
     {"zero_duration", {"duration=0"}, "duration", "must be > 0"},
     {"negative_fps", {"fps=-60"}, "fps", "must be > 0"},
+    {"friction_pair_given_twice",
+     {"collision={\"self\":true,\"friction_pairs\":[{\"a\":\"sheet\",\"b\":\"sheet\",\"friction\":0.5},"
+      "{\"a\":\"sheet\",\"b\":\"sheet\",\"friction\":0}]}"},
+     "collision.friction_pairs[1].b",
+     "is already given by friction_pairs[0]"},
     {"static_solver_on_a_free_cloth",
      {"solver={\"method\":\"static\"}", "cloths[0].pins=[]"},
      "cloths[0].pins",
