@@ -30,7 +30,11 @@ void check_input_file(const std::string& path, std::uint64_t max_bytes) {
   if (path.empty()) throw Error("", "", "an input file path is empty");
   std::error_code ec;
   const fs::file_status st = fs::status(path, ec);  // follows links: a link to /dev/zero is a device
-  if (!fs::exists(st)) throw Error(path, "", "no such file (cannot open it)");
+  if (!fs::exists(
+          st))  // the system's reason: a loop of links or a folder without access is not "no such file"
+    throw Error(path, "",
+                ec && ec != std::errc::no_such_file_or_directory ? "cannot open it: " + ec.message()
+                                                                 : "no such file (cannot open it)");
   if (fs::is_directory(st)) throw Error(path, "", "is a folder, not a file");
   if (!fs::is_regular_file(st)) throw Error(path, "", "is not a regular file (a device, pipe or socket)");
   const std::uintmax_t size = fs::file_size(path, ec);

@@ -722,5 +722,23 @@ TEST(HostilePaths, AScenePathThroughALinkThenDotDotNamesTheFileOpened) {
   EXPECT_EQ(resumed.code, 0) << resumed.err;
 }
 
+// A message names its input whole: a NUL inside an OBJ line is shown as \x00, not the end of the message;
+// a loop of links is named as one, not as a missing file.
+TEST(HostilePaths, MessagesShowNulsAndNameLinkLoops) {
+  const fs::path dir = test_dir();
+  std::ofstream(dir / "mesh.obj") << std::string("v 0 0 0\nv 1 0 0\nv 0 1 0\nx\0yz 1\nf 1 2 3\n", 39);
+  std::ofstream(dir / "scene.json")
+      << R"({"name":"nul","duration":0.05,"fps":60,"cloths":[{"name":"c","mesh":{"type":"obj","path":"mesh.obj"},"material":{"preset":"cotton"},"mass":0.1}]})";
+  const auto r = run_loom("run " + (dir / "scene.json").string() + " --out " + (dir / "out").string());
+  EXPECT_EQ(r.code, 1) << r.err;
+  EXPECT_NE(r.err.find("unknown OBJ directive 'x\\x00yz'"), std::string::npos) << r.err;
+  fs::create_symlink(dir / "loop_b", dir / "loop_a");
+  fs::create_symlink(dir / "loop_a", dir / "loop_b");
+  const auto loop = run_loom("run " + (dir / "loop_a").string());
+  EXPECT_EQ(loop.code, 1) << loop.err;
+  EXPECT_NE(loop.err.find("loop_a: cannot open it: Too many levels of symbolic links"), std::string::npos)
+      << loop.err;
+}
+
 }  // namespace
 }  // namespace loom::test
