@@ -116,10 +116,17 @@ std::string run_staged(OutputFolder& folder, std::vector<std::string> argv, cons
   std::error_code ec;
   const fs::path made = staging / file;
   const bool regular = fs::is_regular_file(fs::symlink_status(made, ec));
-  if (status == 0 && regular) fs::rename(made, target, ec);
-  const bool moved = status == 0 && regular && !ec;
-  fs::remove(made, ec);
-  fs::remove(staging, ec);
+  bool moved = false;
+  if (status == 0 && regular) {
+    try {
+      rename_output(made.string(), target.string());  // never through a folder replaced by a link
+      moved = true;
+    } catch (const Error& e) {
+      log = e.what();
+    }
+  }
+  remove_output(made.string());
+  remove_output(staging.string());
   if (moved) return "";
   while (!log.empty() && (log.back() == '\n' || log.back() == '\r')) log.pop_back();
   return argv[0] + (status == 0 ? " made no file" : " failed (exit " + std::to_string(status) + ")") +
@@ -136,14 +143,17 @@ std::string gnuplot_png(OutputFolder& folder, const std::string& name, const std
 }
 
 void ffmpeg_video(OutputFolder& folder, const std::string& frames, double fps,
-                  const std::vector<std::string>& format_args, const std::string& file, const std::string& field) {
+                  const std::vector<std::string>& format_args, const std::string& file,
+                  const std::string& field) {
   if (!program_on_path("ffmpeg"))
-    throw Error("ffmpeg", field, "ffmpeg not found (Debian package: ffmpeg); the PNG frames are in " +
-                                     (folder.dir() / frames).string());
+    throw Error("ffmpeg", field,
+                "ffmpeg not found (Debian package: ffmpeg); the PNG frames are in " +
+                    (folder.dir() / frames).string());
   char rate[32];
   std::snprintf(rate, sizeof rate, "%.6g", fps);
   // The frames are read by a pattern relative to DIR: `frames` is a name of Loom's, without '%'.
-  std::vector<std::string> argv = {"ffmpeg", "-hide_banner", "-loglevel", "error", "-n",     "-framerate",
+  std::vector<std::string> argv = {"ffmpeg", "-hide_banner", "-loglevel",
+                                   "error",  "-n",           "-framerate",
                                    rate,     "-i",           frames + "/frame_%05d.png"};
   argv.insert(argv.end(), format_args.begin(), format_args.end());
   argv.push_back("@STAGED@");
