@@ -11,6 +11,7 @@
 #include <cstdio>
 #include <cstring>
 #include <iostream>
+#include <set>
 #include <string>
 #include <vector>
 
@@ -105,6 +106,7 @@ int body_main(int argc, char** argv) {
   double seconds = 3.0;
   std::string image;
   bool image_given = false;
+  std::set<std::string> seen;  // options that take a value, given once
   for (int i = 2; i < argc; ++i) {
     const std::string a = argv[i];
     auto value = [&]() -> const char* {
@@ -112,6 +114,7 @@ int body_main(int argc, char** argv) {
         std::fprintf(stderr, "loom: error: %s needs a value (see loom body --help)\n", a.c_str());
         std::exit(2);
       }
+      cli_once(seen, a);
       return argv[++i];
     };
     if (a == "-h" || a == "--help") {

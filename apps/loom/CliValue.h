@@ -46,6 +46,19 @@ inline long long cli_integer(const std::string& flag, const std::string& text, l
   return v;
 }
 
+// A command-line mistake that is not a number: "loom: error: FLAG: PROBLEM", exit 2 (bad command line).
+[[noreturn]] inline void cli_error(const std::string& flag, const std::string& problem) {
+  std::fprintf(stderr, "loom: error: %s: %s\n", printable(flag).c_str(), printable(problem).c_str());
+  std::exit(2);
+}
+
+// A path option's value: an empty one (an unset shell variable, `--out "$DIR"`) is refused (exit 2), never
+// taken as "the default".
+inline std::string cli_path(const std::string& flag, const std::string& text) {
+  if (text.empty()) cli_error(flag, "is an empty string (an unset variable?); give a path");
+  return text;
+}
+
 // An option that takes a value may be given once (`--set` excepted): a second `--out` or `--frames` would
 // silently win over the first. Records `flag` in `seen` and refuses it (exit 2) the second time.
 inline void cli_once(std::set<std::string>& seen, const std::string& flag) {

@@ -68,12 +68,12 @@ int compare_main(int argc, char** argv) {
   std::string scene_path, out = "out/compare";
   std::vector<std::string> sets;
   int frames = -1;
-  bool overwrite = false;
+  bool overwrite = false, out_given = false;
   std::set<std::string> seen;  // options that take a value, given once
   for (int i = 2; i < argc; ++i) {
     const std::string a = argv[i];
     auto value = [&](const char* name) -> std::string {
-      if (i + 1 >= argc) throw Error("", name, "needs a value");
+      if (i + 1 >= argc) cli_error(name, "needs a value");
       cli_once(seen, name);
       return argv[++i];
     };
@@ -81,8 +81,8 @@ int compare_main(int argc, char** argv) {
       std::cout << kCompareUsage;
       return 0;
     } else if (a == "--out") {
-      out = value("--out");
-      if (out.empty()) throw Error("", "--out", "is an empty string (an unset variable?); give a path");
+      out = cli_path("--out", value("--out"));
+      out_given = true;
     } else if (a == "--overwrite") {
       overwrite = true;
     } else if (a == "--set") {
@@ -125,6 +125,7 @@ int compare_main(int argc, char** argv) {
                           "paths");
     }
   // The folder is checked (and claimed) before the runs, so a refused folder costs nothing.
+  if (!out_given) eval::refuse_linked_default(out, "--out");
   eval::OutputFolder folder(out, "--out", overwrite, false, {"compare.json", "compare.csv"});
 #ifdef LOOM_HAVE_CHARACTER_COMPARE
   if (sc.character) return compare_character(sc, frames, folder);  // Character scenes

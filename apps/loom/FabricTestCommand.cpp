@@ -155,7 +155,7 @@ int fabric_test_main(int argc, char** argv) {
       o.model = value();
       model_given = true;
     } else if (a == "--resolution") {
-      o.resolution = parse_count(a, value(), 2, 2000);
+      o.resolution = parse_count(a, value(), eval::kMinFabricResolution, eval::kMaxFabricResolution);
     } else if (a == "--overhang-ratio") {
       o.overhang_ratio = parse_number(a, value(), 0.1, 100.0);
     } else if (a == "--span") {
@@ -171,7 +171,7 @@ int fabric_test_main(int argc, char** argv) {
     } else if (a == "--overwrite") {
       overwrite = true;
     } else if (a == "--out") {
-      out = value();
+      out = cli_path(a, value());
     } else if (!a.empty() && a[0] == '-') {
       std::fprintf(stderr, "loom: error: unknown option '%s' (see loom fabric-test --help)\n", a.c_str());
       return 2;
@@ -200,12 +200,13 @@ int fabric_test_main(int argc, char** argv) {
   } catch (const Error& e) {
     throw Error("", "--material", e.what());  // the option that named it
   }
-  bool known_model = false;
-  for (const auto& m : cloth::model_names()) known_model = known_model || m == o.model;
-  if (!known_model) throw Error("", "--model", "unknown model '" + o.model + "'");
-  // The report folder is checked (and claimed) before the test runs, so a refused folder costs nothing.
-  eval::OutputFolder folder(out.empty() ? fs::path("out") / "fabric-test" / o.test : fs::path(out), "--out",
-                            overwrite, false, {"curve.csv", "report.md", "plot.gp", "plot.png"});
+  // Every option is checked before the report folder is claimed (a refused command leaves no folder), and
+  // the folder before the test runs, so a refused folder costs nothing.
+  eval::check_fabric_test_options(o);
+  const fs::path dir = out.empty() ? fs::path("out") / "fabric-test" / o.test : fs::path(out);
+  if (out.empty()) eval::refuse_linked_default(dir, "--out");
+  eval::OutputFolder folder(dir, "--out", overwrite, false,
+                            {"curve.csv", "report.md", "plot.gp", "plot.png"});
   const eval::FabricTestResult r = eval::run_fabric_test(o);
   write_report(folder, r);
   if (!std::isfinite(r.measured)) {  // the report says "-"; the run is not passed off as a measurement

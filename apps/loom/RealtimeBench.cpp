@@ -220,7 +220,7 @@ int bench_realtime(int argc, char** argv) {
   double seconds = 2.0;
   int sheet_n = 64, toy_n = 33, repeats = 1;
   std::set<std::string> only = {"character", "toy_box", "sheet"};
-  bool overwrite = false;
+  bool overwrite = false, out_given = false;
   std::set<std::string> seen;  // options that take a value, given once
   for (int i = 3; i < argc; ++i) {
     const std::string a = argv[i];
@@ -237,6 +237,7 @@ int bench_realtime(int argc, char** argv) {
       return 0;
     } else if (a == "--out") {
       out = value();
+      out_given = true;
       if (out.empty()) cli_refuse(a, out, "a folder (an unset variable?)");
     } else if (a == "--overwrite") {
       overwrite = true;
@@ -270,6 +271,7 @@ int bench_realtime(int argc, char** argv) {
   std::vector<std::string> writes;
   for (const char* name : {"character_realtime", "toy_box_realtime", "sheet_realtime"})
     for (const char* ext : {".png", ".dat", ".gp", ".csv"}) writes.push_back(std::string(name) + ext);
+  if (!out_given) eval::refuse_linked_default(out, "--out");
   eval::OutputFolder folder(out, "--out", overwrite, false, writes);
   const int frames = std::max(1, static_cast<int>(std::lround(seconds * 60.0)));
   const char* env = std::getenv("LOOM_SCENES");

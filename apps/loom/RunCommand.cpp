@@ -366,6 +366,7 @@ void SceneRun::open_outputs() {
   out_ = o_.out.empty() ? fs::path("out") / sc_.name : fs::path(o_.out);
   if (o_.out.empty() && fs::path(sc_.name).filename() != fs::path(sc_.name))
     throw Error(scene_path_, "name", "is not a plain file name, so it cannot name the output folder");
+  if (o_.out.empty() && !resume_) eval::refuse_linked_default(out_, "--out");
 #ifndef LOOM_HAVE_RENDER
   if (o_.render)
     throw Error("", "--render",
@@ -777,9 +778,7 @@ int SceneRun::finish() {
   csv_.close();
   if (!csv_) throw Error(stats_partial_.string(), "", "write failed");
   const fs::path stats = folder_->claim("stats.csv");
-  std::error_code ec;
-  fs::rename(stats_partial_, stats, ec);
-  if (ec) throw Error(stats.string(), "", "cannot move into place: " + ec.message());
+  rename_output(stats_partial_.string(), stats.string());
   write_atomically(folder_->claim("summary.json"), folder_->claim("summary.json.tmp"),
                    summary().dump(2) + "\n");
   if (o_.profile) print_profile(*sim_, done_);

@@ -51,10 +51,9 @@ std::vector<std::string> Exporters::file_names(const std::vector<std::unique_ptr
 Exporters::Exporters(const std::string& out_dir, const std::vector<std::string>& formats,
                      const std::vector<std::unique_ptr<cloth::Cloth>>& cloths, int every) {
   const fs::path out(out_dir);
-  std::error_code ec;  // the caller owns the folder: earlier files are its to remove, not ours
+  // The caller owns the folder: earlier files are its to remove, not ours.
   if (has(formats, "pc2")) {
-    fs::create_directories(out / "pc2", ec);
-    if (ec) throw Error((out / "pc2").string(), "output.formats", "cannot create folder: " + ec.message());
+    make_output_folder((out / "pc2").string());
     const std::vector<std::string> names = file_names(cloths);
     for (size_t i = 0; i < cloths.size(); ++i) {
       const fs::path base = out / "pc2" / names[i];

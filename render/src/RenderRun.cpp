@@ -10,6 +10,7 @@
 
 #include "gl/ColliderShapes.h"
 #include "loom/cloth/Error.h"
+#include "loom/cloth/OutputFile.h"
 
 namespace loom::render {
 
@@ -108,9 +109,9 @@ std::vector<cloth::Vec3> tracked_targets(const Recording& rec, double fps, doubl
 RenderReport render_recording(const std::string& out_dir, const Recording& rec,
                               const RenderSettings& settings, double fps) {
   const fs::path out(out_dir), dir = out / "render";
-  std::error_code ec;  // the caller owns the folder and removes its earlier files (RenderRun.h)
-  fs::create_directories(dir, ec);
-  if (ec) throw Error(dir.string(), "--render", "cannot create folder: " + ec.message());
+  // The caller owns the folder and removes its earlier files (RenderRun.h); the folder is made and the PNGs
+  // written from the output folder's descriptor (OutputFile.h), never through a link.
+  make_output_folder(dir.string());
 
   const auto start = std::chrono::steady_clock::now();
   Renderer r(settings, rec.meshes());

@@ -381,7 +381,9 @@ TEST(RedteamCli, AnOptionGivenTwiceIsRefusedByName) {
            "run " + scene + " --threads 1 --out " + out + " --threads 2",
            "compare " + scene + " --frames 1 --frames 2",
            "fabric-test cantilever --resolution 5 --resolution 6", "bench accuracy --sizes 4 --sizes 5",
-           "bench realtime --seconds 1 --seconds 2", "ccd-eval --scale-exp 1 --scale-exp 2"}) {
+           "bench realtime --seconds 1 --seconds 2", "ccd-eval --scale-exp 1 --scale-exp 2",
+           "body m.obj c.bvh --image " + out + "2 --image b.png",
+           "body m.obj c.bvh --seconds 1 --seconds 2"}) {
     const auto r = run_loom(args);
     if (r.err.find("unknown command") != std::string::npos) continue;  // a build without the Bullet bridge
     const std::string flag =

@@ -10,6 +10,7 @@
 
 #include <filesystem>
 #include <fstream>
+#include <functional>
 #include <sstream>
 #include <string>
 
@@ -137,6 +138,81 @@ TEST(OutputFile, AFifoAtTheTemporaryNameRefusesTheAtomicWrite) {
         << e.what();
   }
   EXPECT_FALSE(fs::exists(dir / "summary.json"));
+}
+
+// Inside a registered output folder (OutputRoot), a folder on the way replaced by a symbolic link after it
+// was made (the race a pre-flight check cannot close) is refused by name for every write: a new file, an
+// append, an atomic write, a rename, a new folder and a removal; nothing reaches the link's target.
+TEST(OutputRoot, AFolderOnTheWayReplacedByALinkIsNeverFollowed) {
+  const fs::path dir = test_dir(), root = dir / "out", outside = dir / "outside";
+  fs::create_directories(root);
+  fs::create_directories(outside);
+  std::ofstream(outside / "log.txt") << "user";
+  const OutputRoot registered(root.string());
+  make_output_folder((root / "render").string());
+  { OutputFile((root / "render" / "frame_00000.png").string()) << "png"; }
+  EXPECT_EQ(slurp(root / "render" / "frame_00000.png"), "png");
+  fs::rename(root / "render", root / "render.moved");
+  fs::create_directory_symlink(outside, root / "render");
+  const std::string link = (root / "render").string() + ": is a symbolic link inside the output folder";
+  auto expect_refused = [&](const char* what, const std::function<void()>& write) {
+    try {
+      write();
+      ADD_FAILURE() << what << ": no error";
+    } catch (const Error& e) {
+      EXPECT_NE(std::string(e.what()).find(link), std::string::npos) << what << ": " << e.what();
+    }
+  };
+  expect_refused("new file", [&] { OutputFile((root / "render" / "frame_00001.png").string()); });
+  expect_refused("append", [&] { OutputFile((root / "render" / "log.txt").string(), OutputMode::kAppend); });
+  expect_refused("atomic", [&] {
+    write_file_atomically((root / "render" / "a.json").string(), (root / "render" / "a.json.tmp").string(),
+                          "{}");
+  });
+  expect_refused("folder", [&] { make_output_folder((root / "render" / "sub").string()); });
+  std::ofstream(root / "stats.csv.partial") << "rows";
+  expect_refused("rename", [&] {
+    rename_output((root / "stats.csv.partial").string(), (root / "render" / "stats.csv").string());
+  });
+  EXPECT_FALSE(remove_output((root / "render" / "log.txt").string()));
+  // The same path spelled with "." components is the same folder; ".." below it leaves it.
+  expect_refused("dot", [&] { OutputFile((root / "." / "render" / "./x.png").string()); });
+  try {
+    OutputFile((root / ".." / "outside" / "x.png").string());
+    ADD_FAILURE() << "no error for ..";
+  } catch (const Error& e) {
+    EXPECT_NE(std::string(e.what()).find("leaves the output folder"), std::string::npos) << e.what();
+  }
+  EXPECT_EQ(slurp(outside / "log.txt"), "user");
+  EXPECT_EQ(std::distance(fs::directory_iterator(outside), fs::directory_iterator()), 1);
+  // The link itself is removed, never its target.
+  EXPECT_TRUE(remove_output((root / "render").string()));
+  EXPECT_TRUE(fs::exists(outside / "log.txt"));
+}
+
+// The folder itself renamed away and replaced by a link while it is registered: writes still go into the
+// folder that was opened (now under its new name), never into the link's target.
+TEST(OutputRoot, TheFolderReplacedByALinkIsNotFollowed) {
+  const fs::path dir = test_dir(), root = dir / "out", outside = dir / "outside";
+  fs::create_directories(root);
+  fs::create_directories(outside);
+  const OutputRoot registered(root.string());
+  fs::rename(root, dir / "moved");
+  fs::create_directory_symlink(outside, root);
+  { OutputFile((root / "summary.json").string()) << "{}"; }
+  EXPECT_FALSE(fs::exists(outside / "summary.json"));
+  EXPECT_EQ(slurp(dir / "moved" / "summary.json"), "{}");
+}
+
+// A hard-linked file is never appended to: the other name's file would change.
+TEST(OutputFile, AnAppendToAHardLinkIsRefused) {
+  const fs::path dir = test_dir(), victim = dir / "victim.txt", log = dir / ".loom-manifest";
+  std::ofstream(victim) << "precious";
+  fs::create_hard_link(victim, log);
+  EXPECT_NE(refusal(log, OutputMode::kAppend).find(log.string() + ": is a hard link (2 names"),
+            std::string::npos)
+      << refusal(log, OutputMode::kAppend);
+  EXPECT_EQ(slurp(victim), "precious");
 }
 
 }  // namespace

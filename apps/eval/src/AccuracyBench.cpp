@@ -282,9 +282,11 @@ int bench_accuracy(const AccuracyOptions& o) {
                             (o.configs.empty() ? "" : " (no label contains '" + o.configs + "')") +
                             ": nothing would be measured");
   }
-  OutputFolder folder(o.out, "--out", o.overwrite, false,
-                      {"accuracy.csv", "reference_check.csv", "accuracy.png", "accuracy_#.dat",
-                       "accuracy_#.gp", "accuracy_#.png"});  // refuses a folder Loom did not write
+  if (!o.out_given) refuse_linked_default(o.out, "--out");
+  OutputFolder folder(
+      o.out, "--out", o.overwrite, false,
+      {"accuracy.csv", "reference_check.csv", "accuracy.png", "accuracy.png.tmp", "accuracy_#.dat",
+       "accuracy_#.gp", "accuracy_#.png"});  // refuses a folder Loom did not write
   std::vector<Row> rows;
   std::ostringstream refs;
   refs << "size,ref_substeps,check_substeps,ref_change,smallest_error,ratio,passed,ref_max_strain\n";
@@ -458,6 +460,7 @@ int bench_main(int argc, char** argv) {
       }
     } else if (a == "--out") {
       o.out = value();
+      o.out_given = true;
       if (o.out.empty()) {
         std::fprintf(stderr, "loom: error: --out is an empty string (an unset variable?); give a path\n");
         return 2;

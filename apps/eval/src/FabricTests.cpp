@@ -542,11 +542,30 @@ std::vector<std::string> fabric_test_names() {
   return {"cantilever", "tensile", "shear", "catenary", "drape"};
 }
 
-FabricTestResult run_fabric_test(const FabricTestOptions& o) {
-  if (o.resolution != 0 && (o.resolution < 5 || o.resolution > 2000))
-    throw Error("", "--resolution", "must be in [5, 2000]");
+void check_fabric_test_options(const FabricTestOptions& o) {
+  const std::vector<std::string> tests = fabric_test_names();
+  if (std::find(tests.begin(), tests.end(), o.test) == tests.end())
+    throw Error("", "test",
+                "unknown fabric test '" + o.test + "' (known: cantilever, tensile, shear, catenary, drape)");
+  if (o.resolution != 0 && (o.resolution < kMinFabricResolution || o.resolution > kMaxFabricResolution))
+    throw Error("", "--resolution",
+                "must be in [" + std::to_string(kMinFabricResolution) + ", " +
+                    std::to_string(kMaxFabricResolution) + "]");
   if (!(o.overhang_ratio > 0.05 && o.overhang_ratio < 10.0))
     throw Error("", "--overhang-ratio", "must be in (0.05, 10)");
+  const std::vector<std::string> solvers = solver_names();
+  if (std::find(solvers.begin(), solvers.end(), o.solver) == solvers.end()) {
+    std::string known;
+    for (const std::string& s : solvers) known += (known.empty() ? "" : ", ") + s;
+    throw Error("", "--solver", "unknown solver '" + o.solver + "' (known: " + known + ")");
+  }
+  const std::vector<std::string> models = model_names();
+  if (std::find(models.begin(), models.end(), o.model) == models.end())
+    throw Error("", "--model", "unknown model '" + o.model + "'");
+}
+
+FabricTestResult run_fabric_test(const FabricTestOptions& o) {
+  check_fabric_test_options(o);
   const auto start = std::chrono::steady_clock::now();
   const std::clock_t cpu_start = std::clock();
   FabricTestResult r;

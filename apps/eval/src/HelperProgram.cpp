@@ -116,10 +116,17 @@ std::string run_staged(OutputFolder& folder, std::vector<std::string> argv, cons
   std::error_code ec;
   const fs::path made = staging / file;
   const bool regular = fs::is_regular_file(fs::symlink_status(made, ec));
-  if (status == 0 && regular) fs::rename(made, target, ec);
-  const bool moved = status == 0 && regular && !ec;
-  fs::remove(made, ec);
-  fs::remove(staging, ec);
+  bool moved = false;
+  if (status == 0 && regular) {
+    try {
+      rename_output(made.string(), target.string());  // never through a folder replaced by a link
+      moved = true;
+    } catch (const Error& e) {
+      log = e.what();
+    }
+  }
+  remove_output(made.string());
+  remove_output(staging.string());
   if (moved) return "";
   while (!log.empty() && (log.back() == '\n' || log.back() == '\r')) log.pop_back();
   return argv[0] + (status == 0 ? " made no file" : " failed (exit " + std::to_string(status) + ")") +

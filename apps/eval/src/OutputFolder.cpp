@@ -115,10 +115,20 @@ bool is_written(const std::string& r, const std::vector<std::string>& writes) {
   return false;
 }
 
+[[noreturn]] void throw_input_listed(const std::string& input, const fs::path& dir, const std::string& flag) {
+  throw Error(input, flag,
+              "is an input of this run and a file an earlier run listed in " +
+                  (dir / OutputFolder::kManifest).string() +
+                  ", which a new run deletes first: the run would delete its own input; copy it out of the "
+                  "folder or choose another output folder");
+}
+
 // Refuses an input of the run (the scene, a mesh, a clip) that is, by identity (device and inode, so also
-// through a hard link or another path to it), a file at a path the run writes in `dir`.
+// through a hard link or another path to it), a file at a path the run writes in `dir` or one listed in
+// `gone` (the earlier runs' manifest, deleted first).
 void refuse_inputs_written(const fs::path& dir, const std::vector<std::string>& writes,
-                           const std::vector<std::string>& inputs, const std::string& flag) {
+                           const std::vector<std::string>& inputs, const std::string& flag,
+                           const std::set<std::string>& gone) {
   std::map<std::pair<dev_t, ino_t>, std::string> ids;
   for (const std::string& in : inputs) {
     struct stat st;
@@ -133,6 +143,7 @@ void refuse_inputs_written(const fs::path& dir, const std::vector<std::string>& 
     const auto found = ids.find({st.st_dev, st.st_ino});
     if (found == ids.end()) continue;
     const std::string r = it->path().lexically_relative(dir).generic_string();
+    if (gone.count(r)) throw_input_listed(found->second, dir, flag);
     if (is_written(r, writes))
       throw Error(found->second, flag,
                   "is an input of this run and the same file as " + it->path().string() +
@@ -214,13 +225,19 @@ void check_all_writable(const fs::path& dir, const std::vector<std::string>& wri
 
 OutputFolder::OutputFolder(const fs::path& dir, const std::string& flag, bool overwrite, bool resume,
                            const std::vector<std::string>& writes, const std::vector<std::string>& inputs)
-    : dir_(dir), flag_(flag) {
+    : dir_(dir), flag_(flag), writes_(writes) {
   if (dir.empty()) throw Error("", flag, "is empty: give the output folder");
   std::error_code ec;
   // The folder itself is never a link (with or without a trailing '/'): writing or deleting through it would
   // reach a folder the user never named.
   fs::path named = dir;
   while (!named.has_filename() && named.has_relative_path()) named = named.parent_path();
+  // "LINK/." and "LINK/.." name a folder through the link before them; looking at the last component alone
+  // would resolve it.
+  if (named.filename() == "." || named.filename() == "..")
+    throw Error(dir.string(), flag,
+                "ends in '" + named.filename().string() +
+                    "': name the output folder itself (Loom checks that it is not a symbolic link)");
   if (fs::is_symlink(fs::symlink_status(named, ec)))
     throw Error(dir.string(), flag,
                 "is a symbolic link: Loom never writes through a link; give the folder it points to");
@@ -240,6 +257,7 @@ OutputFolder::OutputFolder(const fs::path& dir, const std::string& flag, bool ov
     if (!fs::is_regular_file(ms))
       throw Error(manifest.string(), flag,
                   "is not a regular file (a link or a folder): not a folder Loom owns");
+    if (resume) refuse_shared_file(manifest, flag);  // appended to: the other names would change too
     old = read_manifest(manifest, flag);
   } else {
     if (resume)
@@ -254,6 +272,8 @@ OutputFolder::OutputFolder(const fs::path& dir, const std::string& flag, bool ov
               "Loom writes are then replaced; nothing else is deleted)");
   }
   if (existed) {
+    std::set<std::string> gone;  // a new run deletes what the earlier runs listed (links themselves) first
+    if (!resume) gone.insert(old.entries.begin(), old.entries.end());
     const fs::path folder = fs::weakly_canonical(dir, ec);
     for (const std::string& in : inputs) {
       const fs::path rel = fs::weakly_canonical(in, ec).lexically_relative(folder);
@@ -262,16 +282,22 @@ OutputFolder::OutputFolder(const fs::path& dir, const std::string& flag, bool ov
         throw Error(in, flag,
                     "is an input of this run and a file it writes in " + dir.string() +
                         ": the run would replace its own input; choose another output folder");
+      if (gone.count(rel.generic_string())) throw_input_listed(in, dir, flag);
     }
-    refuse_inputs_written(dir, writes, inputs, flag);
-    std::set<std::string> gone;  // a new run deletes what the earlier runs listed (links themselves) first
-    if (!resume) gone.insert(old.entries.begin(), old.entries.end());
+    refuse_inputs_written(dir, writes, inputs, flag, gone);
     check_all_writable(dir, writes, flag, gone);
     if (!resume) check_writable(dir, std::string(kManifest) + ".tmp", flag);  // the new manifest's way in
   }
   fs::create_directories(dir, ec);
   if (ec || !fs::is_directory(dir))
     throw Error(dir.string(), flag, "cannot create output folder: " + ec.message());
+  // From here every path under DIR is reached from this descriptor (OutputFile.h): a folder inside DIR
+  // replaced by a link while the command runs is never followed.
+  try {
+    root_ = std::make_unique<OutputRoot>(dir.string());
+  } catch (const Error& e) {
+    throw Error(std::string(e.what()) + " (" + flag + ")");
+  }
   if (resume) {
     run_id_ = old.run_id;
     listed_.insert(old.entries.begin(), old.entries.end());
@@ -285,15 +311,8 @@ OutputFolder::OutputFolder(const fs::path& dir, const std::string& flag, bool ov
   for (const std::string& entry : entries) {
     // A folder entry ("frames/") is looked at without its '/': with it, a link there would be followed.
     const std::string rel = entry.back() == '/' ? entry.substr(0, entry.size() - 1) : entry;
-    if (under_a_link(dir, rel)) continue;
-    const fs::path p = dir / rel;
-    const fs::file_status st = fs::symlink_status(p, ec);
-    if (!fs::exists(st)) continue;
-    if (fs::is_directory(st)) {
-      if (fs::is_empty(p, ec)) fs::remove(p, ec);
-    } else {
-      fs::remove(p, ec);  // a file, or a link itself (never its target)
-    }
+    // A file, a link itself (never its target) or an empty folder; nothing under a link on the way.
+    remove_output((dir / rel).string());
   }
   std::random_device rd;
   run_id_ = (static_cast<std::uint64_t>(rd()) << 32) ^ rd() ^ 0x9e3779b97f4a7c15ull;
@@ -314,16 +333,16 @@ fs::path OutputFolder::claim(const std::string& relative) {
   const std::string rel = folder ? relative.substr(0, relative.size() - 1) : relative;
   if (!valid_entry(rel))
     throw Error((dir_ / relative).string(), flag_, "is not a path inside the output folder");
+  // Only a path the pre-flight check saw may be written: one it did not check could be anything.
+  if (!writes_.empty() && !is_written(relative, writes_))
+    throw Error((dir_ / relative).string(), flag_,
+                "is not among the paths this command checked before it started; Loom does not write it");
   check_writable(dir_, relative, flag_);
   if (!listed_.count(relative)) {
     append(relative);
     listed_.insert(relative);
   }
-  if (folder) {
-    std::error_code ec;
-    fs::create_directories(dir_ / rel, ec);
-    if (ec) throw Error((dir_ / rel).string(), flag_, "cannot create folder: " + ec.message());
-  }
+  if (folder) make_output_folder((dir_ / rel).string());
   return dir_ / rel;
 }
 
@@ -332,7 +351,19 @@ void OutputFolder::remove_owned(const std::string& relative) {
   std::error_code ec;
   const fs::path p = dir_ / relative;
   const fs::file_status st = fs::symlink_status(p, ec);
-  if (fs::exists(st) && !fs::is_directory(st)) fs::remove(p, ec);
+  if (fs::exists(st) && !fs::is_directory(st)) remove_output(p.string());
+}
+
+void refuse_linked_default(const fs::path& dir, const std::string& flag) {
+  std::error_code ec;
+  fs::path at;
+  for (const fs::path& part : dir) {
+    at /= part;
+    if (fs::is_symlink(fs::symlink_status(at, ec)))
+      throw Error(at.string(), flag,
+                  "is a symbolic link on the way to the default output folder " + dir.string() +
+                      ": Loom chose that path, so it does not write through the link; give " + flag + " DIR");
+  }
 }
 
 fs::path OutputFolder::claim_private_folder(const std::string& stem, const std::vector<std::string>& files) {

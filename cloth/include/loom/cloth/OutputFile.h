@@ -6,7 +6,10 @@
 //     contents) and a new file is created with O_CREAT | O_EXCL | O_NOFOLLOW | O_NONBLOCK, so a symbolic
 //     link, a FIFO, a socket, a device or a folder at the path is refused instead of followed, opened or
 //     blocked on (a FIFO without a reader would block a plain open forever).
-//   - kAppend: the path must already be a regular file (O_NOFOLLOW | O_NONBLOCK, then fstat).
+//   - kAppend: the path must already be a regular file with one name (O_NOFOLLOW | O_NONBLOCK, then fstat:
+//     a hard link is refused, an append there would change the other name's file).
+// A path inside a registered output folder (OutputRoot) is reached from the folder's descriptor, one
+// folder at a time, so no folder on the way is followed if it became a link (see OutputRoot).
 // After the open, fstat must report a regular file and O_NONBLOCK is cleared. Every refusal is a loom::Error
 // naming the path and what is there. Write errors set badbit as std::ofstream does.
 #include <cstdint>
@@ -18,6 +21,37 @@
 namespace loom {
 
 enum class OutputMode { kReplace, kAppend };
+
+// An output folder held open while a command writes into it. Every path given to OutputFile,
+// write_file_atomically, make_output_folder, rename_output and remove_output whose components begin with
+// the folder's (as written: "out/run" holds "out/run/frames/frame_00001.obj" and "out/run/./x") is reached
+// from the descriptor opened here (O_DIRECTORY | O_NOFOLLOW), each folder below it opened with
+// openat(O_DIRECTORY | O_NOFOLLOW) and the file itself created, renamed or unlinked by the *at call on the
+// last folder's descriptor. A folder on the way replaced by a symbolic link while the command runs is
+// refused (loom::Error naming it), never followed, so nothing is written outside the folder; the folder
+// itself renamed away and replaced by a link is not followed either (the descriptor keeps the folder it
+// opened). A ".." below the folder is refused. The innermost registered folder holding a path is used;
+// paths outside every registered folder are opened as given. Registration lasts as long as the object.
+class OutputRoot {
+ public:
+  // Opens `dir`, which must exist and be a folder, not a symbolic link (throws loom::Error naming it).
+  explicit OutputRoot(const std::string& dir);
+  ~OutputRoot();
+  OutputRoot(const OutputRoot&) = delete;
+  OutputRoot& operator=(const OutputRoot&) = delete;
+
+ private:
+  int fd_ = -1;
+};
+
+// Makes the folder `path` and its missing parents (inside a registered output folder by mkdirat on each
+// folder's descriptor, never through a link). Throws loom::Error naming the path on failure.
+void make_output_folder(const std::string& path);
+// Renames the file `from` to `to` (renameat on their folders' descriptors). Throws loom::Error naming `to`.
+void rename_output(const std::string& from, const std::string& to);
+// Removes the file or symbolic link (itself) at `path`, or the folder there when it is empty; never follows
+// a link on the way. False when it could not (a link on the way, not empty, gone counts as done).
+bool remove_output(const std::string& path);
 
 // The buffered stream buffer over a POSIX file descriptor that OutputFile writes through (seekable, so a
 // header can be patched at the end).

@@ -11,6 +11,7 @@ namespace loom::eval {
 struct AccuracyOptions {
   std::vector<int> sizes{32, 64};          // nodes per side of the 1 m square
   std::string out = "out/bench_accuracy";  // owned through its manifest (OutputFolder.h)
+  bool out_given = false;                  // --out named it (the default may not hold a link on its way)
   bool overwrite = false;                  // write into a non-empty folder Loom did not write
   bool quick = false;                      // tiny run for tests: N=8, 0.25 s, one configuration per method
   double duration = 0.25;                  // s of simulated time (60 Hz frames; docs/benchmarks.md)

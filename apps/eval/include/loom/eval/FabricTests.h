@@ -28,6 +28,9 @@
 namespace loom::eval {
 using namespace loom::cloth;
 
+// --resolution's range: below 5 nodes the strip has no shape to compare with the theory.
+constexpr int kMinFabricResolution = 5, kMaxFabricResolution = 2000;
+
 struct FabricTestOptions {
   std::string test = "cantilever";  // cantilever | tensile | shear | catenary | drape
   Material material;
@@ -63,7 +66,10 @@ struct FabricTestResult {
 };
 
 std::vector<std::string> fabric_test_names();
-// Throws loom::Error for an unknown test or option out of range.
+// Throws loom::Error naming the option (or "test") for an unknown test, solver or model, or an option out of
+// range; run_fabric_test checks the same, so a command can refuse its options before it writes anything.
+void check_fabric_test_options(const FabricTestOptions& options);
+// Throws loom::Error for an unknown test or option out of range (check_fabric_test_options).
 FabricTestResult run_fabric_test(const FabricTestOptions& options);
 
 // Exact inextensible elastica: tip chord angle (degrees) of a cantilever with overhang ratio l/c, and the

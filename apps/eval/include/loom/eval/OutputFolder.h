@@ -8,12 +8,14 @@
 //   - DIR is used when it does not exist (it is created), is empty, or holds a manifest; a non-empty folder
 //     without one is refused unless the user passes --overwrite (files of the same names are then replaced,
 //     nothing else is deleted);
-//   - DIR itself must not be a symbolic link, and a path inside DIR that is one is never written through.
+//   - DIR itself must not be a symbolic link nor end in "." or "..", and a path inside DIR that is one is
+//     never written through (DIR is held open while the folder lives: OutputRoot, OutputFile.h).
 // The manifest's first line holds a run id that checkpoints record, so a checkpoint copied from another
 // folder is refused on --resume.
 #include <cstdint>
 #include <filesystem>
 #include <fstream>
+#include <memory>
 #include <set>
 #include <string>
 #include <vector>
@@ -38,7 +40,9 @@ class OutputFolder {
   const std::filesystem::path& dir() const { return dir_; }
   std::uint64_t run_id() const { return run_id_; }
   // Adds `relative` (a file or, ending in '/', a folder) to the manifest before it is written and returns
-  // DIR/relative. Refuses a path that is a symbolic link or, for a file, a folder.
+  // DIR/relative. Refuses a path that is a symbolic link or, for a file, a folder, and (when the
+  // constructor was given `writes`) a path none of `writes` matches: every path a command writes is checked
+  // before it starts.
   std::filesystem::path claim(const std::string& relative);
   bool owns(const std::string& relative) const { return listed_.count(relative) != 0; }
   // Makes a new private folder DIR/<stem><digits>/ (mode 0700, a name that did not exist: mkdir, never an
@@ -55,10 +59,17 @@ class OutputFolder {
   void append(const std::string& line);
   std::filesystem::path dir_;
   std::string flag_;
+  std::vector<std::string> writes_;
   std::uint64_t run_id_ = 0;
   std::set<std::string> listed_;
+  std::unique_ptr<OutputRoot> root_;  // DIR held open; every path below it is reached from it
   OutputFile manifest_;
 };
+
+// Refuses (naming it, exit 1 by the caller) a default output folder (`out/<name>`, chosen by Loom, not by
+// the user) with a symbolic link on its way: the user never named the link. `flag` is the option that
+// would have named a folder ("--out").
+void refuse_linked_default(const std::filesystem::path& dir, const std::string& flag);
 
 // Reads the run id of DIR/.loom-manifest (0 without a manifest).
 std::uint64_t read_run_id(const std::filesystem::path& dir);
