@@ -31,11 +31,19 @@ bool barycentric(const Vec3& a, const Vec3& b, const Vec3& c, const Vec3& p, dou
 constexpr double kInsideTolerance =
     0.02;  // 1, barycentric slack: a vertex over a shared edge sees both faces
 
+// floor(x) without a library call (x86-64 without SSE4.1 has no rounding instruction): through a 64-bit
+// integer where |x| < 2^52, x itself beyond (already whole) and for NaN.
+inline double fast_floor(double x) {
+  if (!(std::abs(x) < 4503599627370496.0)) return x;
+  const double t = static_cast<double>(static_cast<long long>(x));
+  return t > x ? t - 1.0 : t;
+}
+
 // Cells of side 1 / inv_cell that the box [lo, hi] overlaps, in double (no overflow; NaN for a NaN box,
 // which the callers count as large).
 double box_cells(const Vec3& lo, const Vec3& hi, double inv_cell) {
   double cells = 1.0;
-  for (int k = 0; k < 3; ++k) cells *= std::floor(hi[k] * inv_cell) - std::floor(lo[k] * inv_cell) + 1.0;
+  for (int k = 0; k < 3; ++k) cells *= fast_floor(hi[k] * inv_cell) - fast_floor(lo[k] * inv_cell) + 1.0;
   return cells;
 }
 
@@ -86,14 +94,6 @@ void RealtimeSelfCollisionStage::load_state(cloth::StateReader& in) {
   cand_valid_ = false;  // rebuilt from built_ at the next run: the same list
 }
 
-long RealtimeSelfCollisionStage::cell_key(int x, int y, int z) const {
-  // Teschner et al. 2003: (x p1 xor y p2 xor z p3) mod table size.
-  const unsigned long h = (static_cast<unsigned long>(x) * 73856093ul) ^
-                          (static_cast<unsigned long>(y) * 19349663ul) ^
-                          (static_cast<unsigned long>(z) * 83492791ul);
-  return static_cast<long>(h & static_cast<unsigned long>(bucket_start_.size() - 2));
-}
-
 void RealtimeSelfCollisionStage::prepare(const std::vector<std::unique_ptr<cloth::Cloth>>& cloths) {
   offset_.assign(1, 0);
   tri_.clear(), tri_cloth_.clear(), vert_cloth_.clear(), rest_.clear();
@@ -120,10 +120,6 @@ void RealtimeSelfCollisionStage::prepare(const std::vector<std::unique_ptr<cloth
   // whatever the padding (the candidate list does not depend on the cell size).
   cell_ = std::max({2.0 * (edge_count > 0 ? edge_sum / edge_count : 0.05), 4.0 * settings_.thickness,
                     2.0 * (settings_.thickness + settings_.padding)});
-  // A power-of-two table with about eight slots per triangle (plus one end entry).
-  size_t size = 1;
-  while (size < 8 * tri_.size() + 8) size *= 2;
-  bucket_start_.assign(size + 1, 0);
   tri_range_.resize(tri_.size());
   rest_neighbours();
   // Sides and broad-phase positions loaded with the state are kept; otherwise the current positions.
@@ -182,98 +178,155 @@ void RealtimeSelfCollisionStage::rest_neighbours() {
   for (int g = 0; g < n; ++g) rest_start_[g + 1] += rest_start_[g];
 }
 
+void RealtimeSelfCollisionStage::Grid::fit(const Vec3s& points, double side) {
+  for (int k = 0; k < 3; ++k) {
+    double lo = std::numeric_limits<double>::infinity(), hi = -lo;
+    for (const Vec3& p : points)
+      if (std::isfinite(p[k])) lo = std::min(lo, p[k]), hi = std::max(hi, p[k]);
+    if (!(lo <= hi)) lo = hi = 0.0;  // no finite coordinate
+    // Cells of `side`, or wider so that at most kMaxGridDim cover the points' extent.
+    const double h = std::max(side, (hi - lo) / (kMaxGridDim - 1));
+    origin[k] = lo;
+    inv[k] = std::isfinite(h) ? 1.0 / h : 0.0;
+    dim[k] = std::isfinite(h) ? static_cast<int>(std::min<double>(kMaxGridDim, (hi - lo) * inv[k] + 1.0)) : 1;
+    dim[k] = std::max(1, dim[k]);
+  }
+}
+
+int RealtimeSelfCollisionStage::Grid::axis(double v, int k) const {
+  // Truncation is floor for c >= 0; NaN to 0.
+  const double c = (v - origin[k]) * inv[k];
+  return c >= 0.0 ? static_cast<int>(std::min(c, static_cast<double>(dim[k] - 1))) : 0;
+}
+
+void RealtimeSelfCollisionStage::set_margins(double h) {
+  // m_g = max(P/2, |u_g - u_mean| T): the displacement from the common motion a vertex may gather before
+  // the list is rebuilt, from its velocity relative to the mean at the broad phase over T, kHorizonRuns
+  // runs. Any margins keep the list exact (moved_too_far() checks them); these only make it last.
+  const int n = static_cast<int>(built_.size());
+  Vec3 mean = Vec3::Zero();
+  for (int g = 0; g < n; ++g) mean += *vs_[g];
+  mean /= std::max(1, n);
+  const double base = 0.5 * settings_.padding, horizon = kHorizonRuns * settings_.every * h;
+  margin_.resize(n);
+  for (int g = 0; g < n; ++g)
+    margin_[g] =
+        std::min(kMaxMarginPaddings * settings_.padding, std::max(base, (*vs_[g] - mean).norm() * horizon));
+}
+
 bool RealtimeSelfCollisionStage::moved_too_far() const {
   const int n = static_cast<int>(built_.size());
   if (n == 0) return true;
-  // A pair's vertex and triangle corners have moved by at most P relative to each other (the list holds
-  // it) when every displacement d lies within R of a common centre r and 2R <= P; or, per cloth c with
-  // centre r_c and radius R_c, when 2 R_c <= P within each cloth (self pairs) and R_a + R_b + |r_a - r_b|
-  // <= P between cloths. Centres: the middle of the displacements' box.
-  const int nc = static_cast<int>(offset_.size()) - 1;
-  Vec3 all_lo = Vec3::Constant(std::numeric_limits<double>::infinity()), all_hi = -all_lo;
-  centre_.resize(nc), radius_.resize(nc);
-  for (int c = 0; c < nc; ++c) {
-    Vec3 lo = Vec3::Constant(std::numeric_limits<double>::infinity()), hi = -lo;
-    for (int g = offset_[c]; g < offset_[c + 1]; ++g) {
-      const Vec3 d = *xs_[g] - built_[g];
-      lo = lo.cwiseMin(d), hi = hi.cwiseMax(d);
-    }
-    centre_[c] = 0.5 * (lo + hi);
-    all_lo = all_lo.cwiseMin(lo), all_hi = all_hi.cwiseMax(hi);
-  }
-  const Vec3 centre = 0.5 * (all_lo + all_hi);
-  double all_r2 = 0.0;
-  for (int c = 0; c < nc; ++c) {
-    double r2 = 0.0;
-    for (int g = offset_[c]; g < offset_[c + 1]; ++g) {
-      const Vec3 d = *xs_[g] - built_[g];
-      r2 = std::max(r2, (d - centre_[c]).squaredNorm());
-      all_r2 = std::max(all_r2, (d - centre).squaredNorm());
-    }
-    radius_[c] = std::sqrt(r2);
-  }
-  const double p = settings_.padding;
-  if (2.0 * std::sqrt(all_r2) <= p) return false;
-  for (int a = 0; a < nc; ++a) {
-    if (settings_.self && 2.0 * radius_[a] > p) return true;
-    for (int b = a + 1; b < nc; ++b)
-      if (radius_[a] + radius_[b] + (centre_[a] - centre_[b]).norm() > p) return true;
-  }
+  // A vertex v and a corner k of a triangle q have moved by at most m_v + m_k relative to each other when
+  // every displacement d_g lies within its margin m_g of a common centre c (the mean displacement); the
+  // broad phase listed every pair whose vertex lay in the triangle's box inflated by t + m_v + max_k m_k,
+  // so the list holds every pair whose vertex lies in the box inflated by t now.
+  Vec3 c = Vec3::Zero();
+  for (int g = 0; g < n; ++g) c += *xs_[g] - built_[g];
+  c /= n;
+  for (int g = 0; g < n; ++g)
+    if (!((*xs_[g] - built_[g] - c).squaredNorm() <= margin_[g] * margin_[g])) return true;  // NaN too
   return false;
+}
+
+int RealtimeSelfCollisionStage::scan_cell(int cell, const float* lo, const float* hi, int nh) {
+  // Entries whose box [elo, ehi] meets [lo, hi] (the vertex widened by its margin): elo <= hi and
+  // ehi >= lo on every axis, four entries at a time.
+  const int begin = bucket_start_[cell], end = bucket_start_[cell + 1];
+#ifdef __SSE2__
+  const __m128 hx = _mm_set1_ps(hi[0]), hy = _mm_set1_ps(hi[1]), hz = _mm_set1_ps(hi[2]);
+  const __m128 lx = _mm_set1_ps(lo[0]), ly = _mm_set1_ps(lo[1]), lz = _mm_set1_ps(lo[2]);
+  for (int it = begin; it < end; it += 4) {
+    __m128 m = _mm_and_ps(_mm_cmple_ps(_mm_loadu_ps(&ent_lo_[0][it]), hx),
+                          _mm_cmpge_ps(_mm_loadu_ps(&ent_hi_[0][it]), lx));
+    m = _mm_and_ps(m, _mm_and_ps(_mm_cmple_ps(_mm_loadu_ps(&ent_lo_[1][it]), hy),
+                                 _mm_cmpge_ps(_mm_loadu_ps(&ent_hi_[1][it]), ly)));
+    m = _mm_and_ps(m, _mm_and_ps(_mm_cmple_ps(_mm_loadu_ps(&ent_lo_[2][it]), hz),
+                                 _mm_cmpge_ps(_mm_loadu_ps(&ent_hi_[2][it]), lz)));
+    unsigned bits = static_cast<unsigned>(_mm_movemask_ps(m));
+    if (end - it < 4) bits &= (1u << (end - it)) - 1u;
+    while (bits) {
+      hit_[nh++] = bucket_items_[it + __builtin_ctz(bits)];
+      bits &= bits - 1u;
+    }
+  }
+#else
+  for (int it = begin; it < end; ++it) {
+    hit_[nh] = bucket_items_[it];
+    nh += ent_lo_[0][it] <= hi[0] && ent_hi_[0][it] >= lo[0] && ent_lo_[1][it] <= hi[1] &&
+          ent_hi_[1][it] >= lo[1] && ent_lo_[2][it] <= hi[2] && ent_hi_[2][it] >= lo[2];
+  }
+#endif
+  return nh;
 }
 
 void RealtimeSelfCollisionStage::broad_phase() {
   ++broad_phases_;
-  const double reach = settings_.thickness + settings_.padding, inv_cell = 1.0 / cell_;
-  const long table = static_cast<long>(bucket_start_.size()) - 1;
-  // Clamped before the conversion (a cloth flung far from the origin must not overflow int); clamped cells
-  // only gather more triangles into the end cells, the box test below stays exact.
-  constexpr double kMaxCell = 1 << 30;
-  auto cell_of = [&](double v) {  // NaN (a state the guard will stop) to the lowest cell, never cast
-    const double c = std::floor(v * inv_cell);
-    return static_cast<int>(c >= -kMaxCell ? std::min(c, kMaxCell) : -kMaxCell);
-  };
-  // Counting sort of the triangles' padded boxes into the table, only into the slots a vertex reads (the
-  // vertices' slots first).
-  std::fill(bucket_start_.begin(), bucket_start_.end(), 0);
+  const double inv_cell = 1.0 / cell_, base = 0.5 * settings_.padding;
+  // A uniform grid over the vertices (Teschner et al. 2003, "Optimized spatial hashing for collision
+  // detection of deformable objects", with a dense table in place of the hash: no two cells share an
+  // entry, so a cell lists each triangle once and in order). Each triangle's box, inflated by
+  // t + max_k m_k + P/2, is counted and sorted into the cells that hold a vertex; a vertex reads the cells
+  // of its point widened by m_v - P/2 (its own cell when m_v = P/2).
+  grid_.fit(built_, cell_);
   const int nt = static_cast<int>(tri_.size()), n = static_cast<int>(built_.size());
-  occupied_.assign(table, 0);
-  vert_key_.resize(n);
+  const int cells = grid_.cells();
+  occupied_.assign(cells, 0);
+  vert_cell_.resize(n);
   for (int g = 0; g < n; ++g) {
     const Vec3& p = built_[g];
-    vert_key_[g] = cell_key(cell_of(p.x()), cell_of(p.y()), cell_of(p.z()));
-    occupied_[vert_key_[g]] = 1;
+    vert_cell_[g] = grid_.index(grid_.axis(p.x(), 0), grid_.axis(p.y(), 1), grid_.axis(p.z(), 2));
+    occupied_[vert_cell_[g]] = 1;
   }
+  // Vertices with a margin beyond P/2 read more cells, which need not hold a vertex: mark them too.
+  for (int g = 0; g < n; ++g) {
+    if (!(margin_[g] > base)) continue;
+    const Vec3& p = built_[g];
+    const double w = margin_[g] - base;
+    int r[6];
+    for (int k = 0; k < 3; ++k) r[k] = grid_.axis(p[k] - w, k), r[k + 3] = grid_.axis(p[k] + w, k);
+    for (int z = r[2]; z <= r[5]; ++z)
+      for (int y = r[1]; y <= r[4]; ++y)
+        for (int x = r[0]; x <= r[3]; ++x) occupied_[grid_.index(x, y, z)] = 1;
+  }
+  bucket_start_.assign(cells + 1, 0);
   tri_lo_.resize(nt), tri_hi_.resize(nt);
-  entry_key_.clear(), entry_tri_.clear(), large_.clear();
+  large_.clear();
+  long entries = 0;
   for (int q = 0; q < nt; ++q) {
-    const Vec3 &a = built_[tri_[q][0]], &b = built_[tri_[q][1]], &c = built_[tri_[q][2]];
+    const auto& tri = tri_[q];
+    const Vec3 &a = built_[tri[0]], &b = built_[tri[1]], &c = built_[tri[2]];
+    const double reach = settings_.thickness + std::max({margin_[tri[0]], margin_[tri[1]], margin_[tri[2]]});
     tri_lo_[q] = a.cwiseMin(b).cwiseMin(c) - Vec3::Constant(reach);
     tri_hi_[q] = a.cwiseMax(b).cwiseMax(c) + Vec3::Constant(reach);
+    auto& r = tri_range_[q];
     if (!(box_cells(tri_lo_[q], tri_hi_[q], inv_cell) <= kMaxBoxCells)) {
       large_.push_back(q);  // scanned by every vertex below instead of entered in each of its cells
+      r = {0, 0, 0, -1, -1, -1};
       continue;
     }
-    auto& r = tri_range_[q];
-    for (int k = 0; k < 3; ++k) r[k] = cell_of(tri_lo_[q][k]), r[k + 3] = cell_of(tri_hi_[q][k]);
-    for (int x = r[0]; x <= r[3]; ++x)
-      for (int y = r[1]; y <= r[4]; ++y)
-        for (int z = r[2]; z <= r[5]; ++z) {
-          const long key = cell_key(x, y, z);
-          if (!occupied_[key]) continue;
-          ++bucket_start_[key + 1];
-          entry_key_.push_back(static_cast<int>(key));
-          entry_tri_.push_back(q);
-        }
+    for (int k = 0; k < 3; ++k)
+      r[k] = grid_.axis(tri_lo_[q][k] - base, k), r[k + 3] = grid_.axis(tri_hi_[q][k] + base, k);
+    for (int z = r[2]; z <= r[5]; ++z)
+      for (int y = r[1]; y <= r[4]; ++y) {
+        const int row = grid_.index(0, y, z);
+        for (int x = r[0]; x <= r[3]; ++x)
+          if (occupied_[row + x]) {
+            if (entries == static_cast<long>(entry_cell_.size()))
+              entry_cell_.resize(2 * entries + 1024), entry_tri_.resize(2 * entries + 1024);
+            ++bucket_start_[row + x + 1];
+            entry_cell_[entries] = row + x, entry_tri_[entries] = q, ++entries;
+          }
+      }
   }
   large_boxes_ += static_cast<long>(large_.size());
-  hash_entries_ += static_cast<long>(entry_key_.size());
-  for (long k = 0; k < table; ++k) bucket_start_[k + 1] += bucket_start_[k];
-  bucket_items_.resize(bucket_start_[table]);
-  bucket_boxes_.resize(bucket_start_[table]);
+  hash_entries_ += entries;
+  for (int k = 0; k < cells; ++k) bucket_start_[k + 1] += bucket_start_[k];
+  bucket_items_.resize(entries);
+  for (int k = 0; k < 3; ++k) ent_lo_[k].resize(entries + 4), ent_hi_[k].resize(entries + 4);
   fill_.assign(bucket_start_.begin(), bucket_start_.end() - 1);
-  // Each entry carries its triangle's box in float (widened by 1 mm for the rounding), so that the scan
-  // below reads one bucket's entries in a row.
+  // Each entry carries its triangle's box (inflated by t + max_k m_k) in float, widened by 1 mm for the
+  // rounding, so that the scan reads one cell's entries in a row.
   constexpr double kRound = 1e-3;  // m
   box_f_.resize(nt);
   for (int q = 0; q < nt; ++q) {
@@ -282,29 +335,50 @@ void RealtimeSelfCollisionStage::broad_phase() {
         FloatBox{{static_cast<float>(lo.x()), static_cast<float>(lo.y()), static_cast<float>(lo.z()), 0.0f},
                  {static_cast<float>(hi.x()), static_cast<float>(hi.y()), static_cast<float>(hi.z()), 0.0f}};
   }
-  for (size_t e = 0; e < entry_key_.size(); ++e) {
-    const int slot = fill_[entry_key_[e]]++;
-    bucket_items_[slot] = entry_tri_[e];
-    bucket_boxes_[slot] = box_f_[entry_tri_[e]];
+  float *lx = ent_lo_[0].data(), *ly = ent_lo_[1].data(), *lz = ent_lo_[2].data();
+  float *hx = ent_hi_[0].data(), *hy = ent_hi_[1].data(), *hz = ent_hi_[2].data();
+  for (long e = 0; e < entries; ++e) {
+    const int slot = fill_[entry_cell_[e]]++, q = entry_tri_[e];
+    const FloatBox& b = box_f_[q];
+    bucket_items_[slot] = q;
+    lx[slot] = b.lo[0], ly[slot] = b.lo[1], lz[slot] = b.lo[2];
+    hx[slot] = b.hi[0], hy[slot] = b.hi[1], hz[slot] = b.hi[2];
   }
-  // Every vertex against the triangles of its cell: the box tests first, without branches (the entries
-  // that pass are written to hit_ by stream compaction), then the filters on the few that passed.
+  // Every vertex v against the triangles of the cells it reads: the box tests of [p - m_v, p + m_v] first
+  // (the entries that pass are written to hit_), then the filters on the few that passed.
   cand_.clear();
   hit_.resize(bucket_items_.size() + large_.size());
   for (int g = 0; g < n; ++g) {
     const Vec3& p = built_[g];
-    alignas(16) const float pf[4] = {static_cast<float>(p.x()), static_cast<float>(p.y()),
-                                     static_cast<float>(p.z()), 0.0f};
-    const size_t first = cand_.size();
-    const long key = vert_key_[g];
+    const double m = margin_[g];
+    const float lo[4] = {static_cast<float>(p.x() - m), static_cast<float>(p.y() - m),
+                         static_cast<float>(p.z() - m), 0.0f};
+    const float hi[4] = {static_cast<float>(p.x() + m), static_cast<float>(p.y() + m),
+                         static_cast<float>(p.z() + m), 0.0f};
     int nh = 0;
-    for (int it = bucket_start_[key]; it < bucket_start_[key + 1]; ++it) {
-      hit_[nh] = bucket_items_[it];
-      nh += in_box(pf, bucket_boxes_[it].lo, bucket_boxes_[it].hi);
+    bool merge = !large_.empty();
+    if (!(m > base)) {
+      nh = scan_cell(vert_cell_[g], lo, hi, 0);
+    } else {
+      const double w = m - base;
+      int r[6];
+      for (int k = 0; k < 3; ++k) r[k] = grid_.axis(p[k] - w, k), r[k + 3] = grid_.axis(p[k] + w, k);
+      for (int z = r[2]; z <= r[5]; ++z)
+        for (int y = r[1]; y <= r[4]; ++y)
+          for (int x = r[0]; x <= r[3]; ++x) {
+            nh = scan_cell(grid_.index(x, y, z), lo, hi, nh);  // distinct cells: distinct entries
+          }
+      merge = merge || r[0] != r[3] || r[1] != r[4] || r[2] != r[5];
     }
     for (int q : large_) {
       hit_[nh] = q;
-      nh += in_box(pf, box_f_[q].lo, box_f_[q].hi);
+      nh += box_f_[q].lo[0] <= hi[0] && box_f_[q].hi[0] >= lo[0] && box_f_[q].lo[1] <= hi[1] &&
+            box_f_[q].hi[1] >= lo[1] && box_f_[q].lo[2] <= hi[2] && box_f_[q].hi[2] >= lo[2];
+    }
+    // Each triangle once and in order: a cell lists them so; several cells and the large ones are merged.
+    if (merge) {
+      std::sort(hit_.begin(), hit_.begin() + nh);
+      nh = static_cast<int>(std::unique(hit_.begin(), hit_.begin() + nh) - hit_.begin());
     }
     const auto rest_begin = rest_tri_.begin() + rest_start_[g],
                rest_end = rest_tri_.begin() + rest_start_[g + 1];
@@ -318,9 +392,6 @@ void RealtimeSelfCollisionStage::broad_phase() {
         continue;  // neighbours on the rest shape are not contacts
       cand_.emplace_back(g, q);
     }
-    // This vertex's triangles in order, each once (hash collisions list a triangle once per cell).
-    std::sort(cand_.begin() + first, cand_.end());
-    cand_.erase(std::unique(cand_.begin() + first, cand_.end()), cand_.end());
   }
   candidates_ += static_cast<long>(cand_.size());
   cand_valid_ = true;
@@ -348,10 +419,13 @@ void RealtimeSelfCollisionStage::run(cloth::StageContext& ctx) {
     last_.resize(n);
     for (int g = 0; g < n; ++g) last_[g] = *xs[g];
   }
-  // Step 1, when the list may miss a pair (always when no list matches the vertices).
+  // Step 1, when the list may miss a pair (always when no list matches the vertices). The margins belong to
+  // the list: set with it, or for the positions built_ loaded with the state.
+  if (built_.size() == static_cast<size_t>(n) && !cand_valid_) set_margins(ctx.h);
   if (built_.size() != static_cast<size_t>(n) || moved_too_far()) {
     built_.resize(n);
     for (int g = 0; g < n; ++g) built_[g] = *xs[g];
+    set_margins(ctx.h);
     cand_valid_ = false;
   }
   if (!cand_valid_) broad_phase();
