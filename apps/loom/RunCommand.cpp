@@ -327,6 +327,8 @@ class SceneRun {
   double census_penetration_ = 0.0;
   double max_strain_ = 0.0, mean_strain_sum_ = 0.0, sim_ms_ = 0.0;
   bool finite_ = true, interrupted_ = false, resumable_ = true;
+  bool render_interrupted_ = false;  // Ctrl-C in the render phase: the video is not written
+  void (*old_handler_)(int) = SIG_DFL;
   std::string error_;
   int done_ = 0;
 };
@@ -696,8 +698,6 @@ bool SceneRun::stopped_non_finite(const cloth::FrameStats& s, int f) {
 // no checkpoint (the Bullet world is not saved); its outputs hold the frames before.
 void SceneRun::step_frames() {
   ProgressBar bar(frames_);
-  g_interrupted = 0;
-  auto old_handler = std::signal(SIGINT, on_sigint);
   sim_->set_stop_flag(&g_interrupted);
   for (int f = first_ + 1; f <= frames_ && finite_; ++f) {
     if (g_interrupted) {
@@ -731,12 +731,14 @@ void SceneRun::step_frames() {
   }
   if (g_interrupted) interrupted_ = done_ < frames_;
   sim_->set_stop_flag(nullptr);
-  std::signal(SIGINT, old_handler);
   if (interrupted_ && resumable_) save_checkpoint();
   bar.finish();
 }
 
 void SceneRun::run() {
+  // Ctrl-C is caught from here to the end of finish(): the simulation and the render phase stop cleanly.
+  g_interrupted = 0;
+  old_handler_ = std::signal(SIGINT, on_sigint);
   start();
   if (finite_) step_frames();
   exports_->finish();
@@ -761,22 +763,47 @@ void SceneRun::render_video() {
     rs.camera = render::Camera{sc_.output.render.eye, sc_.output.render.target, sc_.output.render.fov};
   const double fps = 1.0 / (sc_.setup.frame_dt * sc_.output.render.every);
   remove_listed_frames("render", ".png", recording_->frames());  // an earlier run's later frames
-  const render::RenderReport rep = render::render_recording(out_.string(), *recording_, rs, fps);
-  if (rep.frames > 0) {
+  const render::RenderReport rep =
+      render::render_recording(out_.string(), *recording_, rs, fps, &g_interrupted);
+  render_interrupted_ = rep.stopped;
+  // Ctrl-C reaches ffmpeg too (the terminal signals the whole process group): a failed encoding then is
+  // the interruption, not an error.
+  auto encode = [&](const std::vector<std::string>& args, const char* file) {
+    if (render_interrupted_) return;
+    try {
+      eval::ffmpeg_video(*folder_, "render", fps, args, file, "--render", rep.frames);
+    } catch (const Error&) {
+      if (!g_interrupted) throw;
+      render_interrupted_ = true;
+    }
+    if (g_interrupted) render_interrupted_ = true;
+  };
+  if (render_interrupted_ || g_interrupted) {
+    render_interrupted_ = true;
+    for (const char* v : {"render.mp4", "render.gif"}) folder_->remove_owned(v);
+  } else if (rep.frames > 0) {
     // H.264 needs even sizes: pad by one pixel when the image is odd. The GIF: the first 4 s, 15 fps, 320 px.
-    eval::ffmpeg_video(*folder_, "render", fps,
-                       {"-vf", "pad=ceil(iw/2)*2:ceil(ih/2)*2", "-c:v", "libx264", "-pix_fmt", "yuv420p",
-                        "-crf", "20", "-movflags", "+faststart", "-f", "mp4"},
-                       "render.mp4", "--render", rep.frames);
-    eval::ffmpeg_video(*folder_, "render", fps,
-                       {"-t", "4", "-vf",
-                        "fps=15,scale=320:-1:flags=lanczos,split[a][b];[a]palettegen=max_colors=96[p];[b][p]"
-                        "paletteuse=dither=bayer:bayer_scale=4",
-                        "-loop", "0", "-f", "gif"},
-                       "render.gif", "--render", rep.frames);
+    encode({"-vf", "pad=ceil(iw/2)*2:ceil(ih/2)*2", "-c:v", "libx264", "-pix_fmt", "yuv420p", "-crf", "20",
+            "-movflags", "+faststart", "-f", "mp4"},
+           "render.mp4");
+    encode({"-t", "4", "-vf",
+            "fps=15,scale=320:-1:flags=lanczos,split[a][b];[a]palettegen=max_colors=96[p];[b][p]"
+            "paletteuse=dither=bayer:bayer_scale=4",
+            "-loop", "0", "-f", "gif"},
+           "render.gif");
+    if (render_interrupted_)
+      for (const char* v : {"render.mp4", "render.gif"}) folder_->remove_owned(v);
   }
   render_summary_ = {
       {"frames", rep.frames}, {"ms_per_frame", rep.ms_per_frame}, {"width", rs.width}, {"height", rs.height}};
+  if (render_interrupted_) {
+    render_summary_["interrupted"] = true;
+    render_summary_["video"] = "not written";
+    if (resumable_) save_checkpoint();  // the whole simulation: a resume renders it again without a step
+    std::cout << "loom: rendering interrupted after " << rep.frames << " of " << recording_->frames()
+              << " frames; render.mp4 and render.gif not written\n";
+    return;
+  }
   std::cout << "loom: rendered " << rep.frames << " frames (" << std::fixed << std::setprecision(1)
             << rep.ms_per_frame << " ms/frame) -> " << (out_ / "render").string() << "/, "
             << (out_ / "render.mp4").string() << ", " << (out_ / "render.gif").string() << "\n";
@@ -849,6 +876,7 @@ nlohmann::ordered_json SceneRun::summary() const {
 
 int SceneRun::finish() {
   render_video();
+  std::signal(SIGINT, old_handler_);
   csv_.close();
   if (!csv_) throw Error(stats_partial_.string(), "", "write failed");
   const fs::path stats = folder_->claim("stats.csv");
@@ -861,6 +889,12 @@ int SceneRun::finish() {
   if (!finite_) {
     std::cerr << "loom: error: " << printable(scene_path_) << ": " << printable(error_) << "\n";
     return 3;
+  }
+  if (render_interrupted_) {
+    std::cerr << "loom: interrupted while rendering; the simulation is complete and its outputs are written"
+              << (resumable_ ? "; render again with: loom run --resume " + printable(out_.string()) : "")
+              << "\n";
+    return 130;
   }
   if (interrupted_) {
     std::cerr << "loom: interrupted after frame " << done_ << " of " << frames_
