@@ -240,7 +240,7 @@ TEST(Render, CtrlCWhileRenderingWritesTheSimulationsOutputsAndNoVideo) {
   if (pid == 0) {
     if (!freopen(log.c_str(), "w", stdout) || !freopen(log.c_str(), "a", stderr)) _exit(99);
     const std::string scene = std::string(LOOM_SOURCE_DIR) + "/scenes/hanging_cloth.json";
-    execl(LOOM_BINARY, LOOM_BINARY, "run", scene.c_str(), "--frames", "400", "--render", "--out",
+    execl(LOOM_BINARY, LOOM_BINARY, "run", scene.c_str(), "--frames", "150", "--render", "--out",
           out.string().c_str(), "--set", "cloths[0].mesh.nodes=[5,5]", "--set",
           "output={\"formats\": [\"pc2\"], \"render\": {\"width\": 160, \"height\": 120}}", (char*)nullptr);
     _exit(98);
@@ -257,10 +257,10 @@ TEST(Render, CtrlCWhileRenderingWritesTheSimulationsOutputsAndNoVideo) {
   ASSERT_TRUE(fs::exists(out / "summary.json"));
   const auto j = nlohmann::json::parse(slurp(out / "summary.json"));
   EXPECT_TRUE(j["completed"].get<bool>());
-  EXPECT_EQ(j["frames"], 400);
+  EXPECT_EQ(j["frames"], 150);
   EXPECT_TRUE(j["render"]["interrupted"].get<bool>());
   const int rendered = j["render"]["frames"];
-  EXPECT_LT(rendered, 401);
+  EXPECT_LT(rendered, 151);
   char next[32];
   std::snprintf(next, sizeof next, "frame_%05d.png", rendered);
   EXPECT_FALSE(fs::exists(out / "render" / next));
@@ -270,7 +270,7 @@ TEST(Render, CtrlCWhileRenderingWritesTheSimulationsOutputsAndNoVideo) {
   EXPECT_TRUE(fs::exists(out / "pc2" / "sheet.pc2"));
   const std::string resume = std::string(LOOM_BINARY) + " run --resume " + out.string() + " >/dev/null 2>&1";
   ASSERT_EQ(std::system(resume.c_str()), 0);
-  EXPECT_EQ(video_frames(out), 401);
+  EXPECT_EQ(video_frames(out), 151);
 }
 
 }  // namespace
