@@ -99,6 +99,7 @@ std::string encode_checkpoint(const Checkpoint& c) {
   j["checkpoint_every"] = c.checkpoint_every;
   j["render"] = c.render;
   j["frame"] = c.frame;
+  j["frame_digits"] = c.frame_digits;
   j["max_strain"] = c.max_strain;
   j["mean_strain_sum"] = c.mean_strain_sum;
   j["sim_ms"] = c.sim_ms;
@@ -167,6 +168,13 @@ Checkpoint decode_checkpoint(const std::string& data, const std::string& source)
     c.checkpoint_every = static_cast<int>(integer_in(at("checkpoint_every"), 0, kIntMax));
     c.render = at("render").get<bool>();
     c.frame = static_cast<int>(integer_in(at("frame"), 0, kIntMax));
+    // Absent in checkpoints of earlier looms: the width their run's frame count gave.
+    if (j.contains("frame_digits")) {
+      c.frame_digits = static_cast<int>(integer_in(at("frame_digits"), 5, 10));
+    } else {
+      c.frame_digits = 5;
+      for (long long v = 100000; v <= c.frames_total; v *= 10) ++c.frame_digits;
+    }
     c.max_strain = at("max_strain").get<double>();
     c.mean_strain_sum = at("mean_strain_sum").get<double>();
     c.sim_ms = at("sim_ms").get<double>();

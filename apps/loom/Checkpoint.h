@@ -55,6 +55,7 @@ struct Checkpoint {
   int checkpoint_every = 0;
   bool render = false;
   int frame = 0;                 // frames done when written
+  int frame_digits = 5;          // digits of the numbers in frames/frame_N.obj (kept by every resume)
   double max_strain = 0.0;       // 1, run totals so far (summary.json)
   double mean_strain_sum = 0.0;  // 1, sum of per-frame mean strains
   double sim_ms = 0.0;           // ms of pipeline time so far

@@ -22,6 +22,7 @@
 #include "DetailView.h"
 #include "Terminal.h"
 #include "loom/cloth/Error.h"
+#include "loom/eval/CsvNumber.h"
 #include "loom/eval/HelperProgram.h"
 #include "loom/eval/OutputFolder.h"
 #include "loom/export/Exporters.h"
@@ -83,6 +84,16 @@ std::string non_finite_cloth(const std::vector<std::unique_ptr<cloth::Cloth>>& c
   for (const auto& c : cloths)
     for (const cloth::Vec3& p : c->state().x)
       if (!p.allFinite()) return c->name();
+  return "";
+}
+
+// The first cloth (by name) with a position beyond the scene's coordinate bound kMaxCoordinate on any axis
+// (or not finite), or an empty string. Every output holds positions within it: float32 PC2/glTF overflow near
+// 3.4e38 and the bound keeps the written digits meaningful.
+std::string out_of_range_cloth(const std::vector<std::unique_ptr<cloth::Cloth>>& cloths) {
+  for (const auto& c : cloths)
+    for (const cloth::Vec3& p : c->state().x)
+      if (!(p.cwiseAbs().maxCoeff() <= scene::kMaxCoordinate)) return c->name();
   return "";
 }
 
@@ -238,6 +249,15 @@ std::optional<Checkpoint> apply_resume(RunOptions& o) {
                 std::to_string(o.frames) + " is below the checkpoint's frame " +
                     std::to_string(resume.frame) + ": give --frames " + std::to_string(resume.frame) +
                     " or more (or leave it out: " + std::to_string(resume.frames_total) + ")");
+  // The frame files keep the width of the names already written: a count that needs more digits would
+  // mix two widths in frames/ (names that no longer sort in frame order).
+  if (frame_digits(o.frames) > resume.frame_digits)
+    throw Error(ckpt.string(), "--frames",
+                std::to_string(o.frames) + " needs frame numbers of " +
+                    std::to_string(frame_digits(o.frames)) + " digits, but this run's frame files have " +
+                    std::to_string(resume.frame_digits) + ": give --frames below " +
+                    std::to_string(static_cast<long long>(std::pow(10, resume.frame_digits))) +
+                    " or start a new run");
   if (o.threads < 0) o.threads = resume.threads;
   if (o.checkpoint_every <= 0) o.checkpoint_every = resume.checkpoint_every;
   if (read_text_file(o.scene) != resume.scene_text)
@@ -257,6 +277,9 @@ class SceneRun {
 
  private:
   void open_outputs();
+  // Refuses, before any file changes, a format of output.formats whose file (and the memory that writes or
+  // reads it) would exceed kMaxExportBytes for the frames asked for.
+  void check_export_sizes() const;
   void start();
   void step_frames();
   void render_video();
@@ -265,6 +288,9 @@ class SceneRun {
   void write_bodies(int f);
   void run_census();
   std::string frame_name(int f) const;
+  // Deletes the files DIR/<folder>/frame_<number><ext> the manifest lists whose number is `from` or more
+  // (whatever its width): frames an earlier run wrote beyond what this one writes.
+  void remove_listed_frames(const std::string& folder, const std::string& ext, long from);
   void keep_frame(bool exported, bool rendered);
   void save_checkpoint();
   // Stops the run at frame f with `why` when the simulation or the shown surface is not finite.
@@ -303,6 +329,8 @@ class SceneRun {
   double wall_ms_ = 0.0;  // ms, whole frames stepped by this process (with a Bullet world's own step)
   int stepped_ = 0;       // frames stepped by this process
   bool finite_ = true, interrupted_ = false, resumable_ = true;
+  bool render_interrupted_ = false;  // Ctrl-C in the render phase: the video is not written
+  void (*old_handler_)(int) = SIG_DFL;
   std::string error_;
   int done_ = 0;
 };
@@ -359,6 +387,37 @@ std::string video_rate_text(double hz) {
   return text;
 }
 
+// The largest file (and memory to write or read it) one export format may take: 2 GiB, the glTF buffer
+// bound of most readers (byteLength in a signed 32-bit field).
+constexpr double kMaxExportBytes = 2147483648.0;
+
+// PC2: written frames x vertices x 12 bytes. glTF: as much for the morph targets plus the weights, written
+// frames^2 x 4 bytes (a key per frame holding a weight per target, as a reader expands it).
+void SceneRun::check_export_sizes() const {
+  const double written = std::floor(frames_ / double(std::max(1, sc_.output.every))) + 1.0;
+  double vertices = 0.0;
+  for (const auto& c : shown_->cloths()) vertices += c->state().size();
+  for (const std::string& f : sc_.output.formats) {
+    double bytes = 0.0;
+    if (f == "pc2")
+      bytes = written * vertices * 12.0;
+    else if (f == "gltf")
+      bytes = written * vertices * 12.0 + written * written * 4.0;
+    else
+      continue;
+    if (bytes <= kMaxExportBytes) continue;
+    char figure[160];
+    std::snprintf(figure, sizeof figure, "%.3g GB for %.0f written frames of %.0f vertices", bytes / 1e9,
+                  written, vertices);
+    throw Error(
+        scene_path_, "output.formats",
+        "\"" + f + "\" would take " + figure +
+            (f == "gltf" ? " (its animation weights grow with the square of the frames)" : "") +
+            ", above the 2.15 GB an export may take: lower --frames (or raise output.every) or drop \"" + f +
+            "\"");
+  }
+}
+
 // The output folder (OutputFolder.h): out/<scene name> by default (the scene layer keeps `name` a plain file
 // name); a run writes only paths it claims in the folder's manifest and deletes only listed ones. On --resume
 // everything is checked before a file changes: the state, the frame log, the stats rows.
@@ -389,6 +448,7 @@ void SceneRun::open_outputs() {
   }
 #endif
   shown_ = std::make_unique<DetailView>(sc_, *sim_);
+  check_export_sizes();
   // Every path this run may write, checked before the folder changes (a refused run leaves it as it was).
   std::vector<std::string> writes = {"frames/",
                                      "frames/frame_#.obj",
@@ -430,10 +490,13 @@ void SceneRun::open_outputs() {
   if (in_memory)
     log_ = std::make_unique<FrameLog>(*folder_, resume_ ? resume_->logged_frames : 0,
                                       resume_ ? resume_->log_hash : 0, shown_->cloths());
-  digits_ = frame_digits(frames_);
+  digits_ = resume_ ? resume_->frame_digits : frame_digits(frames_);
   folder_->claim("frames/");
   if (resume_) {  // the stats rows and OBJ frames up to the checkpoint's frame are kept, later ones dropped
-    for (int f = first_ + 1; f <= frames_; ++f) folder_->remove_owned(frame_name(f));
+    remove_listed_frames("frames", ".obj", first_ + 1);
+    remove_listed_frames("render", ".png", 0);  // rendered again from the whole recording
+    folder_->remove_owned("render.mp4");
+    folder_->remove_owned("render.gif");
     folder_->remove_owned("summary.json");
     folder_->remove_owned("stats.csv");
   }
@@ -483,8 +546,9 @@ void SceneRun::write_bodies(int f) {
   }
   for (size_t k = 0; k < bodies_world_->num_bodies(); ++k) {
     const cloth::Vec3 p = bodies_world_->body_position(k), v = bodies_world_->body_velocity(k);
-    bodies_csv_ << f << ',' << f * sc_.setup.frame_dt << ',' << sc_.bodies[k].name << ',' << p.x() << ','
-                << p.y() << ',' << p.z() << ',' << v.x() << ',' << v.y() << ',' << v.z() << "\n";
+    bodies_csv_ << f << ',' << f * sc_.setup.frame_dt << ',' << eval::csv_text(sc_.bodies[k].name) << ','
+                << p.x() << ',' << p.y() << ',' << p.z() << ',' << v.x() << ',' << v.y() << ',' << v.z()
+                << "\n";
   }
 #else
   (void)f;
@@ -510,6 +574,22 @@ std::string SceneRun::frame_name(int f) const {
   return "frames/frame_" + n + ".obj";
 }
 
+void SceneRun::remove_listed_frames(const std::string& folder, const std::string& ext, long from) {
+  std::error_code ec;
+  if (!fs::is_directory(fs::symlink_status(out_ / folder, ec))) return;
+  std::vector<std::string> stale;
+  for (fs::directory_iterator it(out_ / folder, ec), end; !ec && it != end; it.increment(ec)) {
+    const std::string n = it->path().filename().string();
+    if (n.size() <= 6 + ext.size() || n.compare(0, 6, "frame_") != 0 ||
+        n.compare(n.size() - ext.size(), ext.size(), ext) != 0)
+      continue;
+    const std::string digits = n.substr(6, n.size() - 6 - ext.size());
+    if (digits.size() > 10 || digits.find_first_not_of("0123456789") != std::string::npos) continue;
+    if (std::stoll(digits) >= from) stale.push_back(folder + "/" + n);
+  }
+  for (const std::string& n : stale) folder_->remove_owned(n);  // only listed files are deleted
+}
+
 void SceneRun::keep_frame(bool exported, bool rendered) {
   if (exported) exports_->frame(sim_->time(), shown_->cloths());
 #ifdef LOOM_HAVE_RENDER
@@ -533,6 +613,7 @@ void SceneRun::save_checkpoint() {
   c.checkpoint_every = o_.checkpoint_every;
   c.render = o_.render;
   c.frame = done_;
+  c.frame_digits = digits_;
   c.max_strain = max_strain_;
   c.mean_strain_sum = mean_strain_sum_;
   c.sim_ms = sim_ms_;
@@ -563,7 +644,7 @@ void SceneRun::start() {
     return;
   }
   const cloth::FrameStats s0 = sim_->measure();
-  finite_ = s0.finite && non_finite_cloth(shown_->cloths()).empty();
+  finite_ = s0.finite && out_of_range_cloth(shown_->cloths()).empty();
   if (!finite_) {
     const std::string bad = non_finite_cloth(sim_->cloths());
     const std::string shown_bad = non_finite_cloth(shown_->cloths());
@@ -571,6 +652,9 @@ void SceneRun::start() {
         !bad.empty() ? "cloth '" + bad + "' starts at a non-finite position"
         : !shown_bad.empty()
             ? "the detail surface of cloth '" + shown_bad + "' is not finite at the start (cloths[].detail)"
+        : !out_of_range_cloth(shown_->cloths()).empty()
+            ? "cloth '" + out_of_range_cloth(shown_->cloths()) +
+                  "' starts beyond the coordinate bound (1e6 m)"
             : "the start state's energy is not finite (an initial velocity, pin offset or anchor too large "
               "for double precision)";
     error_ += "; stopped before frame 0, nothing written" + scene::divergence_suspects(sc_);
@@ -608,6 +692,13 @@ bool SceneRun::stopped_non_finite(const cloth::FrameStats& s, int f) {
              (sc_.detail.empty() ? "" : " (check cloths[].detail)") + valid;
     return true;
   }
+  if (const std::string far = out_of_range_cloth(shown_->cloths()); !far.empty()) {
+    error_ = "cloth '" + far +
+             "' left the coordinate bound (a position beyond 1e6 m, more than the outputs hold) in frame " +
+             std::to_string(f) + " (t = " + std::to_string(s.time) + " s)" + valid +
+             scene::divergence_suspects(sc_);
+    return true;
+  }
   return false;
 }
 
@@ -617,8 +708,6 @@ bool SceneRun::stopped_non_finite(const cloth::FrameStats& s, int f) {
 // no checkpoint (the Bullet world is not saved); its outputs hold the frames before.
 void SceneRun::step_frames() {
   ProgressBar bar(frames_);
-  g_interrupted = 0;
-  auto old_handler = std::signal(SIGINT, on_sigint);
   sim_->set_stop_flag(&g_interrupted);
   for (int f = first_ + 1; f <= frames_ && finite_; ++f) {
     if (g_interrupted) {
@@ -656,12 +745,14 @@ void SceneRun::step_frames() {
   }
   if (g_interrupted) interrupted_ = done_ < frames_;
   sim_->set_stop_flag(nullptr);
-  std::signal(SIGINT, old_handler);
   if (interrupted_ && resumable_) save_checkpoint();
   bar.finish();
 }
 
 void SceneRun::run() {
+  // Ctrl-C is caught from here to the end of finish(): the simulation and the render phase stop cleanly.
+  g_interrupted = 0;
+  old_handler_ = std::signal(SIGINT, on_sigint);
   start();
   if (finite_) step_frames();
   exports_->finish();
@@ -685,22 +776,48 @@ void SceneRun::render_video() {
   if (sc_.output.render.camera)
     rs.camera = render::Camera{sc_.output.render.eye, sc_.output.render.target, sc_.output.render.fov};
   const double fps = 1.0 / (sc_.setup.frame_dt * sc_.output.render.every);
-  const render::RenderReport rep = render::render_recording(out_.string(), *recording_, rs, fps);
-  if (rep.frames > 0) {
+  remove_listed_frames("render", ".png", recording_->frames());  // an earlier run's later frames
+  const render::RenderReport rep =
+      render::render_recording(out_.string(), *recording_, rs, fps, &g_interrupted);
+  render_interrupted_ = rep.stopped;
+  // Ctrl-C reaches ffmpeg too (the terminal signals the whole process group): a failed encoding then is
+  // the interruption, not an error.
+  auto encode = [&](const std::vector<std::string>& args, const char* file) {
+    if (render_interrupted_) return;
+    try {
+      eval::ffmpeg_video(*folder_, "render", fps, args, file, "--render", rep.frames);
+    } catch (const Error&) {
+      if (!g_interrupted) throw;
+      render_interrupted_ = true;
+    }
+    if (g_interrupted) render_interrupted_ = true;
+  };
+  if (render_interrupted_ || g_interrupted) {
+    render_interrupted_ = true;
+    for (const char* v : {"render.mp4", "render.gif"}) folder_->remove_owned(v);
+  } else if (rep.frames > 0) {
     // H.264 needs even sizes: pad by one pixel when the image is odd. The GIF: the first 4 s, 15 fps, 320 px.
-    eval::ffmpeg_video(*folder_, "render", fps,
-                       {"-vf", "pad=ceil(iw/2)*2:ceil(ih/2)*2", "-c:v", "libx264", "-pix_fmt", "yuv420p",
-                        "-crf", "20", "-movflags", "+faststart", "-f", "mp4"},
-                       "render.mp4", "--render");
-    eval::ffmpeg_video(*folder_, "render", fps,
-                       {"-t", "4", "-vf",
-                        "fps=15,scale=320:-1:flags=lanczos,split[a][b];[a]palettegen=max_colors=96[p];[b][p]"
-                        "paletteuse=dither=bayer:bayer_scale=4",
-                        "-loop", "0", "-f", "gif"},
-                       "render.gif", "--render");
+    encode({"-vf", "pad=ceil(iw/2)*2:ceil(ih/2)*2", "-c:v", "libx264", "-pix_fmt", "yuv420p", "-crf", "20",
+            "-movflags", "+faststart", "-f", "mp4"},
+           "render.mp4");
+    encode({"-t", "4", "-vf",
+            "fps=15,scale=320:-1:flags=lanczos,split[a][b];[a]palettegen=max_colors=96[p];[b][p]"
+            "paletteuse=dither=bayer:bayer_scale=4",
+            "-loop", "0", "-f", "gif"},
+           "render.gif");
+    if (render_interrupted_)
+      for (const char* v : {"render.mp4", "render.gif"}) folder_->remove_owned(v);
   }
   render_summary_ = {
       {"frames", rep.frames}, {"ms_per_frame", rep.ms_per_frame}, {"width", rs.width}, {"height", rs.height}};
+  if (render_interrupted_) {
+    render_summary_["interrupted"] = true;
+    render_summary_["video"] = "not written";
+    if (resumable_) save_checkpoint();  // the whole simulation: a resume renders it again without a step
+    std::cout << "loom: rendering interrupted after " << rep.frames << " of " << recording_->frames()
+              << " frames; render.mp4 and render.gif not written\n";
+    return;
+  }
   std::cout << "loom: rendered " << rep.frames << " frames (" << std::fixed << std::setprecision(1)
             << rep.ms_per_frame << " ms/frame) -> " << (out_ / "render").string() << "/, "
             << (out_ / "render.mp4").string() << ", " << (out_ / "render.gif").string() << "\n";
@@ -775,6 +892,7 @@ nlohmann::ordered_json SceneRun::summary() const {
 
 int SceneRun::finish() {
   render_video();
+  std::signal(SIGINT, old_handler_);
   csv_.close();
   if (!csv_) throw Error(stats_partial_.string(), "", "write failed");
   const fs::path stats = folder_->claim("stats.csv");
@@ -785,6 +903,12 @@ int SceneRun::finish() {
   if (!finite_) {
     std::cerr << "loom: error: " << printable(scene_path_) << ": " << printable(error_) << "\n";
     return 3;
+  }
+  if (render_interrupted_) {
+    std::cerr << "loom: interrupted while rendering; the simulation is complete and its outputs are written"
+              << (resumable_ ? "; render again with: loom run --resume " + printable(out_.string()) : "")
+              << "\n";
+    return 130;
   }
   if (interrupted_) {
     std::cerr << "loom: interrupted after frame " << done_ << " of " << frames_

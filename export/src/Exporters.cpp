@@ -57,7 +57,7 @@ Exporters::Exporters(const std::string& out_dir, const std::vector<std::string>&
     const std::vector<std::string> names = file_names(cloths);
     for (size_t i = 0; i < cloths.size(); ++i) {
       const fs::path base = out / "pc2" / names[i];
-      write_mesh_obj(base.string() + ".obj", *cloths[i]);
+      pc2_mesh_.push_back(base.string() + ".obj");
       pc2_.push_back(
           std::make_unique<Pc2Writer>(base.string() + ".pc2", cloths[i]->state().size(), 0.0, every));
       files_.push_back(base.string() + ".pc2");
@@ -72,7 +72,10 @@ Exporters::Exporters(const std::string& out_dir, const std::vector<std::string>&
 }
 
 void Exporters::frame(double time, const std::vector<std::unique_ptr<cloth::Cloth>>& cloths) {
-  for (size_t i = 0; i < pc2_.size(); ++i) pc2_[i]->add_sample(cloths[i]->state().x);
+  for (size_t i = 0; i < pc2_.size(); ++i) {
+    if (pc2_[i]->samples() == 0) write_mesh_obj(pc2_mesh_[i], *cloths[i]);  // the first frame's mesh
+    pc2_[i]->add_sample(cloths[i]->state().x);
+  }
   if (gltf_) {
     std::vector<const cloth::Vec3s*> x;
     for (const auto& c : cloths) x.push_back(&c->state().x);

@@ -107,7 +107,8 @@ std::vector<cloth::Vec3> tracked_targets(const Recording& rec, double fps, doubl
 }  // namespace
 
 RenderReport render_recording(const std::string& out_dir, const Recording& rec,
-                              const RenderSettings& settings, double fps) {
+                              const RenderSettings& settings, double fps,
+                              const volatile std::sig_atomic_t* stop) {
   const fs::path out(out_dir), dir = out / "render";
   // The caller owns the folder and removes its earlier files (RenderRun.h); the folder is made and the PNGs
   // written from the output folder's descriptor (OutputFile.h), never through a link.
@@ -121,7 +122,12 @@ RenderReport render_recording(const std::string& out_dir, const Recording& rec,
       tracked_targets(rec, fps, double(settings.width) / settings.height, widest);
   if (widest.empty()) widest = rec.bounds();
   r.frame(widest, &first);
+  RenderReport rep;
   for (int f = 0; f < rec.frames(); ++f) {
+    if (stop && *stop) {
+      rep.stopped = true;
+      break;
+    }
     r.look_at(targets[f]);
     std::vector<const cloth::Vec3s*> x;
     for (const auto& p : rec.positions()[f]) x.push_back(&p);
@@ -129,13 +135,12 @@ RenderReport render_recording(const std::string& out_dir, const Recording& rec,
     std::snprintf(name, sizeof name, "frame_%05d.png", f);
     const collision::ColliderSet colliders = rec.colliders(f);
     write_png((dir / name).string(), r.render(x, &colliders));
+    ++rep.frames;
   }
-  RenderReport rep;
-  rep.frames = rec.frames();
   rep.ms_per_frame =
-      rec.frames()
+      rep.frames
           ? std::chrono::duration<double, std::milli>(std::chrono::steady_clock::now() - start).count() /
-                rec.frames()
+                rep.frames
           : 0.0;
   return rep;
 }

@@ -575,6 +575,11 @@ void parse_cloths(const JsonReader& r, Scene& scene, const std::string& file) {
                            " m^2; it must be in [1e-06, 10000]");
     }
     cs.initial_velocity = c.vec3("velocity", Vec3::Zero());
+    // As a rigid body's: a start speed above kMaxStartSpeed carries the cloth beyond the coordinate bound
+    // within seconds and its kinetic energy beyond what float32 outputs hold.
+    if (!(cs.initial_velocity.norm() <= kMaxStartSpeed))
+      c.fail("velocity", "must be at most " + show(kMaxStartSpeed) + " m/s (got " +
+                             show(cs.initial_velocity.norm()) + " m/s)");
     if (c.has("pressure")) cs.pressure = parse_pressure(c.object("pressure"), *cs.mesh);
     // A pin moved at speed v strains the cloth behind it by about v / c, c = sqrt(E / rho) the speed of
     // stretch waves (E the 2D Young's modulus, N/m; rho the areal density): the strain a bar's end carries

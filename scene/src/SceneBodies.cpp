@@ -176,7 +176,7 @@ void parse_bodies(const JsonReader& root, Scene& scene) {
       r.fail("mass", "must be 0 (static) or in [" + show_limit(kMinBodyMass) + ", " +
                          show_limit(kMaxBodyMass) + "] kg (got " + show_limit(b.mass) + ")");
     b.velocity = r.vec3("velocity", Vec3::Zero());
-    if (!(b.velocity.norm() <= 1000.0)) r.fail("velocity", "must be at most 1000 m/s");
+    if (!(b.velocity.norm() <= kMaxStartSpeed)) r.fail("velocity", "must be at most 1000 m/s");
     b.angular_velocity = r.vec3("angular_velocity", Vec3::Zero());
     if (!(b.angular_velocity.norm() <= 10000.0)) r.fail("angular_velocity", "must be at most 10000 rad/s");
     b.friction = r.friction("friction", b.friction);

@@ -2,11 +2,19 @@
 // exactly where the cloth projects, checks visible on the cloth, both sides lit, a shadow on the ground;
 // `loom run --render` writes the PNGs, an MP4 whose frame count ffprobe reads, and a GIF.
 #include <gtest/gtest.h>
+#include <signal.h>
 #include <stb_image.h>
+#include <sys/wait.h>
+#include <unistd.h>
 
+#include <chrono>
 #include <cstdio>
 #include <filesystem>
+#include <fstream>
 #include <memory>
+#include <nlohmann/json.hpp>
+#include <sstream>
+#include <thread>
 
 #include "TestDir.h"
 #include "loom/cloth/ClothMesh.h"
@@ -164,6 +172,105 @@ TEST(Render, LoomRunRenderWritesPngsVideoAndGif) {
   EXPECT_EQ(w, 160);
   EXPECT_EQ(h, 120);
   EXPECT_EQ(frames, 7);
+}
+
+std::string slurp(const fs::path& p) {
+  std::ifstream in(p);
+  std::stringstream s;
+  s << in.rdbuf();
+  return s.str();
+}
+
+int video_frames(const fs::path& out) {
+  const fs::path count = out / "count.txt";
+  const std::string probe =
+      "ffprobe -v error -count_frames -select_streams v:0 -show_entries "
+      "stream=nb_read_frames -of csv=p=0 " +
+      (out / "render.mp4").string() + " > " + count.string();
+  if (std::system(probe.c_str()) != 0) return -1;
+  std::FILE* fp = std::fopen(count.string().c_str(), "r");
+  int frames = -1;
+  if (fp && std::fscanf(fp, "%d", &frames) != 1) frames = -1;
+  if (fp) std::fclose(fp);
+  fs::remove(count);
+  return frames;
+}
+
+// The video holds exactly the frames the run rendered: PNGs of higher numbers in the folder (a foreign
+// folder taken with --overwrite, a longer run resumed with fewer frames) never reach it, and a resume
+// deletes the listed ones.
+TEST(Render, TheVideoReadsOnlyTheRunsOwnFrames) {
+  const fs::path dir = loom::test::test_dir(), out = dir / "run", foreign = dir / "foreign";
+  fs::remove_all(out);
+  fs::remove_all(foreign);
+  const std::string run = std::string(LOOM_BINARY) + " run " + LOOM_SOURCE_DIR +
+                          "/scenes/hanging_cloth.json --render --set 'output={\"formats\": [], \"render\": "
+                          "{\"width\": 96, \"height\": 64}}' ";
+  ASSERT_EQ(std::system(
+                (run + "--frames 8 --checkpoint-every 4 --out " + out.string() + " >/dev/null 2>&1").c_str()),
+            0);
+  EXPECT_EQ(video_frames(out), 9);
+  const std::string resume =
+      std::string(LOOM_BINARY) + " run --resume " + out.string() + " --frames 5 >/dev/null 2>&1";
+  ASSERT_EQ(std::system(resume.c_str()), 0);
+  EXPECT_TRUE(fs::exists(out / "render" / "frame_00005.png"));
+  for (const char* stale : {"frame_00006.png", "frame_00007.png", "frame_00008.png"})
+    EXPECT_FALSE(fs::exists(out / "render" / stale)) << stale;
+  EXPECT_EQ(video_frames(out), 6);
+
+  fs::create_directories(foreign / "render");
+  for (const char* name : {"frame_00004.png", "frame_00005.png", "frame_00006.png", "frame_00007.png"})
+    fs::copy_file(out / "render" / "frame_00000.png", foreign / "render" / name);
+  ASSERT_EQ(
+      std::system((run + "--frames 3 --overwrite --out " + foreign.string() + " >/dev/null 2>&1").c_str()),
+      0);
+  EXPECT_EQ(video_frames(foreign), 4);
+  EXPECT_TRUE(fs::exists(foreign / "render" / "frame_00007.png"));  // not the run's: never deleted
+}
+
+// Ctrl-C in the render phase (after the simulation): rendering stops between frames, the simulation's
+// outputs and summary are written (completed, the render marked interrupted, no video), exit 130; a resume
+// renders again without a step.
+TEST(Render, CtrlCWhileRenderingWritesTheSimulationsOutputsAndNoVideo) {
+  const fs::path dir = loom::test::test_dir(), out = dir / "run";
+  fs::remove_all(out);
+  const std::string log = (dir / "child.txt").string();
+  const pid_t pid = fork();
+  ASSERT_GE(pid, 0);
+  if (pid == 0) {
+    if (!freopen(log.c_str(), "w", stdout) || !freopen(log.c_str(), "a", stderr)) _exit(99);
+    const std::string scene = std::string(LOOM_SOURCE_DIR) + "/scenes/hanging_cloth.json";
+    execl(LOOM_BINARY, LOOM_BINARY, "run", scene.c_str(), "--frames", "150", "--render", "--out",
+          out.string().c_str(), "--set", "cloths[0].mesh.nodes=[5,5]", "--set",
+          "output={\"formats\": [\"pc2\"], \"render\": {\"width\": 160, \"height\": 120}}", (char*)nullptr);
+    _exit(98);
+  }
+  const auto deadline = std::chrono::steady_clock::now() + std::chrono::seconds(120);
+  while (!fs::exists(out / "render" / "frame_00002.png") && std::chrono::steady_clock::now() < deadline)
+    std::this_thread::sleep_for(std::chrono::milliseconds(2));
+  kill(pid, SIGINT);
+  int status = 0;
+  waitpid(pid, &status, 0);
+  ASSERT_TRUE(WIFEXITED(status)) << slurp(log);
+  EXPECT_EQ(WEXITSTATUS(status), 130) << slurp(log);
+  EXPECT_NE(slurp(log).find("interrupted while rendering"), std::string::npos);
+  ASSERT_TRUE(fs::exists(out / "summary.json"));
+  const auto j = nlohmann::json::parse(slurp(out / "summary.json"));
+  EXPECT_TRUE(j["completed"].get<bool>());
+  EXPECT_EQ(j["frames"], 150);
+  EXPECT_TRUE(j["render"]["interrupted"].get<bool>());
+  const int rendered = j["render"]["frames"];
+  EXPECT_LT(rendered, 151);
+  char next[32];
+  std::snprintf(next, sizeof next, "frame_%05d.png", rendered);
+  EXPECT_FALSE(fs::exists(out / "render" / next));
+  EXPECT_TRUE(fs::exists(out / "stats.csv"));
+  EXPECT_FALSE(fs::exists(out / "stats.csv.partial"));
+  EXPECT_FALSE(fs::exists(out / "render.mp4"));
+  EXPECT_TRUE(fs::exists(out / "pc2" / "sheet.pc2"));
+  const std::string resume = std::string(LOOM_BINARY) + " run --resume " + out.string() + " >/dev/null 2>&1";
+  ASSERT_EQ(std::system(resume.c_str()), 0);
+  EXPECT_EQ(video_frames(out), 151);
 }
 
 }  // namespace

@@ -144,7 +144,7 @@ std::string gnuplot_png(OutputFolder& folder, const std::string& name, const std
 
 void ffmpeg_video(OutputFolder& folder, const std::string& frames, double fps,
                   const std::vector<std::string>& format_args, const std::string& file,
-                  const std::string& field) {
+                  const std::string& field, int count) {
   if (!program_on_path("ffmpeg"))
     throw Error("ffmpeg", field,
                 "ffmpeg not found (Debian package: ffmpeg); the PNG frames are in " +
@@ -155,6 +155,7 @@ void ffmpeg_video(OutputFolder& folder, const std::string& frames, double fps,
   std::vector<std::string> argv = {"ffmpeg", "-hide_banner", "-loglevel",
                                    "error",  "-n",           "-framerate",
                                    rate,     "-i",           frames + "/frame_%05d.png"};
+  argv.insert(argv.end(), {"-frames:v", std::to_string(count)});
   argv.insert(argv.end(), format_args.begin(), format_args.end());
   argv.push_back("@STAGED@");
   const std::string why = run_staged(folder, argv, file, "", "");

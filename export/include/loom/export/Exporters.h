@@ -17,7 +17,8 @@ namespace loom::exporter {
 class Exporters {
  public:
   // Opens the writers of `formats` in `out` (unknown names and "obj" are ignored); deletes nothing: files
-  // of an earlier run are the folder owner's to remove. Writes pc2/<file_names()[i]>.obj and .pc2,
+  // of an earlier run are the folder owner's to remove. Writes pc2/<file_names()[i]>.obj (the mesh at the
+  // first frame given to frame(), not at construction: a resumed run replays its frame 0) and .pc2,
   // animation.gltf (through animation.gltf.tmp) and animation.bin. `every`: frames between samples.
   Exporters(const std::string& out, const std::vector<std::string>& formats,
             const std::vector<std::unique_ptr<cloth::Cloth>>& cloths, int every);
@@ -32,6 +33,7 @@ class Exporters {
 
  private:
   std::vector<std::unique_ptr<Pc2Writer>> pc2_;
+  std::vector<std::string> pc2_mesh_;  // pc2/<name>.obj, written with the first frame
   std::unique_ptr<GltfWriter> gltf_;
   std::vector<std::string> files_;
 };

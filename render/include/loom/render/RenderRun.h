@@ -2,6 +2,7 @@
 // `loom run --render`: keeps the positions of every rendered frame while the simulation runs, then (so
 // the camera can be framed on the whole motion) renders DIR/render/frame_00000.png ... (numbered by
 // rendered frame). The CLI encodes the video from them (loom/eval/HelperProgram.h, ffmpeg_video).
+#include <csignal>
 #include <memory>
 #include <string>
 #include <vector>
@@ -40,14 +41,16 @@ class Recording {
 };
 
 struct RenderReport {
-  int frames = 0;
+  int frames = 0;             // frames written, frame_00000.png to frame_<frames - 1>.png
   double ms_per_frame = 0.0;  // wall time of rendering + PNG writing, per frame
+  bool stopped = false;       // `stop` was set before every frame was written
 };
 
 // Renders `rec` into `out` (see above): out/render/frame_NNNNN.png (frame 0 to rec.frames() - 1). Deletes
 // nothing: the caller owns `out` and its earlier files. `fps`: frames per second of the rendered frames (the
-// camera's tracking is smoothed over time).
+// camera's tracking is smoothed over time). `stop` (a Ctrl-C flag): checked before each frame; once set, no
+// further frame is written and the report says `stopped`.
 RenderReport render_recording(const std::string& out, const Recording& rec, const RenderSettings& settings,
-                              double fps);
+                              double fps, const volatile std::sig_atomic_t* stop = nullptr);
 
 }  // namespace loom::render

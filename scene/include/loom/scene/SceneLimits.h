@@ -23,10 +23,11 @@ constexpr double kMaxCoordinate = 1e6;  // m, |x| of a mesh size, origin, transl
 constexpr double kMaxContactThickness = 0.02;
 // A Coulomb friction coefficient (kinetic or static); real fabric pairs lie below 2.
 constexpr double kMaxFriction = 10.0;
-constexpr double kMinMeshSize = 1e-3;     // m, a grid's side and an OBJ cloth's extent (after scale)
-constexpr double kMinMeshScale = 1e-6;    // an OBJ cloth's or collider's scale
-constexpr double kMaxAcceleration = 1e4;  // m/s^2, each component of gravity
-constexpr double kMaxSpeed = 1e4;         // m/s, wind and keyframed motion; rad/s, a collider's spin rate
+constexpr double kMinMeshSize = 1e-3;      // m, a grid's side and an OBJ cloth's extent (after scale)
+constexpr double kMinMeshScale = 1e-6;     // an OBJ cloth's or collider's scale
+constexpr double kMaxAcceleration = 1e4;   // m/s^2, each component of gravity
+constexpr double kMaxSpeed = 1e4;          // m/s, wind and keyframed motion; rad/s, a collider's spin rate
+constexpr double kMaxStartSpeed = 1000.0;  // m/s, the speed a cloth or rigid body starts with (`velocity`)
 // The smallest magnitude of a non-zero value of a field that must be positive or non-negative (a stiffness,
 // time, length, density, coefficient): below it (a subnormal such as 1e-310 included) a value is no
 // physical setting, and its reciprocal or square overflows the solver.

@@ -33,9 +33,11 @@ std::string gnuplot_png(OutputFolder& folder, const std::string& name, const std
 
 // Encodes DIR/<frames>/frame_%05d.png at `fps` into DIR/<file> with ffmpeg: `format_args` are ffmpeg's
 // output options (filters, codec, ending with `-f <format>`), one argument each. Throws loom::Error naming
-// `field` when ffmpeg is missing or fails. Claims <file> in `folder`.
+// `field` when ffmpeg is missing or fails. Claims <file> in `folder`. `count`: the frames to read,
+// frame_00000.png to frame_<count - 1>.png (`-frames:v`): files of higher numbers in the folder are not
+// this run's and never reach the video.
 void ffmpeg_video(OutputFolder& folder, const std::string& frames, double fps,
                   const std::vector<std::string>& format_args, const std::string& file,
-                  const std::string& field);
+                  const std::string& field, int count);
 
 }  // namespace loom::eval
