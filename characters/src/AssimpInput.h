@@ -1,16 +1,31 @@
 #pragma once
 // AssimpInput: the one way loom::characters hands a file to assimp. Every file assimp opens for reading
-// (the file itself and whatever it references: a glTF's external .bin buffers, a Collada's or FBX's linked
-// files) goes through loom::check_input_file first (a regular file of at most 1 GiB: no folder, device
-// such as /dev/zero, or pipe) and is recorded, so a checkpoint can hash every file a run depended on.
+// (the file itself and whatever it references: a glTF's external .bin buffers, an OBJ's .mtl libraries, a
+// Collada's or FBX's linked files) goes through loom::check_input_file first (a regular file of at most
+// 1 GiB: no folder, device such as /dev/zero, or pipe) and is recorded, so a checkpoint can hash every file
+// a run depended on. One import reads at most kMaxImportBytes in all: the bytes read from every file it
+// opens, plus what each zip archive (a .zae) it opens unpacks to by its directory, so a file referenced
+// many times or a small archive of a huge file cannot exceed the bound one input file has. Before assimp
+// sees a file, text that nests XML elements deeper than kMaxXmlDepth (assimp's readers recurse per level)
+// and an OBJ naming more than kMaxMtllib material libraries are refused by file and line.
 #include <assimp/DefaultIOSystem.h>
 #include <assimp/scene.h>
 
+#include <assimp/IOStream.hpp>
 #include <assimp/Importer.hpp>
+#include <cstdint>
+#include <set>
 #include <string>
 #include <vector>
 
 namespace loom::characters {
+
+constexpr std::uint64_t kMaxImportBytes = std::uint64_t(1) << 30;  // bytes one import reads in all
+constexpr int kMaxXmlDepth = 512;  // XML element levels: twice the deepest skeleton (kMaxJointDepth)
+constexpr int kMaxMtllib = 16;     // `mtllib` directives in one OBJ
+// Deepest node nesting a file may have (a human skeleton has under 30 levels): Loom's readers and assimp's
+// post-processing recurse per level.
+constexpr int kMaxJointDepth = 256;
 
 class RecordingIOSystem : public Assimp::DefaultIOSystem {
  public:
@@ -19,19 +34,31 @@ class RecordingIOSystem : public Assimp::DefaultIOSystem {
   bool Exists(const char* file) const override;
   // Files opened for reading, in first-open order, each once (as assimp named them).
   const std::vector<std::string>& files() const { return files_; }
-  // The first file refused by check_input_file ("" if none) and why.
+  // The first file refused ("" if none) and the full message (naming the file).
   const std::string& refused() const { return refused_; }
   const std::string& refusal() const { return refusal_; }
+  // Counts `bytes` towards kMaxImportBytes; false (and the refusal recorded against `file`) past it.
+  bool spend(const std::string& file, std::uint64_t bytes);
+  void refuse(const std::string& file, const std::string& message);
 
  private:
   std::vector<std::string> files_;
+  std::set<std::string> scanned_;  // files whose content was checked (once each)
+  std::uint64_t spent_ = 0;
   std::string refused_, refusal_;
 };
 
-// Reads `path` with `importer` (post-processing `flags`) through a RecordingIOSystem and appends every file
-// read to `files`. Throws loom::Error naming `path` (and the referenced file it refused, if any) when
-// assimp cannot read it; `what` names the kind of content ("motion", "the mesh") in the message.
+// Reads `path` with `importer` (post-processing `flags`) through a RecordingIOSystem, on a thread with a
+// 256 MB stack (assimp's readers recurse per nesting level of formats Loom does not pre-scan), and appends
+// every file read to `files`. Throws loom::Error naming `path` (and the referenced file it refused, if any)
+// when assimp cannot read it, when it breaks the bounds above, or when the scene assimp returns is not
+// whole (a null node, mesh, bone, animation or channel, an index out of range, nodes nested deeper than
+// kMaxJointDepth); `what` names the kind of content ("motion", "the mesh") in the message.
 const aiScene* read_with_assimp(Assimp::Importer& importer, const std::string& path, unsigned flags,
                                 const std::string& what, std::vector<std::string>& files);
+
+// The index of the first XML element nested deeper than `max_depth` in `text` (-1 if none); comments,
+// CDATA sections, processing instructions, declarations and quoted attribute values are skipped.
+long xml_too_deep(const std::string& text, int max_depth);
 
 }  // namespace loom::characters

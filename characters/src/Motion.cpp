@@ -12,6 +12,7 @@
 #include <filesystem>
 #include <fstream>
 #include <functional>
+#include <iomanip>
 #include <iterator>
 #include <limits>
 #include <map>
@@ -43,15 +44,40 @@ std::pair<size_t, double> bracket(const std::vector<double>& times, double tau) 
   return {k, (tau - times[k]) / (times[k + 1] - times[k])};
 }
 
-// Deepest joint nesting a skeleton may have (a human has under 30 levels). The readers recurse per level,
-// so a crafted file nested thousands deep would exhaust the stack: a BVH's brace depth is checked before
-// assimp reads it, and every format's node tree after.
-constexpr int kMaxJointDepth = 256;
+// The readers recurse per joint level, so a crafted file nested thousands deep would exhaust the stack: a
+// BVH's brace depth is checked before assimp reads it, and every format's node tree after
+// (read_with_assimp, kMaxJointDepth).
 constexpr double kMaxPosition = 1e6;  // m, a joint's offset or position key after the clip's scale
 
+// The formats a clip may be in (lower case): skeleton and animation formats; assimp's other readers make
+// scenes without a skeleton (meshes, cameras) whose errors would only confuse.
+const char* const kMotionFormats[] = {".bvh", ".fbx", ".dae", ".zae", ".gltf", ".glb"};
+
+std::string lower_extension(const std::string& path) {
+  std::string ext = std::filesystem::path(path).extension().string();
+  for (char& c : ext) c = static_cast<char>(std::tolower(static_cast<unsigned char>(c)));
+  return ext;
+}
+
+// A BVH by its extension in any case, or by its first word (assimp's reader takes either).
 bool is_bvh(const std::string& path) {
-  return path.size() >= 4 &&
-         (path.compare(path.size() - 4, 4, ".bvh") == 0 || path.compare(path.size() - 4, 4, ".BVH") == 0);
+  if (lower_extension(path) == ".bvh") return true;
+  std::ifstream f(path, std::ios::binary);
+  std::string word;
+  f >> std::setw(16) >> word;
+  return word == "HIERARCHY";
+}
+
+void check_format(const std::string& path) {
+  const std::string ext = lower_extension(path);
+  std::string list;
+  for (const char* f : kMotionFormats) {
+    if (ext == f) return;
+    list += std::string(list.empty() ? "" : ", ") + f;
+  }
+  throw Error(path, "",
+              "cannot read motion: '" + ext + "' is not a motion format Loom reads (" + list +
+                  ", in any letter case)");
 }
 
 void check_bvh_nesting(const std::string& path) {
@@ -112,20 +138,9 @@ void check_bvh_nesting(const std::string& path) {
                     " frames of " + std::to_string(channels) + " channels");
 }
 
-void check_node_depth(const std::string& path, const aiNode* root) {
-  std::vector<std::pair<const aiNode*, int>> stack{{root, 1}};
-  while (!stack.empty()) {
-    const auto [n, d] = stack.back();
-    stack.pop_back();
-    if (d > kMaxJointDepth)
-      throw Error(path, "HIERARCHY",
-                  "joints nest more than " + std::to_string(kMaxJointDepth) + " levels deep");
-    for (unsigned c = 0; c < n->mNumChildren; ++c) stack.push_back({n->mChildren[c], d + 1});
-  }
-}
-
 void check_settings(const std::string& path, const MotionSettings& settings) {
-  if (!(settings.speed > 0.0) || !std::isfinite(settings.speed)) throw Error(path, "speed", "must be > 0");
+  if (!(settings.speed > 0.0 && settings.speed <= 100.0)) throw Error(path, "speed", "must be in (0, 100]");
+  if (!(std::abs(settings.start) <= 1e6)) throw Error(path, "start", "must be within +-1e6 s");
   if (!(settings.scale >= 0.0) || !std::isfinite(settings.scale)) throw Error(path, "scale", "must be >= 0");
   if (!(settings.height > 0.0)) throw Error(path, "height", "must be > 0");
 }
@@ -228,11 +243,12 @@ Motion Motion::load(const std::string& path, const MotionSettings& settings) {
                     (exists ? "not a regular file of at most 1 GiB (a folder, a device or too large)"
                             : "no such file"));
   }
+  check_format(path);
   check_bvh_nesting(path);
   Motion m;
   Assimp::Importer importer;
+  // A whole scene (every pointer and index checked, nodes at most kMaxJointDepth deep) or an Error.
   const aiScene* scene = read_with_assimp(importer, path, 0, "motion", m.files_);
-  check_node_depth(path, scene->mRootNode);
 
   m.source_ = path;
   m.settings_ = settings;

@@ -28,6 +28,9 @@ std::string resolve(const std::string& path, const std::string& scene_file) {
   return p.string();
 }
 
+constexpr double kMaxClipSpeed = 100.0;  // clip seconds per second
+constexpr double kMaxClipStart = 1e6;    // s, the clip time at t = 0 (without loop: held past the end)
+
 std::string show_size(double v) {  // 3 significant digits
   std::ostringstream o;
   o << std::setprecision(3) << v;
@@ -63,13 +66,20 @@ void parse_character(const JsonReader& root, Scene& scene) {
   ms.root_motion = c.boolean("root_motion", ms.root_motion);
   ms.loop = c.boolean("loop", ms.loop);
   ms.speed = c.number("speed", ms.speed, 0.0, true);
+  if (ms.speed > kMaxClipSpeed) c.fail("speed", "must be in (0, 100] clip seconds per second");
   ms.start = c.number("start", ms.start, 0.0);
+  if (ms.start > kMaxClipStart) c.fail("start", "must be in [0, 1000000] s (the clip time at t = 0)");
   auto character = std::make_shared<ch::Character>();
   try {
     character->motion = ch::Motion::load(motion_path, ms);
   } catch (const Error& e) {
     throw Error(file, c.child("bvh"), e.what());
   }
+  // A looped clip's start past its end is the same pose a whole number of cycles on, whose root motion
+  // (cycles x the cycle's displacement) would cancel the placement at t = 0 only to rounding.
+  if (ms.loop && ms.start > character->motion.duration())
+    c.fail("start", "is past the clip's end (" + show_size(character->motion.duration()) +
+                        " s): with loop, start within the clip (a later start is the same pose a cycle on)");
   // The figure's size: the diagonal of the joints' box in the clip's first pose (m). Fields that scale the
   // figure are bounded by it (a figure under 10 cm has no bones a garment could hang from); radii and
   // clearances are bounded relative to it.
@@ -174,6 +184,9 @@ void parse_character(const JsonReader& root, Scene& scene) {
         try {
           return ch::make_garment(spec, character->motion, character->rig, file, g.path(), layers);
         } catch (const Error& e) {
+          // An OBJ garment is its mesh and attach table (its message names them); a generated one is made
+          // from the fields named here.
+          if (spec.type == "obj") throw;
           throw Error(
               std::string(e.what()) + " (the garment is made from " + g.path() +
               ".resolution, clearance, length, width, flare and the character's height, scale and radii)");

@@ -1,0 +1,114 @@
+// Hostile clip and mesh files and character timing fields through `loom run` and `loom body`: each is
+// refused with exit 1 and a message naming the scene's field (or the command's argument), the file and the
+// problem, never a crash or a run that ends non-finite.
+#include <gtest/gtest.h>
+
+#include <filesystem>
+#include <fstream>
+#include <nlohmann/json.hpp>
+#include <string>
+
+#include "BadInputCli.h"
+#include "CliRunner.h"
+
+namespace loom::test {
+namespace {
+
+namespace fs = std::filesystem;
+
+const BadInput kHostileFileCases[] = {
+    // The clip's timing, bounded by field (a huge speed or start made the pose non-finite or the garment
+    // degenerate, blamed on the garment).
+    {"character_speed_past_100",
+     nullptr,
+     {"@BVH:100000", "--set", "character.speed=1e300"},
+     nullptr,
+     "scene",
+     "character.speed",
+     "must be in (0, 100] clip seconds per second"},
+    {"character_start_past_1e6",
+     nullptr,
+     {"@BVH:100000", "--set", "character.start=1e300"},
+     nullptr,
+     "scene",
+     "character.start",
+     "must be in [0, 1000000] s"},
+    {"character_looped_start_past_the_clip",
+     nullptr,
+     {"@BVH:100000", "--set", "character.loop=true", "--set", "character.start=1000"},
+     nullptr,
+     "scene",
+     "character.start",
+     "is past the clip's end"},
+};
+
+INSTANTIATE_TEST_SUITE_P(HostileFiles, BadInputCli, ::testing::ValuesIn(kHostileFileCases), bad_input_name);
+
+// The character_cape scene with its clip (and garments) replaced; returns the scene's path.
+std::string cape_scene(const fs::path& dir, const nlohmann::json& character) {
+  std::ifstream in(std::string(LOOM_SOURCE_DIR) + "/scenes/character_cape.json");
+  nlohmann::json scene = nlohmann::json::parse(in);
+  scene["duration"] = 0.05;
+  for (auto it = character.begin(); it != character.end(); ++it) scene["character"][it.key()] = it.value();
+  const fs::path path = dir / "scene.json";
+  std::ofstream(path) << scene.dump(1);
+  return path.string();
+}
+
+std::string deep_collada(int depth) {
+  std::string text =
+      "<?xml version=\"1.0\"?>\n<COLLADA xmlns=\"http://www.collada.org/2005/11/COLLADASchema\" "
+      "version=\"1.4.1\"><library_visual_scenes><visual_scene id=\"S\">";
+  for (int k = 0; k < depth; ++k) text += "\n<node>";
+  for (int k = 0; k < depth; ++k) text += "</node>";
+  return text +
+         "</visual_scene></library_visual_scenes><scene><instance_visual_scene url=\"#S\"/></scene>"
+         "</COLLADA>\n";
+}
+
+// A clip assimp reads as a mesh scene with null child nodes (RAW), and a COLLADA nested 20,000 deep: both
+// refused by the scene's `character.bvh` and by `loom body`'s clip argument, exit 1.
+TEST(HostileFilesCli, NonMotionAndDeeplyNestedClipsAreRefusedByField) {
+  const fs::path dir = test_dir();
+  const std::string raw = (dir / "t.raw").string(), dae = (dir / "deep.dae").string();
+  std::ofstream(raw) << "A\n0 0 0 1 0 0 0 1 0\nB\n0 0 0 1 0 0 0 1 0\n";
+  std::ofstream(dae) << deep_collada(20000);
+  const std::string mesh = std::string(LOOM_TEST_DATA) + "/body/human.zae";
+  for (const std::string& clip : {raw, dae}) {
+    const std::string scene = cape_scene(dir, {{"bvh", clip}});
+    const std::string problem = clip == raw
+                                    ? clip + ": cannot read motion: '.raw' is not a motion format"
+                                    : clip + ": line 512: XML elements nest more than 512 levels deep";
+    auto r = run_loom("run " + scene + " --frames 1 --out " + (dir / "out").string());
+    if (r.err.find("this build has no loom::characters") != std::string::npos) GTEST_SKIP() << r.err;
+    EXPECT_EQ(r.code, 1) << r.err;
+    EXPECT_NE(r.err.find(scene + ": character.bvh: " + problem), std::string::npos) << r.err;
+    r = run_loom("body " + mesh + " " + clip + " --seconds 0.05");
+    EXPECT_EQ(r.code, 1) << r.err;
+    EXPECT_NE(r.err.find(problem), std::string::npos) << r.err;
+  }
+  // The body mesh argument, deeply nested: refused the same way.
+  const auto r = run_loom("body " + dae + " " + std::string(LOOM_TEST_DATA) + "/mocap/arm_swing.bvh");
+  EXPECT_EQ(r.code, 1) << r.err;
+  EXPECT_NE(r.err.find(dae + ": line 512: XML elements nest more than 512 levels deep"), std::string::npos)
+      << r.err;
+}
+
+// An OBJ garment's error names its mesh and attach table, without the hint about the fields a generated
+// garment is made from (an OBJ garment has no resolution, length or flare).
+TEST(HostileFilesCli, ObjGarmentErrorsGiveNoParametricHint) {
+  const fs::path dir = test_dir();
+  std::ofstream(dir / "poncho.obj") << "g top\nv 0 1.5 0\nv 0.1 1.5 0\nv 0 1.4 0\nf 1 2 3\n";
+  const std::string scene = cape_scene(
+      dir, {{"bvh", std::string(LOOM_TEST_DATA) + "/mocap/01_01.bvh"},
+            {"garments", {{{"type", "obj"}, {"path", "poncho.obj"}, {"attach", {{"collar", "Neck"}}}}}}});
+  const auto r = run_loom("run " + scene + " --frames 1 --out " + (dir / "out").string());
+  if (r.err.find("this build has no loom::characters") != std::string::npos) GTEST_SKIP() << r.err;
+  EXPECT_EQ(r.code, 1) << r.err;
+  EXPECT_NE(r.err.find("character.garments[0].attach.collar: no group 'collar' in"), std::string::npos)
+      << r.err;
+  EXPECT_EQ(r.err.find("resolution"), std::string::npos) << r.err;
+}
+
+}  // namespace
+}  // namespace loom::test
