@@ -10,6 +10,7 @@
 
 #include "BadInputCli.h"
 #include "CliRunner.h"
+#include "HostileFiles.h"
 
 namespace loom::test {
 namespace {
@@ -53,17 +54,6 @@ std::string cape_scene(const fs::path& dir, const nlohmann::json& character) {
   const fs::path path = dir / "scene.json";
   std::ofstream(path) << scene.dump(1);
   return path.string();
-}
-
-std::string deep_collada(int depth) {
-  std::string text =
-      "<?xml version=\"1.0\"?>\n<COLLADA xmlns=\"http://www.collada.org/2005/11/COLLADASchema\" "
-      "version=\"1.4.1\"><library_visual_scenes><visual_scene id=\"S\">";
-  for (int k = 0; k < depth; ++k) text += "\n<node>";
-  for (int k = 0; k < depth; ++k) text += "</node>";
-  return text +
-         "</visual_scene></library_visual_scenes><scene><instance_visual_scene url=\"#S\"/></scene>"
-         "</COLLADA>\n";
 }
 
 // A clip assimp reads as a mesh scene with null child nodes (RAW), and a COLLADA nested 20,000 deep: both

@@ -18,27 +18,14 @@
 #include <vector>
 
 #include "CliRunner.h"
+#include "OutputFolderScene.h"
 
 namespace loom::test {
 namespace {
 
 namespace fs = std::filesystem;
 
-const char* kScene = R"({
-  "duration": 0.1, "fps": 60,
-  "solver": {"method": "symplectic_euler", "substeps": 4},
-  "cloths": [{"name": "sheet",
-              "mesh": {"type": "grid", "size": [1, 1], "nodes": [5, 5], "origin": [-0.5, 1, -0.5]},
-              "material": {"preset": "cotton"}, "mass": 0.2,
-              "pins": [{"grid": [0, 0]}, {"grid": [-1, 0]}]}],
-  "output": {"formats": ["obj", "pc2", "gltf"]}
-})";
-
-std::string write_scene(const fs::path& dir, const std::string& text = kScene) {
-  const fs::path p = dir / "scene.json";
-  std::ofstream(p) << text;
-  return p.string();
-}
+const char* kScene = kOutputFolderScene;
 
 size_t count_entries(const fs::path& dir) {
   return static_cast<size_t>(std::distance(fs::directory_iterator(dir), fs::directory_iterator()));

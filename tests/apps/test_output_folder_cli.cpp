@@ -19,28 +19,17 @@
 #include <vector>
 
 #include "CliRunner.h"
+#include "OutputFolderScene.h"
 
 namespace {
 
 namespace fs = std::filesystem;
 using loom::test::run_loom;
+using loom::test::kOutputFolderScene;
 using loom::test::slurp;
+using loom::test::write_scene;
 
-const char* kScene = R"({
-  "duration": 0.1, "fps": 60,
-  "solver": {"method": "symplectic_euler", "substeps": 4},
-  "cloths": [{"name": "sheet",
-              "mesh": {"type": "grid", "size": [1, 1], "nodes": [5, 5], "origin": [-0.5, 1, -0.5]},
-              "material": {"preset": "cotton"}, "mass": 0.2,
-              "pins": [{"grid": [0, 0]}, {"grid": [-1, 0]}]}],
-  "output": {"formats": ["obj", "pc2", "gltf"]}
-})";
-
-std::string write_scene(const fs::path& dir, const std::string& text = kScene) {
-  const fs::path p = dir / "scene.json";
-  std::ofstream(p) << text;
-  return p.string();
-}
+const char* kScene = kOutputFolderScene;
 
 // `text` with its one `from` replaced by `to`.
 std::string with(std::string text, const std::string& from, const std::string& to) {

@@ -9,6 +9,7 @@
 #include <vector>
 
 #include "CharacterTestUtil.h"
+#include "HostileFiles.h"
 #include "TestDir.h"
 #include "loom/characters/Motion.h"
 #include "loom/characters/SkinnedMesh.h"
@@ -18,6 +19,7 @@ namespace {
 
 using loom::characters::Motion;
 using loom::characters::MotionSettings;
+using loom::test::deep_collada;
 
 std::string error_of(const std::function<void()>& f) {
   try {
@@ -32,18 +34,6 @@ std::string write(const std::string& name, const std::string& text) {
   const std::string path = (loom::test::test_dir() / name).string();
   std::ofstream(path, std::ios::binary) << text;
   return path;
-}
-
-// A COLLADA document whose visual scene nests `depth` <node> elements, one per line from line 2.
-std::string deep_collada(int depth) {
-  std::string text =
-      "<?xml version=\"1.0\"?>\n<COLLADA xmlns=\"http://www.collada.org/2005/11/COLLADASchema\" "
-      "version=\"1.4.1\"><library_visual_scenes><visual_scene id=\"S\">";
-  for (int k = 0; k < depth; ++k) text += "\n<node>";
-  for (int k = 0; k < depth; ++k) text += "</node>";
-  return text +
-         "</visual_scene></library_visual_scenes><scene><instance_visual_scene url=\"#S\"/></scene>"
-         "</COLLADA>\n";
 }
 
 // A zip archive (PKWARE APPNOTE 6.3: local headers, central directory, end record) storing `files`
