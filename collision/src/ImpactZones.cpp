@@ -115,31 +115,16 @@ constexpr int kProjections = 4;  // inelastic projections of a zone before it mo
 // projections, or that merges with a rigid one, moves rigidly from then on (Provot's rigid impact zone, the
 // last resort, apply_rigid_zone). Repeat until no hit. Pairs inside one rigid zone are skipped (it moves
 // affinely from its intersection-free start). Returns false if the iteration cap forced one global zone.
-// Bounded cost: the rounds of one step (all calls) search at most zone_pairs_per_triangle x (triangles) pairs
-// (a cloth crushed or exploded into a small volume gives every triangle most others as candidates, and
-// each round would search them all again). Past that budget the fail-safe gives up: one global rigid zone
-// (so the step still ends free of intersections) and a violation for the guard, which rolls the frame
-// back and retries it with smaller steps, or stops the run with this cause.
 bool SelfCollisionStage::impact_zones(std::vector<char> dirty, int threads) {
   PhaseTimer timer(zones_ms_);
   const int nv = static_cast<int>(x0_.size());
   zone_parent_.assign(nv, -1);
   zone_constraints_.clear();
   std::vector<int> zone_rounds(nv, 0);  // per root: rounds done (> kProjections: moved rigidly)
-  const long budget = settings_.zone_pairs_per_triangle > 0
-                          ? settings_.zone_pairs_per_triangle * static_cast<long>(tris_.size())
-                          : -1;
-  bool over = !violation_.empty();  // gave up earlier in this step: straight to the global zone
-  int it = 0;
-  for (; it < settings_.max_zone_iterations && !over; ++it) {
+  for (int it = 0; it < settings_.max_zone_iterations; ++it) {
     if (std::none_of(dirty.begin(), dirty.end(), [](char d) { return d != 0; })) return true;
     update_bvhs(threads, false);
-    const std::vector<TrianglePair> pairs =
-        triangle_pairs_touching(dirty, threads, budget >= 0 ? budget - zone_pairs_step_ : -1, &over);
-    zone_pairs_step_ += static_cast<long>(pairs.size());
-    zone_pairs_max_ = std::max(zone_pairs_max_, zone_pairs_step_);
-    if (over) break;
-    const std::vector<Feature> fs = features(pairs, &dirty, threads);
+    const std::vector<Feature> fs = features(triangle_pairs_touching(dirty, threads), &dirty, threads);
     const long n = static_cast<long>(fs.size());
     std::vector<char> hit(n, 0);
     std::vector<ZoneConstraint> found(n);
@@ -157,13 +142,6 @@ bool SelfCollisionStage::impact_zones(std::vector<char> dirty, int threads) {
   for (int v = 0; v < nv; ++v) all[v] = v;
   apply_rigid_zone(all);
   ++unresolved_;
-  if (over && violation_.empty()) {
-    ++zone_budget_cut_;
-    violation_ = "self-collision: the impact-zone fail-safe gave up in round " + std::to_string(it + 1) +
-                 ": more than " + std::to_string(budget) + " candidate triangle pairs to search (" +
-                 std::to_string(settings_.zone_pairs_per_triangle) + " per triangle of " +
-                 std::to_string(tris_.size()) + "; the cloth is crushed or exploding)";
-  }
   return false;
 }
 

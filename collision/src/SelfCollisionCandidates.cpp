@@ -21,9 +21,8 @@ using namespace self_collision_detail;
 // The dirty triangles' queries run in parallel over contiguous chunks of the dirty list, joined in chunk
 // order, then sorted: the same pairs for any thread count.
 std::vector<TrianglePair> SelfCollisionStage::triangle_pairs_touching(const std::vector<char>& dirty,
-                                                                      int threads, long limit, bool* over) {
+                                                                      int threads) {
   PhaseTimer timer(pairs_ms_);
-  if (over) *over = false;
   std::vector<char> td(tris_.size(), 0);
   for (int v = 0; v < static_cast<int>(dirty.size()); ++v)
     if (dirty[v])
@@ -31,9 +30,6 @@ std::vector<TrianglePair> SelfCollisionStage::triangle_pairs_touching(const std:
   std::vector<int> list;
   for (int t = 0; t < static_cast<int>(tris_.size()); ++t)
     if (td[t]) list.push_back(t);
-  // A pair is found at most twice (from each of its triangles), so a chunk that has collected more than
-  // 2 limit entries holds more than `limit` distinct pairs: the whole search would too, for any chunking.
-  const long chunk_cap = limit >= 0 ? 2 * limit : -1;
   auto query = [&](long begin, long end, std::vector<TrianglePair>& part) {
     for (long i = begin; i < end; ++i) {
       const int t = list[i];
@@ -49,23 +45,12 @@ std::vector<TrianglePair> SelfCollisionStage::triangle_pairs_touching(const std:
           if (g != t) part.emplace_back(std::min(g, t), std::max(g, t));
         }
       }
-      if (chunk_cap >= 0 && static_cast<long>(part.size()) > chunk_cap) {
-        part.clear();
-        part.emplace_back(-1, -1);  // marks the chunk as over the limit
-        return;
-      }
     }
   };
   std::vector<TrianglePair> out =
       in_chunks<TrianglePair>(static_cast<long>(list.size()), threads, 512, 8, query);
-  if (limit >= 0) {
-    const bool cut = std::any_of(out.begin(), out.end(), [](const TrianglePair& p) { return p.first < 0; });
-    if (over) *over = cut;
-    if (cut) return {};
-  }
   sort_pairs(out);
   out.erase(std::unique(out.begin(), out.end()), out.end());
-  if (limit >= 0 && static_cast<long>(out.size()) > limit && over) *over = true;
   candidate_pairs_ += static_cast<long>(out.size());
   return out;
 }

@@ -37,8 +37,6 @@ std::vector<std::pair<std::string, double>> SelfCollisionStage::counters() const
           {"collider_fixes", static_cast<double>(collider_fixes_)},
           {"collider_rounds", static_cast<double>(collider_rounds_)},
           {"zone_ccd_cut", static_cast<double>(zone_ccd_cut_)},
-          {"zone_budget_cut", static_cast<double>(zone_budget_cut_)},
-          {"zone_pairs_max", static_cast<double>(zone_pairs_max_)},
           {"bvh_ms", bvh_ms_},
           {"pairs_ms", pairs_ms_},
           {"features_ms", features_ms_},
@@ -287,8 +285,6 @@ bool SelfCollisionStage::collider_round(loom::cloth::StageContext& ctx, std::vec
 void SelfCollisionStage::run(loom::cloth::StageContext& ctx) {
   if (num_cloths_ != static_cast<int>(ctx.cloths.size())) setup(ctx);
   h_ = ctx.h;
-  violation_.clear();
-  zone_pairs_step_ = 0;
   const int threads = ctx.threads;
   const int nv = vertex_offset_[num_cloths_];
   x0_.resize(nv), x1_.resize(nv), w_.resize(nv), m_.resize(nv), near_.resize(nv), fixed_v_.resize(nv),

@@ -61,10 +61,7 @@ struct SelfCollisionSettings {
   double repulsion = 0.1;    // 1, share of the thickness overlap removed per step by repulsion (Bridson 2002)
   bool normal_cones = true;  // cull self pairs of flat patches (never pairs between cloths)
   int max_zone_iterations = 200;  // fail-safe rounds before every vertex goes into one zone
-  // Candidate triangle pairs the fail-safe may search in one step, all rounds together, per triangle of
-  // the cloths (ImpactZones.cpp); past it the step gives up with a violation (<= 0: no budget).
-  long zone_pairs_per_triangle = 100;
-  double near_body_mass = 1e3;  // 1, mass factor of vertices the body stage left near a collider
+  double near_body_mass = 1e3;    // 1, mass factor of vertices the body stage left near a collider
   // 1, the largest velocity change a cloth-cloth impulse gives one vertex, as a multiple of the contact's
   // relative velocity change (capped_shares, SelfProximity.cpp); <= 0 or infinite: Bridson's shares unbounded
   double max_share = 1.0;
@@ -105,9 +102,6 @@ class SelfCollisionStage final : public loom::cloth::Stage {
   // (the other searches' extraction), proximity_ms, ccd_ms, zones_ms (the zones' own searches counted in it
   // and in their phases).
   std::vector<std::pair<std::string, double>> counters() const override;
-  // Guard: the impact-zone fail-safe gave up in the last step (its candidate-pair budget ran out, see
-  // SelfCollisionSettings::zone_pairs_per_triangle): "self-collision: ..." with the figures, else "".
-  std::string violation() const override { return violation_; }
 
  private:
   struct Feature {  // vertex-face (a = vertex, b = triangle) or edge-edge (a < b, edges); global indices
@@ -133,11 +127,7 @@ class SelfCollisionStage final : public loom::cloth::Stage {
   void update_bvhs(int threads, bool full_update);
   // The step's features of all candidate pairs (self pairs culled by normal cones, pairs between cloths).
   std::vector<Feature> all_features(int threads);
-  // Triangle pairs (unique, sorted) with a triangle touching a `dirty` vertex. With limit >= 0, a search
-  // that would return more than `limit` pairs may stop early: *over is then set and the result is partial
-  // (decided the same way for any thread count).
-  std::vector<TrianglePair> triangle_pairs_touching(const std::vector<char>& dirty, int threads,
-                                                    long limit = -1, bool* over = nullptr);
+  std::vector<TrianglePair> triangle_pairs_touching(const std::vector<char>& dirty, int threads);
   std::vector<Feature> features(const std::vector<TrianglePair>& pairs, const std::vector<char>* dirty,
                                 int threads) const;
   void extract_features(const TrianglePair* pairs, long n, const std::vector<char>* dirty,
@@ -215,9 +205,6 @@ class SelfCollisionStage final : public loom::cloth::Stage {
   long bvh_rebuilds_ = 0, unresolved_ = 0, culled_nodes_ = 0, ccd_tests_ = 0, ccd_boxes_ = 0;
   long projections_ = 0, rigid_zones_ = 0, collider_fixes_ = 0, collider_rounds_ = 0, ccd_start_hits_ = 0;
   long zone_ccd_cut_ = 0;  // the impact zones' continuous tests cut short by their box budget (hits)
-  long zone_budget_cut_ = 0, zone_pairs_max_ = 0;  // steps whose fail-safe gave up; most pairs in one step
-  long zone_pairs_step_ = 0;                       // candidate pairs the fail-safe searched this step
-  std::string violation_;                          // of the last step (violation())
   // Phase wall times since the start (ms): BVH refit/rebuild, triangle-pair search, feature extraction,
   // proximity impulses, continuous passes, impact zones (the zones' own searches included).
   double bvh_ms_ = 0.0, pairs_ms_ = 0.0, proximity_ms_ = 0.0, ccd_ms_ = 0.0, zones_ms_ = 0.0;
