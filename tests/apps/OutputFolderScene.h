@@ -17,7 +17,8 @@ inline const char* kOutputFolderScene = R"({
 })";
 
 // Writes `text` to DIR/scene.json; returns its path.
-inline std::string write_scene(const std::filesystem::path& dir, const std::string& text = kOutputFolderScene) {
+inline std::string write_scene(const std::filesystem::path& dir,
+                               const std::string& text = kOutputFolderScene) {
   const std::filesystem::path p = dir / "scene.json";
   std::ofstream(p) << text;
   return p.string();

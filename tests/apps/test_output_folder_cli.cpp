@@ -24,8 +24,8 @@
 namespace {
 
 namespace fs = std::filesystem;
-using loom::test::run_loom;
 using loom::test::kOutputFolderScene;
+using loom::test::run_loom;
 using loom::test::slurp;
 using loom::test::write_scene;
 
