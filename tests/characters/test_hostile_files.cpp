@@ -20,15 +20,7 @@ namespace {
 using loom::characters::Motion;
 using loom::characters::MotionSettings;
 using loom::test::deep_collada;
-
-std::string error_of(const std::function<void()>& f) {
-  try {
-    f();
-  } catch (const loom::Error& e) {
-    return e.what();
-  }
-  return "";
-}
+using loom::test::error_of;
 
 std::string write(const std::string& name, const std::string& text) {
   const std::string path = (loom::test::test_dir() / name).string();

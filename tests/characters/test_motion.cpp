@@ -270,6 +270,8 @@ TEST(Motion, DeeplyNestedJointsAreRefusedNamingTheHierarchy) {
 
 namespace {
 
+using loom::test::error_of;
+
 // A one-joint BVH (6 channels) with `frames` declared and `body` as the MOTION numbers.
 std::string write_bvh(const std::string& name, const std::string& frames, const std::string& body) {
   const std::string path = (loom::test::test_dir() / name).string();
@@ -278,15 +280,6 @@ std::string write_bvh(const std::string& name, const std::string& frames, const 
                       << frames << "\nFrame Time: 0.1\n"
                       << body;
   return path;
-}
-
-std::string error_of(const std::function<void()>& f) {
-  try {
-    f();
-  } catch (const loom::Error& e) {
-    return e.what();
-  }
-  return "";
 }
 
 // assimp reads a BVH's MOTION numbers as a stream of tokens: several frames on one line, or one frame over
