@@ -228,9 +228,74 @@ double segment_capsule_distance(const Collider& c, const Transform& pose, const 
   return len - c.shape.radius;
 }
 
+namespace {
+
+// Whether the segment A + t (B - A), t in [0, 1], meets the box |q_i| <= e_i (box-local coordinates; slab
+// clipping).
+bool segment_meets_box(const Vec3& A, const Vec3& B, const Vec3& e) {
+  double t0 = 0.0, t1 = 1.0;
+  const Vec3 D = B - A;
+  for (int i = 0; i < 3; ++i) {
+    if (D[i] == 0.0) {
+      if (std::abs(A[i]) > e[i]) return false;
+      continue;
+    }
+    double ta = (-e[i] - A[i]) / D[i], tb = (e[i] - A[i]) / D[i];
+    if (ta > tb) std::swap(ta, tb);
+    t0 = std::max(t0, ta), t1 = std::min(t1, tb);
+    if (t0 > t1) return false;
+  }
+  return true;
+}
+
+}  // namespace
+
 double segment_box_edges_distance(const Collider& c, const Transform& pose, const Vec3& a, const Vec3& b,
                                   double* s, Vec3* normal) {
   const Vec3& e = c.shape.half_extents;
+  const Transform to_local = pose.inverse(Eigen::Isometry);
+  const Vec3 A = to_local * a, B = to_local * b, D = B - A;
+  if (segment_meets_box(A, B, e)) {
+    // Separating-axis test of a segment against a box (Ericson 2005, Sec. 5.2.1 and 4.4): the minimum
+    // translation is along a face normal or along D x (a box axis); on a face normal the deepest point of
+    // the segment is an end, on D x axis_i it is the segment's point closest to the box edge parallel to
+    // axis_i on that side.
+    double best = HUGE_VAL;
+    for (int k = 0; k < 6; ++k) {
+      Vec3 L = Vec3::Zero();
+      if (k < 3) {
+        L[k] = 1.0;
+      } else {
+        Vec3 axis = Vec3::Zero();
+        axis[k - 3] = 1.0;
+        L = D.cross(axis);
+        const double len = L.norm();
+        if (!(len > 1e-12 * D.norm())) continue;
+        L /= len;
+      }
+      const double r = e.dot(L.cwiseAbs()), pa = A.dot(L), pb = B.dot(L);
+      const double push_pos = r - std::min(pa, pb), push_neg = std::max(pa, pb) + r;
+      const Vec3 dir = push_pos <= push_neg ? L : Vec3(-L);
+      const double push = std::min(push_pos, push_neg);
+      if (!(push < best)) continue;
+      best = push;
+      double sp = 0.0;
+      if (k < 3) {
+        sp = A.dot(dir) <= B.dot(dir) ? 0.0 : 1.0;  // the end deepest behind the face
+      } else {
+        // The box edge parallel to axis k-3 that is farthest along dir.
+        const int ax = k - 3;
+        Vec3 lo, hi;
+        for (int j = 0; j < 3; ++j) lo[j] = hi[j] = dir[j] >= 0.0 ? e[j] : -e[j];
+        lo[ax] = -e[ax], hi[ax] = e[ax];
+        sp = segment_segment_closest(A, B, lo, hi).s;
+      }
+      if (s) *s = sp;
+      if (normal) *normal = pose.linear() * dir;
+    }
+    return -best;
+  }
+  // Outside: the distance to the nearest of the 12 edges, away from it.
   double best = HUGE_VAL;
   for (int axis = 0; axis < 3; ++axis) {
     const int u = (axis + 1) % 3, v = (axis + 2) % 3;
@@ -241,27 +306,17 @@ double segment_box_edges_distance(const Collider& c, const Transform& pose, cons
       Vec3 hi = lo;
       lo[axis] = -e[axis];
       hi[axis] = e[axis];
-      const Vec3 q0 = pose * lo, q1 = pose * hi;
-      const SegmentSegmentClosest cl = segment_segment_closest(a, b, q0, q1);
+      const SegmentSegmentClosest cl = segment_segment_closest(A, B, lo, hi);
       const double d = std::sqrt(cl.distance_squared);
-      if (d < best) {
-        best = d;
-        const Vec3 on_edge = a + cl.s * (b - a), on_box = q0 + cl.t * (q1 - q0);
-        // Outward bisector of the two faces meeting at this box edge.
-        Vec3 bis = Vec3::Zero();
-        bis[u] = lo[u] > 0 ? 1.0 : -1.0;
-        bis[v] = lo[v] > 0 ? 1.0 : -1.0;
-        const Vec3 out = pose.linear() * bis.normalized();
-        const Vec3 dir = on_edge - on_box;
-        // Inside the box (the segment's closest point has negative box distance): negative, pushed out along
-        // the bisector; outside: the distance to the edge, away from it.
-        const bool inside =
-            local_signed_distance(c.shape, nullptr, pose.inverse(Eigen::Isometry) * on_edge, nullptr) < 0.0;
-        if (s) *s = cl.s;
-        if (normal) *normal = !inside && d > 0.0 ? Vec3(dir / d) : out;
-        if (inside) best = -d;
-        if (best < 0.0) return best;
-      }
+      if (!(d < best)) continue;
+      best = d;
+      const Vec3 dir = A + cl.s * D - (lo + cl.t * (hi - lo));
+      // A segment touching the edge: the outward bisector of the edge's two faces.
+      Vec3 bis = Vec3::Zero();
+      bis[u] = lo[u] > 0 ? 1.0 : -1.0;
+      bis[v] = lo[v] > 0 ? 1.0 : -1.0;
+      if (s) *s = cl.s;
+      if (normal) *normal = pose.linear() * (d > 0.0 ? Vec3(dir / d) : Vec3(bis.normalized()));
     }
   }
   return best;

@@ -241,6 +241,62 @@ TEST(ColliderDistance, MeshDistanceDoesNotDependOnQueryOrder) {
 
 // Swept point against a moving, rotating collider: every path that a dense sampling finds within the
 // separation is reported, and no later than the first sampled time.
+// Edge contacts against a box: a segment just under the middle of the top face is an end's contact 3 mm
+// deep (not a push across the box from its far edge); a segment cutting the box's edge leaves along the
+// edge's bisector by its distance to the edge; a segment above the face is at its distance to the nearest
+// edge.
+TEST(ColliderDistance, SegmentBoxTakesTheShortestWayOut) {
+  const Collider box = make(ShapeType::box, 0, 0, Vec3(0.3, 0.1, 0.3));
+  const Transform id = Transform::Identity();
+  double s = -1.0;
+  Vec3 n;
+  EXPECT_NEAR(
+      segment_box_edges_distance(box, id, Vec3(-0.09, 0.097, -0.157), Vec3(-0.06, 0.0985, -0.157), &s, &n),
+      -0.003, 1e-12);
+  EXPECT_EQ(s, 0.0);
+  EXPECT_NEAR((n - Vec3(0, 1, 0)).norm(), 0.0, 1e-12);
+  EXPECT_NEAR(segment_box_edges_distance(box, id, Vec3(0, 0.11, 0.27), Vec3(0, 0.07, 0.31), &s, &n),
+              -0.02 / std::sqrt(2.0), 1e-12);
+  EXPECT_NEAR(s, 0.5, 1e-12);
+  EXPECT_NEAR((n - Vec3(0, 1, 1).normalized()).norm(), 0.0, 1e-12);
+  EXPECT_NEAR(segment_box_edges_distance(box, id, Vec3(-0.05, 0.105, 0), Vec3(0.1, 0.105, 0), &s, &n),
+              std::hypot(0.2, 0.005), 1e-12);
+  EXPECT_NEAR(s, 1.0, 1e-12);
+}
+
+// For random segments through a posed box: moving the segment by the returned depth along the returned
+// normal takes every point of it out of the box, and that depth is no more than the way out along any face
+// normal.
+TEST(ColliderDistance, SegmentBoxDepthIsAWayOutAndNoLongerThanAFaceNormal) {
+  const Collider box = make(ShapeType::box, 0, 0, Vec3(0.3, 0.1, 0.2));
+  const Transform p = pose(Vec3(0.1, -0.2, 0.3), Vec3(1, 2, 3), 0.7);
+  std::mt19937 rng(7);
+  std::uniform_real_distribution<double> u(-0.4, 0.4);
+  int through = 0;
+  for (int trial = 0; trial < 2000; ++trial) {
+    const Vec3 a = p * Vec3(u(rng), u(rng), u(rng)), b = p * Vec3(u(rng), u(rng), u(rng));
+    double s = 0.0;
+    Vec3 n;
+    const double d = segment_box_edges_distance(box, p, a, b, &s, &n);
+    double deepest = HUGE_VAL;
+    for (int k = 0; k <= 100; ++k)
+      deepest = std::min(deepest, signed_distance(box, p, a + k / 100.0 * (b - a), nullptr));
+    if (deepest >= 0.0) continue;
+    ++through;
+    ASSERT_LT(d, 0.0) << trial;
+    EXPECT_NEAR(n.norm(), 1.0, 1e-12);
+    for (int k = 0; k <= 100; ++k)
+      EXPECT_GT(signed_distance(box, p, a + k / 100.0 * (b - a) - (d - 1e-9) * n, nullptr), -1e-9) << trial;
+    const Vec3 A = p.inverse(Eigen::Isometry) * a, B = p.inverse(Eigen::Isometry) * b;
+    for (int axis = 0; axis < 3; ++axis) {
+      const double e = box.shape.half_extents[axis];
+      const double face = std::min(e - std::min(A[axis], B[axis]), std::max(A[axis], B[axis]) + e);
+      EXPECT_LE(-d, face + 1e-12) << trial;
+    }
+  }
+  EXPECT_GT(through, 500);
+}
+
 TEST(SweptCollider, NoFalseNegativesAgainstDenseSampling) {
   std::vector<Collider> shapes = {make(ShapeType::sphere, 0.2), make(ShapeType::capsule, 0.05, 0.3),
                                   make(ShapeType::box, 0, 0, Vec3(0.3, 0.02, 0.2)),

@@ -26,8 +26,11 @@ double local_signed_distance(const Shape& shape, const ColliderGeometry* geometr
 double segment_capsule_distance(const Collider& capsule, const Transform& pose, const Vec3& a, const Vec3& b,
                                 double* s, Vec3* normal);
 
-// Smallest distance (m) from the segment (a, b) to the 12 edges of a box collider at `pose` (unsigned), with
-// the closest parameter on (a, b) and the unit direction from the box edge to the segment (world).
+// Signed distance (m) from the segment (a, b) to a box collider at `pose`, for edge contacts. Outside: the
+// distance to the nearest of the box's 12 edges, *s = the closest parameter on (a, b), *normal = the unit
+// direction from that edge to the segment. A segment that enters the box: minus the depth of the minimum
+// translation out of it (separating axes), *normal = that direction (world), *s = the deepest parameter
+// (0 or 1 when the translation is along a face normal: an end's contact, not the edge's).
 double segment_box_edges_distance(const Collider& box, const Transform& pose, const Vec3& a, const Vec3& b,
                                   double* s, Vec3* normal);
 
