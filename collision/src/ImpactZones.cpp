@@ -3,6 +3,7 @@
 #include <Eigen/Dense>
 #include <algorithm>
 #include <cmath>
+#include <cstdio>
 
 #include "SelfCollisionInternal.h"
 #include "loom/collision/BodyCollisionStage.h"
@@ -121,11 +122,25 @@ bool SelfCollisionStage::impact_zones(std::vector<char> dirty, int threads) {
   zone_parent_.assign(nv, -1);
   zone_constraints_.clear();
   std::vector<int> zone_rounds(nv, 0);  // per root: rounds done (> kProjections: moved rigidly)
+  const double budget = settings_.zone_features_per_vertex * nv;
+  double tested = 0.0;
   for (int it = 0; it < settings_.max_zone_iterations; ++it) {
     if (std::none_of(dirty.begin(), dirty.end(), [](char d) { return d != 0; })) return true;
     update_bvhs(threads, false);
     const std::vector<Feature> fs = features(triangle_pairs_touching(dirty, threads), &dirty, threads);
     const long n = static_cast<long>(fs.size());
+    tested += static_cast<double>(n);
+    if (tested > budget) {
+      char why[256];
+      std::snprintf(
+          why, sizeof why,
+          "self-collision: the impact zones tested %.3g vertex-face and edge-edge features in one step, "
+          "more than %.3g per cloth vertex (the cloth is torn apart or crushed); every vertex was "
+          "moved as one rigid zone",
+          tested, settings_.zone_features_per_vertex);
+      zone_budget_violation_ = why;
+      break;
+    }
     std::vector<char> hit(n, 0);
     std::vector<ZoneConstraint> found(n);
     zone_hits(fs, zone_rounds, threads, hit, found);

@@ -285,6 +285,7 @@ bool SelfCollisionStage::collider_round(loom::cloth::StageContext& ctx, std::vec
 void SelfCollisionStage::run(loom::cloth::StageContext& ctx) {
   if (num_cloths_ != static_cast<int>(ctx.cloths.size())) setup(ctx);
   h_ = ctx.h;
+  zone_budget_violation_.clear();
   const int threads = ctx.threads;
   const int nv = vertex_offset_[num_cloths_];
   x0_.resize(nv), x1_.resize(nv), w_.resize(nv), m_.resize(nv), near_.resize(nv), fixed_v_.resize(nv),

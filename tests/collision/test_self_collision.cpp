@@ -121,6 +121,43 @@ TEST(SelfCollision, ImpactZonesResolveCrushedStack) {
   for (int l = 1; l < layers; ++l) EXPECT_LT(height(l - 1), height(l)) << "layers " << l - 1 << " and " << l;
 }
 
+// The same stack with the impact zones' work bound at 1 feature per vertex: the step still ends free of
+// intersections (one rigid zone) and reports the bound by name; at the default bound it reports nothing.
+TEST(SelfCollision, ImpactZonesPastTheirWorkBoundGoRigidAndSaySo) {
+  for (double per_vertex : {1.0, SelfCollisionSettings().zone_features_per_vertex}) {
+    Cloths cloths;
+    const int layers = 7;
+    std::vector<Vec3s> dx;
+    for (int l = 0; l < layers; ++l) {
+      const Vec3 o(0.002 * l, 5e-4 * l, 0.001 * l);
+      cloths.push_back(
+          one_triangle(o, o + Vec3(0.1, 0, 0), o + Vec3(0, 0, 0.1), "layer" + std::to_string(l)));
+      const double d = (l % 2 ? -5e-3 : 5e-3) * (1.0 + 0.1 * l);
+      dx.push_back({Vec3(0, d, 0), Vec3(0, 0.7 * d, 0), Vec3(0, 1.2 * d, 0)});
+    }
+    SelfCollisionSettings set;
+    set.thickness.assign(layers, 1e-4);
+    set.passes = 1;
+    set.zone_features_per_vertex = per_vertex;
+    SelfCollisionStage stage(set);
+    step(stage, cloths, dx, 1.0 / 60.0, 1);
+    EXPECT_EQ(census(cloths), 0) << per_vertex;
+    double unresolved = 0;
+    for (const auto& [k, v] : stage.counters())
+      if (k == "unresolved") unresolved = v;
+    if (per_vertex == 1.0) {
+      EXPECT_NE(stage.violation().find("self-collision: the impact zones tested "), std::string::npos)
+          << stage.violation();
+      EXPECT_NE(stage.violation().find("more than 1 per cloth vertex"), std::string::npos)
+          << stage.violation();
+      EXPECT_EQ(unresolved, 1.0);
+    } else {
+      EXPECT_EQ(stage.violation(), "");
+      EXPECT_EQ(unresolved, 0.0);
+    }
+  }
+}
+
 // A sheet crumpled by random large displacements: the result is bit-identical with 1 and 2 threads and
 // free of intersections.
 TEST(SelfCollision, ThreadCountDeterminismAndNoIntersections) {

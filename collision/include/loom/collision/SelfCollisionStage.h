@@ -61,7 +61,13 @@ struct SelfCollisionSettings {
   double repulsion = 0.1;    // 1, share of the thickness overlap removed per step by repulsion (Bridson 2002)
   bool normal_cones = true;  // cull self pairs of flat patches (never pairs between cloths)
   int max_zone_iterations = 200;  // fail-safe rounds before every vertex goes into one zone
-  double near_body_mass = 1e3;    // 1, mass factor of vertices the body stage left near a collider
+  // Work bound of the fail-safe: vertex-face and edge-edge features tested by the impact zones in one step,
+  // per cloth vertex. A cloth crushed into a box stays at a few thousand per vertex in a step; a torn or
+  // exploded one (triangles spanning the whole cloth) tests thousands per vertex in every round. Past the
+  // bound, every vertex moves as one rigid zone and the step is reported (violation()), so the guard retries
+  // or stops the run with that cause instead of the step running for hours.
+  double zone_features_per_vertex = 2e4;
+  double near_body_mass = 1e3;  // 1, mass factor of vertices the body stage left near a collider
   // 1, the largest velocity change a cloth-cloth impulse gives one vertex, as a multiple of the contact's
   // relative velocity change (capped_shares, SelfProximity.cpp); <= 0 or infinite: Bridson's shares unbounded
   double max_share = 1.0;
@@ -89,6 +95,9 @@ class SelfCollisionStage final : public loom::cloth::Stage {
   void set_body_stage(BodyCollisionStage* body) { body_ = body; }
   const char* name() const override { return "self_collision"; }
   void run(loom::cloth::StageContext& ctx) override;
+  // "" or, for the last step, that the impact zones ran past their work bound
+  // (SelfCollisionSettings::zone_features_per_vertex).
+  std::string violation() const override { return zone_budget_violation_; }
   // candidate_pairs (triangle pairs from the BVHs), features (their vertex-face and edge-edge features that
   // passed the box filter), culled_nodes (normal-cone culls), contacts (proximity +
   // continuous contacts given impulses), passes (continuous-test passes), impact_zones (zones formed),
@@ -204,6 +213,7 @@ class SelfCollisionStage final : public loom::cloth::Stage {
   long candidate_pairs_ = 0, contacts_ = 0, passes_ = 0, impact_zones_ = 0, zone_iterations_ = 0;
   long bvh_rebuilds_ = 0, unresolved_ = 0, culled_nodes_ = 0, ccd_tests_ = 0, ccd_boxes_ = 0;
   long projections_ = 0, rigid_zones_ = 0, collider_fixes_ = 0, collider_rounds_ = 0, ccd_start_hits_ = 0;
+  std::string zone_budget_violation_;
   long zone_ccd_cut_ = 0;  // the impact zones' continuous tests cut short by their box budget (hits)
   // Phase wall times since the start (ms): BVH refit/rebuild, triangle-pair search, feature extraction,
   // proximity impulses, continuous passes, impact zones (the zones' own searches included).
