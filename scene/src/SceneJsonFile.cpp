@@ -101,6 +101,10 @@ class DuplicateKeys : public nlohmann::json::json_sax_t {
 nlohmann::json read_json_file(const std::string& path) {
   // A folder, /dev/zero (or a link to it) or a huge file is refused before reading.
   const std::string text = loom::read_input_file(path, kMaxInputBytes);
+  // JSON text holds no NUL byte (RFC 8259 Sec. 7: control characters are escaped); the parser would take the
+  // first one for the end of the input.
+  if (const size_t nul = text.find('\0'); nul != std::string::npos)
+    throw Error(path, line_column(text, nul), "not JSON text: a NUL byte (binary data)");
   nlohmann::json j;
   try {
     j = nlohmann::json::parse(text);

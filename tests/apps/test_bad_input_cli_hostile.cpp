@@ -740,5 +740,22 @@ TEST(HostilePaths, MessagesShowNulsAndNameLinkLoops) {
       << loop.err;
 }
 
+// A scene file of NUL bytes (or one in the middle) is binary data, named with its line and column; the
+// parser's "unexpected end of input" would blame the file's first character.
+TEST(HostilePaths, NulBytesInASceneFileAreNamedAsBinaryData) {
+  const fs::path dir = test_dir();
+  std::ofstream(dir / "zeros.json") << std::string(4096, '\0');
+  std::ofstream(dir / "middle.json") << std::string("{\n  \"name\": \"x\",\n  \0\"duration\": 1}\n", 35);
+  const std::pair<const char*, const char*> cases[] = {{"zeros.json", "zeros.json: line 1, column 1: "},
+                                                       {"middle.json", "middle.json: line 3, column 3: "}};
+  for (const auto& [file, where] : cases) {
+    const auto r = run_loom("run " + (dir / file).string() + " --out " + (dir / "out").string());
+    EXPECT_EQ(r.code, 1) << r.err;
+    EXPECT_NE(r.err.find(std::string(where) + "not JSON text: a NUL byte (binary data)"), std::string::npos)
+        << r.err;
+    EXPECT_FALSE(fs::exists(dir / "out"));
+  }
+}
+
 }  // namespace
 }  // namespace loom::test
