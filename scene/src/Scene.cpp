@@ -670,8 +670,23 @@ void check_weil(const Scene& scene, const std::string& file) {
 
 // The static solver finds an equilibrium (StaticSolver.h): under gravity a cloth that nothing holds (no
 // pin, no body or character attachment) has none, and the Newton steps would carry it away without bound.
+// Its energy has no contact term either: a collider, a body, a character's capsules or cloth-cloth collision
+// would be projected after each equilibrium, which the next one undoes (a sphere under a pinned sheet made
+// every Newton solve diverge).
 void check_static(const Scene& scene, const std::string& file) {
-  if (scene.setup.solver.method != "static" || scene.setup.gravity.norm() == 0.0 || scene.character) return;
+  if (scene.setup.solver.method != "static") return;
+  auto refuse = [&](const std::string& field, const std::string& what) {
+    throw Error(
+        file, field,
+        "the static solver (solver.method \"static\") minimises the cloth's potential energy, which has "
+        "no contact term: it cannot take " +
+            what + " (use a dynamic solver)");
+  };
+  if (!scene.colliders.empty()) refuse("colliders", "colliders");
+  if (!scene.bodies.empty()) refuse("bodies", "rigid bodies");
+  if (scene.character) refuse("character", "a character's capsules");
+  if (scene.collision) refuse("collision", "collision");
+  if (scene.setup.gravity.norm() == 0.0) return;
   for (size_t i = 0; i < scene.setup.cloths.size(); ++i) {
     bool held = !scene.setup.cloths[i].pins.empty();
     for (const collision::RigidBodySpec& b : scene.bodies)

@@ -7,6 +7,11 @@
 #include <vector>
 
 #include "loom/cloth/Solver.h"
+#include "loom/collision/ColliderDistance.h"
+#include "loom/collision/ColliderGeometry.h"
+#ifdef LOOM_HAVE_CHARACTERS
+#include "loom/characters/Character.h"
+#endif
 
 namespace loom::scene {
 
@@ -27,6 +32,26 @@ double min_rest_edge(const cloth::ClothMesh& mesh) {
   const cloth::Vec3s& x = mesh.rest_positions();
   for (const auto& e : mesh.edges()) l = std::min(l, (x[e.i] - x[e.j]).norm());
   return l;
+}
+
+// The fastest point of a kinematic collider's surface (m/s), sampled over the scene at 1e5 points (at most
+// 1/240 s apart; a turn is resolved up to pi per sample): its origin's speed plus its turn rate times the
+// farthest point of its local box (a plane: its origin's speed only).
+double collider_surface_speed(const collision::Collider& c, double duration) {
+  double reach = 0.0;
+  if (c.shape.type != collision::ShapeType::plane) {
+    cloth::Vec3 lo, hi;
+    collision::local_bounds(c.shape, c.geometry.get(), lo, hi);
+    reach = (0.5 * (lo + hi)).norm() + 0.5 * (hi - lo).norm();
+  }
+  const double dt = std::min(1.0 / 240.0, duration / 1e5);
+  double v = 0.0;
+  for (double t = 0.0; t < duration; t += dt) {
+    const collision::Transform a = c.motion(t), b = c.motion(t + dt);
+    const double turn = Eigen::AngleAxisd(b.linear() * a.linear().transpose()).angle();
+    v = std::max(v, ((b.translation() - a.translation()).norm() + turn * reach) / dt);
+  }
+  return v;
 }
 
 }  // namespace
@@ -142,10 +167,43 @@ std::string divergence_suspects(const Scene& scene) {
       out.push_back(at + ".mass (" + fig(b.mass / cloth_mass) +
                     " times the cloths' mass; validated up to 1000)");
   }
+  for (size_t k = 0; k < scene.colliders.size(); ++k) {
+    const collision::Collider& c = scene.colliders[k];
+    const std::string at = "colliders[" + std::to_string(k) + "]";
+    if (c.motion) {
+      const double v = collider_surface_speed(c, scene.duration);
+      if (v > kRegimeSpeed)
+        out.push_back(at + ".motion (its surface moves at up to " + fig(v) + " m/s; validated up to " +
+                      fig(kRegimeSpeed) + ")");
+    }
+    // A cloth that starts inside the collider or its thickness is pushed out at once.
+    const collision::Transform pose = c.motion ? c.motion(0.0) : c.curr;
+    for (size_t i = 0; i < s.cloths.size(); ++i) {
+      const cloth::Vec3s& x = s.cloths[i].mesh->rest_positions();
+      double deepest = HUGE_VAL;
+      int vertex = -1;
+      for (int v = 0; v < static_cast<int>(x.size()); ++v) {
+        const double d = collision::signed_distance(c, pose, x[v], nullptr) - c.thickness;
+        if (d < deepest) deepest = d, vertex = v;
+      }
+      if (vertex >= 0 && deepest < 0.0)
+        out.push_back("cloths[" + std::to_string(i) + "] starts inside " + at + " '" + c.name +
+                      "' or its thickness (vertex " + std::to_string(vertex) + ", " + fig(-deepest) +
+                      " m in)");
+    }
+  }
+#ifdef LOOM_HAVE_CHARACTERS
+  if (scene.character && scene.character->motion.settings().speed > kRegimeClipSpeed)
+    out.push_back("character.speed (" + fig(scene.character->motion.settings().speed) +
+                  " clip seconds per second; validated up to " + fig(kRegimeClipSpeed) + ")");
+#endif
   if (out.empty())
     return "; no scene value is outside the validated regime: more solver.substeps (now " +
-           std::to_string(substeps) +
-           " per frame), a larger guard.max_halvings, or \"quality\": \"reference\" " + "may carry the frame";
+           std::to_string(substeps) + " per frame)" +
+           (scene.quality.name == "reference"
+                ? std::string(" or a larger guard.max_halvings")
+                : std::string(", a larger guard.max_halvings, or \"quality\": \"reference\"")) +
+           " may carry the frame";
   std::string text = "; the scene's values outside the validated regime: ";
   for (size_t k = 0; k < out.size(); ++k) text += (k ? "; " : "") + out[k];
   return text;

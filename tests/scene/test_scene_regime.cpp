@@ -74,11 +74,49 @@ TEST(SceneRegime, AValueJustInsideTheRegimeIsNotNamed) {
   }
 }
 
+// The reference tier is suggested only to a scene that runs another one.
 TEST(SceneRegime, ASceneInsideTheRegimeNamesTheFieldsThatGiveAFrameMoreSteps) {
   const std::string text = suspects({});
   EXPECT_NE(text.find("solver.substeps (now 40 per frame)"), std::string::npos) << text;
   EXPECT_NE(text.find("guard.max_halvings"), std::string::npos) << text;
-  EXPECT_NE(text.find("\"quality\": \"reference\""), std::string::npos) << text;
+  EXPECT_EQ(text.find("\"quality\""), std::string::npos) << text;
+  const std::string realtime = suspects({"quality=realtime"});
+  EXPECT_NE(realtime.find("\"quality\": \"reference\""), std::string::npos) << realtime;
+}
+
+// Colliders: a kinematic motion whose surface outruns the regime (a fast origin, or a fast turn of a large
+// box), and a cloth that starts inside a collider or its thickness, are named by field with the figure.
+TEST(SceneRegime, FastCollidersAndClothsStartingInsideOneAreNamed) {
+  const RegimeCase cases[] = {
+      {{"colliders=[{\"name\":\"c\",\"shape\":\"sphere\",\"radius\":0.1,\"position\":[0,-100,0],"
+        "\"motion\":{\"velocity\":[0,5000,0]}}]"},
+       "colliders[0].motion (its surface moves at up to 5e+03 m/s",
+       "validated up to 100"},
+      {{"colliders=[{\"name\":\"c\",\"shape\":\"box\",\"half_extents\":[0.3,0.05,0.3],\"position\":[3,0,0],"
+        "\"motion\":{\"spin\":{\"axis\":[0,1,0],\"rate\":1000}}}]"},
+       "colliders[0].motion (its surface moves at up to 427 m/s",
+       "validated up to 100"},
+      {{"colliders=[{\"name\":\"big\",\"shape\":\"capsule\",\"radius\":1000,\"half_height\":1,"
+        "\"position\":[0,1.5,0]}]"},
+       "cloths[0] starts inside colliders[0] 'big' or its thickness",
+       "m in)"},
+      {{"colliders=[{\"name\":\"floor\",\"shape\":\"plane\",\"position\":[0,1.499,0],\"thickness\":0.004}]"},
+       "cloths[0] starts inside colliders[0] 'floor' or its thickness (vertex 0, 0.003 m in)",
+       "starts inside"},
+  };
+  for (const RegimeCase& c : cases) {
+    const std::string text = suspects(c.overrides);
+    SCOPED_TRACE(c.overrides[0]);
+    EXPECT_NE(text.find("outside the validated regime: "), std::string::npos) << text;
+    EXPECT_NE(text.find(c.field), std::string::npos) << text;
+    EXPECT_NE(text.find(c.figure), std::string::npos) << text;
+  }
+  // A slow spin and a collider the cloth starts clear of are not named.
+  const std::string slow =
+      suspects({"colliders=[{\"name\":\"c\",\"shape\":\"box\",\"half_extents\":[0.3,0.05,"
+                "0.3],\"position\":[0,0.5,0],\"motion\":{\"spin\":{\"axis\":[0,1,0],"
+                "\"rate\":10}}}]"});
+  EXPECT_NE(slow.find("no scene value is outside the validated regime"), std::string::npos) << slow;
 }
 
 // The regime is what the bundled scenes stay inside: none of them is reported.

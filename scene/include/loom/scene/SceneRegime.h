@@ -21,6 +21,7 @@ constexpr double kRegimeCourant = 1.0;           // 1, c h / l_min for the expli
 constexpr double kRegimeDampingSteps = 1.0;      // 1, a damping's relaxation per step (drag, material)
 constexpr double kRegimeDamping = 1.0;           // s, stiffness-proportional material damping
 constexpr double kRegimePinReach = 0.25;         // 1, a pin's first target from its vertex, per cloth size
+constexpr double kRegimeClipSpeed = 3.0;         // 1, clip seconds per second (the stability suite's 3x clip)
 
 // "; the values outside the validated regime: gravity (|g| = 1.73e+04 m/s^2, more than 98.1), ..."; when no
 // value is outside it, the fields that give the frame more steps (solver.substeps, guard.max_halvings).
