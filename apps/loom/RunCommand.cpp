@@ -330,6 +330,7 @@ class SceneRun {
   int stepped_ = 0;       // frames stepped by this process
   bool finite_ = true, interrupted_ = false, resumable_ = true;
   bool render_interrupted_ = false;  // Ctrl-C in the render phase: the video is not written
+  std::string render_error_;         // ffmpeg failed: the video is not written, the run ends with exit 1
   void (*old_handler_)(int) = SIG_DFL;
   std::string error_;
   int done_ = 0;
@@ -786,8 +787,9 @@ void SceneRun::render_video() {
     if (render_interrupted_) return;
     try {
       eval::ffmpeg_video(*folder_, "render", fps, args, file, "--render", rep.frames);
-    } catch (const Error&) {
-      if (!g_interrupted) throw;
+    } catch (const Error& e) {
+      // A failed encoding leaves the simulation's outputs whole: no video, a checkpoint to render again.
+      if (!g_interrupted) render_error_ = e.what();
       render_interrupted_ = true;
     }
     if (g_interrupted) render_interrupted_ = true;
@@ -811,11 +813,12 @@ void SceneRun::render_video() {
   render_summary_ = {
       {"frames", rep.frames}, {"ms_per_frame", rep.ms_per_frame}, {"width", rs.width}, {"height", rs.height}};
   if (render_interrupted_) {
-    render_summary_["interrupted"] = true;
-    render_summary_["video"] = "not written";
+    render_summary_["interrupted"] = render_error_.empty();
+    render_summary_["video"] = render_error_.empty() ? "not written" : "failed: " + render_error_;
     if (resumable_) save_checkpoint();  // the whole simulation: a resume renders it again without a step
-    std::cout << "loom: rendering interrupted after " << rep.frames << " of " << recording_->frames()
-              << " frames; render.mp4 and render.gif not written\n";
+    if (render_error_.empty())
+      std::cout << "loom: rendering interrupted after " << rep.frames << " of " << recording_->frames()
+                << " frames; render.mp4 and render.gif not written\n";
     return;
   }
   std::cout << "loom: rendered " << rep.frames << " frames (" << std::fixed << std::setprecision(1)
@@ -903,6 +906,13 @@ int SceneRun::finish() {
   if (!finite_) {
     std::cerr << "loom: error: " << printable(scene_path_) << ": " << printable(error_) << "\n";
     return 3;
+  }
+  if (!render_error_.empty()) {
+    std::cerr << "loom: error: " << printable(render_error_)
+              << "; the simulation is complete and its outputs are written, render.mp4 and render.gif are not"
+              << (resumable_ ? "; render again with: loom run --resume " + printable(out_.string()) : "")
+              << "\n";
+    return 1;
   }
   if (render_interrupted_) {
     std::cerr << "loom: interrupted while rendering; the simulation is complete and its outputs are written"

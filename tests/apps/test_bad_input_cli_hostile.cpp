@@ -584,6 +584,38 @@ TEST(HostileRender, AVideoThatCannotBeMadeIsRefusedBeforeTheRun) {
   EXPECT_FALSE(fs::exists(dir / "no_ffmpeg"));
 }
 
+// ffmpeg failing after the run (a stand-in on PATH that exits 1): the simulation's outputs are written whole
+// (stats.csv, summary.json with the failure under render.video, no partial video, no .partial file), the
+// run exits 1 naming the failure and how to render again, and --resume with a working ffmpeg renders it.
+TEST(HostileRender, AFailedEncodingKeepsTheRunsOutputsAndResumes) {
+  const fs::path dir = test_dir();
+  std::ofstream(dir / "scene.json") << kScene;
+  const fs::path bin = dir / "bin";
+  fs::create_directories(bin);
+  std::ofstream(bin / "ffmpeg") << "#!/bin/sh\necho broken encoder >&2\nexit 1\n";
+  fs::permissions(bin / "ffmpeg", fs::perms::owner_all);
+  const fs::path out = dir / "out";
+  const std::string saved = std::getenv("PATH") ? std::getenv("PATH") : "";
+  ::setenv("PATH", (bin.string() + ":" + saved).c_str(), 1);
+  const auto r = run_loom("run " + (dir / "scene.json").string() + " --render --out " + out.string());
+  ::setenv("PATH", saved.c_str(), 1);
+  if (r.err.find("built without the offscreen renderer") != std::string::npos) GTEST_SKIP() << r.err;
+  EXPECT_EQ(r.code, 1) << r.err;
+  EXPECT_NE(r.err.find("ffmpeg failed (exit 1): broken encoder"), std::string::npos) << r.err;
+  EXPECT_NE(r.err.find("render again with: loom run --resume " + out.string()), std::string::npos) << r.err;
+  EXPECT_TRUE(fs::exists(out / "stats.csv"));
+  EXPECT_FALSE(fs::exists(out / "render.mp4"));
+  for (const auto& e : fs::recursive_directory_iterator(out))
+    EXPECT_EQ(e.path().string().find(".partial"), std::string::npos) << e.path();
+  const auto j = nlohmann::json::parse(slurp(out / "summary.json"));
+  EXPECT_EQ(j["completed"], true);
+  EXPECT_NE(j["render"]["video"].get<std::string>().find("failed: "), std::string::npos) << j.dump(1);
+  const auto again = run_loom("run --resume " + out.string());
+  if (again.err.find("ffmpeg not found") != std::string::npos) GTEST_SKIP() << again.err;
+  EXPECT_EQ(again.code, 0) << again.err;
+  EXPECT_TRUE(fs::exists(out / "render.mp4"));
+}
+
 // loom killed by a signal while ffmpeg makes the video: ffmpeg dies with it (it runs with a death signal),
 // and the private folder ffmpeg wrote in is listed in the manifest, so the next run into the folder deletes
 // it. A stand-in ffmpeg on PATH writes its output (a partial video) and records its pid, then waits; the
