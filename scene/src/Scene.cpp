@@ -559,6 +559,9 @@ void parse_cloths(const JsonReader& r, Scene& scene, const std::string& file) {
   const auto cloths =
       r.has("cloths") || scene.setup.cloths.empty() ? r.objects("cloths") : std::vector<JsonReader>{};
   if (cloths.empty() && scene.setup.cloths.empty()) r.fail("cloths", "a scene needs at least one cloth");
+  if (cloths.size() > kMaxCloths)
+    r.fail("cloths", "has " + std::to_string(cloths.size()) + " entries; at most " +
+                         std::to_string(kMaxCloths) + " are allowed");
   for (const JsonReader& c : cloths) {
     cloth::ClothSetup cs;
     cs.name = c.name("name", "cloth" + std::to_string(scene.setup.cloths.size()));

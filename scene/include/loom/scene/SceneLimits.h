@@ -45,6 +45,9 @@ constexpr long long kMaxSubsteps = 1000000;  // solver steps per frame (frame ti
 // step, so the cost per frame grows with the count (a game scene has tens to hundreds).
 constexpr std::size_t kMaxColliders = 4096;
 constexpr std::size_t kMaxBodies = 4096;
+// Entries of `cloths`: each is its own solver, stage state and output files (a game scene has a handful;
+// a crowd of garments is one cloth per garment).
+constexpr std::size_t kMaxCloths = 4096;
 // Bytes per cloth vertex of a simulation: the peak resident memory of implicit runs (the heaviest solvers)
 // above the process's own, over the vertex count, rounded up (measured: docs/guarantees.md).
 constexpr std::uint64_t kBytesPerVertex = 8192;
