@@ -392,8 +392,9 @@ std::string video_rate_text(double hz) {
 // bound of most readers (byteLength in a signed 32-bit field).
 constexpr double kMaxExportBytes = 2147483648.0;
 
-// PC2: written frames x vertices x 12 bytes. glTF: as much for the morph targets plus the weights, written
-// frames^2 x 4 bytes (a key per frame holding a weight per target, as a reader expands it).
+// PC2: written frames x vertices x 12 bytes. glTF (GltfWriter.h): as much for the morph targets plus 12 bytes
+// a written frame (its time, and the sparse index and value of its animation weight). The sparse weights
+// address keys x targets elements with 32-bit indices, which bounds the written frames to 65536.
 void SceneRun::check_export_sizes() const {
   const double written = std::floor(frames_ / double(std::max(1, sc_.output.every))) + 1.0;
   double vertices = 0.0;
@@ -403,9 +404,14 @@ void SceneRun::check_export_sizes() const {
     if (f == "pc2")
       bytes = written * vertices * 12.0;
     else if (f == "gltf")
-      bytes = written * vertices * 12.0 + written * written * 4.0;
+      bytes = written * vertices * 12.0 + written * 12.0;
     else
       continue;
+    if (f == "gltf" && written * (written - 1.0) > 4294967295.0)
+      throw Error(scene_path_, "output.formats",
+                  "\"gltf\" would hold " + std::to_string(static_cast<long long>(written)) +
+                      " written frames, above the 65536 its animation weights can address (32-bit sparse "
+                      "indices): lower --frames (or raise output.every) or drop \"gltf\"");
     if (bytes <= kMaxExportBytes) continue;
     char figure[160];
     std::snprintf(figure, sizeof figure, "%.3g GB for %.0f written frames of %.0f vertices", bytes / 1e9,
@@ -413,7 +419,6 @@ void SceneRun::check_export_sizes() const {
     throw Error(
         scene_path_, "output.formats",
         "\"" + f + "\" would take " + figure +
-            (f == "gltf" ? " (its animation weights grow with the square of the frames)" : "") +
             ", above the 2.15 GB an export may take: lower --frames (or raise output.every) or drop \"" + f +
             "\"");
   }

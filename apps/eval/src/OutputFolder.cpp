@@ -1,6 +1,7 @@
 #include "loom/eval/OutputFolder.h"
 
 #include <sys/stat.h>
+#include <unistd.h>
 
 #include <algorithm>
 #include <cerrno>
@@ -366,7 +367,8 @@ void refuse_linked_default(const fs::path& dir, const std::string& flag) {
   }
 }
 
-fs::path OutputFolder::claim_private_folder(const std::string& stem, const std::vector<std::string>& files) {
+fs::path OutputFolder::claim_private_folder(const std::string& stem, const std::vector<std::string>& files,
+                                            int* fd) {
   std::random_device rd;
   for (int attempt = 0; attempt < 16; ++attempt) {
     const std::string name = stem + std::to_string(rd() % 1000000000u) + "/";
@@ -380,9 +382,14 @@ fs::path OutputFolder::claim_private_folder(const std::string& stem, const std::
       listed_.insert(name + f);
     }
     const fs::path p = dir_ / name.substr(0, name.size() - 1);  // no trailing '/': filename() is the name
-    if (::mkdir(p.c_str(), 0700) == 0) return p;
-    if (errno != EEXIST)
-      throw Error(p.string(), flag_, std::string("cannot create folder: ") + std::strerror(errno));
+    const int made = make_private_output_folder(p.string());    // -1: the name exists
+    if (made >= 0) {
+      if (fd)
+        *fd = made;
+      else
+        ::close(made);
+      return p;
+    }
   }
   throw Error((dir_ / stem).string(), flag_, "cannot find a fresh name for a private folder");
 }

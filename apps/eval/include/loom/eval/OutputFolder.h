@@ -45,11 +45,13 @@ class OutputFolder {
   // before it starts.
   std::filesystem::path claim(const std::string& relative);
   bool owns(const std::string& relative) const { return listed_.count(relative) != 0; }
-  // Makes a new private folder DIR/<stem><digits>/ (mode 0700, a name that did not exist: mkdir, never an
-  // existing folder) for a helper program to write `files` into. The folder and DIR/<stem><digits>/<file>
-  // are listed in the manifest before the folder exists, so a run killed while the helper works leaves only
-  // listed paths, which the next run deletes. Returns the folder.
-  std::filesystem::path claim_private_folder(const std::string& stem, const std::vector<std::string>& files);
+  // Makes a new private folder DIR/<stem><digits>/ (mode 0700, a name that did not exist: mkdirat on DIR's
+  // descriptor, never an existing folder) for a helper program to write `files` into. The folder and
+  // DIR/<stem><digits>/<file> are listed in the manifest before the folder exists, so a run killed while the
+  // helper works leaves only listed paths, which the next run deletes. Returns the folder; `fd` (when not
+  // null) receives a descriptor of it opened with O_DIRECTORY | O_NOFOLLOW, which the caller closes.
+  std::filesystem::path claim_private_folder(const std::string& stem, const std::vector<std::string>& files,
+                                             int* fd = nullptr);
   // Deletes a listed file (no-op for a path not listed or already gone).
   void remove_owned(const std::string& relative);
 
