@@ -21,6 +21,7 @@
 #include "loom/scene/SceneCollision.h"
 #include "loom/scene/SceneGuard.h"
 #include "loom/scene/SceneLimits.h"
+#include "loom/scene/SceneRegime.h"
 
 namespace loom::scene {
 
@@ -762,6 +763,10 @@ Scene parse_scene(const nlohmann::json& root, const std::string& file) {
   r.finish();
   check_weil(scene, file);
   check_static(scene, file);
+  const bool halvings_given = root.is_object() && root.contains("guard") && root["guard"].is_object() &&
+                              root["guard"].contains("max_halvings");
+  if (!halvings_given && !regime_outliers(scene).empty())
+    scene.setup.guard.max_halvings = std::min(scene.setup.guard.max_halvings, kRegimeOutsideHalvings);
   return scene;
 }
 

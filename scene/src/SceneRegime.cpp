@@ -7,6 +7,7 @@
 #include <vector>
 
 #include "loom/cloth/Solver.h"
+#include "loom/collision/ColliderBroadPhase.h"
 #include "loom/collision/ColliderDistance.h"
 #include "loom/collision/ColliderGeometry.h"
 #ifdef LOOM_HAVE_CHARACTERS
@@ -34,17 +35,17 @@ double min_rest_edge(const cloth::ClothMesh& mesh) {
   return l;
 }
 
-// The fastest point of a kinematic collider's surface (m/s), sampled over the scene at 1e5 points (at most
-// 1/240 s apart; a turn is resolved up to pi per sample): its origin's speed plus its turn rate times the
-// farthest point of its local box (a plane: its origin's speed only).
-double collider_surface_speed(const collision::Collider& c, double duration) {
+// The fastest point of a kinematic collider's surface (m/s), sampled over the scene at `samples` points (at
+// most 1/240 s apart; a turn is resolved up to pi per sample): its origin's speed plus its turn rate times
+// the farthest point of its local box (a plane: its origin's speed only).
+double collider_surface_speed(const collision::Collider& c, double duration, int samples) {
   double reach = 0.0;
   if (c.shape.type != collision::ShapeType::plane) {
     cloth::Vec3 lo, hi;
     collision::local_bounds(c.shape, c.geometry.get(), lo, hi);
     reach = (0.5 * (lo + hi)).norm() + 0.5 * (hi - lo).norm();
   }
-  const double dt = std::min(1.0 / 240.0, duration / 1e5);
+  const double dt = std::min(1.0 / 240.0, duration / samples);
   double v = 0.0;
   for (double t = 0.0; t < duration; t += dt) {
     const collision::Transform a = c.motion(t), b = c.motion(t + dt);
@@ -56,7 +57,7 @@ double collider_surface_speed(const collision::Collider& c, double duration) {
 
 }  // namespace
 
-std::string divergence_suspects(const Scene& scene) {
+std::vector<std::string> regime_outliers(const Scene& scene) {
   const cloth::SimulationSetup& s = scene.setup;
   std::vector<std::string> out;
   const int substeps = s.substeps > 0 ? s.substeps : cloth::default_substeps(s.solver.method, s.frame_dt);
@@ -167,23 +168,34 @@ std::string divergence_suspects(const Scene& scene) {
       out.push_back(at + ".mass (" + fig(b.mass / cloth_mass) +
                     " times the cloths' mass; validated up to 1000)");
   }
+  int moving = 0;
+  for (const collision::Collider& c : scene.colliders) moving += c.motion ? 1 : 0;
+  // 1e6 pose samples over all moving colliders, at least 1000 each.
+  const int samples = moving ? std::max(1000, 1000000 / moving) : 0;
+  std::vector<collision::Aabb> cloth_box(s.cloths.size());
+  for (size_t i = 0; i < s.cloths.size(); ++i)
+    for (const cloth::Vec3& x : s.cloths[i].mesh->rest_positions()) cloth_box[i].grow(x);
   for (size_t k = 0; k < scene.colliders.size(); ++k) {
     const collision::Collider& c = scene.colliders[k];
     const std::string at = "colliders[" + std::to_string(k) + "]";
     if (c.motion) {
-      const double v = collider_surface_speed(c, scene.duration);
+      const double v = collider_surface_speed(c, scene.duration, samples);
       if (v > kRegimeSpeed)
         out.push_back(at + ".motion (its surface moves at up to " + fig(v) + " m/s; validated up to " +
                       fig(kRegimeSpeed) + ")");
     }
     // A cloth that starts inside the collider or its thickness is pushed out at once.
-    const collision::Transform pose = c.motion ? c.motion(0.0) : c.curr;
+    collision::Collider at_start = c;
+    at_start.prev = at_start.curr = c.motion ? c.motion(0.0) : c.curr;
+    const collision::Aabb box = collision::swept_collider_box(at_start, c.thickness);
     for (size_t i = 0; i < s.cloths.size(); ++i) {
+      if (!box.overlaps(cloth_box[i])) continue;
       const cloth::Vec3s& x = s.cloths[i].mesh->rest_positions();
       double deepest = HUGE_VAL;
       int vertex = -1;
       for (int v = 0; v < static_cast<int>(x.size()); ++v) {
-        const double d = collision::signed_distance(c, pose, x[v], nullptr) - c.thickness;
+        if (!((x[v].array() >= box.lo.array()).all() && (x[v].array() <= box.hi.array()).all())) continue;
+        const double d = collision::signed_distance(c, at_start.curr, x[v], nullptr) - c.thickness;
         if (d < deepest) deepest = d, vertex = v;
       }
       if (vertex >= 0 && deepest < 0.0)
@@ -197,6 +209,13 @@ std::string divergence_suspects(const Scene& scene) {
     out.push_back("character.speed (" + fig(scene.character->motion.settings().speed) +
                   " clip seconds per second; validated up to " + fig(kRegimeClipSpeed) + ")");
 #endif
+  return out;
+}
+
+std::string divergence_suspects(const Scene& scene) {
+  const std::vector<std::string> out = regime_outliers(scene);
+  const cloth::SimulationSetup& s = scene.setup;
+  const int substeps = s.substeps > 0 ? s.substeps : cloth::default_substeps(s.solver.method, s.frame_dt);
   if (out.empty())
     return "; no scene value is outside the validated regime: more solver.substeps (now " +
            std::to_string(substeps) + " per frame)" +

@@ -6,6 +6,7 @@
 // into "gravity is 1766 g".
 
 #include <string>
+#include <vector>
 
 #include "loom/scene/Scene.h"
 
@@ -27,5 +28,10 @@ constexpr double kRegimeClipSpeed = 3.0;         // 1, clip seconds per second (
 // value is outside it, the fields that give the frame more steps (solver.substeps, guard.max_halvings).
 // Never empty: a divergence message always names a field.
 std::string divergence_suspects(const Scene& scene);
+// The values outside the validated regime, each "field (figure; bound)"; empty inside it. A scene outside
+// it gets guard.max_halvings of at most kRegimeOutsideHalvings unless it sets the field (Scene.cpp): more
+// substeps seldom carry such a frame, and each retry doubles its cost.
+std::vector<std::string> regime_outliers(const Scene& scene);
+constexpr int kRegimeOutsideHalvings = 1;
 
 }  // namespace loom::scene
