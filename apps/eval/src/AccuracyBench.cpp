@@ -420,7 +420,7 @@ int bench_main(int argc, char** argv) {
       if (!parse_list(v, o.sizes, 3)) {
         std::fprintf(
             stderr,
-            "loom: error: --sizes expects a comma-separated list of integers in [3, 4096], got '%s'\n",
+            "loom: error: --sizes expects a comma-separated list of whole numbers in [3, 4096], got '%s'\n",
             loom::show_hidden(v).c_str());
         return 2;
       }
@@ -430,7 +430,7 @@ int bench_main(int argc, char** argv) {
       if (!parse_list(v, o.threads, 1)) {
         std::fprintf(
             stderr,
-            "loom: error: --threads expects a comma-separated list of integers in [1, 4096], got '%s'\n",
+            "loom: error: --threads expects a comma-separated list of whole numbers in [1, 4096], got '%s'\n",
             loom::show_hidden(v).c_str());
         return 2;
       }
@@ -495,7 +495,7 @@ int bench_main(int argc, char** argv) {
       const std::string v = value();
       std::vector<int> r;
       if (!parse_list(v, r, 1) || r.size() != 1) {
-        std::fprintf(stderr, "loom: error: --repeats expects one integer in [1, 4096], got '%s'\n",
+        std::fprintf(stderr, "loom: error: --repeats expects one whole number in [1, 4096], got '%s'\n",
                      loom::show_hidden(v).c_str());
         return 2;
       }
