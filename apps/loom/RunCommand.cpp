@@ -310,6 +310,7 @@ class SceneRun {
   const bullet::BulletScene* bodies_world_ = nullptr;  // a scene with rigid bodies: its Bullet world
 #endif
   fs::path out_;
+  std::shared_ptr<eval::FolderLock> resume_lock_;  // --resume: held from before the checkpoint is read
   std::unique_ptr<OutputFolder> folder_;
   int first_ = 0;
   std::unique_ptr<DetailView> shown_;  // cloths with `detail` are written and rendered as their surface
@@ -337,6 +338,8 @@ class SceneRun {
 };
 
 SceneRun::SceneRun(const RunOptions& options) : o_(options) {
+  // The folder is locked before its checkpoint or manifest is read (OutputFolder.h, FolderLock).
+  if (!o_.resume.empty()) resume_lock_ = eval::FolderLock::acquire(o_.resume, "--resume");
   resume_ = apply_resume(o_);
   scene_path_ = o_.scene.empty() ? default_scene_path() : o_.scene;
   sc_ = scene::load_scene(scene_path_, o_.sets);
@@ -827,8 +830,9 @@ void SceneRun::render_video() {
     return;
   }
   std::cout << "loom: rendered " << rep.frames << " frames (" << std::fixed << std::setprecision(1)
-            << rep.ms_per_frame << " ms/frame) -> " << (out_ / "render").string() << "/, "
-            << (out_ / "render.mp4").string() << ", " << (out_ / "render.gif").string() << "\n";
+            << rep.ms_per_frame << " ms/frame) -> " << printable((out_ / "render").string()) << "/, "
+            << printable((out_ / "render.mp4").string()) << ", " << printable((out_ / "render.gif").string())
+            << "\n";
 #endif
 }
 

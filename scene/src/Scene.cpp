@@ -383,7 +383,7 @@ void parse_header(const JsonReader& r, Scene& scene, const std::string& file) {
   scene.setup.gravity = r.vec3("gravity", Vec3(0.0, -9.81, 0.0));
   if (!(scene.setup.gravity.cwiseAbs().maxCoeff() <= kMaxAcceleration))
     r.fail("gravity", "components must be within +-" + show(kMaxAcceleration) + " m/s^2");
-  scene.setup.threads = r.integer("threads", 1, 1, 4096);
+  scene.setup.threads = r.integer("threads", 1, 1, static_cast<int>(kMaxThreads));
   parse_guard(r, scene.setup.guard);  // non-finite / explosion guard (SceneGuard.cpp)
 }
 

@@ -41,6 +41,7 @@ constexpr double kMinBodySize = 1e-3;
 constexpr double kMaxCoefficient = 1e12;     // a material stiffness, damping or drag coefficient (own unit)
 constexpr long long kMaxFrames = 10000000;   // frames of one run (duration x fps)
 constexpr long long kMaxSubsteps = 1000000;  // solver steps per frame (frame time / solver.dt)
+constexpr long long kMaxThreads = 4096;      // solver threads (`threads`, loom run --threads)
 // Entries of a scene's `colliders` and of its `bodies`: every collider is tested against every cloth each
 // step, so the cost per frame grows with the count (a game scene has tens to hundreds).
 constexpr std::size_t kMaxColliders = 4096;
