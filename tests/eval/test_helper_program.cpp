@@ -72,7 +72,7 @@ TEST(HelperProgram, AHelperWritesIntoItsOpenFolderNotThroughALinkPlantedAtItsNam
 TEST(HelperProgram, APrivateFolderSwappedForALinkIsNotFollowed) {
   const fs::path dir = test_dir() / "out", other = test_dir() / "other";
   fs::create_directories(other);
-  eval::OutputFolder folder(dir, "--out", false, false);
+  eval::OutputFolder folder(dir, "--out", false, false, {}, {});
   int fd = -1;
   const fs::path priv = folder.claim_private_folder(".loom-helper-", {"a.txt"}, &fd);
   ASSERT_GE(fd, 0);
@@ -91,7 +91,7 @@ TEST(HelperProgram, APrivateFolderSwappedForALinkIsNotFollowed) {
 TEST(HelperProgram, GnuplotMakesItsPlotFromItsPrivateFolder) {
   if (!eval::program_on_path("gnuplot")) GTEST_SKIP() << "gnuplot is not installed";
   const fs::path dir = test_dir() / "plot";
-  eval::OutputFolder folder(dir, "--out", false, false);
+  eval::OutputFolder folder(dir, "--out", false, false, {}, {});
   std::ofstream(folder.claim("d.dat")) << "0 1\n1 2\n2 0\n";
   const std::string why = eval::gnuplot_png(folder, "p", "set terminal pngcairo size 200,100",
                                             "plot 'd.dat' using 1:2 with lines notitle\n");
