@@ -765,8 +765,10 @@ Scene parse_scene(const nlohmann::json& root, const std::string& file) {
   check_static(scene, file);
   const bool halvings_given = root.is_object() && root.contains("guard") && root["guard"].is_object() &&
                               root["guard"].contains("max_halvings");
-  if (!halvings_given && !regime_outliers(scene).empty())
-    scene.setup.guard.max_halvings = std::min(scene.setup.guard.max_halvings, kRegimeOutsideHalvings);
+  if (!halvings_given)
+    for (const RegimeOutlier& o : regime_outliers(scene))
+      if (!o.step_bound)
+        scene.setup.guard.max_halvings = std::min(scene.setup.guard.max_halvings, kRegimeOutsideHalvings);
   return scene;
 }
 
