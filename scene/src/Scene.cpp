@@ -9,6 +9,8 @@
 #include <map>
 #include <set>
 #include <sstream>
+#include <unordered_map>
+#include <vector>
 
 #include "loom/cloth/Error.h"
 #include "loom/cloth/HiddenText.h"
@@ -672,6 +674,58 @@ void check_weil(const Scene& scene, const std::string& file) {
   }
 }
 
+// Exact cloth-cloth collision (continuous tests, impact zones) keeps cloths on the sides they start on: two
+// cloths that start on top of each other (a cloth given twice) have no sides, and their impact zones go
+// rigid at every step. A vertex of one cloth closer than a thousandth of the thinner one's thickness to a
+// vertex of another is refused (a 3x3x3-cell hash of the vertices: linear in their number).
+void check_coincident_cloths(const Scene& scene, const std::string& file) {
+  if (!scene.collision || scene.proximity || scene.setup.cloths.size() < 2) return;
+  double thickness = HUGE_VAL;
+  for (const cloth::ClothSetup& c : scene.setup.cloths) thickness = std::min(thickness, c.material.thickness);
+  const double tol = 1e-3 * thickness;
+  if (!(tol > 0.0)) return;
+  struct Key {
+    long long x, y, z;
+    bool operator==(const Key& o) const { return x == o.x && y == o.y && z == o.z; }
+  };
+  struct KeyHash {
+    size_t operator()(const Key& k) const {
+      return std::hash<long long>()(k.x * 73856093LL ^ k.y * 19349663LL ^ k.z * 83492791LL);
+    }
+  };
+  auto key_of = [&](const cloth::Vec3& p) {
+    return Key{static_cast<long long>(std::floor(p.x() / tol)),
+               static_cast<long long>(std::floor(p.y() / tol)),
+               static_cast<long long>(std::floor(p.z() / tol))};
+  };
+  std::unordered_map<Key, std::vector<std::pair<int, int>>, KeyHash> cells;  // cell -> (cloth, vertex)
+  for (size_t c = 0; c < scene.setup.cloths.size(); ++c) {
+    const cloth::Vec3s& x = scene.setup.cloths[c].mesh->rest_positions();
+    for (int v = 0; v < static_cast<int>(x.size()); ++v) {
+      if (!(x[v].cwiseAbs().maxCoeff() < 1e15 * tol)) continue;  // beyond the hash's range: not coincident
+      const Key k = key_of(x[v]);
+      for (long long dz = -1; dz <= 1; ++dz)
+        for (long long dy = -1; dy <= 1; ++dy)
+          for (long long dx = -1; dx <= 1; ++dx) {
+            const auto it = cells.find(Key{k.x + dx, k.y + dy, k.z + dz});
+            if (it == cells.end()) continue;
+            for (const auto& [oc, ov] : it->second) {
+              if (oc == static_cast<int>(c)) continue;
+              const cloth::Vec3& q = scene.setup.cloths[oc].mesh->rest_positions()[ov];
+              if ((q - x[v]).norm() >= tol) continue;
+              throw Error(
+                  file, "cloths[" + std::to_string(c) + "]",
+                  "starts on top of cloths[" + std::to_string(oc) + "] (its vertex " + std::to_string(v) +
+                      " is " + show((q - x[v]).norm()) + " m from vertex " + std::to_string(ov) +
+                      "): cloth-cloth collision keeps cloths on the sides they start on, so they must "
+                      "start apart; move one by at least its thickness");
+            }
+          }
+      cells[k].push_back({static_cast<int>(c), v});
+    }
+  }
+}
+
 // The static solver finds an equilibrium (StaticSolver.h): under gravity a cloth that nothing holds (no
 // pin, no body or character attachment) has none, and the Newton steps would carry it away without bound.
 // Its energy has no contact term either: a collider, a body, a character's capsules or cloth-cloth collision
@@ -763,6 +817,7 @@ Scene parse_scene(const nlohmann::json& root, const std::string& file) {
   r.finish();
   check_weil(scene, file);
   check_static(scene, file);
+  check_coincident_cloths(scene, file);
   const bool halvings_given = root.is_object() && root.contains("guard") && root["guard"].is_object() &&
                               root["guard"].contains("max_halvings");
   if (!halvings_given)

@@ -62,7 +62,7 @@ TEST(SceneColliders, FrictionPairsResolveNamesAndReportErrors) {
   auto scene_with = [](const char* pairs) {
     nlohmann::json root = nlohmann::json::parse(R"({"cloths": [
         {"name": "shirt", "mesh": {"type": "grid", "size": [1, 1], "nodes": [3, 3]}},
-        {"name": "coat", "mesh": {"type": "grid", "size": [1, 1], "nodes": [3, 3]}}],
+        {"name": "coat", "mesh": {"type": "grid", "size": [1, 1], "nodes": [3, 3], "origin": [0, 0.01, 0]}}],
       "colliders": [{"name": "ball", "shape": "sphere", "radius": 0.1}, {"name": "floor", "shape": "plane"}]})");
     root["collision"] = {{"self", true}, {"friction_pairs", nlohmann::json::parse(pairs)}};
     return root;

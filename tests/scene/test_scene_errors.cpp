@@ -106,6 +106,14 @@ const Case kCases[] = {
      {"solver={\"method\":\"static\"}", "collision={\"self\":true}"},
      "collision",
      "it cannot take collision"},
+    {"two_cloths_on_top_of_each_other",
+     {"collision={\"self\":true}",
+      "cloths=[{\"name\":\"a\",\"mesh\":{\"type\":\"grid\",\"size\":[1,1],\"nodes\":[5,5]},"
+      "\"material\":{\"preset\":\"cotton\"},\"mass\":0.2},"
+      "{\"name\":\"b\",\"mesh\":{\"type\":\"grid\",\"size\":[1,1],\"nodes\":[3,3]},"
+      "\"material\":{\"preset\":\"cotton\"},\"mass\":0.2}]"},
+     "cloths[1]",
+     "starts on top of cloths[0] (its vertex 0 is 0 m from vertex 0)"},
     {"fps_below_a_frame_a_million_seconds",
      {"fps=1e-300"},
      "fps",
