@@ -49,7 +49,7 @@ const char* kFabricUsage =
     "  --span D              catenary: span in metres for a 1 m strip (default 0.8)\n"
     "  --solver S            static (default) or a dynamic solver that settles the strip\n"
     "  --settle-frames N     dynamic solvers: at most N frames of 0.01 s (default 400)\n"
-    "  --settle-speed V      dynamic solvers: settled when every vertex is slower than V m/s (default 1e-6)\n"
+    "  --settle-speed V      dynamic solvers: settled after 3 frames in a row below V m/s (default 1e-6)\n"
     "  --json                print one JSON object (test, material, model, resolution, measured, theory, "
     "error,\n"
     "                        and the test's own fields) instead of text\n"

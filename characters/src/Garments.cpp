@@ -441,6 +441,7 @@ Garment make_obj_garment(const GarmentFit& f) {
   }
   const auto groups = read_obj_groups(spec.path);
   const std::vector<std::string> canon = canonical_joint_names(f.motion);
+  std::vector<char> attached(g.mesh->num_vertices(), 0);  // a vertex in several groups is attached once
   for (const auto& [group, bone] : spec.attach) {
     auto it = groups.find(group);
     if (it == groups.end())
@@ -453,8 +454,8 @@ Garment make_obj_garment(const GarmentFit& f) {
         throw Error(f.source, f.where + ".attach." + group, "no bone '" + bone + "' in " + f.motion.source());
     }
     for (int v : it->second) {
-      if (std::find(g.attached_vertices.begin(), g.attached_vertices.end(), v) != g.attached_vertices.end())
-        continue;
+      if (attached[v]) continue;
+      attached[v] = 1;
       g.attached_vertices.push_back(v);
       g.attached_joints.push_back(joint >= 0 ? joint
                                              : nearest_joint(g.mesh->rest_positions()[v], f.caps, f.rig, {}));

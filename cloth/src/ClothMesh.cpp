@@ -44,6 +44,29 @@ int other_vertex(const Tri& t, int a, int b) {
   return -1;
 }
 
+// Every triangle side as (min vertex, max vertex, triangle), sorted: one run per edge, its triangles
+// ascending, the runs in edge order.
+std::vector<std::tuple<int, int, int>> sorted_sides(const std::vector<Tri>& triangles) {
+  std::vector<std::tuple<int, int, int>> half;
+  half.reserve(triangles.size() * 3);
+  for (size_t t = 0; t < triangles.size(); ++t)
+    for (int k = 0; k < 3; ++k) {
+      int a = triangles[t][k], b = triangles[t][(k + 1) % 3];
+      half.emplace_back(std::min(a, b), std::max(a, b), static_cast<int>(t));
+    }
+  std::sort(half.begin(), half.end());
+  return half;
+}
+
+// The end of the run of sides on one edge that starts at s.
+size_t run_end(const std::vector<std::tuple<int, int, int>>& half, size_t s) {
+  size_t e = s;
+  while (e < half.size() && std::get<0>(half[e]) == std::get<0>(half[s]) &&
+         std::get<1>(half[e]) == std::get<1>(half[s]))
+    ++e;
+  return e;
+}
+
 }  // namespace
 
 double ClothMesh::total_area() const {
@@ -183,21 +206,11 @@ void ClothMesh::build_topology(const std::string& source) {
     for (int k = 0; k < 3; ++k) vertex_area_[tri[k]] += tri_area_[t] / 3.0;
   }
   // Unique edges by sorting (min, max, triangle) triples.
-  std::vector<std::tuple<int, int, int>> half;
-  half.reserve(triangles_.size() * 3);
-  for (size_t t = 0; t < triangles_.size(); ++t)
-    for (int k = 0; k < 3; ++k) {
-      int a = triangles_[t][k], b = triangles_[t][(k + 1) % 3];
-      half.emplace_back(std::min(a, b), std::max(a, b), static_cast<int>(t));
-    }
-  std::sort(half.begin(), half.end());
+  const std::vector<std::tuple<int, int, int>> half = sorted_sides(triangles_);
   edges_.clear();
   hinges_.clear();
   for (size_t s = 0; s < half.size();) {
-    size_t e = s;
-    while (e < half.size() && std::get<0>(half[e]) == std::get<0>(half[s]) &&
-           std::get<1>(half[e]) == std::get<1>(half[s]))
-      ++e;
+    const size_t e = run_end(half, s);
     const int a = std::get<0>(half[s]), b = std::get<1>(half[s]);
     if (e - s > 2)
       throw Error(source, "edge (" + std::to_string(a) + ", " + std::to_string(b) + ")",
@@ -271,17 +284,25 @@ void ClothMesh::build_frames(const std::vector<std::array<Vec2, 3>>& corner_uvs)
 
 void ClothMesh::build_mesh_springs() {
   // Edge springs carry the area and the material direction of their triangles; hinge springs join the two
-  // vertices opposite an interior edge (docs/references.md, "Cloth models").
-  std::vector<std::vector<int>> vertex_tris(num_vertices());
-  for (size_t t = 0; t < triangles_.size(); ++t)
-    for (int v : triangles_[t]) vertex_tris[v].push_back(static_cast<int>(t));
+  // vertices opposite an interior edge (docs/references.md, "Cloth models"). The triangles of each edge (one
+  // or two, ascending) come from the sorted sides, as in build_topology, so the cost does not grow with the
+  // valence of a vertex.
+  const std::vector<std::tuple<int, int, int>> half = sorted_sides(triangles_);
+  std::vector<std::array<int, 2>> edge_tris;  // parallel to edges_; second -1 on a boundary edge
+  edge_tris.reserve(edges_.size());
+  for (size_t s = 0; s < half.size();) {
+    const size_t e = run_end(half, s);
+    edge_tris.push_back({std::get<2>(half[s]), e - s == 2 ? std::get<2>(half[s + 1]) : -1});
+    s = e;
+  }
   auto direction_in = [&](int t, const Vec3& d) {
     Vec2 uv(d.dot(frames_[t].weft), d.dot(frames_[t].warp));
     return uv.norm() > 0 ? Vec2(uv.normalized()) : Vec2(1.0, 0.0);
   };
   springs_.clear();
   strain_springs_.clear();
-  for (const Edge& e : edges_) {
+  for (size_t k = 0; k < edges_.size(); ++k) {
+    const Edge& e = edges_[k];
     SpringDef s;
     s.i = e.i;
     s.j = e.j;
@@ -289,9 +310,8 @@ void ClothMesh::build_mesh_springs() {
     const Vec3 d = rest_positions_[e.j] - rest_positions_[e.i];
     s.rest_length = d.norm();
     Vec2 dir = Vec2::Zero();
-    for (int t : vertex_tris[e.i]) {
-      const Tri& tri = triangles_[t];
-      if (std::find(tri.begin(), tri.end(), e.j) == tri.end()) continue;
+    for (int t : edge_tris[k]) {
+      if (t < 0) continue;
       s.area += tri_area_[t];
       Vec2 uv = direction_in(t, d);
       if (dir.squaredNorm() > 0 && dir.dot(uv) < 0) uv = -uv;
@@ -301,7 +321,11 @@ void ClothMesh::build_mesh_springs() {
     strain_springs_.push_back(static_cast<int>(springs_.size()));
     springs_.push_back(s);
   }
+  // Hinges are the interior edges in edge order; each has exactly its two triangles.
+  size_t k = 0;
   for (const Hinge& h : hinges_) {
+    while (edge_tris[k][1] < 0) ++k;
+    const std::array<int, 2>& tris = edge_tris[k++];
     SpringDef s;
     s.i = h.o0;
     s.j = h.o1;
@@ -309,19 +333,10 @@ void ClothMesh::build_mesh_springs() {
     const Vec3 d = rest_positions_[h.o1] - rest_positions_[h.o0];
     s.rest_length = d.norm();
     double a = 0.0;
-    int first = -1;
-    for (int t : vertex_tris[h.e0]) {
-      const Tri& tri = triangles_[t];
-      const bool has_e1 = std::find(tri.begin(), tri.end(), h.e1) != tri.end();
-      const bool has_o = std::find(tri.begin(), tri.end(), h.o0) != tri.end() ||
-                         std::find(tri.begin(), tri.end(), h.o1) != tri.end();
-      if (has_e1 && has_o) {
-        a += tri_area_[t];
-        if (first < 0) first = t;
-      }
-    }
+    a += tri_area_[tris[0]];
+    a += tri_area_[tris[1]];
     s.area = a / 3.0;
-    s.rest_uv_dir = direction_in(first, d);
+    s.rest_uv_dir = direction_in(tris[0], d);
     springs_.push_back(s);
   }
 }

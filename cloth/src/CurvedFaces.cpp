@@ -128,7 +128,9 @@ CurvedFaces::CurvedFaces(const ClothMesh& coarse, int levels, const std::string&
     }
   }
   material_.assign(coarse_n_, Vec2::Zero());
-  std::vector<char> placed(coarse_n_, 0), queued(coarse_tris_.size(), 0);
+  // expanded[v]: vertex v's triangles are all queued already (so each vertex's list is walked once: linear
+  // in the mesh size whatever the valence).
+  std::vector<char> placed(coarse_n_, 0), expanded(coarse_n_, 0), queued(coarse_tris_.size(), 0);
   for (size_t seed = 0; seed < coarse_tris_.size(); ++seed) {
     if (queued[seed]) continue;
     std::deque<int> queue{static_cast<int>(seed)};
@@ -148,6 +150,8 @@ CurvedFaces::CurvedFaces(const ClothMesh& coarse, int levels, const std::string&
           material_[c[k]] = tri_uv_[t][k] + offset;
           placed[c[k]] = 1;
         }
+        if (expanded[c[k]]) continue;
+        expanded[c[k]] = 1;
         for (int n : vertex_tris[c[k]])
           if (!queued[n]) {
             queued[n] = 1;

@@ -1,6 +1,9 @@
 #include "loom/cloth/SpringSolverSupport.h"
 
+#include <algorithm>
+#include <cstdint>
 #include <cstring>
+#include <unordered_set>
 
 #include "loom/cloth/Error.h"
 
@@ -66,20 +69,25 @@ Eigen::SparseMatrix<double> spring_system_matrix(const ClothState& s, const std:
 }
 
 std::vector<std::vector<int>> color_springs(int num_vertices, const std::vector<Spring>& springs) {
-  // used[v][c] = 1 if a spring of colour c touches vertex v; each spring takes the lowest colour free at both
-  // ends.
+  // Each spring takes the lowest colour used by no other spring at either end (greedy, in spring order).
+  // first_free[v]: the lowest colour not used at v, so every colour below max(first_free[i], first_free[j])
+  // is taken; the (vertex, colour) pairs in use are hashed. Linear in the springs for any vertex valence.
   std::vector<std::vector<int>> colors;
-  std::vector<std::vector<char>> used(num_vertices);
+  std::vector<int> first_free(num_vertices, 0);
+  std::unordered_set<std::uint64_t> used;
+  used.reserve(2 * springs.size());
+  auto key = [](int v, int c) {
+    return (static_cast<std::uint64_t>(v) << 32) | static_cast<std::uint32_t>(c);
+  };
   for (int s = 0; s < static_cast<int>(springs.size()); ++s) {
-    const auto& ui = used[springs[s].i];
-    const auto& uj = used[springs[s].j];
-    int c = 0;
-    while ((c < static_cast<int>(ui.size()) && ui[c]) || (c < static_cast<int>(uj.size()) && uj[c])) ++c;
+    const int i = springs[s].i, j = springs[s].j;
+    int c = std::max(first_free[i], first_free[j]);
+    while (used.count(key(i, c)) || used.count(key(j, c))) ++c;
     if (c == static_cast<int>(colors.size())) colors.emplace_back();
     colors[c].push_back(s);
-    for (int v : {springs[s].i, springs[s].j}) {
-      if (static_cast<int>(used[v].size()) <= c) used[v].resize(c + 1, 0);
-      used[v][c] = 1;
+    for (int v : {i, j}) {
+      used.insert(key(v, c));
+      while (used.count(key(v, first_free[v]))) ++first_free[v];
     }
   }
   return colors;

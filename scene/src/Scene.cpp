@@ -191,6 +191,29 @@ std::shared_ptr<const cloth::ClothMesh> parse_mesh(const JsonReader& r, Scene& s
 }
 
 namespace {
+// A hash of a JSON value consistent with nlohmann's operator== (numbers of any type compare by value, so they
+// are hashed as doubles, +0 and -0 alike): equal values hash alike, so only a bucket's values are compared.
+std::size_t json_hash(const nlohmann::json& v) {
+  auto mix = [](std::size_t h, std::size_t x) {
+    return h ^ (x + 0x9e3779b97f4a7c15ULL + (h << 6) + (h >> 2));
+  };
+  std::size_t h = std::hash<int>()(v.is_number() ? -1 : static_cast<int>(v.type()));
+  if (v.is_number()) {
+    const double d = v.get<double>();
+    h = mix(h, std::hash<double>()(d == 0.0 ? 0.0 : d));
+  } else if (v.is_string()) {
+    h = mix(h, std::hash<std::string>()(v.get_ref<const std::string&>()));
+  } else if (v.is_boolean()) {
+    h = mix(h, v.get<bool>() ? 1 : 2);
+  } else if (v.is_object()) {
+    for (auto it = v.begin(); it != v.end(); ++it)
+      h = mix(mix(h, std::hash<std::string>()(it.key())), json_hash(it.value()));
+  } else if (v.is_array()) {
+    for (const nlohmann::json& e : v) h = mix(h, json_hash(e));
+  }
+  return h;
+}
+
 // A moving pin's path: its speed on every segment, and the change of its velocity at every key, at most
 // `max_speed` m/s (before the first key and after the last the pin rests: those changes are the speeds).
 void check_pin_path_speed(const JsonReader& path, const cloth::PinSpec& spec, double max_speed,
@@ -223,13 +246,16 @@ std::vector<cloth::PinSpec> parse_pins(const JsonReader& r, const cloth::ClothMe
   std::vector<size_t> entry_of;  // pins[k] came from entries[entry_of[k]]
   const nlohmann::json& raw = r.raw("pins");
   const std::vector<JsonReader> entries = r.objects("pins");
+  std::unordered_map<std::size_t, std::vector<size_t>> seen;  // json_hash -> entries, ascending
   for (size_t entry = 0; entry < entries.size(); ++entry) {
     const JsonReader& p = entries[entry];
-    for (size_t k = 0; k < entry; ++k)
+    std::vector<size_t>& bucket = seen[json_hash(raw[entry])];
+    for (size_t k : bucket)
       if (raw[k] == raw[entry])
         p.fail("", "the same pin as " + r.child("pins") + "[" + std::to_string(k) +
                        "] (given twice): its vertex is already pinned by " + r.child("pins") + "[" +
                        std::to_string(k) + "]");
+    bucket.push_back(entry);
     auto hold = [&](const cloth::PinSpec& s) {  // false: the vertex is already pinned the same way
       const auto it = held.find(s.vertex);
       if (it == held.end()) {

@@ -7,6 +7,7 @@
 #include <map>
 #include <string>
 #include <utility>
+#include <vector>
 
 #include "loom/scene/SceneLimits.h"
 
@@ -143,6 +144,8 @@ void parse_bodies(const JsonReader& root, Scene& scene) {
                             std::to_string(kMaxBodies) + " are allowed");
   // (cloth, vertex) -> the attach entry that holds it: a vertex held twice (by one body or two) is refused.
   std::map<std::pair<int, int>, std::string> held;
+  // Per cloth, vertex -> its first pin (-1: none), built when a body first attaches to the cloth.
+  std::vector<std::vector<int>> pin_of(scene.setup.cloths.size());
   for (size_t i = 0; i < bodies.size(); ++i) {
     const JsonReader& r = bodies[i];
     RigidBodySpec b;
@@ -252,12 +255,19 @@ void parse_bodies(const JsonReader& root, Scene& scene) {
           }
           // A pinned vertex is held by its pin already: attached too, the body and the pin pull it apart.
           const cloth::ClothSetup& c = scene.setup.cloths[b.attachments[n].cloth];
-          for (size_t p = 0; p < c.pins.size(); ++p)
-            if (c.pins[p].vertex == b.attachments[n].vertex)
-              a.fail("", "attaches vertex " + std::to_string(b.attachments[n].vertex) + " of cloths[" +
-                             std::to_string(b.attachments[n].cloth) + "], which " +
-                             (p < c.pin_fields.size() ? c.pin_fields[p] : "a pin") +
-                             " pins already: a vertex is pinned or attached, not both");
+          std::vector<int>& pinned = pin_of[b.attachments[n].cloth];
+          if (pinned.empty()) {
+            pinned.assign(c.mesh->num_vertices(), -1);
+            for (size_t p = c.pins.size(); p-- > 0;)
+              if (c.pins[p].vertex >= 0 && c.pins[p].vertex < c.mesh->num_vertices())
+                pinned[c.pins[p].vertex] = static_cast<int>(p);
+          }
+          const int p = pinned[b.attachments[n].vertex];
+          if (p >= 0)
+            a.fail("", "attaches vertex " + std::to_string(b.attachments[n].vertex) + " of cloths[" +
+                           std::to_string(b.attachments[n].cloth) + "], which " +
+                           (static_cast<size_t>(p) < c.pin_fields.size() ? c.pin_fields[p] : "a pin") +
+                           " pins already: a vertex is pinned or attached, not both");
           const auto [it, added] =
               held.emplace(std::make_pair(b.attachments[n].cloth, b.attachments[n].vertex), a.path());
           if (!added)

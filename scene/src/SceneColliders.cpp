@@ -211,15 +211,17 @@ void parse_colliders(const JsonReader& root, Scene& scene) {
   if (list.size() > kMaxColliders)
     root.fail("colliders", "has " + std::to_string(list.size()) + " entries; at most " +
                                std::to_string(kMaxColliders) + " are allowed");
+  std::map<std::string, size_t> names;  // collider name -> its index in scene.colliders
+  for (size_t j = 0; j < scene.colliders.size(); ++j) names.emplace(scene.colliders[j].name, j);
   for (size_t i = 0; i < list.size(); ++i) {
     const JsonReader& r = list[i];
     Collider c;
     c.name = r.name("name", "collider" + std::to_string(i));
     // collision.friction_pairs name colliders: two of one name would make a pair ambiguous.
-    for (size_t j = 0; j < scene.colliders.size(); ++j)
-      if (scene.colliders[j].name == c.name)
-        r.fail("name", "'" + c.name + "' is also the name of colliders[" + std::to_string(j) +
-                           "]: collider names must be unique (collision.friction_pairs name them)");
+    const auto [named, fresh] = names.emplace(c.name, scene.colliders.size());
+    if (!fresh)
+      r.fail("name", "'" + c.name + "' is also the name of colliders[" + std::to_string(named->second) +
+                         "]: collider names must be unique (collision.friction_pairs name them)");
     const std::string shape =
         r.string("shape", std::nullopt, {"plane", "sphere", "capsule", "box", "cylinder", "convex", "mesh"});
     collision::Shape& s = c.shape;

@@ -1,7 +1,10 @@
 // Scene key `collision` (SceneCollision.h).
 #include "loom/scene/SceneCollision.h"
 
+#include <algorithm>
+#include <map>
 #include <string>
+#include <tuple>
 
 #include "loom/scene/SceneLimits.h"
 
@@ -60,12 +63,18 @@ void parse_collision(const JsonReader& root, Scene& scene) {
   }
   if (c.has("friction_pairs")) {
     const std::vector<JsonReader> fps = c.objects("friction_pairs");
+    // Names to indices (the first cloth of a name; collider names are unique), and the pairs given so far
+    // as (collider, cloth, other cloth) with a cloth-cloth pair in ascending order: lookups in log time.
+    std::map<std::string, int> cloth_of, collider_of;
+    for (int i = n - 1; i >= 0; --i) cloth_of[scene.setup.cloths[i].name] = i;
+    for (size_t k = 0; k < scene.colliders.size(); ++k)
+      collider_of[scene.colliders[k].name] = static_cast<int>(k);
+    std::map<std::tuple<int, int, int>, size_t> given;
     for (const JsonReader& f : fps) {
       // Names: "a" a cloth; "b" a cloth (the same one: self-contact) or a collider.
       auto cloth_index = [&](const std::string& name) {
-        for (int i = 0; i < n; ++i)
-          if (scene.setup.cloths[i].name == name) return i;
-        return -1;
+        const auto it = cloth_of.find(name);
+        return it == cloth_of.end() ? -1 : it->second;
       };
       collision::FrictionPair fp;
       const std::string a = f.string("a"), b = f.string("b");
@@ -73,8 +82,8 @@ void parse_collision(const JsonReader& root, Scene& scene) {
       if (fp.cloth < 0) f.fail("a", "no cloth named '" + a + "'");
       fp.other_cloth = cloth_index(b);
       if (fp.other_cloth < 0) {
-        for (size_t k = 0; k < scene.colliders.size(); ++k)
-          if (scene.colliders[k].name == b) fp.collider = static_cast<int>(k);
+        const auto it = collider_of.find(b);
+        if (it != collider_of.end()) fp.collider = it->second;
         if (fp.collider < 0) f.fail("b", "no cloth or collider named '" + b + "'");
       }
       fp.friction = f.friction("friction");
@@ -82,15 +91,13 @@ void parse_collision(const JsonReader& root, Scene& scene) {
       if (fp.static_friction < fp.friction) f.fail("static_friction", "must be >= friction");
       f.finish();
       // One entry per pair, in either order: a second would silently win or lose.
-      for (size_t k = 0; k < s.friction_pairs.size(); ++k) {
-        const collision::FrictionPair& o = s.friction_pairs[k];
-        const bool same = o.collider == fp.collider &&
-                          ((o.cloth == fp.cloth && o.other_cloth == fp.other_cloth) ||
-                           (fp.collider < 0 && o.cloth == fp.other_cloth && o.other_cloth == fp.cloth));
-        if (same)
-          f.fail("b", "the pair '" + a + "' / '" + b + "' is already given by friction_pairs[" +
-                          std::to_string(k) + "]: give each pair once");
-      }
+      const bool cloths = fp.collider < 0;
+      const std::tuple<int, int, int> key(fp.collider, cloths ? std::min(fp.cloth, fp.other_cloth) : fp.cloth,
+                                          cloths ? std::max(fp.cloth, fp.other_cloth) : fp.other_cloth);
+      const auto [at, fresh] = given.emplace(key, s.friction_pairs.size());
+      if (!fresh)
+        f.fail("b", "the pair '" + a + "' / '" + b + "' is already given by friction_pairs[" +
+                        std::to_string(at->second) + "]: give each pair once");
       s.friction_pairs.push_back(fp);
     }
   }

@@ -100,4 +100,33 @@ TEST(FabricTestCli, CantileverDefaultsToAValidatedModel) {
   EXPECT_NE(s.err.find("warning: --model springs"), std::string::npos) << s.err;
 }
 
+// A dynamic solver settles only after the strip has moved and come to rest: an explicit solver whose first
+// frames move nothing (or fail and hold the start state) does not report a settled 0 deg; it measures the
+// deflection the static solver measures or measures nothing (exit 3). The default run is the static one.
+TEST(FabricTestCli, ExplicitSolversDoNotSettleBeforeTheStripMoves) {
+  const fs::path dir = loom::test::test_dir() / "cantilever_settle";
+  fs::remove_all(dir);
+  Result r = run("fabric-test cantilever --resolution 9 --json --out " + (dir / "static").string());
+  ASSERT_EQ(r.code, 0) << r.err;
+  const auto s = nlohmann::json::parse(r.out);
+  EXPECT_EQ(s["solver"], "static");
+  EXPECT_TRUE(s["settled"].get<bool>());
+  const double angle = s["measured"].get<double>();
+  EXPECT_LT(std::abs(s["error"].get<double>()), 1.0) << angle;
+  for (const char* solver : {"explicit_euler", "verlet", "symplectic_euler"}) {
+    r = run(std::string("fabric-test cantilever --resolution 9 --json --solver ") + solver + " --out " +
+            (dir / solver).string());
+    if (r.code == 3) {
+      EXPECT_NE(r.err.find("measured no finite tip chord angle"), std::string::npos) << r.err;
+      EXPECT_NE(r.err.find(std::string("solver ") + solver + ", not settled"), std::string::npos) << r.err;
+      continue;
+    }
+    ASSERT_EQ(r.code, 0) << solver << ": " << r.err;
+    const auto d = nlohmann::json::parse(r.out);
+    EXPECT_TRUE(d["settled"].get<bool>()) << solver;
+    EXPECT_GT(d["settle_frames"].get<int>(), 3) << solver;
+    EXPECT_NEAR(d["measured"].get<double>(), angle, 1.0) << solver;
+  }
+}
+
 }  // namespace

@@ -1,6 +1,9 @@
 // ClothMesh: grid topology counts, areas, material frames, OBJ loading and every rejection path.
 #include <gtest/gtest.h>
 
+#include <algorithm>
+#include <cmath>
+#include <cstdio>
 #include <filesystem>
 #include <fstream>
 #include <functional>
@@ -9,6 +12,7 @@
 #include "loom/cloth/ClothMesh.h"
 #include "loom/cloth/Error.h"
 #include "loom/cloth/SpringSet.h"
+#include "loom/cloth/SpringSolverSupport.h"
 
 namespace loom::cloth {
 namespace {
@@ -228,6 +232,122 @@ TEST(Materials, WarpAndWeftFollowTheMaterialFrameOnAnyMesh) {
       EXPECT_NEAR(springs[k].k, m.stretch_warp * d.area / (d.rest_length * d.rest_length), 1e-9);
     }
   }
+}
+
+// A disc of n triangles fanned around one centre vertex: n + 1 vertices, n spokes and n rim edges.
+std::shared_ptr<const ClothMesh> fan(int n) {
+  Vec3s x{Vec3::Zero()};
+  std::vector<Tri> tris;
+  for (int i = 0; i < n; ++i) {
+    const double a = 2.0 * 3.14159265358979323846 * i / n;
+    x.emplace_back(std::cos(a), 0.0, std::sin(a));
+    tris.push_back({0, 1 + i, 1 + (i + 1) % n});
+  }
+  return ClothMesh::from_triangles(std::move(x), std::move(tris), {}, "fan");
+}
+
+// Edge and hinge springs of a vertex of huge valence: every spoke is an interior edge with its two triangles
+// (a hinge), every rim edge a boundary edge with one. The spring building does not grow with the valence
+// (a 200000-triangle fan builds well within the test timeout).
+TEST(Mesh, HighValenceFanBuildsEdgesAndHingesOfEveryTriangle) {
+  const int n = 200000;
+  const auto m = fan(n);
+  ASSERT_EQ(m->num_vertices(), n + 1);
+  EXPECT_EQ(m->edges().size(), 2u * n);
+  EXPECT_EQ(m->hinges().size(), static_cast<size_t>(n));
+  ASSERT_EQ(m->springs().size(), 3u * n);
+  const std::vector<double>& area = m->triangle_rest_areas();
+  int spokes = 0, rims = 0;
+  for (size_t k = 0; k < m->edges().size(); ++k) {
+    const SpringDef& s = m->springs()[k];
+    ASSERT_EQ(s.kind, SpringKind::kEdge);
+    if (s.i == 0) {  // a spoke to rim vertex j: triangles j-1 and j-2 (mod n) carry it
+      ++spokes;
+      const int t0 = (s.j - 1) % n, t1 = (s.j - 2 + n) % n;
+      EXPECT_DOUBLE_EQ(s.area, area[t0] + area[t1]) << k;
+    } else {
+      ++rims;
+      EXPECT_NEAR(s.area, area[0], 1e-9 * area[0]) << k;  // the triangles of the regular fan are alike
+    }
+    EXPECT_NEAR(s.rest_uv_dir.norm(), 1.0, 1e-12) << k;
+  }
+  EXPECT_EQ(spokes, n);
+  EXPECT_EQ(rims, n);
+  for (size_t k = m->edges().size(); k < m->springs().size(); ++k) {
+    const SpringDef& s = m->springs()[k];
+    ASSERT_EQ(s.kind, SpringKind::kHinge);
+    EXPECT_NE(s.i, 0);
+    EXPECT_NE(s.j, 0);
+    EXPECT_NEAR(s.area, 2.0 * area[0] / 3.0, 1e-9 * area[0]) << k;
+  }
+}
+
+// One polygon of many corners (fan-split by the OBJ reader): n - 2 triangles, n boundary edges and n - 3
+// diagonals, each diagonal a hinge.
+TEST(Obj, OneLargePolygonIsFanSplitWithEveryDiagonalAHinge) {
+  const int n = 50000;
+  std::string text;
+  for (int i = 0; i < n; ++i) {
+    const double a = 2.0 * 3.14159265358979323846 * i / n;
+    char line[80];
+    std::snprintf(line, sizeof line, "v %.15f 0 %.15f\n", std::cos(a), std::sin(a));
+    text += line;
+  }
+  text += "f";
+  for (int i = 1; i <= n; ++i) text += " " + std::to_string(i);
+  text += "\n";
+  const auto m = ClothMesh::from_obj(write_temp("ngon.obj", text));
+  EXPECT_EQ(m->num_triangles(), n - 2);
+  EXPECT_EQ(m->edges().size(), static_cast<size_t>(2 * n - 3));
+  EXPECT_EQ(m->hinges().size(), static_cast<size_t>(n - 3));
+  EXPECT_EQ(m->springs().size(), static_cast<size_t>(3 * n - 6));
+}
+
+// Greedy spring colouring (each spring the lowest colour free at both its ends), checked against the plain
+// scan on a small mesh, and valid on a fan whose centre needs one colour per spoke.
+TEST(Springs, ColouringIsGreedyAndValidAtAnyValence) {
+  auto reference = [](int nv, const std::vector<Spring>& springs) {
+    std::vector<std::vector<int>> colors;
+    std::vector<std::vector<char>> used(nv);
+    for (int s = 0; s < static_cast<int>(springs.size()); ++s) {
+      int c = 0;
+      auto taken = [&](int v) { return c < static_cast<int>(used[v].size()) && used[v][c]; };
+      while (taken(springs[s].i) || taken(springs[s].j)) ++c;
+      if (c == static_cast<int>(colors.size())) colors.emplace_back();
+      colors[c].push_back(s);
+      for (int v : {springs[s].i, springs[s].j}) {
+        if (static_cast<int>(used[v].size()) <= c) used[v].resize(c + 1, 0);
+        used[v][c] = 1;
+      }
+    }
+    return colors;
+  };
+  auto springs_of = [](const ClothMesh& m) {
+    std::vector<Spring> out;
+    for (const SpringDef& d : m.springs()) out.push_back(Spring{d.i, d.j, d.rest_length, 1.0, 0.0});
+    return out;
+  };
+  const auto grid = ClothMesh::grid(GridSpec{1.0, 1.0, 9, 7, GridPlane::kXZ, Vec3::Zero()});
+  const auto small = fan(40);
+  for (const ClothMesh* m : {grid.get(), small.get()})
+    EXPECT_EQ(color_springs(m->num_vertices(), springs_of(*m)), reference(m->num_vertices(), springs_of(*m)));
+  const int n = 100000;
+  const auto big = fan(n);
+  const std::vector<Spring> springs = springs_of(*big);
+  const auto colors = color_springs(big->num_vertices(), springs);
+  EXPECT_GE(colors.size(), static_cast<size_t>(n));  // every spoke meets the centre
+  std::vector<int> seen(springs.size(), 0);
+  for (const auto& colour : colors) {
+    std::vector<int> touched;
+    for (int s : colour) {
+      ++seen[s];
+      touched.push_back(springs[s].i);
+      touched.push_back(springs[s].j);
+    }
+    std::sort(touched.begin(), touched.end());
+    EXPECT_EQ(std::adjacent_find(touched.begin(), touched.end()), touched.end());
+  }
+  EXPECT_EQ(std::count(seen.begin(), seen.end(), 1), static_cast<long>(springs.size()));
 }
 
 }  // namespace

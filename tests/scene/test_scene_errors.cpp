@@ -92,6 +92,18 @@ const Case kCases[] = {
       "{\"a\":\"sheet\",\"b\":\"sheet\",\"friction\":0}]}"},
      "collision.friction_pairs[1].b",
      "is already given by friction_pairs[0]"},
+    {"friction_pair_cloth_collider_given_twice",
+     {"colliders=[{\"name\":\"floor\",\"shape\":\"plane\"}]",
+      "collision={\"self\":true,\"friction_pairs\":[{\"a\":\"sheet\",\"b\":\"sheet\",\"friction\":0.5},"
+      "{\"a\":\"sheet\",\"b\":\"floor\",\"friction\":0.5},{\"a\":\"sheet\",\"b\":\"floor\",\"friction\":0}]"
+      "}"},
+     "collision.friction_pairs[2].b",
+     "the pair 'sheet' / 'floor' is already given by friction_pairs[1]"},
+    {"collider_name_twice_after_others",
+     {"colliders=[{\"name\":\"a\",\"shape\":\"plane\"},{\"name\":\"b\",\"shape\":\"plane\"},"
+      "{\"name\":\"b\",\"shape\":\"plane\"}]"},
+     "colliders[2].name",
+     "'b' is also the name of colliders[1]"},
     {"static_solver_on_a_free_cloth",
      {"solver={\"method\":\"static\"}", "cloths[0].pins=[]"},
      "cloths[0].pins",
@@ -266,6 +278,35 @@ INSTANTIATE_TEST_SUITE_P(AllCases, SceneErrors, ::testing::ValuesIn(kCases),
                          [](const ::testing::TestParamInfo<Case>& info) {
                            return std::string(info.param.name);
                          });
+
+// A duplicate at the end of a long pin list is found without comparing every pair of entries (90000 pins:
+// well within the test timeout) and named with the entry it repeats.
+TEST(Scene, DuplicatePinAfterManyPinsIsNamed) {
+  std::string pins;
+  for (int k = 0; k < 90000; ++k) pins += "{\"vertex\":" + std::to_string(k) + "},";
+  pins += "{\"vertex\":1}";
+  const std::string path = write_scene("many_pins.json", R"({"duration": 0.05, "fps": 60,
+    "solver": {"method": "symplectic_euler", "substeps": 4},
+    "cloths": [{"name": "c", "mesh": {"type": "grid", "size": [1, 1], "nodes": [300, 300], "plane": "xz",
+                "origin": [0, 3, 0]}, "material": {"preset": "cotton"}, "mass": 0.2, "pins": [)" +
+                                                             pins + "]}]}");
+  std::string msg = "(no error)";
+  try {
+    load_scene(path, {});
+  } catch (const Error& e) {
+    msg = e.what();
+  }
+  EXPECT_NE(msg.find("cloths[0].pins[90000]"), std::string::npos) << msg;
+  EXPECT_NE(msg.find("the same pin as cloths[0].pins[1] (given twice)"), std::string::npos) << msg;
+  // Without the duplicate the scene loads with every vertex pinned once.
+  const std::string ok = write_scene("many_pins_ok.json", R"({"duration": 0.05, "fps": 60,
+    "solver": {"method": "symplectic_euler", "substeps": 4},
+    "cloths": [{"name": "c", "mesh": {"type": "grid", "size": [1, 1], "nodes": [300, 300], "plane": "xz",
+                "origin": [0, 3, 0]}, "material": {"preset": "cotton"}, "mass": 0.2, "pins": [)" +
+                                                              pins.substr(0, pins.rfind(',')) + "]}]}");
+  const Scene scene = load_scene(ok, {});
+  EXPECT_EQ(scene.setup.cloths[0].pins.size(), 90000u);
+}
 
 // A list of colliders, bodies or cloths past the scene bound is refused by its count before anything is
 // built (each collider is tested against every cloth each step; each cloth is a solver and output files).

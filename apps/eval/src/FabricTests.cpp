@@ -149,26 +149,46 @@ struct SolveTimer {
   }
 };
 
+// Consecutive quiet frames a dynamic solver needs to be settled.
+constexpr int kQuietFrames = 3;
+
 // Runs frames until the cloth has settled; returns the frames used and records them (and whether it settled)
 // in r. Static solver: until the largest vertex move in a frame is below tol (m), at most 8 frames (it needs
-// one or a few). Dynamic solvers: until the largest vertex speed over a frame is below o.settle_speed (m/s),
-// at most o.settle_frames frames.
+// one or a few). Dynamic solvers: until, for kQuietFrames frames in a row, every vertex moved less than
+// o.settle_speed x o.settle_dt over the frame and ends it slower than o.settle_speed (m/s), at most
+// o.settle_frames frames. A strip at rest that is about to fall (explicit Euler's first step moves nothing
+// but gains speed) is not quiet, and a frame the simulation failed (it then holds its last good state, so
+// nothing moves) ends the run unsettled.
 int settle(Simulation& sim, double tol, const FabricTestOptions& o, FabricTestResult& r) {
+  const bool dynamic = o.solver != "static";
   int max_frames = 8;
-  if (o.solver != "static") {
+  if (dynamic) {
     tol = o.settle_speed * o.settle_dt;  // a per-frame move below this: speed below settle_speed
     max_frames = std::max(o.settle_frames, 1);
   }
   r.settled = false;
+  int quiet = 0;
   for (int f = 1; f <= max_frames; ++f) {
     const Vec3s before = sim.cloths()[0]->state().x;
-    sim.step_frame();
-    double moved = 0.0;
-    const Vec3s& after = sim.cloths()[0]->state().x;
+    const FrameStats stats = sim.step_frame();
+    double moved = 0.0, speed = 0.0;
+    const ClothState& st = sim.cloths()[0]->state();
+    const Vec3s& after = st.x;
     for (size_t i = 0; i < after.size(); ++i) moved = std::max(moved, (after[i] - before[i]).norm());
-    if (!std::isfinite(moved)) throw Error("", "fabric-test", "the simulation became non-finite");
+    for (const Vec3& v : st.v) speed = std::max(speed, v.norm());
+    if (!std::isfinite(moved) || !std::isfinite(speed))
+      throw Error("", "fabric-test", "the simulation became non-finite");
     r.settle_frames = f;
-    if (moved < tol) {
+    if (!dynamic) {
+      if (moved < tol) {
+        r.settled = true;
+        return f;
+      }
+      continue;
+    }
+    if (!stats.finite) return f;  // a failed frame: not settled
+    quiet = moved < tol && speed < o.settle_speed ? quiet + 1 : 0;
+    if (quiet >= kQuietFrames) {
       r.settled = true;
       return f;
     }
@@ -226,8 +246,9 @@ FabricTestResult cantilever(const FabricTestOptions& o) {
 }
 
 // Strip of length 20 cm and width 5 cm pulled along x by a line load F (N/m) on its far end; returns the
-// strain of the far end. `corner_uvs` non-empty: the strip's material frame is given per triangle.
-double pulled_strain(const FabricTestOptions& o, double line_load, int n, double angle) {
+// strain of the far end, NaN when a dynamic solver did not settle (its frames recorded in r). `angle` not 0:
+// the strip's material frame is given per triangle, rotated by it (bias cut).
+double pulled_strain(const FabricTestOptions& o, double line_load, int n, double angle, FabricTestResult& r) {
   const double length = 0.2, width = 0.05, d = length / (n - 1);
   const int nv = static_cast<int>(std::lround(width / d)) + 1;
   Strip strip = grid_strip(n, nv, d, Vec3::Zero());
@@ -256,8 +277,12 @@ double pulled_strain(const FabricTestOptions& o, double line_load, int n, double
     forces.push_back(Vec3(line_load * width / (nv - 1) * share, 0, 0));
   }
   sim.cloths()[0]->add_term(std::make_unique<LoadTerm>(verts, forces));
-  FabricTestResult unused;
-  settle(sim, 1e-12, o, unused);
+  FabricTestResult settled;
+  settle(sim, 1e-12, o, settled);
+  if (o.solver != "static" && !settled.settled) {  // measured nothing
+    r.settle_frames = settled.settle_frames;
+    return std::numeric_limits<double>::quiet_NaN();
+  }
   const ClothState& st = sim.cloths()[0]->state();
   double moved = 0.0;
   for (int v : verts) moved += st.x[v].x() - strip.mesh->rest_positions()[v].x();
@@ -270,7 +295,7 @@ FabricTestResult tensile(const FabricTestOptions& o) {
   const double loads[3] = {5, 20, 100};  // gf/cm (FAST-3)
   double strain[3];
   for (int k = 0; k < 3; ++k) {
-    strain[k] = pulled_strain(o, loads[k] * kGramForcePerCm, n, 0.0);
+    strain[k] = pulled_strain(o, loads[k] * kGramForcePerCm, n, 0.0, r);
     r.curve.emplace_back(strain[k] * 100.0, loads[k]);
     r.theory_curve.emplace_back(loads[k] * kGramForcePerCm / o.material.stretch_weft * 100.0, loads[k]);
   }
@@ -290,7 +315,7 @@ FabricTestResult tensile(const FabricTestOptions& o) {
 FabricTestResult shear(const FabricTestOptions& o) {
   FabricTestResult r;
   const int n = o.resolution > 0 ? o.resolution : 41;
-  const double strain5 = pulled_strain(o, 5 * kGramForcePerCm, n, 0.25 * kPi);
+  const double strain5 = pulled_strain(o, 5 * kGramForcePerCm, n, 0.25 * kPi, r);
   const double e45 = 5 * kGramForcePerCm / strain5;  // N/m
   const Material& m = o.material;
   const double inv_g = 4.0 / e45 - 1.0 / m.stretch_weft - 1.0 / m.stretch_warp;
@@ -583,6 +608,10 @@ FabricTestResult run_fabric_test(const FabricTestOptions& o) {
     throw Error("", "test",
                 "unknown fabric test '" + o.test + "' (known: cantilever, tensile, shear, catenary, drape)");
   }
+  // A dynamic solver that did not settle measured nothing (tensile and shear: pulled_strain).
+  if (o.solver != "static" && !r.settled &&
+      (o.test == "cantilever" || o.test == "catenary" || o.test == "drape"))
+    r.measured = r.error = std::numeric_limits<double>::quiet_NaN();
   r.test = o.test;
   r.material = o.material.name;
   r.model = o.model;

@@ -40,9 +40,9 @@ struct FabricTestOptions {
   double span = 0.8;              // catenary: d (m), with S = 1 m
   int threads = 1;
   // "static" (energy minimisation, the default) or any dynamic solver, which then runs frames of
-  // `settle_dt` seconds with damping until it has settled — the largest vertex speed over a frame below
-  // `settle_speed` — or `settle_frames` frames have passed, so the result can be compared with the static
-  // one.
+  // `settle_dt` seconds with damping until it has settled — for 3 frames in a row the largest vertex speed
+  // over a frame and at its end below `settle_speed` — or `settle_frames` frames have passed, so the result
+  // can be compared with the static one. Unsettled (or a failed frame): the test measures nothing (NaN).
   std::string solver = "static";
   int settle_frames = 400;
   double settle_dt = 0.01;     // s
