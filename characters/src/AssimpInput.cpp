@@ -9,6 +9,7 @@
 #include <filesystem>
 #include <fstream>
 
+#include "ImportPrescan.h"
 #include "loom/cloth/Error.h"
 #include "loom/cloth/InputFile.h"
 
@@ -130,8 +131,11 @@ std::uint64_t check_content(const std::string& file) {
     if (deep >= 0)
       throw Error(file, "line " + std::to_string(line_of(text, static_cast<std::size_t>(deep))),
                   "XML elements nest more than " + std::to_string(kMaxXmlDepth) + " levels deep");
+    check_collada_instances(file, text);  // ImportPrescan.h
   } else {
     check_mtllib(file, text);
+    check_gltf_nodes(file, text);   // ImportPrescan.h
+    check_fbx_nesting(file, text);  // ImportPrescan.h
   }
   return 0;
 }
