@@ -81,7 +81,8 @@ void check_format(const std::string& path) {
 }
 
 // The MOTION lines from `at` (just past the frame time): the rest of the frame time's line is empty, then
-// one line per frame (blank lines skipped), each holding exactly `channels` numbers, `frames` lines in all.
+// one line per frame (blank lines skipped), each holding exactly `channels` numbers, `frames` lines in all;
+// one more (Frames one short, as in the Biovision sample Boxing_Toes.bvh) is tolerated, and not read.
 void check_bvh_frame_lines(const std::string& path, const std::string& text, size_t at,
                            unsigned long long frames, unsigned long long channels) {
   unsigned long long line = 1 + static_cast<unsigned long long>(std::count(
@@ -100,16 +101,17 @@ void check_bvh_frame_lines(const std::string& path, const std::string& text, siz
     if (numbers == 0) continue;
     const std::string where = "line " + std::to_string(line);
     if (first) throw Error(path, where, "numbers after the frame time (each frame is a line of its own)");
-    if (++seen > frames)
+    if (++seen > frames + 1)
       throw Error(path, where,
-                  "frame line " + std::to_string(seen) + ", but Frames says " + std::to_string(frames));
+                  "frame line " + std::to_string(seen) + ", but Frames says " + std::to_string(frames) +
+                      " (one frame line past the count is read as an exporter's off-by-one and ignored)");
     if (numbers != channels)
       throw Error(path, where,
                   "frame " + std::to_string(seen) + " holds " + std::to_string(numbers) +
                       " numbers, but the joints' CHANNELS add up to " + std::to_string(channels) +
                       " (one frame per line)");
   }
-  if (seen != frames)
+  if (seen < frames)
     throw Error(path, "Frames",
                 "says " + std::to_string(frames) + " frames but the MOTION section holds " +
                     std::to_string(seen) + " frame lines (of " + std::to_string(channels) + " numbers each)");
