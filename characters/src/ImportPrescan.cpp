@@ -285,8 +285,9 @@ void check_gltf_nodes(const std::string& file, const std::string& text) {
       v = parent[std::size_t(v)];
     }
     if (v >= 0 && walk[std::size_t(v)] == s + 1)
-      throw Error(file, name(std::size_t(v)),
-                  "the node is its own ancestor (its children lead back to it): the node tree would never end");
+      throw Error(
+          file, name(std::size_t(v)),
+          "the node is its own ancestor (its children lead back to it): the node tree would never end");
   }
   std::vector<std::uint64_t> size(count, 1);  // nodes in each subtree, children before parents
   std::vector<std::pair<std::size_t, std::size_t>> stack;
