@@ -36,12 +36,20 @@ inline double cli_number(const std::string& flag, const std::string& text, doubl
   return v;
 }
 
-// A whole number in [lo, hi].
+// True when `text` is exactly a whole number: decimal digits, a '-' before them only when `negative` is
+// allowed; no space, no '+', nothing after (strtoll alone would skip leading white space).
+inline bool cli_whole_text(const std::string& text, bool negative) {
+  const std::size_t first = negative && !text.empty() && text[0] == '-' ? 1 : 0;
+  return text.size() > first && text.find_first_not_of("0123456789", first) == std::string::npos;
+}
+
+// A whole number in [lo, hi]: `text` must be exactly the number (cli_whole_text). The message states the
+// range the option accepts.
 inline long long cli_integer(const std::string& flag, const std::string& text, long long lo, long long hi) {
   char* end = nullptr;
   errno = 0;
-  const long long v = std::strtoll(text.c_str(), &end, 10);
-  if (text.empty() || *end || errno == ERANGE || v < lo || v > hi)
+  const long long v = cli_whole_text(text, lo < 0) ? std::strtoll(text.c_str(), &end, 10) : 0;
+  if (!cli_whole_text(text, lo < 0) || *end || errno == ERANGE || v < lo || v > hi)
     cli_refuse(flag, text, "a whole number in [" + std::to_string(lo) + ", " + std::to_string(hi) + "]");
   return v;
 }

@@ -6,6 +6,7 @@
 #include <map>
 #include <nlohmann/json.hpp>
 
+#include "Terminal.h"
 #include "loom/bullet/CharacterCompare.h"
 #include "loom/characters/Character.h"
 #include "loom/cloth/OutputFile.h"
@@ -127,9 +128,10 @@ int compare_character(const scene::Scene& sc, int frames, eval::OutputFolder& fo
                 r->m.diverged ? "yes" : "no", r->penetrating_vertices, r->max_attachment_error);
   for (const bullet::CharacterMetrics* r : {&loom, &classic})
     if (!r->m.diverged_why.empty())
-      std::printf("%-18s diverged: %s\n", r->m.system.c_str(), r->m.diverged_why.c_str());
+      std::printf("%-18s diverged: %s\n", r->m.system.c_str(), printable(r->m.diverged_why).c_str());
   std::printf("%-18s not run: %s\n", "bullet_deformable", deformable_note.c_str());
-  std::printf("wrote %s/compare.csv and %s/compare.json\n", out.c_str(), out.c_str());
+  const std::string shown = printable(out);  // the user's path, control characters as \xNN
+  std::printf("wrote %s/compare.csv and %s/compare.json\n", shown.c_str(), shown.c_str());
   return 0;
 }
 

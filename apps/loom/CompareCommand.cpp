@@ -90,7 +90,8 @@ int compare_main(int argc, char** argv) {
     } else if (a == "--frames") {
       frames = static_cast<int>(cli_integer("--frames", value("--frames"), 1, 10000000));
     } else if (!a.empty() && a[0] == '-') {
-      std::fprintf(stderr, "loom compare: error: unknown option '%s'\n%s", a.c_str(), kCompareUsage);
+      std::fprintf(stderr, "loom compare: error: unknown option '%s'\n%s", printable(a).c_str(),
+                   kCompareUsage);
       return 2;
     } else if (scene_path.empty()) {
       scene_path = a;
@@ -126,7 +127,11 @@ int compare_main(int argc, char** argv) {
     }
   // The folder is checked (and claimed) before the runs, so a refused folder costs nothing.
   if (!out_given) eval::refuse_linked_default(out, "--out");
-  eval::OutputFolder folder(out, "--out", overwrite, false, {"compare.json", "compare.csv"});
+  // The scene and every file it read: one that is a file compare writes (or an earlier run listed) is
+  // refused, --overwrite or not.
+  std::vector<std::string> inputs = {scene_path};
+  inputs.insert(inputs.end(), sc.inputs.begin(), sc.inputs.end());
+  eval::OutputFolder folder(out, "--out", overwrite, false, {"compare.json", "compare.csv"}, inputs);
 #ifdef LOOM_HAVE_CHARACTER_COMPARE
   if (sc.character) return compare_character(sc, frames, folder);  // Character scenes
 #endif
@@ -171,9 +176,10 @@ int compare_main(int argc, char** argv) {
     }
     std::printf("%-18s %12.3f %12.5f %12.6f %16.6f %9s\n", m.system.c_str(), m.ms_per_frame, m.max_strain,
                 m.mean_strain, m.max_penetration, m.diverged ? "yes" : "no");
-    if (!m.diverged_why.empty()) std::printf("%-18s diverged: %s\n", "", m.diverged_why.c_str());
+    if (!m.diverged_why.empty()) std::printf("%-18s diverged: %s\n", "", printable(m.diverged_why).c_str());
   }
-  std::printf("wrote %s/compare.csv and %s/compare.json\n", out.c_str(), out.c_str());
+  const std::string shown = printable(out);  // the user's path, control characters as \xNN
+  std::printf("wrote %s/compare.csv and %s/compare.json\n", shown.c_str(), shown.c_str());
   return 0;
 }
 

@@ -126,8 +126,8 @@ double parse_number(const std::string& flag, const std::string& text, double lo,
 int parse_count(const std::string& flag, const std::string& text, long lo, long hi) {
   char* end = nullptr;
   errno = 0;
-  const long v = std::strtol(text.c_str(), &end, 10);
-  if (text.empty() || *end || errno == ERANGE || v < lo || v > hi)
+  const long v = cli_whole_text(text, lo < 0) ? std::strtol(text.c_str(), &end, 10) : 0;
+  if (!cli_whole_text(text, lo < 0) || *end || errno == ERANGE || v < lo || v > hi)
     throw Error("", flag,
                 "expects a whole number in [" + std::to_string(lo) + ", " + std::to_string(hi) + "], got '" +
                     text + "'");
@@ -173,7 +173,8 @@ int fabric_test_main(int argc, char** argv) {
     } else if (a == "--out") {
       out = cli_path(a, value());
     } else if (!a.empty() && a[0] == '-') {
-      std::fprintf(stderr, "loom: error: unknown option '%s' (see loom fabric-test --help)\n", a.c_str());
+      std::fprintf(stderr, "loom: error: unknown option '%s' (see loom fabric-test --help)\n",
+                   printable(a).c_str());
       return 2;
     } else if (!have_test) {
       o.test = a;
@@ -205,8 +206,8 @@ int fabric_test_main(int argc, char** argv) {
   eval::check_fabric_test_options(o);
   const fs::path dir = out.empty() ? fs::path("out") / "fabric-test" / o.test : fs::path(out);
   if (out.empty()) eval::refuse_linked_default(dir, "--out");
-  eval::OutputFolder folder(dir, "--out", overwrite, false,
-                            {"curve.csv", "report.md", "plot.gp", "plot.png"});
+  eval::OutputFolder folder(dir, "--out", overwrite, false, {"curve.csv", "report.md", "plot.gp", "plot.png"},
+                            {});  // no input file
   const eval::FabricTestResult r = eval::run_fabric_test(o);
   write_report(folder, r);
   if (!std::isfinite(r.measured)) {  // the report says "-"; the run is not passed off as a measurement
@@ -215,7 +216,7 @@ int fabric_test_main(int argc, char** argv) {
         "loom: error: %s: measured no finite %s (solver %s, %s after %d frames): try --solver static "
         "(the default) or more --settle-frames; the report in %s holds no measurement\n",
         r.test.c_str(), r.quantity.c_str(), r.solver.c_str(), r.settled ? "settled" : "not settled",
-        r.settle_frames, folder.dir().c_str());
+        r.settle_frames, printable(folder.dir().string()).c_str());
     return 3;
   }
   if (json) {

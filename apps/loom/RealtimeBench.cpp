@@ -264,7 +264,8 @@ int bench_realtime(int argc, char** argv) {
     } else if (a == "--quick") {
       seconds = 0.1, sheet_n = 12, toy_n = 17;
     } else {
-      std::fprintf(stderr, "loom: error: unknown option '%s' (see loom bench realtime --help)\n", a.c_str());
+      std::fprintf(stderr, "loom: error: unknown option '%s' (see loom bench realtime --help)\n",
+                   printable(a).c_str());
       return 2;
     }
   }
@@ -272,12 +273,23 @@ int bench_realtime(int argc, char** argv) {
   for (const char* name : {"character_realtime", "toy_box_realtime", "sheet_realtime"})
     for (const char* ext : {".png", ".dat", ".gp", ".csv"}) writes.push_back(std::string(name) + ext);
   if (!out_given) eval::refuse_linked_default(out, "--out");
-  eval::OutputFolder folder(out, "--out", overwrite, false, writes);
-  const int frames = std::max(1, static_cast<int>(std::lround(seconds * 60.0)));
   const char* env = std::getenv("LOOM_SCENES");
   // An empty LOOM_SCENES (an unset shell variable exported) is unset: never "/" or the working directory.
   const std::string scenes =
       (env && *env ? std::string(env) : std::string(LOOM_SOURCE_DIR) + "/scenes") + "/";
+  // The scene files the selected benchmarks read and every file they read (meshes, clips): one that is a
+  // file the benchmark writes (or an earlier run listed) is refused before anything runs.
+  std::vector<std::string> inputs;
+  for (const auto& [bench, file] :
+       {std::pair<const char*, const char*>{"character", "character_layers_reference.json"},
+        {"toy_box", "toy_box.json"}}) {
+    if (!only.count(bench)) continue;
+    const scene::Scene sc = scene::load_scene(scenes + file);
+    inputs.push_back(scenes + file);
+    inputs.insert(inputs.end(), sc.inputs.begin(), sc.inputs.end());
+  }
+  eval::OutputFolder folder(out, "--out", overwrite, false, writes, inputs);
+  const int frames = std::max(1, static_cast<int>(std::lround(seconds * 60.0)));
   const std::vector<std::string> tiers = {"realtime", "balanced", "reference"};
 
   // The character: tiers on the reference variant's garments and motion; the reference tier is that file.

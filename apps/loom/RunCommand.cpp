@@ -310,6 +310,7 @@ class SceneRun {
   const bullet::BulletScene* bodies_world_ = nullptr;  // a scene with rigid bodies: its Bullet world
 #endif
   fs::path out_;
+  std::shared_ptr<eval::FolderLock> resume_lock_;  // --resume: held from before the checkpoint is read
   std::unique_ptr<OutputFolder> folder_;
   int first_ = 0;
   std::unique_ptr<DetailView> shown_;  // cloths with `detail` are written and rendered as their surface
@@ -337,6 +338,8 @@ class SceneRun {
 };
 
 SceneRun::SceneRun(const RunOptions& options) : o_(options) {
+  // The folder is locked before its checkpoint or manifest is read (OutputFolder.h, FolderLock).
+  if (!o_.resume.empty()) resume_lock_ = eval::FolderLock::acquire(o_.resume, "--resume");
   resume_ = apply_resume(o_);
   scene_path_ = o_.scene.empty() ? default_scene_path() : o_.scene;
   sc_ = scene::load_scene(scene_path_, o_.sets);
@@ -392,8 +395,9 @@ std::string video_rate_text(double hz) {
 // bound of most readers (byteLength in a signed 32-bit field).
 constexpr double kMaxExportBytes = 2147483648.0;
 
-// PC2: written frames x vertices x 12 bytes. glTF: as much for the morph targets plus the weights, written
-// frames^2 x 4 bytes (a key per frame holding a weight per target, as a reader expands it).
+// PC2: written frames x vertices x 12 bytes. glTF (GltfWriter.h): as much for the morph targets plus 12 bytes
+// a written frame (its time, and the sparse index and value of its animation weight). The sparse weights
+// address keys x targets elements with 32-bit indices, which bounds the written frames to 65536.
 void SceneRun::check_export_sizes() const {
   const double written = std::floor(frames_ / double(std::max(1, sc_.output.every))) + 1.0;
   double vertices = 0.0;
@@ -403,9 +407,14 @@ void SceneRun::check_export_sizes() const {
     if (f == "pc2")
       bytes = written * vertices * 12.0;
     else if (f == "gltf")
-      bytes = written * vertices * 12.0 + written * written * 4.0;
+      bytes = written * vertices * 12.0 + written * 12.0;
     else
       continue;
+    if (f == "gltf" && written * (written - 1.0) > 4294967295.0)
+      throw Error(scene_path_, "output.formats",
+                  "\"gltf\" would hold " + std::to_string(static_cast<long long>(written)) +
+                      " written frames, above the 65536 its animation weights can address (32-bit sparse "
+                      "indices): lower --frames (or raise output.every) or drop \"gltf\"");
     if (bytes <= kMaxExportBytes) continue;
     char figure[160];
     std::snprintf(figure, sizeof figure, "%.3g GB for %.0f written frames of %.0f vertices", bytes / 1e9,
@@ -413,7 +422,6 @@ void SceneRun::check_export_sizes() const {
     throw Error(
         scene_path_, "output.formats",
         "\"" + f + "\" would take " + figure +
-            (f == "gltf" ? " (its animation weights grow with the square of the frames)" : "") +
             ", above the 2.15 GB an export may take: lower --frames (or raise output.every) or drop \"" + f +
             "\"");
   }
@@ -822,8 +830,9 @@ void SceneRun::render_video() {
     return;
   }
   std::cout << "loom: rendered " << rep.frames << " frames (" << std::fixed << std::setprecision(1)
-            << rep.ms_per_frame << " ms/frame) -> " << (out_ / "render").string() << "/, "
-            << (out_ / "render.mp4").string() << ", " << (out_ / "render.gif").string() << "\n";
+            << rep.ms_per_frame << " ms/frame) -> " << printable((out_ / "render").string()) << "/, "
+            << printable((out_ / "render.mp4").string()) << ", " << printable((out_ / "render.gif").string())
+            << "\n";
 #endif
 }
 

@@ -87,8 +87,9 @@ std::string run_usage() {
          solvers + "\nMaterial presets: " + presets + "\n";
 }
 
-int parse_int(const char* flag, const char* value) {
-  return static_cast<int>(loom::app::cli_integer(flag, value, 0, 100000000));
+// A whole number in [lo, hi] (CliValue.h: exactly the digits; the message states this range).
+int parse_int(const char* flag, const char* value, long long lo, long long hi) {
+  return static_cast<int>(loom::app::cli_integer(flag, value, lo, hi));
 }
 
 // An empty value (an unset shell variable, `--resume "$DIR"`) is an error, never "the default".
@@ -119,15 +120,19 @@ int run_main(int argc, char** argv) {
     } else if (a == "--out") {
       o.out = non_empty("--out", value());
     } else if (a == "--frames") {
-      o.frames = parse_int("--frames", value());
-    } else if (a == "--threads") {
-      o.threads = parse_int("--threads", value());
-      if (o.threads < 1) {
-        std::fprintf(stderr, "loom: error: --threads must be >= 1\n");
+      const char* v = value();
+      // A run of no frame is nonsense, like a duration shorter than a frame; with --resume too (a resume
+      // may ask for exactly the checkpoint's frames, which is at least 1).
+      if (std::strcmp(v, "0") == 0) {
+        std::fprintf(stderr,
+                     "loom: error: --frames must be >= 1 (got 0): a run simulates at least one frame\n");
         return 2;
       }
+      o.frames = parse_int("--frames", v, 1, loom::scene::kMaxFrames);
+    } else if (a == "--threads") {
+      o.threads = parse_int("--threads", value(), 1, loom::scene::kMaxThreads);
     } else if (a == "--checkpoint-every") {
-      o.checkpoint_every = parse_int("--checkpoint-every", value());
+      o.checkpoint_every = parse_int("--checkpoint-every", value(), 0, loom::scene::kMaxFrames);
     } else if (a == "--resume") {
       o.resume = non_empty("--resume", value());
     } else if (a == "--overwrite") {
@@ -153,12 +158,6 @@ int run_main(int argc, char** argv) {
                    loom::app::printable(o.scene).c_str(), loom::app::printable(a).c_str());
       return 2;
     }
-  }
-  // A run of no frame is nonsense, like a duration shorter than a frame (a resume may ask for exactly the
-  // checkpoint's frames: it finishes the outputs).
-  if (o.frames == 0 && o.resume.empty()) {
-    std::fprintf(stderr, "loom: error: --frames must be >= 1 (got 0): a run simulates at least one frame\n");
-    return 2;
   }
   if (!o.resume.empty() && !o.scene.empty()) {
     std::fprintf(stderr,

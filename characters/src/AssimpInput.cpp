@@ -1,6 +1,7 @@
 #include "AssimpInput.h"
 
 #include <pthread.h>
+#include <zlib.h>
 
 #include <algorithm>
 #include <cctype>
@@ -8,6 +9,7 @@
 #include <exception>
 #include <filesystem>
 #include <fstream>
+#include <functional>
 
 #include "ImportPrescan.h"
 #include "loom/cloth/Error.h"
@@ -58,10 +60,15 @@ std::uint32_t le16(const std::string& s, std::size_t at) {
          std::uint32_t(static_cast<unsigned char>(s[at + 1])) << 8;
 }
 
-// The bytes a zip archive unpacks to, by its central directory (the sizes the unzip reader allocates and
-// fills; PKWARE APPNOTE 6.3, sections 4.3.12 and 4.3.16). Throws loom::Error naming `file` for a
-// directory it cannot walk or a ZIP64 archive (sizes past 4 GiB).
-std::uint64_t zip_unpacked_bytes(const std::string& file, const std::string& zip) {
+struct ZipEntry {
+  std::string name;
+  std::uint32_t flags = 0, method = 0, packed = 0, unpacked = 0, local = 0;  // local: its header's offset
+};
+
+// A zip archive's entries by its central directory (PKWARE APPNOTE 6.3, sections 4.3.12 and 4.3.16), as
+// the unzip reader finds them. Throws loom::Error naming `file` for a directory it cannot walk or a ZIP64
+// archive (sizes past 4 GiB).
+std::vector<ZipEntry> zip_entries(const std::string& file, const std::string& zip) {
   // The end-of-central-directory record: 22 bytes and a comment of at most 65535, searched from the end
   // as the unzip reader does.
   const std::size_t lowest = zip.size() > 22 + 65535 ? zip.size() - 22 - 65535 : 0;
@@ -77,17 +84,110 @@ std::uint64_t zip_unpacked_bytes(const std::string& file, const std::string& zip
     throw Error(file, "", "a ZIP64 archive (entries past 4 GiB) is not read");
   if (std::uint64_t(offset) + size > end)
     throw Error(file, "", "the zip's central directory is out of range");
-  std::uint64_t total = 0;
+  std::vector<ZipEntry> out;
   std::size_t at = offset;
   for (std::uint32_t k = 0; k < entries; ++k) {
     if (at + 46 > end || zip.compare(at, 4, "PK\x01\x02") != 0)
       throw Error(file, "zip entry " + std::to_string(k), "the central directory is cut or corrupt");
-    const std::uint32_t unpacked = le32(zip, at + 24);
-    if (unpacked == 0xffffffffu) throw Error(file, "", "a ZIP64 archive (entries past 4 GiB) is not read");
-    total += unpacked;
-    at += 46 + le16(zip, at + 28) + le16(zip, at + 30) + le16(zip, at + 32);
+    ZipEntry e;
+    e.flags = le16(zip, at + 8);
+    e.method = le16(zip, at + 10);
+    e.packed = le32(zip, at + 20);
+    e.unpacked = le32(zip, at + 24);
+    e.local = le32(zip, at + 42);
+    if (e.unpacked == 0xffffffffu || e.packed == 0xffffffffu || e.local == 0xffffffffu)
+      throw Error(file, "", "a ZIP64 archive (entries past 4 GiB) is not read");
+    const std::size_t name = le16(zip, at + 28);
+    e.name = zip.substr(std::min(at + 46, end), std::min<std::size_t>(name, end - std::min(at + 46, end)));
+    out.push_back(std::move(e));
+    at += 46 + name + le16(zip, at + 30) + le16(zip, at + 32);
   }
-  return total;
+  return out;
+}
+
+// The XML element-depth check of one zip entry, inflated a piece at a time (never whole) up to the size
+// its directory gives, as the unzip reader hands it to assimp. Entries named *.dae or *.xml and entries
+// whose text starts with '<' (after a byte order mark and white space) are scanned; encrypted entries and
+// methods other than stored and deflate (which the reader cannot unpack) are not. Throws loom::Error naming
+// `file`, the entry and the line of the first element nested deeper than kMaxXmlDepth.
+void check_zip_entry(const std::string& file, const std::string& zip, const ZipEntry& e) {
+  if ((e.flags & 1u) || (e.method != 0 && e.method != 8)) return;
+  if (std::uint64_t(e.local) + 30 > zip.size() || zip.compare(e.local, 4, "PK\x03\x04") != 0) return;
+  const std::uint64_t data = std::uint64_t(e.local) + 30 + le16(zip, e.local + 26) + le16(zip, e.local + 28);
+  if (data > zip.size()) return;
+  const std::uint64_t packed = std::min<std::uint64_t>(e.packed, zip.size() - data);
+  std::string lower = e.name;
+  for (char& ch : lower) ch = static_cast<char>(std::tolower(static_cast<unsigned char>(ch)));
+  const bool named_xml = lower.size() >= 4 && (lower.compare(lower.size() - 4, 4, ".dae") == 0 ||
+                                               lower.compare(lower.size() - 4, 4, ".xml") == 0);
+  XmlDepthScan scan(kMaxXmlDepth);
+  // UTF-16 text (by its byte order mark or a leading '<' code unit) is scanned by the low byte of each
+  // code unit, as for a plain file. Everything before the first other byte (white space, byte order marks)
+  // goes to the scan too, so lines count from the entry's start.
+  enum class Start { kUndecided, kScan, kSkip } start = Start::kUndecided;
+  bool encoded = false;
+  int low = -1;  // UTF-16: the index (0 or 1) of a code unit's low byte; -1: bytes
+  std::uint64_t raw = 0, narrowed = 0;
+  std::string head, narrow;
+  auto scan_piece = [&](const char* bytes, std::size_t n) {  // false once the entry needs no more reading
+    if (low >= 0) {
+      narrow.clear();
+      for (std::size_t k = 0; k < n; ++k)
+        if ((raw + k) % 2 == std::uint64_t(low)) narrow += bytes[k];
+      raw += n;
+      bytes = narrow.data();
+      n = narrow.size();
+    }
+    for (std::size_t k = 0; k < n && start == Start::kUndecided; ++k, ++narrowed) {
+      const auto ch = static_cast<unsigned char>(bytes[k]);
+      const bool mark = narrowed < 3 && (ch == 0xEF || ch == 0xBB || ch == 0xBF || ch == 0xFF || ch == 0xFE);
+      if (!mark && !std::isspace(ch)) start = named_xml || ch == '<' ? Start::kScan : Start::kSkip;
+    }
+    return start != Start::kSkip && scan.feed(bytes, n);
+  };
+  auto take = [&](const char* bytes, std::size_t n) {
+    if (encoded) return scan_piece(bytes, n);
+    head.append(bytes, n);
+    if (head.size() < 2) return true;
+    encoded = true;
+    if (head.compare(0, 2, "\xFF\xFE") == 0 || head.compare(0, 2, std::string("<\0", 2)) == 0) low = 0;
+    if (head.compare(0, 2, "\xFE\xFF") == 0 || head.compare(0, 2, std::string("\0<", 2)) == 0) low = 1;
+    return scan_piece(head.data(), head.size());
+  };
+  const char* in = zip.data() + data;
+  if (e.method == 0) {
+    const std::uint64_t n = std::min<std::uint64_t>(packed, e.unpacked);
+    for (std::uint64_t at = 0; at < n; at += 65536)
+      if (!take(in + at, static_cast<std::size_t>(std::min<std::uint64_t>(65536, n - at)))) break;
+  } else {
+    z_stream z{};
+    if (inflateInit2(&z, -MAX_WBITS) != Z_OK) throw Error(file, e.name, "cannot start inflating the entry");
+    std::vector<char> out(65536);
+    std::uint64_t left_in = packed, left_out = e.unpacked;
+    int status = Z_OK;
+    while (status == Z_OK && left_out > 0) {
+      if (z.avail_in == 0 && left_in > 0) {
+        const auto chunk = static_cast<uInt>(std::min<std::uint64_t>(left_in, 1u << 30));
+        z.next_in = reinterpret_cast<Bytef*>(const_cast<char*>(in + (packed - left_in)));
+        z.avail_in = chunk;
+        left_in -= chunk;
+      }
+      const auto room = static_cast<uInt>(std::min<std::uint64_t>(out.size(), left_out));
+      z.next_out = reinterpret_cast<Bytef*>(out.data());
+      z.avail_out = room;
+      status = inflate(&z, Z_NO_FLUSH);
+      const std::size_t made = room - z.avail_out;
+      left_out -= made;
+      if (made == 0 && status == Z_OK && z.avail_in == 0 && left_in == 0) break;  // the data ends early
+      if (made > 0 && !take(out.data(), made)) break;
+      if (status == Z_BUF_ERROR && z.avail_in == 0 && left_in == 0) break;
+    }
+    inflateEnd(&z);
+  }
+  if (!encoded && !head.empty()) scan_piece(head.data(), head.size());
+  if (start != Start::kScan || scan.finish()) return;
+  throw Error(file, e.name + ", line " + std::to_string(scan.line()),
+              "XML elements nest more than " + std::to_string(kMaxXmlDepth) + " levels deep");
 }
 
 std::uint64_t line_of(const std::string& text, std::size_t at) {
@@ -110,10 +210,18 @@ void check_mtllib(const std::string& file, const std::string& text) {
   }
 }
 
-// What Open checks on the first opening of a file's content (throws loom::Error naming the file).
-std::uint64_t check_content(const std::string& file) {
+// What Open checks on the first opening of a file's content (throws loom::Error naming the file). A zip
+// archive's unpacked size goes to `spend` before any entry is inflated; false: `spend` refused it.
+bool check_content(const std::string& file, const std::function<bool(std::uint64_t)>& spend) {
   std::string text = read_input_file(file);
-  if (text.compare(0, 4, "PK\x03\x04") == 0) return zip_unpacked_bytes(file, text);
+  if (text.compare(0, 4, "PK\x03\x04") == 0) {
+    const std::vector<ZipEntry> entries = zip_entries(file, text);
+    std::uint64_t unpacked = 0;
+    for (const ZipEntry& e : entries) unpacked += e.unpacked;
+    if (!spend(unpacked)) return false;
+    for (const ZipEntry& e : entries) check_zip_entry(file, text, e);
+    return true;
+  }
   // UTF-16 (by its byte order mark or a leading '<' code unit; XML readers take it): markup is ASCII, so
   // the low byte of each code unit is enough to see the elements.
   const bool le = text.compare(0, 2, "\xFF\xFE") == 0 || text.compare(0, 2, std::string("<\0", 2)) == 0;
@@ -127,9 +235,9 @@ std::uint64_t check_content(const std::string& file) {
   std::size_t first = text.compare(0, 3, "\xEF\xBB\xBF") == 0 ? 3 : 0;
   while (first < text.size() && std::isspace(static_cast<unsigned char>(text[first]))) ++first;
   if (first < text.size() && text[first] == '<') {
-    const long deep = xml_too_deep(text, kMaxXmlDepth);
-    if (deep >= 0)
-      throw Error(file, "line " + std::to_string(line_of(text, static_cast<std::size_t>(deep))),
+    XmlDepthScan scan(kMaxXmlDepth);
+    if (!scan.feed(text.data(), text.size()) || !scan.finish())
+      throw Error(file, "line " + std::to_string(scan.line()),
                   "XML elements nest more than " + std::to_string(kMaxXmlDepth) + " levels deep");
     check_collada_instances(file, text);  // ImportPrescan.h
   } else {
@@ -137,7 +245,7 @@ std::uint64_t check_content(const std::string& file) {
     check_gltf_nodes(file, text);   // ImportPrescan.h
     check_fbx_nesting(file, text);  // ImportPrescan.h
   }
-  return 0;
+  return true;
 }
 
 struct ImportJob {
@@ -245,42 +353,118 @@ void check_scene(const std::string& path, const aiScene* scene) {
 
 }  // namespace
 
-long xml_too_deep(const std::string& text, int max_depth) {
-  const std::size_t n = text.size();
-  long depth = 0;
-  auto skip_past = [&](std::size_t from, const char* end) {  // the index after `end`, or n
-    const std::size_t at = text.find(end, from);
-    return at == std::string::npos ? n : at + std::strlen(end);
-  };
-  for (std::size_t at = text.find('<'); at < n; at = text.find('<', at)) {
-    if (text.compare(at, 4, "<!--") == 0) {
-      at = skip_past(at + 4, "-->");
-    } else if (text.compare(at, 9, "<![CDATA[") == 0) {
-      at = skip_past(at + 9, "]]>");
-    } else if (text.compare(at, 2, "<?") == 0) {
-      at = skip_past(at + 2, "?>");
-    } else if (text.compare(at, 2, "<!") == 0) {  // a declaration; its internal subset in [ ]
-      int brackets = 0;
-      for (++at; at < n && !(text[at] == '>' && brackets <= 0); ++at)
-        brackets += text[at] == '[' ? 1 : text[at] == ']' ? -1 : 0;
-      ++at;
-    } else if (text.compare(at, 2, "</") == 0) {
-      depth = std::max(0L, depth - 1);
-      at = skip_past(at + 2, ">");
-    } else {  // a start tag, to its '>' outside quoted values; "/>" closes it at once
-      const std::size_t start = at;
-      char quote = 0;
-      for (++at; at < n && (quote || text[at] != '>'); ++at)
-        if (quote ? text[at] == quote : text[at] == '"' || text[at] == '\'') quote = quote ? 0 : text[at];
-      if (at < n && text[at - 1] == '/') {
-        ++at;
-        continue;
-      }
-      if (++depth > max_depth) return static_cast<long>(start);
-      ++at;
+bool XmlDepthScan::feed(const char* data, std::size_t size) {
+  for (std::size_t i = 0; i < size && !deep_;) {
+    if (state_ == State::kText) {  // to the next '<' at once
+      const void* found = std::memchr(data + i, '<', size - i);
+      const std::size_t stop =
+          found ? static_cast<std::size_t>(static_cast<const char*>(found) - data) : size;
+      line_ += static_cast<std::uint64_t>(std::count(data + i, data + stop, '\n'));
+      offset_ += stop - i;
+      i = stop;
+      if (i == size) break;
+      tag_offset_ = offset_;
+      tag_line_ = line_;
+      open_ = "<";
+      state_ = State::kOpen;
+      ++i;
+      ++offset_;
+      continue;
     }
+    const char c = data[i++];
+    ++offset_;
+    if (c == '\n') ++line_;
+    step(c);
   }
-  return -1;
+  return !deep_;
+}
+
+void XmlDepthScan::open_element() {
+  if (++depth_ > max_depth_ && !deep_) {
+    deep_ = true;
+    deep_offset_ = tag_offset_;
+    deep_line_ = tag_line_;
+  }
+  state_ = State::kText;
+}
+
+void XmlDepthScan::step(char c) {
+  switch (state_) {
+    case State::kText:
+      break;
+    case State::kOpen: {
+      open_ += c;
+      static const std::string comment = "<!--", cdata = "<![CDATA[";
+      auto start = [&](State next, const char* end) {
+        state_ = next;
+        end_ = end;
+        tail_.clear();
+      };
+      if (open_ == comment) {
+        start(State::kComment, "-->");
+      } else if (open_ == cdata) {
+        start(State::kCdata, "]]>");
+      } else if (open_ == "<?") {
+        start(State::kInstruction, "?>");
+      } else if (open_ == "</") {
+        depth_ = std::max(0L, depth_ - 1);
+        start(State::kEndTag, ">");
+      } else if (comment.compare(0, open_.size(), open_) == 0 || cdata.compare(0, open_.size(), open_) == 0) {
+        // still undecided
+      } else if (open_[1] == '!') {  // a declaration, from its '!'
+        state_ = State::kDeclaration;
+        brackets_ = 0;
+        const std::string seen = open_.substr(1);
+        for (char b : seen)
+          if (state_ == State::kDeclaration) step(b);
+      } else {  // a start tag
+        state_ = State::kStartTag;
+        quote_ = 0;
+        previous_ = '<';
+        step(c);
+      }
+      break;
+    }
+    case State::kComment:
+    case State::kCdata:
+    case State::kInstruction:
+    case State::kEndTag: {
+      tail_ += c;
+      if (tail_.size() > 3) tail_.erase(0, tail_.size() - 3);
+      const std::size_t n = std::strlen(end_);
+      if (tail_.size() >= n && tail_.compare(tail_.size() - n, n, end_) == 0) state_ = State::kText;
+      break;
+    }
+    case State::kDeclaration:
+      if (c == '>' && brackets_ <= 0)
+        state_ = State::kText;
+      else
+        brackets_ += c == '[' ? 1 : c == ']' ? -1 : 0;
+      break;
+    case State::kStartTag:  // to its '>' outside quoted values; "/>" closes it at once
+      if (!quote_ && c == '>') {
+        if (previous_ == '/')
+          state_ = State::kText;
+        else
+          open_element();
+        break;
+      }
+      if (quote_ ? c == quote_ : c == '"' || c == '\'') quote_ = quote_ ? 0 : c;
+      previous_ = c;
+      break;
+  }
+}
+
+bool XmlDepthScan::finish() {
+  if (state_ == State::kStartTag || (state_ == State::kOpen && open_ == "<")) open_element();
+  state_ = State::kText;
+  return !deep_;
+}
+
+long xml_too_deep(const std::string& text, int max_depth) {
+  XmlDepthScan scan(max_depth);
+  if (scan.feed(text.data(), text.size()) && scan.finish()) return -1;
+  return static_cast<long>(scan.offset());
 }
 
 bool RecordingIOSystem::spend(const std::string& file, std::uint64_t bytes) {
@@ -306,10 +490,9 @@ Assimp::IOStream* RecordingIOSystem::Open(const char* file, const char* mode) {
   if (!refused_.empty()) return nullptr;  // the import is refused already: nothing more is read
   try {
     loom::check_input_file(file);
-    if (scanned_.insert(file).second) {
-      const std::uint64_t unpacked = check_content(file);
-      if (!spend(file, unpacked)) return nullptr;
-    }
+    if (scanned_.insert(file).second &&
+        !check_content(file, [&](std::uint64_t unpacked) { return spend(file, unpacked); }))
+      return nullptr;
   } catch (const Error& e) {
     refuse(file, e.what());
     return nullptr;

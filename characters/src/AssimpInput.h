@@ -57,8 +57,43 @@ class RecordingIOSystem : public Assimp::DefaultIOSystem {
 const aiScene* read_with_assimp(Assimp::Importer& importer, const std::string& path, unsigned flags,
                                 const std::string& what, std::vector<std::string>& files);
 
-// The index of the first XML element nested deeper than `max_depth` in `text` (-1 if none); comments,
-// CDATA sections, processing instructions, declarations and quoted attribute values are skipped.
+// The element-depth check of XML text fed in pieces of any size (an archive entry as it is inflated):
+// comments, CDATA sections, processing instructions, declarations and quoted attribute values are skipped;
+// a start tag the text ends inside counts as one level.
+class XmlDepthScan {
+ public:
+  explicit XmlDepthScan(int max_depth) : max_depth_(max_depth) {}
+  // The next `size` bytes of the text; false once an element nests deeper than max_depth.
+  bool feed(const char* data, std::size_t size);
+  // The end of the text; false if an element nests deeper than max_depth.
+  bool finish();
+  bool too_deep() const { return deep_; }
+  // Of the first element nested too deep (its '<'): the byte index in the text and its 1-based line.
+  std::uint64_t offset() const { return deep_offset_; }
+  std::uint64_t line() const { return deep_line_; }
+
+ private:
+  enum class State { kText, kOpen, kComment, kCdata, kInstruction, kDeclaration, kEndTag, kStartTag };
+  void step(char c);
+  void open_element();
+
+  int max_depth_;
+  State state_ = State::kText;
+  long depth_ = 0;
+  std::uint64_t offset_ = 0, line_ = 1;          // position of the next byte
+  std::uint64_t tag_offset_ = 0, tag_line_ = 1;  // of the '<' that opened the current markup
+  std::string open_;                             // the markup's first bytes while its kind is undecided
+  std::string tail_;                             // its last bytes, to find its end ("-->", "]]>", "?>")
+  const char* end_ = "";
+  int brackets_ = 0;  // a declaration's internal subset: '[' minus ']'
+  char quote_ = 0;    // a start tag's open attribute quote
+  char previous_ = 0;
+  bool deep_ = false;
+  std::uint64_t deep_offset_ = 0, deep_line_ = 0;
+};
+
+// The index of the first XML element nested deeper than `max_depth` in `text` (-1 if none), as XmlDepthScan
+// finds it.
 long xml_too_deep(const std::string& text, int max_depth);
 
 }  // namespace loom::characters

@@ -53,8 +53,12 @@ void WindSettings::validate(const std::string& file, const std::string& where) {
   }
   check("swing.angle", swing_angle, 0.0, kPi);
   check("swing.frequency", swing_frequency, 0.0, 1000.0);
-  if (!swing_axis.allFinite() || !(swing_axis.norm() > 0.0))
+  // Scaled by its largest component first: an axis whose length overflows (1e300) or underflows (1e-300)
+  // still has its direction.
+  const double largest = swing_axis.cwiseAbs().maxCoeff();
+  if (!swing_axis.allFinite() || !(largest > 0.0))
     throw Error(file, where + ".swing.axis", "must be a finite, non-zero vector");
+  swing_axis /= largest;
   swing_axis.normalize();
 }
 

@@ -331,6 +331,18 @@ void make_output_folder(const std::string& path) {
   }
 }
 
+int make_private_output_folder(const std::string& path) {
+  Located at;
+  at.locate(path, false);
+  if (::mkdirat(at.dir(), at.name().c_str(), 0700) != 0) {
+    if (errno == EEXIST) return -1;
+    throw Error(path, "", std::string("cannot create folder: ") + std::strerror(errno));
+  }
+  const int fd = ::openat(at.dir(), at.name().c_str(), O_RDONLY | O_DIRECTORY | O_NOFOLLOW | O_CLOEXEC);
+  if (fd < 0) throw Error(path, "", std::string("cannot open folder: ") + std::strerror(errno));
+  return fd;
+}
+
 void rename_output(const std::string& from, const std::string& to) {
   Located a, b;
   a.locate(from, false);

@@ -402,7 +402,8 @@ bool BodyCollisionStage::edge_correction(const ClothState& s, int a, int b, int 
       deficit = th - segment_capsule_distance(c, c.curr, s.x[a], s.x[b], &sp, &nrm);
     }
   } else {
-    deficit = th - segment_box_edges_distance(c, c.curr, s.x[a], s.x[b], &sp, &nrm);
+    const SegmentPast past{s.x_prev[a], s.x_prev[b], c.prev};
+    deficit = th - segment_box_edges_distance(c, c.curr, s.x[a], s.x[b], &sp, &nrm, &past);
   }
   // Endpoint contacts belong to the vertex phase.
   if (deficit <= 1e-9 * th || sp <= 1e-6 || sp >= 1.0 - 1e-6) return false;

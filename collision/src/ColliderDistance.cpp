@@ -251,16 +251,25 @@ bool segment_meets_box(const Vec3& A, const Vec3& B, const Vec3& e) {
 }  // namespace
 
 double segment_box_edges_distance(const Collider& c, const Transform& pose, const Vec3& a, const Vec3& b,
-                                  double* s, Vec3* normal) {
+                                  double* s, Vec3* normal, const SegmentPast* past) {
   const Vec3& e = c.shape.half_extents;
   const Transform to_local = pose.inverse(Eigen::Isometry);
   const Vec3 A = to_local * a, B = to_local * b, D = B - A;
   if (segment_meets_box(A, B, e)) {
-    // Separating-axis test of a segment against a box (Ericson 2005, Sec. 5.2.1 and 4.4): the minimum
-    // translation is along a face normal or along D x (a box axis); on a face normal the deepest point of
-    // the segment is an end, on D x axis_i it is the segment's point closest to the box edge parallel to
-    // axis_i on that side.
-    double best = HUGE_VAL;
+    // Separating-axis test of a segment against a box (Ericson 2005, Sec. 5.2.1 and 4.4): the way out is
+    // along a face normal or along D x (a box axis); on a face normal the deepest point of the segment is an
+    // end, on D x axis_i it is the segment's point closest to the box edge parallel to axis_i on that side.
+    // With the segment's past, only directions it was separated along then are taken (the side it came
+    // from: a cloth edge pushed against a wall that stands on the floor leaves sideways, not down through
+    // the floor), the shortest of them; if none was, the shortest of all.
+    Vec3 A0 = A, B0 = B;
+    if (past) {
+      const Transform past_local = past->pose.inverse(Eigen::Isometry);
+      A0 = past_local * past->a, B0 = past_local * past->b;
+    }
+    double best = HUGE_VAL, best_any = HUGE_VAL;
+    Vec3 dir_best = Vec3::UnitY(), dir_any = Vec3::UnitY();
+    int k_best = -1, k_any = -1;
     for (int k = 0; k < 6; ++k) {
       Vec3 L = Vec3::Zero();
       if (k < 3) {
@@ -273,26 +282,35 @@ double segment_box_edges_distance(const Collider& c, const Transform& pose, cons
         if (!(len > 1e-12 * D.norm())) continue;
         L /= len;
       }
-      const double r = e.dot(L.cwiseAbs()), pa = A.dot(L), pb = B.dot(L);
-      const double push_pos = r - std::min(pa, pb), push_neg = std::max(pa, pb) + r;
-      const Vec3 dir = push_pos <= push_neg ? L : Vec3(-L);
-      const double push = std::min(push_pos, push_neg);
-      if (!(push < best)) continue;
-      best = push;
-      double sp = 0.0;
-      if (k < 3) {
-        sp = A.dot(dir) <= B.dot(dir) ? 0.0 : 1.0;  // the end deepest behind the face
-      } else {
-        // The box edge parallel to axis k-3 that is farthest along dir.
-        const int ax = k - 3;
-        Vec3 lo, hi;
-        for (int j = 0; j < 3; ++j) lo[j] = hi[j] = dir[j] >= 0.0 ? e[j] : -e[j];
-        lo[ax] = -e[ax], hi[ax] = e[ax];
-        sp = segment_segment_closest(A, B, lo, hi).s;
+      const double r = e.dot(L.cwiseAbs());
+      for (const double sign : {1.0, -1.0}) {
+        const Vec3 dir = sign * L;
+        const double push = r - std::min(A.dot(dir), B.dot(dir));
+        if (push < best_any) best_any = push, dir_any = dir, k_any = k;
+        const bool came_from = past && std::min(A0.dot(dir), B0.dot(dir)) - r >= 0.0;
+        if (came_from && push < best) best = push, dir_best = dir, k_best = k;
       }
-      if (s) *s = sp;
-      if (normal) *normal = pose.linear() * dir;
     }
+    if (k_best < 0) best = best_any, dir_best = dir_any, k_best = k_any;
+    double sp = 0.0;
+    if (k_best < 3) {
+      sp = A.dot(dir_best) <= B.dot(dir_best) ? 0.0 : 1.0;  // the end deepest behind the face
+    } else {
+      // The box edge parallel to axis k-3 that is farthest along dir.
+      const int ax = k_best - 3;
+      Vec3 lo, hi;
+      for (int j = 0; j < 3; ++j) lo[j] = hi[j] = dir_best[j] >= 0.0 ? e[j] : -e[j];
+      lo[ax] = -e[ax], hi[ax] = e[ax];
+      sp = segment_segment_closest(A, B, lo, hi).s;
+    }
+    // An end beyond the box's face planes but outside the box is no vertex contact: the whole segment
+    // moves (its midpoint's correction, with equal inverse masses a translation).
+    if (sp == 0.0 || sp == 1.0) {
+      const Vec3& end = sp == 0.0 ? A : B;
+      if ((end.cwiseAbs() - e).maxCoeff() > 0.0) sp = 0.5;
+    }
+    if (s) *s = sp;
+    if (normal) *normal = pose.linear() * dir_best;
     return -best;
   }
   // Outside: the distance to the nearest of the 12 edges, away from it.

@@ -75,11 +75,6 @@ double distance(const Collider& c, const Prepared& pc, bool end, const Vec3& p, 
   }
 }
 
-bool inside(const Prepared& pc, const Vec3& x) {
-  return x.x() >= pc.lo.x() && x.x() <= pc.hi.x() && x.y() >= pc.lo.y() && x.y() <= pc.hi.y() &&
-         x.z() >= pc.lo.z() && x.z() <= pc.hi.z();
-}
-
 }  // namespace
 
 RealtimeBodyContactStage::RealtimeBodyContactStage(ColliderSetPtr colliders, RealtimeContactSettings settings)
@@ -275,19 +270,41 @@ RealtimeBodyContactStage::ColliderGrid RealtimeBodyContactStage::build_grid(cons
 
 int RealtimeBodyContactStage::gather_candidates(const ColliderGrid& grid, const Vec3& x, const Vec3& x0,
                                                 int* cand) const {
+  // Every collider whose box meets the box of the path x0 -> x (a collider the path crosses with both ends
+  // outside its box too: a step longer than the collider, or across a corner of its box). From the cells
+  // the path's box covers (the end's cell first, then the start's), or, for a path over more than 8 cells,
+  // from all active colliders.
   int nc = 0;
-  const int c1 = grid.cell_index(x), c0 = grid.cell_index(x0);
-  for (int it = grid_start_[c1]; it < grid_start_[c1 + 1]; ++it) {
-    const int k = grid_items_[it];
-    if (nc < kMaxCandidates && (inside(prepared_[k], x) || inside(prepared_[k], x0))) cand[nc++] = k;
+  const Vec3 lo = x.cwiseMin(x0), hi = x.cwiseMax(x0);
+  auto add = [&](int k) {
+    const Prepared& pc = prepared_[k];
+    if (nc < kMaxCandidates && (lo.array() <= pc.hi.array()).all() && (pc.lo.array() <= hi.array()).all() &&
+        std::find(cand, cand + nc, k) == cand + nc)
+      cand[nc++] = k;
+  };
+  auto add_cell = [&](int c) {
+    for (int it = grid_start_[c]; it < grid_start_[c + 1]; ++it) add(grid_items_[it]);
+  };
+  int first[3], last[3];
+  long cells = 1;
+  for (int a = 0; a < 3; ++a) {
+    first[a] = grid.cell_of(lo, a), last[a] = grid.cell_of(hi, a);
+    cells *= last[a] - first[a] + 1;
   }
-  if (c0 != c1)  // the start's cell: colliders not met at the end
-    for (int it = grid_start_[c0]; it < grid_start_[c0 + 1]; ++it) {
-      const int k = grid_items_[it];
-      if (nc < kMaxCandidates && std::find(cand, cand + nc, k) == cand + nc &&
-          (inside(prepared_[k], x) || inside(prepared_[k], x0)))
-        cand[nc++] = k;
-    }
+  if (cells > 8) {
+    for (int k : active_) add(k);
+    return nc;
+  }
+  const int c1 = grid.cell_index(x), c0 = grid.cell_index(x0);
+  add_cell(c1);
+  if (c0 != c1) add_cell(c0);
+  if (cells > 2)
+    for (int z = first[2]; z <= last[2]; ++z)
+      for (int y = first[1]; y <= last[1]; ++y)
+        for (int xx = first[0]; xx <= last[0]; ++xx) {
+          const int c = (z * grid.dims[1] + y) * grid.dims[0] + xx;
+          if (c != c0 && c != c1) add_cell(c);
+        }
   return nc;
 }
 

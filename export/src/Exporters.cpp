@@ -5,6 +5,7 @@
 #include <filesystem>
 #include <fstream>
 #include <iomanip>
+#include <map>
 #include <set>
 
 #include "loom/cloth/Error.h"
@@ -35,13 +36,15 @@ void write_mesh_obj(const fs::path& path, const cloth::Cloth& c) {
 std::vector<std::string> Exporters::file_names(const std::vector<std::unique_ptr<cloth::Cloth>>& cloths) {
   std::vector<std::string> names;
   std::set<std::string> used;
+  std::map<std::string, int> next;  // per sanitised name, the suffix to try next (linear in the cloths)
   for (size_t i = 0; i < cloths.size(); ++i) {
     std::string n = cloths[i]->name();
     for (char& ch : n)
       if (!(std::isalnum(static_cast<unsigned char>(ch)) || ch == '-' || ch == '_')) ch = '_';
     if (n.empty()) n = "cloth";
     std::string unique = n;
-    for (int k = 1; used.count(unique); ++k) unique = n + "_" + std::to_string(k);
+    int& k = next[n];
+    while (used.count(unique)) unique = n + "_" + std::to_string(++k);
     used.insert(unique);
     names.push_back(unique);
   }

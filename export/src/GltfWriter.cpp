@@ -21,20 +21,27 @@ GltfWriter::GltfWriter(std::string gltf_path, std::vector<AnimatedMesh> meshes)
   target_accessor_.resize(meshes_.size());
 }
 
-int GltfWriter::append(const void* data, size_t bytes, View view) {
+int GltfWriter::append_view(const void* data, size_t bytes, int target) {
+  View view;
   view.offset = bin_size_;
   view.bytes = bytes;
+  view.target = target;
   bin_.write(static_cast<const char*>(data), static_cast<std::streamsize>(bytes));
   if (!bin_) throw Error(bin_path_, "", "write failed");
   bin_size_ += bytes;  // every element is 4 bytes wide, so every view stays 4-byte aligned
-  views_.push_back(std::move(view));
+  views_.push_back(view);
   return static_cast<int>(views_.size()) - 1;
+}
+
+int GltfWriter::append(const void* data, size_t bytes, int target, Accessor accessor) {
+  accessor.view = append_view(data, bytes, target);
+  accessors_.push_back(std::move(accessor));
+  return static_cast<int>(accessors_.size()) - 1;
 }
 
 int GltfWriter::append_vec3(const cloth::Vec3s& v, const cloth::Vec3s* minus) {
   std::vector<float> f(3 * v.size());
-  View view;
-  view.target = 34962;
+  Accessor view;
   view.component = 5126;
   view.type = "VEC3";
   view.count = v.size();
@@ -47,7 +54,7 @@ int GltfWriter::append_vec3(const cloth::Vec3s& v, const cloth::Vec3s* minus) {
       view.min[k] = std::min(view.min[k], double(value));  // bounds of the stored floats, as the spec asks
       view.max[k] = std::max(view.max[k], double(value));
     }
-  return append(f.data(), 4 * f.size(), std::move(view));
+  return append(f.data(), 4 * f.size(), 34962, std::move(view));
 }
 
 void GltfWriter::add_frame(double time, const std::vector<const cloth::Vec3s*>& positions) {
@@ -64,12 +71,11 @@ void GltfWriter::add_frame(double time, const std::vector<const cloth::Vec3s*>& 
       idx.reserve(3 * meshes_[m].triangles.size());
       for (const cloth::Tri& t : meshes_[m].triangles)
         for (int k = 0; k < 3; ++k) idx.push_back(static_cast<uint32_t>(t[k]));
-      View view;
-      view.target = 34963;
+      Accessor view;
       view.component = 5125;
       view.type = "SCALAR";
       view.count = idx.size();
-      index_accessor_.push_back(append(idx.data(), 4 * idx.size(), std::move(view)));
+      index_accessor_.push_back(append(idx.data(), 4 * idx.size(), 34963, std::move(view)));
     }
   } else {
     for (size_t m = 0; m < meshes_.size(); ++m)
@@ -86,20 +92,29 @@ void GltfWriter::finish() {
   int times_accessor = -1, weights_accessor = -1;
   if (targets > 0) {
     std::vector<float> t(times_.begin(), times_.end());
-    View tv;
+    Accessor tv;
     tv.component = 5126;
     tv.type = "SCALAR";
     tv.count = keys;
     tv.min = {double(t.front())};
     tv.max = {double(t.back())};
-    times_accessor = append(t.data(), 4 * t.size(), std::move(tv));
-    std::vector<float> w(keys * targets, 0.0f);  // key k: weight 1 on target k-1 (key 0 is the base mesh)
-    for (size_t k = 1; k < keys; ++k) w[k * targets + (k - 1)] = 1.0f;
-    View wv;
+    times_accessor = append(t.data(), 4 * t.size(), 0, std::move(tv));
+    // Key k holds weight 1 on target k-1 (key 0 is the base mesh): element k*targets + k-1 of the
+    // keys x targets weights, an increasing sequence, so it is the sparse index list as glTF asks.
+    if (keys * targets > std::numeric_limits<uint32_t>::max())
+      throw Error(gltf_path_, "", "too many frames for the 32-bit indices of the animation weights");
+    std::vector<uint32_t> idx(targets);
+    for (size_t k = 1; k < keys; ++k) idx[k - 1] = static_cast<uint32_t>(k * targets + (k - 1));
+    const std::vector<float> ones(targets, 1.0f);
+    Accessor wv;
     wv.component = 5126;
     wv.type = "SCALAR";
-    wv.count = w.size();
-    weights_accessor = append(w.data(), 4 * w.size(), std::move(wv));
+    wv.count = keys * targets;
+    wv.sparse_count = targets;
+    wv.sparse_indices = append_view(idx.data(), 4 * idx.size(), 0);
+    wv.sparse_values = append_view(ones.data(), 4 * ones.size(), 0);
+    accessors_.push_back(std::move(wv));
+    weights_accessor = static_cast<int>(accessors_.size()) - 1;
   }
   bin_.close();
   if (!bin_) throw Error(bin_path_, "", "write failed");
@@ -153,17 +168,25 @@ void GltfWriter::finish() {
   j["buffers"] =
       ordered_json::array({{{"uri", fs::path(bin_path_).filename().string()}, {"byteLength", bin_size_}}});
   ordered_json views = ordered_json::array(), accessors = ordered_json::array();
-  for (size_t i = 0; i < views_.size(); ++i) {
-    const View& v = views_[i];
+  for (const View& v : views_) {
     ordered_json bv = {{"buffer", 0}, {"byteOffset", v.offset}, {"byteLength", v.bytes}};
     if (v.target) bv["target"] = v.target;
     views.push_back(bv);
-    ordered_json a = {
-        {"bufferView", i}, {"componentType", v.component}, {"count", v.count}, {"type", v.type}};
+  }
+  for (const Accessor& v : accessors_) {
+    ordered_json a = ordered_json::object();
+    if (v.view >= 0) a["bufferView"] = v.view;
+    a["componentType"] = v.component;
+    a["count"] = v.count;
+    a["type"] = v.type;
     if (!v.min.empty()) {
       a["min"] = v.min;
       a["max"] = v.max;
     }
+    if (v.sparse_count > 0)
+      a["sparse"] = {{"count", v.sparse_count},
+                     {"indices", {{"bufferView", v.sparse_indices}, {"componentType", 5125}}},
+                     {"values", {{"bufferView", v.sparse_values}}}};
     accessors.push_back(a);
   }
   j["bufferViews"] = views;

@@ -4,6 +4,7 @@
 
 #include <algorithm>
 #include <cmath>
+#include <cstdlib>
 #include <optional>
 
 #include "gl/ColliderShapes.h"
@@ -38,6 +39,11 @@ Renderer::Renderer(RenderSettings settings, std::vector<RenderMesh> meshes)
     throw Error("", "render", "image size and supersampling must be >= 1");
   gl_->w = settings_.width * settings_.supersample;
   gl_->h = settings_.height * settings_.supersample;
+  // Mesa keeps a shader cache in $XDG_CACHE_HOME or ~/.cache (following links there): a render writes
+  // nothing outside its output folder, so the cache is off (Mesa reads these when a context is made;
+  // MESA_GLSL_CACHE_DISABLE for older releases).
+  ::setenv("MESA_SHADER_CACHE_DISABLE", "true", 1);
+  ::setenv("MESA_GLSL_CACHE_DISABLE", "true", 1);
   gl_->ctx = OSMesaCreateContextExt(OSMESA_RGBA, 24, 8, 0, nullptr);
   if (!gl_->ctx) throw Error("", "render", "cannot create an OSMesa (software OpenGL) context");
   gl_->buffer.resize(size_t(gl_->w) * gl_->h * 4);

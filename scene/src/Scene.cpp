@@ -21,6 +21,7 @@
 #include "loom/scene/SceneCollision.h"
 #include "loom/scene/SceneGuard.h"
 #include "loom/scene/SceneLimits.h"
+#include "loom/scene/SceneRegime.h"
 
 namespace loom::scene {
 
@@ -382,7 +383,7 @@ void parse_header(const JsonReader& r, Scene& scene, const std::string& file) {
   scene.setup.gravity = r.vec3("gravity", Vec3(0.0, -9.81, 0.0));
   if (!(scene.setup.gravity.cwiseAbs().maxCoeff() <= kMaxAcceleration))
     r.fail("gravity", "components must be within +-" + show(kMaxAcceleration) + " m/s^2");
-  scene.setup.threads = r.integer("threads", 1, 1, 4096);
+  scene.setup.threads = r.integer("threads", 1, 1, static_cast<int>(kMaxThreads));
   parse_guard(r, scene.setup.guard);  // non-finite / explosion guard (SceneGuard.cpp)
 }
 
@@ -559,6 +560,9 @@ void parse_cloths(const JsonReader& r, Scene& scene, const std::string& file) {
   const auto cloths =
       r.has("cloths") || scene.setup.cloths.empty() ? r.objects("cloths") : std::vector<JsonReader>{};
   if (cloths.empty() && scene.setup.cloths.empty()) r.fail("cloths", "a scene needs at least one cloth");
+  if (cloths.size() > kMaxCloths)
+    r.fail("cloths", "has " + std::to_string(cloths.size()) + " entries; at most " +
+                         std::to_string(kMaxCloths) + " are allowed");
   for (const JsonReader& c : cloths) {
     cloth::ClothSetup cs;
     cs.name = c.name("name", "cloth" + std::to_string(scene.setup.cloths.size()));
@@ -759,6 +763,12 @@ Scene parse_scene(const nlohmann::json& root, const std::string& file) {
   r.finish();
   check_weil(scene, file);
   check_static(scene, file);
+  const bool halvings_given = root.is_object() && root.contains("guard") && root["guard"].is_object() &&
+                              root["guard"].contains("max_halvings");
+  if (!halvings_given)
+    for (const RegimeOutlier& o : regime_outliers(scene))
+      if (!o.step_bound)
+        scene.setup.guard.max_halvings = std::min(scene.setup.guard.max_halvings, kRegimeOutsideHalvings);
   return scene;
 }
 

@@ -7,6 +7,7 @@
 #include <vector>
 
 #include "loom/cloth/Solver.h"
+#include "loom/collision/ColliderBroadPhase.h"
 #include "loom/collision/ColliderDistance.h"
 #include "loom/collision/ColliderGeometry.h"
 #ifdef LOOM_HAVE_CHARACTERS
@@ -34,17 +35,17 @@ double min_rest_edge(const cloth::ClothMesh& mesh) {
   return l;
 }
 
-// The fastest point of a kinematic collider's surface (m/s), sampled over the scene at 1e5 points (at most
-// 1/240 s apart; a turn is resolved up to pi per sample): its origin's speed plus its turn rate times the
-// farthest point of its local box (a plane: its origin's speed only).
-double collider_surface_speed(const collision::Collider& c, double duration) {
+// The fastest point of a kinematic collider's surface (m/s), sampled over the scene at `samples` points (at
+// most 1/240 s apart; a turn is resolved up to pi per sample): its origin's speed plus its turn rate times
+// the farthest point of its local box (a plane: its origin's speed only).
+double collider_surface_speed(const collision::Collider& c, double duration, int samples) {
   double reach = 0.0;
   if (c.shape.type != collision::ShapeType::plane) {
     cloth::Vec3 lo, hi;
     collision::local_bounds(c.shape, c.geometry.get(), lo, hi);
     reach = (0.5 * (lo + hi)).norm() + 0.5 * (hi - lo).norm();
   }
-  const double dt = std::min(1.0 / 240.0, duration / 1e5);
+  const double dt = std::min(1.0 / 240.0, duration / samples);
   double v = 0.0;
   for (double t = 0.0; t < duration; t += dt) {
     const collision::Transform a = c.motion(t), b = c.motion(t + dt);
@@ -56,15 +57,17 @@ double collider_surface_speed(const collision::Collider& c, double duration) {
 
 }  // namespace
 
-std::string divergence_suspects(const Scene& scene) {
+std::vector<RegimeOutlier> regime_outliers(const Scene& scene) {
   const cloth::SimulationSetup& s = scene.setup;
-  std::vector<std::string> out;
+  std::vector<RegimeOutlier> out;
+  // step_bound: more steps per frame bring the value back into the regime.
+  auto add = [&](const std::string& text, bool step_bound = false) { out.push_back({text, step_bound}); };
   const int substeps = s.substeps > 0 ? s.substeps : cloth::default_substeps(s.solver.method, s.frame_dt);
   const double h = s.frame_dt / std::max(1, substeps);  // s, one solver step
   const double g = s.gravity.norm();
   if (g > kRegimeAcceleration)
-    out.push_back("gravity (|g| = " + fig(g) + " m/s^2, " + fig(g / 9.81) + " g; validated up to " +
-                  fig(kRegimeAcceleration) + ")");
+    add("gravity (|g| = " + fig(g) + " m/s^2, " + fig(g / 9.81) + " g; validated up to " +
+        fig(kRegimeAcceleration) + ")");
   double cloth_mass = 0.0;
   for (size_t i = 0; i < s.cloths.size(); ++i) {
     const cloth::ClothSetup& c = s.cloths[i];
@@ -73,14 +76,15 @@ std::string divergence_suspects(const Scene& scene) {
     cloth_mass += rho * c.mesh->total_area();
     const double wave = std::sqrt(std::max(c.material.stretch_weft, c.material.stretch_warp) / rho);
     if (wave > kRegimeWaveSpeed)
-      out.push_back(at + ".material stretch with its areal density (stretch waves at " + fig(wave) +
-                    " m/s; validated up to " + fig(kRegimeWaveSpeed) + ")");
+      add(at + ".material stretch with its areal density (stretch waves at " + fig(wave) +
+          " m/s; validated up to " + fig(kRegimeWaveSpeed) + ")");
     if (explicit_method(s.solver.method)) {
       const double courant = wave * h / min_rest_edge(*c.mesh);
       if (courant > kRegimeCourant)
-        out.push_back("solver.substeps for " + at + " (a stretch wave crosses " + fig(courant) +
-                      " edges per step of the explicit " + s.solver.method + "; stable below " +
-                      fig(kRegimeCourant) + ")");
+        add("solver.substeps for " + at + " (a stretch wave crosses " + fig(courant) +
+                " edges per step of the explicit " + s.solver.method + "; stable below " +
+                fig(kRegimeCourant) + ")",
+            true);
     }
     const double l_min = min_rest_edge(*c.mesh);
     // Stiffness-proportional damping (Material.h: c = damping k) relaxes an edge's stretch at the rate
@@ -88,9 +92,10 @@ std::string divergence_suspects(const Scene& scene) {
     const double damping_steps = c.material.damping * (wave / l_min) * (wave / l_min) * h;
     if (c.material.damping > kRegimeDamping ||
         (explicit_method(s.solver.method) && damping_steps > kRegimeDampingSteps))
-      out.push_back(at + ".material.damping (" + fig(c.material.damping) + " s, relaxing an edge " +
-                    fig(damping_steps) + " times per step; validated up to " + fig(kRegimeDamping) +
-                    " s and " + fig(kRegimeDampingSteps) + " per step)");
+      add(at + ".material.damping (" + fig(c.material.damping) + " s, relaxing an edge " +
+              fig(damping_steps) + " times per step; validated up to " + fig(kRegimeDamping) + " s and " +
+              fig(kRegimeDampingSteps) + " per step)",
+          !(c.material.damping > kRegimeDamping));
     // A pin whose first target lies far from its vertex moves the vertex there in the first step.
     cloth::Vec3 lo = c.mesh->rest_positions()[0], hi = lo;
     for (const cloth::Vec3& x : c.mesh->rest_positions()) {
@@ -106,54 +111,52 @@ std::string divergence_suspects(const Scene& scene) {
       if (!p.offsets.empty()) target += p.offsets.front();
       const double d = (target - start).norm();
       if (d > reach)
-        out.push_back((k < c.pin_fields.size() ? c.pin_fields[k] : at + ".pins[" + std::to_string(k) + "]") +
-                      " (its first target lies " + fig(d) + " m from its vertex; validated up to " +
-                      fig(reach) + " m, a quarter of the cloth's size)");
+        add((k < c.pin_fields.size() ? c.pin_fields[k] : at + ".pins[" + std::to_string(k) + "]") +
+            " (its first target lies " + fig(d) + " m from its vertex; validated up to " + fig(reach) +
+            " m, a quarter of the cloth's size)");
     }
     if (c.pressure) {  // PressureTerm.h: |f| = |p| A on a face, so a = |p| / rho
       const double p =
           std::abs(c.pressure->overpressure) + (c.pressure->ideal_gas ? c.pressure->ambient : 0.0);
       if (p / rho > kRegimeWindAcceleration)
-        out.push_back(at + ".pressure (" + fig(p) + " Pa pushes the cloth at " + fig(p / rho) +
-                      " m/s^2; validated up to " + fig(kRegimeWindAcceleration) + ")");
+        add(at + ".pressure (" + fig(p) + " Pa pushes the cloth at " + fig(p / rho) +
+            " m/s^2; validated up to " + fig(kRegimeWindAcceleration) + ")");
     }
     if (c.initial_velocity.norm() > kRegimeSpeed)
-      out.push_back(at + ".velocity (" + fig(c.initial_velocity.norm()) + " m/s; validated up to " +
-                    fig(kRegimeSpeed) + ")");
+      add(at + ".velocity (" + fig(c.initial_velocity.norm()) + " m/s; validated up to " + fig(kRegimeSpeed) +
+          ")");
     if (s.drag) {  // AirDragTerm.h: f = -c A (v - w), so a = c |w| / rho and a relaxation rate c / rho
       const double coef = std::max(s.drag->isotropic, s.drag->normal);
       const double a = coef * s.drag->wind.norm() * (1.0 + std::abs(s.drag->gust_amplitude)) / rho;
       if (a > kRegimeWindAcceleration)
-        out.push_back("effects.drag.wind with " + at + "'s areal density (the wind pushes at " + fig(a) +
-                      " m/s^2; validated up to " + fig(kRegimeWindAcceleration) + ")");
+        add("effects.drag.wind with " + at + "'s areal density (the wind pushes at " + fig(a) +
+            " m/s^2; validated up to " + fig(kRegimeWindAcceleration) + ")");
       if (coef / rho * h > kRegimeDampingSteps)
-        out.push_back(std::string("effects.drag.") +
-                      (s.drag->isotropic >= s.drag->normal ? "isotropic" : "normal") + " with " + at +
-                      "'s areal density (the drag relaxes the velocity " + fig(coef / rho * h) +
-                      " times per step; validated up to " + fig(kRegimeDampingSteps) + ")");
+        add(std::string("effects.drag.") + (s.drag->isotropic >= s.drag->normal ? "isotropic" : "normal") +
+                " with " + at + "'s areal density (the drag relaxes the velocity " + fig(coef / rho * h) +
+                " times per step; validated up to " + fig(kRegimeDampingSteps) + ")",
+            true);
     }
     if (s.wind) {  // AeroTerm.h: |f| <= 1/2 rho_air max(C_D, C_L) |w|^2 A
       const double w = s.wind->max_speed();
       const double a = 0.5 * s.wind->density * std::max(s.wind->drag, s.wind->lift) * w * w / rho;
       if (a > kRegimeWindAcceleration)
-        out.push_back("effects.wind with " + at + "'s areal density (the wind pushes at " + fig(a) +
-                      " m/s^2; validated up to " + fig(kRegimeWindAcceleration) + ")");
+        add("effects.wind with " + at + "'s areal density (the wind pushes at " + fig(a) +
+            " m/s^2; validated up to " + fig(kRegimeWindAcceleration) + ")");
     }
   }
   for (size_t k = 0; k < scene.bodies.size(); ++k) {
     const collision::RigidBodySpec& b = scene.bodies[k];
     const std::string at = "bodies[" + std::to_string(k) + "]";
     if (b.velocity.norm() > kRegimeSpeed)
-      out.push_back(at + ".velocity (" + fig(b.velocity.norm()) + " m/s; validated up to " +
-                    fig(kRegimeSpeed) + ")");
+      add(at + ".velocity (" + fig(b.velocity.norm()) + " m/s; validated up to " + fig(kRegimeSpeed) + ")");
     if (b.motion) {  // a kinematic body's speed, sampled at 240 Hz over the scene (at most 1e5 samples)
       const double dt = std::max(1.0 / 240.0, scene.duration / 1e5);
       double v = 0.0;
       for (double t = 0.0; t < scene.duration; t += dt)
         v = std::max(v, (b.motion(t + dt).translation() - b.motion(t).translation()).norm() / dt);
       if (v > kRegimeSpeed)
-        out.push_back(at + ".motion (moves at up to " + fig(v) + " m/s; validated up to " +
-                      fig(kRegimeSpeed) + ")");
+        add(at + ".motion (moves at up to " + fig(v) + " m/s; validated up to " + fig(kRegimeSpeed) + ")");
     }
     double carried = 0.0;  // kg, the cloths that hang from this body
     for (const collision::BodyAttachment& a : b.attachments)
@@ -161,42 +164,59 @@ std::string divergence_suspects(const Scene& scene) {
         carried = std::max(carried,
                            s.cloths[a.cloth].material.areal_density * s.cloths[a.cloth].mesh->total_area());
     if (b.mass > 0.0 && !b.motion && carried > 0.0 && b.mass < 1e-2 * carried)
-      out.push_back(at + ".mass (" + fig(b.mass) + " kg carries a cloth of " + fig(carried) +
-                    " kg; validated down to a hundredth of it)");
+      add(at + ".mass (" + fig(b.mass) + " kg carries a cloth of " + fig(carried) +
+          " kg; validated down to a hundredth of it)");
     if (cloth_mass > 0.0 && b.mass > 1e3 * cloth_mass)
-      out.push_back(at + ".mass (" + fig(b.mass / cloth_mass) +
-                    " times the cloths' mass; validated up to 1000)");
+      add(at + ".mass (" + fig(b.mass / cloth_mass) + " times the cloths' mass; validated up to 1000)");
   }
+  int moving = 0;
+  for (const collision::Collider& c : scene.colliders) moving += c.motion ? 1 : 0;
+  // 1e6 pose samples over all moving colliders, at least 1000 each.
+  const int samples = moving ? std::max(1000, 1000000 / moving) : 0;
+  std::vector<collision::Aabb> cloth_box(s.cloths.size());
+  for (size_t i = 0; i < s.cloths.size(); ++i)
+    for (const cloth::Vec3& x : s.cloths[i].mesh->rest_positions()) cloth_box[i].grow(x);
   for (size_t k = 0; k < scene.colliders.size(); ++k) {
     const collision::Collider& c = scene.colliders[k];
     const std::string at = "colliders[" + std::to_string(k) + "]";
     if (c.motion) {
-      const double v = collider_surface_speed(c, scene.duration);
+      const double v = collider_surface_speed(c, scene.duration, samples);
       if (v > kRegimeSpeed)
-        out.push_back(at + ".motion (its surface moves at up to " + fig(v) + " m/s; validated up to " +
-                      fig(kRegimeSpeed) + ")");
+        add(at + ".motion (its surface moves at up to " + fig(v) + " m/s; validated up to " +
+            fig(kRegimeSpeed) + ")");
     }
     // A cloth that starts inside the collider or its thickness is pushed out at once.
-    const collision::Transform pose = c.motion ? c.motion(0.0) : c.curr;
+    collision::Collider at_start = c;
+    at_start.prev = at_start.curr = c.motion ? c.motion(0.0) : c.curr;
+    const collision::Aabb box = collision::swept_collider_box(at_start, c.thickness);
     for (size_t i = 0; i < s.cloths.size(); ++i) {
+      if (!box.overlaps(cloth_box[i])) continue;
       const cloth::Vec3s& x = s.cloths[i].mesh->rest_positions();
       double deepest = HUGE_VAL;
       int vertex = -1;
       for (int v = 0; v < static_cast<int>(x.size()); ++v) {
-        const double d = collision::signed_distance(c, pose, x[v], nullptr) - c.thickness;
+        if (!((x[v].array() >= box.lo.array()).all() && (x[v].array() <= box.hi.array()).all())) continue;
+        const double d = collision::signed_distance(c, at_start.curr, x[v], nullptr) - c.thickness;
         if (d < deepest) deepest = d, vertex = v;
       }
       if (vertex >= 0 && deepest < 0.0)
-        out.push_back("cloths[" + std::to_string(i) + "] starts inside " + at + " '" + c.name +
-                      "' or its thickness (vertex " + std::to_string(vertex) + ", " + fig(-deepest) +
-                      " m in)");
+        add("cloths[" + std::to_string(i) + "] starts inside " + at + " '" + c.name +
+            "' or its thickness (vertex " + std::to_string(vertex) + ", " + fig(-deepest) + " m in)");
     }
   }
 #ifdef LOOM_HAVE_CHARACTERS
   if (scene.character && scene.character->motion.settings().speed > kRegimeClipSpeed)
-    out.push_back("character.speed (" + fig(scene.character->motion.settings().speed) +
-                  " clip seconds per second; validated up to " + fig(kRegimeClipSpeed) + ")");
+    add("character.speed (" + fig(scene.character->motion.settings().speed) +
+        " clip seconds per second; validated up to " + fig(kRegimeClipSpeed) + ")");
 #endif
+  return out;
+}
+
+std::string divergence_suspects(const Scene& scene) {
+  std::vector<std::string> out;
+  for (const RegimeOutlier& o : regime_outliers(scene)) out.push_back(o.text);
+  const cloth::SimulationSetup& s = scene.setup;
+  const int substeps = s.substeps > 0 ? s.substeps : cloth::default_substeps(s.solver.method, s.frame_dt);
   if (out.empty())
     return "; no scene value is outside the validated regime: more solver.substeps (now " +
            std::to_string(substeps) + " per frame)" +

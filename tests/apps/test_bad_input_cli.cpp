@@ -694,6 +694,58 @@ TEST(BadInputCli, NumericOptionsRefuseNonFiniteAndMalformedNumbersByName) {
   }
 }
 
+// Every whole-number option takes exactly its digits (no space before or after, no '+') and states the
+// range it really accepts; a number outside it is a bad command line (exit 2; fabric-test 1), never an
+// error of the scene file.
+TEST(BadInputCli, WholeNumberOptionsTakeExactlyTheDigitsAndStateTheirRealRange) {
+  const fs::path dir = loom::test::test_dir();
+  const std::string scene = (dir / "scene.json").string();
+  std::ofstream(scene) << kValid;
+  const std::string csv =
+      std::string(LOOM_TEST_DATA) + "/ccd-sample-queries/erleben-spikes/vertex-face/data_0_0.csv";
+  struct Row {
+    std::string args, option, range;
+  };
+  const std::vector<Row> rows = {
+      {"run " + scene + " --frames ' 2'", "--frames", "[1, 10000000]"},
+      {"run " + scene + " --frames '2 '", "--frames", "[1, 10000000]"},
+      {"run " + scene + " --frames +2", "--frames", "[1, 10000000]"},
+      {"run " + scene + " --frames 50000000", "--frames", "[1, 10000000]"},
+      {"run " + scene + " --frames 100000001", "--frames", "[1, 10000000]"},
+      {"run " + scene + " --threads ' 1'", "--threads", "[1, 4096]"},
+      {"run " + scene + " --threads 0", "--threads", "[1, 4096]"},
+      {"run " + scene + " --threads 5000", "--threads", "[1, 4096]"},
+      {"run " + scene + " --checkpoint-every ' 1'", "--checkpoint-every", "[0, 10000000]"},
+      {"compare " + scene + " --frames ' 2'", "--frames", "[1, 10000000]"},
+      {"bench realtime --repeats ' 2'", "--repeats", "[1, 100]"},
+      {"bench realtime --sheet ' 12'", "--sheet", "[3, 512]"},
+      {"bench accuracy --repeats ' 2'", "--repeats", "[1, 4096]"},
+      {"bench accuracy --sizes ' 8'", "--sizes", "[3, 4096]"},
+      {"bench accuracy --threads '1 '", "--threads", "[1, 4096]"},
+      {"fabric-test cantilever --resolution ' 9'", "--resolution", "[5, 2000]"},
+      {"fabric-test cantilever --settle-frames +5", "--settle-frames", "[1, 10000000]"},
+      {"ccd-eval " + csv + " --scale-exp ' 3'", "--scale-exp", "[-200, 200]"},
+  };
+  for (const Row& row : rows) {
+    const loom::test::CliResult r = loom::test::run_loom(row.args);
+    if (r.err.find("unknown command") != std::string::npos) continue;  // a build without Bullet
+    EXPECT_EQ(r.code, row.args.rfind("fabric-test", 0) == 0 ? 1 : 2) << row.args << ": " << r.err;
+    EXPECT_NE(r.err.find(row.option), std::string::npos) << row.args << ": " << r.err;
+    EXPECT_NE(r.err.find("whole number"), std::string::npos) << row.args << ": " << r.err;
+    EXPECT_NE(r.err.find(row.range), std::string::npos) << row.args << ": " << r.err;
+    EXPECT_EQ(r.err.find(scene), std::string::npos) << row.args << ": " << r.err;  // not the scene's fault
+  }
+  // --frames 0 is the same command-line mistake with --resume (a resumed run simulates at least its
+  // checkpoint's frame).
+  const fs::path out = dir / "ck";
+  ASSERT_EQ(
+      loom::test::run_loom("run " + scene + " --frames 2 --checkpoint-every 1 --out " + out.string()).code,
+      0);
+  const loom::test::CliResult r = loom::test::run_loom("run --resume " + out.string() + " --frames 0");
+  EXPECT_EQ(r.code, 2) << r.err;
+  EXPECT_NE(r.err.find("--frames must be >= 1"), std::string::npos) << r.err;
+}
+
 // Every file Loom reads is a regular file of bounded size, however it is reached: a link to /dev/zero, a
 // folder or a pipe is refused by name before a byte is read (no hang, no unbounded read).
 TEST(BadInputCli, InputFilesThatAreNotRegularFilesAreRefusedBeforeReading) {

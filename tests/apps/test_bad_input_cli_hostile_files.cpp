@@ -59,6 +59,22 @@ std::string cape_scene(const fs::path& dir, const nlohmann::json& character) {
   return path.string();
 }
 
+// A COLLADA nested 20,000 deep inside a deflated .zae: `loom body` refuses the mesh and the clip by archive,
+// entry and line, exit 1.
+TEST(HostileFilesCli, DeepNestingInsideAnArchiveIsRefusedByEntryAndLine) {
+  const fs::path dir = test_dir();
+  const std::string zae = (dir / "deep.zae").string();
+  std::ofstream(zae, std::ios::binary) << zip({{"model.dae", deep_collada(20000)}}, 0, true);
+  const std::string problem = zae + ": model.dae, line 512: XML elements nest more than 512 levels deep";
+  auto r = run_loom("body " + zae + " " + std::string(LOOM_TEST_DATA) + "/mocap/arm_swing.bvh");
+  if (r.err.find("this build has no loom::characters") != std::string::npos) GTEST_SKIP() << r.err;
+  EXPECT_EQ(r.code, 1) << r.err;
+  EXPECT_NE(r.err.find(problem), std::string::npos) << r.err;
+  r = run_loom("body " + std::string(LOOM_TEST_DATA) + "/body/human.zae " + zae + " --seconds 0.05");
+  EXPECT_EQ(r.code, 1) << r.err;
+  EXPECT_NE(r.err.find(problem), std::string::npos) << r.err;
+}
+
 // A clip assimp reads as a mesh scene with null child nodes (RAW), and a COLLADA nested 20,000 deep: both
 // refused by the scene's `character.bvh` and by `loom body`'s clip argument, exit 1.
 TEST(HostileFilesCli, NonMotionAndDeeplyNestedClipsAreRefusedByField) {

@@ -3,8 +3,10 @@
 // under a linked `out`, a hard-linked manifest on --resume, an input listed by an earlier run's manifest, a
 // path a command writes that its pre-flight check did not see; and the command lines of fabric-test, compare
 // and body checked before any folder exists.
+#include <fcntl.h>
 #include <gtest/gtest.h>
 #include <signal.h>
+#include <sys/file.h>
 #include <sys/stat.h>
 #include <sys/wait.h>
 #include <unistd.h>
@@ -13,6 +15,7 @@
 #include <cstdio>
 #include <filesystem>
 #include <fstream>
+#include <map>
 #include <string>
 #include <thread>
 #include <vector>
@@ -241,6 +244,160 @@ TEST(HostileOutputPaths, FabricTestAndCompareCheckTheirCommandLineBeforeTheFolde
     EXPECT_NE(e.find("--out: is an empty string"), std::string::npos) << cmd << ": " << e;
     EXPECT_FALSE(fs::exists(dir / "out")) << cmd;
   }
+}
+
+// Every file below `dir` with its bytes (links and folders by name).
+std::map<std::string, std::string> snapshot(const fs::path& dir) {
+  std::map<std::string, std::string> files;
+  for (const auto& e : fs::recursive_directory_iterator(dir)) {
+    const std::string rel = e.path().lexically_relative(dir).string();
+    files[rel] = e.is_symlink() ? "link" : e.is_directory() ? "folder" : slurp(e.path());
+  }
+  return files;
+}
+
+// Two commands never share an output folder: each holds an exclusive lock (flock) on the folder from before
+// it reads anything there. A folder another process holds is refused by name, exit 1, before any file in it
+// is read, deleted or written, whatever the command and whatever --overwrite says.
+TEST(HostileOutputPaths, AFolderInUseByAnotherCommandIsRefusedAndLeftAsItWas) {
+  const fs::path dir = test_dir(), out = dir / "busy";
+  const std::string scene = write_scene(dir);
+  ASSERT_EQ(run_loom("run " + scene + " --frames 2 --checkpoint-every 1 --out " + out.string()).code, 0);
+  std::ofstream(out / "notes.txt") << "user data";
+  const auto before = snapshot(out);
+  const int fd = ::open(out.c_str(), O_RDONLY | O_DIRECTORY | O_CLOEXEC);
+  ASSERT_GE(fd, 0);
+  ASSERT_EQ(::flock(fd, LOCK_EX | LOCK_NB), 0);
+  const std::string o = " --out " + out.string();
+  for (const std::string& args : std::vector<std::string>{
+           "run " + scene + " --frames 2" + o, "run " + scene + " --frames 2 --overwrite" + o,
+           "run --resume " + out.string() + " --frames 3", "compare " + scene + " --frames 2 --overwrite" + o,
+           "fabric-test catenary --overwrite" + o, "bench accuracy --quick --methods verlet --overwrite" + o,
+           "bench realtime --quick --scenes sheet --overwrite" + o}) {
+    const auto r = run_loom(args);
+    if (r.err.find("unknown command") != std::string::npos) continue;  // a build without Bullet
+    EXPECT_EQ(r.code, 1) << args << ": " << r.err;
+    EXPECT_NE(r.err.find(out.string() + ": in use by another loom command"), std::string::npos)
+        << args << ": " << r.err;
+    EXPECT_EQ(snapshot(out), before) << args;
+  }
+  ::close(fd);  // released: the folder is Loom's again
+  EXPECT_EQ(run_loom("run " + scene + " --frames 2" + o).code, 0);
+}
+
+// `loom compare` never replaces its own inputs: a scene or a mesh that is (by device and inode) a file
+// compare writes is refused, with --overwrite or not, as is one an earlier compare listed (deleted first).
+TEST(HostileOutputPaths, CompareNeverReplacesItsOwnSceneOrMesh) {
+  const fs::path dir = test_dir();
+  const std::string text = kScene;
+  // The scene at DIR/compare.json, --overwrite.
+  const fs::path cx = dir / "cx";
+  fs::create_directories(cx);
+  std::ofstream(cx / "compare.json") << text;
+  auto r =
+      run_loom("compare " + (cx / "compare.json").string() + " --frames 2 --overwrite --out " + cx.string());
+  if (r.err.find("unknown command") != std::string::npos) GTEST_SKIP() << "built without Bullet";
+  EXPECT_EQ(r.code, 1) << r.err;
+  EXPECT_NE(r.err.find((cx / "compare.json").string() + ": --out: is an input"), std::string::npos) << r.err;
+  EXPECT_EQ(slurp(cx / "compare.json"), text);
+  EXPECT_FALSE(fs::exists(cx / "compare.csv"));
+  // The scene where an earlier compare wrote compare.json, no --overwrite needed to reach it.
+  const fs::path cx4 = dir / "cx4";
+  const std::string scene = write_scene(dir);
+  ASSERT_EQ(run_loom("compare " + scene + " --frames 2 --out " + cx4.string()).code, 0);
+  fs::remove(cx4 / "compare.json");
+  std::ofstream(cx4 / "compare.json") << text;
+  r = run_loom("compare " + (cx4 / "compare.json").string() + " --frames 2 --out " + cx4.string());
+  EXPECT_EQ(r.code, 1) << r.err;
+  EXPECT_NE(r.err.find("is an input"), std::string::npos) << r.err;
+  EXPECT_EQ(slurp(cx4 / "compare.json"), text);
+  // A cloth mesh at DIR/compare.csv.
+  const fs::path cx5 = dir / "cx5";
+  fs::create_directories(cx5);
+  const std::string obj = "v 0 1 0\nv 1 1 0\nv 0 1 1\nv 1 1 1\nf 1 2 4\nf 1 4 3\n";
+  std::ofstream(cx5 / "compare.csv") << obj;
+  r = run_loom(
+      "compare " + scene + " --frames 2 --overwrite --out " + cx5.string() +
+      " --set 'cloths[0].mesh={\"type\":\"obj\",\"path\":\"cx5/compare.csv\"}' --set 'cloths[0].pins=[]'");
+  EXPECT_EQ(r.code, 1) << r.err;
+  EXPECT_NE(r.err.find("compare.csv: --out: is an input"), std::string::npos) << r.err;
+  EXPECT_EQ(slurp(cx5 / "compare.csv"), obj);
+}
+
+// `loom bench realtime` collects its inputs too: a collider mesh of a benchmark scene at the path of a file
+// the benchmark writes is refused before anything runs.
+TEST(HostileOutputPaths, BenchRealtimeNeverReplacesAMeshItReads) {
+  const fs::path dir = test_dir(), lsc = dir / "lsc";
+  fs::create_directories(lsc);
+  std::string toy = slurp(fs::path(LOOM_SOURCE_DIR) / "scenes" / "toy_box.json");
+  const size_t at = toy.find("\"quality\"");
+  ASSERT_NE(at, std::string::npos);
+  toy.insert(at,
+             "\"colliders\": [{\"name\": \"tri\", \"shape\": \"mesh\", \"obj\": \"toy_box_realtime.dat\", "
+             "\"position\": [50, -10, 50]}],\n  ");
+  std::ofstream(lsc / "toy_box.json") << toy;
+  const std::string mesh = "v 0 0 0\nv 1 0 0\nv 0 0 1\nf 1 2 3\n";
+  std::ofstream(lsc / "toy_box_realtime.dat") << mesh;
+  const std::string line = "LOOM_SCENES=" + lsc.string() + " " + LOOM_BINARY +
+                           " bench realtime --quick --scenes toy_box --overwrite --out " + lsc.string() +
+                           " >" + (dir / "o.txt").string() + " 2>" + (dir / "e.txt").string();
+  const int status = std::system(line.c_str());
+  const std::string e = slurp(dir / "e.txt");
+  if (e.find("unknown command") != std::string::npos) GTEST_SKIP() << "built without Bullet";
+  EXPECT_EQ(WEXITSTATUS(status), 1) << e;
+  EXPECT_NE(e.find((lsc / "toy_box_realtime.dat").string()), std::string::npos) << e;
+  EXPECT_NE(e.find("is an input"), std::string::npos) << e;
+  EXPECT_EQ(slurp(lsc / "toy_box_realtime.dat"), mesh);
+}
+
+// The output folder the user named is printed with its control characters as \xNN in every success
+// message: an escape sequence or a newline in --out never reaches the terminal raw.
+TEST(HostileOutputPaths, SuccessMessagesShowTheOutputFolderEscaped) {
+  const fs::path dir = test_dir();
+  const std::string scene = write_scene(dir);
+  const std::string odd = "r\x1b[2Jx\ny";
+  struct Row {
+    std::string args, printed;
+  };
+  for (const Row& row : std::vector<Row>{
+           {"compare " + scene + " --frames 2 --out '" + (dir / (odd + "c")).string() + "'", "wrote"},
+           {"bench accuracy --quick --methods verlet --sizes 8 --threads 1 --out '" +
+                (dir / (odd + "b")).string() + "'",
+            "wrote"},
+           {"run " + scene + " --frames 2 --render --out '" + (dir / (odd + "r")).string() + "'",
+            "rendered"}}) {
+    const auto r = run_loom(row.args);
+    if (r.err.find("unknown command") != std::string::npos ||
+        r.err.find("without the offscreen renderer") != std::string::npos ||
+        r.err.find("ffmpeg not found") != std::string::npos)
+      continue;
+    EXPECT_EQ(r.code, 0) << row.args << ": " << r.err;
+    EXPECT_EQ(r.out.find('\x1b'), std::string::npos) << row.args << ": " << r.out;
+    EXPECT_NE(r.out.find("r\\x1b[2Jx\\x0ay"), std::string::npos) << row.args << ": " << r.out;
+    EXPECT_NE(r.out.find(row.printed), std::string::npos) << row.args << ": " << r.out;
+    EXPECT_EQ(r.out.find("\ny"), std::string::npos) << row.args << ": " << r.out;  // no line broken by it
+  }
+}
+
+// A render (OSMesa) writes nothing outside its output folder: Mesa's shader cache, kept in $XDG_CACHE_HOME or
+// ~/.cache, is off.
+TEST(HostileOutputPaths, ARenderWritesNoShaderCache) {
+  const fs::path dir = test_dir(), cache = dir / "xdg_cache", home = dir / "home";
+  fs::create_directories(cache);
+  fs::create_directories(home);
+  const std::string scene = write_scene(dir);
+  const std::string line = "XDG_CACHE_HOME=" + cache.string() + " HOME=" + home.string() + " " + LOOM_BINARY +
+                           " run " + scene + " --frames 2 --render --out " + (dir / "out").string() + " >" +
+                           (dir / "o.txt").string() + " 2>" + (dir / "e.txt").string();
+  const int status = std::system(line.c_str());
+  const std::string e = slurp(dir / "e.txt");
+  if (e.find("without the offscreen renderer") != std::string::npos ||
+      e.find("ffmpeg not found") != std::string::npos)
+    GTEST_SKIP() << e;
+  EXPECT_EQ(WEXITSTATUS(status), 0) << e;
+  EXPECT_FALSE(fs::is_empty(dir / "out" / "render")) << e;
+  EXPECT_EQ(count_entries(cache), 0u);
+  EXPECT_EQ(count_entries(home), 0u);
 }
 
 }  // namespace

@@ -2,12 +2,14 @@
 // and what is wrong, before or after assimp reads it, never by a crash, a hang or unbounded memory.
 #include <gtest/gtest.h>
 
+#include <algorithm>
 #include <cstdint>
 #include <fstream>
 #include <functional>
 #include <string>
 #include <vector>
 
+#include "../../characters/src/AssimpInput.h"  // the import's XML depth scan (private header)
 #include "CharacterTestUtil.h"
 #include "HostileFiles.h"
 #include "TestDir.h"
@@ -21,61 +23,12 @@ using loom::characters::Motion;
 using loom::characters::MotionSettings;
 using loom::test::deep_collada;
 using loom::test::error_of;
+using loom::test::zip;
 
 std::string write(const std::string& name, const std::string& text) {
   const std::string path = (loom::test::test_dir() / name).string();
   std::ofstream(path, std::ios::binary) << text;
   return path;
-}
-
-// A zip archive (PKWARE APPNOTE 6.3: local headers, central directory, end record) storing `files`
-// uncompressed; `claimed` (if not 0) is the unpacked size the central directory gives for each entry.
-std::string zip(const std::vector<std::pair<std::string, std::string>>& files, std::uint32_t claimed = 0) {
-  auto crc32 = [](const std::string& s) {
-    std::uint32_t c = 0xffffffffu;
-    for (unsigned char b : s) {
-      c ^= b;
-      for (int k = 0; k < 8; ++k) c = (c >> 1) ^ (0xedb88320u & (0u - (c & 1u)));
-    }
-    return ~c;
-  };
-  auto u16 = [](std::string& o, std::uint32_t v) { o += {char(v & 0xff), char((v >> 8) & 0xff)}; };
-  auto u32 = [&](std::string& o, std::uint32_t v) {
-    u16(o, v & 0xffff);
-    u16(o, v >> 16);
-  };
-  std::string out, dir;
-  for (const auto& [name, data] : files) {
-    const std::uint32_t offset = static_cast<std::uint32_t>(out.size()), crc = crc32(data);
-    const std::uint32_t size = static_cast<std::uint32_t>(data.size());
-    out += "PK\x03\x04";
-    for (std::uint32_t v : {20u, 0u, 0u, 0u, 0u}) u16(out, v);  // version, flags, stored, time, date
-    u32(out, crc);
-    u32(out, size);
-    u32(out, size);
-    u16(out, static_cast<std::uint32_t>(name.size()));
-    u16(out, 0);
-    out += name + data;
-    dir += "PK\x01\x02";
-    for (std::uint32_t v : {20u, 20u, 0u, 0u, 0u, 0u}) u16(dir, v);
-    u32(dir, crc);
-    u32(dir, size);
-    u32(dir, claimed ? claimed : size);
-    u16(dir, static_cast<std::uint32_t>(name.size()));
-    for (std::uint32_t v : {0u, 0u, 0u, 0u}) u16(dir, v);
-    u32(dir, 0);
-    u32(dir, offset);
-    dir += name;
-  }
-  const std::uint32_t at = static_cast<std::uint32_t>(out.size());
-  out += dir + "PK\x05\x06";
-  for (std::uint32_t v : {0u, 0u}) u16(out, v);
-  u16(out, static_cast<std::uint32_t>(files.size()));
-  u16(out, static_cast<std::uint32_t>(files.size()));
-  u32(out, static_cast<std::uint32_t>(dir.size()));
-  u32(out, at);
-  u16(out, 0);
-  return out;
 }
 
 // assimp reads a RAW file as a mesh scene (no skeleton): as a clip it is refused by its extension, and as
@@ -158,13 +111,66 @@ TEST(HostileFiles, ArchivesCountWhatTheyUnpackTo) {
   EXPECT_GT(body.triangles.size(), 1000u);
 }
 
-// Nesting the pre-scan does not see (XML inside an archive) is read on the reader's large stack and refused
-// by the node depth, not by a crash.
-TEST(HostileFiles, DeepNestingInsideAnArchiveIsRefusedNotACrash) {
-  const std::string zae = write("deep.zae", zip({{"deep.dae", deep_collada(20000)}}));
+// XML inside an archive is scanned as its entries are inflated (stored or deflated, whatever the entry's
+// name if its text starts with '<'): a COLLADA nested 20,000 deep is refused by the archive, the entry and
+// the line before assimp reads it. An archive of a shallow one, a PNG-like binary entry full of '<' beside
+// it, still reaches assimp, and the body mesh (a deflated .zae with a PNG texture) loads.
+TEST(HostileFiles, DeepNestingInsideAnArchiveIsRefusedByEntryAndLine) {
+  for (const bool deflated : {false, true}) {
+    for (const char* entry : {"deep.dae", "scene/model.bin"}) {
+      const std::string zae =
+          write(std::string("deep") + (deflated ? "_z" : "") + ".zae",
+                zip({{"notes.txt", "no markup here"}, {entry, deep_collada(20000)}}, 0, deflated));
+      const std::string e = error_of([&] { Motion::load(zae); });
+      EXPECT_NE(e.find(zae + ": " + entry + ", line 512: XML elements nest more than 512 levels deep"),
+                std::string::npos)
+          << e;
+      const std::string mesh_error = error_of([&] { loom::characters::load_static_mesh(zae); });
+      EXPECT_NE(mesh_error.find(zae + ": " + entry + ", line 512"), std::string::npos) << mesh_error;
+    }
+    std::string binary(200000, '<');
+    binary[0] = '\x89';
+    const std::string shallow =
+        write("shallow.zae", zip({{"a.dae", deep_collada(3)}, {"t.png", binary}}, 0, deflated));
+    const std::string e = error_of([&] { loom::characters::load_static_mesh(shallow); });
+    EXPECT_EQ(e.find("nest more than"), std::string::npos) << e;
+  }
+  // UTF-16 entries are scanned by their code units' low bytes.
+  std::string wide;
+  for (char c : deep_collada(600)) wide += {c, '\0'};
+  const std::string zae = write("wide.zae", zip({{"w.dae", "\xFF\xFE" + wide}}, 0, true));
   const std::string e = error_of([&] { Motion::load(zae); });
-  EXPECT_NE(e.find(zae + ": "), std::string::npos) << e;
-  EXPECT_NE(e.find("nest more than"), std::string::npos) << e;
+  EXPECT_NE(e.find(zae + ": w.dae, line 512: XML elements nest more than 512 levels deep"), std::string::npos)
+      << e;
+  const auto body = loom::characters::load_static_mesh(std::string(LOOM_TEST_DATA) + "/body/human.zae");
+  EXPECT_GT(body.triangles.size(), 1000u);
+}
+
+// The streaming scan finds what the whole-text scan finds, whatever the pieces' sizes: markup cut anywhere
+// (a comment's or CDATA's end, a quoted '>', a self-closing tag) is still seen.
+TEST(HostileFiles, TheXmlDepthScanIsTheSameInPiecesOfAnySize) {
+  std::string text = "<?xml version='1.0'?>\n<!DOCTYPE a [<!ENTITY x '<b>'>]>\n<a>";
+  for (int k = 0; k < 40; ++k)
+    text += "\n<!-- <c><c> --><![CDATA[<d><d>]]><e attr='>' other=\"<e>\"><f/><g></g>";
+  const auto scan_in = [&](std::size_t piece, int max_depth) {
+    loom::characters::XmlDepthScan scan(max_depth);
+    for (std::size_t at = 0; at < text.size(); at += piece)
+      if (!scan.feed(text.data() + at, std::min(piece, text.size() - at))) break;
+    if (!scan.too_deep()) scan.finish();
+    return std::make_pair(scan.too_deep() ? long(scan.offset()) : -1L, scan.line());
+  };
+  for (const int max_depth : {8, 41, 42, 100}) {
+    const long whole = loom::characters::xml_too_deep(text, max_depth);
+    EXPECT_EQ(whole >= 0, max_depth < 42) << max_depth;  // <a>, 40 <e> levels and the last <g>
+    for (const std::size_t piece :
+         {std::size_t(1), std::size_t(2), std::size_t(3), std::size_t(7), std::size_t(64), text.size()}) {
+      const auto [offset, line] = scan_in(piece, max_depth);
+      EXPECT_EQ(offset, whole) << max_depth << " " << piece;
+      if (whole >= 0) {
+        EXPECT_EQ(line, std::uint64_t(1 + std::count(text.begin(), text.begin() + whole, '\n')));
+      }
+    }
+  }
 }
 
 }  // namespace

@@ -148,6 +148,15 @@ TEST(Aero, SettingsOutOfRangeNameTheField) {
   s = WindSettings{};
   s.swing_axis = Vec3::Zero();
   EXPECT_NE(message(s).find("effects.wind.swing.axis"), std::string::npos);
+  // An axis whose length underflows or overflows still has a direction: accepted, made unit.
+  for (const Vec3& axis : {Vec3(1e-300, 0, 0), Vec3(1e300, 1e300, 0)}) {
+    s = WindSettings{};
+    s.swing_axis = axis;
+    EXPECT_EQ(message(s), "") << axis.transpose();
+    s.validate("scene.json", "effects.wind");
+    const Vec3 direction = (axis / axis.cwiseAbs().maxCoeff()).normalized();
+    EXPECT_NEAR((s.swing_axis - direction).norm(), 0.0, 1e-15);
+  }
   EXPECT_EQ(message(WindSettings{}), "");
   // The Simulation checks them too (an API caller gets the same message).
   SimulationSetup setup = test::hanging_sheet(5);

@@ -264,6 +264,28 @@ TEST(ColliderDistance, SegmentBoxTakesTheShortestWayOut) {
   EXPECT_NEAR(s, 1.0, 1e-12);
 }
 
+// A cloth edge slid 1.5 cm into a wall 5 mm above the wall's bottom face: the shortest way out is down
+// (5 mm), but the edge came from the side, so with its past it leaves sideways, also when the wall moved
+// onto it.
+TEST(ColliderDistance, SegmentBoxLeavesOnTheSideItCameFrom) {
+  const Collider wall = make(ShapeType::box, 0, 0, Vec3(0.05, 0.2, 0.3));
+  const Transform id = Transform::Identity();
+  const Vec3 a(-0.035, -0.195, 0), b(-0.075, -0.195, 0);
+  double s = -1.0;
+  Vec3 n;
+  EXPECT_NEAR(segment_box_edges_distance(wall, id, a, b, &s, &n), -0.005, 1e-12);
+  EXPECT_NEAR((n - Vec3(0, -1, 0)).norm(), 0.0, 1e-12);
+  const SegmentPast slid{a - Vec3(0.03, 0, 0), b - Vec3(0.03, 0, 0), id};
+  EXPECT_NEAR(segment_box_edges_distance(wall, id, a, b, &s, &n, &slid), -0.015, 1e-12);
+  EXPECT_NEAR((n - Vec3(-1, 0, 0)).norm(), 0.0, 1e-12);
+  EXPECT_EQ(s, 0.0);  // the end inside is the vertex phase's
+  Transform before = id;
+  before.translation() = Vec3(0.03, 0, 0);
+  const SegmentPast wall_moved{a, b, before};
+  EXPECT_NEAR(segment_box_edges_distance(wall, id, a, b, &s, &n, &wall_moved), -0.015, 1e-12);
+  EXPECT_NEAR((n - Vec3(-1, 0, 0)).norm(), 0.0, 1e-12);
+}
+
 // For random segments through a posed box: moving the segment by the returned depth along the returned
 // normal takes every point of it out of the box, and that depth is no more than the way out along any face
 // normal.

@@ -6,12 +6,14 @@
 #include <cstring>
 #include <filesystem>
 #include <fstream>
+#include <nlohmann/json.hpp>
 #include <sstream>
 
 #include "SymplecticSetup.h"
 #include "loom/cloth/Error.h"
 #include "loom/cloth/Simulation.h"
 #include "loom/export/Exporters.h"
+#include "loom/export/GltfWriter.h"
 #include "loom/export/Pc2.h"
 
 #ifdef LOOM_HAVE_TINYGLTF
@@ -156,14 +158,39 @@ TEST(Pc2, ReaderRejectsMalformedFiles) {
 
 #ifdef LOOM_HAVE_TINYGLTF
 
+// The elements of accessor `index`, decoded as glTF 2.0 asks: the bufferView's data (zeros without one),
+// then a sparse accessor's values substituted at its (strictly increasing, uint32 here) indices.
 template <class T>
 std::vector<T> accessor_data(const tinygltf::Model& m, int index, int components) {
   const tinygltf::Accessor& a = m.accessors.at(index);
-  const tinygltf::BufferView& v = m.bufferViews.at(a.bufferView);
-  const tinygltf::Buffer& b = m.buffers.at(v.buffer);
-  std::vector<T> out(a.count * components);
-  EXPECT_EQ(v.byteStride, 0u);  // tightly packed
-  std::memcpy(out.data(), b.data.data() + v.byteOffset + a.byteOffset, out.size() * sizeof(T));
+  std::vector<T> out(a.count * components, T(0));
+  const auto bytes_of = [&](int view, size_t offset, size_t bytes) {
+    const tinygltf::BufferView& v = m.bufferViews.at(view);
+    const tinygltf::Buffer& b = m.buffers.at(v.buffer);
+    EXPECT_EQ(v.byteStride, 0u);  // tightly packed
+    EXPECT_LE(offset + bytes, v.byteLength);
+    EXPECT_LE(v.byteOffset + v.byteLength, b.data.size());
+    return b.data.data() + v.byteOffset + offset;
+  };
+  if (a.bufferView >= 0)
+    std::memcpy(out.data(), bytes_of(a.bufferView, a.byteOffset, out.size() * sizeof(T)),
+                out.size() * sizeof(T));
+  if (a.sparse.isSparse) {
+    const size_t n = static_cast<size_t>(a.sparse.count);
+    EXPECT_EQ(a.sparse.indices.componentType, TINYGLTF_COMPONENT_TYPE_UNSIGNED_INT);
+    std::vector<uint32_t> idx(n);
+    std::vector<T> values(n * components);
+    std::memcpy(idx.data(), bytes_of(a.sparse.indices.bufferView, a.sparse.indices.byteOffset, 4 * n), 4 * n);
+    std::memcpy(values.data(),
+                bytes_of(a.sparse.values.bufferView, a.sparse.values.byteOffset, values.size() * sizeof(T)),
+                values.size() * sizeof(T));
+    for (size_t i = 0; i < n; ++i) {
+      EXPECT_TRUE(i == 0 || idx[i] > idx[i - 1]) << "sparse indices must strictly increase";
+      EXPECT_LT(idx[i], a.count);
+      if (idx[i] >= a.count) continue;
+      for (int c = 0; c < components; ++c) out[idx[i] * components + c] = values[i * components + c];
+    }
+  }
   return out;
 }
 
@@ -243,6 +270,68 @@ TEST(Gltf, MorphAnimationMatchesSimulatedPositions) {
       for (size_t j = 0; j < 6; ++j) EXPECT_EQ(w[k * 6 + j], k >= 1 && j == k - 1 ? 1.0f : 0.0f);
     }
   }
+}
+
+// A GltfWriter run of `frames` frames of a one-triangle mesh whose vertices move every frame.
+fs::path write_triangle_animation(const fs::path& dir, int frames) {
+  AnimatedMesh mesh;
+  mesh.name = "tri";
+  mesh.vertices = 3;
+  mesh.triangles = {cloth::Tri{0, 1, 2}};
+  GltfWriter w((dir / "anim.gltf").string(), {mesh});
+  for (int f = 0; f < frames; ++f) {
+    const Vec3s x = {Vec3(0.0, 0.001 * f, 0.0), Vec3(1.0, 0.0, 0.002 * f), Vec3(0.0, 1.0, -0.001 * f)};
+    w.add_frame(f / 30.0, {&x});
+  }
+  w.finish();
+  return dir / "anim.gltf";
+}
+
+// The one-hot animation weights are a sparse accessor over zeros, so the buffer grows linearly with the
+// frames: base (36 B) + indices (12 B) + per later frame a target (36 B), and per frame a time, a sparse
+// index and a value (12 B). Doubling the frames roughly doubles the buffer, a dense keys x targets weights
+// array (160 kB at 200 frames, 640 kB at 400) would quadruple it.
+TEST(Gltf, AnimationWeightsAreASparseAccessorSoTheBufferGrowsLinearly) {
+  std::uintmax_t bin[2];
+  for (int i = 0; i < 2; ++i) {
+    const int frames = 200 * (i + 1);
+    const fs::path dir = fresh_dir("gltf_sparse_" + std::to_string(frames));
+    const fs::path gltf = write_triangle_animation(dir, frames);
+    bin[i] = fs::file_size(dir / "anim.bin");
+    EXPECT_EQ(bin[i], 36u + 12u + 36u * (frames - 1) + 12u * frames - 8u);
+
+    const auto j = nlohmann::json::parse(std::ifstream(gltf));
+    const int out = j["animations"][0]["samplers"][0]["output"];
+    const auto& a = j["accessors"][out];
+    EXPECT_FALSE(a.contains("bufferView"));  // all zeros before the sparse substitution
+    EXPECT_EQ(a["componentType"], 5126);
+    EXPECT_EQ(a["type"], "SCALAR");
+    EXPECT_EQ(a["count"], frames * (frames - 1));
+    ASSERT_TRUE(a.contains("sparse"));
+    EXPECT_EQ(a["sparse"]["count"], frames - 1);
+    EXPECT_EQ(a["sparse"]["indices"]["componentType"], 5125);
+    for (const char* part : {"indices", "values"}) {
+      const auto& v = j["bufferViews"][a["sparse"][part]["bufferView"].get<int>()];
+      EXPECT_EQ(v["byteLength"], 4 * (frames - 1)) << part;
+      EXPECT_FALSE(v.contains("target")) << part;  // glTF: sparse views carry no target
+      EXPECT_EQ(v["byteOffset"].get<size_t>() % 4, 0u) << part;
+    }
+    EXPECT_EQ(j["buffers"][0]["byteLength"], bin[i]);
+
+    // Decoded, the weights are the identity pattern: key k weights target k-1 by 1, all else 0.
+    const tinygltf::Model m = load_gltf(gltf);
+    const std::vector<float> w = accessor_data<float>(m, out, 1);
+    const size_t targets = frames - 1;
+    ASSERT_EQ(w.size(), size_t(frames) * targets);
+    for (size_t k = 0; k < size_t(frames); ++k)
+      for (size_t t = 0; t < targets; ++t)
+        ASSERT_EQ(w[k * targets + t], k >= 1 && t == k - 1 ? 1.0f : 0.0f) << k << " " << t;
+    // And every key still reproduces its frame.
+    const Vec3s last = gltf_positions(m, 0, frames - 2.0);
+    EXPECT_NEAR(last[0].y(), 0.001 * (frames - 1), 1e-6);
+    EXPECT_NEAR(last[2].z(), -0.001 * (frames - 1), 1e-6);
+  }
+  EXPECT_LT(double(bin[1]) / double(bin[0]), 2.1);
 }
 
 // `loom run` with every format: PC2 samples and glTF keys equal the OBJ frames of the same run.

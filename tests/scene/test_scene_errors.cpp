@@ -259,13 +259,17 @@ INSTANTIATE_TEST_SUITE_P(AllCases, SceneErrors, ::testing::ValuesIn(kCases),
                            return std::string(info.param.name);
                          });
 
-// A list of colliders or bodies past the scene bound is refused by its count before anything is built
-// (each collider is tested against every cloth each step).
-TEST(Scene, CollidersAndBodiesPastTheBoundAreRefusedByCount) {
+// A list of colliders, bodies or cloths past the scene bound is refused by its count before anything is
+// built (each collider is tested against every cloth each step; each cloth is a solver and output files).
+TEST(Scene, CollidersBodiesAndClothsPastTheBoundAreRefusedByCount) {
   for (const auto& [key, entry, limit] :
        {std::tuple<std::string, std::string, size_t>{
             "colliders", R"({"shape": "sphere", "position": [0, -1, 0], "radius": 0.01})", kMaxColliders},
-        {"bodies", R"({"shape": "sphere", "radius": 0.01, "position": [0, -1, 0]})", kMaxBodies}}) {
+        {"bodies", R"({"shape": "sphere", "radius": 0.01, "position": [0, -1, 0]})", kMaxBodies},
+        {"cloths",
+         R"({"mesh": {"type": "grid", "size": [0.1, 0.1], "nodes": [2, 2]}, "material": {"preset": "cotton"},
+             "mass": 0.01})",
+         kMaxCloths}}) {
     for (const size_t count : {limit, limit + 1}) {
       std::string list = "[";
       for (size_t i = 0; i < count; ++i) list += (i ? "," : "") + entry;

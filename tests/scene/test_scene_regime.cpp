@@ -119,6 +119,22 @@ TEST(SceneRegime, FastCollidersAndClothsStartingInsideOneAreNamed) {
   EXPECT_NE(slow.find("no scene value is outside the validated regime"), std::string::npos) << slow;
 }
 
+// A scene outside the regime gets one retry of a failed frame unless it sets guard.max_halvings; inside it,
+// or outside it only by values per solver step, the default five.
+TEST(SceneRegime, ASceneOutsideTheRegimeRetriesAFrameOnceUnlessItSaysOtherwise) {
+  auto halvings = [](const std::vector<std::string>& overrides) {
+    nlohmann::json j = nlohmann::json::parse(kSheet);
+    for (const std::string& o : overrides) scene::apply_override(j, o, "sheet.json");
+    return scene::parse_scene(j, "sheet.json").setup.guard.max_halvings;
+  };
+  EXPECT_EQ(halvings({}), 5);
+  EXPECT_EQ(halvings({"gravity=[0,-200,0]"}), scene::kRegimeOutsideHalvings);
+  EXPECT_EQ(halvings({"gravity=[0,-200,0]", "guard.max_halvings=4"}), 4);
+  EXPECT_EQ(halvings({"guard.max_halvings=0"}), 0);
+  // An explicit step's Courant number past 1 is what more substeps cure: the retries stay.
+  EXPECT_EQ(halvings({"cloths[0].material.stretch=1e7"}), 5);
+}
+
 // The regime is what the bundled scenes stay inside: none of them is reported.
 TEST(SceneRegime, NoBundledSceneIsOutsideTheRegime) {
   int loaded = 0;

@@ -16,6 +16,7 @@
 
 #include "AccuracyBenchInternal.h"
 #include "loom/cloth/Error.h"
+#include "loom/cloth/HiddenText.h"
 #include "loom/cloth/InputFile.h"
 #include "loom/cloth/OutputFile.h"
 #include "loom/eval/AccuracyPlot.h"
@@ -246,7 +247,7 @@ bool write_results(const AccuracyOptions& o, OutputFolder& folder, const std::ve
   OutputFile rf(folder.claim("reference_check.csv"));
   rf << refs.str();
   if (!csv || !rf) {
-    std::cerr << "loom: error: " << o.out << ": cannot write the results\n";
+    std::cerr << "loom: error: " << show_hidden(o.out) << ": cannot write the results\n";
     return false;
   }
   return true;
@@ -286,7 +287,8 @@ int bench_accuracy(const AccuracyOptions& o) {
   OutputFolder folder(
       o.out, "--out", o.overwrite, false,
       {"accuracy.csv", "reference_check.csv", "accuracy.png", "accuracy.png.tmp", "accuracy_#.dat",
-       "accuracy_#.gp", "accuracy_#.png"});  // refuses a folder Loom did not write
+       "accuracy_#.gp", "accuracy_#.png"},
+      {});  // refuses a folder Loom did not write; the benchmark's scenes are built in code (no input file)
   std::vector<Row> rows;
   std::ostringstream refs;
   refs << "size,ref_substeps,check_substeps,ref_change,smallest_error,ratio,passed,ref_max_strain\n";
@@ -331,8 +333,9 @@ int bench_accuracy(const AccuracyOptions& o) {
   }
   run_static_scenes(o, registered, rows);
   if (!write_results(o, folder, rows, refs)) return 1;
-  std::printf("wrote %s/accuracy.csv, %s/reference_check.csv, %s/accuracy.png\n", o.out.c_str(),
-              o.out.c_str(), o.out.c_str());
+  const std::string shown = show_hidden(o.out);  // the user's path, control characters as \xNN
+  std::printf("wrote %s/accuracy.csv, %s/reference_check.csv, %s/accuracy.png\n", shown.c_str(),
+              shown.c_str(), shown.c_str());
   return 0;
 }
 
@@ -371,8 +374,11 @@ bool parse_list(const std::string& s, std::vector<int>& out, int min) {
   std::string item;
   while (std::getline(ss, item, ',')) {
     char* end = nullptr;
+    // Exactly the digits: strtol alone would take " 2" (leading white space) or "+2".
+    if (item.empty() || item.size() > 9 || item.find_first_not_of("0123456789") != std::string::npos)
+      return false;
     const long v = std::strtol(item.c_str(), &end, 10);
-    if (item.empty() || *end || v < min || v > 4096) return false;
+    if (*end || v < min || v > 4096) return false;
     out.push_back(static_cast<int>(v));
   }
   return !out.empty();
@@ -386,7 +392,8 @@ int bench_main(int argc, char** argv) {
     return argc < 3 ? 2 : 0;
   }
   if (std::strcmp(argv[2], "accuracy") != 0) {
-    std::fprintf(stderr, "loom: error: unknown benchmark '%s' (see loom bench --help)\n", argv[2]);
+    std::fprintf(stderr, "loom: error: unknown benchmark '%s' (see loom bench --help)\n",
+                 loom::show_hidden(argv[2]).c_str());
     return 2;
   }
   AccuracyOptions o;
@@ -413,8 +420,8 @@ int bench_main(int argc, char** argv) {
       if (!parse_list(v, o.sizes, 3)) {
         std::fprintf(
             stderr,
-            "loom: error: --sizes expects a comma-separated list of integers in [3, 4096], got '%s'\n",
-            v.c_str());
+            "loom: error: --sizes expects a comma-separated list of whole numbers in [3, 4096], got '%s'\n",
+            loom::show_hidden(v).c_str());
         return 2;
       }
       sizes_given = true;
@@ -423,8 +430,8 @@ int bench_main(int argc, char** argv) {
       if (!parse_list(v, o.threads, 1)) {
         std::fprintf(
             stderr,
-            "loom: error: --threads expects a comma-separated list of integers in [1, 4096], got '%s'\n",
-            v.c_str());
+            "loom: error: --threads expects a comma-separated list of whole numbers in [1, 4096], got '%s'\n",
+            loom::show_hidden(v).c_str());
         return 2;
       }
     } else if (a == "--methods") {
@@ -448,8 +455,8 @@ int bench_main(int argc, char** argv) {
         if (std::find(known.begin(), known.end(), m) == known.end()) {
           std::string list;
           for (const auto& k : known) list += (list.empty() ? "" : ", ") + k;
-          std::fprintf(stderr, "loom: error: --methods: unknown method '%s' (known: %s)\n", m.c_str(),
-                       list.c_str());
+          std::fprintf(stderr, "loom: error: --methods: unknown method '%s' (known: %s)\n",
+                       loom::show_hidden(m).c_str(), list.c_str());
           return 2;
         }
     } else if (a == "--configs") {
@@ -470,7 +477,8 @@ int bench_main(int argc, char** argv) {
       char* end = nullptr;
       o.duration = std::strtod(v.c_str(), &end);
       if (v.empty() || *end || !(o.duration > 0.0) || o.duration > 60.0) {
-        std::fprintf(stderr, "loom: error: --duration expects seconds in (0, 60], got '%s'\n", v.c_str());
+        std::fprintf(stderr, "loom: error: --duration expects seconds in (0, 60], got '%s'\n",
+                     loom::show_hidden(v).c_str());
         return 2;
       }
       duration_given = true;
@@ -479,15 +487,16 @@ int bench_main(int argc, char** argv) {
       char* end = nullptr;
       o.perturbation = std::strtod(v.c_str(), &end);
       if (v.empty() || *end || !(o.perturbation >= 0.0) || o.perturbation > 0.1) {
-        std::fprintf(stderr, "loom: error: --perturbation expects metres in [0, 0.1], got '%s'\n", v.c_str());
+        std::fprintf(stderr, "loom: error: --perturbation expects metres in [0, 0.1], got '%s'\n",
+                     loom::show_hidden(v).c_str());
         return 2;
       }
     } else if (a == "--repeats") {
       const std::string v = value();
       std::vector<int> r;
       if (!parse_list(v, r, 1) || r.size() != 1) {
-        std::fprintf(stderr, "loom: error: --repeats expects one integer in [1, 4096], got '%s'\n",
-                     v.c_str());
+        std::fprintf(stderr, "loom: error: --repeats expects one whole number in [1, 4096], got '%s'\n",
+                     loom::show_hidden(v).c_str());
         return 2;
       }
       o.repeats = r[0];
@@ -496,7 +505,8 @@ int bench_main(int argc, char** argv) {
     } else if (a == "--quick") {
       o.quick = true;
     } else {
-      std::fprintf(stderr, "loom: error: unknown option '%s' (see loom bench --help)\n", a.c_str());
+      std::fprintf(stderr, "loom: error: unknown option '%s' (see loom bench --help)\n",
+                   loom::show_hidden(a).c_str());
       return 2;
     }
   }

@@ -8,6 +8,7 @@
 #include <numeric>
 #include <sstream>
 
+#include "loom/cloth/HiddenText.h"
 #include "loom/cloth/OutputFile.h"
 #include "loom/eval/HelperProgram.h"
 
@@ -47,7 +48,7 @@ bool plot_accuracy(OutputFolder& folder, const std::vector<PlotPoint>& points, c
   for (size_t i : front) d << points[i].ms << ' ' << points[i].error << "\n";
   d.close();
   if (!d) {
-    std::cerr << "loom: error: cannot write " << (folder.dir() / dat).string() << "\n";
+    std::cerr << "loom: error: cannot write " << show_hidden((folder.dir() / dat).string()) << "\n";
     return false;
   }
   std::ostringstream g;
@@ -67,8 +68,8 @@ bool plot_accuracy(OutputFolder& folder, const std::vector<PlotPoint>& points, c
   const std::string why =
       gnuplot_png(folder, stem, "set terminal pngcairo size 900,600 font ',10' noenhanced", g.str());
   if (!why.empty()) {
-    std::cerr << "loom: warning: " << why << "; " << (folder.dir() / (stem + ".png")).string()
-              << " not written\n";
+    std::cerr << "loom: warning: " << show_hidden(why) << "; "
+              << show_hidden((folder.dir() / (stem + ".png")).string()) << " not written\n";
     return false;
   }
   return true;

@@ -32,7 +32,10 @@ bool program_on_path(const std::string& name) {
   return false;
 }
 
-int run_program(const std::vector<std::string>& argv, const fs::path& cwd, std::string* output) {
+namespace {
+
+// run_program in `cwd` (a path) or, when `cwd` is null, in the folder open as `cwd_fd`.
+int run_in(const std::vector<std::string>& argv, const char* cwd, int cwd_fd, std::string* output) {
   if (argv.empty()) return -1;
   std::vector<char*> args;
   for (const std::string& a : argv) args.push_back(const_cast<char*>(a.c_str()));
@@ -55,7 +58,7 @@ int run_program(const std::vector<std::string>& argv, const fs::path& cwd, std::
     if (null < 0 || ::dup2(null, 0) < 0) ::_exit(127);
     const int out = output ? pipe_fd[1] : null;
     if (::dup2(out, 1) < 0 || ::dup2(out, 2) < 0) ::_exit(127);
-    if (::chdir(cwd.c_str()) != 0) ::_exit(127);
+    if (cwd ? ::chdir(cwd) != 0 : ::fchdir(cwd_fd) != 0) ::_exit(127);
     ::execvp(args[0], args.data());
     ::_exit(127);
   }
@@ -78,6 +81,16 @@ int run_program(const std::vector<std::string>& argv, const fs::path& cwd, std::
   return WIFEXITED(status) ? WEXITSTATUS(status) : -1;
 }
 
+}  // namespace
+
+int run_program(const std::vector<std::string>& argv, const fs::path& cwd, std::string* output) {
+  return run_in(argv, cwd.c_str(), -1, output);
+}
+
+int run_program(const std::vector<std::string>& argv, int cwd_fd, std::string* output) {
+  return run_in(argv, nullptr, cwd_fd, output);
+}
+
 std::string gnuplot_quote(const std::string& s) {
   std::string q = "'";
   for (const char c : s) {
@@ -93,26 +106,24 @@ std::string gnuplot_quote(const std::string& s) {
 
 namespace {
 
-// Runs `argv` in DIR with its output `file` (a name in DIR) staged in a private folder: "@STAGED@" in an
-// argument or in the script (written to DIR/<script_name> when that is not empty) stands for the staged
-// path relative to DIR (the private folder's digits and `file`, nothing a program reads as special); the
-// file made there is renamed to DIR/<file>. Returns "" or why it failed.
+// Runs `argv` in a private folder of DIR (its descriptor the child's working folder) where it makes its
+// output `file`: "@STAGED@" in an argument stands for `file` itself, relative to that folder, and "@DIR@"
+// for DIR seen from it (".."); `script` is written to DIR/<script_name> when that is not empty. The file
+// made there is renamed to DIR/<file>. Returns "" or why it failed.
 std::string run_staged(OutputFolder& folder, std::vector<std::string> argv, const std::string& file,
-                       const std::string& script_name, std::string script) {
-  const fs::path dir = folder.dir();
+                       const std::string& script_name, const std::string& script) {
   const fs::path target = folder.claim(file);
-  const fs::path staging = folder.claim_private_folder(".loom-helper-", {file});
-  const std::string staged = (staging.filename() / file).string();  // relative to DIR; digits and `file`
+  int fd = -1;
+  const fs::path staging = folder.claim_private_folder(".loom-helper-", {file}, &fd);
   auto fill = [&](std::string& s) {
-    for (size_t p; (p = s.find("@STAGED@")) != std::string::npos;) s.replace(p, 8, staged);
+    for (size_t p; (p = s.find("@STAGED@")) != std::string::npos;) s.replace(p, 8, file);
+    for (size_t p; (p = s.find("@DIR@")) != std::string::npos;) s.replace(p, 5, "..");
   };
-  if (!script_name.empty()) {
-    fill(script);
-    OutputFile(folder.claim(script_name)) << script;
-  }
+  if (!script_name.empty()) OutputFile(folder.claim(script_name)) << script;
   for (std::string& a : argv) fill(a);
   std::string log;
-  const int status = run_program(argv, dir, &log);
+  const int status = run_program(argv, fd, &log);
+  ::close(fd);
   std::error_code ec;
   const fs::path made = staging / file;
   const bool regular = fs::is_regular_file(fs::symlink_status(made, ec));
@@ -138,8 +149,10 @@ std::string run_staged(OutputFolder& folder, std::vector<std::string> argv, cons
 std::string gnuplot_png(OutputFolder& folder, const std::string& name, const std::string& terminal,
                         const std::string& body) {
   if (!program_on_path("gnuplot")) return "gnuplot is not installed (Debian package: gnuplot-nox)";
-  const std::string script = terminal + "\nset output " + gnuplot_quote("@STAGED@") + "\n" + body;
-  return run_staged(folder, {"gnuplot", name + ".gp"}, name + ".png", name + ".gp", script);
+  // The output is opened (`set output`) in the private folder, then gnuplot moves to DIR, where the body
+  // reads its data.
+  const std::string script = terminal + "\nset output " + gnuplot_quote(name + ".png") + "\ncd '..'\n" + body;
+  return run_staged(folder, {"gnuplot", "@DIR@/" + name + ".gp"}, name + ".png", name + ".gp", script);
 }
 
 void ffmpeg_video(OutputFolder& folder, const std::string& frames, double fps,
@@ -151,10 +164,10 @@ void ffmpeg_video(OutputFolder& folder, const std::string& frames, double fps,
                     (folder.dir() / frames).string());
   char rate[32];
   std::snprintf(rate, sizeof rate, "%.6g", fps);
-  // The frames are read by a pattern relative to DIR: `frames` is a name of Loom's, without '%'.
+  // The frames are read by a pattern relative to DIR: `frames` is a name of Loom's, without '%' or '@'.
   std::vector<std::string> argv = {"ffmpeg", "-hide_banner", "-loglevel",
                                    "error",  "-n",           "-framerate",
-                                   rate,     "-i",           frames + "/frame_%05d.png"};
+                                   rate,     "-i",           "@DIR@/" + frames + "/frame_%05d.png"};
   argv.insert(argv.end(), {"-frames:v", std::to_string(count)});
   argv.insert(argv.end(), format_args.begin(), format_args.end());
   argv.push_back("@STAGED@");

@@ -1,12 +1,16 @@
 #include "loom/eval/OutputFolder.h"
 
+#include <fcntl.h>
+#include <sys/file.h>
 #include <sys/stat.h>
+#include <unistd.h>
 
 #include <algorithm>
 #include <cerrno>
 #include <cstdio>
 #include <cstring>
 #include <map>
+#include <mutex>
 #include <random>
 #include <sstream>
 #include <vector>
@@ -80,6 +84,43 @@ Manifest read_manifest(const fs::path& file, const std::string& flag) {
 }
 
 }  // namespace
+
+std::shared_ptr<FolderLock> FolderLock::acquire(const fs::path& dir, const std::string& flag) {
+  std::string trimmed = dir.string();
+  while (trimmed.size() > 1 && trimmed.back() == '/') trimmed.pop_back();
+  const int fd = ::open(trimmed.c_str(), O_RDONLY | O_DIRECTORY | O_NOFOLLOW | O_CLOEXEC);
+  if (fd < 0) return nullptr;
+  struct stat st;
+  if (::fstat(fd, &st) != 0) {
+    ::close(fd);
+    return nullptr;
+  }
+  // One lock per folder and process: a second flock on another descriptor of the same folder would refuse
+  // the process itself.
+  static std::mutex mutex;
+  static std::map<std::pair<dev_t, ino_t>, std::weak_ptr<FolderLock>> held;
+  std::lock_guard<std::mutex> guard(mutex);
+  const auto key = std::make_pair(st.st_dev, st.st_ino);
+  if (auto live = held[key].lock()) {
+    ::close(fd);
+    return live;
+  }
+  if (::flock(fd, LOCK_EX | LOCK_NB) != 0) {
+    const int e = errno;
+    ::close(fd);
+    if (e == EWOULDBLOCK)
+      throw Error(dir.string(), "",
+                  "in use by another loom command (it holds the folder's lock): wait for it to finish or "
+                  "choose another output folder (" +
+                      flag + ")");
+    throw Error(dir.string(), flag, std::string("cannot lock the output folder: ") + std::strerror(e));
+  }
+  std::shared_ptr<FolderLock> lock(new FolderLock(fd));
+  held[key] = lock;
+  return lock;
+}
+
+FolderLock::~FolderLock() { ::close(fd_); }  // closing the last descriptor releases the flock
 
 std::uint64_t read_run_id(const fs::path& dir) {
   const fs::path file = dir / OutputFolder::kManifest;
@@ -246,14 +287,29 @@ OutputFolder::OutputFolder(const fs::path& dir, const std::string& flag, bool ov
   // Everything that could refuse the folder is checked before anything in it changes: a refused run leaves
   // the folder as it found it (no manifest, no deleted file, no new folder).
   const bool existed = fs::is_directory(dir, ec);
+  if (!existed && resume)
+    throw Error(dir.string(), flag,
+                "holds no " + std::string(kManifest) + ": not a folder written by loom run");
+  // The folder is locked before anything in it is read: a new one is made first (empty, so nothing below
+  // can refuse it, unless another command took it meanwhile).
+  if (!existed) {
+    fs::create_directories(dir, ec);
+    if (ec || !fs::is_directory(dir))
+      throw Error(dir.string(), flag, "cannot create output folder: " + ec.message());
+  }
+  lock_ = FolderLock::acquire(dir, flag);
+  if (!lock_) throw Error(dir.string(), flag, "cannot open the output folder");
+  struct RemoveIfRefused {  // the folder this command made, left empty by a refusal below
+    fs::path dir;
+    bool armed;
+    ~RemoveIfRefused() {
+      if (armed) ::rmdir(dir.c_str());
+    }
+  } made{dir, !existed};
   const fs::path manifest = dir / kManifest;
   const fs::file_status ms = fs::symlink_status(manifest, ec);
   Manifest old;
-  if (!existed) {
-    if (resume)
-      throw Error(dir.string(), flag,
-                  "holds no " + std::string(kManifest) + ": not a folder written by loom run");
-  } else if (fs::exists(ms)) {
+  if (fs::exists(ms)) {
     if (!fs::is_regular_file(ms))
       throw Error(manifest.string(), flag,
                   "is not a regular file (a link or a folder): not a folder Loom owns");
@@ -271,7 +327,7 @@ OutputFolder::OutputFolder(const fs::path& dir, const std::string& flag, bool ov
               "): choose a new or empty folder, or pass --overwrite to write into it (files of the names "
               "Loom writes are then replaced; nothing else is deleted)");
   }
-  if (existed) {
+  {
     std::set<std::string> gone;  // a new run deletes what the earlier runs listed (links themselves) first
     if (!resume) gone.insert(old.entries.begin(), old.entries.end());
     const fs::path folder = fs::weakly_canonical(dir, ec);
@@ -288,9 +344,7 @@ OutputFolder::OutputFolder(const fs::path& dir, const std::string& flag, bool ov
     check_all_writable(dir, writes, flag, gone);
     if (!resume) check_writable(dir, std::string(kManifest) + ".tmp", flag);  // the new manifest's way in
   }
-  fs::create_directories(dir, ec);
-  if (ec || !fs::is_directory(dir))
-    throw Error(dir.string(), flag, "cannot create output folder: " + ec.message());
+  made.armed = false;
   // From here every path under DIR is reached from this descriptor (OutputFile.h): a folder inside DIR
   // replaced by a link while the command runs is never followed.
   try {
@@ -366,7 +420,8 @@ void refuse_linked_default(const fs::path& dir, const std::string& flag) {
   }
 }
 
-fs::path OutputFolder::claim_private_folder(const std::string& stem, const std::vector<std::string>& files) {
+fs::path OutputFolder::claim_private_folder(const std::string& stem, const std::vector<std::string>& files,
+                                            int* fd) {
   std::random_device rd;
   for (int attempt = 0; attempt < 16; ++attempt) {
     const std::string name = stem + std::to_string(rd() % 1000000000u) + "/";
@@ -380,9 +435,14 @@ fs::path OutputFolder::claim_private_folder(const std::string& stem, const std::
       listed_.insert(name + f);
     }
     const fs::path p = dir_ / name.substr(0, name.size() - 1);  // no trailing '/': filename() is the name
-    if (::mkdir(p.c_str(), 0700) == 0) return p;
-    if (errno != EEXIST)
-      throw Error(p.string(), flag_, std::string("cannot create folder: ") + std::strerror(errno));
+    const int made = make_private_output_folder(p.string());    // -1: the name exists
+    if (made >= 0) {
+      if (fd)
+        *fd = made;
+      else
+        ::close(made);
+      return p;
+    }
   }
   throw Error((dir_ / stem).string(), flag_, "cannot find a fresh name for a private folder");
 }

@@ -47,6 +47,11 @@ class OutputRoot {
 // Makes the folder `path` and its missing parents (inside a registered output folder by mkdirat on each
 // folder's descriptor, never through a link). Throws loom::Error naming the path on failure.
 void make_output_folder(const std::string& path);
+// Creates the folder `path` (mode 0700; a name that exists is not reused) by mkdirat on its parent's
+// descriptor (reached as make_output_folder reaches it) and opens it (O_DIRECTORY | O_NOFOLLOW |
+// O_CLOEXEC). Returns the descriptor, which the caller closes, or -1 when the name exists (errno EEXIST).
+// Throws loom::Error naming the path on any other failure.
+int make_private_output_folder(const std::string& path);
 // Renames the file `from` to `to` (renameat on their folders' descriptors). Throws loom::Error naming `to`.
 void rename_output(const std::string& from, const std::string& to);
 // Removes the file or symbolic link (itself) at `path`, or the folder there when it is empty; never follows

@@ -29,9 +29,16 @@ double segment_capsule_distance(const Collider& capsule, const Transform& pose, 
 // Signed distance (m) from the segment (a, b) to a box collider at `pose`, for edge contacts. Outside: the
 // distance to the nearest of the box's 12 edges, *s = the closest parameter on (a, b), *normal = the unit
 // direction from that edge to the segment. A segment that enters the box: minus the depth of the minimum
-// translation out of it (separating axes), *normal = that direction (world), *s = the deepest parameter
-// (0 or 1 when the translation is along a face normal: an end's contact, not the edge's).
+// translation out of it (separating axes), *normal = that direction (world), *s = the deepest parameter:
+// 0 or 1 when that end is inside the box (the end's contact, not the edge's), 0.5 when the deepest point is
+// an end outside the box (the whole segment is moved).
+// With `past` (the segment's ends and the box's pose at the step's start), a segment that enters the box
+// leaves on a side it was separated on then, if there is one.
+struct SegmentPast {
+  Vec3 a, b;
+  Transform pose;
+};
 double segment_box_edges_distance(const Collider& box, const Transform& pose, const Vec3& a, const Vec3& b,
-                                  double* s, Vec3* normal);
+                                  double* s, Vec3* normal, const SegmentPast* past = nullptr);
 
 }  // namespace loom::collision

@@ -41,10 +41,14 @@ constexpr double kMinBodySize = 1e-3;
 constexpr double kMaxCoefficient = 1e12;     // a material stiffness, damping or drag coefficient (own unit)
 constexpr long long kMaxFrames = 10000000;   // frames of one run (duration x fps)
 constexpr long long kMaxSubsteps = 1000000;  // solver steps per frame (frame time / solver.dt)
+constexpr long long kMaxThreads = 4096;      // solver threads (`threads`, loom run --threads)
 // Entries of a scene's `colliders` and of its `bodies`: every collider is tested against every cloth each
 // step, so the cost per frame grows with the count (a game scene has tens to hundreds).
 constexpr std::size_t kMaxColliders = 4096;
 constexpr std::size_t kMaxBodies = 4096;
+// Entries of `cloths`: each is its own solver, stage state and output files (a game scene has a handful;
+// a crowd of garments is one cloth per garment).
+constexpr std::size_t kMaxCloths = 4096;
 // Bytes per cloth vertex of a simulation: the peak resident memory of implicit runs (the heaviest solvers)
 // above the process's own, over the vertex count, rounded up (measured: docs/guarantees.md).
 constexpr std::uint64_t kBytesPerVertex = 8192;

@@ -6,6 +6,7 @@
 // into "gravity is 1766 g".
 
 #include <string>
+#include <vector>
 
 #include "loom/scene/Scene.h"
 
@@ -27,5 +28,16 @@ constexpr double kRegimeClipSpeed = 3.0;         // 1, clip seconds per second (
 // value is outside it, the fields that give the frame more steps (solver.substeps, guard.max_halvings).
 // Never empty: a divergence message always names a field.
 std::string divergence_suspects(const Scene& scene);
+// The values outside the validated regime, each "field (figure; bound)"; empty inside it. step_bound: the
+// value is per solver step (an explicit step's Courant number, a damping's relaxation per step), so the
+// guard's retries with more substeps bring it back. A scene with an outlier that is not step-bound gets
+// guard.max_halvings of at most kRegimeOutsideHalvings unless it sets the field (Scene.cpp): more substeps
+// seldom carry such a frame, and each retry doubles its cost.
+struct RegimeOutlier {
+  std::string text;
+  bool step_bound = false;
+};
+std::vector<RegimeOutlier> regime_outliers(const Scene& scene);
+constexpr int kRegimeOutsideHalvings = 1;
 
 }  // namespace loom::scene

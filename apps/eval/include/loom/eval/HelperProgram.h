@@ -2,7 +2,10 @@
 // The helper programs Loom's tools run (gnuplot for plots, ffmpeg for videos), run so that no path, name or
 // title can become a command: no shell, arguments passed to execvp as they are, and the programs' outputs
 // staged in a private folder of the output folder (OutputFolder::claim_private_folder) from which they are
-// renamed into place, so a helper never opens a path where something could have been planted.
+// renamed into place, so a helper never opens a path where something could have been planted. A helper runs
+// in the private folder itself (its descriptor, opened when the folder was made, is the child's working
+// folder by fchdir) and names its output relative to it: the folder renamed away and replaced by a
+// symbolic link while the helper runs is not followed. Its inputs in DIR are named through "..".
 #include <filesystem>
 #include <string>
 #include <vector>
@@ -19,6 +22,8 @@ bool program_on_path(const std::string& name);
 // this process dies (PR_SET_PDEATHSIG, kept across exec): a loom killed by a signal leaves no helper running.
 // Returns the exit status; -1 when the program could not run or died by a signal.
 int run_program(const std::vector<std::string>& argv, const std::filesystem::path& cwd, std::string* output);
+// The same in the folder open as `cwd_fd` (fchdir in the child between fork and exec).
+int run_program(const std::vector<std::string>& argv, int cwd_fd, std::string* output);
 
 // `s` as a gnuplot single-quoted string: no substitution happens inside single quotes, a quote is doubled
 // (gnuplot reads '' inside '...' as one '), and control characters (which would end the command) become '?'.

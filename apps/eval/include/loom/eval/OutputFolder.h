@@ -24,6 +24,25 @@
 
 namespace loom::eval {
 
+// An exclusive advisory lock (flock(LOCK_EX | LOCK_NB)) on an output folder's own descriptor, held while a
+// command uses the folder: two Loom commands never use one folder at the same time. acquire() refuses a
+// folder another process holds ("DIR: in use by another loom command", loom::Error); within one process
+// the lock of a folder is shared (acquire returns the live one). The descriptor is close-on-exec, so a
+// helper program (ffmpeg, gnuplot) never keeps it.
+class FolderLock {
+ public:
+  // Locks the existing folder `dir` (never through a symbolic link). nullptr when `dir` does not exist or
+  // is not a folder (the caller refuses it by its own rules). `flag` names the option in errors.
+  static std::shared_ptr<FolderLock> acquire(const std::filesystem::path& dir, const std::string& flag);
+  ~FolderLock();
+  FolderLock(const FolderLock&) = delete;
+  FolderLock& operator=(const FolderLock&) = delete;
+
+ private:
+  explicit FolderLock(int fd) : fd_(fd) {}
+  int fd_ = -1;
+};
+
 class OutputFolder {
  public:
   // `flag` names the option the folder came from ("--out", "--resume") in error messages. `resume`: keep the
@@ -32,11 +51,14 @@ class OutputFolder {
   // digits, e.g. "frames/frame_#.obj"). They are checked as claim() checks them before the folder changes,
   // so a folder refused for any reason (a link planted where the run writes, a foreign folder) is left
   // exactly as it was: no manifest written, nothing deleted, no folder created.
-  // `inputs`: the files the run reads; one that lies where the run writes (a scene or mesh named
-  // `summary.json` or `frames/frame_00001.obj` in the folder) is refused: the run would destroy its own
-  // input.
+  // `inputs`: every file the command reads (scene, meshes, motion clips, checkpoint); one that is, by
+  // device and inode, a file at a path the command writes (a scene or mesh named `summary.json` or
+  // `compare.json` in the folder) or one an earlier run listed (deleted first) is refused, --overwrite or
+  // not: the command would destroy its own input. Every command passes its inputs (none: an empty list).
+  // The folder is locked (FolderLock) before anything in it is read, deleted or written, and stays locked
+  // while the OutputFolder lives.
   OutputFolder(const std::filesystem::path& dir, const std::string& flag, bool overwrite, bool resume,
-               const std::vector<std::string>& writes = {}, const std::vector<std::string>& inputs = {});
+               const std::vector<std::string>& writes, const std::vector<std::string>& inputs);
   const std::filesystem::path& dir() const { return dir_; }
   std::uint64_t run_id() const { return run_id_; }
   // Adds `relative` (a file or, ending in '/', a folder) to the manifest before it is written and returns
@@ -45,11 +67,13 @@ class OutputFolder {
   // before it starts.
   std::filesystem::path claim(const std::string& relative);
   bool owns(const std::string& relative) const { return listed_.count(relative) != 0; }
-  // Makes a new private folder DIR/<stem><digits>/ (mode 0700, a name that did not exist: mkdir, never an
-  // existing folder) for a helper program to write `files` into. The folder and DIR/<stem><digits>/<file>
-  // are listed in the manifest before the folder exists, so a run killed while the helper works leaves only
-  // listed paths, which the next run deletes. Returns the folder.
-  std::filesystem::path claim_private_folder(const std::string& stem, const std::vector<std::string>& files);
+  // Makes a new private folder DIR/<stem><digits>/ (mode 0700, a name that did not exist: mkdirat on DIR's
+  // descriptor, never an existing folder) for a helper program to write `files` into. The folder and
+  // DIR/<stem><digits>/<file> are listed in the manifest before the folder exists, so a run killed while the
+  // helper works leaves only listed paths, which the next run deletes. Returns the folder; `fd` (when not
+  // null) receives a descriptor of it opened with O_DIRECTORY | O_NOFOLLOW, which the caller closes.
+  std::filesystem::path claim_private_folder(const std::string& stem, const std::vector<std::string>& files,
+                                             int* fd = nullptr);
   // Deletes a listed file (no-op for a path not listed or already gone).
   void remove_owned(const std::string& relative);
 
@@ -57,6 +81,7 @@ class OutputFolder {
 
  private:
   void append(const std::string& line);
+  std::shared_ptr<FolderLock> lock_;  // released last
   std::filesystem::path dir_;
   std::string flag_;
   std::vector<std::string> writes_;
