@@ -11,6 +11,7 @@
 #include <fstream>
 #include <functional>
 
+#include "ImportPrescan.h"
 #include "loom/cloth/Error.h"
 #include "loom/cloth/InputFile.h"
 
@@ -238,8 +239,11 @@ bool check_content(const std::string& file, const std::function<bool(std::uint64
     if (!scan.feed(text.data(), text.size()) || !scan.finish())
       throw Error(file, "line " + std::to_string(scan.line()),
                   "XML elements nest more than " + std::to_string(kMaxXmlDepth) + " levels deep");
+    check_collada_instances(file, text);  // ImportPrescan.h
   } else {
     check_mtllib(file, text);
+    check_gltf_nodes(file, text);   // ImportPrescan.h
+    check_fbx_nesting(file, text);  // ImportPrescan.h
   }
   return true;
 }

@@ -80,6 +80,43 @@ void check_format(const std::string& path) {
                   ", in any letter case)");
 }
 
+// The MOTION lines from `at` (just past the frame time): the rest of the frame time's line is empty, then
+// one line per frame (blank lines skipped), each holding exactly `channels` numbers, `frames` lines in all;
+// one more (Frames one short, as in the Biovision sample Boxing_Toes.bvh) is tolerated, and not read.
+void check_bvh_frame_lines(const std::string& path, const std::string& text, size_t at,
+                           unsigned long long frames, unsigned long long channels) {
+  unsigned long long line = 1 + static_cast<unsigned long long>(std::count(
+                                    text.begin(), text.begin() + static_cast<std::ptrdiff_t>(at), '\n'));
+  unsigned long long seen = 0;  // frame lines
+  for (bool first = true; at < text.size(); first = false, ++line) {
+    const size_t end = std::min(text.find('\n', at), text.size());
+    unsigned long long numbers = 0;
+    for (size_t k = at; k < end;) {
+      while (k < end && std::isspace(static_cast<unsigned char>(text[k]))) ++k;
+      if (k == end) break;
+      ++numbers;
+      while (k < end && !std::isspace(static_cast<unsigned char>(text[k]))) ++k;
+    }
+    at = end + 1;
+    if (numbers == 0) continue;
+    const std::string where = "line " + std::to_string(line);
+    if (first) throw Error(path, where, "numbers after the frame time (each frame is a line of its own)");
+    if (++seen > frames + 1)
+      throw Error(path, where,
+                  "frame line " + std::to_string(seen) + ", but Frames says " + std::to_string(frames) +
+                      " (one frame line past the count is read as an exporter's off-by-one and ignored)");
+    if (numbers != channels)
+      throw Error(path, where,
+                  "frame " + std::to_string(seen) + " holds " + std::to_string(numbers) +
+                      " numbers, but the joints' CHANNELS add up to " + std::to_string(channels) +
+                      " (one frame per line)");
+  }
+  if (seen < frames)
+    throw Error(path, "Frames",
+                "says " + std::to_string(frames) + " frames but the MOTION section holds " +
+                    std::to_string(seen) + " frame lines (of " + std::to_string(channels) + " numbers each)");
+}
+
 void check_bvh_nesting(const std::string& path) {
   if (!is_bvh(path)) return;
   const std::string text = read_input_file(path);  // a regular file of bounded size (InputFile.h)
@@ -114,9 +151,10 @@ void check_bvh_nesting(const std::string& path) {
     }
     if (opened && depth == 0) break;  // the root joint's block has closed: MOTION follows
   }
-  // "Frames: N" is what the reader reserves memory for: never more frames than the MOTION section has
-  // numbers for (CHANNELS numbers per frame, however they are spread over lines), so a crafted count cannot
-  // allocate without bound before the first key is read.
+  // "Frames: N" is what the reader reserves memory for, and the MOTION numbers are read as a stream of
+  // CHANNELS numbers per frame: one frame per line (the BVH layout), each line exactly the joints' CHANNELS
+  // count and exactly Frames lines, so a count that disagrees with the data is refused by line instead of
+  // read misaligned (every joint after the disagreement taking its neighbour's angles).
   std::string tok = next();
   while (!tok.empty() && tok != "Frames:") tok = next();
   if (tok.empty()) return;  // the reader names what is missing
@@ -128,14 +166,7 @@ void check_bvh_nesting(const std::string& path) {
   if (frames == 0) throw Error(path, "Frames", "the MOTION section holds no frame (Frames must be >= 1)");
   if (next() != "Frame" || next() != "Time:") return;  // the reader names what is missing
   next();  // the frame time (checked against the animation's rate after reading)
-  unsigned long long numbers = 0;
-  while (skip()) ++numbers;
-  const unsigned long long per_frame = std::max(channels, 1ull);
-  if (frames > numbers / per_frame)
-    throw Error(path, "Frames",
-                "says " + std::to_string(frames) + " frames but the MOTION section holds " +
-                    std::to_string(numbers) + " numbers: room for " + std::to_string(numbers / per_frame) +
-                    " frames of " + std::to_string(channels) + " channels");
+  check_bvh_frame_lines(path, text, at, frames, channels);
 }
 
 void check_settings(const std::string& path, const MotionSettings& settings) {

@@ -438,7 +438,7 @@ const BadInput kCases[] = {
      nullptr,
      "motion.bvh",
      "Frames",
-     "says 2752 frames but the MOTION section holds 0 numbers"},
+     "says 2752 frames but the MOTION section holds 0 frame lines (of 96 numbers each)"},
     {"bvh_missing", nullptr, {"@BVH:0"}, nullptr, "motion.bvh", "character.bvh", "cannot read motion"},
     // A BVH that reads but holds a number past double range (a corrupt digit string): the joint is named.
     {"bvh_infinite_key",
@@ -507,7 +507,7 @@ const BadInput kCases[] = {
      " End Site\n {\n  OFFSET 0 5 0\n }\n}\nMOTION\nFrames: 2000000000\nFrame Time: 0.03\n0 90 0 0 0 0\n",
      "motion.bvh",
      "Frames",
-     "says 2000000000 frames but the MOTION section holds 6 numbers: room for 1 frames of 6 channels"},
+     "says 2000000000 frames but the MOTION section holds 1 frame lines (of 6 numbers each)"},
     // Output folder and checkpoints.
     {"out_under_proc",
      nullptr,

@@ -5,8 +5,11 @@
 
 #include <filesystem>
 #include <fstream>
+#include <iterator>
 #include <nlohmann/json.hpp>
 #include <string>
+#include <utility>
+#include <vector>
 
 #include "BadInputCli.h"
 #include "CliRunner.h"
@@ -98,6 +101,48 @@ TEST(HostileFilesCli, NonMotionAndDeeplyNestedClipsAreRefusedByField) {
   EXPECT_EQ(r.code, 1) << r.err;
   EXPECT_NE(r.err.find(dae + ": line 512: XML elements nest more than 512 levels deep"), std::string::npos)
       << r.err;
+}
+
+// Clips whose node graph or nesting assimp would expand or recurse over without bound (an instance_node
+// cycle, nodes instancing the next twice 24 times, a glTF node with two parents, FBX nested 100,000 deep)
+// and a BVH whose frame lines disagree with its CHANNELS: refused by the scene's `character.bvh` and by
+// `loom body`'s clip argument, exit 1, naming the file and the line, node or byte; never a crash.
+TEST(HostileFilesCli, ClipNodeGraphsAndNestingAreRefusedBeforeAssimp) {
+  const fs::path dir = test_dir();
+  std::string bvh;
+  {
+    std::ifstream in(std::string(LOOM_TEST_DATA) + "/mocap/arm_swing.bvh");
+    bvh.assign(std::istreambuf_iterator<char>(in), std::istreambuf_iterator<char>());
+    const std::string three = "CHANNELS 3 Zrotation Yrotation Xrotation";
+    bvh.replace(bvh.find(three), three.size(), "CHANNELS 0");  // the frame lines keep their 96 numbers
+  }
+  const std::vector<std::pair<std::string, std::string>> cases = {
+      {"cycle.dae", collada_instances(1, 1, true)}, {"bomb.dae", collada_instances(24, 2)},
+      {"dag.gltf", gltf_two_parents(25)},           {"deep.fbx", ascii_fbx(100000)},
+      {"deep_binary.fbx", binary_fbx(100000)},      {"channels.bvh", bvh},
+  };
+  const std::vector<std::string> problems = {
+      "line 5: node 'N1': <instance_node url=\"#N0\"> makes an instance_node cycle ('N0' -> 'N1' -> 'N0')",
+      "line 29: node 'Hips': with its <instance_node> copies the scene expands to more than 1000000 nodes",
+      "nodes[2].children: nodes[3] is already a child of nodes[1]",
+      "line 515: FBX scopes ('{') nest more than 512 levels deep",
+      "byte 7195: FBX node records nest more than 512 levels deep",
+      "line 188: frame 1 holds 96 numbers, but the joints' CHANNELS add up to 93 (one frame per line)",
+  };
+  const std::string mesh = std::string(LOOM_TEST_DATA) + "/body/human.zae";
+  for (std::size_t k = 0; k < cases.size(); ++k) {
+    const std::string clip = (dir / cases[k].first).string();
+    std::ofstream(clip, std::ios::binary) << cases[k].second;
+    const std::string scene = cape_scene(dir, {{"bvh", clip}});
+    auto r = run_loom("run " + scene + " --frames 1 --out " + (dir / "out").string());
+    if (r.err.find("this build has no loom::characters") != std::string::npos) GTEST_SKIP() << r.err;
+    EXPECT_EQ(r.code, 1) << r.err;
+    EXPECT_NE(r.err.find(scene + ": character.bvh: " + clip + ": " + problems[k]), std::string::npos)
+        << r.err;
+    r = run_loom("body " + mesh + " " + clip + " --seconds 0.05");
+    EXPECT_EQ(r.code, 1) << r.err;
+    EXPECT_NE(r.err.find(clip + ": " + problems[k]), std::string::npos) << r.err;
+  }
 }
 
 // An OBJ garment's error names its mesh and attach table, without the hint about the fields a generated

@@ -147,8 +147,8 @@ const BadInput kRedteamCases[] = {
      "90 0 "
      "0 0 0\n",
      "motion.bvh",
-     "Frames",
-     "says 3 frames but the MOTION section holds 12 numbers: room for 2 frames of 6 channels"},
+     "line 14",
+     "frame 1 holds 12 numbers, but the joints' CHANNELS add up to 6 (one frame per line)"},
     {"bvh_frames_zero_with_data",
      nullptr,
      {"@BVHTEXT"},

@@ -282,27 +282,48 @@ std::string write_bvh(const std::string& name, const std::string& frames, const 
   return path;
 }
 
-// assimp reads a BVH's MOTION numbers as a stream of tokens: several frames on one line, or one frame over
-// several lines, are the same file. The frame-count check counts numbers (CHANNELS per frame), not lines.
-TEST(Motion, FrameCountIsCheckedByNumbersNotLines) {
+// A BVH's MOTION section is one frame per line, each line exactly the joints' CHANNELS count, Frames lines
+// in all: a count that disagrees with the data (a joint's CHANNELS changed without its numbers, frames
+// wrapped or run together, numbers past the last frame) is refused by line, never read misaligned.
+TEST(Motion, FrameLinesMustMatchFramesAndChannels) {
   MotionSettings ms;
   ms.scale = 1.0;
-  const Motion one_line =
-      Motion::load(write_bvh("one_line.bvh", "3", "0 0 0 0 0 0 1 0 0 0 0 0 2 0 0 0 0 0\n"), ms);
-  EXPECT_EQ(one_line.track(one_line.root()).position_times.size(), 3u);
-  EXPECT_NEAR(one_line.duration(), 0.2, 1e-6);  // assimp keeps the frame time in single precision
-  // The third frame's numbers (Xposition 2) are the third key, wherever the line breaks are.
-  EXPECT_NEAR(one_line.track(one_line.root()).positions[2].x(), 2.0, 1e-9);
-  const Motion split = Motion::load(write_bvh("split.bvh", "2", "0 0 0\n0 0 0\n1 0\n0\n0 0 0\n"), ms);
-  EXPECT_EQ(split.track(split.root()).position_times.size(), 2u);
-  EXPECT_NEAR(split.track(split.root()).positions[1].x(), 1.0, 1e-9);
+  const Motion clip =
+      Motion::load(write_bvh("lines.bvh", "3", "0 0 0 0 0 0\n\n1 0 0 0 0 0\r\n2 0 0 0 0 0\n\n"), ms);
+  EXPECT_EQ(clip.track(clip.root()).position_times.size(), 3u);
+  EXPECT_NEAR(clip.duration(), 0.2, 1e-6);  // assimp keeps the frame time in single precision
+  EXPECT_NEAR(clip.track(clip.root()).positions[2].x(), 2.0, 1e-9);
+  // The MOTION section starts on line 13 (the frame time's line).
   std::string e = error_of(
-      [&] { Motion::load(write_bvh("short.bvh", "4", "0 0 0 0 0 0 1 0 0 0 0 0 2 0 0 0 0 0\n"), ms); });
+      [&] { Motion::load(write_bvh("one_line.bvh", "3", "0 0 0 0 0 0 1 0 0 0 0 0 2 0 0 0 0 0\n"), ms); });
+  EXPECT_NE(e.find("one_line.bvh: line 14: frame 1 holds 18 numbers, but the joints' CHANNELS add up to 6 "
+                   "(one frame per line)"),
+            std::string::npos)
+      << e;
+  e = error_of([&] { Motion::load(write_bvh("split.bvh", "2", "0 0 0\n0 0 0\n1 0\n0\n0 0 0\n"), ms); });
+  EXPECT_NE(e.find("split.bvh: line 14: frame 1 holds 3 numbers, but the joints' CHANNELS add up to 6"),
+            std::string::npos)
+      << e;
+  e = error_of(
+      [&] { Motion::load(write_bvh("short.bvh", "4", "0 0 0 0 0 0\n1 0 0 0 0 0\n2 0 0 0 0 0\n"), ms); });
   EXPECT_NE(
-      e.find("short.bvh: Frames: says 4 frames but the MOTION section holds 18 numbers: room for 3 frames of "
-             "6 channels"),
+      e.find("short.bvh: Frames: says 4 frames but the MOTION section holds 3 frame lines (of 6 numbers "
+             "each)"),
       std::string::npos)
       << e;
+  // One frame line past the count (an exporter's off-by-one) is not read; two are refused.
+  const Motion extra = Motion::load(write_bvh("extra.bvh", "1", "0 0 0 0 0 0\n1 0 0 0 0 0\n"), ms);
+  EXPECT_EQ(extra.track(extra.root()).position_times.size(), 1u);
+  e = error_of(
+      [&] { Motion::load(write_bvh("long.bvh", "1", "0 0 0 0 0 0\n1 0 0 0 0 0\n2 0 0 0 0 0\n"), ms); });
+  EXPECT_NE(e.find("long.bvh: line 16: frame line 3, but Frames says 1"), std::string::npos) << e;
+  const std::string after = (loom::test::test_dir() / "after.bvh").string();
+  std::ofstream(after)
+      << "HIERARCHY\nROOT Hips\n{\nOFFSET 0 0 0\nCHANNELS 6 Xposition Yposition Zposition "
+         "Zrotation Xrotation Yrotation\nEnd Site\n{\nOFFSET 0 1 0\n}\n}\nMOTION\nFrames: 1\n"
+         "Frame Time: 0.1 0 0 0 0 0 0\n";
+  e = error_of([&] { Motion::load(after, ms); });
+  EXPECT_NE(e.find("after.bvh: line 13: numbers after the frame time"), std::string::npos) << e;
   for (const char* count : {"-1", "2x", "1e3", "99999999999999999999"}) {
     e = error_of([&] { Motion::load(write_bvh("count.bvh", count, "0 0 0 0 0 0\n"), ms); });
     EXPECT_NE(

@@ -1,0 +1,36 @@
+#pragma once
+// ImportPrescan: checks of a file's node graph and nesting that must run before assimp reads it, because
+// assimp's readers expand or recurse without bound: a COLLADA <instance_node> cycle or a chain of nodes
+// each instancing the next twice, a glTF node listed as the child of two parents, an FBX nested deeper
+// than its reader's stack. Each check streams over the file's text (no document tree is built beyond a
+// glTF's node list) and throws loom::Error naming the file and the line, node or byte offset.
+#include <cstdint>
+#include <string>
+
+namespace loom::characters {
+
+// Nodes a file's node tree may expand to (instanced nodes counted once per instance): a human skeleton
+// with its meshes has a few hundred; assimp holds a few hundred bytes per node.
+constexpr std::uint64_t kMaxExpandedNodes = 1'000'000;
+// FBX scopes (ASCII braces, binary node records) nested deeper than this are refused: twice the deepest
+// skeleton (kMaxJointDepth); assimp's FBX tokenizer and parser recurse per scope.
+constexpr int kMaxFbxDepth = 512;
+
+// A COLLADA document (`text` holds <COLLADA>; other XML passes): every <node> with its id and name, its
+// nested <node>s and its <instance_node url="#..."> references. Refuses a reference cycle (a node that
+// instances itself, directly or through others) naming the nodes and the line, and a scene whose nodes
+// expand to more than kMaxExpandedNodes (counted on the instancing graph, each node once).
+void check_collada_instances(const std::string& file, const std::string& text);
+
+// A glTF's JSON (text starting with '{') or a binary glTF (.glb, magic "glTF"): every node has at most one
+// parent, no node is its own ancestor, and the scenes' root lists expand to at most kMaxExpandedNodes.
+// Text that is not JSON passes (assimp names the syntax error).
+void check_gltf_nodes(const std::string& file, const std::string& text);
+
+// An FBX: binary (magic "Kaydara FBX Binary") by its node records (end offset, property count and length,
+// name; Blender's and assimp's reading of the format), refusing records out of range by byte offset and
+// nesting past kMaxFbxDepth; ASCII (a file named *.fbx in any case, or with "FBX" in its first 200 bytes)
+// by its braces outside strings and ';' comments, refused past kMaxFbxDepth by line. Other text passes.
+void check_fbx_nesting(const std::string& file, const std::string& text);
+
+}  // namespace loom::characters
