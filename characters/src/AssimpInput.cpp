@@ -105,8 +105,9 @@ std::vector<ZipEntry> zip_entries(const std::string& file, const std::string& zi
   return out;
 }
 
-// The XML element-depth check of one zip entry, inflated a piece at a time (never whole) up to the size
-// its directory gives, as the unzip reader hands it to assimp. Entries named *.dae or *.xml and entries
+// The XML element-depth check of one zip entry, inflated a piece at a time up to the size its directory
+// gives, as the unzip reader hands it to assimp; a shallow entry's text (kept as it is read, within the
+// import's byte budget) then gets the COLLADA instance-graph check. Entries named *.dae or *.xml and entries
 // whose text starts with '<' (after a byte order mark and white space) are scanned; encrypted entries and
 // methods other than stored and deflate (which the reader cannot unpack) are not. Throws loom::Error naming
 // `file`, the entry and the line of the first element nested deeper than kMaxXmlDepth.
@@ -129,6 +130,7 @@ void check_zip_entry(const std::string& file, const std::string& zip, const ZipE
   int low = -1;  // UTF-16: the index (0 or 1) of a code unit's low byte; -1: bytes
   std::uint64_t raw = 0, narrowed = 0;
   std::string head, narrow;
+  std::string whole;  // the scanned text, for the instance-graph check once it is known to be shallow
   auto scan_piece = [&](const char* bytes, std::size_t n) {  // false once the entry needs no more reading
     if (low >= 0) {
       narrow.clear();
@@ -143,7 +145,9 @@ void check_zip_entry(const std::string& file, const std::string& zip, const ZipE
       const bool mark = narrowed < 3 && (ch == 0xEF || ch == 0xBB || ch == 0xBF || ch == 0xFF || ch == 0xFE);
       if (!mark && !std::isspace(ch)) start = named_xml || ch == '<' ? Start::kScan : Start::kSkip;
     }
-    return start != Start::kSkip && scan.feed(bytes, n);
+    if (start == Start::kSkip) return false;
+    whole.append(bytes, n);
+    return scan.feed(bytes, n);
   };
   auto take = [&](const char* bytes, std::size_t n) {
     if (encoded) return scan_piece(bytes, n);
@@ -185,9 +189,11 @@ void check_zip_entry(const std::string& file, const std::string& zip, const ZipE
     inflateEnd(&z);
   }
   if (!encoded && !head.empty()) scan_piece(head.data(), head.size());
-  if (start != Start::kScan || scan.finish()) return;
-  throw Error(file, e.name + ", line " + std::to_string(scan.line()),
-              "XML elements nest more than " + std::to_string(kMaxXmlDepth) + " levels deep");
+  if (start != Start::kScan) return;
+  if (!scan.finish())
+    throw Error(file, e.name + ", line " + std::to_string(scan.line()),
+                "XML elements nest more than " + std::to_string(kMaxXmlDepth) + " levels deep");
+  check_collada_instances(file + ": " + e.name, whole);  // ImportPrescan.h: cycles and node bombs
 }
 
 std::uint64_t line_of(const std::string& text, std::size_t at) {

@@ -48,6 +48,26 @@ TEST(HostileGraphs, ColladaInstanceNodeCyclesAreRefusedByNode) {
   EXPECT_EQ(e.find("instance_node"), std::string::npos) << e;
 }
 
+// The same graphs packed in a .zae (stored and deflated) are refused naming the archive and the entry.
+TEST(HostileGraphs, ColladaInstanceGraphsInsideAnArchiveAreRefusedByEntry) {
+  for (const bool deflated : {false, true}) {
+    const std::string cycle =
+        write(deflated ? "cycle_z.zae" : "cycle_s.zae",
+              loom::test::zip({{"model.dae", loom::test::collada_instances(2, 1, true)}}, 0, deflated));
+    std::string e = error_of([&] { Motion::load(cycle); });
+    EXPECT_NE(e.find(cycle + ": model.dae: line 6: node 'N2'"), std::string::npos) << e;
+    EXPECT_NE(e.find("makes an instance_node cycle"), std::string::npos) << e;
+    const std::string bomb =
+        write(deflated ? "bomb_z.zae" : "bomb_s.zae",
+              loom::test::zip({{"model.dae", loom::test::collada_instances(24, 2)}}, 0, deflated));
+    e = error_of([&] { Motion::load(bomb); });
+    EXPECT_NE(e.find(bomb + ": model.dae: line 29: node 'Hips': with its <instance_node> copies the scene "
+                            "expands to more than 1000000 nodes"),
+              std::string::npos)
+        << e;
+  }
+}
+
 // Nodes that each instance the next twice expand to 2^levels nodes (24 levels: 16.7 million): the
 // expanded count is computed on the instancing graph and refused past a million, naming the scene's root.
 TEST(HostileGraphs, ColladaInstanceNodeBombsAreRefusedByExpandedCount) {
