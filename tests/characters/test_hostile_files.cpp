@@ -26,9 +26,7 @@ using loom::test::error_of;
 using loom::test::zip;
 
 std::string write(const std::string& name, const std::string& text) {
-  const std::string path = (loom::test::test_dir() / name).string();
-  std::ofstream(path, std::ios::binary) << text;
-  return path;
+  return loom::test::write_test_file(name, text);
 }
 
 // assimp reads a RAW file as a mesh scene (no skeleton): as a clip it is refused by its extension, and as

@@ -20,9 +20,7 @@ using loom::characters::Motion;
 using loom::test::error_of;
 
 std::string write(const std::string& name, const std::string& text) {
-  const std::string path = (loom::test::test_dir() / name).string();
-  std::ofstream(path, std::ios::binary) << text;
-  return path;
+  return loom::test::write_test_file(name, text);
 }
 
 // A cycle of instanced nodes (and a node instancing itself) would make assimp recurse until the stack

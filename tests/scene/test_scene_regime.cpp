@@ -35,6 +35,15 @@ struct RegimeCase {
   const char* figure;  // and its figure
 };
 
+// The report of the scene with c's overrides names c's field with its figure.
+void expect_named(const RegimeCase& c) {
+  const std::string text = suspects(c.overrides);
+  SCOPED_TRACE(c.overrides[0]);
+  EXPECT_NE(text.find("outside the validated regime: "), std::string::npos) << text;
+  EXPECT_NE(text.find(c.field), std::string::npos) << text;
+  EXPECT_NE(text.find(c.figure), std::string::npos) << text;
+}
+
 TEST(SceneRegime, EachValueOutsideTheRegimeIsNamedByItsFieldWithItsFigure) {
   const RegimeCase cases[] = {
       {{"gravity=[1e4,1e4,1e4]"}, "gravity (|g| = 1.73e+04 m/s^2", "1.77e+03 g"},
@@ -56,13 +65,7 @@ TEST(SceneRegime, EachValueOutsideTheRegimeIsNamedByItsFieldWithItsFigure) {
        "cloths[0].pins[0] (its first target lies 3 m from its vertex",
        "a quarter of the cloth's size"},
   };
-  for (const RegimeCase& c : cases) {
-    const std::string text = suspects(c.overrides);
-    SCOPED_TRACE(c.overrides[0]);
-    EXPECT_NE(text.find("outside the validated regime: "), std::string::npos) << text;
-    EXPECT_NE(text.find(c.field), std::string::npos) << text;
-    EXPECT_NE(text.find(c.figure), std::string::npos) << text;
-  }
+  for (const RegimeCase& c : cases) expect_named(c);
 }
 
 TEST(SceneRegime, AValueJustInsideTheRegimeIsNotNamed) {
@@ -104,13 +107,7 @@ TEST(SceneRegime, FastCollidersAndClothsStartingInsideOneAreNamed) {
        "cloths[0] starts inside colliders[0] 'floor' or its thickness (vertex 0, 0.003 m in)",
        "starts inside"},
   };
-  for (const RegimeCase& c : cases) {
-    const std::string text = suspects(c.overrides);
-    SCOPED_TRACE(c.overrides[0]);
-    EXPECT_NE(text.find("outside the validated regime: "), std::string::npos) << text;
-    EXPECT_NE(text.find(c.field), std::string::npos) << text;
-    EXPECT_NE(text.find(c.figure), std::string::npos) << text;
-  }
+  for (const RegimeCase& c : cases) expect_named(c);
   // A slow spin and a collider the cloth starts clear of are not named.
   const std::string slow =
       suspects({"colliders=[{\"name\":\"c\",\"shape\":\"box\",\"half_extents\":[0.3,0.05,"
