@@ -157,6 +157,20 @@ TEST(HostileOutputPaths, ResumeRefusesAHardLinkedManifest) {
   EXPECT_EQ(slurp(backup), before);
 }
 
+// A folder the earlier run listed ("frames/") replaced by the user's file: the next run into the folder
+// leaves that file alone (it is not what the run made) and stops naming the path, exit 1.
+TEST(HostileOutputPaths, AListedFolderReplacedByAFileIsLeftAlone) {
+  const fs::path dir = test_dir(), out = dir / "out";
+  const std::string scene = write_scene(dir);
+  ASSERT_EQ(run_loom("run " + scene + " --frames 2 --out " + out.string()).code, 0);
+  fs::remove_all(out / "frames");
+  std::ofstream(out / "frames") << "precious";
+  const auto r = run_loom("run " + scene + " --frames 2 --out " + out.string());
+  EXPECT_EQ(r.code, 1) << r.err;
+  EXPECT_NE(r.err.find((out / "frames").string()), std::string::npos) << r.err;
+  EXPECT_EQ(slurp(out / "frames"), "precious");
+}
+
 // A new run deletes the files an earlier run listed: an input among them (the scene's mesh is the earlier
 // run's pc2/sheet.obj; the new cloth, "cape", writes pc2/cape.obj, not that path) is refused by name before
 // anything in the folder changes.

@@ -364,7 +364,12 @@ OutputFolder::OutputFolder(const fs::path& dir, const std::string& flag, bool ov
             [](const std::string& a, const std::string& b) { return a.size() > b.size(); });
   for (const std::string& entry : entries) {
     // A folder entry ("frames/") is looked at without its '/': with it, a link there would be followed.
-    const std::string rel = entry.back() == '/' ? entry.substr(0, entry.size() - 1) : entry;
+    const bool folder = entry.back() == '/';
+    const std::string rel = folder ? entry.substr(0, entry.size() - 1) : entry;
+    // A folder entry where a file or a link now stands is not what the run made: left alone.
+    if (folder && !fs::is_directory(fs::symlink_status(dir / rel, ec)) &&
+        fs::exists(fs::symlink_status(dir / rel, ec)))
+      continue;
     // A file, a link itself (never its target) or an empty folder; nothing under a link on the way.
     remove_output((dir / rel).string());
   }
