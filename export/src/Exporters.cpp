@@ -34,19 +34,28 @@ void write_mesh_obj(const fs::path& path, const cloth::Cloth& c) {
 }  // namespace
 
 std::vector<std::string> Exporters::file_names(const std::vector<std::unique_ptr<cloth::Cloth>>& cloths) {
-  std::vector<std::string> names;
+  // A cloth whose name is already a valid file name keeps it; the others (sanitised: '_' for every other
+  // character) take the next free "<name>_<k>", so no file carries another cloth's name.
+  const size_t n = cloths.size();
+  std::vector<std::string> names(n), sanitised(n);
   std::set<std::string> used;
-  std::map<std::string, int> next;  // per sanitised name, the suffix to try next (linear in the cloths)
-  for (size_t i = 0; i < cloths.size(); ++i) {
-    std::string n = cloths[i]->name();
-    for (char& ch : n)
+  for (size_t i = 0; i < n; ++i) {
+    std::string s = cloths[i]->name();
+    for (char& ch : s)
       if (!(std::isalnum(static_cast<unsigned char>(ch)) || ch == '-' || ch == '_')) ch = '_';
-    if (n.empty()) n = "cloth";
-    std::string unique = n;
-    int& k = next[n];
-    while (used.count(unique)) unique = n + "_" + std::to_string(++k);
+    if (s.empty()) s = "cloth";
+    sanitised[i] = s;
+    if (s == cloths[i]->name() && used.insert(s).second) names[i] = s;
+  }
+  std::map<std::string, int> next;  // per sanitised name, the suffix to try next (linear in the cloths)
+  for (size_t i = 0; i < n; ++i) {
+    if (!names[i].empty()) continue;
+    const std::string& s = sanitised[i];
+    std::string unique = s;
+    int& k = next[s];
+    while (used.count(unique)) unique = s + "_" + std::to_string(++k);
     used.insert(unique);
-    names.push_back(unique);
+    names[i] = unique;
   }
   return names;
 }

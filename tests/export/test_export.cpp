@@ -86,6 +86,21 @@ Recorded run_and_export(const fs::path& out, const std::vector<std::string>& for
   return r;
 }
 
+// A cloth whose name is a valid file name keeps it, whatever the order: "a/b" (sanitised to a_b) never takes
+// the file of the cloth named "a_b", nor of "a_b_1".
+TEST(Pc2, FileNamesNeverCarryAnotherClothsName) {
+  std::vector<std::unique_ptr<cloth::Cloth>> cloths;
+  for (const char* name : {"a/b", "a_b", "a_b_1", "a b", "sheet", "sheet"}) {
+    cloth::GridSpec g;
+    g.nodes_u = g.nodes_v = 2;
+    cloths.push_back(
+        std::make_unique<cloth::Cloth>(name, cloth::ClothMesh::grid(g), cloth::material_preset("cotton")));
+  }
+  const std::vector<std::string> names = Exporters::file_names(cloths);
+  const std::vector<std::string> want = {"a_b_2", "a_b", "a_b_1", "a_b_3", "sheet", "sheet_1"};
+  EXPECT_EQ(names, want);
+}
+
 TEST(Pc2, RoundTripMatchesSimulatedPositions) {
   const fs::path out = fresh_dir("pc2");
   const Recorded r = run_and_export(out, {"pc2"}, 6, 2);
