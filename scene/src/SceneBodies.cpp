@@ -117,6 +117,8 @@ std::function<Transform(double)> parse_body_motion(const JsonReader& m, const Tr
 
 // m, how far past its bounding sphere a dynamic body may hold a cloth vertex.
 constexpr double kAttachReach = 0.05;
+// m, the largest bounding-sphere radius of a dynamic body (Bullet's AABB overflow is at 1e6 m across).
+constexpr double kMaxDynamicBodyReach = 1e5;
 
 // m, the radius of the sphere about the body's origin that holds the shape (a plane has none: infinite).
 double bounding_radius(const collision::Shape& s) {
@@ -178,6 +180,15 @@ void parse_bodies(const JsonReader& root, Scene& scene) {
     if (b.mass != 0.0 && !(b.mass >= kMinBodyMass && b.mass <= kMaxBodyMass))
       r.fail("mass", "must be 0 (static) or in [" + show_limit(kMinBodyMass) + ", " +
                          show_limit(kMaxBodyMass) + "] kg (got " + show_limit(b.mass) + ")");
+    // Bullet removes a moving body whose box is 1e6 m or more across from its simulation ("overflow in
+    // AABB"): it would hang in the air. A dynamic body's bounding sphere is held below 1e5 m.
+    if (b.mass > 0.0 && !(bounding_radius(b.shape) <= kMaxDynamicBodyReach))
+      r.fail(shape == "box"      ? "half_extents"
+             : shape == "sphere" ? "radius"
+                                 : "half_height",
+             "a dynamic body (mass > 0) must fit in a sphere of " + show_limit(kMaxDynamicBodyReach) +
+                 " m (got " + show_limit(bounding_radius(b.shape)) +
+                 " m; Bullet drops larger moving bodies from its world)");
     b.velocity = r.vec3("velocity", Vec3::Zero());
     if (!(b.velocity.norm() <= kMaxStartSpeed)) r.fail("velocity", "must be at most 1000 m/s");
     b.angular_velocity = r.vec3("angular_velocity", Vec3::Zero());

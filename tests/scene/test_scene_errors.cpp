@@ -235,6 +235,10 @@ const Case kCases[] = {
      "collision.separation",
      "must be 0 or at least 1e-12"},
     // Rigid bodies within what Bullet's floats hold; attachments checked before narrowing, held once.
+    {"dynamic_body_wider_than_bullet_keeps",
+     {"bodies=[{\"shape\": \"capsule\", \"radius\": 0.1, \"half_height\": 6e5, \"mass\": 1}]"},
+     "bodies[0].half_height",
+     "a dynamic body (mass > 0) must fit in a sphere of 100000 m (got 600000.1 m"},
     {"body_mass_subnormal",
      {"bodies=[{\"shape\": \"sphere\", \"radius\": 0.05, \"mass\": 1e-310, \"position\": [0, 2, 0]}]"},
      "bodies[0].mass",
