@@ -84,6 +84,21 @@ TEST(FabricTestCli, CountsAreWholeNumbersInRange) {
   EXPECT_NE(r.err.find("--settle-frames"), std::string::npos) << r.err;
 }
 
+// A resolution inside the range whose specimen would not fit in memory is refused before anything is built
+// or written, with the estimate and the budget (here LOOM_MEMORY_LIMIT).
+TEST(FabricTestCli, AResolutionThatWouldNotFitInMemoryIsRefusedFirst) {
+  const fs::path out = loom::test::test_dir() / "big";
+  ::setenv("LOOM_MEMORY_LIMIT", "1000000000", 1);
+  const Result r = run("fabric-test shear --resolution 300 --out " + out.string());
+  ::unsetenv("LOOM_MEMORY_LIMIT");
+  EXPECT_EQ(r.code, 1) << r.err;
+  EXPECT_NE(r.err.find("--resolution: 300 may need about 2.95 GB of memory, more than the 1 GB available "
+                       "(LOOM_MEMORY_LIMIT)"),
+            std::string::npos)
+      << r.err;
+  EXPECT_FALSE(fs::exists(out));
+}
+
 // The cantilever's default model is one validated against the elastica (within 1.5 degrees); the springs
 // model, whose bending does not follow it, runs only when asked for, with a warning.
 TEST(FabricTestCli, CantileverDefaultsToAValidatedModel) {
