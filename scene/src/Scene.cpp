@@ -664,6 +664,12 @@ void parse_output(const JsonReader& r, Scene& scene) {
       RenderOutput& ro = scene.output.render;
       ro.width = rr.integer("width", 640, 16, 8192);
       ro.height = rr.integer("height", 480, 16, 8192);
+      // The GIF preview is scaled to 320 px wide (RunCommand.cpp): its height must be one GIF holds.
+      const double gif_height = 320.0 * ro.height / ro.width;
+      if (!(gif_height >= 2.0 && gif_height <= 65535.0))
+        rr.fail("height", "with width " + std::to_string(ro.width) +
+                              " the 320 px wide GIF preview would be " + show(gif_height) +
+                              " px tall; a GIF holds 2 to 65535 (height / width in [1/160, 204])");
       ro.every = rr.integer("every", 1, 1);
       if (rr.has("camera")) {
         const JsonReader c = rr.object("camera");
