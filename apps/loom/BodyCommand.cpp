@@ -11,6 +11,7 @@
 #include <cstdio>
 #include <cstring>
 #include <iostream>
+#include <memory>
 #include <set>
 #include <string>
 #include <vector>
@@ -20,6 +21,7 @@
 #include "loom/characters/GarmentInstance.h"
 #include "loom/cloth/Error.h"
 #include "loom/collision/Distance.h"
+#include "loom/eval/OutputFolder.h"
 #ifdef LOOM_HAVE_RENDER
 #include "loom/render/Renderer.h"
 #endif
@@ -144,10 +146,18 @@ int body_main(int argc, char** argv) {
   if (!image.empty()) throw Error("--image", "", "this build has no renderer (OSMesa)");
 #endif
   const ch::Motion motion = ch::Motion::load(files[1]);
+  // The image's folder is locked for the command (eval::FolderLock): a folder another loom command is using
+  // (a run's output folder) is refused, so the PNG never lands among that run's files.
+  std::shared_ptr<eval::FolderLock> image_folder_lock;
   if (!image.empty()) {
     std::vector<std::string> inputs = files;
     inputs.insert(inputs.end(), motion.files().begin(), motion.files().end());
     check_image_path(image, inputs);
+    const std::size_t slash = image.find_last_of('/');
+    image_folder_lock = eval::FolderLock::acquire(slash == std::string::npos ? std::string(".")
+                                                  : slash == 0               ? std::string("/")
+                                                                             : image.substr(0, slash),
+                                                  "--image");
   }
   const ch::BodyFit fit = ch::fit_body(ch::load_static_mesh(files[0], 0), motion);
   const ch::BackCape cape = ch::make_back_cape(fit, motion);
