@@ -109,8 +109,14 @@ int compare_main(int argc, char** argv) {
   if (sc.character && !sc.bodies.empty())
     throw Error(sc.file, "bodies",
                 "loom compare runs a character scene without rigid bodies (remove 'bodies')");
-  // What the Bullet twins cannot run is refused by field before the folder is claimed: they bridge fixed
-  // pins only (a pin with a `path` moves).
+  // What the Bullet twins cannot run is refused by field before the folder is claimed: scene colliders
+  // (the three systems run in a Bullet world, whose shapes are `bodies`: with colliders ignored every row
+  // would be a free fall), and moving pins (they bridge fixed pins only; a pin with a `path` moves).
+  if (!sc.character && !sc.colliders.empty())
+    throw Error(sc.file, "colliders",
+                "loom compare runs the cloth in a Bullet world, where the shapes are `bodies` (mass 0 for a "
+                "static or kinematic one); its systems do not see scene colliders (compare a scene with "
+                "bodies, or loom run this one)");
   if (!sc.character)
     for (size_t c = 0; c < sc.setup.cloths.size(); ++c) {
       const cloth::ClothSetup& cs = sc.setup.cloths[c];

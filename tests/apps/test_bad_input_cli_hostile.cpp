@@ -512,6 +512,20 @@ TEST(HostileBody, TheImageFollowsTheOutputRules) {
     EXPECT_EQ(e.path().filename().string().find(".tmp"), std::string::npos) << "left " << e.path();
 }
 
+// Scene colliders are not in compare's Bullet world: a scene with them is refused by field before the
+// folder (every row was a free fall).
+TEST(HostileCompare, SceneCollidersAreRefusedByFieldBeforeTheFolder) {
+  const fs::path dir = test_dir(), out = dir / "out";
+  const std::string scene = std::string(LOOM_SOURCE_DIR) + "/scenes/sphere_spin.json";
+  const auto r = run_loom("compare " + scene + " --frames 2 --out " + out.string());
+  if (r.err.find("unknown command") != std::string::npos) GTEST_SKIP() << "no Bullet bridge";
+  EXPECT_EQ(r.code, 1) << r.err;
+  EXPECT_NE(r.err.find(scene + ": colliders: loom compare runs the cloth in a Bullet world"),
+            std::string::npos)
+      << r.err;
+  EXPECT_FALSE(fs::exists(out));
+}
+
 // `loom compare` refuses what its Bullet twins cannot run (a moving pin) by the scene file and the pin's
 // field, before the output folder is created.
 TEST(HostileCompare, AMovingPinIsRefusedByFieldBeforeTheFolder) {
