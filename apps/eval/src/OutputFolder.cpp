@@ -366,10 +366,10 @@ OutputFolder::OutputFolder(const fs::path& dir, const std::string& flag, bool ov
     // A folder entry ("frames/") is looked at without its '/': with it, a link there would be followed.
     const bool folder = entry.back() == '/';
     const std::string rel = folder ? entry.substr(0, entry.size() - 1) : entry;
-    // A folder entry where a file or a link now stands is not what the run made: left alone.
-    if (folder && !fs::is_directory(fs::symlink_status(dir / rel, ec)) &&
-        fs::exists(fs::symlink_status(dir / rel, ec)))
-      continue;
+    // A folder entry where a file now stands is not what the run made: left alone (a link there is
+    // removed itself, never followed, below).
+    const fs::file_status st = fs::symlink_status(dir / rel, ec);
+    if (folder && fs::exists(st) && !fs::is_directory(st) && !fs::is_symlink(st)) continue;
     // A file, a link itself (never its target) or an empty folder; nothing under a link on the way.
     remove_output((dir / rel).string());
   }
