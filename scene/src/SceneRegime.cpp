@@ -4,6 +4,7 @@
 #include <algorithm>
 #include <cmath>
 #include <cstdio>
+#include <functional>
 #include <vector>
 
 #include "loom/cloth/Solver.h"
@@ -35,24 +36,26 @@ double min_rest_edge(const cloth::ClothMesh& mesh) {
   return l;
 }
 
-// The fastest point of a kinematic collider's surface (m/s), sampled over the scene at `samples` points (at
-// most 1/240 s apart; a turn is resolved up to pi per sample): its origin's speed plus its turn rate times
-// the farthest point of its local box (a plane: its origin's speed only).
-double collider_surface_speed(const collision::Collider& c, double duration, int samples) {
-  double reach = 0.0;
-  if (c.shape.type != collision::ShapeType::plane) {
-    cloth::Vec3 lo, hi;
-    collision::local_bounds(c.shape, c.geometry.get(), lo, hi);
-    reach = (0.5 * (lo + hi)).norm() + 0.5 * (hi - lo).norm();
-  }
-  const double dt = std::min(1.0 / 240.0, duration / samples);
+// The fastest point at `reach` (m) from the origin of a moving pose (m/s): its origin's speed plus its turn
+// rate times reach, sampled at `samples` even steps over the scene (a turn is resolved up to pi per step).
+double surface_speed(const std::function<collision::Transform(double)>& motion, double reach, double duration,
+                     int samples) {
+  const double dt = duration / samples;
   double v = 0.0;
   for (double t = 0.0; t < duration; t += dt) {
-    const collision::Transform a = c.motion(t), b = c.motion(t + dt);
+    const collision::Transform a = motion(t), b = motion(t + dt);
     const double turn = Eigen::AngleAxisd(b.linear() * a.linear().transpose()).angle();
     v = std::max(v, ((b.translation() - a.translation()).norm() + turn * reach) / dt);
   }
   return v;
+}
+
+// A collider's reach: the farthest point of its local box (a plane: 0, its origin's speed only).
+double collider_reach(const collision::Collider& c) {
+  if (c.shape.type == collision::ShapeType::plane) return 0.0;
+  cloth::Vec3 lo, hi;
+  collision::local_bounds(c.shape, c.geometry.get(), lo, hi);
+  return (0.5 * (lo + hi)).norm() + 0.5 * (hi - lo).norm();
 }
 
 }  // namespace
@@ -150,11 +153,8 @@ std::vector<RegimeOutlier> regime_outliers(const Scene& scene) {
     const std::string at = "bodies[" + std::to_string(k) + "]";
     if (b.velocity.norm() > kRegimeSpeed)
       add(at + ".velocity (" + fig(b.velocity.norm()) + " m/s; validated up to " + fig(kRegimeSpeed) + ")");
-    if (b.motion) {  // a kinematic body's speed, sampled at 240 Hz over the scene (at most 1e5 samples)
-      const double dt = std::max(1.0 / 240.0, scene.duration / 1e5);
-      double v = 0.0;
-      for (double t = 0.0; t < scene.duration; t += dt)
-        v = std::max(v, (b.motion(t + dt).translation() - b.motion(t).translation()).norm() / dt);
+    if (b.motion) {  // a kinematic body's origin speed
+      const double v = surface_speed(b.motion, 0.0, scene.duration, 100000);
       if (v > kRegimeSpeed)
         add(at + ".motion (moves at up to " + fig(v) + " m/s; validated up to " + fig(kRegimeSpeed) + ")");
     }
@@ -180,7 +180,7 @@ std::vector<RegimeOutlier> regime_outliers(const Scene& scene) {
     const collision::Collider& c = scene.colliders[k];
     const std::string at = "colliders[" + std::to_string(k) + "]";
     if (c.motion) {
-      const double v = collider_surface_speed(c, scene.duration, samples);
+      const double v = surface_speed(c.motion, collider_reach(c), scene.duration, samples);
       if (v > kRegimeSpeed)
         add(at + ".motion (its surface moves at up to " + fig(v) + " m/s; validated up to " +
             fig(kRegimeSpeed) + ")");
