@@ -2,6 +2,7 @@
 #include "loom/scene/SceneCollision.h"
 
 #include <algorithm>
+#include <iterator>
 #include <map>
 #include <string>
 #include <tuple>
@@ -63,24 +64,36 @@ void parse_collision(const JsonReader& root, Scene& scene) {
   }
   if (c.has("friction_pairs")) {
     const std::vector<JsonReader> fps = c.objects("friction_pairs");
-    // Names to indices (the first cloth of a name; collider names are unique), and the pairs given so far
-    // as (collider, cloth, other cloth) with a cloth-cloth pair in ascending order: lookups in log time.
-    std::map<std::string, int> cloth_of, collider_of;
-    for (int i = n - 1; i >= 0; --i) cloth_of[scene.setup.cloths[i].name] = i;
+    // Names to indices (collider names are unique; cloth and garment names need not be), and the pairs
+    // given so far as (collider, cloth, other cloth) with a cloth-cloth pair in ascending order: lookups
+    // in log time.
+    std::multimap<std::string, int> cloth_of;
+    std::map<std::string, int> collider_of;
+    for (int i = 0; i < n; ++i) cloth_of.emplace(scene.setup.cloths[i].name, i);
     for (size_t k = 0; k < scene.colliders.size(); ++k)
       collider_of[scene.colliders[k].name] = static_cast<int>(k);
     std::map<std::tuple<int, int, int>, size_t> given;
     for (const JsonReader& f : fps) {
-      // Names: "a" a cloth; "b" a cloth (the same one: self-contact) or a collider.
-      auto cloth_index = [&](const std::string& name) {
-        const auto it = cloth_of.find(name);
-        return it == cloth_of.end() ? -1 : it->second;
+      // Names: "a" a cloth; "b" a cloth (the same one: self-contact) or a collider. A name that stands for
+      // more than one object would leave the pair's meaning to a rule the user cannot see: refused.
+      auto cloth_index = [&](const char* field, const std::string& name, bool or_collider) {
+        const auto [first, last] = cloth_of.equal_range(name);
+        if (first == last) return -1;
+        if (std::next(first) != last)
+          f.fail(field, "'" + name + "' names cloths[" + std::to_string(first->second) + "] and cloths[" +
+                            std::to_string(std::next(first)->second) +
+                            "]: a friction pair needs names that stand for one cloth each");
+        if (or_collider && collider_of.count(name))
+          f.fail(field, "'" + name + "' names cloths[" + std::to_string(first->second) + "] and colliders[" +
+                            std::to_string(collider_of.at(name)) +
+                            "]: a friction pair needs names that stand for one object each");
+        return first->second;
       };
       collision::FrictionPair fp;
       const std::string a = f.string("a"), b = f.string("b");
-      fp.cloth = cloth_index(a);
+      fp.cloth = cloth_index("a", a, false);
       if (fp.cloth < 0) f.fail("a", "no cloth named '" + a + "'");
-      fp.other_cloth = cloth_index(b);
+      fp.other_cloth = cloth_index("b", b, true);
       if (fp.other_cloth < 0) {
         const auto it = collider_of.find(b);
         if (it != collider_of.end()) fp.collider = it->second;

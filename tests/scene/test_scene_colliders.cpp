@@ -102,6 +102,36 @@ TEST(SceneColliders, FrictionPairsResolveNamesAndReportErrors) {
   EXPECT_TRUE(has(e, "collision.friction_pairs[0].friction")) << e;
 }
 
+// A friction pair's name that stands for two cloths, or for a cloth and a collider, is refused by field:
+// which of them the pair would bind is not something the user can see.
+TEST(SceneColliders, FrictionPairsRefuseNamesThatStandForTwoObjects) {
+  auto err = [](const char* cloth_names, const char* pairs) {
+    nlohmann::json root = nlohmann::json::parse(R"({"cloths": [
+        {"mesh": {"type": "grid", "size": [1, 1], "nodes": [3, 3]}},
+        {"mesh": {"type": "grid", "size": [1, 1], "nodes": [3, 3], "origin": [0, 0.5, 0]}}],
+      "colliders": [{"name": "ball", "shape": "sphere", "radius": 0.1, "position": [5, 0, 0]}]})");
+    const nlohmann::json names = nlohmann::json::parse(cloth_names);
+    root["cloths"][0]["name"] = names[0];
+    root["cloths"][1]["name"] = names[1];
+    root["collision"] = {{"self", true}, {"friction_pairs", nlohmann::json::parse(pairs)}};
+    try {
+      parse_scene(root, "scene.json");
+    } catch (const Error& e) {
+      return std::string(e.what());
+    }
+    return std::string();
+  };
+  auto has = [](const std::string& e, const std::string& part) { return e.find(part) != std::string::npos; };
+  std::string e = err(R"(["a", "a"])", R"([{"a": "a", "b": "a", "friction": 0.9}])");
+  EXPECT_TRUE(has(e, "scene.json") && has(e, "collision.friction_pairs[0].a") && has(e, "cloths[0] and cloths[1]"))
+      << e;
+  e = err(R"(["a", "ball"])", R"([{"a": "a", "b": "ball", "friction": 0.9}])");
+  EXPECT_TRUE(has(e, "collision.friction_pairs[0].b") && has(e, "cloths[1] and colliders[0]")) << e;
+  EXPECT_EQ(err(R"(["a", "b"])", R"([{"a": "a", "b": "b", "friction": 0.9}])"), "");
+  // Two cloths of one name are fine while no pair names them.
+  EXPECT_EQ(err(R"(["a", "a"])", "[]"), "");
+}
+
 TEST(SceneColliders, MotionSamplesKeyframesAndSpin) {
   nlohmann::json root = base_scene();
   root["colliders"] = nlohmann::json::parse(R"([
