@@ -123,7 +123,8 @@ TEST(SceneColliders, FrictionPairsRefuseNamesThatStandForTwoObjects) {
   };
   auto has = [](const std::string& e, const std::string& part) { return e.find(part) != std::string::npos; };
   std::string e = err(R"(["a", "a"])", R"([{"a": "a", "b": "a", "friction": 0.9}])");
-  EXPECT_TRUE(has(e, "scene.json") && has(e, "collision.friction_pairs[0].a") && has(e, "cloths[0] and cloths[1]"))
+  EXPECT_TRUE(has(e, "scene.json") && has(e, "collision.friction_pairs[0].a") &&
+              has(e, "cloths[0] and cloths[1]"))
       << e;
   e = err(R"(["a", "ball"])", R"([{"a": "a", "b": "ball", "friction": 0.9}])");
   EXPECT_TRUE(has(e, "collision.friction_pairs[0].b") && has(e, "cloths[1] and colliders[0]")) << e;
