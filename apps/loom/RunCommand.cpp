@@ -425,6 +425,30 @@ void SceneRun::check_export_sizes() const {
             ", above the 2.15 GB an export may take: lower --frames (or raise output.every) or drop \"" + f +
             "\"");
   }
+#ifdef LOOM_HAVE_RENDER
+  // --render keeps every rendered frame's positions until the run ends and then draws supersampled images:
+  // what that needs is known now, so a size past the memory there is is refused before the run.
+  if (o_.render) {
+    render::RenderSettings rs;
+    rs.width = sc_.output.render.width;
+    rs.height = sc_.output.render.height;
+    const double rendered = std::floor(frames_ / double(std::max(1, sc_.output.render.every))) + 1.0;
+    const auto colliders = pipeline_->colliders();
+    const double need =
+        render::render_memory_bytes(rs, rendered, vertices, colliders ? double(colliders->size()) : 0.0);
+    const double budget = static_cast<double>(scene::memory_budget());
+    if (!(need <= budget))
+      throw Error(
+          scene_path_, "output.render.width",
+          "--render at " + std::to_string(rs.width) + "x" + std::to_string(rs.height) + " px for " +
+              std::to_string(static_cast<long long>(rendered)) + " rendered frames of " +
+              std::to_string(static_cast<long long>(vertices)) + " vertices needs about " +
+              scene::show_bytes(need) + " of memory; " + scene::show_bytes(budget) +
+              (scene::memory_limit_env() == scene::memory_budget() ? " (set by LOOM_MEMORY_LIMIT)" : "") +
+              " is available: lower output.render.width and height, raise output.render.every or "
+              "lower --frames");
+  }
+#endif
 }
 
 // The output folder (OutputFolder.h): out/<scene name> by default (the scene layer keeps `name` a plain file
@@ -786,9 +810,17 @@ void SceneRun::render_video() {
     rs.camera = render::Camera{sc_.output.render.eye, sc_.output.render.target, sc_.output.render.fov};
   const double fps = 1.0 / (sc_.setup.frame_dt * sc_.output.render.every);
   remove_listed_frames("render", ".png", recording_->frames());  // an earlier run's later frames
-  const render::RenderReport rep =
-      render::render_recording(out_.string(), *recording_, rs, fps, &g_interrupted);
-  render_interrupted_ = rep.stopped;
+  // A frame that cannot be drawn or written (a full disk, memory) ends the render like a failed encoding:
+  // the simulation's outputs are whole and a checkpoint renders again.
+  render::RenderReport rep;
+  try {
+    rep = render::render_recording(out_.string(), *recording_, rs, fps, &g_interrupted);
+  } catch (const Error& e) {
+    render_error_ = e.what();
+  } catch (const std::bad_alloc&) {
+    render_error_ = out_.string() + "/render: --render: out of memory while drawing the frames";
+  }
+  render_interrupted_ = rep.stopped || !render_error_.empty();
   // Ctrl-C reaches ffmpeg too (the terminal signals the whole process group): a failed encoding then is
   // the interruption, not an error.
   auto encode = [&](const std::vector<std::string>& args, const char* file) {

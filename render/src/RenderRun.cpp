@@ -106,6 +106,12 @@ std::vector<cloth::Vec3> tracked_targets(const Recording& rec, double fps, doubl
 
 }  // namespace
 
+double render_memory_bytes(const RenderSettings& settings, double frames, double vertices, double colliders) {
+  const double s = settings.supersample;
+  const double pixels = double(settings.width) * double(settings.height);
+  return frames * (24.0 * vertices + 128.0 * colliders) + pixels * (8.0 * s * s + kBytesPerPixel);
+}
+
 RenderReport render_recording(const std::string& out_dir, const Recording& rec,
                               const RenderSettings& settings, double fps,
                               const volatile std::sig_atomic_t* stop) {

@@ -555,6 +555,25 @@ TEST(HostileBench, AccuracySizesAreEstimatedBeforeAllocating) {
   EXPECT_FALSE(fs::exists(out)) << "the folder was claimed before the estimate";
 }
 
+// --render estimates the recording and the supersampled images before the run: a size the memory cannot
+// hold is refused by field, with the figure, before the output folder (not after the simulation).
+TEST(HostileRender, ImageSizeIsEstimatedBeforeTheRun) {
+  const fs::path out = test_dir() / "out";
+  const std::string cmd = "LOOM_MEMORY_LIMIT=1000000000 " + std::string(LOOM_BINARY) + " run " +
+                          std::string(LOOM_SOURCE_DIR) + "/scenes/hanging_cloth.json --frames 1 --render " +
+                          "--set 'output.render={\"width\":8192,\"height\":8192}' --out " + out.string() +
+                          " 2>" + (test_dir() / "err.txt").string() + " >/dev/null";
+  const int status = std::system(cmd.c_str());
+  const std::string err = slurp(test_dir() / "err.txt");
+  if (err.find("offscreen renderer") != std::string::npos ||
+      err.find("ffmpeg not found") != std::string::npos)
+    GTEST_SKIP() << "no renderer";
+  EXPECT_TRUE(WIFEXITED(status) && WEXITSTATUS(status) == 1) << err;
+  EXPECT_NE(err.find("output.render.width: --render at 8192x8192 px"), std::string::npos) << err;
+  EXPECT_NE(err.find("set by LOOM_MEMORY_LIMIT"), std::string::npos) << err;
+  EXPECT_FALSE(fs::exists(out)) << "the folder was claimed before the estimate";
+}
+
 // An empty LOOM_SCENES (an unset shell variable exported) is unset: `loom run` never reads the working
 // directory's character_layers.json.
 TEST(HostileEnv, AnEmptyScenesVariableIsUnset) {

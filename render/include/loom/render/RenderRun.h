@@ -46,6 +46,13 @@ struct RenderReport {
   bool stopped = false;       // `stop` was set before every frame was written
 };
 
+// Memory (bytes) a render of `frames` recorded frames of `vertices` cloth vertices and `colliders` colliders
+// takes at most: the recording's positions (24 bytes per vertex and frame) and poses (128 bytes per collider
+// and frame), and per image pixel kBytesPerPixel for the supersampled colour and depth-stencil buffers
+// (8 x supersample^2), the image, the PNG encoder's working copies and the renderer's span buffers.
+constexpr double kBytesPerPixel = 24.0;
+double render_memory_bytes(const RenderSettings& settings, double frames, double vertices, double colliders);
+
 // Renders `rec` into `out` (see above): out/render/frame_NNNNN.png (frame 0 to rec.frames() - 1). Deletes
 // nothing: the caller owns `out` and its earlier files. `fps`: frames per second of the rendered frames (the
 // camera's tracking is smoothed over time). `stop` (a Ctrl-C flag): checked before each frame; once set, no
