@@ -105,6 +105,7 @@ std::string encode_checkpoint(const Checkpoint& c) {
   j["sim_ms"] = c.sim_ms;
   j["logged_frames"] = c.logged_frames;
   j["log_hash"] = hex(c.log_hash);
+  j["frames_hash"] = hex(c.frames_hash);
   const std::string header = j.dump();
   std::string out = std::string(kMagicPrefix) + std::to_string(kCheckpointFormat) + "\n";
   put_u64(out, header.size());
@@ -180,6 +181,7 @@ Checkpoint decode_checkpoint(const std::string& data, const std::string& source)
     c.sim_ms = at("sim_ms").get<double>();
     c.logged_frames = static_cast<long>(integer_in(at("logged_frames"), 0, std::numeric_limits<long>::max()));
     c.log_hash = unhex(at("log_hash").get<std::string>());
+    c.frames_hash = unhex(at("frames_hash").get<std::string>());
     field.clear();
   } catch (const Error&) {
     throw;

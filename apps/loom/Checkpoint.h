@@ -6,8 +6,9 @@
 //   | u64 FNV-1a 64 checksum of every byte before it
 // The header holds the run (absolute scene path, scene text, --set overrides, frames, totals so far), the
 // output folder's run id (OutputFolder.h), every input file with its size and FNV-1a 64 hash (scene, meshes,
-// motion clips), and the hash of the frame log's kept entries. Resume refuses, naming the file: another
-// format, a checksum mismatch, another folder's checkpoint, a changed or missing input, a changed frame log.
+// motion clips), the hash of the frame log's kept entries and the hash of the OBJ frames written so far.
+// Resume refuses, naming the file: another format, a checksum mismatch, another folder's checkpoint, a
+// changed or missing input, a changed frame log, a frame file removed or changed.
 // Geometry written per frame by exporters that keep the whole run in memory (pc2, gltf, --render) is
 // replayed on resume from DIR/checkpoint/frames.bin, an append-only log of the written frames' positions.
 #include <cstdint>
@@ -30,10 +31,11 @@ namespace loom::app {
 using eval::OutputFolder;
 using eval::read_run_id;
 
-constexpr int kCheckpointFormat = 2;
+constexpr int kCheckpointFormat = 3;
 
-// FNV-1a, 64 bits (Fowler, Noll, Vo), continued from `h`.
-std::uint64_t fnv1a(const char* data, size_t n, std::uint64_t h = 0xcbf29ce484222325ull);
+// FNV-1a, 64 bits (Fowler, Noll, Vo), continued from `h` (kFnvOffset: the start of a new hash).
+constexpr std::uint64_t kFnvOffset = 0xcbf29ce484222325ull;
+std::uint64_t fnv1a(const char* data, size_t n, std::uint64_t h = kFnvOffset);
 inline std::uint64_t fnv1a(const std::string& s) { return fnv1a(s.data(), s.size()); }
 
 struct InputFile {
@@ -61,7 +63,10 @@ struct Checkpoint {
   double sim_ms = 0.0;           // ms of pipeline time so far
   long logged_frames = 0;        // entries of frames.bin that belong to frames <= frame
   std::uint64_t log_hash = 0;    // FNV-1a 64 of those entries' bytes
-  std::string state;             // cloth::Simulation state archive
+  // FNV-1a 64 of the frame files frames/frame_N.obj written up to `frame`, their bytes in frame order: resume
+  // refuses a folder whose frames were removed or changed since (the run would not be whole).
+  std::uint64_t frames_hash = kFnvOffset;
+  std::string state;  // cloth::Simulation state archive
 };
 
 // The bytes of a checkpoint file, and back (errors name `source` and the problem; any input either decodes

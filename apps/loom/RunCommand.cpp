@@ -58,20 +58,26 @@ constexpr const char* kDefaultScene = "hanging_cloth.json";
 volatile std::sig_atomic_t g_interrupted = 0;
 extern "C" void on_sigint(int) { g_interrupted = 1; }
 
-void write_obj(const fs::path& path, const std::vector<std::unique_ptr<cloth::Cloth>>& cloths) {
-  OutputFile out(path);
-  if (!out) throw Error(path.string(), "", "cannot write frame");
-  out << std::setprecision(9);
+// Writes one OBJ frame; returns `hash` continued over the file's bytes (Checkpoint::frames_hash).
+std::uint64_t write_obj(const fs::path& path, const std::vector<std::unique_ptr<cloth::Cloth>>& cloths,
+                        std::uint64_t hash) {
+  std::ostringstream text;
+  text << std::setprecision(9);
   int base = 1;
   for (const auto& c : cloths) {
-    out << "o " << c->name() << "\n";
-    for (const cloth::Vec3& p : c->state().x) out << "v " << p.x() << ' ' << p.y() << ' ' << p.z() << "\n";
+    text << "o " << c->name() << "\n";
+    for (const cloth::Vec3& p : c->state().x) text << "v " << p.x() << ' ' << p.y() << ' ' << p.z() << "\n";
     for (const cloth::Tri& t : c->mesh().triangles())
-      out << "f " << t[0] + base << ' ' << t[1] + base << ' ' << t[2] + base << "\n";
+      text << "f " << t[0] + base << ' ' << t[1] + base << ' ' << t[2] + base << "\n";
     base += c->state().size();
   }
+  const std::string bytes = text.str();
+  OutputFile out(path);
+  if (!out) throw Error(path.string(), "", "cannot write frame");
+  out.write(bytes.data(), static_cast<std::streamsize>(bytes.size()));
   out.close();
   if (!out) throw Error(path.string(), "", "write failed");
+  return fnv1a(bytes.data(), bytes.size(), hash);
 }
 
 // Writes `text` to `path` through a temporary file `tmp` and a rename, so a reader never sees half a file.
@@ -292,6 +298,9 @@ class SceneRun {
   // (whatever its width): frames an earlier run wrote beyond what this one writes.
   void remove_listed_frames(const std::string& folder, const std::string& ext, long from);
   void keep_frame(bool exported, bool rendered);
+  // --resume: refuses (naming the file) when an OBJ frame written up to the checkpoint is missing, or when
+  // their bytes no longer hash to the checkpoint's frames_hash; sets frames_hash_ to it.
+  void check_kept_frames();
   void save_checkpoint();
   // Stops the run at frame f with `why` when the simulation or the shown surface is not finite.
   bool stopped_non_finite(const cloth::FrameStats& s, int f);
@@ -316,6 +325,7 @@ class SceneRun {
   std::unique_ptr<DetailView> shown_;  // cloths with `detail` are written and rendered as their surface
   std::unique_ptr<FrameLog> log_;      // frames pc2/gltf/--render keep in memory, logged for --resume
   int digits_ = 5;
+  std::uint64_t frames_hash_ = kFnvOffset;  // the OBJ frames written so far (Checkpoint::frames_hash)
   bool obj_ = false;
   fs::path stats_partial_;
   OutputFile csv_, bodies_csv_;
@@ -524,6 +534,7 @@ void SceneRun::open_outputs() {
     log_ = std::make_unique<FrameLog>(*folder_, resume_ ? resume_->logged_frames : 0,
                                       resume_ ? resume_->log_hash : 0, shown_->cloths());
   digits_ = resume_ ? resume_->frame_digits : frame_digits(frames_);
+  if (resume_) check_kept_frames();
   folder_->claim("frames/");
   if (resume_) {  // the stats rows and OBJ frames up to the checkpoint's frame are kept, later ones dropped
     remove_listed_frames("frames", ".obj", first_ + 1);
@@ -623,6 +634,29 @@ void SceneRun::remove_listed_frames(const std::string& folder, const std::string
   for (const std::string& n : stale) folder_->remove_owned(n);  // only listed files are deleted
 }
 
+void SceneRun::check_kept_frames() {
+  const bool obj = sc_.output.frames && std::find(sc_.output.formats.begin(), sc_.output.formats.end(),
+                                                  "obj") != sc_.output.formats.end();
+  std::uint64_t h = kFnvOffset;
+  const int every = std::max(1, sc_.output.every);
+  for (int f = 0; obj && f <= first_; f += every) {
+    const fs::path path = out_ / frame_name(f);
+    std::error_code ec;
+    if (!fs::exists(fs::symlink_status(path, ec)))
+      throw Error(path.string(), "--resume",
+                  "is missing: the run wrote it before its checkpoint at frame " + std::to_string(first_) +
+                      ", so the folder no longer holds the whole run; run the scene again");
+    const std::string bytes = read_text_file(path.string());
+    h = fnv1a(bytes.data(), bytes.size(), h);
+  }
+  if (h != resume_->frames_hash)
+    throw Error((out_ / "frames").string(), "--resume",
+                "the frame files written before the checkpoint at frame " + std::to_string(first_) +
+                    " were changed since (their contents no longer match the checkpoint), so the folder no "
+                    "longer holds the whole run; run the scene again");
+  frames_hash_ = h;
+}
+
 void SceneRun::keep_frame(bool exported, bool rendered) {
   if (exported) exports_->frame(sim_->time(), shown_->cloths());
 #ifdef LOOM_HAVE_RENDER
@@ -652,6 +686,7 @@ void SceneRun::save_checkpoint() {
   c.sim_ms = sim_ms_;
   c.logged_frames = log_ ? log_->entries() : 0;
   c.log_hash = log_ ? log_->hash() : 0;
+  c.frames_hash = frames_hash_;
   cloth::StateWriter w;
   sim_->save_state(w);
   c.state = w.data();
@@ -696,7 +731,7 @@ void SceneRun::start() {
   write_row(s0);
   write_bodies(0);
   run_census();
-  if (obj_) write_obj(folder_->claim(frame_name(0)), shown_->cloths());
+  if (obj_) frames_hash_ = write_obj(folder_->claim(frame_name(0)), shown_->cloths(), frames_hash_);
   keep_frame(true, true);
   max_strain_ = s0.max_strain;
   done_ = first_;
@@ -764,7 +799,8 @@ void SceneRun::step_frames() {
     write_row(s);
     write_bodies(f);
     run_census();
-    if (obj_ && f % sc_.output.every == 0) write_obj(folder_->claim(frame_name(f)), shown_->cloths());
+    if (obj_ && f % sc_.output.every == 0)
+      frames_hash_ = write_obj(folder_->claim(frame_name(f)), shown_->cloths(), frames_hash_);
     max_strain_ = std::max(max_strain_, s.max_strain);
     mean_strain_sum_ += s.mean_strain;
     done_ = f;

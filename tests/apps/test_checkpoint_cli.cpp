@@ -145,6 +145,53 @@ TEST(Checkpoint, ResumeRefusesAChangedScene) {
   EXPECT_NE(r.err.find("changed since the checkpoint"), std::string::npos) << r.err;
 }
 
+// The OBJ frames written before the checkpoint are part of the run: one removed, cut or edited since is
+// refused by name (a resumed run would otherwise end "completed" with a hole), and the folder is left as it
+// was.
+TEST(Checkpoint, ResumeRefusesFramesRemovedOrChangedSinceTheCheckpoint) {
+  const fs::path dir = loom::test::test_dir();
+  const std::string scene = write_scene(dir);
+  const fs::path out = dir / "out";
+  auto fresh = [&] {
+    fs::remove_all(out);
+    ASSERT_EQ(
+        loom::test::run_loom("run " + scene + " --frames 10 --checkpoint-every 5 --out " + out.string()).code,
+        0);
+  };
+  fresh();
+  fs::remove(out / "frames" / "frame_00003.obj");
+  auto r = loom::test::run_loom("run --resume " + out.string() + " --frames 15");
+  EXPECT_EQ(r.code, 1) << r.err;
+  EXPECT_NE(r.err.find((out / "frames" / "frame_00003.obj").string() + ": --resume: is missing"),
+            std::string::npos)
+      << r.err;
+  EXPECT_TRUE(fs::exists(out / "summary.json")) << "the refused resume changed the folder";
+  EXPECT_FALSE(fs::exists(out / "frames" / "frame_00011.obj"));
+
+  fresh();
+  std::ofstream(out / "frames" / "frame_00002.obj", std::ios::app) << "v 0 0 0\n";
+  r = loom::test::run_loom("run --resume " + out.string() + " --frames 15");
+  EXPECT_EQ(r.code, 1) << r.err;
+  EXPECT_NE(
+      r.err.find((out / "frames").string() + ": --resume: the frame files written before the checkpoint"),
+      std::string::npos)
+      << r.err;
+
+  fresh();  // untouched: resumes
+  r = loom::test::run_loom("run --resume " + out.string() + " --frames 15");
+  EXPECT_EQ(r.code, 0) << r.err;
+  EXPECT_TRUE(fs::exists(out / "frames" / "frame_00015.obj"));
+  // ... and a second resume checks the frames the first one added as well.
+  r = loom::test::run_loom("run " + scene + " --frames 12 --checkpoint-every 4 --out " + out.string() +
+                           " --overwrite");
+  ASSERT_EQ(r.code, 0) << r.err;
+  ASSERT_EQ(loom::test::run_loom("run --resume " + out.string() + " --frames 16").code, 0);
+  std::ofstream(out / "frames" / "frame_00010.obj", std::ios::app)
+      << "# edited\n";  // before its checkpoint at 12
+  r = loom::test::run_loom("run --resume " + out.string() + " --frames 20");
+  EXPECT_EQ(r.code, 1) << r.err;
+}
+
 TEST(Checkpoint, SigintStopsAtAFrameBoundaryAndResumesBitIdentically) {
   const fs::path dir = loom::test::test_dir();
   // Many substeps so a frame takes a few milliseconds and the run is still going when the signal comes.
