@@ -131,6 +131,30 @@ int compare_main(int argc, char** argv) {
                           ": loom compare's Bullet twins hold fixed pins only; compare a scene without pin "
                           "paths");
     }
+  // The twins carry the cloth's mesh, springs, masses, damping, fixed pins and gravity (docs/bullet.md,
+  // "Twins"): a scene value that changes the problem beyond those would make the rows compare different
+  // problems, so it is refused by field. Loom's own solver settings (solver, substeps, constraints,
+  // quality) are the loom row's and stay.
+  auto refuse = [&](const std::string& field, const std::string& what) {
+    throw Error(sc.file, field,
+                what +
+                    ": loom compare's Bullet twins cannot carry it, so the rows would compare different "
+                    "problems; compare a scene without it (or loom run this one)");
+  };
+  if (sc.setup.drag) refuse("effects.drag", "is set");
+  if (sc.setup.wind) refuse("effects.wind", "is set");
+  for (size_t c = 0; c < sc.setup.cloths.size(); ++c) {
+    const cloth::ClothSetup& cs = sc.setup.cloths[c];
+    const std::string at = "cloths[" + std::to_string(c) + "]";
+    if (cs.model != "springs")
+      refuse(sc.character ? "character.garments[" + std::to_string(c) + "].model" : at + ".model",
+             "is '" + cs.model + "' (the twins' links are Loom's springs)");
+    if (cs.pressure) refuse(at + ".pressure", "is set");
+    if (!sc.character && cs.initial_velocity != cloth::Vec3::Zero()) refuse(at + ".velocity", "is not zero");
+  }
+  if (!sc.character && sc.setup.cloths.size() > 1)
+    refuse("cloths",
+           "has " + std::to_string(sc.setup.cloths.size()) + " cloths (the twins run the first one)");
   // The folder is checked (and claimed) before the runs, so a refused folder costs nothing.
   if (!out_given) eval::refuse_linked_default(out, "--out");
   // The scene and every file it read: one that is a file compare writes (or an earlier run listed) is

@@ -539,6 +539,27 @@ TEST(HostileCompare, AMovingPinIsRefusedByFieldBeforeTheFolder) {
   EXPECT_FALSE(fs::exists(out));
 }
 
+// What the Bullet twins cannot carry (a start velocity, wind, drag, another force model, pressure, a second
+// cloth) is refused by field before the folder: the rows would otherwise compare different problems.
+TEST(HostileCompare, ValuesTheTwinsCannotCarryAreRefusedByField) {
+  const fs::path out = test_dir() / "out";
+  const std::string scene = std::string(LOOM_SOURCE_DIR) + "/scenes/trampoline.json";
+  const std::pair<const char*, const char*> cases[] = {
+      {"cloths[0].velocity=[0,20,0]", "cloths[0].velocity: is not zero"},
+      {"effects={\"wind\":{\"velocity\":[5,0,0]}}", "effects.wind: is set"},
+      {"effects={\"drag\":{\"isotropic\":1}}", "effects.drag: is set"},
+      {"cloths[0].model=corotated_fem", "cloths[0].model: is 'corotated_fem'"},
+  };
+  for (const auto& [set, expected] : cases) {
+    const auto r = run_loom("compare " + scene + " --frames 2 --set '" + set + "' --out " + out.string());
+    if (r.err.find("unknown command") != std::string::npos) GTEST_SKIP() << "no Bullet bridge";
+    EXPECT_EQ(r.code, 1) << set << ": " << r.err;
+    EXPECT_NE(r.err.find(scene + ": " + expected), std::string::npos) << set << ": " << r.err;
+    EXPECT_NE(r.err.find("Bullet twins cannot carry it"), std::string::npos) << r.err;
+    EXPECT_FALSE(fs::exists(out)) << set;
+  }
+}
+
 // `loom bench accuracy --sizes N` estimates its memory before allocating: refused by the option, with the
 // figure, before the output folder.
 TEST(HostileBench, AccuracySizesAreEstimatedBeforeAllocating) {
