@@ -12,6 +12,7 @@
 #include <fstream>
 #include <iomanip>
 #include <iostream>
+#include <iterator>
 #include <memory>
 #include <nlohmann/json.hpp>
 #include <optional>
@@ -55,8 +56,13 @@ constexpr const char* kDefaultScene = "hanging_cloth.json";
 
 // Ctrl-C (SIGINT): the run stops within the frame in progress (the simulation checks the flag between its
 // steps and the guard's retries and goes back to the frame's start), writes a checkpoint and valid outputs.
+// SIGTERM (kill, timeout, a CI's or container's cancellation) and SIGHUP (the terminal closed) stop it the
+// same way; g_interrupted holds the signal's number, the exit code is 128 + it (130 for Ctrl-C). A SIGTERM or
+// SIGHUP the parent ignores (nohup) stays ignored.
 volatile std::sig_atomic_t g_interrupted = 0;
-extern "C" void on_sigint(int) { g_interrupted = 1; }
+extern "C" void on_sigint(int sig) { g_interrupted = sig; }
+constexpr int kStopSignals[] = {SIGINT, SIGTERM, SIGHUP};
+int interrupted_exit_code() { return 128 + (g_interrupted > 0 ? static_cast<int>(g_interrupted) : SIGINT); }
 
 // Writes one OBJ frame; returns `hash` continued over the file's bytes (Checkpoint::frames_hash).
 std::uint64_t write_obj(const fs::path& path, const std::vector<std::unique_ptr<cloth::Cloth>>& cloths,
@@ -342,7 +348,7 @@ class SceneRun {
   bool finite_ = true, interrupted_ = false, resumable_ = true;
   bool render_interrupted_ = false;  // Ctrl-C in the render phase: the video is not written
   std::string render_error_;         // ffmpeg failed: the video is not written, the run ends with exit 1
-  void (*old_handler_)(int) = SIG_DFL;
+  void (*old_handlers_[3])(int) = {SIG_DFL, SIG_DFL, SIG_DFL};  // of kStopSignals
   std::string error_;
   int done_ = 0;
 };
@@ -821,7 +827,10 @@ void SceneRun::step_frames() {
 void SceneRun::run() {
   // Ctrl-C is caught from here to the end of finish(): the simulation and the render phase stop cleanly.
   g_interrupted = 0;
-  old_handler_ = std::signal(SIGINT, on_sigint);
+  for (size_t k = 0; k < std::size(kStopSignals); ++k) {
+    old_handlers_[k] = std::signal(kStopSignals[k], on_sigint);
+    if (kStopSignals[k] != SIGINT && old_handlers_[k] == SIG_IGN) std::signal(kStopSignals[k], SIG_IGN);
+  }
   start();
   if (finite_) step_frames();
   exports_->finish();
@@ -972,7 +981,7 @@ nlohmann::ordered_json SceneRun::summary() const {
 
 int SceneRun::finish() {
   render_video();
-  std::signal(SIGINT, old_handler_);
+  for (size_t k = 0; k < std::size(kStopSignals); ++k) std::signal(kStopSignals[k], old_handlers_[k]);
   csv_.close();
   if (!csv_) throw Error(stats_partial_.string(), "", "write failed");
   const fs::path stats = folder_->claim("stats.csv");
@@ -995,7 +1004,7 @@ int SceneRun::finish() {
     std::cerr << "loom: interrupted while rendering; the simulation is complete and its outputs are written"
               << (resumable_ ? "; render again with: loom run --resume " + printable(out_.string()) : "")
               << "\n";
-    return 130;
+    return interrupted_exit_code();
   }
   if (interrupted_) {
     std::cerr << "loom: interrupted after frame " << done_ << " of " << frames_
@@ -1004,7 +1013,7 @@ int SceneRun::finish() {
       std::cerr << " (a scene with rigid bodies cannot be resumed)\n";
     else
       std::cerr << "; continue with: loom run --resume " << printable(out_.string()) << "\n";
-    return 130;
+    return interrupted_exit_code();
   }
   std::cout << "loom: " << done_ << " frames of " << printable(sc_.name) << " in " << std::fixed
             << std::setprecision(2) << (done_ ? sim_ms_ / done_ : 0.0) << " ms/frame -> "

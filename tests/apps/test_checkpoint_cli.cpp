@@ -14,6 +14,7 @@
 
 #include <chrono>
 #include <cmath>
+#include <csignal>
 #include <cstdint>
 #include <cstring>
 #include <filesystem>
@@ -190,6 +191,61 @@ TEST(Checkpoint, ResumeRefusesFramesRemovedOrChangedSinceTheCheckpoint) {
       << "# edited\n";  // before its checkpoint at 12
   r = loom::test::run_loom("run --resume " + out.string() + " --frames 20");
   EXPECT_EQ(r.code, 1) << r.err;
+}
+
+// SIGTERM (kill, timeout, a CI cancelling) and SIGHUP (the terminal closed) stop a run like Ctrl-C: the
+// frames done keep their stats, a checkpoint resumes it, exit 128 + the signal. Under nohup (SIGHUP ignored
+// by the parent) a SIGHUP changes nothing.
+TEST(Checkpoint, TermAndHangupStopLikeCtrlCAndNohupKeepsHangupIgnored) {
+  const fs::path dir = loom::test::test_dir();
+  std::string text = kScene;
+  text.replace(text.find("\"substeps\": 2"), 13, "\"substeps\": 40");
+  const std::string scene = write_scene(dir, text);
+  auto start = [&](const fs::path& out, bool ignore_hup) {
+    const pid_t pid = fork();
+    if (pid == 0) {
+      const std::string log = (dir / "child.txt").string();
+      if (!freopen(log.c_str(), "w", stdout) || !freopen(log.c_str(), "a", stderr)) _exit(99);
+      if (ignore_hup) std::signal(SIGHUP, SIG_IGN);
+      execl(LOOM_BINARY, LOOM_BINARY, "run", scene.c_str(), "--frames", "99999", "--out",
+            out.string().c_str(), (char*)nullptr);
+      _exit(98);
+    }
+    const auto deadline = std::chrono::steady_clock::now() + std::chrono::seconds(60);
+    while (!fs::exists(out / "frames" / "frame_00003.obj") && std::chrono::steady_clock::now() < deadline)
+      std::this_thread::sleep_for(std::chrono::milliseconds(5));
+    return pid;
+  };
+  for (const int sig : {SIGTERM, SIGHUP}) {
+    const fs::path out = dir / ("stopped_" + std::to_string(sig));
+    fs::remove_all(out);
+    const pid_t pid = start(out, false);
+    ASSERT_GT(pid, 0);
+    kill(pid, sig);
+    int status = 0;
+    waitpid(pid, &status, 0);
+    ASSERT_TRUE(WIFEXITED(status)) << sig << ": " << slurp(dir / "child.txt");
+    EXPECT_EQ(WEXITSTATUS(status), 128 + sig) << slurp(dir / "child.txt");
+    const auto j = nlohmann::json::parse(slurp(out / "summary.json"));
+    EXPECT_FALSE(j["completed"].get<bool>());
+    EXPECT_TRUE(j["interrupted"].get<bool>());
+    EXPECT_GE(j["frames"].get<int>(), 3);
+    EXPECT_TRUE(fs::exists(out / "checkpoint" / "checkpoint.bin"));
+    const auto r = loom::test::run_loom("run --resume " + out.string() + " --frames " +
+                                        std::to_string(j["frames"].get<int>() + 2));
+    EXPECT_EQ(r.code, 0) << r.err;
+  }
+  const fs::path out = dir / "nohup";
+  fs::remove_all(out);
+  const pid_t pid = start(out, true);
+  ASSERT_GT(pid, 0);
+  kill(pid, SIGHUP);
+  std::this_thread::sleep_for(std::chrono::milliseconds(200));
+  int status = 0;
+  EXPECT_EQ(waitpid(pid, &status, WNOHANG), 0) << "a SIGHUP ignored by the parent stopped the run";
+  kill(pid, SIGINT);
+  waitpid(pid, &status, 0);
+  EXPECT_TRUE(WIFEXITED(status) && WEXITSTATUS(status) == 130) << slurp(dir / "child.txt");
 }
 
 TEST(Checkpoint, SigintStopsAtAFrameBoundaryAndResumesBitIdentically) {
