@@ -331,6 +331,8 @@ class SceneRun {
   std::unique_ptr<DetailView> shown_;  // cloths with `detail` are written and rendered as their surface
   std::unique_ptr<FrameLog> log_;      // frames pc2/gltf/--render keep in memory, logged for --resume
   int digits_ = 5;
+  std::vector<std::string> export_files_;   // the exporters' files, relative to out_
+  bool no_frame_written_ = false;           // frame 0 was not finite: the run stopped before it
   std::uint64_t frames_hash_ = kFnvOffset;  // the OBJ frames written so far (Checkpoint::frames_hash)
   bool obj_ = false;
   fs::path stats_partial_;
@@ -563,14 +565,13 @@ void SceneRun::open_outputs() {
   for (const std::string& f : sc_.output.formats) {  // the exporters' files (Exporters.h), claimed first
     if (f == "pc2") {
       folder_->claim("pc2/");
-      for (const std::string& n : exporter::Exporters::file_names(shown_->cloths())) {
-        folder_->claim("pc2/" + n + ".obj");
-        folder_->claim("pc2/" + n + ".pc2");
-      }
+      for (const std::string& n : exporter::Exporters::file_names(shown_->cloths()))
+        export_files_.insert(export_files_.end(), {"pc2/" + n + ".obj", "pc2/" + n + ".pc2"});
     } else if (f == "gltf") {
-      for (const char* n : {"animation.gltf", "animation.gltf.tmp", "animation.bin"}) folder_->claim(n);
+      export_files_.insert(export_files_.end(), {"animation.gltf", "animation.gltf.tmp", "animation.bin"});
     }
   }
+  for (const std::string& n : export_files_) folder_->claim(n);
   exports_ = std::make_unique<exporter::Exporters>(out_.string(), sc_.output.formats, shown_->cloths(),
                                                    sc_.output.every);
 #ifdef LOOM_HAVE_RENDER
@@ -728,10 +729,15 @@ void SceneRun::start() {
             ? "the detail surface of cloth '" + shown_bad + "' is not finite at the start (cloths[].detail)"
         : !out_of_range_cloth(shown_->cloths()).empty()
             ? "cloth '" + out_of_range_cloth(shown_->cloths()) +
-                  "' starts beyond the coordinate bound (1e6 m)"
+                  "' starts beyond the coordinate bound (1e6 m): its mesh's origin, scale or translate (a "
+                  "garment's scale, or the clip's pose) put it there"
             : "the start state's energy is not finite (an initial velocity, pin offset or anchor too large "
               "for double precision)";
-    error_ += "; stopped before frame 0, nothing written" + scene::divergence_suspects(sc_);
+    no_frame_written_ = true;
+    error_ += "; stopped before frame 0, no frame written";
+    // Only the energy is a matter of the scene's values and regime; the others are the start geometry's.
+    if (bad.empty() && shown_bad.empty() && out_of_range_cloth(shown_->cloths()).empty())
+      error_ += scene::divergence_suspects(sc_);
     return;
   }
   write_row(s0);
@@ -834,6 +840,9 @@ void SceneRun::run() {
   start();
   if (finite_) step_frames();
   exports_->finish();
+  // A run stopped before frame 0 wrote no frame: exports holding none are not left as if they were a run.
+  if (no_frame_written_)
+    for (const std::string& n : export_files_) folder_->remove_owned(n);
 }
 
 // An interrupted run renders when it is resumed and ends.

@@ -141,7 +141,15 @@ std::shared_ptr<const cloth::ClothMesh> parse_mesh(const JsonReader& r, Scene& s
         r.fail("origin",
                "coordinates must be within +-" + std::to_string(static_cast<long>(kMaxCoordinate)) + " m");
       r.finish();
-      return build([&] { return cloth::ClothMesh::grid(g); });
+      auto mesh = build([&] { return cloth::ClothMesh::grid(g); });
+      // The origin and the size are each within the bound; the far corner must be too.
+      for (const Vec3& x : mesh->rest_positions())
+        if (!(x.cwiseAbs().maxCoeff() <= kMaxCoordinate))
+          r.fail("origin", "with size [" + show(g.size_u) + ", " + show(g.size_v) +
+                               "] the grid reaches beyond +-" +
+                               std::to_string(static_cast<long>(kMaxCoordinate)) + " m (a corner at (" +
+                               show(x.x()) + ", " + show(x.y()) + ", " + show(x.z()) + "))");
+      return mesh;
     }
     const std::string path = r.string("path");
     const double scale = r.number("scale", 1.0, 0.0, true);
@@ -160,6 +168,9 @@ std::shared_ptr<const cloth::ClothMesh> parse_mesh(const JsonReader& r, Scene& s
       return build([&] { return cloth::ClothMesh::from_obj(p.string(), scale, translate); });
     input_file(scene, r.child("path"),
                path);  // as written: input_file resolves it against the scene's folder
+    // Its memory is estimated from its `v` lines before it is parsed (the parser's own copies would
+    // otherwise be the first thing a huge file exhausts).
+    reserve_vertices(scene, r.path(), build([&] { return count_obj_elements(p.string()); }).vertices);
     // Coordinates first, by their line: a vertex past the bound (1e308) would otherwise be blamed on a
     // triangle's area.
     build([&] {
@@ -185,7 +196,6 @@ std::shared_ptr<const cloth::ClothMesh> parse_mesh(const JsonReader& r, Scene& s
     if (!(box.diagonal().norm() >= kMinMeshSize))
       r.fail("scale", "makes the mesh " + show(box.diagonal().norm()) + " m across; at least " +
                           show(kMinMeshSize) + " m");
-    reserve_vertices(scene, r.path(), mesh->num_vertices());
     return mesh;
   }
 }

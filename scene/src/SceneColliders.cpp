@@ -250,6 +250,14 @@ void parse_colliders(const JsonReader& root, Scene& scene) {
           limit << "must be >= " << kMinMeshScale << " (got " << scale << ")";
           r.fail("scale", limit.str());
         }
+        // Estimated from its `f` lines before it is parsed.
+        double triangles = 0.0;
+        try {
+          triangles = count_obj_elements(p.string()).triangles;
+        } catch (const Error& e) {
+          throw Error(scene.file, r.child("obj"), e.what());
+        }
+        reserve_collider_triangles(scene, r.child("obj"), triangles);
         try {
           read_obj(p.string(), scale, s.vertices, s.triangles);
         } catch (const Error& e) {

@@ -7,6 +7,7 @@
 #include <fstream>
 #include <limits>
 #include <optional>
+#include <vector>
 
 #include "loom/cloth/Error.h"
 #include "loom/cloth/InputFile.h"
@@ -81,19 +82,98 @@ std::string show_bytes(double bytes) {
   return s;
 }
 
+namespace {
+
+// The scene's estimate: its cloth vertices and collider triangles so far.
+double scene_bytes(const Scene& scene) {
+  return scene.vertices * static_cast<double>(kBytesPerVertex) +
+         scene.collider_triangles * static_cast<double>(kBytesPerColliderTriangle);
+}
+
+std::string available_text(double budget) {
+  return show_bytes(budget) + (memory_limit_env() == memory_budget() ? " (set by LOOM_MEMORY_LIMIT)" : "") +
+         " is available";
+}
+
+}  // namespace
+
 void reserve_vertices(Scene& scene, const std::string& field, double vertices) {
   scene.vertices += vertices;
-  const double need = scene.vertices * static_cast<double>(kBytesPerVertex);
+  const double need = scene_bytes(scene);
   const double budget = static_cast<double>(memory_budget());
   // Also refused: a count that is not a number (the estimate of a degenerate field).
   if (!(need <= budget)) {
     throw Error(scene.file, field,
                 "the scene's cloths would have about " + show_count(scene.vertices) +
                     " vertices, which need about " + show_bytes(need) + " of memory (" +
-                    std::to_string(kBytesPerVertex) + " bytes per vertex); " + show_bytes(budget) +
-                    (memory_limit_env() == memory_budget() ? " (set by LOOM_MEMORY_LIMIT)" : "") +
-                    " is available: use fewer nodes or a coarser resolution");
+                    std::to_string(kBytesPerVertex) + " bytes per vertex, with the collider meshes); " +
+                    available_text(budget) + ": use fewer nodes or a coarser resolution");
   }
+}
+
+void reserve_collider_triangles(Scene& scene, const std::string& field, double triangles) {
+  scene.collider_triangles += triangles;
+  const double need = scene_bytes(scene);
+  const double budget = static_cast<double>(memory_budget());
+  if (!(need <= budget)) {
+    throw Error(scene.file, field,
+                "the scene's collider meshes would have about " + show_count(scene.collider_triangles) +
+                    " triangles, which need about " + show_bytes(need) + " of memory with the cloths (" +
+                    std::to_string(kBytesPerColliderTriangle) + " bytes per triangle); " +
+                    available_text(budget) + ": use a coarser collider mesh");
+  }
+}
+
+ObjCounts count_obj_elements(const std::string& path) {
+  std::ifstream in(path, std::ios::binary);
+  if (!in) throw Error(path, "", "cannot read");
+  ObjCounts c;
+  // Per line: its first token, and for `f` lines the number of corner tokens. A line continued with a
+  // trailing backslash is counted as the line it continues (an overestimate at worst).
+  std::vector<char> buf(1 << 20);
+  bool line_start = true, in_first = false, is_v = false, is_f = false, in_token = false;
+  std::string first;
+  long corners = 0;
+  auto end_line = [&] {
+    if (is_v) c.vertices += 1.0;
+    if (is_f && corners >= 3) c.triangles += static_cast<double>(corners - 2);
+    line_start = true, in_first = false, is_v = is_f = in_token = false, corners = 0;
+    first.clear();
+  };
+  while (in) {
+    in.read(buf.data(), static_cast<std::streamsize>(buf.size()));
+    const std::streamsize n = in.gcount();
+    for (std::streamsize i = 0; i < n; ++i) {
+      const char ch = buf[static_cast<size_t>(i)];
+      if (ch == '\n') {
+        end_line();
+        continue;
+      }
+      const bool space = ch == ' ' || ch == '\t' || ch == '\r';
+      if (line_start && !space) {
+        line_start = false;
+        in_first = true;
+      }
+      if (in_first) {
+        if (space) {
+          in_first = false;
+          is_v = first == "v";
+          is_f = first == "f";
+        } else if (first.size() < 2) {
+          first += ch;
+        } else {
+          first = "xx";  // a longer keyword: neither v nor f
+        }
+        continue;
+      }
+      if (is_f) {
+        if (!space && !in_token) ++corners;
+        in_token = !space;
+      }
+    }
+  }
+  end_line();
+  return c;
 }
 
 }  // namespace loom::scene

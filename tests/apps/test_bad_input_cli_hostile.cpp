@@ -560,6 +560,42 @@ TEST(HostileCompare, ValuesTheTwinsCannotCarryAreRefusedByField) {
   }
 }
 
+// An OBJ's memory is estimated from its `v` and `f` lines before it is parsed: a collider mesh (counted
+// per triangle) and a cloth mesh (per vertex) past the budget are refused by field, before the folder.
+TEST(HostileMemory, ObjMeshesAreEstimatedBeforeTheyAreParsed) {
+  const fs::path dir = test_dir(), out = dir / "out";
+  {
+    std::ofstream obj(dir / "big.obj");
+    const int n = 200;  // 40000 vertices, 79202 triangles as quads
+    for (int i = 0; i < n; ++i)
+      for (int j = 0; j < n; ++j) obj << "v " << i * 0.01 << " 0 " << j * 0.01 << "\n";
+    for (int i = 0; i + 1 < n; ++i)
+      for (int j = 0; j + 1 < n; ++j)
+        obj << "f " << i * n + j + 1 << ' ' << (i + 1) * n + j + 1 << ' ' << (i + 1) * n + j + 2 << ' '
+            << i * n + j + 2 << "\n";
+  }
+  auto run = [&](const std::string& set) {
+    const std::string cmd = "cd " + dir.string() + " && LOOM_MEMORY_LIMIT=50000000 " +
+                            std::string(LOOM_BINARY) + " run " + std::string(LOOM_SOURCE_DIR) +
+                            "/scenes/hanging_cloth.json --frames 1 --set '" + set + "' --out " +
+                            out.string() + " 2>" + (dir / "err.txt").string() + " >/dev/null";
+    const int status = std::system(cmd.c_str());
+    return std::make_pair(WIFEXITED(status) ? WEXITSTATUS(status) : -1, slurp(dir / "err.txt"));
+  };
+  const std::string obj = (dir / "big.obj").string();
+  auto [code, err] = run("colliders=[{\"shape\":\"mesh\",\"obj\":\"" + obj + "\",\"position\":[0,-1,0]}]");
+  EXPECT_EQ(code, 1) << err;
+  EXPECT_NE(err.find("colliders[0].obj: the scene's collider meshes would have about 7.92e+04 triangles"),
+            std::string::npos)
+      << err;
+  EXPECT_FALSE(fs::exists(out));
+  std::tie(code, err) = run("cloths[0].mesh={\"type\":\"obj\",\"path\":\"" + obj + "\"}");
+  EXPECT_EQ(code, 1) << err;
+  EXPECT_NE(err.find("cloths[0].mesh: the scene's cloths would have about 4e+04 vertices"), std::string::npos)
+      << err;
+  EXPECT_FALSE(fs::exists(out));
+}
+
 // `loom bench accuracy --sizes N` estimates its memory before allocating: refused by the option, with the
 // figure, before the output folder.
 TEST(HostileBench, AccuracySizesAreEstimatedBeforeAllocating) {

@@ -58,6 +58,11 @@ TEST_P(SceneErrors, MessageNamesFilePathAndProblem) {
 
 const Case kCases[] = {
     {"syntax", {}, "line 3, column", "invalid JSON", "{\n  \"duration\": 1,\n}\n"},
+    // The origin and the size within the bound each, the far corner not.
+    {"grid_corner_past_bound",
+     {"cloths[0].mesh.origin=[999999.5,0,0]"},
+     "cloths[0].mesh.origin",
+     "the grid reaches beyond +-1000000 m"},
     {"top_not_object", {}, "(top level)", "expected an object", "[1, 2]"},
     {"unknown_key", {"durration=2"}, "durration", "unknown key"},
     {"unknown_nested_key", {"cloths[0].material.stiffnes=3"}, "cloths[0].material.stiffnes", "unknown key"},

@@ -44,6 +44,7 @@ struct Scene {
   std::string file;                 // path it was read from
   std::vector<std::string> inputs;  // every other file the scene read (meshes, motion clips), as opened
   double vertices = 0.0;            // cloth vertices asked for so far (SceneLimits.h, reserve_vertices)
+  double collider_triangles = 0.0;  // collider mesh triangles so far (reserve_collider_triangles)
   std::string name;
   cloth::SimulationSetup setup;
   double duration = 1.0;  // s

@@ -53,6 +53,22 @@ constexpr std::size_t kMaxCloths = 4096;
 // above the process's own, over the vertex count, rounded up (measured: docs/guarantees.md).
 constexpr std::uint64_t kBytesPerVertex = 8192;
 
+// Bytes per collider mesh triangle: the triangle, its share of the bounding volume hierarchies (Loom's and
+// FCL's) and the distance structures, rounded up.
+constexpr std::uint64_t kBytesPerColliderTriangle = 1024;
+
+// The vertex (`v`) lines and the triangles its `f` lines make (a face of k corners: k - 2) of an OBJ file,
+// counted in one streaming pass without building anything: what reading it will allocate is estimated from
+// these before it is parsed. Errors name the file.
+struct ObjCounts {
+  double vertices = 0.0;
+  double triangles = 0.0;
+};
+ObjCounts count_obj_elements(const std::string& path);
+// Adds `triangles` collider mesh triangles (of the collider at JSON path `field`) to the scene's count and
+// refuses when, with the cloth vertices, the estimate exceeds memory_budget().
+void reserve_collider_triangles(Scene& scene, const std::string& field, double triangles);
+
 // Refuses (naming `file`, `field`) a path that is missing, not a regular file (a folder, a device such as
 // /dev/zero, a pipe) or larger than kMaxInputBytes.
 void check_input_file(const std::string& file, const std::string& field, const std::string& path);
