@@ -1,9 +1,13 @@
 #pragma once
 // Characters of input text (scene strings, file names, quoted file lines) that must never reach a terminal
 // or an output file as they are: C0 controls and DEL (a newline, an escape, a NUL), C1 controls
-// (U+0080-U+009F) and the invisible format controls that reorder or hide text (the Unicode bidirectional
-// controls U+061C, U+200E, U+200F, U+202A-U+202E, U+2066-U+2069, the zero-width characters U+200B-U+200D,
-// U+2060-U+2064 and U+FEFF). Text is UTF-8; a byte that does not start a valid UTF-8 sequence is taken as is.
+// (U+0080-U+009F), the line and paragraph separators U+2028 and U+2029 (a line break to many readers), and
+// every character that is invisible or reorders text: Unicode's Default_Ignorable_Code_Point set (bidi
+// controls, zero-width characters, the soft hyphen, fillers, variation selectors, tag characters; Unicode
+// 15, DerivedCoreProperties.txt) and the other format characters (General_Category Cf: the Arabic number
+// signs U+0600-U+0605, U+06DD, U+070F, U+0890-U+0891, U+08E2, U+110BD, U+110CD, the interlinear annotation
+// controls U+FFF9-U+FFFB, Egyptian format controls U+13430-U+1343F). Text is UTF-8; a byte that does not
+// start a valid UTF-8 sequence is taken as is.
 #include <cstddef>
 #include <cstdint>
 #include <cstdio>
@@ -19,9 +23,17 @@ struct HiddenChar {
 
 // True for a code point in the set above.
 inline bool is_hidden_code(std::uint32_t c) {
-  return c < 0x20 || c == 0x7f || (c >= 0x80 && c <= 0x9f) || c == 0x061c || (c >= 0x200b && c <= 0x200f) ||
-         (c >= 0x202a && c <= 0x202e) || (c >= 0x2060 && c <= 0x2064) || (c >= 0x2066 && c <= 0x2069) ||
-         c == 0xfeff;
+  if (c < 0x20 || c == 0x7f || (c >= 0x80 && c <= 0x9f)) return true;
+  if (c < 0xad) return false;  // printable ASCII and Latin-1 (fast path)
+  static constexpr std::uint32_t kRanges[][2] = {
+      {0x00ad, 0x00ad},   {0x034f, 0x034f},   {0x0600, 0x0605},   {0x061c, 0x061c},   {0x06dd, 0x06dd},
+      {0x070f, 0x070f},   {0x0890, 0x0891},   {0x08e2, 0x08e2},   {0x115f, 0x1160},   {0x17b4, 0x17b5},
+      {0x180b, 0x180f},   {0x200b, 0x200f},   {0x2028, 0x202e},   {0x2060, 0x206f},   {0x3164, 0x3164},
+      {0xfe00, 0xfe0f},   {0xfeff, 0xfeff},   {0xffa0, 0xffa0},   {0xfff0, 0xfffb},   {0x110bd, 0x110bd},
+      {0x110cd, 0x110cd}, {0x13430, 0x1343f}, {0x1bca0, 0x1bca3}, {0x1d173, 0x1d17a}, {0xe0000, 0xe0fff}};
+  for (const auto& r : kRanges)
+    if (c >= r[0] && c <= r[1]) return true;
+  return false;
 }
 
 // The character at byte `i` of `s` (decoded from UTF-8; an invalid sequence is one byte, its value).
