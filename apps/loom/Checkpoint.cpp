@@ -308,7 +308,7 @@ void FrameLog::append(double time, int flags, const std::vector<std::unique_ptr<
   put(&f, sizeof f);
   for (const auto& c : cloths)
     for (const cloth::Vec3& p : c->state().x) put(p.data(), 3 * sizeof(double));
-  if (!file_) throw Error(path_.string(), "", "write failed");
+  if (!file_) throw Error(path_.string(), "", file_.write_failure());
   ++entries_;
 }
 

@@ -82,7 +82,7 @@ std::uint64_t write_obj(const fs::path& path, const std::vector<std::unique_ptr<
   if (!out) throw Error(path.string(), "", "cannot write frame");
   out.write(bytes.data(), static_cast<std::streamsize>(bytes.size()));
   out.close();
-  if (!out) throw Error(path.string(), "", "write failed");
+  if (!out) throw Error(path.string(), "", out.write_failure());
   return fnv1a(bytes.data(), bytes.size(), hash);
 }
 
@@ -992,7 +992,7 @@ int SceneRun::finish() {
   render_video();
   for (size_t k = 0; k < std::size(kStopSignals); ++k) std::signal(kStopSignals[k], old_handlers_[k]);
   csv_.close();
-  if (!csv_) throw Error(stats_partial_.string(), "", "write failed");
+  if (!csv_) throw Error(stats_partial_.string(), "", csv_.write_failure());
   const fs::path stats = folder_->claim("stats.csv");
   rename_output(stats_partial_.string(), stats.string());
   write_atomically(folder_->claim("summary.json"), folder_->claim("summary.json.tmp"),

@@ -187,7 +187,10 @@ bool FdStreamBuf::flush_buffer() {
   while (left > 0) {
     const ssize_t n = ::write(fd_, p, left);
     if (n < 0 && errno == EINTR) continue;
-    if (n <= 0) return false;
+    if (n <= 0) {
+      failed(n < 0 ? errno : ENOSPC);  // a write of 0 bytes: no room left
+      return false;
+    }
     p += n;
     left -= static_cast<std::size_t>(n);
   }
@@ -216,7 +219,10 @@ std::streamsize FdStreamBuf::xsputn(const char* s, std::streamsize n) {
   while (done < n) {
     const ssize_t w = ::write(fd_, s + done, static_cast<std::size_t>(n - done));
     if (w < 0 && errno == EINTR) continue;
-    if (w <= 0) break;
+    if (w <= 0) {
+      failed(w < 0 ? errno : ENOSPC);
+      break;
+    }
     done += w;
   }
   return done;
@@ -240,6 +246,7 @@ bool FdStreamBuf::close() {
   if (fd_ < 0) return true;
   const bool flushed = flush_buffer();
   const bool closed = ::close(fd_) == 0;
+  if (!closed) failed(errno);
   fd_ = -1;
   return flushed && closed;
 }
@@ -277,6 +284,11 @@ void OutputFile::close() {
   if (!buf_->close()) setstate(std::ios::badbit);
 }
 
+std::string OutputFile::write_failure() const {
+  const int e = buf_ ? buf_->error() : 0;
+  return e ? std::string("write failed: ") + std::strerror(e) : std::string("write failed");
+}
+
 void OutputFile::truncate(std::uint64_t bytes) {
   if (!open_ || !buf_->truncate(bytes))
     throw Error(path_, "", std::string("cannot truncate: ") + std::strerror(errno));
@@ -287,7 +299,7 @@ void write_file_atomically(const std::string& path, const std::string& tmp, cons
     OutputFile out(tmp);
     out << data;
     out.close();
-    if (!out) throw Error(tmp, "", "write failed");
+    if (!out) throw Error(tmp, "", out.write_failure());
   }
   rename_output(tmp, path);
 }

@@ -28,7 +28,8 @@ void write_mesh_obj(const fs::path& path, const cloth::Cloth& c) {
   for (const cloth::Vec3& p : c.state().x) out << "v " << p.x() << ' ' << p.y() << ' ' << p.z() << "\n";
   for (const cloth::Tri& t : c.mesh().triangles())
     out << "f " << t[0] + 1 << ' ' << t[1] + 1 << ' ' << t[2] + 1 << "\n";
-  if (!out) throw Error(path.string(), "", "write failed");
+  out.close();
+  if (!out) throw Error(path.string(), "", out.write_failure());
 }
 
 }  // namespace

@@ -27,7 +27,7 @@ int GltfWriter::append_view(const void* data, size_t bytes, int target) {
   view.bytes = bytes;
   view.target = target;
   bin_.write(static_cast<const char*>(data), static_cast<std::streamsize>(bytes));
-  if (!bin_) throw Error(bin_path_, "", "write failed");
+  if (!bin_) throw Error(bin_path_, "", bin_.write_failure());
   bin_size_ += bytes;  // every element is 4 bytes wide, so every view stays 4-byte aligned
   views_.push_back(view);
   return static_cast<int>(views_.size()) - 1;
@@ -117,7 +117,7 @@ void GltfWriter::finish() {
     weights_accessor = static_cast<int>(accessors_.size()) - 1;
   }
   bin_.close();
-  if (!bin_) throw Error(bin_path_, "", "write failed");
+  if (!bin_) throw Error(bin_path_, "", bin_.write_failure());
 
   ordered_json j;
   j["asset"] = {{"version", "2.0"}, {"generator", "loom (cloth simulation)"}};

@@ -64,7 +64,7 @@ void Pc2Writer::add_sample(const cloth::Vec3s& x) {
   for (size_t i = 0; i < x.size(); ++i)
     for (int k = 0; k < 3; ++k) put_f32(buf.data() + 12 * i + 4 * k, static_cast<float>(x[i][k]));
   out_.write(buf.data(), static_cast<std::streamsize>(buf.size()));
-  if (!out_) throw Error(path_, "", "write failed");
+  if (!out_) throw Error(path_, "", out_.write_failure());
   ++samples_;
 }
 
@@ -76,7 +76,7 @@ void Pc2Writer::finish() {
   out_.seekp(kSamplesOffset);
   out_.write(count, 4);
   out_.close();
-  if (!out_) throw Error(path_, "", "write failed");
+  if (!out_) throw Error(path_, "", out_.write_failure());
 }
 
 Pc2Cache read_pc2(const std::string& path) {

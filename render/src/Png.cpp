@@ -34,7 +34,7 @@ void write_png(const std::string& path, const Image& image) {
   OutputFile out(path);
   out << png;
   out.close();
-  if (!out) throw Error(path, "", "write failed");
+  if (!out) throw Error(path, "", out.write_failure());
 }
 
 }  // namespace loom::render

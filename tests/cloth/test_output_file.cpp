@@ -8,6 +8,8 @@
 #include <sys/un.h>
 #include <unistd.h>
 
+#include <cerrno>
+#include <cstring>
 #include <filesystem>
 #include <fstream>
 #include <functional>
@@ -65,6 +67,19 @@ TEST(OutputFile, WritesReplacesAppendsAndPatches) {
     f << "t";
   }
   EXPECT_EQ(slurp(p), "newt");
+}
+
+// A write that fails says why: /dev/full refuses every write with ENOSPC, as a full disk does.
+TEST(OutputFile, AFailedWriteKeepsItsReason) {
+  const int fd = ::open("/dev/full", O_WRONLY | O_CLOEXEC);
+  if (fd < 0) GTEST_SKIP() << "no /dev/full";
+  FdStreamBuf buf(fd);
+  std::ostream out(&buf);
+  out << std::string(200000, 'x');  // past the buffer: written through
+  EXPECT_TRUE(out.bad());
+  buf.close();
+  EXPECT_EQ(buf.error(), ENOSPC);
+  EXPECT_NE(std::string(std::strerror(buf.error())).find("No space"), std::string::npos);
 }
 
 TEST(OutputFile, AFifoIsRefusedWithOrWithoutAReaderAndNeverBlocks) {

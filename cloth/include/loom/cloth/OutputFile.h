@@ -12,6 +12,7 @@
 // folder at a time, so no folder on the way is followed if it became a link (see OutputRoot).
 // After the open, fstat must report a regular file and O_NONBLOCK is cleared. Every refusal is a loom::Error
 // naming the path and what is there. Write errors set badbit as std::ofstream does.
+#include <cerrno>
 #include <cstdint>
 #include <memory>
 #include <ostream>
@@ -70,6 +71,8 @@ class FdStreamBuf : public std::streambuf {
   bool close();
   // Flushes and cuts the file to `bytes`; false on failure.
   bool truncate(std::uint64_t bytes);
+  // errno of the first write or close that failed (ENOSPC: the disk is full), 0 when none did.
+  int error() const { return error_; }
 
  protected:
   int_type overflow(int_type ch) override;
@@ -80,7 +83,11 @@ class FdStreamBuf : public std::streambuf {
 
  private:
   bool flush_buffer();
+  void failed(int e) {
+    if (error_ == 0) error_ = e == 0 ? EIO : e;
+  }
   int fd_;
+  int error_ = 0;
   char buffer_[1 << 16];
 };
 
@@ -100,6 +107,8 @@ class OutputFile : public std::ostream {
   // Cuts the open file to `bytes` (an appended log kept up to a checkpoint); throws loom::Error on failure.
   void truncate(std::uint64_t bytes);
   const std::string& path() const { return path_; }
+  // "write failed: No space left on device": what a failed write or close gives as the reason.
+  std::string write_failure() const;
 
  private:
   std::string path_;
