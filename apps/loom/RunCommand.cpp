@@ -296,6 +296,9 @@ class SceneRun {
   void step_frames();
   void render_video();
   nlohmann::ordered_json summary() const;
+  double unresolved_contacts() const;
+  bool tier_strain_held() const;
+  void print_warnings() const;
   void write_row(const cloth::FrameStats& s);
   void write_bodies(int f);
   void run_census();
@@ -345,8 +348,9 @@ class SceneRun {
   long census_intersections_ = 0;
   double census_penetration_ = 0.0;
   double max_strain_ = 0.0, mean_strain_sum_ = 0.0, sim_ms_ = 0.0;
-  double wall_ms_ = 0.0;  // ms, whole frames stepped by this process (with a Bullet world's own step)
-  int stepped_ = 0;       // frames stepped by this process
+  int max_strain_frame_ = 0;  // the frame of max_strain_ (0: the start state, or before a resume)
+  double wall_ms_ = 0.0;      // ms, whole frames stepped by this process (with a Bullet world's own step)
+  int stepped_ = 0;           // frames stepped by this process
   bool finite_ = true, interrupted_ = false, resumable_ = true;
   bool render_interrupted_ = false;  // Ctrl-C in the render phase: the video is not written
   std::string render_error_;         // ffmpeg failed: the video is not written, the run ends with exit 1
@@ -813,7 +817,7 @@ void SceneRun::step_frames() {
     run_census();
     if (obj_ && f % sc_.output.every == 0)
       frames_hash_ = write_obj(folder_->claim(frame_name(f)), shown_->cloths(), frames_hash_);
-    max_strain_ = std::max(max_strain_, s.max_strain);
+    if (s.max_strain > max_strain_) max_strain_ = s.max_strain, max_strain_frame_ = f;
     mean_strain_sum_ += s.mean_strain;
     done_ = f;
     bool rendered = false;
@@ -922,6 +926,29 @@ void SceneRun::render_video() {
 #endif
 }
 
+// The `unresolved` counter of the last body-contact stage of a step (the one with the last word on
+// penetration): vertices it left inside a collider, a cloth pinched between colliders, summed over steps;
+// -1 without such a stage.
+double SceneRun::unresolved_contacts() const {
+  double n = -1.0;
+  for (const cloth::StageProfile& p : sim_->profile()) {
+    if (p.name != "body_collision" && p.name != "realtime_contact" && p.name != "realtime_contact_final")
+      continue;
+    for (const auto& [k, v] : p.counters)
+      if (k == "unresolved") n = v;
+  }
+  return n;
+}
+
+// The tier's strain limit (docs/scene-format.md, Quality) is held unless a frame ends with an edge above
+// kStrainBreach times its limit: a few sweeps with contact after them leave strains of a few times the limit
+// where pins and contacts pull hardest; five times the limit is a cloth the limit no longer holds.
+bool SceneRun::tier_strain_held() const {
+  constexpr double kStrainBreach = 5.0;  // 1, times the limit
+  return !sc_.strain_limit_after_contact ||
+         max_strain_ <= kStrainBreach * sc_.strain_limit_after_contact->max_stretch;
+}
+
 // summary.json: completed = every frame asked for was simulated; interrupted = stopped by Ctrl-C (resumable).
 nlohmann::ordered_json SceneRun::summary() const {
   nlohmann::ordered_json j;
@@ -949,6 +976,15 @@ nlohmann::ordered_json SceneRun::summary() const {
   if (o_.census) {
     j["intersections"] = census_intersections_;
     j["max_penetration"] = census_penetration_;
+  }
+  // Vertices left inside a collider at a step's end (pinched between colliders), summed over steps.
+  if (const double u = unresolved_contacts(); u >= 0.0) j["unresolved_contacts"] = u;
+  if (sc_.strain_limit_after_contact) {  // the tier's strain limit: held, or where it broke
+    nlohmann::ordered_json sl;
+    sl["max_stretch"] = sc_.strain_limit_after_contact->max_stretch;
+    sl["held"] = tier_strain_held();
+    if (!tier_strain_held() && max_strain_frame_ > 0) sl["breach_frame"] = max_strain_frame_;
+    j["tier_strain_limit"] = sl;
   }
   j["completed"] = finite_ && !interrupted_ && done_ == frames_;
   if (interrupted_) j["interrupted"] = true;
@@ -988,6 +1024,23 @@ nlohmann::ordered_json SceneRun::summary() const {
   return j;
 }
 
+// What summary.json records of a tier guarantee not met, on the terminal too.
+void SceneRun::print_warnings() const {
+  const double unresolved = unresolved_contacts();
+  if (unresolved > 0.0)
+    std::cerr << "loom: warning: " << printable(scene_path_) << ": " << static_cast<long>(unresolved)
+              << " vertex steps ended inside a collider (cloth pinched between colliders; summary.json: "
+                 "unresolved_contacts)\n";
+  if (!tier_strain_held()) {
+    std::cerr << "loom: warning: " << printable(scene_path_) << ": the " << sc_.quality.name
+              << " tier's strain limit (" << 100.0 * sc_.strain_limit_after_contact->max_stretch
+              << " %) did not hold: max strain " << std::fixed << std::setprecision(1) << 100.0 * max_strain_
+              << " %";
+    if (max_strain_frame_ > 0) std::cerr << " at frame " << max_strain_frame_;
+    std::cerr << std::defaultfloat << " (summary.json: tier_strain_limit)\n";
+  }
+}
+
 int SceneRun::finish() {
   render_video();
   for (size_t k = 0; k < std::size(kStopSignals); ++k) std::signal(kStopSignals[k], old_handlers_[k]);
@@ -998,6 +1051,7 @@ int SceneRun::finish() {
   write_atomically(folder_->claim("summary.json"), folder_->claim("summary.json.tmp"),
                    summary().dump(2) + "\n");
   if (o_.profile) print_profile(*sim_, done_);
+  print_warnings();
   if (!finite_) {
     std::cerr << "loom: error: " << printable(scene_path_) << ": " << printable(error_) << "\n";
     return 3;

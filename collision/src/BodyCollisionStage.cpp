@@ -93,7 +93,7 @@ void BodyCollisionStage::run_cloth(cloth::Cloth& cloth, int cloth_index, double 
   const int chunks = (n + kChunk - 1) / kChunk;
   std::vector<std::vector<Reaction>> records(chunks);
   struct ChunkCounts {
-    long candidates = 0, contacts = 0, ccd_hits = 0;
+    long candidates = 0, contacts = 0, ccd_hits = 0, unresolved = 0;
     int passes = 0;
     double deficit = -HUGE_VAL;
   };
@@ -127,13 +127,16 @@ void BodyCollisionStage::run_cloth(cloth::Cloth& cloth, int cloth_index, double 
       s.v[i] = v;
       int closest = -1;
       double closest_gap = HUGE_VAL;
+      bool inside = false;
       for (size_t j = 0; j < mine.size(); ++j) {
         const int k = mine[j];
         const double d = final_d.empty() ? signed_distance(set[k], set[k].curr, x, nullptr) : final_d[j];
         cc.deficit = std::max(cc.deficit, pairs[k].thickness - d);
+        inside = inside || d < 0.0;
         if (d < 2.0 * pairs[k].thickness) near[i] = 1;
         if (d - pairs[k].thickness < closest_gap) closest_gap = d - pairs[k].thickness, closest = k;
       }
+      cc.unresolved += inside ? 1 : 0;  // a pinch: no way out of the colliders it is between
       // Held against the closest collider in the next solve (ClothState::contact_normal), if it is near and
       // not leaving it (relative normal velocity <= 0: resting, or approaching; a vertex leaving keeps
       // gravity's pull).
@@ -153,6 +156,7 @@ void BodyCollisionStage::run_cloth(cloth::Cloth& cloth, int cloth_index, double 
     candidates_ += counts[ch].candidates;
     contacts_ += counts[ch].contacts;
     ccd_hits_ += counts[ch].ccd_hits;
+    unresolved_ += counts[ch].unresolved;
     step_passes = std::max(step_passes, counts[ch].passes);
     max_deficit_ = std::max(max_deficit_, counts[ch].deficit);
   }
@@ -516,7 +520,8 @@ std::vector<std::pair<std::string, double>> BodyCollisionStage::counters() const
           {"edge_contacts", static_cast<double>(edge_contacts_)},
           {"threaded_edges", static_cast<double>(threaded_edges_)},
           {"passes", static_cast<double>(passes_)},
-          {"revisit_contacts", static_cast<double>(revisits_)}};
+          {"revisit_contacts", static_cast<double>(revisits_)},
+          {"unresolved", static_cast<double>(unresolved_)}};
 }
 
 // For a swept hit, `rel` is where the vertex was going relative to the contact point carried with the body;

@@ -62,8 +62,17 @@ std::unique_ptr<cloth::Simulation> build_simulation(const Scene& scene,
     stage->set_body_stage(body_stage);
     sim->add_stage(std::move(stage));
   }
-  if (scene.strain_limit_after_contact && !(!colliders->empty() && scene.realtime_contact))
+  if (scene.strain_limit_after_contact && !(!colliders->empty() && scene.realtime_contact)) {
     sim->add_stage(std::make_unique<cloth::StrainLimitStage>(*scene.strain_limit_after_contact));
+    // The strain limit pulls a vertex toward its neighbours, and next to a collider that moves into the
+    // cloth that is into the collider: body contact (positions only, at the colliders' poses at the step's
+    // end) has the last word on penetration, as in the realtime tier.
+    if (!colliders->empty()) {
+      collision::RealtimeContactSettings last;
+      last.positions_only = true;
+      sim->add_stage(std::make_unique<collision::RealtimeBodyContactStage>(colliders, last));
+    }
+  }
   // The guard's contact check and the colliders' work (Guard.h), last: only when the scene's `guard`
   // asks for a penetration limit or an energy budget and there are colliders.
   const cloth::GuardSettings& guard = scene.setup.guard;

@@ -58,7 +58,8 @@ class BodyCollisionStage final : public cloth::Stage {
   // candidate_vertices (vertex-collider pairs past the broad phase), contacts (responses), ccd_hits,
   // edge_contacts, threaded_edges (edge corrections dropped: a capsule threaded through the cloth, see
   // run_edges), passes (the most any vertex needed in a step, summed over steps), revisit_contacts
-  // (responses given through revisit_vertex).
+  // (responses given through revisit_vertex), unresolved (vertices the vertex phase left inside a collider:
+  // a cloth pinched between two colliders, summed over steps; as RealtimeBodyContactStage's).
   std::vector<std::pair<std::string, double>> counters() const override;
 
   const ColliderSetPtr& colliders() const { return colliders_; }
@@ -130,7 +131,7 @@ class BodyCollisionStage final : public cloth::Stage {
   std::vector<double> min_thickness_;     // m, per cloth: smallest contact thickness this step
   double h_ = 0.0;                        // s, this step
   long candidates_ = 0, contacts_ = 0, ccd_hits_ = 0, edge_contacts_ = 0, threaded_edges_ = 0, passes_ = 0,
-       revisits_ = 0;
+       revisits_ = 0, unresolved_ = 0;
 };
 
 }  // namespace loom::collision
