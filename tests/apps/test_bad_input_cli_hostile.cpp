@@ -783,8 +783,7 @@ TEST(HostilePaths, MessagesShowNulsAndNameLinkLoops) {
   fs::create_symlink(dir / "loop_a", dir / "loop_b");
   const auto loop = run_loom("run " + (dir / "loop_a").string());
   EXPECT_EQ(loop.code, 1) << loop.err;
-  EXPECT_NE(loop.err.find("loop_a: cannot open it: Too many levels of symbolic links"), std::string::npos)
-      << loop.err;
+  EXPECT_NE(loop.err.find("loop_a: cannot open it: a loop of symbolic links"), std::string::npos) << loop.err;
 }
 
 // A scene file of NUL bytes (or one in the middle) is binary data, named with its line and column; the
