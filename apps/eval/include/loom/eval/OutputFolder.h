@@ -9,7 +9,10 @@
 //     without one is refused unless the user passes --overwrite (files of the same names are then replaced,
 //     nothing else is deleted);
 //   - DIR itself must not be a symbolic link nor end in "." or "..", and a path inside DIR that is one is
-//     never written through (DIR is held open while the folder lives: OutputRoot, OutputFile.h).
+//     never written through (DIR is held open while the folder lives: OutputRoot, OutputFile.h);
+//   - DIR inside or around a folder another command uses is refused (FolderLock), and so is DIR at or below
+//     a path that the manifest of a folder above lists (what an earlier run made there), --overwrite or not;
+//   - an entry of the old manifest is deleted only as the type it was listed as (a link: the link itself).
 // The manifest's first line holds a run id that checkpoints record, so a checkpoint copied from another
 // folder is refused on --resume.
 #include <cstdint>
