@@ -146,8 +146,9 @@ int body_main(int argc, char** argv) {
   if (!image.empty()) throw Error("--image", "", "this build has no renderer (OSMesa)");
 #endif
   const ch::Motion motion = ch::Motion::load(files[1]);
-  // The image's folder is locked for the command (eval::FolderLock): a folder another loom command is using
-  // (a run's output folder) is refused, so the PNG never lands among that run's files.
+  // The image's folder and those above it are locked (shared) for the command (eval::FolderLock): a folder
+  // another loom command is using (a run's output folder), or one inside it, is refused, so the PNG never
+  // lands among that run's files.
   std::shared_ptr<eval::FolderLock> image_folder_lock;
   if (!image.empty()) {
     std::vector<std::string> inputs = files;
@@ -157,7 +158,7 @@ int body_main(int argc, char** argv) {
     image_folder_lock = eval::FolderLock::acquire(slash == std::string::npos ? std::string(".")
                                                   : slash == 0               ? std::string("/")
                                                                              : image.substr(0, slash),
-                                                  "--image");
+                                                  "--image", /*exclusive=*/false);
   }
   const ch::BodyFit fit = ch::fit_body(ch::load_static_mesh(files[0], 0), motion);
   const ch::BackCape cape = ch::make_back_cape(fit, motion);

@@ -215,7 +215,8 @@ void write_checkpoint(OutputFolder& out, const Checkpoint& c) {
 
 Checkpoint read_checkpoint(const fs::path& out) {
   const fs::path path = checkpoint_file(out);
-  if (!fs::exists(path))
+  std::error_code ec;  // only a missing file is "no checkpoint"; a loop of links gets its own reason below
+  if (!fs::exists(path, ec) && (!ec || ec == std::errc::no_such_file_or_directory))
     throw Error(path.string(), "--resume", "no checkpoint here (write one with --checkpoint-every N)");
   return decode_checkpoint(read_text_file(path.string()), path.string());
 }
@@ -223,7 +224,7 @@ Checkpoint read_checkpoint(const fs::path& out) {
 void check_inputs(const Checkpoint& c) {
   for (const InputFile& f : c.inputs) {
     std::error_code ec;
-    if (!fs::exists(f.path, ec))
+    if (!fs::exists(f.path, ec) && (!ec || ec == std::errc::no_such_file_or_directory))
       throw Error(f.path, "--resume", "an input of the checkpointed run is missing");
     const InputFile now = fingerprint(f.path);
     if (now.bytes != f.bytes || now.hash != f.hash)

@@ -516,6 +516,16 @@ bool RecordingIOSystem::Exists(const char* file) const {
 
 const aiScene* read_with_assimp(Assimp::Importer& importer, const std::string& path, unsigned flags,
                                 const std::string& what, std::vector<std::string>& files) {
+  // The file itself first, with the system's reason (open_error_text): assimp asks Exists() and says only
+  // "Unable to open file" for a missing file, a loop of links or a folder without access alike.
+  try {
+    loom::check_input_file(path);
+  } catch (const Error& e) {
+    const std::string text = e.what(), head = path + ": ";
+    throw Error(path, "",
+                "cannot read " + what + ": " +
+                    (text.compare(0, head.size(), head) == 0 ? text.substr(head.size()) : text));
+  }
   auto* io = new RecordingIOSystem;  // owned by the importer from here on
   importer.SetIOHandler(io);
   const aiScene* scene = import_on_large_stack(importer, path, flags);

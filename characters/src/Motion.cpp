@@ -266,13 +266,11 @@ Motion Motion::load(const std::string& path, const MotionSettings& settings) {
   check_settings(path, settings);
   try {  // a regular file of bounded size (InputFile.h) before assimp or the nesting check reads it
     check_input_file(path);
-  } catch (const Error&) {
-    std::error_code ec;
-    const bool exists = std::filesystem::exists(path, ec);
-    throw Error(path, "",
-                std::string("cannot read motion: ") +
-                    (exists ? "not a regular file of at most 1 GiB (a folder, a device or too large)"
-                            : "no such file"));
+  } catch (const Error& e) {  // "PATH: cannot open it: <the system's reason>" (open_error_text)
+    const std::string what = e.what(), head = path + ": ";
+    throw Error(
+        path, "",
+        "cannot read motion: " + (what.compare(0, head.size(), head) == 0 ? what.substr(head.size()) : what));
   }
   check_format(path);
   check_bvh_nesting(path);

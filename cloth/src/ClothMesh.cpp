@@ -6,6 +6,7 @@
 #include <cmath>
 #include <cstdlib>
 #include <fstream>
+#include <functional>
 #include <sstream>
 #include <tuple>
 
@@ -65,6 +66,107 @@ size_t run_end(const std::vector<std::tuple<int, int, int>>& half, size_t s) {
          std::get<1>(half[e]) == std::get<1>(half[s]))
     ++e;
   return e;
+}
+
+// How errors name a vertex and a triangle (the field of loom::Error): "vertex i" and "triangle t" (0-based)
+// for a mesh given as arrays; an OBJ's 1-based vertex with its line and the face's line (from_obj).
+struct Labels {
+  std::function<std::string(int)> vertex;
+  std::function<std::string(int)> triangle;
+};
+
+Labels default_labels() {
+  return {[](int i) { return "vertex " + std::to_string(i); },
+          [](int t) { return "triangle " + std::to_string(t); }};
+}
+
+// Every check of a mesh the solvers can use, each naming a vertex and a triangle by `labels`: finite
+// coordinates, indices in range, no repeated vertex, no zero area, no unused vertex, at most two triangles
+// on an edge, no face given twice, no wings at one point and one orientation across every edge.
+void check_mesh(const Vec3s& positions, const std::vector<Tri>& triangles, const std::string& source,
+                const Labels& labels) {
+  const auto& vertex = labels.vertex;
+  const auto& triangle = labels.triangle;
+  if (positions.empty()) throw Error(source, "", "mesh has no vertices");
+  if (triangles.empty()) throw Error(source, "", "mesh has no triangles");
+  const int n = static_cast<int>(positions.size());
+  for (int i = 0; i < n; ++i)
+    if (!positions[i].allFinite()) throw Error(source, vertex(i), "coordinate is not finite");
+  std::vector<char> used(n, 0);
+  double max_edge2 = 0.0;
+  for (size_t t = 0; t < triangles.size(); ++t) {
+    const Tri& tri = triangles[t];
+    for (int k = 0; k < 3; ++k) {
+      if (tri[k] < 0 || tri[k] >= n)
+        throw Error(
+            source, triangle(static_cast<int>(t)),
+            "vertex index " + std::to_string(tri[k]) + " is out of range [0, " + std::to_string(n) + ")");
+      used[tri[k]] = 1;
+    }
+    if (tri[0] == tri[1] || tri[1] == tri[2] || tri[0] == tri[2])
+      throw Error(source, triangle(static_cast<int>(t)), "repeats a vertex (degenerate triangle)");
+    for (int k = 0; k < 3; ++k)
+      max_edge2 = std::max(max_edge2, (positions[tri[k]] - positions[tri[(k + 1) % 3]]).squaredNorm());
+  }
+  for (size_t t = 0; t < triangles.size(); ++t) {
+    const Tri& tri = triangles[t];
+    const Vec3 e1 = positions[tri[1]] - positions[tri[0]], e2 = positions[tri[2]] - positions[tri[0]];
+    double longest = std::max({e1.squaredNorm(), e2.squaredNorm(), (e2 - e1).squaredNorm()});
+    if (e1.cross(e2).norm() <= 1e-10 * longest || longest <= 1e-24 * max_edge2)
+      throw Error(source, triangle(static_cast<int>(t)), "has zero area (degenerate triangle)");
+  }
+  for (int i = 0; i < n; ++i)
+    if (!used[i]) throw Error(source, vertex(i), "is not used by any triangle");
+
+  // Unique edges by sorting (min, max, triangle) triples.
+  const std::vector<std::tuple<int, int, int>> half = sorted_sides(triangles);
+  for (size_t s = 0; s < half.size();) {
+    const size_t e = run_end(half, s);
+    const int a = std::get<0>(half[s]), b = std::get<1>(half[s]);
+    if (e - s > 2)
+      throw Error(source, "edge (" + vertex(a) + ", " + vertex(b) + ")",
+                  "is shared by " + std::to_string(e - s) + " triangles (non-manifold edge)");
+    if (e - s == 2 && std::get<2>(half[s]) == std::get<2>(half[s + 1]))
+      throw Error(source, triangle(std::get<2>(half[s])), "uses an edge twice");
+    if (e - s == 2) {
+      const int o0 = other_vertex(triangles[std::get<2>(half[s])], a, b);
+      const int o1 = other_vertex(triangles[std::get<2>(half[s + 1])], a, b);
+      // Two triangles on the same three vertices (one face given twice, in either orientation) would be a
+      // sheet of zero thickness folded onto itself.
+      if (o0 == o1)
+        throw Error(
+            source, triangle(std::get<2>(half[s + 1])),
+            "has the same three vertices as " + triangle(std::get<2>(half[s])) + " (a face given twice)");
+      // Wings at one point (two vertices at the same position): the triangles lie folded onto each other
+      // and the hinge's bending (its angle, its wing-to-wing spring of rest length 0) is undefined.
+      const double wings = (positions[o0] - positions[o1]).norm();
+      if (!(wings > 1e-9 * (positions[a] - positions[b]).norm()))
+        throw Error(source, triangle(std::get<2>(half[s + 1])),
+                    "lies folded onto " + triangle(std::get<2>(half[s])) + " across edge (" + vertex(a) +
+                        ", " + vertex(b) + "): their " + vertex(o0) + " and " + vertex(o1) +
+                        " are at the same position (merge them or move one)");
+      // Two triangles on one edge must run along it in opposite directions (a consistent orientation): the
+      // same direction twice is a sheet folded onto itself across the edge or a face given with its corners
+      // the other way round; normals, bending angles and the pressure's volume would disagree there.
+      {
+        const int t0 = std::get<2>(half[s]), t1 = std::get<2>(half[s + 1]);
+        auto runs = [&](int t) {  // true: the triangle's corners go a -> b
+          const Tri& tri = triangles[t];
+          for (int k = 0; k < 3; ++k)
+            if (tri[k] == a && tri[(k + 1) % 3] == b) return true;
+          return false;
+        };
+        const bool forward = runs(t0);
+        if (forward == runs(t1))
+          throw Error(source, triangle(t1),
+                      "runs along the edge from " + (forward ? vertex(a) : vertex(b)) + " to " +
+                          (forward ? vertex(b) : vertex(a)) + " in the same direction as " + triangle(t0) +
+                          ": the two faces' orientations disagree (a sheet folded onto itself, or one face's "
+                          "corners given the other way round); reverse one face's corner order");
+      }
+    }
+    s = e;
+  }
 }
 
 }  // namespace
@@ -151,40 +253,9 @@ std::shared_ptr<const ClothMesh> ClothMesh::grid(const GridSpec& spec) {
 std::shared_ptr<const ClothMesh> ClothMesh::from_triangles(Vec3s positions, std::vector<Tri> triangles,
                                                            std::vector<std::array<Vec2, 3>> corner_uvs,
                                                            const std::string& source) {
-  if (positions.empty()) throw Error(source, "", "mesh has no vertices");
-  if (triangles.empty()) throw Error(source, "", "mesh has no triangles");
   if (!corner_uvs.empty() && corner_uvs.size() != triangles.size())
     throw Error(source, "", "texture coordinates must be given for every triangle or none");
-  const int n = static_cast<int>(positions.size());
-  for (int i = 0; i < n; ++i)
-    if (!positions[i].allFinite())
-      throw Error(source, "vertex " + std::to_string(i), "coordinate is not finite");
-  std::vector<char> used(n, 0);
-  double max_edge2 = 0.0;
-  for (size_t t = 0; t < triangles.size(); ++t) {
-    const Tri& tri = triangles[t];
-    for (int k = 0; k < 3; ++k) {
-      if (tri[k] < 0 || tri[k] >= n)
-        throw Error(
-            source, "triangle " + std::to_string(t),
-            "vertex index " + std::to_string(tri[k]) + " is out of range [0, " + std::to_string(n) + ")");
-      used[tri[k]] = 1;
-    }
-    if (tri[0] == tri[1] || tri[1] == tri[2] || tri[0] == tri[2])
-      throw Error(source, "triangle " + std::to_string(t), "repeats a vertex (degenerate triangle)");
-    for (int k = 0; k < 3; ++k)
-      max_edge2 = std::max(max_edge2, (positions[tri[k]] - positions[tri[(k + 1) % 3]]).squaredNorm());
-  }
-  for (size_t t = 0; t < triangles.size(); ++t) {
-    const Tri& tri = triangles[t];
-    const Vec3 e1 = positions[tri[1]] - positions[tri[0]], e2 = positions[tri[2]] - positions[tri[0]];
-    double longest = std::max({e1.squaredNorm(), e2.squaredNorm(), (e2 - e1).squaredNorm()});
-    if (e1.cross(e2).norm() <= 1e-10 * longest || longest <= 1e-24 * max_edge2)
-      throw Error(source, "triangle " + std::to_string(t), "has zero area (degenerate triangle)");
-  }
-  for (int i = 0; i < n; ++i)
-    if (!used[i]) throw Error(source, "vertex " + std::to_string(i), "is not used by any triangle");
-
+  check_mesh(positions, triangles, source, default_labels());
   auto mesh = std::shared_ptr<ClothMesh>(new ClothMesh());
   ClothMesh& m = *mesh;
   m.rest_positions_ = std::move(positions);
@@ -195,7 +266,7 @@ std::shared_ptr<const ClothMesh> ClothMesh::from_triangles(Vec3s positions, std:
   return mesh;
 }
 
-void ClothMesh::build_topology(const std::string& source) {
+void ClothMesh::build_topology(const std::string&) {  // the mesh passed check_mesh (or is a grid)
   const int n = num_vertices();
   tri_area_.resize(triangles_.size());
   vertex_area_.assign(n, 0.0);
@@ -212,11 +283,6 @@ void ClothMesh::build_topology(const std::string& source) {
   for (size_t s = 0; s < half.size();) {
     const size_t e = run_end(half, s);
     const int a = std::get<0>(half[s]), b = std::get<1>(half[s]);
-    if (e - s > 2)
-      throw Error(source, "edge (" + std::to_string(a) + ", " + std::to_string(b) + ")",
-                  "is shared by " + std::to_string(e - s) + " triangles (non-manifold edge)");
-    if (e - s == 2 && std::get<2>(half[s]) == std::get<2>(half[s + 1]))
-      throw Error(source, "triangle " + std::to_string(std::get<2>(half[s])), "uses an edge twice");
     edges_.push_back({a, b});
     if (e - s == 2) {
       Hinge h;
@@ -224,21 +290,6 @@ void ClothMesh::build_topology(const std::string& source) {
       h.e1 = b;
       h.o0 = other_vertex(triangles_[std::get<2>(half[s])], a, b);
       h.o1 = other_vertex(triangles_[std::get<2>(half[s + 1])], a, b);
-      // Two triangles on the same three vertices (one face given twice, in either orientation) would be a
-      // sheet of zero thickness folded onto itself.
-      if (h.o0 == h.o1)
-        throw Error(source, "triangle " + std::to_string(std::get<2>(half[s + 1])),
-                    "has the same three vertices as triangle " + std::to_string(std::get<2>(half[s])) +
-                        " (a face given twice)");
-      // Wings at one point (two vertices at the same position): the triangles lie folded onto each other
-      // and the hinge's bending (its angle, its wing-to-wing spring of rest length 0) is undefined.
-      const double wings = (rest_positions_[h.o0] - rest_positions_[h.o1]).norm();
-      if (!(wings > 1e-9 * (rest_positions_[a] - rest_positions_[b]).norm()))
-        throw Error(source, "triangle " + std::to_string(std::get<2>(half[s + 1])),
-                    "lies folded onto triangle " + std::to_string(std::get<2>(half[s])) + " across edge (" +
-                        std::to_string(a) + ", " + std::to_string(b) + "): their vertices " +
-                        std::to_string(h.o0) + " and " + std::to_string(h.o1) +
-                        " are at the same position (merge them or move one)");
       hinges_.push_back(h);
     }
     s = e;
@@ -348,11 +399,13 @@ std::shared_ptr<const ClothMesh> ClothMesh::from_obj(const std::string& path, do
   const std::vector<Vec2>& texcoords = obj.texcoords;
   std::vector<Tri> triangles;
   std::vector<std::array<int, 3>> tri_vt;
+  std::vector<size_t> face_of;  // the face each triangle came from
   bool any_vt = false, all_vt = true;
-  for (const ObjFace& f : obj.faces) {
-    const std::vector<ObjCorner>& c = f.corners;
+  for (size_t fi = 0; fi < obj.faces.size(); ++fi) {
+    const std::vector<ObjCorner>& c = obj.faces[fi].corners;
     for (size_t k = 1; k + 1 < c.size(); ++k) {  // polygons fan-split
       triangles.push_back({c[0].v, c[k].v, c[k + 1].v});
+      face_of.push_back(fi);
       tri_vt.push_back({c[0].vt, c[k].vt, c[k + 1].vt});
       const bool has = c[0].vt >= 0 && c[k].vt >= 0 && c[k + 1].vt >= 0;
       any_vt = any_vt || has;
@@ -366,6 +419,17 @@ std::shared_ptr<const ClothMesh> ClothMesh::from_obj(const std::string& path, do
     for (size_t t = 0; t < triangles.size(); ++t)
       for (int k = 0; k < 3; ++k) corner_uvs[t][k] = texcoords[tri_vt[t][k]];
   }
+  // Checked first with the OBJ's names: a vertex by its 1-based index and line, a triangle by its face's
+  // line (from_triangles would name them by 0-based array indices).
+  Labels labels;
+  labels.vertex = [&obj](int i) {
+    return "vertex " + std::to_string(i + 1) + " (line " + std::to_string(obj.position_lines[i]) + ")";
+  };
+  labels.triangle = [&obj, &face_of](int t) {
+    const ObjFace& f = obj.faces[face_of[t]];
+    return line_where(f.line, f.text);
+  };
+  check_mesh(positions, triangles, path, labels);
   return from_triangles(std::move(positions), std::move(triangles), std::move(corner_uvs), path);
 }
 

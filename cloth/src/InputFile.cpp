@@ -1,6 +1,10 @@
 #include "loom/cloth/InputFile.h"
 
+#include <sys/stat.h>
+
+#include <cerrno>
 #include <cstdio>
+#include <cstring>
 #include <filesystem>
 #include <fstream>
 
@@ -24,17 +28,47 @@ std::string show_size(std::uint64_t bytes) {
   return s;
 }
 
+// Why an input file cannot be opened, from the errno of stat or open: every input file (scene, mesh, clip,
+// character mesh, checkpoint) is opened through check_input_file and read_input_file, so this is the one
+// wording of the system's reason ("no such file" only for ENOENT).
+std::string open_error_text(int err) {
+  switch (err) {
+    case ENOENT:
+      return "no such file";
+    case ELOOP:
+      return "a loop of symbolic links (or too many of them on the way)";
+    case EACCES:
+    case EPERM:
+      return "permission denied";
+    case ENOTDIR:
+      return "a component of the path is not a folder";
+    case ENAMETOOLONG:
+      return "the path or a name in it is too long";
+    case EISDIR:
+      return "is a folder, not a file";
+    default:
+      return std::strerror(err);
+  }
+}
+
+// The problem of an input file that cannot be opened.
+std::string open_problem(int err) {
+  return err == ENOENT ? "no such file (cannot open it)" : "cannot open it: " + open_error_text(err);
+}
+
 }  // namespace
 
 void check_input_file(const std::string& path, std::uint64_t max_bytes) {
   if (path.empty()) throw Error("", "", "an input file path is empty");
   std::error_code ec;
-  const fs::file_status st = fs::status(path, ec);  // follows links: a link to /dev/zero is a device
-  if (!fs::exists(
-          st))  // the system's reason: a loop of links or a folder without access is not "no such file"
-    throw Error(path, "",
-                ec && ec != std::errc::no_such_file_or_directory ? "cannot open it: " + ec.message()
-                                                                 : "no such file (cannot open it)");
+  struct stat sb;
+  // Follows links (a link to /dev/zero is a device); the system's reason when it fails: a loop of links or
+  // a folder without access is not "no such file".
+  if (::stat(path.c_str(), &sb) != 0) {
+    const int err = errno;
+    throw Error(path, "", open_problem(err));
+  }
+  const fs::file_status st = fs::status(path, ec);
   if (fs::is_directory(st)) throw Error(path, "", "is a folder, not a file");
   if (!fs::is_regular_file(st)) throw Error(path, "", "is not a regular file (a device, pipe or socket)");
   const std::uintmax_t size = fs::file_size(path, ec);
@@ -46,8 +80,12 @@ void check_input_file(const std::string& path, std::uint64_t max_bytes) {
 
 std::string read_input_file(const std::string& path, std::uint64_t max_bytes) {
   check_input_file(path, max_bytes);
+  errno = 0;
   std::ifstream in(path, std::ios::binary);
-  if (!in) throw Error(path, "", "cannot open the file");
+  if (!in) {
+    const int err = errno;
+    throw Error(path, "", err ? open_problem(err) : std::string("cannot open it"));
+  }
   std::string text;
   char buffer[1 << 16];
   while (in) {

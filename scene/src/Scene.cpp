@@ -786,6 +786,34 @@ void check_static(const Scene& scene, const std::string& file) {
   if (!scene.bodies.empty()) refuse("bodies", "rigid bodies");
   if (scene.character) refuse("character", "a character's capsules");
   if (scene.collision) refuse("collision", "collision");
+  // Every step is an equilibrium: a cloth needs a load, and a start velocity has nothing to act on. The
+  // loads this solver takes are gravity and moving pins (a pin whose target leaves its vertex's start: an
+  // anchor elsewhere or a path); wind, drag and pressure are not conservative (StaticSolver::check).
+  for (size_t i = 0; i < scene.setup.cloths.size(); ++i) {
+    const cloth::ClothSetup& c = scene.setup.cloths[i];
+    const std::string at = "cloths[" + std::to_string(i) + "]";
+    if (c.initial_velocity.norm() != 0.0)
+      throw Error(
+          file, at + ".velocity",
+          "the static solver (solver.method \"static\") finds an equilibrium at every step and keeps no "
+          "velocity: it cannot take a start velocity (remove it or use a dynamic solver)");
+    if (scene.setup.gravity.norm() != 0.0) continue;
+    bool pin_moves = false;
+    for (const cloth::PinSpec& p : c.pins) {
+      if (p.vertex < 0 || p.vertex >= c.mesh->num_vertices()) continue;
+      const cloth::Vec3 start = c.mesh->rest_positions()[p.vertex];
+      pin_moves = pin_moves || (p.anchor && (*p.anchor - start).norm() != 0.0);
+      for (const cloth::Vec3& o : p.offsets) pin_moves = pin_moves || o.norm() != 0.0;
+    }
+    if (!pin_moves)
+      throw Error(
+          file, "gravity",
+          "is [0, 0, 0] and nothing else loads cloth '" + c.name +
+              "' (no pin of it moves: the static solver (solver.method \"static\") takes no wind, drag "
+              "or pressure), so its equilibrium is where it starts and the solver has nothing to "
+              "solve: give gravity, move a pin (" +
+              at + ".pins[k].path) or use a dynamic solver");
+  }
   if (scene.setup.gravity.norm() == 0.0) return;
   for (size_t i = 0; i < scene.setup.cloths.size(); ++i) {
     bool held = !scene.setup.cloths[i].pins.empty();

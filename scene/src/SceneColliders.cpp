@@ -111,21 +111,29 @@ void read_obj(const std::string& path, double scale, std::vector<Vec3>& vertices
     vertices.push_back(scale * obj.positions[i]);
     if (!(vertices.back().cwiseAbs().maxCoeff() <= kMaxCoordinate))
       throw Error(path,
-                  "line " + std::to_string(obj.position_lines[i]) + " (vertex " + std::to_string(i) + ")",
+                  "line " + std::to_string(obj.position_lines[i]) + " (vertex " + std::to_string(i + 1) + ")",
                   "times the scale, it is beyond +-" + kCoordinateLimit + " m");
   }
+  // Errors name the face's line; a polygon's fan triangle by its corners (1-based, as in the face).
+  std::vector<const cloth::ObjFace*> face_of;  // the face each triangle came from
+  auto corners = [](const cloth::ObjFace& f, size_t j) {
+    return f.corners.size() == 3 ? std::string("the face")
+                                 : "the face's triangle of corners 1, " + std::to_string(j + 1) + " and " +
+                                       std::to_string(j + 2);
+  };
   TriangleSet seen;
   for (const cloth::ObjFace& f : obj.faces) {
     for (size_t j = 1; j + 1 < f.corners.size(); ++j) {
       tris.push_back({f.corners[0].v, f.corners[j].v, f.corners[j + 1].v});
+      face_of.push_back(&f);
       if (degenerate(vertices, tris.back()))
         throw Error(path, loom::line_where(f.line, f.text),
-                    "triangle " + std::to_string(tris.size() - 1) +
-                        " has zero area (repeated or collinear vertices: a degenerate triangle)");
+                    corners(f, j) + " has zero area (repeated or collinear vertices: a degenerate triangle)");
       const long long index = static_cast<long long>(tris.size()) - 1;
       if (const long long earlier = seen.repeat_of(tris.back(), index); earlier >= 0)
         throw Error(path, loom::line_where(f.line, f.text),
-                    "triangle " + std::to_string(index) + " repeats triangle " + std::to_string(earlier) +
+                    corners(f, j) + " repeats a triangle of the face at " +
+                        loom::line_where(face_of[earlier]->line, face_of[earlier]->text) +
                         " (the same three vertices): a mesh collider's faces must be distinct");
     }
   }

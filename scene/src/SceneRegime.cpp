@@ -118,11 +118,14 @@ std::vector<RegimeOutlier> regime_outliers(const Scene& scene) {
             " (its first target lies " + fig(d) + " m from its vertex; validated up to " + fig(reach) +
             " m, a quarter of the cloth's size)");
     }
-    if (c.pressure) {  // PressureTerm.h: |f| = |p| A on a face, so a = |p| / rho
-      const double p =
-          std::abs(c.pressure->overpressure) + (c.pressure->ideal_gas ? c.pressure->ambient : 0.0);
+    // PressureTerm.h: |f| = |dp| A on a face, dp = p_in - p_out the net pressure, so a = |dp| / rho. At the
+    // rest volume dp is `overpressure` for both models (an ideal gas holds ambient + overpressure inside
+    // against ambient outside): the ambient pressure itself pushes on both sides and moves nothing.
+    if (c.pressure) {
+      const double dp = c.pressure->overpressure, p = std::abs(dp);
       if (p / rho > kRegimeWindAcceleration)
-        add(at + ".pressure (" + fig(p) + " Pa pushes the cloth at " + fig(p / rho) +
+        add(at + ".pressure (a net " + fig(dp) + " Pa, inside minus outside at the rest volume, " +
+            (dp > 0.0 ? "pushes the cloth out" : "pulls the cloth in") + " at " + fig(p / rho) +
             " m/s^2; validated up to " + fig(kRegimeWindAcceleration) + ")");
     }
     if (c.initial_velocity.norm() > kRegimeSpeed)

@@ -59,6 +59,58 @@ std::string cape_scene(const fs::path& dir, const nlohmann::json& character) {
   return path.string();
 }
 
+// An input path that is a loop of symbolic links (ELOOP) is refused with the system's reason, never "no such
+// file": the scene itself, a cloth mesh, the scene's clip, `loom body`'s clip and mesh, and the checkpoint
+// `--resume` reads.
+TEST(HostileFilesCli, ALoopOfLinksIsNamedAsOneForEveryInput) {
+  const fs::path dir = test_dir();
+  const fs::path loop = dir / "loop", back = dir / "loop_back";
+  fs::create_symlink(back, loop);
+  fs::create_symlink(loop, back);
+  const std::string reason = "cannot open it: a loop of symbolic links";
+  auto expect_loop = [&](const std::string& args, const std::string& what) {
+    const auto r = run_loom(args);
+    EXPECT_EQ(r.code, 1) << args << ": " << r.err;
+    EXPECT_NE(r.err.find(loop.string() + ": " + what + reason), std::string::npos) << args << ": " << r.err;
+    EXPECT_EQ(r.err.find("no such file"), std::string::npos) << args << ": " << r.err;
+  };
+  expect_loop("run " + loop.string() + " --frames 1 --out " + (dir / "o1").string(), "");
+  {
+    std::ifstream in(std::string(LOOM_SOURCE_DIR) + "/scenes/pillow.json");
+    nlohmann::json scene = nlohmann::json::parse(in);
+    scene["cloths"][0]["mesh"]["path"] = loop.string();
+    std::ofstream(dir / "mesh_loop.json") << scene.dump(1);
+    expect_loop("run " + (dir / "mesh_loop.json").string() + " --frames 1 --out " + (dir / "o2").string(),
+                "");
+  }
+  const std::string mesh = std::string(LOOM_TEST_DATA) + "/body/human.zae";
+  const auto probe = run_loom("body " + mesh + " " + loop.string() + " --seconds 0.05");
+  if (probe.err.find("this build has no loom::characters") == std::string::npos) {
+    const std::string scene = cape_scene(dir, {{"bvh", loop.string()}});
+    expect_loop("run " + scene + " --frames 1 --out " + (dir / "o3").string(), "cannot read motion: ");
+    expect_loop("body " + mesh + " " + loop.string() + " --seconds 0.05", "cannot read motion: ");
+    expect_loop("body " + loop.string() + " " + std::string(LOOM_TEST_DATA) + "/mocap/arm_swing.bvh",
+                "cannot read the mesh: ");
+  }
+  // The checkpoint --resume reads.
+  const fs::path out = dir / "ck";
+  std::ifstream in(std::string(LOOM_SOURCE_DIR) + "/scenes/hanging_cloth.json");
+  std::ofstream(dir / "sheet.json") << in.rdbuf();
+  ASSERT_EQ(run_loom("run " + (dir / "sheet.json").string() + " --frames 2 --checkpoint-every 1 --out " +
+                     out.string())
+                .code,
+            0);
+  const fs::path ck = out / "checkpoint" / "checkpoint.bin";
+  ASSERT_TRUE(fs::exists(ck));
+  fs::remove(ck);
+  fs::create_symlink(loop, ck);
+  const auto r = run_loom("run --resume " + out.string() + " --frames 3");
+  EXPECT_EQ(r.code, 1) << r.err;
+  EXPECT_NE(r.err.find(ck.string() + ": cannot open it: a loop of symbolic links"), std::string::npos)
+      << r.err;
+  EXPECT_EQ(r.err.find("no checkpoint here"), std::string::npos) << r.err;
+}
+
 // A COLLADA nested 20,000 deep inside a deflated .zae: `loom body` refuses the mesh and the clip by archive,
 // entry and line, exit 1.
 TEST(HostileFilesCli, DeepNestingInsideAnArchiveIsRefusedByEntryAndLine) {

@@ -7,7 +7,9 @@
 #include <gtest/gtest.h>
 #include <signal.h>
 #include <sys/file.h>
+#include <sys/socket.h>
 #include <sys/stat.h>
+#include <sys/un.h>
 #include <sys/wait.h>
 #include <unistd.h>
 
@@ -301,6 +303,173 @@ TEST(HostileOutputPaths, AFolderInUseByAnotherCommandIsRefusedAndLeftAsItWas) {
   }
   ::close(fd);  // released: the folder is Loom's again
   EXPECT_EQ(run_loom("run " + scene + " --frames 2" + o).code, 0);
+}
+
+// Folders nest: a command holds a shared lock on every folder above its own (FolderLock). While a run uses
+// `conc`, a command into a folder inside it (its frames/ with --overwrite, a new conc/sub) is refused, exit
+// 1, naming both folders, whatever the command, and so is a command into a folder that contains `conc`; none
+// of them writes anything there (no manifest, no stats, no folder).
+TEST(HostileOutputPaths, AFolderInsideOrAroundOneInUseIsRefused) {
+  const fs::path dir = test_dir(), top = dir / "o", out = top / "conc";
+  fs::create_directories(top);
+  std::string text = kScene;
+  text.replace(text.find("\"duration\": 0.1"), 15, "\"duration\": 600");
+  text.replace(text.find("\"nodes\": [5, 5]"), 15, "\"nodes\": [40, 40]");
+  text.replace(text.find("\"substeps\": 4"), 13, "\"substeps\": 200");
+  const std::string scene = write_scene(dir, text);
+  const std::string err = (dir / "long_err.txt").string();
+  const pid_t pid = start_run({scene, "--out", out.string()}, err);
+  for (int k = 0; k < 1500 && !fs::exists(out / "frames" / "frame_00001.obj"); ++k)
+    std::this_thread::sleep_for(std::chrono::milliseconds(20));
+  ASSERT_TRUE(fs::exists(out / "frames" / "frame_00001.obj")) << slurp(err);
+  const std::string held = fs::canonical(out).string();
+  const std::string body = "body " + std::string(LOOM_TEST_DATA) + "/body/human.zae " +
+                           std::string(LOOM_TEST_DATA) + "/mocap/01_01.bvh --seconds 0.05 --image ";
+  struct Case {
+    std::string args;
+    fs::path named;  // the folder the refusal names first
+  };
+  const fs::path frames = out / "frames", sub = out / "sub";
+  const std::vector<Case> inside = {
+      {"run " + scene + " --frames 1 --overwrite --out " + frames.string(), frames},
+      {"run " + scene + " --frames 1 --out " + sub.string(), sub},
+      {"run " + scene + " --frames 1 --out " + (sub / "deeper").string(), sub / "deeper"},
+      {"compare " + scene + " --frames 1 --out " + sub.string(), sub},
+      {"fabric-test catenary --resolution 8 --out " + sub.string(), sub},
+      {"bench accuracy --quick --methods verlet --out " + sub.string(), sub},
+      {"bench realtime --quick --scenes sheet --out " + sub.string(), sub},
+      {body + (frames / "pic.png").string(), frames}};
+  for (const Case& c : inside) {
+    const auto r = run_loom(c.args);
+    if (r.err.find("unknown command") != std::string::npos) continue;  // a build without Bullet
+    if (r.err.find("no renderer") != std::string::npos) continue;      // nor OSMesa (body --image)
+    EXPECT_EQ(r.code, 1) << c.args << ": " << r.err;
+    EXPECT_NE(r.err.find(c.named.string() + ": in use by another loom command (it lies inside " + held +
+                         ", which another loom command is using)"),
+              std::string::npos)
+        << c.args << ": " << r.err;
+  }
+  EXPECT_FALSE(fs::exists(sub));
+  for (const char* name : {".loom-manifest", "stats.csv", "stats.csv.partial", "summary.json", "pc2",
+                           "checkpoint", "pic.png", "compare.json"})
+    EXPECT_FALSE(fs::exists(frames / name)) << name;
+  // A folder that contains the one in use: refused naming both, --overwrite or not.
+  for (const std::string& args : {"run " + scene + " --frames 1 --overwrite --out " + top.string(),
+                                  "compare " + scene + " --frames 1 --overwrite --out " + top.string(),
+                                  "fabric-test catenary --resolution 8 --overwrite --out " + top.string()}) {
+    const auto r = run_loom(args);
+    EXPECT_EQ(r.code, 1) << args << ": " << r.err;
+    EXPECT_NE(r.err.find(top.string() + ": in use by another loom command (it contains " + held +
+                         ", which another loom command is using)"),
+              std::string::npos)
+        << args << ": " << r.err;
+  }
+  EXPECT_EQ(count_entries(top), 1u);  // conc alone
+  ::kill(pid, SIGKILL);
+  int status = 0;
+  ::waitpid(pid, &status, 0);
+  // The run is gone, its locks with it: a folder beside the listed ones is usable again.
+  EXPECT_EQ(run_loom("run " + write_scene(dir) + " --frames 1 --out " + sub.string()).code, 0);
+}
+
+// A folder an earlier run made (its manifest lists it: frames/, pc2/, checkpoint/) belongs to that run: an
+// --out there or below is refused, with --overwrite too (the next run into the folder deletes what it lists),
+// naming the folder and the entry, before anything changes. A new folder beside the listed ones is not
+// refused and the earlier run's folder leaves it alone; a command whose output folder holds another run's
+// folder where it writes is refused.
+TEST(HostileOutputPaths, AnOutInsideAFolderAnEarlierRunListedIsRefused) {
+  const fs::path dir = test_dir(), out = dir / "done";
+  const std::string scene = write_scene(dir);
+  ASSERT_EQ(run_loom("run " + scene + " --frames 2 --checkpoint-every 1 --out " + out.string()).code, 0);
+  const auto before = snapshot(out);
+  const std::string held = fs::canonical(out).string();
+  for (const auto& [target, entry] :
+       std::vector<std::pair<fs::path, std::string>>{{out / "frames", "frames"},
+                                                     {out / "frames" / "deeper", "frames"},
+                                                     {out / "pc2", "pc2"},
+                                                     {out / "checkpoint", "checkpoint"},
+                                                     {out / "stats.csv" / "x", "stats.csv"}})
+    for (const char* extra : {"", " --overwrite"}) {
+      const auto r = run_loom("run " + scene + " --frames 1 --out " + target.string() + extra);
+      EXPECT_EQ(r.code, 1) << target << extra << ": " << r.err;
+      EXPECT_NE(
+          r.err.find(target.string() + ": --out: lies inside " + held +
+                     ", the output folder of an earlier loom run, whose .loom-manifest lists '" + entry),
+          std::string::npos)
+          << target << extra << ": " << r.err;
+      EXPECT_EQ(snapshot(out), before) << target << extra;
+    }
+  const fs::path sub = out / "sub";
+  ASSERT_EQ(run_loom("run " + scene + " --frames 1 --out " + sub.string()).code, 0);
+  ASSERT_EQ(run_loom("run " + scene + " --frames 1 --out " + out.string()).code, 0);
+  EXPECT_TRUE(fs::exists(sub / "summary.json"));
+  // `outer` holds a run's folder at frames/, where a run into `outer` writes its frames.
+  const fs::path outer = dir / "outer";
+  ASSERT_EQ(run_loom("run " + scene + " --frames 1 --out " + (outer / "frames").string()).code, 0);
+  const auto inner = snapshot(outer);
+  const auto r = run_loom("run " + scene + " --frames 1 --overwrite --out " + outer.string());
+  EXPECT_EQ(r.code, 1) << r.err;
+  EXPECT_NE(r.err.find((outer / "frames").string() +
+                       ": --out: is the output folder of another loom run (it holds .loom-manifest)"),
+            std::string::npos)
+      << r.err;
+  EXPECT_EQ(snapshot(outer), inner);
+}
+
+// A manifest entry is deleted only as the type it was listed as (a link is removed itself, never followed):
+// a listed folder found as a file, FIFO or socket, and a listed file found as a folder or FIFO, are left
+// alone. Where the run writes such a path the run is refused before anything in the folder changes (the
+// earlier run's other files are still there). A `.loom-manifest` that is a FIFO is described as one.
+TEST(HostileOutputPaths, AListedPathOfAnotherTypeIsLeftAlone) {
+  const fs::path dir = test_dir(), out = dir / "out";
+  const std::string scene = write_scene(dir);
+  ASSERT_EQ(run_loom("run " + scene + " --frames 2 --out " + out.string()).code, 0);
+  {
+    std::ofstream manifest(out / ".loom-manifest", std::ios::app);
+    manifest << "was_folder/\nfifo_folder/\nsock_folder/\nwas_file\nfifo_file\n";
+  }
+  std::ofstream(out / "was_folder") << "user data";
+  ASSERT_EQ(::mkfifo((out / "fifo_folder").c_str(), 0600), 0);
+  const int sock = ::socket(AF_UNIX, SOCK_STREAM, 0);
+  ASSERT_GE(sock, 0);
+  sockaddr_un addr{};
+  addr.sun_family = AF_UNIX;
+  const std::string sock_path = (out / "sock_folder").string();
+  ASSERT_LT(sock_path.size(), sizeof addr.sun_path) << sock_path;
+  std::snprintf(addr.sun_path, sizeof addr.sun_path, "%s", sock_path.c_str());
+  ASSERT_EQ(::bind(sock, reinterpret_cast<sockaddr*>(&addr), sizeof addr), 0);
+  fs::create_directories(out / "was_file");
+  std::ofstream(out / "was_file" / "notes.txt") << "user data";
+  ASSERT_EQ(::mkfifo((out / "fifo_file").c_str(), 0600), 0);
+  const auto r = run_loom("run " + scene + " --frames 2 --out " + out.string());
+  EXPECT_EQ(r.code, 0) << r.err;
+  EXPECT_EQ(slurp(out / "was_folder"), "user data");
+  EXPECT_TRUE(fs::is_fifo(fs::symlink_status(out / "fifo_folder")));
+  EXPECT_TRUE(fs::is_socket(fs::symlink_status(out / "sock_folder")));
+  EXPECT_EQ(slurp(out / "was_file" / "notes.txt"), "user data");
+  EXPECT_TRUE(fs::is_fifo(fs::symlink_status(out / "fifo_file")));
+  ::close(sock);
+  // frames/ (listed as a folder, written by the run) found as a file: refused before the old files go.
+  fs::remove_all(out / "frames");
+  std::ofstream(out / "frames") << "precious";
+  ASSERT_TRUE(fs::exists(out / "pc2" / "sheet.pc2"));
+  const auto refused = run_loom("run " + scene + " --frames 2 --out " + out.string());
+  EXPECT_EQ(refused.code, 1) << refused.err;
+  EXPECT_NE(refused.err.find((out / "frames").string() + ": --out: is a file where Loom writes a folder"),
+            std::string::npos)
+      << refused.err;
+  EXPECT_EQ(slurp(out / "frames"), "precious");
+  EXPECT_TRUE(fs::exists(out / "pc2" / "sheet.pc2")) << "the refused run deleted the earlier run's files";
+  // The manifest itself a FIFO: named by its type, never opened.
+  const fs::path other = dir / "other";
+  fs::create_directories(other);
+  ASSERT_EQ(::mkfifo((other / ".loom-manifest").c_str(), 0600), 0);
+  const auto fifo = run_loom("run " + scene + " --frames 1 --out " + other.string());
+  EXPECT_EQ(fifo.code, 1) << fifo.err;
+  EXPECT_NE(fifo.err.find((other / ".loom-manifest").string() +
+                          ": --out: is not a regular file (it is a FIFO): not a folder Loom owns"),
+            std::string::npos)
+      << fifo.err;
 }
 
 // `loom compare` never replaces its own inputs: a scene or a mesh that is (by device and inode) a file

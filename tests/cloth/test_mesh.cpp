@@ -152,11 +152,19 @@ TEST(Obj, RejectsBadInputWithFileLineAndProblem) {
       {"short_face.obj", "v 0 0 0\nv 1 0 0\nf 1 2\n", "line 3", "at least 3"},
       {"bad_index.obj", "v 0 0 0\nv 1 0 0\nv 0 1 0\nf 1 2 x\n", "line 4", "bad vertex index"},
       {"unknown.obj", "v 0 0 0\nbogus 1 2\n", "line 2", "unknown OBJ directive"},
-      {"degenerate.obj", "v 0 0 0\nv 1 0 0\nv 2 0 0\nv 0 1 0\nf 1 4 2\nf 1 2 3\n", "triangle 1", "zero area"},
-      {"repeated.obj", "v 0 0 0\nv 1 0 0\nv 0 1 0\nf 1 2 2\n", "triangle 0", "degenerate"},
+      {"degenerate.obj", "v 0 0 0\nv 1 0 0\nv 2 0 0\nv 0 1 0\nf 1 4 2\nf 1 2 3\n", "line 6 ('f 1 2 3')",
+       "zero area"},
+      {"repeated.obj", "v 0 0 0\nv 1 0 0\nv 0 1 0\nf 1 2 2\n", "line 4 ('f 1 2 2')", "degenerate"},
       {"nonmanifold.obj", "v 0 0 0\nv 1 0 0\nv 0 1 0\nv 0 -1 0\nv 0 0 1\nf 1 2 3\nf 2 1 4\nf 1 2 5\n",
-       "edge (0, 1)", "non-manifold"},
-      {"unused.obj", "v 0 0 0\nv 1 0 0\nv 0 1 0\nv 5 5 5\nf 1 2 3\n", "vertex 3", "not used"},
+       "edge (vertex 1 (line 1), vertex 2 (line 2))", "non-manifold"},
+      // The 4th `v` is OBJ vertex 4 (1-based, as faces count), named with its line.
+      {"unused.obj", "v 0 0 0\nv 1 0 0\nv 0 1 0\n# a comment\nv 5 5 5\nf 1 2 3\n", "vertex 4 (line 5)",
+       "not used"},
+      // The third face lies over the other two with the same winding: edge 1->2 runs the same way in the
+      // faces of lines 5 and 7 (a folded sheet), named by both lines.
+      {"folded.obj", "v 0 0 0\nv 1 0 0\nv 0 0 1\nv 1 0 1\nf 1 2 3\nf 2 4 3\nf 1 2 4\n", "line 7 ('f 1 2 4')",
+       "runs along the edge from vertex 1 (line 1) to vertex 2 (line 2) in the same direction as line 5 "
+       "('f 1 2 3')"},
       {"empty.obj", "# nothing\n", "", "no vertices"},
   };
   for (const Case& c : cases) {

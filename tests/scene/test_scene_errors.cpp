@@ -113,6 +113,16 @@ const Case kCases[] = {
      {"solver={\"method\":\"static\"}", "cloths[0].pins=[]"},
      "cloths[0].pins",
      "the static solver (solver.method \"static\") needs a held cloth"},
+    // The static solver solves for the equilibrium under the loads it takes (gravity, moving pins): with
+    // gravity [0, 0, 0] and fixed pins there is none to find, and a start velocity has nothing to act on.
+    {"static_solver_without_gravity_nor_moving_pins",
+     {"solver={\"method\":\"static\"}", "gravity=[0,0,0]"},
+     "gravity",
+     "is [0, 0, 0] and nothing else loads cloth 'sheet' (no pin of it moves"},
+    {"static_solver_with_a_start_velocity",
+     {"solver={\"method\":\"static\"}", "cloths[0].velocity=[0,1,0]"},
+     "cloths[0].velocity",
+     "the static solver (solver.method \"static\") finds an equilibrium at every step and keeps no velocity"},
     {"static_solver_with_a_collider",
      {"solver={\"method\":\"static\"}",
       "colliders=[{\"name\":\"ball\",\"shape\":\"sphere\",\"radius\":0.2,\"position\":[0,0.3,0]}]"},
@@ -381,6 +391,17 @@ TEST(Scene, ValidSceneAndOverridesApply) {
   EXPECT_EQ(s.setup.cloths[0].pins[1].vertex, 4);
   Scene d = load_scene(path, {"solver={\"dt\": 0.001}"});
   EXPECT_EQ(d.setup.substeps, 17);  // ceil((1/60) / 0.001)
+}
+
+// Without gravity the static solver takes a cloth a moving pin loads (the refusal above is only for a cloth
+// nothing loads).
+TEST(Scene, StaticSolverWithoutGravityTakesAMovingPin) {
+  const std::string path = write_scene("static_moving_pin.json", kValid);
+  const Scene s = load_scene(
+      path,
+      {"solver={\"method\":\"static\"}", "gravity=[0,0,0]",
+       "cloths[0].pins[1]={\"grid\":[-1,0],\"path\":{\"times\":[0,1],\"offsets\":[[0,0,0],[0.1,0,0]]}}"});
+  EXPECT_EQ(s.setup.solver.method, "static");
 }
 
 TEST(Scene, CloStyleMaterialMapsToPhysicalUnits) {

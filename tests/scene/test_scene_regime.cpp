@@ -77,6 +77,25 @@ TEST(SceneRegime, AValueJustInsideTheRegimeIsNotNamed) {
   }
 }
 
+// The pressure note quotes the net pressure acting on the cloth (inside minus outside), not the sum of the
+// magnitudes: an ideal gas at 1 Pa absolute inside 1e5 Pa of ambient air is pulled in by -99999 Pa, never
+// pushed by 2e5 Pa; the ambient pressure alone pushes on both sides and is not named.
+TEST(SceneRegime, ThePressureNoteQuotesTheNetPressureActingOnTheCloth) {
+  const std::string pillow = std::string(LOOM_SOURCE_DIR) + "/scenes/pillow.json";
+  auto text = [&](const std::string& pressure) {
+    return scene::divergence_suspects(scene::load_scene(pillow, {"cloths[0].pressure=" + pressure}));
+  };
+  const std::string low = text(R"({"model":"ideal_gas","ambient":1e5,"overpressure":-99999})");
+  EXPECT_NE(
+      low.find("cloths[0].pressure (a net -1e+05 Pa, inside minus outside at the rest volume, pulls the "
+               "cloth in at "),
+      std::string::npos)
+      << low;
+  EXPECT_EQ(low.find("2e+05 Pa"), std::string::npos) << low;
+  const std::string ambient = text(R"({"model":"ideal_gas","ambient":1e8,"overpressure":300})");
+  EXPECT_EQ(ambient.find("cloths[0].pressure"), std::string::npos) << ambient;
+}
+
 // The reference tier is suggested only to a scene that runs another one.
 TEST(SceneRegime, ASceneInsideTheRegimeNamesTheFieldsThatGiveAFrameMoreSteps) {
   const std::string text = suspects({});

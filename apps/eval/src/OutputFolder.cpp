@@ -57,6 +57,39 @@ struct Manifest {
   std::vector<std::string> entries;
 };
 
+// What stands at a path, for messages: "a symbolic link", "a folder", "a FIFO", ...
+std::string type_name(const fs::file_status& st) {
+  switch (st.type()) {
+    case fs::file_type::regular:
+      return "a regular file";
+    case fs::file_type::directory:
+      return "a folder";
+    case fs::file_type::symlink:
+      return "a symbolic link";
+    case fs::file_type::fifo:
+      return "a FIFO";
+    case fs::file_type::socket:
+      return "a socket";
+    case fs::file_type::character:
+      return "a character device";
+    case fs::file_type::block:
+      return "a block device";
+    default:
+      return "of an unknown type";
+  }
+}
+
+// True when a new run deletes the manifest entry `entry` ("frames/" a folder, else a file) found as `st`
+// (never followed): only what a run made is deleted. A link is removed itself (never its target) whatever
+// the entry; a listed file only as a regular file; a listed folder only as a folder (and only when empty,
+// which remove_output checks). Anything else (a folder where a file was listed, a file, FIFO, socket or
+// device where a folder was listed, a FIFO or device where a file was listed) is left alone.
+bool deleted_as_listed(const std::string& entry, const fs::file_status& st) {
+  if (fs::is_symlink(st)) return true;
+  const bool folder = !entry.empty() && entry.back() == '/';
+  return folder ? fs::is_directory(st) : fs::is_regular_file(st);
+}
+
 Manifest read_manifest(const fs::path& file, const std::string& flag) {
   std::ifstream in(file, std::ios::binary);
   if (!in) throw Error(file.string(), flag, "cannot read the output folder's manifest");
@@ -85,42 +118,161 @@ Manifest read_manifest(const fs::path& file, const std::string& flag) {
 
 }  // namespace
 
-std::shared_ptr<FolderLock> FolderLock::acquire(const fs::path& dir, const std::string& flag) {
-  std::string trimmed = dir.string();
-  while (trimmed.size() > 1 && trimmed.back() == '/') trimmed.pop_back();
-  const int fd = ::open(trimmed.c_str(), O_RDONLY | O_DIRECTORY | O_NOFOLLOW | O_CLOEXEC);
-  if (fd < 0) return nullptr;
+// One flock on one folder, shared by every FolderLock of the process that needs it: a second flock on
+// another descriptor of the same folder would refuse the process itself.
+struct detail::Flock {
+  int fd = -1;
+  bool exclusive = false;
+  ~Flock() { ::close(fd); }  // closing the last descriptor releases the flock
+};
+
+namespace {
+
+using detail::Flock;
+
+std::mutex held_mutex;
+std::map<std::pair<dev_t, ino_t>, std::weak_ptr<Flock>> held;  // guarded by held_mutex
+
+// The path the system gives an open folder (/proc/self/fd), or `fallback`.
+std::string path_of(int fd, const std::string& fallback) {
+  char buf[4096];
+  const std::string link = "/proc/self/fd/" + std::to_string(fd);
+  const ssize_t n = ::readlink(link.c_str(), buf, sizeof buf - 1);
+  return n > 0 ? std::string(buf, static_cast<size_t>(n)) : fallback;
+}
+
+// Locks the folder open at `fd` (taken over: closed unless kept). nullptr with `*err` = errno when another
+// process holds a conflicting lock (EWOULDBLOCK) or flock fails; within the process a lock already held is
+// returned (a shared one where an exclusive one is asked: EWOULDBLOCK, this command holds a folder below).
+std::shared_ptr<Flock> lock_folder(int fd, bool exclusive, int* err) {
   struct stat st;
   if (::fstat(fd, &st) != 0) {
+    *err = errno;
     ::close(fd);
     return nullptr;
   }
-  // One lock per folder and process: a second flock on another descriptor of the same folder would refuse
-  // the process itself.
-  static std::mutex mutex;
-  static std::map<std::pair<dev_t, ino_t>, std::weak_ptr<FolderLock>> held;
-  std::lock_guard<std::mutex> guard(mutex);
+  std::lock_guard<std::mutex> guard(held_mutex);
   const auto key = std::make_pair(st.st_dev, st.st_ino);
   if (auto live = held[key].lock()) {
     ::close(fd);
+    if (exclusive && !live->exclusive) {
+      *err = EWOULDBLOCK;
+      return nullptr;
+    }
     return live;
   }
-  if (::flock(fd, LOCK_EX | LOCK_NB) != 0) {
-    const int e = errno;
+  if (::flock(fd, (exclusive ? LOCK_EX : LOCK_SH) | LOCK_NB) != 0) {
+    *err = errno;
     ::close(fd);
-    if (e == EWOULDBLOCK)
-      throw Error(dir.string(), "",
-                  "in use by another loom command (it holds the folder's lock): wait for it to finish or "
-                  "choose another output folder (" +
-                      flag + ")");
-    throw Error(dir.string(), flag, std::string("cannot lock the output folder: ") + std::strerror(e));
+    return nullptr;
   }
-  std::shared_ptr<FolderLock> lock(new FolderLock(fd));
+  auto lock = std::make_shared<Flock>();
+  lock->fd = fd;
+  lock->exclusive = exclusive;
   held[key] = lock;
   return lock;
 }
 
-FolderLock::~FolderLock() { ::close(fd_); }  // closing the last descriptor releases the flock
+// A folder below `folder` (a path from path_of) that another process holds exclusively, found through
+// /proc/locks ("N: FLOCK ADVISORY WRITE PID MAJ:MIN:INODE 0 EOF") and that process's open descriptors; ""
+// when none can be named.
+std::string held_folder_below(const std::string& folder) {
+  std::ifstream locks("/proc/locks");
+  std::string line;
+  const std::string own = std::to_string(::getpid());
+  while (std::getline(locks, line)) {
+    std::istringstream in(line);
+    std::string id, kind, advisory, mode, pid, device;
+    in >> id >> kind;
+    if (kind == "->") in >> kind;  // a waiting request
+    in >> advisory >> mode >> pid >> device;
+    if (kind != "FLOCK" || mode != "WRITE" || pid == own) continue;
+    const size_t colon = device.find_last_of(':');
+    if (colon == std::string::npos) continue;
+    const std::string inode = device.substr(colon + 1);
+    std::error_code ec;
+    for (fs::directory_iterator it("/proc/" + pid + "/fd", ec), end; !ec && it != end; it.increment(ec)) {
+      struct stat st;
+      if (::stat(it->path().c_str(), &st) != 0 || !S_ISDIR(st.st_mode) || std::to_string(st.st_ino) != inode)
+        continue;
+      const std::string path = fs::read_symlink(it->path(), ec).string();
+      if (!ec && path.size() > folder.size() + 1 && path.compare(0, folder.size(), folder) == 0 &&
+          (folder == "/" || path[folder.size()] == '/'))
+        return path;
+    }
+  }
+  return "";
+}
+
+[[noreturn]] void throw_in_use(const fs::path& named, const std::string& flag, const std::string& why) {
+  throw Error(named.string(), "",
+              "in use by another loom command (" + why +
+                  "): wait for it to finish or choose another output folder (" + flag + ")");
+}
+
+}  // namespace
+
+std::shared_ptr<FolderLock> FolderLock::acquire(const fs::path& dir, const std::string& flag, bool exclusive,
+                                                const fs::path& named_as) {
+  const fs::path named = named_as.empty() ? dir : named_as;
+  std::string trimmed = dir.string();
+  while (trimmed.size() > 1 && trimmed.back() == '/') trimmed.pop_back();
+  const int fd = ::open(trimmed.c_str(), O_RDONLY | O_DIRECTORY | O_NOFOLLOW | O_CLOEXEC);
+  if (fd < 0) return nullptr;
+  std::shared_ptr<FolderLock> lock(new FolderLock());
+  // The folders above, shared, from the folder's own ".." up to the root (the folders the system reaches,
+  // whatever links the path went through). One that cannot be read is passed over.
+  int at = ::open(trimmed.c_str(), O_PATH | O_DIRECTORY | O_NOFOLLOW | O_CLOEXEC);
+  const std::string self_path = path_of(fd, dir.string());
+  while (at >= 0) {
+    const int up = ::openat(at, "..", O_PATH | O_DIRECTORY | O_CLOEXEC);
+    struct stat a, b;
+    const bool top = up < 0 || ::fstat(at, &a) != 0 || ::fstat(up, &b) != 0 ||
+                     (a.st_dev == b.st_dev && a.st_ino == b.st_ino);
+    ::close(at);
+    at = -1;
+    if (top) {
+      if (up >= 0) ::close(up);
+      break;
+    }
+    at = up;
+    const int readable = ::openat(up, ".", O_RDONLY | O_DIRECTORY | O_CLOEXEC);
+    if (readable < 0) continue;
+    const std::string above = path_of(readable, "a folder above it");
+    int err = 0;
+    auto shared = lock_folder(readable, false, &err);
+    if (!shared) {
+      ::close(at);
+      ::close(fd);
+      if (err == EWOULDBLOCK)
+        throw_in_use(named, flag, "it lies inside " + above + ", which another loom command is using");
+      throw Error(above, flag, std::string("cannot lock the folder: ") + std::strerror(err));
+    }
+    lock->above_.push_back(std::move(shared));
+  }
+  int err = 0;
+  const int probe = exclusive ? ::dup(fd) : -1;  // to tell "the folder" from "a folder below" on refusal
+  lock->self_ = lock_folder(fd, exclusive, &err);
+  if (!lock->self_) {
+    if (err != EWOULDBLOCK) {
+      if (probe >= 0) ::close(probe);
+      throw Error(dir.string(), flag, std::string("cannot lock the output folder: ") + std::strerror(err));
+    }
+    // Exclusive refused: another command holds the folder itself, or only shared locks (a command using a
+    // folder below it).
+    const bool below = probe >= 0 && ::flock(probe, LOCK_SH | LOCK_NB) == 0;
+    if (probe >= 0) ::close(probe);
+    if (!below && !named_as.empty() && named_as != dir)
+      throw_in_use(named, flag, "it lies inside " + self_path + ", which another loom command is using");
+    if (!below) throw_in_use(named, flag, "it holds the folder's lock");
+    const std::string inner = held_folder_below(self_path);
+    throw_in_use(named, flag,
+                 "it contains " + (inner.empty() ? std::string("a folder") : inner) +
+                     ", which another loom command is using");
+  }
+  if (probe >= 0) ::close(probe);
+  return lock;
+}
 
 std::uint64_t read_run_id(const fs::path& dir) {
   const fs::path file = dir / OutputFolder::kManifest;
@@ -208,14 +360,24 @@ void check_writable(const fs::path& dir, const std::string& relative, const std:
     at /= *it;
     so_far += (so_far.empty() ? "" : "/") + it->string();
     const fs::file_status st = fs::symlink_status(at, ec);
-    // A listed file or link is deleted before the run writes (a listed folder only when left empty).
-    if ((gone.count(so_far) || gone.count(so_far + "/")) && !fs::is_directory(st)) return;
+    // A listed file or link is deleted before the run writes (a listed folder only when left empty), when
+    // its type is the listed one (deleted_as_listed); what is left alone is checked as any path.
+    if (!fs::is_directory(st) && ((gone.count(so_far) && deleted_as_listed(so_far, st)) ||
+                                  (gone.count(so_far + "/") && deleted_as_listed(so_far + "/", st))))
+      return;
     if (fs::is_symlink(st))
       throw Error(at.string(), flag,
                   "is a symbolic link inside the output folder: Loom never writes through a link there");
     const bool last = std::next(it) == rp.end();
     if (fs::exists(st) && !fs::is_directory(st) && (!last || folder))
       throw Error(at.string(), flag, "is a file where Loom writes a folder");
+    // A folder the command writes into that another run owns: the two manifests would list one file.
+    if (fs::is_directory(st) && (!last || folder) &&
+        fs::exists(fs::symlink_status(at / OutputFolder::kManifest, ec)))
+      throw Error(at.string(), flag,
+                  "is the output folder of another loom run (it holds " +
+                      std::string(OutputFolder::kManifest) +
+                      "), where this command writes: choose an output folder that does not contain it");
     if (last && !folder && fs::is_directory(st))
       throw Error(at.string(), flag, "is a folder where Loom writes a file");
     // A FIFO, socket or device: opening it to write would block (a FIFO without a reader) or reach
@@ -225,6 +387,41 @@ void check_writable(const fs::path& dir, const std::string& relative, const std:
                   "is not a regular file (a FIFO, socket or device) where Loom writes a file: remove it");
     if (last && !folder && fs::is_regular_file(st)) refuse_shared_file(at, flag);
     if (!fs::exists(st)) return;  // nothing below a missing component
+  }
+}
+
+// Refuses `dir` (not yet made, or a folder) inside a folder above it that holds a Loom manifest listing
+// `dir`'s path there, a folder on its way or a path below it: `dir` is (or lies in) what that run made, so
+// its files would mix with the listed ones and the next run there would delete them. The folders above are
+// locked (shared) by the caller, so no command rewrites those manifests meanwhile. A folder above with an
+// unreadable or corrupt manifest is not Loom's and is passed over.
+void refuse_inside_listed(const fs::path& dir, const std::string& flag) {
+  std::error_code ec;
+  const fs::path self = fs::weakly_canonical(fs::absolute(dir, ec), ec);
+  if (ec) return;
+  for (fs::path above = self.parent_path(); !above.empty(); above = above.parent_path()) {
+    const fs::path file = above / OutputFolder::kManifest;
+    if (fs::is_regular_file(fs::symlink_status(file, ec))) {
+      Manifest m;
+      try {
+        m = read_manifest(file, flag);
+      } catch (const Error&) {
+        m.entries.clear();
+      }
+      const std::string rel = self.lexically_relative(above).generic_string();
+      for (const std::string& entry : m.entries) {
+        const std::string e = entry.back() == '/' ? entry.substr(0, entry.size() - 1) : entry;
+        const bool on_the_way = rel == e || rel.compare(0, e.size() + 1, e + "/") == 0;
+        const bool below = e.compare(0, rel.size() + 1, rel + "/") == 0;
+        if (on_the_way || below)
+          throw Error(dir.string(), flag,
+                      "lies inside " + above.string() + ", the output folder of an earlier loom run, whose " +
+                          OutputFolder::kManifest + " lists '" + entry +
+                          "' there: its files and this command's would mix, and the next run into " +
+                          above.string() + " deletes what it lists; choose a folder outside it");
+      }
+    }
+    if (above == above.root_path()) break;
   }
 }
 
@@ -290,6 +487,15 @@ OutputFolder::OutputFolder(const fs::path& dir, const std::string& flag, bool ov
   if (!existed && resume)
     throw Error(dir.string(), flag,
                 "holds no " + std::string(kManifest) + ": not a folder written by loom run");
+  // The folders above are locked (shared, FolderLock) before the folder is made or read: one inside a folder
+  // another command uses is refused before anything changes, and no manifest above changes meanwhile.
+  std::shared_ptr<FolderLock> above;
+  {
+    fs::path parent = named.parent_path();
+    while (!parent.empty() && !fs::is_directory(parent, ec)) parent = parent.parent_path();
+    above = FolderLock::acquire(parent.empty() ? fs::path(".") : parent, flag, false, dir);
+  }
+  refuse_inside_listed(dir, flag);
   // The folder is locked before anything in it is read: a new one is made first (empty, so nothing below
   // can refuse it, unless another command took it meanwhile).
   if (!existed) {
@@ -312,7 +518,7 @@ OutputFolder::OutputFolder(const fs::path& dir, const std::string& flag, bool ov
   if (fs::exists(ms)) {
     if (!fs::is_regular_file(ms))
       throw Error(manifest.string(), flag,
-                  "is not a regular file (a link or a folder): not a folder Loom owns");
+                  "is not a regular file (it is " + type_name(ms) + "): not a folder Loom owns");
     if (resume) refuse_shared_file(manifest, flag);  // appended to: the other names would change too
     old = read_manifest(manifest, flag);
   } else {
@@ -366,10 +572,9 @@ OutputFolder::OutputFolder(const fs::path& dir, const std::string& flag, bool ov
     // A folder entry ("frames/") is looked at without its '/': with it, a link there would be followed.
     const bool folder = entry.back() == '/';
     const std::string rel = folder ? entry.substr(0, entry.size() - 1) : entry;
-    // A folder entry where a file now stands is not what the run made: left alone (a link there is
-    // removed itself, never followed, below).
+    // An entry whose type changed is not what the run made: left alone (deleted_as_listed).
     const fs::file_status st = fs::symlink_status(dir / rel, ec);
-    if (folder && fs::exists(st) && !fs::is_directory(st) && !fs::is_symlink(st)) continue;
+    if (fs::exists(st) && !deleted_as_listed(entry, st)) continue;
     // A file, a link itself (never its target) or an empty folder; nothing under a link on the way.
     remove_output((dir / rel).string());
   }

@@ -9,7 +9,10 @@
 //     without one is refused unless the user passes --overwrite (files of the same names are then replaced,
 //     nothing else is deleted);
 //   - DIR itself must not be a symbolic link nor end in "." or "..", and a path inside DIR that is one is
-//     never written through (DIR is held open while the folder lives: OutputRoot, OutputFile.h).
+//     never written through (DIR is held open while the folder lives: OutputRoot, OutputFile.h);
+//   - DIR inside or around a folder another command uses is refused (FolderLock), and so is DIR at or below
+//     a path that the manifest of a folder above lists (what an earlier run made there), --overwrite or not;
+//   - an entry of the old manifest is deleted only as the type it was listed as (a link: the link itself).
 // The manifest's first line holds a run id that checkpoints record, so a checkpoint copied from another
 // folder is refused on --resume.
 #include <cstdint>
@@ -24,23 +27,36 @@
 
 namespace loom::eval {
 
-// An exclusive advisory lock (flock(LOCK_EX | LOCK_NB)) on an output folder's own descriptor, held while a
-// command uses the folder: two Loom commands never use one folder at the same time. acquire() refuses a
-// folder another process holds ("DIR: in use by another loom command", loom::Error); within one process
-// the lock of a folder is shared (acquire returns the live one). The descriptor is close-on-exec, so a
-// helper program (ffmpeg, gnuplot) never keeps it.
+namespace detail {
+struct Flock;
+}
+
+// Advisory locks (flock, LOCK_NB) held while a command uses a folder: an exclusive one on the folder itself
+// and a shared one on every folder above it, up to the root (through "..": the folders the system reaches,
+// whatever links the path went through; one the user cannot read is passed over). So two Loom commands
+// never use one folder, nor one a folder inside the other's, at the same time: a command into a folder
+// inside one in use fails its shared lock there, one into a folder that contains one in use fails its
+// exclusive lock (the other holds a shared one on it), whichever comes first wins. acquire() refuses, by
+// the folder's name, "DIR: in use by another loom command (it lies inside A / it contains B, which another
+// loom command is using)" (loom::Error). A shared acquire (`loom body --image`'s folder, which it writes a
+// file into but does not own) takes shared locks only: refused inside a folder in use, not beside one.
+// Within one process a folder's lock is shared (acquire reuses the live one). The descriptors are
+// close-on-exec, so a helper program (ffmpeg, gnuplot) never keeps them.
 class FolderLock {
  public:
   // Locks the existing folder `dir` (never through a symbolic link). nullptr when `dir` does not exist or
-  // is not a folder (the caller refuses it by its own rules). `flag` names the option in errors.
-  static std::shared_ptr<FolderLock> acquire(const std::filesystem::path& dir, const std::string& flag);
-  ~FolderLock();
+  // is not a folder (the caller refuses it by its own rules). `flag` names the option in errors; `named`
+  // (default `dir`) is the folder the messages name (the output folder, when `dir` is its nearest existing
+  // parent, locked before the output folder is made).
+  static std::shared_ptr<FolderLock> acquire(const std::filesystem::path& dir, const std::string& flag,
+                                             bool exclusive = true, const std::filesystem::path& named = {});
   FolderLock(const FolderLock&) = delete;
   FolderLock& operator=(const FolderLock&) = delete;
 
  private:
-  explicit FolderLock(int fd) : fd_(fd) {}
-  int fd_ = -1;
+  FolderLock() = default;
+  std::shared_ptr<detail::Flock> self_;
+  std::vector<std::shared_ptr<detail::Flock>> above_;
 };
 
 class OutputFolder {
