@@ -253,6 +253,28 @@ TEST(Resources, ScenesThatAreNotFilesAreRefusedWithoutReading) {
   }
 }
 
+// A manifest line longer than any path (here 64 MB of NUL bytes after a valid header, sparse on disk) is
+// refused when it passes the bound, not read whole; nothing in the folder changes.
+TEST(OutputFolder, AManifestOfNulBytesIsRefusedWithoutReadingItWhole) {
+  const fs::path dir = loom::test::test_dir(), out = dir / "mine";
+  const std::string scene = write_scene(dir);
+  ASSERT_EQ(run_loom("run " + scene + " --frames 1 --out " + out.string()).code, 0);
+  std::string header;
+  {
+    std::ifstream m(out / ".loom-manifest");
+    std::getline(m, header);
+  }
+  {
+    std::ofstream m(out / ".loom-manifest", std::ios::trunc);
+    m << header << "\n";
+  }
+  fs::resize_file(out / ".loom-manifest", header.size() + 1 + (64u << 20));
+  const auto r = run_loom("run " + scene + " --frames 1 --out " + out.string());
+  EXPECT_EQ(r.code, 1) << r.err;
+  EXPECT_NE(r.err.find(".loom-manifest: line 2: longer than"), std::string::npos) << r.err;
+  EXPECT_TRUE(fs::exists(out / "frames" / "frame_00001.obj")) << "a refused run deleted a listed file";
+}
+
 TEST(Nan, NonFiniteStartIsNamedAndNothingIsWritten) {
   const fs::path dir = loom::test::test_dir(), out = dir / "out";
   const std::string scene = write_scene(dir);

@@ -93,10 +93,33 @@ bool deleted_as_listed(const std::string& entry, const fs::file_status& st) {
 Manifest read_manifest(const fs::path& file, const std::string& flag) {
   std::ifstream in(file, std::ios::binary);
   if (!in) throw Error(file.string(), flag, "cannot read the output folder's manifest");
+  // A run of the longest allowed (1e7 frames) lists about 0.3 GB of paths.
+  constexpr std::uintmax_t kMaxManifestBytes = std::uintmax_t(1) << 30;
+  std::error_code ec;
+  const std::uintmax_t bytes = fs::file_size(file, ec);
+  if (!ec && bytes > kMaxManifestBytes)
+    throw Error(file.string(), flag,
+                "the output folder's manifest holds " + std::to_string(bytes) +
+                    " bytes, more than a run lists (1 GiB): the manifest is corrupt, Loom deletes nothing it "
+                    "lists");
   Manifest m;
   std::string line;
   int number = 0;
-  while (std::getline(in, line)) {
+  // A listed path is at most PATH_MAX bytes: a longer line (a file of NUL bytes, one of gigabytes) is
+  // refused when it passes that, not read whole.
+  constexpr std::size_t kMaxLine = 4096 + 16;
+  std::vector<char> buf(kMaxLine + 2);
+  while (true) {
+    in.getline(buf.data(), static_cast<std::streamsize>(buf.size()));
+    const std::streamsize got = in.gcount();
+    if (got == 0 && !in) break;  // the end
+    if (in.fail() && !in.eof())  // the buffer filled before a newline came
+      throw Error(file.string(), "line " + std::to_string(number + 1),
+                  "longer than " + std::to_string(kMaxLine) +
+                      " bytes: not a path inside the output folder; the manifest is corrupt, Loom deletes "
+                      "nothing it lists");
+    const bool newline = !in.eof();  // getline counts the newline it took in gcount
+    line.assign(buf.data(), static_cast<std::size_t>(got - (newline ? 1 : 0)));
     ++number;
     if (number == 1) {
       const std::string h(kHeader);
