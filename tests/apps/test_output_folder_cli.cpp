@@ -275,6 +275,18 @@ TEST(OutputFolder, AManifestOfNulBytesIsRefusedWithoutReadingItWhole) {
   EXPECT_TRUE(fs::exists(out / "frames" / "frame_00001.obj")) << "a refused run deleted a listed file";
 }
 
+// A refused --out leaves no folder behind, the parents it had to make included (a name too long for the
+// file system fails after the folders above it were made).
+TEST(OutputFolder, ARefusedOutLeavesNoParentFolderItMade) {
+  const fs::path dir = loom::test::test_dir();
+  const std::string scene = write_scene(dir);
+  const fs::path out = dir / "made" / "deeper" / std::string(300, 'x');
+  const auto r = run_loom("run " + scene + " --frames 1 --out " + out.string());
+  EXPECT_EQ(r.code, 1) << r.err;
+  EXPECT_NE(r.err.find("cannot create output folder"), std::string::npos) << r.err;
+  EXPECT_FALSE(fs::exists(dir / "made"));
+}
+
 TEST(Nan, NonFiniteStartIsNamedAndNothingIsWritten) {
   const fs::path dir = loom::test::test_dir(), out = dir / "out";
   const std::string scene = write_scene(dir);

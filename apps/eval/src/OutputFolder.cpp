@@ -521,20 +521,23 @@ OutputFolder::OutputFolder(const fs::path& dir, const std::string& flag, bool ov
   refuse_inside_listed(dir, flag);
   // The folder is locked before anything in it is read: a new one is made first (empty, so nothing below
   // can refuse it, unless another command took it meanwhile).
+  struct RemoveIfRefused {  // the folders this command made (deepest first), left empty by a refusal below
+    std::vector<fs::path> dirs;
+    bool armed;
+    ~RemoveIfRefused() {
+      if (armed)
+        for (const fs::path& d : dirs) ::rmdir(d.c_str());
+    }
+  } made{{}, !existed};
   if (!existed) {
+    for (fs::path p = named; !p.empty() && !fs::exists(fs::symlink_status(p, ec)); p = p.parent_path())
+      made.dirs.push_back(p);
     fs::create_directories(dir, ec);
     if (ec || !fs::is_directory(dir))
       throw Error(dir.string(), flag, "cannot create output folder: " + ec.message());
   }
   lock_ = FolderLock::acquire(dir, flag);
   if (!lock_) throw Error(dir.string(), flag, "cannot open the output folder");
-  struct RemoveIfRefused {  // the folder this command made, left empty by a refusal below
-    fs::path dir;
-    bool armed;
-    ~RemoveIfRefused() {
-      if (armed) ::rmdir(dir.c_str());
-    }
-  } made{dir, !existed};
   const fs::path manifest = dir / kManifest;
   const fs::file_status ms = fs::symlink_status(manifest, ec);
   Manifest old;
