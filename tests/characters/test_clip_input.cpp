@@ -68,7 +68,8 @@ std::string gltf(const GltfClip& c) {
   }
   j << R"(, "buffers": [{"byteLength": 64, "uri": "data:application/octet-stream;base64,)" << base64(data)
     << R"("}], "bufferViews": [{"buffer": 0, "byteOffset": 0, "byteLength": 8},)"
-    << R"( {"buffer": 0, "byteOffset": 8, "byteLength": 32}, {"buffer": 0, "byteOffset": 40, "byteLength": 24}],)"
+    << R"( {"buffer": 0, "byteOffset": 8, "byteLength": 32},)"
+    << R"( {"buffer": 0, "byteOffset": 40, "byteLength": 24}],)"
     << R"( "accessors": [{"bufferView": 0, "componentType": 5126, "count": 2, "type": "SCALAR", "min": [0],)"
     << R"( "max": [1]}, {"bufferView": 1, "componentType": 5126, "count": 2, "type": "VEC4"},)"
     << R"( {"bufferView": 2, "componentType": 5126, "count": 2, "type": "VEC3"}]})";
