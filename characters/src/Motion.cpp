@@ -51,9 +51,10 @@ std::string scale_problem(const Vec3& v) {
   return "";
 }
 
-// The rest transform's rotation and translation, and its uniform scale (`scale`); throws loom::Error naming
-// the joint for a scale Loom does not apply (scale_problem) or a mirroring matrix.
-Transform to_transform(const std::string& path, const std::string& joint, const aiMatrix4x4& m,
+// The rest transform's rotation and translation, and its uniform scale (`scale`). `checked`: throws
+// loom::Error naming the joint for a scale Loom does not apply (scale_problem) or a mirroring matrix; else
+// (a node that neither moves nor carries a moving one: a mesh beside the skeleton) the scale is dropped.
+Transform to_transform(const std::string& path, const std::string& joint, const aiMatrix4x4& m, bool checked,
                        double& scale) {
   Transform t = Transform::Identity();
   for (int r = 0; r < 3; ++r)
@@ -65,11 +66,11 @@ Transform to_transform(const std::string& path, const std::string& joint, const 
   const Vec3 sigma = svd.singularValues();
   std::string problem = scale_problem(sigma);
   if (problem.empty() && !(a.determinant() > 0.0)) problem = "mirrors (a negative scale)";
-  if (!problem.empty())
+  if (checked && !problem.empty())
     throw Error(path, "joint '" + joint + "'",
                 "the rest transform's scale " + show_vec(sigma) + " " + problem +
                     ": a clip's node scales must be uniform, positive and constant");
-  scale = sigma.mean();
+  scale = checked ? sigma.mean() : 1.0;
   t.linear() = svd.matrixU() * svd.matrixV().transpose();
   return t;
 }
@@ -315,6 +316,16 @@ struct HierarchyReader {
   std::vector<JointTrack>& tracks;
   double& duration;
 
+  // Whether the node or one below it is animated: its scale then moves the skeleton.
+  bool carries(const aiNode* node) {
+    auto [it, added] = carrying.emplace(node, false);
+    if (!added) return it->second;
+    bool out = channels.count(node->mName.C_Str()) > 0;
+    for (unsigned c = 0; c < node->mNumChildren && !out; ++c) out = carries(node->mChildren[c]);
+    return carrying[node] = out;
+  }
+  std::map<const aiNode*, bool> carrying = {};
+
   // `above`: the product of the uniform scales of the nodes above (the frame the node's offset is in).
   // `in_skeleton`: an animated joint lies above the node.
   void walk(const aiNode* node, int parent, double above, bool in_skeleton) {
@@ -326,7 +337,7 @@ struct HierarchyReader {
         if (!std::isfinite(node->mTransformation[r][c]))
           throw Error(path, "joint '" + j.name + "'", "the rest transform (OFFSET) is not finite");
     double own = 1.0;  // the node's own uniform scale: its children's offsets are in its scaled frame
-    j.rest = to_transform(path, j.name, node->mTransformation, own);
+    j.rest = to_transform(path, j.name, node->mTransformation, in_skeleton || carries(node), own);
     JointTrack track;
     auto it = channels.find(j.name);
     if (it != channels.end()) {

@@ -45,20 +45,23 @@ struct GltfClip {
   int scale_node = -1;  // the node whose scale is animated (-1: none)
   float s0[3] = {1, 1, 1}, s1[3] = {1, 1, 1};
   std::string node_scale;  // a "scale" for node 2 ("Chest"), e.g. "[0,0,0]" ("": none)
+  std::string mesh_scale;  // a "scale" for node 4 ("Mesh", beside the skeleton)
   bool animated = true;
 };
 
-// Four nodes in a chain, Root > Hips > Chest > Head, 1 unit apart on y; Hips turns about y over 1 s.
+// Four nodes in a chain, Root > Hips > Chest > Head, 1 unit apart on y, and a node "Mesh" under Root beside
+// the skeleton; Hips turns about y over 1 s.
 std::string gltf(const GltfClip& c) {
   const float h = std::sqrt(0.5f);
   const std::vector<float> data = {0, 1, 0,       0,       0,       1,       0,       h,
                                    0, h, c.s0[0], c.s0[1], c.s0[2], c.s1[0], c.s1[1], c.s1[2]};
   std::ostringstream j;
   j << R"({"asset": {"version": "2.0"}, "scene": 0, "scenes": [{"nodes": [0]}], "nodes": [)"
-    << R"({"name": "Root", "children": [1]}, {"name": "Hips", "translation": [0, 1, 0], "children": [2]},)"
+    << R"({"name": "Root", "children": [1, 4]}, {"name": "Hips", "translation": [0, 1, 0], "children": [2]},)"
     << R"({"name": "Chest", "translation": [0, 1, 0], "children": [3])"
     << (c.node_scale.empty() ? "" : ", \"scale\": " + c.node_scale) << "},"
-    << R"({"name": "Head", "translation": [0, 1, 0]}])";
+    << R"({"name": "Head", "translation": [0, 1, 0]}, {"name": "Mesh", "translation": [0, 1, 0])"
+    << (c.mesh_scale.empty() ? "" : ", \"scale\": " + c.mesh_scale) << "}]";
   if (c.animated) {
     j << R"(, "animations": [{"samplers": [{"input": 0, "output": 1}, {"input": 0, "output": 2}],)"
       << R"( "channels": [{"sampler": 0, "target": {"node": 1, "path": "rotation"}})";
@@ -136,6 +139,10 @@ TEST(ClipInput, AScaleThatChangesTheBonesIsRefusedByJointAndKey) {
       {"[1, 1, 4]", "is uneven over the axes"},
       {"[5, 5, 5]", "joint 'Chest': its rest transform scale it by 5.000000 inside the skeleton"},
   };
+  // A node beside the skeleton (a mesh) neither moves nor carries a joint: its scale is not read.
+  GltfClip beside;
+  beside.mesh_scale = "[1, 2, -3]";
+  EXPECT_EQ(load_error(beside, "beside.gltf"), "");
   for (const auto& [scale, expect] : rest) {
     GltfClip g;
     g.node_scale = scale;
