@@ -25,13 +25,52 @@ namespace loom::characters {
 
 namespace {
 
-Transform to_transform(const aiMatrix4x4& m) {
+// A node's scale (rest matrix or scaling keys) is applied when it is uniform and positive, constant over
+// the clip and at or above the skeleton's root (the first animated joint): it then multiplies the offsets and
+// position keys of every joint below the node (the products within [kMinNodeScale, kMaxNodeScale]). Any
+// other scale (zero, negative, uneven over the axes, animated, or one limb's inside the skeleton) changes the
+// bones' shape or mirrors them, which a rigid skeleton cannot carry: it is refused by joint and key.
+constexpr double kScaleTolerance = 1e-3;  // 1, relative: axes (and keys) this close count as equal
+constexpr double kMinNodeScale = 1e-6, kMaxNodeScale = 1e6;  // 1, the applied scales' range
+
+std::string show_vec(const Vec3& v) {
+  char s[96];
+  std::snprintf(s, sizeof s, "(%g, %g, %g)", v.x(), v.y(), v.z());
+  return s;
+}
+
+// Why the scale `v` (per axis) is not one Loom applies ("" if it is: uniform, positive, in range).
+std::string scale_problem(const Vec3& v) {
+  if (!v.allFinite()) return "is not finite";
+  if (!(v.minCoeff() > 0.0))
+    return "is not positive (a zero scale collapses the bones, a negative one mirrors)";
+  if (v.maxCoeff() > (1.0 + kScaleTolerance) * v.minCoeff())
+    return "is uneven over the axes (a non-uniform scale changes the bones' shape)";
+  const double s = v.mean();
+  if (!(s >= kMinNodeScale && s <= kMaxNodeScale)) return "is outside [1e-06, 1e+06]";
+  return "";
+}
+
+// The rest transform's rotation and translation, and its uniform scale (`scale`). `checked`: throws
+// loom::Error naming the joint for a scale Loom does not apply (scale_problem) or a mirroring matrix; else
+// (a node that neither moves nor carries a moving one: a mesh beside the skeleton) the scale is dropped.
+Transform to_transform(const std::string& path, const std::string& joint, const aiMatrix4x4& m, bool checked,
+                       double& scale) {
   Transform t = Transform::Identity();
   for (int r = 0; r < 3; ++r)
     for (int c = 0; c < 4; ++c) t.matrix()(r, c) = static_cast<double>(m[r][c]);
-  // Remove any scaling from the rotation part (mocap rest transforms are rigid; this keeps Isometry valid).
-  Eigen::Matrix3d a = t.linear();
+  // The polar decomposition A = (U V^T)(V S V^T): a rotation times a symmetric stretch with the singular
+  // values S on its axes.
+  const Eigen::Matrix3d a = t.linear();
   Eigen::JacobiSVD<Eigen::Matrix3d> svd(a, Eigen::ComputeFullU | Eigen::ComputeFullV);
+  const Vec3 sigma = svd.singularValues();
+  std::string problem = scale_problem(sigma);
+  if (problem.empty() && !(a.determinant() > 0.0)) problem = "mirrors (a negative scale)";
+  if (checked && !problem.empty())
+    throw Error(path, "joint '" + joint + "'",
+                "the rest transform's scale " + show_vec(sigma) + " " + problem +
+                    ": a clip's node scales must be uniform, positive and constant");
+  scale = checked ? sigma.mean() : 1.0;
   t.linear() = svd.matrixU() * svd.matrixV().transpose();
   return t;
 }
@@ -48,6 +87,9 @@ std::pair<size_t, double> bracket(const std::vector<double>& times, double tau) 
 // BVH's brace depth is checked before assimp reads it, and every format's node tree after
 // (read_with_assimp, kMaxJointDepth).
 constexpr double kMaxPosition = 1e6;  // m, a joint's offset or position key after the clip's scale
+// m/s, a joint's speed between two position keys after the clip's scale, as for a collider's keyframes:
+// faster is a teleport (a corrupt or spliced key), not motion a cloth can follow.
+constexpr double kMaxKeySpeed = 1e4;
 
 // The formats a clip may be in (lower case): skeleton and animation formats; assimp's other readers make
 // scenes without a skeleton (meshes, cameras) whose errors would only confuse.
@@ -137,6 +179,7 @@ void check_bvh_nesting(const std::string& path) {
   int depth = 0;
   bool opened = false;
   unsigned long long channels = 0;  // numbers per frame: the sum of every joint's CHANNELS count
+  std::string joint;                // the name of the joint whose block is being read
   for (std::string tok = next(); !tok.empty(); tok = next()) {
     if (tok == "{" && ++depth > kMaxJointDepth)
       throw Error(path, "HIERARCHY",
@@ -148,6 +191,27 @@ void check_bvh_nesting(const std::string& path) {
       if (n.empty() || n.size() > 2 || n.find_first_not_of("0123456789") != std::string::npos)
         throw Error(path, "CHANNELS", "expected a channel count in [0, 99] (got '" + n + "')");
       channels += std::stoull(n);
+      // Each channel at most once per joint: a repeated one would take two of the frame's numbers for one
+      // degree of freedom (the reader keeps the last), silently shifting what the others mean.
+      const size_t after = at;
+      std::vector<std::string> names;
+      for (unsigned long long k = 0; k < std::stoull(n); ++k) {
+        names.push_back(next());
+        for (size_t i = 0; i + 1 < names.size(); ++i)
+          if (!names.back().empty() && names[i] == names.back())
+            throw Error(path,
+                        "line " + std::to_string(
+                                      1 + std::count(text.begin(),
+                                                     text.begin() + static_cast<std::ptrdiff_t>(at), '\n')),
+                        "joint '" + joint + "': channel '" + names.back() +
+                            "' is given twice in its CHANNELS (each channel at most once per joint)");
+      }
+      at = after;
+    }
+    if (tok == "ROOT" || tok == "JOINT") {  // its name, read ahead (a nameless joint's "{" stays a token)
+      const size_t after = at;
+      joint = next();
+      at = after;
     }
     if (opened && depth == 0) break;  // the root joint's block has closed: MOTION follows
   }
@@ -223,6 +287,22 @@ JointTrack read_track(const std::string& path, const std::string& joint, const a
                   "rotation key " + std::to_string(k) + " is not a finite rotation");
     track.rotations.push_back(q.normalized());
   }
+  for (unsigned k = 0; k < ch->mNumScalingKeys; ++k) {
+    const aiVectorKey& key = ch->mScalingKeys[k];
+    const Vec3 v(key.mValue.x, key.mValue.y, key.mValue.z);
+    std::string problem = scale_problem(v);
+    if (problem.empty() && k > 0) {
+      const Vec3 first(ch->mScalingKeys[0].mValue.x, ch->mScalingKeys[0].mValue.y,
+                       ch->mScalingKeys[0].mValue.z);
+      if (std::abs(v.mean() - first.mean()) > kScaleTolerance * first.mean())
+        problem = "differs from key 0 " + show_vec(first) + " (an animated scale changes the bones' length)";
+    }
+    if (!problem.empty())
+      throw Error(path, "joint '" + joint + "'",
+                  "scale key " + std::to_string(k) + " " + show_vec(v) + " " + problem +
+                      ": a clip's node scales must be uniform, positive and constant");
+    if (k == 0) track.scale = v.mean();
+  }
   return track;
 }
 
@@ -236,7 +316,19 @@ struct HierarchyReader {
   std::vector<JointTrack>& tracks;
   double& duration;
 
-  void walk(const aiNode* node, int parent) {
+  // Whether the node or one below it is animated: its scale then moves the skeleton.
+  bool carries(const aiNode* node) {
+    auto [it, added] = carrying.emplace(node, false);
+    if (!added) return it->second;
+    bool out = channels.count(node->mName.C_Str()) > 0;
+    for (unsigned c = 0; c < node->mNumChildren && !out; ++c) out = carries(node->mChildren[c]);
+    return carrying[node] = out;
+  }
+  std::map<const aiNode*, bool> carrying = {};
+
+  // `above`: the product of the uniform scales of the nodes above (the frame the node's offset is in).
+  // `in_skeleton`: an animated joint lies above the node.
+  void walk(const aiNode* node, int parent, double above, bool in_skeleton) {
     Joint j;
     j.name = node->mName.C_Str();
     j.parent = parent;
@@ -244,7 +336,8 @@ struct HierarchyReader {
       for (int c = 0; c < 4; ++c)
         if (!std::isfinite(node->mTransformation[r][c]))
           throw Error(path, "joint '" + j.name + "'", "the rest transform (OFFSET) is not finite");
-    j.rest = to_transform(node->mTransformation);
+    double own = 1.0;  // the node's own uniform scale: its children's offsets are in its scaled frame
+    j.rest = to_transform(path, j.name, node->mTransformation, in_skeleton || carries(node), own);
     JointTrack track;
     auto it = channels.find(j.name);
     if (it != channels.end()) {
@@ -252,11 +345,30 @@ struct HierarchyReader {
       track = read_track(path, j.name, it->second, tps);
       if (!track.position_times.empty()) duration = std::max(duration, track.position_times.back());
       if (!track.rotation_times.empty()) duration = std::max(duration, track.rotation_times.back());
+      if (it->second->mNumScalingKeys > 0) own = track.scale;  // the keys replace the rest transform
     }
+    // Below an animated joint a scale would resize one limb against the rest of the figure (the skin's
+    // bind pose and the capsule radii assume the skeleton's proportions): only the skeleton's root and the
+    // nodes above it may scale (a unit conversion on an armature).
+    if (in_skeleton && std::abs(own - 1.0) > kScaleTolerance)
+      throw Error(
+          path, "joint '" + j.name + "'",
+          "its " +
+              std::string(j.animated && it->second->mNumScalingKeys > 0 ? "scale keys" : "rest transform") +
+              " scale it by " + std::to_string(own) +
+              " inside the skeleton: a clip may scale only at or above its root joint");
+    j.rest.translation() *= above;
+    for (Vec3& p : track.positions) p *= above;
+    const double below = above * own;
+    if (!(below >= kMinNodeScale && below <= kMaxNodeScale))
+      throw Error(path, "joint '" + j.name + "'",
+                  "the scales of the nodes down to it multiply to " + std::to_string(below) +
+                      ", outside [1e-06, 1e+06]");
     const int index = static_cast<int>(joints.size());
     joints.push_back(j);
     tracks.push_back(std::move(track));
-    for (unsigned c = 0; c < node->mNumChildren; ++c) walk(node->mChildren[c], index);
+    for (unsigned c = 0; c < node->mNumChildren; ++c)
+      walk(node->mChildren[c], index, below, in_skeleton || j.animated);
   }
 };
 
@@ -289,7 +401,7 @@ Motion Motion::load(const std::string& path, const MotionSettings& settings) {
   const double tps = ticks_per_second(path, anim);
 
   HierarchyReader reader{path, channels, tps, m.joints_, m.tracks_, m.duration_};
-  reader.walk(scene->mRootNode, -1);
+  reader.walk(scene->mRootNode, -1, 1.0, false);
   // Joints are found by name (garment attachments, capsule radii, skins): a name given twice is ambiguous.
   std::map<std::string, int> seen;
   for (int k = 0; k < m.num_joints(); ++k)
@@ -297,12 +409,16 @@ Motion Motion::load(const std::string& path, const MotionSettings& settings) {
       throw Error(path, "joint '" + m.joints_[k].name + "'",
                   "the name is given twice (joints " + std::to_string(seen[m.joints_[k].name]) + " and " +
                       std::to_string(k) + "): joints are found by name");
-  m.root_ = 0;
-  for (int k = 0; k < m.num_joints(); ++k)
-    if (m.joints_[k].animated) {
-      m.root_ = k;
-      break;
-    }
+  m.root_ = -1;
+  for (int k = 0; k < m.num_joints() && m.root_ < 0; ++k)
+    if (m.joints_[k].animated) m.root_ = k;
+  // A clip moves a skeleton: a file whose animation moves none of its nodes (no animation, or only morph
+  // target weights) is refused here rather than read as a pose the scene's other fields are blamed for.
+  if (m.root_ < 0)
+    throw Error(path, "",
+                std::string("holds no animated skeleton (") +
+                    (anim ? "its animation moves none of its nodes" : "no animation") +
+                    "): a motion clip needs keys that move its joints");
   m.set_units();
   m.set_root_motion();
   return m;
@@ -350,6 +466,17 @@ void Motion::set_units() {
                       "frame " + std::to_string(f + 1) + " places it " + v + " m (after the clip's scale " +
                           std::to_string(scale_) + ") from the origin: joint positions must be within 1e6 m");
         }
+    for (size_t f = 1; f < t.positions.size(); ++f) {
+      const double dt = t.position_times[f] - t.position_times[f - 1];
+      const double d = (t.positions[f] - t.positions[f - 1]).norm();
+      if (dt > 0.0 && d > kMaxKeySpeed * dt) {
+        char v[96];
+        std::snprintf(v, sizeof v, "%g m in %g s (%g m/s", d, dt, d / dt);
+        throw Error(source_, "joint '" + joints_[k].name + "' position",
+                    "frame " + std::to_string(f + 1) + " jumps " + v + " after the clip's scale " +
+                        std::to_string(scale_) + "): a joint may move at most 1e4 m/s between keys");
+      }
+    }
   }
 }
 

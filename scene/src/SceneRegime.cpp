@@ -58,6 +58,67 @@ double collider_reach(const collision::Collider& c) {
   return (0.5 * (lo + hi)).norm() + 0.5 * (hi - lo).norm();
 }
 
+#ifdef LOOM_HAVE_CHARACTERS
+struct ClipSpeed {
+  double speed = 0.0;  // m/s, the fastest joint's speed after the clip's scale and settings.speed
+  std::string joint;   // its name
+  int frame = 0;       // 1-based clip frame (key) where it moves that fast
+  double time = 0.0;   // s, simulated time of the sample
+};
+
+// The 1-based clip frame (key) that ends the key interval holding simulated time t, by the joint's own keys
+// (the root's for a joint without keys of its own).
+int clip_frame(const characters::Motion& m, int joint, double t) {
+  double tau = m.clip_time(t);
+  const double d = m.duration();
+  tau = m.settings().loop && d > 0.0 ? tau - std::floor(tau / d) * d : std::clamp(tau, 0.0, d);
+  const characters::JointTrack* track = &m.track(joint);
+  if (track->position_times.empty() && track->rotation_times.empty()) track = &m.track(m.root());
+  const std::vector<double>& times =
+      track->position_times.empty() ? track->rotation_times : track->position_times;
+  const auto after = std::upper_bound(times.begin(), times.end(), tau) - times.begin();  // 0-based
+  return static_cast<int>(std::min<std::ptrdiff_t>(after, std::max<std::ptrdiff_t>(1, times.size()) - 1)) + 1;
+}
+
+// The clip's fastest joint over the scene's [0, duration], as the character stage poses it (speed, start,
+// looping, root motion applied): joint positions sampled at half the clip's shortest key spacing (in
+// simulated seconds), so every sampled interval lies within one key interval of a jump at least once;
+// at most 1e6 joint samples in all. A joint's speed carries its bone's capsule, whose surface follows it.
+ClipSpeed clip_speed(const characters::Motion& m, double duration) {
+  ClipSpeed out;
+  if (!(duration > 0.0) || m.num_joints() == 0) return out;
+  double spacing = HUGE_VAL;  // clip s
+  for (int k = 0; k < m.num_joints(); ++k) {
+    const characters::JointTrack& t = m.track(k);
+    for (const std::vector<double>* times : {&t.position_times, &t.rotation_times})
+      for (size_t i = 1; i < times->size(); ++i)
+        if ((*times)[i] > (*times)[i - 1]) spacing = std::min(spacing, (*times)[i] - (*times)[i - 1]);
+  }
+  const double budget = 1e6 / m.num_joints();
+  double samples = std::isfinite(spacing) ? 2.0 * duration * m.settings().speed / spacing : 1000.0;
+  samples = std::clamp(samples, 1000.0, std::max(1000.0, budget));
+  const int n = static_cast<int>(std::ceil(samples));
+  const double dt = duration / n;
+  std::vector<characters::Transform> a, b;
+  std::vector<double> v(m.num_joints());
+  m.pose(0.0, a);
+  for (int s = 0; s < n; ++s) {
+    m.pose((s + 1) * dt, b);
+    for (int k = 0; k < m.num_joints(); ++k) v[k] = (b[k].translation() - a[k].translation()).norm() / dt;
+    const double top = *std::max_element(v.begin(), v.end());
+    if (top > out.speed) {
+      // Named by the joint nearest the root that moves nearly as fast: the one whose keys carry the
+      // motion (a root jump moves every joint below it).
+      int k = 0;
+      while (v[k] < 0.9 * top) ++k;
+      out = {top, m.joints()[k].name, clip_frame(m, k, (s + 0.5) * dt), s * dt};
+    }
+    a.swap(b);
+  }
+  return out;
+}
+#endif
+
 }  // namespace
 
 std::vector<RegimeOutlier> regime_outliers(const Scene& scene) {
@@ -211,6 +272,13 @@ std::vector<RegimeOutlier> regime_outliers(const Scene& scene) {
   if (scene.character && scene.character->motion.settings().speed > kRegimeClipSpeed)
     add("character.speed (" + fig(scene.character->motion.settings().speed) +
         " clip seconds per second; validated up to " + fig(kRegimeClipSpeed) + ")");
+  if (scene.character) {
+    const ClipSpeed v = clip_speed(scene.character->motion, scene.duration);
+    if (v.speed > kRegimeSpeed)
+      add("character.bvh (" + scene.character->motion.source() + ": joint '" + v.joint + "' moves at " +
+          fig(v.speed) + " m/s near clip frame " + std::to_string(v.frame) + ", t = " + fig(v.time) +
+          " s; validated up to " + fig(kRegimeSpeed) + ")");
+  }
 #endif
   return out;
 }

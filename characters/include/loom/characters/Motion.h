@@ -3,9 +3,11 @@
 // or any format assimp reads. Sampling at any time: rotations slerped, positions lerped between
 // keys; units converted to metres; root motion on or off; looping; playback speed.
 //
-// Conventions: y is up (BVH). A joint's local transform is T(position) R(rotation), assimp's key order
-// (scaling keys are ignored: mocap skeletons do not scale). Global = parent global * local. Every length
-// (key positions, rest offsets) is multiplied by `scale()` so the figure is in metres.
+// Conventions: y is up (BVH). A joint's local transform is T(position) R(rotation), assimp's key order.
+// A node's scale (rest matrix or scaling keys) must be uniform, positive and constant: it is applied by
+// multiplying the offsets and position keys of the joints below it; any other scale is refused by joint and
+// key. Global = parent global * local. Every length (key positions, rest offsets) is multiplied by
+// `scale()` so the figure is in metres.
 #include <Eigen/Geometry>
 #include <string>
 #include <vector>
@@ -41,12 +43,13 @@ struct JointTrack {
   std::vector<Vec3> positions;
   std::vector<double> rotation_times;
   std::vector<Quat> rotations;
+  double scale = 1.0;  // 1, the joint's uniform scale from its scaling keys (constant over the clip)
 };
 
 class Motion {
  public:
-  // Loads the file's node hierarchy and its first animation (a file without animation gives a static
-  // rest pose). Throws loom::Error naming the file on a read failure or an empty hierarchy.
+  // Loads the file's node hierarchy and its first animation. Throws loom::Error naming the file on a read
+  // failure, an empty hierarchy or a file whose animation moves none of its nodes (or that has none).
   static Motion load(const std::string& path, const MotionSettings& settings = {});
 
   const std::vector<Joint>& joints() const { return joints_; }

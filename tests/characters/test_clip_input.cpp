@@ -1,0 +1,266 @@
+// What a clip's keys may hold beyond finite numbers: each node scale is applied (uniform, positive, constant,
+// at or above the skeleton's root) or refused by joint and key; a BVH channel given twice is refused by line
+// and joint; a file without an animated skeleton is refused as such; a jump between two keys is refused past
+// 1e4 m/s and named by the scene's regime report (file, joint, frame) past the validated speed.
+#include <gtest/gtest.h>
+
+#include <cmath>
+#include <cstring>
+#include <fstream>
+#include <sstream>
+#include <string>
+#include <vector>
+
+#include "CharacterTestUtil.h"
+#include "loom/characters/Character.h"
+#include "loom/characters/Motion.h"
+#include "loom/scene/Scene.h"
+#include "loom/scene/SceneRegime.h"
+
+namespace {
+
+using loom::characters::Motion;
+using loom::characters::MotionSettings;
+using loom::test::error_of;
+using loom::test::write_test_file;
+
+std::string base64(const std::vector<float>& values) {
+  static const char* kDigits = "ABCDEFGHIJKLMNOPQRSTUVWXYZabcdefghijklmnopqrstuvwxyz0123456789+/";
+  std::string bytes(values.size() * 4, '\0');
+  std::memcpy(&bytes[0], values.data(), bytes.size());  // little-endian floats (glTF's byte order)
+  std::string out;
+  for (size_t i = 0; i < bytes.size(); i += 3) {
+    unsigned v = static_cast<unsigned char>(bytes[i]) << 16;
+    if (i + 1 < bytes.size()) v |= static_cast<unsigned char>(bytes[i + 1]) << 8;
+    if (i + 2 < bytes.size()) v |= static_cast<unsigned char>(bytes[i + 2]);
+    out += kDigits[(v >> 18) & 63];
+    out += kDigits[(v >> 12) & 63];
+    out += i + 1 < bytes.size() ? kDigits[(v >> 6) & 63] : '=';
+    out += i + 2 < bytes.size() ? kDigits[v & 63] : '=';
+  }
+  return out;
+}
+
+struct GltfClip {
+  int scale_node = -1;  // the node whose scale is animated (-1: none)
+  float s0[3] = {1, 1, 1}, s1[3] = {1, 1, 1};
+  std::string node_scale;  // a "scale" for node 2 ("Chest"), e.g. "[0,0,0]" ("": none)
+  std::string mesh_scale;  // a "scale" for node 4 ("Mesh", beside the skeleton)
+  bool animated = true;
+};
+
+// Four nodes in a chain, Root > Hips > Chest > Head, 1 unit apart on y, and a node "Mesh" under Root beside
+// the skeleton; Hips turns about y over 1 s.
+std::string gltf(const GltfClip& c) {
+  const float h = std::sqrt(0.5f);
+  const std::vector<float> data = {0, 1, 0,       0,       0,       1,       0,       h,
+                                   0, h, c.s0[0], c.s0[1], c.s0[2], c.s1[0], c.s1[1], c.s1[2]};
+  std::ostringstream j;
+  j << R"({"asset": {"version": "2.0"}, "scene": 0, "scenes": [{"nodes": [0]}], "nodes": [)"
+    << R"({"name": "Root", "children": [1, 4]}, {"name": "Hips", "translation": [0, 1, 0], "children": [2]},)"
+    << R"({"name": "Chest", "translation": [0, 1, 0], "children": [3])"
+    << (c.node_scale.empty() ? "" : ", \"scale\": " + c.node_scale) << "},"
+    << R"({"name": "Head", "translation": [0, 1, 0]}, {"name": "Mesh", "translation": [0, 1, 0])"
+    << (c.mesh_scale.empty() ? "" : ", \"scale\": " + c.mesh_scale) << "}]";
+  if (c.animated) {
+    j << R"(, "animations": [{"samplers": [{"input": 0, "output": 1}, {"input": 0, "output": 2}],)"
+      << R"( "channels": [{"sampler": 0, "target": {"node": 1, "path": "rotation"}})";
+    if (c.scale_node >= 0)
+      j << R"(, {"sampler": 1, "target": {"node": )" << c.scale_node << R"(, "path": "scale"}})";
+    j << "]}]";
+  }
+  j << R"(, "buffers": [{"byteLength": 64, "uri": "data:application/octet-stream;base64,)" << base64(data)
+    << R"("}], "bufferViews": [{"buffer": 0, "byteOffset": 0, "byteLength": 8},)"
+    << R"( {"buffer": 0, "byteOffset": 8, "byteLength": 32},)"
+    << R"( {"buffer": 0, "byteOffset": 40, "byteLength": 24}],)"
+    << R"( "accessors": [{"bufferView": 0, "componentType": 5126, "count": 2, "type": "SCALAR", "min": [0],)"
+    << R"( "max": [1]}, {"bufferView": 1, "componentType": 5126, "count": 2, "type": "VEC4"},)"
+    << R"( {"bufferView": 2, "componentType": 5126, "count": 2, "type": "VEC3"}]})";
+  return j.str();
+}
+
+std::string load_error(const GltfClip& c, const std::string& name) {
+  MotionSettings ms;
+  ms.scale = 1.0;
+  return error_of([&] { Motion::load(write_test_file(name, gltf(c)), ms); });
+}
+
+TEST(ClipInput, AConstantUniformScaleAtTheRootIsAppliedToTheJointsBelowIt) {
+  MotionSettings ms;
+  ms.scale = 1.0;
+  GltfClip plain;
+  plain.scale_node = 1;
+  const Motion a = Motion::load(write_test_file("plain.gltf", gltf(plain)), ms);
+  GltfClip doubled = plain;
+  for (float& v : doubled.s0) v = 2;
+  for (float& v : doubled.s1) v = 2;
+  const Motion b = Motion::load(write_test_file("doubled.gltf", gltf(doubled)), ms);
+  const int head = b.find("Head");
+  ASSERT_GE(head, 0);
+  std::vector<loom::characters::Transform> pa, pb;
+  a.clip_pose(0.0, pa);
+  b.clip_pose(0.0, pb);
+  // Hips at y = 1 in both; Chest and Head twice as far above it with the Hips' scale 2.
+  EXPECT_NEAR(pa[head].translation().y(), 3.0, 1e-6);
+  EXPECT_NEAR(pb[head].translation().y(), 5.0, 1e-6);
+  EXPECT_NEAR(b.rest_height(), 5.0, 1e-6);
+}
+
+TEST(ClipInput, AScaleThatChangesTheBonesIsRefusedByJointAndKey) {
+  const float nan = std::nanf("");
+  struct Case {
+    int node;
+    float s0[3], s1[3];
+    const char* expect;
+  };
+  const Case cases[] = {
+      {1, {nan, 1, 1}, {1, 1, 1}, "joint 'Hips': scale key 0 (nan, 1, 1) is not finite"},
+      {1, {1, 1, 1}, {1, 1, INFINITY}, "joint 'Hips': scale key 1 (1, 1, inf) is not finite"},
+      {1, {0, 0, 0}, {0, 0, 0}, "joint 'Hips': scale key 0 (0, 0, 0) is not positive"},
+      {1, {-1, 1, 1}, {-1, 1, 1}, "scale key 0 (-1, 1, 1) is not positive"},
+      {1, {1e30f, 1e30f, 1e30f}, {1e30f, 1e30f, 1e30f}, "scale key 0 (1e+30, 1e+30, 1e+30) is outside"},
+      {1, {1, 2, 1}, {1, 2, 1}, "scale key 0 (1, 2, 1) is uneven over the axes"},
+      {1, {1, 1, 1}, {2, 2, 2}, "scale key 1 (2, 2, 2) differs from key 0 (1, 1, 1)"},
+      {2, {3, 3, 3}, {3, 3, 3}, "joint 'Chest': its scale keys scale it by 3.000000 inside the skeleton"},
+  };
+  for (const Case& c : cases) {
+    GltfClip g;
+    g.scale_node = c.node;
+    std::copy(c.s0, c.s0 + 3, g.s0);
+    std::copy(c.s1, c.s1 + 3, g.s1);
+    const std::string e = load_error(g, "scaled.gltf");
+    EXPECT_NE(e.find("scaled.gltf"), std::string::npos) << e;
+    EXPECT_NE(e.find(c.expect), std::string::npos) << c.expect << "\n" << e;
+  }
+  // A node's rest scale (no scaling keys): singular, mirroring, or inside the skeleton.
+  const std::pair<const char*, const char*> rest[] = {
+      {"[0, 0, 0]", "joint 'Chest': the rest transform's scale (0, 0, 0) is not positive"},
+      {"[-1, 1, 1]", "joint 'Chest': the rest transform's scale (1, 1, 1) mirrors"},
+      {"[1, 1, 4]", "is uneven over the axes"},
+      {"[5, 5, 5]", "joint 'Chest': its rest transform scale it by 5.000000 inside the skeleton"},
+  };
+  // A node beside the skeleton (a mesh) neither moves nor carries a joint: its scale is not read.
+  GltfClip beside;
+  beside.mesh_scale = "[1, 2, -3]";
+  EXPECT_EQ(load_error(beside, "beside.gltf"), "");
+  for (const auto& [scale, expect] : rest) {
+    GltfClip g;
+    g.node_scale = scale;
+    const std::string e = load_error(g, "rest.gltf");
+    EXPECT_NE(e.find(expect), std::string::npos) << expect << "\n" << e;
+  }
+}
+
+TEST(ClipInput, AFileWithoutAnAnimatedSkeletonIsRefusedAsSuch) {
+  GltfClip still;
+  still.animated = false;
+  const std::string e = load_error(still, "still.gltf");
+  EXPECT_NE(e.find("still.gltf: holds no animated skeleton (no animation)"), std::string::npos) << e;
+  // In a scene the message names character.bvh (not the garment or scale fields a rest pose would fail).
+  const std::string clip = write_test_file("no_anim.gltf", gltf(still));
+  const std::string s = error_of([&] {
+    loom::scene::load_scene(std::string(LOOM_SOURCE_DIR) + "/scenes/character_cape.json",
+                            {"character.bvh=" + clip});
+  });
+  EXPECT_NE(s.find("character.bvh: " + clip + ": holds no animated skeleton"), std::string::npos) << s;
+}
+
+const char* kBvh = R"(HIERARCHY
+ROOT Hips
+{
+  OFFSET 0 0 0
+  CHANNELS 6 Xposition Yposition Zposition Zrotation Yrotation Xrotation
+  JOINT Chest
+  {
+    OFFSET 0 1 0
+    CHANNELS 3 Zrotation %s Xrotation
+    End Site
+    {
+      OFFSET 0 1 0
+    }
+  }
+}
+MOTION
+Frames: 3
+Frame Time: 0.01
+0 1 0 0 0 0 0 0 0
+0 1 0 0 0 0 0 0 0
+%s 1 0 0 0 0 0 0 0
+)";
+
+std::string bvh(const char* second_channel, const char* third_x) {
+  char text[1024];
+  std::snprintf(text, sizeof text, kBvh, second_channel, third_x);
+  return text;
+}
+
+TEST(ClipInput, ABvhChannelGivenTwiceIsRefusedByLineAndJoint) {
+  const std::string ok = write_test_file("ok.bvh", bvh("Yrotation", "0"));
+  EXPECT_EQ(error_of([&] { Motion::load(ok); }), "");
+  const std::string twice = write_test_file("twice.bvh", bvh("Zrotation", "0"));
+  const std::string e = error_of([&] { Motion::load(twice); });
+  EXPECT_NE(e.find("twice.bvh: line 9: joint 'Chest': channel 'Zrotation' is given twice"), std::string::npos)
+      << e;
+}
+
+TEST(ClipInput, AJumpPastTheKeySpeedBoundIsRefusedByJointAndFrame) {
+  MotionSettings ms;
+  ms.scale = 1.0;
+  // 99 m in 0.01 s: 9900 m/s, read; 101 m: 10100 m/s, refused.
+  EXPECT_EQ(error_of([&] { Motion::load(write_test_file("fast.bvh", bvh("Yrotation", "99")), ms); }), "");
+  const std::string e =
+      error_of([&] { Motion::load(write_test_file("jump.bvh", bvh("Yrotation", "101")), ms); });
+  EXPECT_NE(e.find("jump.bvh: joint 'Hips' position: frame 3 jumps 101 m in 0.01 s (10100 m/s"),
+            std::string::npos)
+      << e;
+}
+
+// arm_swing.bvh with `shift` file units added to the root's Xposition from the 0-based frame `from` on.
+std::string shifted_clip(double shift, int from) {
+  std::ifstream in(std::string(LOOM_SOURCE_DIR) + "/tests/data/mocap/arm_swing.bvh");
+  std::string line, out;
+  int frame = -1;
+  while (std::getline(in, line)) {
+    if (frame >= 0) {
+      std::istringstream words(line);
+      double x = 0.0;
+      words >> x;
+      if (frame++ >= from) {
+        std::string rest;
+        std::getline(words, rest);
+        line = std::to_string(x + shift) + rest;
+      }
+    }
+    if (line.rfind("Frame Time:", 0) == 0) frame = 0;
+    out += line + "\n";
+  }
+  return write_test_file("shifted.bvh", out);
+}
+
+std::string clip_outlier(const std::string& clip) {
+  const loom::scene::Scene scene =
+      loom::scene::load_scene(std::string(LOOM_SOURCE_DIR) + "/scenes/character_cape.json",
+                              {"character.bvh=" + clip, "character.start=0", "duration=0.2"});
+  for (const loom::scene::RegimeOutlier& o : loom::scene::regime_outliers(scene))
+    if (o.text.rfind("character.bvh", 0) == 0) return o.text;
+  return "";
+}
+
+TEST(ClipInput, AClipFasterThanTheValidatedSpeedIsNamedByFileJointAndFrame) {
+  // The clip as shipped stays inside the regime.
+  EXPECT_EQ(clip_outlier(std::string(LOOM_SOURCE_DIR) + "/tests/data/mocap/arm_swing.bvh"), "");
+  // 100 units (6.6 m at the clip's automatic scale) between frames 5 and 6 (1/120 s): 795 m/s.
+  const std::string clip = shifted_clip(100.0, 5);
+  const std::string text = clip_outlier(clip);
+  EXPECT_NE(text.find("character.bvh (" + clip + ": joint 'Hips' moves at 795 m/s"), std::string::npos)
+      << text;
+  EXPECT_NE(text.find("near clip frame 6,"), std::string::npos) << text;
+  const loom::scene::Scene scene =
+      loom::scene::load_scene(std::string(LOOM_SOURCE_DIR) + "/scenes/character_cape.json",
+                              {"character.bvh=" + clip, "character.start=0", "duration=0.2"});
+  const std::string advice = loom::scene::divergence_suspects(scene);
+  EXPECT_NE(advice.find("character.bvh ("), std::string::npos) << advice;
+  EXPECT_EQ(advice.find("more solver.substeps"), std::string::npos) << advice;
+}
+
+}  // namespace
