@@ -5,6 +5,7 @@
 
 #include <assimp/Importer.hpp>
 #include <cmath>
+#include <cstdio>
 #include <functional>
 #include <map>
 
@@ -43,6 +44,16 @@ void read_geometry(const aiMesh* m, double scale, const Affine& transform, const
     out.positions[i] = transform * (scale * cloth::Vec3(v.x, v.y, v.z));
     if (!out.positions[i].allFinite())
       throw Error(path, "vertices[" + std::to_string(i) + "]", "position is not finite");
+    // The coordinate bound of scenes and clips: past it no distance or pose fit is meaningful.
+    constexpr double kMaxPosition = 1e6;  // m
+    if (!(out.positions[i].cwiseAbs().maxCoeff() <= kMaxPosition)) {
+      char where[96];
+      std::snprintf(where, sizeof where, "(%g, %g, %g) m", out.positions[i].x(), out.positions[i].y(),
+                    out.positions[i].z());
+      throw Error(
+          path, "vertices[" + std::to_string(i) + "]",
+          std::string("position ") + where + " lies beyond +-1e6 m (after the file's node transform)");
+    }
   }
   for (unsigned f = 0; f < m->mNumFaces; ++f) {
     const aiFace& face = m->mFaces[f];

@@ -99,6 +99,18 @@ TEST(HostileFiles, ObjMaterialLibrariesAreBounded) {
             1u);
 }
 
+// A body mesh vertex past the coordinate bound (1e6 m) is refused by vertex, not blamed later on the pose
+// the fit cannot find.
+TEST(HostileFiles, BodyMeshVerticesPastTheCoordinateBoundAreRefusedByVertex) {
+  const std::string obj = write("far.obj", "v 0 0 0\nv 1e30 0 0\nv 0 1 0\nf 1 2 3\n");
+  const std::string e = error_of([&] { loom::characters::load_static_mesh(obj); });
+  EXPECT_NE(e.find(obj + ": vertices[1]: position (1e+30, 0, 0) m lies beyond +-1e6 m"), std::string::npos)
+      << e;
+  EXPECT_EQ(loom::characters::load_static_mesh(write("near.obj", "v 0 0 0\nv 1e5 0 0\nv 0 1 0\nf 1 2 3\n"))
+                .triangles.size(),
+            1u);
+}
+
 // An archive counts what it unpacks to (its directory's sizes) towards the 1 GiB an import may read: a
 // small file claiming 2 GiB is refused before anything is unpacked. The body mesh shipped as a .zae loads.
 TEST(HostileFiles, ArchivesCountWhatTheyUnpackTo) {
