@@ -90,6 +90,11 @@ double scene_bytes(const Scene& scene) {
          scene.collider_triangles * static_cast<double>(kBytesPerColliderTriangle);
 }
 
+// "about 3.2e+07", or "more than 1e15" as show_count and show_bytes give it past their bound.
+std::string about(const std::string& figure) {
+  return figure.rfind("more than", 0) == 0 ? figure : "about " + figure;
+}
+
 std::string available_text(double budget) {
   return show_bytes(budget) + (memory_limit_env() == memory_budget() ? " (set by LOOM_MEMORY_LIMIT)" : "") +
          " is available";
@@ -104,8 +109,8 @@ void reserve_vertices(Scene& scene, const std::string& field, double vertices) {
   // Also refused: a count that is not a number (the estimate of a degenerate field).
   if (!(need <= budget)) {
     throw Error(scene.file, field,
-                "the scene's cloths would have about " + show_count(scene.vertices) +
-                    " vertices, which need about " + show_bytes(need) + " of memory (" +
+                "the scene's cloths would have " + about(show_count(scene.vertices)) +
+                    " vertices, which need " + about(show_bytes(need)) + " of memory (" +
                     std::to_string(kBytesPerVertex) + " bytes per vertex, with the collider meshes); " +
                     available_text(budget) + ": use fewer nodes or a coarser resolution");
   }
@@ -117,8 +122,8 @@ void reserve_collider_triangles(Scene& scene, const std::string& field, double t
   const double budget = static_cast<double>(memory_budget());
   if (!(need <= budget)) {
     throw Error(scene.file, field,
-                "the scene's collider meshes would have about " + show_count(scene.collider_triangles) +
-                    " triangles, which need about " + show_bytes(need) + " of memory with the cloths (" +
+                "the scene's collider meshes would have " + about(show_count(scene.collider_triangles)) +
+                    " triangles, which need " + about(show_bytes(need)) + " of memory with the cloths (" +
                     std::to_string(kBytesPerColliderTriangle) + " bytes per triangle); " +
                     available_text(budget) + ": use a coarser collider mesh");
   }

@@ -467,7 +467,7 @@ const BadInput kCases[] = {
      nullptr,
      "scene",
      "character.garments[0].resolution",
-     "about more than 1e15 vertices, which need about more than 1e6 GB"},
+     "have more than 1e15 vertices, which need more than 1e6 GB"},
     // A BVH whose frame time or frame count makes no motion.
     {"bvh_frame_time_zero",
      nullptr,
