@@ -158,7 +158,7 @@ int run_main(int argc, char** argv) {
   if (!o.resume.empty()) {
     // --census counts from frame 0 and the checkpoint holds no count: a resumed census would cover the
     // resumed frames only. --threads, --frames, --checkpoint-every and --profile are allowed: results are
-    // bit-identical for any thread count (docs/architecture.md, "Numbers and threads").
+    // the same bits for 1 and 2 threads (docs/validation.md, determinism; BadInputCli tests a resume).
     const char* clash = !o.out.empty()    ? "--out"
                         : !o.sets.empty() ? "--set"
                         : o.render        ? "--render"

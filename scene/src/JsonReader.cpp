@@ -23,11 +23,11 @@ std::string type_name(const nlohmann::json& v) {
 }
 }  // namespace
 
-std::string show_number(double v) {
-  // The shortest %g text that reads back to v: a message's "got X" is the value Loom read, never a rounding
-  // of it (0.30000001 is not shown as 0.3).
+std::string show_number(double v, int min_digits) {
+  // The shortest %g text of at least `min_digits` digits that reads back to v: a message's "got X" is the
+  // value Loom read, never a rounding of it (0.30000001 is not shown as 0.3).
   char s[32];
-  for (int digits = 6; digits <= 17; ++digits) {
+  for (int digits = min_digits; digits <= 17; ++digits) {
     std::snprintf(s, sizeof s, "%.*g", digits, v);
     if (std::strtod(s, nullptr) == v) break;
   }

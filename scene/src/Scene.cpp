@@ -30,7 +30,7 @@ namespace loom::scene {
 using cloth::Vec3;
 
 namespace {
-std::string show(double v) { return show_number(v); }  // the shortest text of v (JsonReader.h)
+std::string show(double v) { return show_number(v, 9); }  // 9 digits, more when v needs them (JsonReader.h)
 }  // namespace
 
 // Shared with SceneCharacter.cpp (garment materials).

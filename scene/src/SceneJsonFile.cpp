@@ -41,18 +41,19 @@ class DuplicateKeys : public nlohmann::json::json_sax_t {
   bool boolean(bool) override { return value(); }
   bool number_integer(number_integer_t) override { return value(); }
   bool number_unsigned(number_unsigned_t) override { return value(); }
-  // A number whose text is not zero but reads as zero or a subnormal double (1e-400, -1e-320): the file
-  // holds a value Loom cannot use as written. Refused naming its path and showing it as written; every
-  // message that quotes a number later shows a double's shortest text, which reads back to the same value.
+  // A number whose text is not zero but reads as zero (1e-400, -1e-400: below the smallest subnormal
+  // double): the file holds a value Loom cannot use as written. Refused naming its path and showing it as
+  // written; a subnormal one reads as itself and meets its field's checks, whose messages quote numbers by
+  // their shortest text (show_number), which reads back to the same value.
   bool number_float(number_float_t v, const string_t& text) override {
     value();
     const std::size_t e = text.find_first_of("eE");
     const bool zero_text = text.substr(0, e).find_first_of("123456789") == std::string::npos;
-    if (!zero_text && std::abs(v) < std::numeric_limits<double>::min())
+    if (!zero_text && v == 0.0)
       throw Error(file_, value_path(),
-                  show_value(text) + " is below the smallest normal double (2.2e-308): it would read as " +
-                      (v == 0.0 ? std::string(std::signbit(v) ? "-0" : "0") : "a subnormal number") +
-                      ", not as written; write 0 or a value that is no smaller than 1e-300");
+                  show_value(text) + " is below the smallest double (4.9e-324): it would read as " +
+                      (std::signbit(v) ? "-0" : "0") +
+                      ", not as written; write 0 or a value that is no smaller " + "than 1e-300");
     return true;
   }
   bool string(string_t&) override { return value(); }
