@@ -6,6 +6,7 @@
 #include <unistd.h>
 
 #include <algorithm>
+#include <cctype>
 #include <cerrno>
 #include <cmath>
 #include <cstdio>
@@ -101,47 +102,68 @@ void check_image_path(const std::string& image, const std::vector<std::string>& 
   }
 }
 
+// True when `path`'s first bytes are a BVH file's ("HIERARCHY"), or its name ends in ".bvh" (any case).
+bool looks_like_bvh(const std::string& path) {
+  std::string lower = path;
+  for (char& c : lower) c = static_cast<char>(std::tolower(static_cast<unsigned char>(c)));
+  if (lower.size() >= 4 && lower.compare(lower.size() - 4, 4, ".bvh") == 0) return true;
+  char head[16] = {};
+  const int fd = ::open(path.c_str(), O_RDONLY | O_NONBLOCK | O_CLOEXEC);
+  if (fd < 0) return false;
+  struct stat st;
+  const bool regular = ::fstat(fd, &st) == 0 && S_ISREG(st.st_mode);
+  const ssize_t n = regular ? ::read(fd, head, sizeof head - 1) : 0;
+  ::close(fd);
+  std::string text(head, n > 0 ? static_cast<size_t>(n) : 0);
+  const std::size_t start = text.find_first_not_of(" \t\r\n\xef\xbb\xbf");
+  return start != std::string::npos && text.compare(start, 9, "HIERARCHY") == 0;
+}
+
+// MESH and CLIP.bvh given the other way round (`loom body clip.bvh mesh.zae`) would fail deep in the
+// mesh reader with a message about the wrong file: refused here, by the operands' order (exit 2).
+void check_file_order(const std::string& mesh, const std::string& clip) {
+  if (looks_like_bvh(mesh) && !looks_like_bvh(clip)) {
+    std::fprintf(stderr,
+                 "loom: error: body: the operands are swapped: '%s' is a BVH clip and '%s' is not; give "
+                 "MESH first, then CLIP.bvh (loom body %s %s)\n",
+                 printable(mesh).c_str(), printable(clip).c_str(), printable(clip).c_str(),
+                 printable(mesh).c_str());
+    std::exit(2);
+  }
+}
+
 }  // namespace
 
 int body_main(int argc, char** argv) {
   std::vector<std::string> files;
   double seconds = 3.0;
   std::string image;
-  bool image_given = false;
-  std::set<std::string> seen;  // options that take a value, given once
-  for (int i = 2; i < argc; ++i) {
-    const std::string a = argv[i];
-    auto value = [&]() -> const char* {
-      if (i + 1 >= argc) {
-        std::fprintf(stderr, "loom: error: %s needs a value (see loom body --help)\n", a.c_str());
-        std::exit(2);
-      }
-      cli_once(seen, a);
-      return argv[++i];
-    };
-    if (a == "-h" || a == "--help") {
+  CliArgs args(argc, argv, 2, "body");
+  while (args.next()) {
+    const std::string a = args.arg();
+    if (args.operand()) {
+      if (files.size() == 2)
+        args.fail("body", "a third file '" + printable(a) +
+                              "': loom body takes MESH and CLIP.bvh only (given '" + printable(files[0]) +
+                              "', '" + printable(files[1]) + "')");
+      files.push_back(cli_path(files.empty() ? "MESH" : "CLIP.bvh", a));
+    } else if (a == "-h" || a == "--help") {
       std::cout << kBodyUsage;
       return 0;
     } else if (a == "--seconds") {
-      seconds = cli_number(a, value(), 0.0, 3600.0);
+      seconds = cli_number(a, args.value(), 0.0, 3600.0);
     } else if (a == "--image") {
-      image = value();
-      image_given = true;
-    } else if (!a.empty() && a[0] == '-') {
-      std::fprintf(stderr, "loom: error: unknown option '%s' (see loom body --help)\n", printable(a).c_str());
-      return 2;
+      image = cli_path(a, args.value());
     } else {
-      files.push_back(a);
+      args.unknown();
     }
   }
   if (files.size() != 2) {
-    std::fprintf(stderr, "loom: error: body needs MESH and CLIP.bvh (see loom body --help)\n");
+    std::fprintf(stderr, "loom: error: body needs MESH and CLIP.bvh (%s given; see loom body --help)\n",
+                 files.empty() ? "none" : "only MESH");
     return 2;
   }
-  if (image_given && image.empty()) {
-    std::fprintf(stderr, "loom: error: --image: is empty: give the PNG file to write\n");
-    return 2;
-  }
+  check_file_order(files[0], files[1]);
 #ifndef LOOM_HAVE_RENDER
   if (!image.empty()) throw Error("--image", "", "this build has no renderer (OSMesa)");
 #endif

@@ -38,34 +38,24 @@ int ccd_eval_main(int argc, char** argv) {
   int scale_exp = 0;
   double translate = 0;
   collision::CcdOptions options;
-  std::set<std::string> seen;  // options that take a value, given once
-  for (int i = 2; i < argc; ++i) {
-    const std::string a = argv[i];
-    auto value = [&]() -> const char* {
-      if (i + 1 >= argc) {
-        std::fprintf(stderr, "loom: error: %s needs a value (see loom ccd-eval --help)\n", a.c_str());
-        std::exit(2);
-      }
-      cli_once(seen, a);
-      return argv[++i];
-    };
-    if (a == "-h" || a == "--help") {
+  CliArgs args(argc, argv, 2, "ccd-eval");
+  while (args.next()) {
+    const std::string a = args.arg();
+    if (args.operand()) {
+      files.push_back(cli_path("FILE.csv", a));
+    } else if (a == "-h" || a == "--help") {
       std::cout << kCcdEvalUsage;
       return 0;
     } else if (a == "--scale-exp") {
-      scale_exp = static_cast<int>(cli_integer(a, value(), -200, 200));
+      scale_exp = static_cast<int>(cli_integer(a, args.value(), -200, 200));
     } else if (a == "--translate") {
-      translate = cli_number(a, value(), 0.0, 1e6);
+      translate = cli_number(a, args.value(), 0.0, 1e6);
     } else if (a == "--min-separation") {
-      options.min_separation = cli_number(a, value(), 0.0, 1e6);
+      options.min_separation = cli_number(a, args.value(), 0.0, 1e6);
     } else if (a == "--tolerance") {
-      options.tolerance = cli_number(a, value(), 0.0, 1.0);
-    } else if (!a.empty() && a[0] == '-') {
-      std::fprintf(stderr, "loom: error: unknown option '%s' (see loom ccd-eval --help)\n",
-                   printable(a).c_str());
-      return 2;
+      options.tolerance = cli_number(a, args.value(), 0.0, 1.0);
     } else {
-      files.push_back(a);
+      args.unknown();
     }
   }
   if (files.empty()) {

@@ -69,35 +69,30 @@ int compare_main(int argc, char** argv) {
   std::vector<std::string> sets;
   int frames = -1;
   bool overwrite = false, out_given = false;
-  std::set<std::string> seen;  // options that take a value, given once
-  for (int i = 2; i < argc; ++i) {
-    const std::string a = argv[i];
-    auto value = [&](const char* name) -> std::string {
-      if (i + 1 >= argc) cli_error(name, "needs a value");
-      cli_once(seen, name);
-      return argv[++i];
-    };
-    if (a == "-h" || a == "--help") {
+  CliArgs args(argc, argv, 2, "compare");
+  while (args.next()) {
+    const std::string a = args.arg();
+    if (args.operand()) {
+      if (!scene_path.empty()) {
+        std::fprintf(stderr, "loom: error: compare: one scene only (given '%s', '%s')\n",
+                     printable(scene_path).c_str(), printable(a).c_str());
+        return 2;
+      }
+      scene_path = cli_path("SCENE", a);
+    } else if (a == "-h" || a == "--help") {
       std::cout << kCompareUsage;
       return 0;
     } else if (a == "--out") {
-      out = cli_path("--out", value("--out"));
+      out = cli_path(a, args.value());
       out_given = true;
     } else if (a == "--overwrite") {
       overwrite = true;
     } else if (a == "--set") {
-      sets.push_back(value("--set"));
+      sets.push_back(args.value());
     } else if (a == "--frames") {
-      frames = static_cast<int>(cli_integer("--frames", value("--frames"), 1, 10000000));
-    } else if (!a.empty() && a[0] == '-') {
-      std::fprintf(stderr, "loom compare: error: unknown option '%s'\n%s", printable(a).c_str(),
-                   kCompareUsage);
-      return 2;
-    } else if (scene_path.empty()) {
-      scene_path = a;
+      frames = static_cast<int>(cli_integer(a, args.value(), 1, 10000000));
     } else {
-      std::fprintf(stderr, "loom compare: error: one scene only\n");
-      return 2;
+      args.unknown();
     }
   }
   if (scene_path.empty()) {

@@ -27,8 +27,7 @@ namespace loom::app {
 
 namespace {
 
-const char* kFabricUsage =
-    "Usage: loom fabric-test {cantilever,tensile,shear,catenary,drape} [options]\n"
+const char* kFabricUsageRest =
     "\n"
     "Runs a standard textile test in simulation and prints measured against theory:\n"
     "  cantilever  ASTM D1388 / FAST-2: tip chord angle against the exact elastica; bending length and "
@@ -48,7 +47,8 @@ const char* kFabricUsage =
     "  --overhang-ratio X    cantilever: overhang l over bending length c (default 2)\n"
     "  --span D              catenary: span in metres for a 1 m strip (default 0.8)\n"
     "  --solver S            static (default) or a dynamic solver that settles the strip\n"
-    "  --settle-frames N     dynamic solvers: at most N frames of 0.01 s (default 400)\n"
+    "  --settle-frames N     dynamic solvers: at most N frames of 0.01 s (default 400); the static solver\n"
+    "                        reports its static solves and whether they converged (no settling)\n"
     "  --settle-speed V      dynamic solvers: settled after 3 frames in a row below V m/s (default 1e-6)\n"
     "  --json                print one JSON object (test, material, model, resolution, measured, theory, "
     "error,\n"
@@ -57,6 +57,12 @@ const char* kFabricUsage =
     "  --out DIR             report folder (default: out/fabric-test/<test>): report.md, curve.csv, "
     "plot.png\n";
 
+std::string fabric_usage() {
+  std::string braced = eval::fabric_test_list();
+  for (std::size_t p; (p = braced.find(", ")) != std::string::npos;) braced.replace(p, 2, ",");
+  return "Usage: loom fabric-test {" + braced + "} [options]\n" + kFabricUsageRest;
+}
+
 // A figure of the report: "-" for one the test has not (no theory value, a run that measured nothing),
 // never nan or inf.
 std::string shown(double v, const std::string& unit) {
@@ -64,6 +70,15 @@ std::string shown(double v, const std::string& unit) {
   std::ostringstream s;
   s << v << (unit.empty() ? "" : " " + unit);
   return s.str();
+}
+
+// "static solves | K (converged)" or "settle frames | K (not settled)": the static solver does not settle,
+// it solves for the rest shape one frame at a time until the largest move meets the test's tolerance.
+std::string settling(const eval::FabricTestResult& r) {
+  const bool fixed = r.solver == "static";
+  return std::string(fixed ? "static solves | " : "settle frames | ") + std::to_string(r.settle_frames) +
+         (fixed ? (r.settled ? " (converged)" : " (NOT converged)")
+                : (r.settled ? " (settled)" : " (not settled)"));
 }
 
 // The report folder is owned as `loom run` owns its output folder (OutputFolder.h): a foreign non-empty
@@ -88,8 +103,7 @@ void write_report(eval::OutputFolder& folder, const eval::FabricTestResult& r) {
      << "| " << r.quantity << " measured | " << shown(r.measured, r.unit) << " |\n"
      << "| theory | " << shown(r.theory, r.unit) << " |\n| error | " << shown(r.error, r.unit) << " |\n";
   for (const auto& [k, v] : r.fields) md << "| " << k << " | " << shown(v, "") << " |\n";
-  md << "| solver | " << r.solver << " |\n| settle frames | " << r.settle_frames
-     << (r.settled ? " (settled)" : " (not settled)") << " |\n| wall time | " << r.seconds
+  md << "| solver | " << r.solver << " |\n| " << settling(r) << " |\n| wall time | " << r.seconds
      << " s |\n| CPU time | " << r.cpu_seconds << " s |\n\n";
   // The plot, through gnuplot when it is installed; column 1 is a string: compared with strcol.
   const bool shape = r.test == "cantilever" || r.test == "catenary" || r.test == "drape";
@@ -118,7 +132,7 @@ double parse_number(const std::string& flag, const std::string& text, double lo,
   if (text.empty() || *end || !std::isfinite(v) || v < lo || v > hi)
     throw Error("", flag,
                 "expects a finite number in [" + cli_show(lo) + ", " + cli_show(hi) + "], got '" +
-                    printable(text) + "'");
+                    show_value(text) + "'");
   return v;
 }
 
@@ -130,7 +144,7 @@ int parse_count(const std::string& flag, const std::string& text, long lo, long 
   if (!cli_whole_text(text, lo < 0) || *end || errno == ERANGE || v < lo || v > hi)
     throw Error("", flag,
                 "expects a whole number in [" + std::to_string(lo) + ", " + std::to_string(hi) + "], got '" +
-                    text + "'");
+                    show_value(text) + "'");
   return static_cast<int>(v);
 }
 
@@ -138,54 +152,45 @@ int fabric_test_main(int argc, char** argv) {
   eval::FabricTestOptions o;
   std::string material = "cotton", out;
   bool json = false, have_test = false, model_given = false, overwrite = false;
-  std::set<std::string> seen;  // options that take a value, given once
-  for (int i = 2; i < argc; ++i) {
-    const std::string a = argv[i];
-    auto value = [&]() -> const char* {
-      if (i + 1 >= argc) throw Error("", a, "needs a value (see loom fabric-test --help)");
-      cli_once(seen, a);
-      return argv[++i];
-    };
-    if (a == "-h" || a == "--help") {
-      std::cout << kFabricUsage;
+  CliArgs args(argc, argv, 2, "fabric-test");
+  while (args.next()) {
+    const std::string a = args.arg();
+    if (args.operand()) {
+      if (have_test) args.fail(a, "a second test (give one of " + eval::fabric_test_list() + ")");
+      o.test = a;
+      have_test = true;
+    } else if (a == "-h" || a == "--help") {
+      std::cout << fabric_usage();
       return 0;
     } else if (a == "--material") {
-      material = value();
+      material = args.value();
     } else if (a == "--model") {
-      o.model = value();
+      o.model = args.value();
       model_given = true;
     } else if (a == "--resolution") {
-      o.resolution = parse_count(a, value(), eval::kMinFabricResolution, eval::kMaxFabricResolution);
+      o.resolution = parse_count(a, args.value(), eval::kMinFabricResolution, eval::kMaxFabricResolution);
     } else if (a == "--overhang-ratio") {
-      o.overhang_ratio = parse_number(a, value(), 0.1, 100.0);
+      o.overhang_ratio = parse_number(a, args.value(), 0.1, 100.0);
     } else if (a == "--span") {
-      o.span = parse_number(a, value(), 0.01, 0.999);  // below the strip's 1 m length
+      o.span = parse_number(a, args.value(), 0.01, 0.999);  // below the strip's 1 m length
     } else if (a == "--solver") {
-      o.solver = value();
+      o.solver = args.value();
     } else if (a == "--settle-frames") {
-      o.settle_frames = parse_count(a, value(), 1, 10000000);
+      o.settle_frames = parse_count(a, args.value(), 1, 10000000);
     } else if (a == "--settle-speed") {
-      o.settle_speed = parse_number(a, value(), 1e-12, 1e3);
+      o.settle_speed = parse_number(a, args.value(), 1e-12, 1e3);
     } else if (a == "--json") {
       json = true;
     } else if (a == "--overwrite") {
       overwrite = true;
     } else if (a == "--out") {
-      out = cli_path(a, value());
-    } else if (!a.empty() && a[0] == '-') {
-      std::fprintf(stderr, "loom: error: unknown option '%s' (see loom fabric-test --help)\n",
-                   printable(a).c_str());
-      return 2;
-    } else if (!have_test) {
-      o.test = a;
-      have_test = true;
+      out = cli_path(a, args.value());
     } else {
-      std::fprintf(stderr, "loom: error: more than one test given\n");
-      return 2;
+      args.unknown();
     }
   }
   if (!have_test) {
-    std::cerr << kFabricUsage;
+    std::cerr << fabric_usage();
     return 2;
   }
   // The cantilever is validated against the elastica with choi_ko and baraff_witkin; the springs model's
@@ -234,8 +239,12 @@ int fabric_test_main(int argc, char** argv) {
     j["seconds"] = r.seconds;
     j["cpu_seconds"] = r.cpu_seconds;
     j["solver"] = r.solver;
-    j["settle_frames"] = r.settle_frames;
-    j["settled"] = r.settled;
+    // The static solver does not settle: its solves and whether they converged; null for the other pair.
+    const bool fixed = r.solver == "static";
+    j["settle_frames"] = fixed ? nlohmann::ordered_json() : nlohmann::ordered_json(r.settle_frames);
+    j["settled"] = fixed ? nlohmann::ordered_json() : nlohmann::ordered_json(r.settled);
+    j["static_solves"] = fixed ? nlohmann::ordered_json(r.settle_frames) : nlohmann::ordered_json();
+    j["converged"] = fixed ? nlohmann::ordered_json(r.settled) : nlohmann::ordered_json();
     std::cout << j.dump() << "\n";
   } else {
     if (std::isfinite(r.theory))
@@ -247,8 +256,12 @@ int fabric_test_main(int argc, char** argv) {
                   r.material.c_str(), r.model.c_str(), r.resolution, r.quantity.c_str(), r.measured,
                   r.unit.c_str());
     for (const auto& [k, v] : r.fields) std::printf("  %s = %.6g\n", k.c_str(), v);
-    std::printf("  solver %s: %d frames, %s\n", r.solver.c_str(), r.settle_frames,
-                r.settled ? "settled" : "NOT settled");
+    if (r.solver == "static")
+      std::printf("  solver static: %s in %d static solves (no settling)\n",
+                  r.settled ? "converged" : "NOT converged", r.settle_frames);
+    else
+      std::printf("  solver %s: %d frames, %s\n", r.solver.c_str(), r.settle_frames,
+                  r.settled ? "settled" : "NOT settled");
     std::printf("  wall time %.2f s, CPU time %.2f s\n", r.seconds, r.cpu_seconds);
   }
   return 0;

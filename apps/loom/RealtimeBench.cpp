@@ -13,6 +13,7 @@
 #include <string>
 #include <vector>
 
+#include "BenchCommand.h"
 #include "CliValue.h"
 #include "loom/bullet/BodyCrossings.h"
 #include "loom/bullet/Compare.h"
@@ -205,8 +206,10 @@ const char* kUsage =
     "Options:\n"
     "  --out DIR      output folder (default out/bench_realtime), owned through DIR/.loom-manifest\n"
     "  --overwrite    write into a non-empty folder Loom did not write (files of its names replaced)\n"
-    "  --seconds S    simulated seconds of each run (default 2; chaotic motion makes long runs diverge from\n"
-    "                 any reference)\n"
+    "  --seconds S    simulated seconds of each run, whole 1/60 s frames (default 2; at least one frame;\n"
+    "                 another value runs the nearest whole frames and says so; chaotic motion makes long "
+    "runs\n"
+    "                 diverge from any reference)\n"
     "  --sheet N      nodes per side of the sheet (default 64)\n"
     "  --toy N        nodes per side of the toy box's cloth (default 33)\n"
     "  --scenes LIST  only these of character,toy_box,sheet (default: all three)\n"
@@ -220,55 +223,52 @@ int bench_realtime(int argc, char** argv) {
   double seconds = 2.0;
   int sheet_n = 64, toy_n = 33, repeats = 1;
   std::set<std::string> only = {"character", "toy_box", "sheet"};
-  bool overwrite = false, out_given = false;
-  std::set<std::string> seen;  // options that take a value, given once
-  for (int i = 3; i < argc; ++i) {
-    const std::string a = argv[i];
-    auto value = [&]() -> std::string {
-      if (i + 1 >= argc) {
-        std::fprintf(stderr, "loom: error: %s needs a value (see loom bench realtime --help)\n", a.c_str());
-        std::exit(2);
-      }
-      cli_once(seen, a);
-      return argv[++i];
-    };
-    if (a == "-h" || a == "--help") {
+  bool overwrite = false, out_given = false, seconds_given = false, quick = false;
+  bool sheet_given = false, toy_given = false;
+  CliArgs args(argc, argv, 3, "bench realtime");
+  while (args.next()) {
+    const std::string a = args.arg();
+    if (args.operand()) {
+      args.fail(a, "bench realtime takes no operand");
+    } else if (a == "-h" || a == "--help") {
       std::cout << kUsage;
       return 0;
     } else if (a == "--out") {
-      out = value();
+      out = cli_path(a, args.value());
       out_given = true;
-      if (out.empty()) cli_refuse(a, out, "a folder (an unset variable?)");
     } else if (a == "--overwrite") {
       overwrite = true;
     } else if (a == "--seconds") {
-      seconds = cli_number(a, value(), 0.001, 60.0);
+      seconds = cli_number(a, args.value(), 0.0, 60.0);
+      seconds_given = true;
     } else if (a == "--sheet") {
-      sheet_n = static_cast<int>(cli_integer(a, value(), 3, 512));
+      sheet_n = static_cast<int>(cli_integer(a, args.value(), 3, 512));
+      sheet_given = true;
     } else if (a == "--scenes") {
       only.clear();
-      const std::string given = value();
-      std::stringstream list(given);
-      for (std::string name; std::getline(list, name, ',');)
-        if (name == "character" || name == "toy_box" || name == "sheet") {
-          only.insert(name);
-        } else {
+      for (const std::string& name : cli_list(a, args.value())) {
+        if (name != "character" && name != "toy_box" && name != "sheet")
           cli_refuse(a, name, "character, toy_box or sheet");
-        }
-      // getline drops a trailing empty entry ("sheet,"): refused as the leading one is.
-      if (only.empty() || given.back() == ',') cli_refuse(a, "", "a list of character, toy_box, sheet");
+        only.insert(name);
+      }
     } else if (a == "--toy") {
-      toy_n = static_cast<int>(cli_integer(a, value(), 3, 256));
+      toy_n = static_cast<int>(cli_integer(a, args.value(), 3, 256));
+      toy_given = true;
     } else if (a == "--repeats") {
-      repeats = static_cast<int>(cli_integer(a, value(), 1, 100));
+      repeats = static_cast<int>(cli_integer(a, args.value(), 1, 100));
     } else if (a == "--quick") {
-      seconds = 0.1, sheet_n = 12, toy_n = 17;
+      quick = true;
     } else {
-      std::fprintf(stderr, "loom: error: unknown option '%s' (see loom bench realtime --help)\n",
-                   printable(a).c_str());
-      return 2;
+      args.unknown();
     }
   }
+  // --quick sets what was not given (as bench accuracy's --quick does), in any order of the options.
+  if (quick) {
+    if (!seconds_given) seconds = 0.1;
+    if (!sheet_given) sheet_n = 12;
+    if (!toy_given) toy_n = 17;
+  }
+  seconds = whole_frames("--seconds", seconds);
   std::vector<std::string> writes;
   for (const char* name : {"character_realtime", "toy_box_realtime", "sheet_realtime"})
     for (const char* ext : {".png", ".dat", ".gp", ".csv"}) writes.push_back(std::string(name) + ext);
@@ -289,7 +289,7 @@ int bench_realtime(int argc, char** argv) {
     inputs.insert(inputs.end(), sc.inputs.begin(), sc.inputs.end());
   }
   eval::OutputFolder folder(out, "--out", overwrite, false, writes, inputs);
-  const int frames = std::max(1, static_cast<int>(std::lround(seconds * 60.0)));
+  const int frames = static_cast<int>(std::lround(seconds * 60.0));  // whole frames (whole_frames)
   const std::vector<std::string> tiers = {"realtime", "balanced", "reference"};
 
   // The character: tiers on the reference variant's garments and motion; the reference tier is that file.

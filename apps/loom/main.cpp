@@ -10,12 +10,12 @@
 #include "CcdEvalCommand.h"
 #include "CliValue.h"
 #include "FabricTestCommand.h"
-#include "RealtimeBench.h"
 #include "RunCommand.h"
 #include "Terminal.h"
+#include "loom/eval/FabricTests.h"
 #ifdef LOOM_HAVE_BENCH_ACCURACY
+#include "BenchCommand.h"
 #include "CompareCommand.h"
-#include "loom/eval/AccuracyBench.h"
 #endif
 #include "loom/cloth/Error.h"
 #include "loom/cloth/Material.h"
@@ -24,13 +24,7 @@
 
 namespace {
 
-const char* kUsage =
-    "loom — cloth simulation for game physics\n"
-    "\n"
-    "Usage:\n"
-    "  loom run [SCENE] [options]   run a scene (default: the default scene in scenes/)\n"
-    "  loom ccd-eval FILE.csv...    evaluate the continuous collision test on CCD sample queries\n"
-    "  loom fabric-test TEST [opts] virtual fabric tests: cantilever, tensile, shear, catenary\n"
+const char* kUsageRest =
     "  loom bench accuracy [opts]   accuracy-vs-time benchmark, Loom solvers and Bullet (loom bench --help)\n"
     "  loom bench realtime [opts]   quality tiers and Bullet classic: character, toy box, sheet (--help)\n"
     "  loom compare SCENE [--out D] a scene in Loom, Bullet classic and deformable side by side\n"
@@ -39,7 +33,21 @@ const char* kUsage =
     "  loom run --help              the options of `run`\n"
     "\n"
     "Exit codes: 0 success, 1 bad input or I/O error, 2 bad command line, 3 simulation diverged,\n"
-    "130 interrupted by Ctrl-C (resume with loom run --resume DIR).\n";
+    "130 interrupted by Ctrl-C (resume with loom run --resume DIR).\n"
+    "\n"
+    "Every command reads an option's value as the next argument (--out DIR) or after '=' (--out=DIR);\n"
+    "-- ends the options (a scene named -x.json: loom run -- -x.json).\n";
+
+// The fabric tests' list comes from their one table (FabricTests.h), so it cannot drift.
+std::string usage() {
+  return "loom — cloth simulation for game physics\n"
+         "\n"
+         "Usage:\n"
+         "  loom run [SCENE] [options]   run a scene (default: the default scene in scenes/)\n"
+         "  loom ccd-eval FILE.csv...    evaluate the continuous collision test on CCD sample queries\n"
+         "  loom fabric-test TEST [opts] virtual fabric tests: " +
+         loom::eval::fabric_test_list() + "\n" + kUsageRest;
+}
 
 std::string run_usage() {
   std::string solvers, presets;
@@ -88,53 +96,43 @@ std::string run_usage() {
 }
 
 // A whole number in [lo, hi] (CliValue.h: exactly the digits; the message states this range).
-int parse_int(const char* flag, const char* value, long long lo, long long hi) {
+int parse_int(const std::string& flag, const std::string& value, long long lo, long long hi) {
   return static_cast<int>(loom::app::cli_integer(flag, value, lo, hi));
-}
-
-// An empty value (an unset shell variable, `--resume "$DIR"`) is an error, never "the default".
-std::string non_empty(const char* flag, const char* value) {
-  if (!*value) {
-    std::fprintf(stderr, "loom: error: %s is an empty string (an unset variable?); give a path\n", flag);
-    std::exit(2);
-  }
-  return value;
 }
 
 int run_main(int argc, char** argv) {
   loom::app::RunOptions o;
-  std::set<std::string> seen;  // options that take a value, given once
-  for (int i = 2; i < argc; ++i) {
-    const std::string a = argv[i];
-    auto value = [&]() -> const char* {
-      if (i + 1 >= argc) {
-        std::fprintf(stderr, "loom: error: %s needs a value (see loom run --help)\n", a.c_str());
-        std::exit(2);
+  loom::app::CliArgs args(argc, argv, 2, "run");
+  while (args.next()) {
+    const std::string a = args.arg();
+    if (args.operand()) {
+      if (!o.scene.empty()) {
+        std::fprintf(stderr, "loom: error: more than one scene given ('%s', '%s')\n",
+                     loom::app::printable(o.scene).c_str(), loom::app::printable(a).c_str());
+        return 2;
       }
-      loom::app::cli_once(seen, a);
-      return argv[++i];
-    };
-    if (a == "-h" || a == "--help") {
+      o.scene = loom::app::cli_path("SCENE", a);
+    } else if (a == "-h" || a == "--help") {
       std::cout << run_usage();
       return 0;
     } else if (a == "--out") {
-      o.out = non_empty("--out", value());
+      o.out = loom::app::cli_path(a, args.value());
     } else if (a == "--frames") {
-      const char* v = value();
+      const std::string v = args.value();
       // A run of no frame is nonsense, like a duration shorter than a frame; with --resume too (a resume
       // may ask for exactly the checkpoint's frames, which is at least 1).
-      if (std::strcmp(v, "0") == 0) {
+      if (v == "0") {
         std::fprintf(stderr,
                      "loom: error: --frames must be >= 1 (got 0): a run simulates at least one frame\n");
         return 2;
       }
-      o.frames = parse_int("--frames", v, 1, loom::scene::kMaxFrames);
+      o.frames = parse_int(a, v, 1, loom::scene::kMaxFrames);
     } else if (a == "--threads") {
-      o.threads = parse_int("--threads", value(), 1, loom::scene::kMaxThreads);
+      o.threads = parse_int(a, args.value(), 1, loom::scene::kMaxThreads);
     } else if (a == "--checkpoint-every") {
-      o.checkpoint_every = parse_int("--checkpoint-every", value(), 0, loom::scene::kMaxFrames);
+      o.checkpoint_every = parse_int(a, args.value(), 0, loom::scene::kMaxFrames);
     } else if (a == "--resume") {
-      o.resume = non_empty("--resume", value());
+      o.resume = loom::app::cli_path(a, args.value());
     } else if (a == "--overwrite") {
       o.overwrite = true;
     } else if (a == "--profile") {
@@ -144,19 +142,9 @@ int run_main(int argc, char** argv) {
     } else if (a == "--census") {
       o.census = true;
     } else if (a == "--set") {
-      o.sets.push_back(value());
-    } else if (a.rfind("--set=", 0) == 0) {
-      o.sets.push_back(a.substr(6));
-    } else if (!a.empty() && a[0] == '-') {
-      std::fprintf(stderr, "loom: error: unknown option '%s' (see loom run --help)\n",
-                   loom::app::printable(a).c_str());
-      return 2;
-    } else if (o.scene.empty()) {
-      o.scene = non_empty("SCENE", a.c_str());
+      o.sets.push_back(args.value());
     } else {
-      std::fprintf(stderr, "loom: error: more than one scene given ('%s', '%s')\n",
-                   loom::app::printable(o.scene).c_str(), loom::app::printable(a).c_str());
-      return 2;
+      args.unknown();
     }
   }
   if (!o.resume.empty() && !o.scene.empty()) {
@@ -168,16 +156,23 @@ int run_main(int argc, char** argv) {
   // A resumed run is the checkpoint's run: its folder, its --set overrides and its outputs. An option that
   // would change them is refused, never dropped in silence.
   if (!o.resume.empty()) {
+    // --census counts from frame 0 and the checkpoint holds no count: a resumed census would cover the
+    // resumed frames only. --threads, --frames, --checkpoint-every and --profile are allowed: results are
+    // the same bits for 1 and 2 threads (docs/validation.md, determinism; BadInputCli tests a resume).
     const char* clash = !o.out.empty()    ? "--out"
                         : !o.sets.empty() ? "--set"
                         : o.render        ? "--render"
+                        : o.census        ? "--census"
                                           : nullptr;
     if (clash) {
       std::fprintf(
           stderr,
           "loom: error: %s: not with --resume (the run continues in its folder with the checkpoint's "
-          "scene, --set overrides and outputs)\n",
-          clash);
+          "scene, --set overrides and outputs%s)\n",
+          clash,
+          std::strcmp(clash, "--census") == 0 ? "; a census counts from frame 0, the checkpoint "
+                                                "holds none"
+                                              : "");
       return 2;
     }
   }
@@ -188,7 +183,7 @@ int run_main(int argc, char** argv) {
 
 int main(int argc, char** argv) {
   if (argc < 2 || !std::strcmp(argv[1], "-h") || !std::strcmp(argv[1], "--help")) {
-    std::cout << kUsage;
+    std::cout << usage();
     return argc < 2 ? 2 : 0;
   }
   const std::string cmd = argv[1];
@@ -201,11 +196,7 @@ int main(int argc, char** argv) {
   try {
     if (cmd == "run") return run_main(argc, argv);
 #ifdef LOOM_HAVE_BENCH_ACCURACY
-#ifdef LOOM_HAVE_BENCH_REALTIME
-    if (cmd == "bench" && argc > 2 && std::string(argv[2]) == "realtime")
-      return loom::app::bench_realtime(argc, argv);
-#endif
-    if (cmd == "bench") return loom::eval::bench_main(argc, argv);
+    if (cmd == "bench") return loom::app::bench_main(argc, argv);
     if (cmd == "compare") return loom::app::compare_main(argc, argv);
 #endif
 #ifdef LOOM_HAVE_BODY

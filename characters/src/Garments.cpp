@@ -8,6 +8,7 @@
 #include <sstream>
 
 #include "loom/cloth/Error.h"
+#include "loom/cloth/HiddenText.h"
 #include "loom/cloth/InputFile.h"
 #include "loom/cloth/ObjFile.h"
 #include "loom/collision/Distance.h"
@@ -482,7 +483,7 @@ Garment make_garment(const GarmentSpec& spec, const Motion& motion, const Capsul
     g = make_obj_garment(f);
   } else {
     throw Error(source, where + ".type",
-                "unknown garment '" + spec.type + "' (known: cape, skirt, shirt, obj)");
+                "unknown garment '" + show_value(spec.type) + "' (known: cape, skirt, shirt, obj)");
   }
   for (int j : g.attached_joints)
     if (j < 0) throw Error(source, where, "no bone to attach the " + spec.type + " to");

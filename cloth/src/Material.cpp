@@ -6,6 +6,7 @@
 #include <string>
 
 #include "loom/cloth/Error.h"
+#include "loom/cloth/HiddenText.h"
 
 namespace loom::cloth {
 
@@ -151,7 +152,7 @@ Material material_preset(const std::string& name) {
   if (it == table.end()) {
     std::string known;
     for (const auto& kv : table) known += (known.empty() ? "" : ", ") + kv.first;
-    throw Error("", "", "unknown material preset '" + name + "' (known: " + known + ")");
+    throw Error("", "", "unknown material preset '" + show_value(name) + "' (known: " + known + ")");
   }
   return it->second;
 }

@@ -7,6 +7,7 @@
 #include "loom/cloth/CorotatedFemTerm.h"
 #include "loom/cloth/DihedralBendingTerm.h"
 #include "loom/cloth/Error.h"
+#include "loom/cloth/HiddenText.h"
 #include "loom/cloth/SpringSet.h"
 #include "loom/cloth/SpringTerm.h"
 
@@ -54,7 +55,7 @@ void add_model_terms(Cloth& cloth, const std::string& model, const std::string& 
     if (model == e.name) return e.add(cloth);
   std::string known;
   for (const auto& n : model_names()) known += (known.empty() ? "" : ", ") + n;
-  throw Error(file, where, "unknown model '" + model + "' (known: " + known + ")");
+  throw Error(file, where, "unknown model '" + show_value(model) + "' (known: " + known + ")");
 }
 
 std::vector<std::string> model_names() {

@@ -7,6 +7,7 @@
 #include "loom/cloth/Error.h"
 #include "loom/cloth/ExplicitSolvers.h"
 #include "loom/cloth/FastXpbdSolver.h"
+#include "loom/cloth/HiddenText.h"
 #include "loom/cloth/ImplicitSolver.h"
 #include "loom/cloth/PositionBasedSolvers.h"
 #include "loom/cloth/ProjectiveSolver.h"
@@ -49,7 +50,8 @@ bool SolverParams::flag(const std::string& key, bool fallback) {
 void SolverParams::finish() const {
   for (const auto& kv : s_.params)
     if (!read_.count(kv.first))
-      throw Error(file_, "solver." + kv.first, "unknown parameter for method '" + s_.method + "'");
+      throw Error(file_, "solver." + kv.first,
+                  "unknown parameter for method '" + show_value(s_.method) + "'");
 }
 
 namespace {
@@ -146,7 +148,8 @@ std::unique_ptr<Solver> make_solver(const SolverSettings& settings, const std::s
     }
   std::string known;
   for (const auto& n : solver_names()) known += (known.empty() ? "" : ", ") + n;
-  throw Error(file, "solver.method", "unknown method '" + settings.method + "' (known: " + known + ")");
+  throw Error(file, "solver.method",
+              "unknown method '" + show_value(settings.method) + "' (known: " + known + ")");
 }
 
 int default_substeps(const std::string& method, double frame_dt) {

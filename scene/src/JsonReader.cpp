@@ -3,6 +3,7 @@
 #include <cmath>
 #include <cstdint>
 #include <cstdio>
+#include <cstdlib>
 #include <sstream>
 
 #include "loom/cloth/Error.h"
@@ -20,12 +21,34 @@ std::string type_name(const nlohmann::json& v) {
   if (v.is_array()) return "an array";
   return "an object";
 }
-std::string show_number(double v) {
-  std::ostringstream s;
-  s << v;
-  return s.str();
-}
 }  // namespace
+
+std::string show_number(double v, int min_digits) {
+  // The shortest %g text of at least `min_digits` digits that reads back to v: a message's "got X" is the
+  // value Loom read, never a rounding of it (0.30000001 is not shown as 0.3).
+  char s[32];
+  for (int digits = min_digits; digits <= 17; ++digits) {
+    std::snprintf(s, sizeof s, "%.*g", digits, v);
+    if (std::strtod(s, nullptr) == v) break;
+  }
+  return s;
+}
+
+nlohmann::json whole_numbers_as_integers(const nlohmann::json& j) {
+  if (j.is_structured()) {
+    nlohmann::json out = j;
+    for (auto& v : out) v = whole_numbers_as_integers(v);
+    return out;
+  }
+  if (j.is_number_float()) {
+    const double d = j.get<double>();
+    // Whole and within 64-bit integers (2^63 is exact as a double): an integer; 1e300 stays a number and
+    // is refused by its field's range.
+    if (std::isfinite(d) && d == std::floor(d) && d >= -9223372036854775808.0 && d < 9223372036854775808.0)
+      return nlohmann::json(static_cast<long long>(d));
+  }
+  return j;
+}
 
 JsonReader::JsonReader(const nlohmann::json& j, std::string path, std::string file)
     : j_(j), path_(std::move(path)), file_(std::move(file)) {
@@ -99,9 +122,8 @@ long long JsonReader::integer_value(const nlohmann::json& v, const std::string& 
                 "must be in [" + std::to_string(min) + ", " + std::to_string(max) + "] (got " +
                     show_number(v.get<double>()) + ")");
   if (!v.is_number_integer())
-    throw Error(
-        file_, where,
-        "expected an integer, got " + (v.is_number() ? std::string("a fractional number") : type_name(v)));
+    throw Error(file_, where,
+                "expected an integer, got " + (v.is_number() ? show_number(v.get<double>()) : type_name(v)));
   // Unsigned values are compared unsigned: a value past 2^63 would turn negative as long long.
   if (v.is_number_unsigned() && v.get<std::uint64_t>() > static_cast<std::uint64_t>(max))
     throw Error(
@@ -199,7 +221,7 @@ std::string JsonReader::string(const std::string& key, std::optional<std::string
       ok = ok || a == s;
       list += (list.empty() ? "" : ", ") + a;
     }
-    if (!ok) fail(key, "unknown value '" + s + "' (expected one of: " + list + ")");
+    if (!ok) fail(key, "unknown value '" + show_value(s) + "' (expected one of: " + list + ")");
   }
   return s;
 }

@@ -30,11 +30,7 @@ namespace loom::scene {
 using cloth::Vec3;
 
 namespace {
-std::string show(double v) {  // 9 significant digits
-  char s[32];
-  std::snprintf(s, sizeof s, "%.9g", v);
-  return s;
-}
+std::string show(double v) { return show_number(v, 9); }  // 9 digits, more when v needs them (JsonReader.h)
 }  // namespace
 
 // Shared with SceneCharacter.cpp (garment materials).
@@ -392,7 +388,7 @@ void parse_header(const JsonReader& r, Scene& scene, const std::string& file) {
     r.fail("name",
            "must be a plain file name of 1 to 200 characters without '/' or '\\' and not '.' or '..' "
            "(it names the default output folder out/<name>; got '" +
-               scene.name + "')");
+               show_value(scene.name) + "')");
   // A name taken from the file name is checked as scene text is (JsonReader::string): no control,
   // bidirectional or zero-width character reaches a folder name or a terminal.
   if (!r.has("name"))
@@ -662,10 +658,10 @@ void parse_output(const JsonReader& r, Scene& scene) {
         if (!f[i].is_string()) o.fail(where, "expected a format name (\"obj\", \"pc2\", \"gltf\")");
         const std::string name = f[i].get<std::string>();
         if (name != "obj" && name != "pc2" && name != "gltf")
-          o.fail(where, "unknown format '" + name + "' (known: obj, pc2, gltf)");
+          o.fail(where, "unknown format '" + show_value(name) + "' (known: obj, pc2, gltf)");
         if (std::find(scene.output.formats.begin(), scene.output.formats.end(), name) !=
             scene.output.formats.end())
-          o.fail(where, "format '" + name + "' is listed twice");
+          o.fail(where, "format '" + show_value(name) + "' is listed twice");
         scene.output.formats.push_back(name);
       }
     }
@@ -870,7 +866,9 @@ void parse_world_tier(const JsonReader& r, Scene& scene) {
 
 }  // namespace
 
-Scene parse_scene(const nlohmann::json& root, const std::string& file) {
+Scene parse_scene(const nlohmann::json& written, const std::string& file) {
+  const nlohmann::json root =
+      whole_numbers_as_integers(written);  // 4.0 is the integer 4 (JSON has one number)
   const JsonReader r(root, "", file);
   Scene scene;
   parse_header(r, scene, file);

@@ -7,6 +7,7 @@
 #include <string>
 #include <tuple>
 
+#include "loom/cloth/HiddenText.h"
 #include "loom/scene/SceneLimits.h"
 
 namespace loom::scene {
@@ -92,12 +93,12 @@ void parse_collision(const JsonReader& root, Scene& scene) {
       collision::FrictionPair fp;
       const std::string a = f.string("a"), b = f.string("b");
       fp.cloth = cloth_index("a", a, false);
-      if (fp.cloth < 0) f.fail("a", "no cloth named '" + a + "'");
+      if (fp.cloth < 0) f.fail("a", "no cloth named '" + show_value(a) + "'");
       fp.other_cloth = cloth_index("b", b, true);
       if (fp.other_cloth < 0) {
         const auto it = collider_of.find(b);
         if (it != collider_of.end()) fp.collider = it->second;
-        if (fp.collider < 0) f.fail("b", "no cloth or collider named '" + b + "'");
+        if (fp.collider < 0) f.fail("b", "no cloth or collider named '" + show_value(b) + "'");
       }
       fp.friction = f.friction("friction");
       fp.static_friction = f.friction("static_friction", fp.friction);
@@ -109,8 +110,9 @@ void parse_collision(const JsonReader& root, Scene& scene) {
                                           cloths ? std::max(fp.cloth, fp.other_cloth) : fp.other_cloth);
       const auto [at, fresh] = given.emplace(key, s.friction_pairs.size());
       if (!fresh)
-        f.fail("b", "the pair '" + a + "' / '" + b + "' is already given by friction_pairs[" +
-                        std::to_string(at->second) + "]: give each pair once");
+        f.fail("b", "the pair '" + show_value(a) + "' / '" + show_value(b) +
+                        "' is already given by friction_pairs[" + std::to_string(at->second) +
+                        "]: give each pair once");
       s.friction_pairs.push_back(fp);
     }
   }

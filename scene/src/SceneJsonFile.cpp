@@ -1,10 +1,13 @@
 // Scene files as JSON: reading one (size-bounded, duplicate keys refused, errors with line and column) and
 // `--set PATH=VALUE` overrides applied to the parsed tree (Scene.h).
 #include <algorithm>
+#include <cmath>
 #include <cstdio>
+#include <limits>
 #include <sstream>
 
 #include "loom/cloth/Error.h"
+#include "loom/cloth/HiddenText.h"
 #include "loom/cloth/InputFile.h"
 #include "loom/scene/Scene.h"
 #include "loom/scene/SceneLimits.h"
@@ -38,7 +41,21 @@ class DuplicateKeys : public nlohmann::json::json_sax_t {
   bool boolean(bool) override { return value(); }
   bool number_integer(number_integer_t) override { return value(); }
   bool number_unsigned(number_unsigned_t) override { return value(); }
-  bool number_float(number_float_t, const string_t&) override { return value(); }
+  // A number whose text is not zero but reads as zero (1e-400, -1e-400: below the smallest subnormal
+  // double): the file holds a value Loom cannot use as written. Refused naming its path and showing it as
+  // written; a subnormal one reads as itself and meets its field's checks, whose messages quote numbers by
+  // their shortest text (show_number), which reads back to the same value.
+  bool number_float(number_float_t v, const string_t& text) override {
+    value();
+    const std::size_t e = text.find_first_of("eE");
+    const bool zero_text = text.substr(0, e).find_first_of("123456789") == std::string::npos;
+    if (!zero_text && v == 0.0)
+      throw Error(file_, value_path(),
+                  show_value(text) + " is below the smallest double (4.9e-324): it would read as " +
+                      (std::signbit(v) ? "-0" : "0") +
+                      ", not as written; write 0 or a value that is no smaller " + "than 1e-300");
+    return true;
+  }
   bool string(string_t&) override { return value(); }
   bool binary(binary_t&) override { return value(); }
   bool start_object(std::size_t) override {
@@ -49,7 +66,7 @@ class DuplicateKeys : public nlohmann::json::json_sax_t {
   bool key(string_t& k) override {
     Frame& f = frames_.back();
     if (!f.keys.insert(k).second)
-      throw Error(file_, path() + (path().empty() ? "" : ".") + k, "key given twice");
+      throw Error(file_, path() + (path().empty() ? "" : ".") + show_value(k), "key given twice");
     f.key = k;
     return true;
   }
@@ -81,6 +98,16 @@ class DuplicateKeys : public nlohmann::json::json_sax_t {
     if (!frames_.empty() && !frames_.back().object) ++frames_.back().index;
     return true;
   }
+  std::string value_path() const {  // of the value just read (value() has counted it)
+    std::string p = prefix_;
+    for (const Frame& f : frames_) {
+      if (f.object)
+        p += (p.empty() ? "" : ".") + f.key;
+      else
+        p += "[" + std::to_string(f.index) + "]";
+    }
+    return p.empty() ? "(top level)" : p;
+  }
   std::string path() const {  // of the object whose key is read: the enclosing keys and indices
     std::string p = prefix_;
     for (size_t i = 0; i + 1 < frames_.size(); ++i) {
@@ -95,6 +122,14 @@ class DuplicateKeys : public nlohmann::json::json_sax_t {
   std::string file_, prefix_;
   std::vector<Frame> frames_;
 };
+
+// A JSON parser's message with the input it quotes ("last read: '...'", "number overflow parsing '...'")
+// cut to kShownValueBytes (show_value): an unterminated 100 KB string is quoted as its first bytes.
+std::string bounded_quote(const std::string& what) {
+  const size_t q1 = what.find('\''), q2 = what.rfind('\'');
+  if (q1 == std::string::npos || q2 <= q1) return what;
+  return what.substr(0, q1 + 1) + show_value(what.substr(q1 + 1, q2 - q1 - 1)) + what.substr(q2);
+}
 
 }  // namespace
 
@@ -112,7 +147,7 @@ nlohmann::json read_json_file(const std::string& path) {
     std::string what = e.what();
     const size_t p = what.find("syntax error");
     throw Error(path, line_column(text, e.byte == 0 ? 0 : e.byte - 1),
-                "invalid JSON: " + (p == std::string::npos ? what : what.substr(p)));
+                "invalid JSON: " + bounded_quote(p == std::string::npos ? what : what.substr(p)));
   } catch (const nlohmann::json::exception& e) {
     // A number past double range ("number overflow parsing '1e999'"): its first occurrence in the text.
     std::string what = e.what(), where = "(unknown position)";
@@ -122,7 +157,8 @@ nlohmann::json read_json_file(const std::string& path) {
       if (at != std::string::npos) where = line_column(text, at);
     }
     const size_t p = what.find("] ");
-    throw Error(path, where, "invalid JSON: " + (p == std::string::npos ? what : what.substr(p + 2)));
+    throw Error(path, where,
+                "invalid JSON: " + bounded_quote(p == std::string::npos ? what : what.substr(p + 2)));
   }
   DuplicateKeys dup(path, "");
   nlohmann::json::sax_parse(text, &dup);
@@ -131,7 +167,7 @@ nlohmann::json read_json_file(const std::string& path) {
 
 void apply_override(nlohmann::json& root, const std::string& assignment, const std::string& file) {
   const size_t eq = assignment.find('=');
-  const std::string where = "--set " + assignment;
+  const std::string where = "--set " + show_value(assignment);
   if (eq == std::string::npos || eq == 0) throw Error(file, where, "expected PATH=VALUE");
   const std::string path = assignment.substr(0, eq);
   const std::string value = assignment.substr(eq + 1);
@@ -157,7 +193,7 @@ void apply_override(nlohmann::json& root, const std::string& assignment, const s
       if (close == std::string::npos) bad(i, "'[' is not closed by ']'");
       const std::string digits = path.substr(i + 1, close - i - 1);
       if (digits.empty() || digits.find_first_not_of("0123456789") != std::string::npos)
-        bad(i + 1, "'[" + digits + "]' is not an array index (a whole number)");
+        bad(i + 1, "'[" + show_value(digits) + "]' is not an array index (a whole number)");
       parts.push_back({digits, true});
       i = close + 1;
       if (i < path.size() && path[i] != '.' && path[i] != '[') bad(i, "expected '.' or '[' after ']'");
@@ -191,12 +227,13 @@ void apply_override(nlohmann::json& root, const std::string& assignment, const s
       }
       if (used != key.size() || idx < 0 || idx >= static_cast<long>(node->size()))
         throw Error(file, where,
-                    "'" + key + "' is not an index of the array (size " + std::to_string(node->size()) + ")");
+                    "'" + show_value(key) + "' is not an index of the array (size " +
+                        std::to_string(node->size()) + ")");
       node = &(*node)[idx];
     } else {
       if (node->is_null()) *node = nlohmann::json::object();
       if (!node->is_object())
-        throw Error(file, where, "'" + key + "' goes inside a value that is not an object");
+        throw Error(file, where, "'" + show_value(key) + "' goes inside a value that is not an object");
       if (!last && !node->contains(key)) (*node)[key] = nlohmann::json::object();
       node = &(*node)[key];
     }
@@ -207,7 +244,7 @@ void apply_override(nlohmann::json& root, const std::string& assignment, const s
   } catch (...) {
     v = value;  // a bare word is a string
   }
-  if (v.is_structured()) {  // a key given twice inside the value
+  if (v.is_structured() || v.is_number()) {  // a key given twice inside the value; a number that underflows
     DuplicateKeys dup(file, assignment.substr(0, eq));
     nlohmann::json::sax_parse(value, &dup);
   }

@@ -10,6 +10,7 @@
 #include <vector>
 
 #include "loom/cloth/Error.h"
+#include "loom/cloth/HiddenText.h"
 #include "loom/cloth/InputFile.h"
 #include "loom/scene/Scene.h"
 
@@ -58,8 +59,9 @@ std::optional<std::uint64_t> memory_limit_env() {
   char* end = nullptr;
   const unsigned long long v = digits ? std::strtoull(text.c_str(), &end, 10) : 0;
   if (!digits || errno == ERANGE || v == 0)
-    throw Error("", "LOOM_MEMORY_LIMIT",
-                "must be a whole number of bytes in [1, 18446744073709551615] (got '" + text + "')");
+    throw Error(
+        "", "LOOM_MEMORY_LIMIT",
+        "must be a whole number of bytes in [1, 18446744073709551615] (got '" + show_value(text) + "')");
   return static_cast<std::uint64_t>(v);
 }
 

@@ -66,6 +66,37 @@ const BadInput kCases[] = {
      "scene",
      "cloths",
      "expected an array"},
+    // A number whose text is not zero but underflows a double is refused as written, by its path.
+    {"duration_underflows",
+     nullptr,
+     {"--set", "duration=1e-400"},
+     nullptr,
+     "scene",
+     "duration",
+     "1e-400 is below the smallest double"},
+    {"mass_underflows_negative",
+     nullptr,
+     {"--set", "cloths[0].mass=-1e-400"},
+     nullptr,
+     "scene",
+     "cloths[0].mass",
+     "-1e-400 is below the smallest double (4.9e-324): it would read as -0"},
+    // A fraction given to an integer field is shown as written; a whole number written 4.0 is the integer 4.
+    {"substeps_fraction_shown",
+     nullptr,
+     {"--set", "solver.substeps=4.5"},
+     nullptr,
+     "scene",
+     "solver.substeps",
+     "expected an integer, got 4.5"},
+    // A value quoted in a message shows the shortest text that reads back to it: not 0.3 for 0.30000001.
+    {"number_shown_to_its_digits",
+     nullptr,
+     {"--set", "cloths[0].mass=-0.30000001"},
+     nullptr,
+     "scene",
+     "cloths[0].mass",
+     "(got -0.30000001)"},
     {"nodes_fractional",
      nullptr,
      {"--set", "cloths[0].mesh.nodes=[5.5,5]"},
@@ -629,8 +660,8 @@ TEST(BadInputCli, ObjWithByteOrderMarkAndColoursLoads) {
 // dropped in silence.
 TEST(BadInputCli, ResumeRefusesOptionsItWouldIgnore) {
   const std::string dir = loom::test::test_dir().string();
-  for (const std::string& extra :
-       std::vector<std::string>{"--set duration=1", "--out '" + dir + "/elsewhere'", "--render"}) {
+  for (const std::string& extra : std::vector<std::string>{
+           "--set duration=1", "--out '" + dir + "/elsewhere'", "--render", "--census"}) {
     const loom::test::CliResult r = loom::test::run_loom("run --resume '" + dir + "' " + extra);
     EXPECT_EQ(r.code, 2) << extra << ": " << r.err;
     EXPECT_NE(r.err.find(extra.substr(0, extra.find(' ')) + ": not with --resume"), std::string::npos)
@@ -801,6 +832,247 @@ TEST(BadInputCli, EntriesReachingAVertexTheSameWayPinItOnce) {
       loom::test::run_loom("run " + scene + " --out " + (dir / "out2").string() +
                            " --set 'cloths[0].pins=[{\"grid\":[-1,4]},{\"grid\":[-1,-1]}]'");
   EXPECT_EQ(small.code, 0) << small.err;
+}
+
+// The whole stderr of a refused command: one line of bounded length, however long the value it quotes.
+void expect_bounded(const loom::test::CliResult& r, const std::string& what, const std::string& shown) {
+  EXPECT_NE(r.code, 0) << what;
+  EXPECT_LT(r.err.size(), 1200u) << what << ": " << r.err.substr(0, 2000);
+  EXPECT_NE(r.err.find(shown), std::string::npos) << what << ": " << r.err.substr(0, 2000);
+}
+
+// Every value echoed back in an error (a cell of a file, a scene string, an option's value, the parser's
+// "last read") is cut to its first bytes and its length: a 100,000-digit number makes a line, not 100 KB.
+TEST(BadInputCli, ValuesQuotedInErrorsAreBounded) {
+  const fs::path dir = loom::test::test_dir();
+  const std::string digits(100000, '7');
+  fs::create_directories(dir / "vertex-face");
+  std::ofstream(dir / "vertex-face" / "long.csv") << digits << ",1,0,1,0,1,0\n";
+  expect_bounded(loom::test::run_loom("ccd-eval " + (dir / "vertex-face" / "long.csv").string()), "ccd-eval",
+                 "(100000 bytes)/1' is not exactly representable");
+  std::ofstream(dir / "scene.json") << kValid;
+  const std::string scene = (dir / "scene.json").string(), out = " --out " + (dir / "out").string();
+  expect_bounded(loom::test::run_loom("run " + scene + out +
+                                      " --set 'cloths[0].material.preset=" + std::string(5000, 'x') + "'"),
+                 "preset", "unknown material preset 'xxxx");
+  expect_bounded(
+      loom::test::run_loom("run " + scene + out + " --set 'solver.method=" + std::string(5000, 'm') + "'"),
+      "method", "(5000 bytes)");
+  expect_bounded(loom::test::run_loom("run " + scene + out + " --frames " + digits), "--frames",
+                 "(100000 bytes)'");
+  expect_bounded(loom::test::run_loom("run " + scene + out + " --" + std::string(5000, 'q')),
+                 "unknown option", "(5002 bytes)");
+  std::ofstream(dir / "open.json") << "{\"name\": \"" << std::string(50000, 'a') << "\n";
+  expect_bounded(loom::test::run_loom("run " + (dir / "open.json").string() + out), "last read",
+                 "last read: '\"aaaaaaaaaa");
+  std::ofstream(dir / "big.json") << "{\"fps\": " << digits << "e9}";
+  expect_bounded(loom::test::run_loom("run " + (dir / "big.json").string() + out), "overflow",
+                 "(100002 bytes)'");
+}
+
+// A list option's entries each run once: an entry given twice (`--sizes 8,8`) is refused naming the option
+// and the entry, in every list option of every benchmark (exit 2).
+TEST(BadInputCli, ListOptionsRefuseAnEntryGivenTwice) {
+  const std::vector<std::pair<std::string, std::string>> cases = {
+      {"bench accuracy --sizes 8,16,8", "--sizes: '8' is listed twice"},
+      {"bench accuracy --threads 1,1", "--threads: '1' is listed twice"},
+      {"bench accuracy --methods verlet,imex,verlet", "--methods: 'verlet' is listed twice"},
+      {"bench accuracy --sizes 8,,16", "--sizes: an empty entry"},
+      {"bench realtime --scenes sheet,sheet", "--scenes: 'sheet' is listed twice"},
+      {"bench realtime --scenes ,sheet", "--scenes: an empty entry"},
+  };
+  for (const auto& [args, message] : cases) {
+    const loom::test::CliResult r = loom::test::run_loom(args);
+    if (r.err.find("unknown command") != std::string::npos) continue;  // a build without Bullet
+    EXPECT_EQ(r.code, 2) << args << ": " << r.err;
+    EXPECT_NE(r.err.find(message), std::string::npos) << args << ": " << r.err;
+  }
+}
+
+// A benchmark simulates whole frames of 1/60 s: a duration below one frame is refused naming the option
+// (exit 2); another duration runs the nearest whole frames, says so, and the tables quote what ran.
+TEST(BadInputCli, BenchmarkDurationsAreWholeFrames) {
+  const fs::path dir = loom::test::test_dir();
+  for (const std::string args : {"bench accuracy --duration 1e-9", "bench accuracy --quick --duration 0.01",
+                                 "bench realtime --seconds 0.001"}) {
+    const loom::test::CliResult r = loom::test::run_loom(args);
+    if (r.err.find("unknown command") != std::string::npos) return;  // a build without Bullet
+    EXPECT_EQ(r.code, 2) << args << ": " << r.err;
+    EXPECT_NE(r.err.find(args.find("seconds") != std::string::npos ? "--seconds" : "--duration"),
+              std::string::npos)
+        << r.err;
+    EXPECT_NE(r.err.find("shorter than one frame of 1/60 s"), std::string::npos) << args << ": " << r.err;
+  }
+  fs::remove_all(dir / "acc");
+  const loom::test::CliResult r = loom::test::run_loom(
+      "bench accuracy --quick --methods verlet --threads 1 --duration 0.02 --out " + (dir / "acc").string());
+  ASSERT_EQ(r.code, 0) << r.err;
+  EXPECT_NE(r.err.find("--duration 0.02 s is 1.2 frames of 1/60 s: runs 1 whole frames"), std::string::npos)
+      << r.err;
+  EXPECT_NE(r.out.find("1 frames of 1/60 s"), std::string::npos) << r.out;
+}
+
+// An option's value is never the next option nor "-": `--out --frames 5` and `--out -` are refused naming
+// the option (exit 2) in every command, and no folder named "--frames" or "-" is made.
+TEST(BadInputCli, AnOptionIsNeverTakenAsTheValueOfTheOptionBefore) {
+  const fs::path dir = loom::test::test_dir();
+  std::ofstream(dir / "scene.json") << kValid;
+  const std::string scene = (dir / "scene.json").string();
+  const std::string csv =
+      std::string(LOOM_TEST_DATA) + "/ccd-sample-queries/erleben-spikes/vertex-face/data_0_0.csv";
+  const std::vector<std::pair<std::string, std::vector<std::string>>> commands = {
+      {"run " + scene, {"--out", "--frames", "--threads", "--checkpoint-every", "--resume", "--set"}},
+      {"compare " + scene, {"--out", "--frames", "--set"}},
+      {"bench accuracy",
+       {"--sizes", "--out", "--duration", "--threads", "--perturbation", "--methods", "--configs",
+        "--repeats"}},
+      {"bench realtime", {"--out", "--seconds", "--sheet", "--toy", "--scenes", "--repeats"}},
+      {"fabric-test tensile",
+       {"--material", "--model", "--resolution", "--overhang-ratio", "--span", "--solver", "--settle-frames",
+        "--settle-speed", "--out"}},
+      {"ccd-eval " + csv, {"--scale-exp", "--translate", "--min-separation", "--tolerance"}},
+      {"body a.zae b.bvh", {"--seconds", "--image"}},
+  };
+  for (const auto& [command, options] : commands)
+    for (const std::string& option : options) {
+      const std::string args = command + " " + option + " --overwrite";
+      const loom::test::CliResult r = loom::test::run_loom(args);
+      if (r.err.find("unknown command") != std::string::npos) break;  // a build without it
+      EXPECT_EQ(r.code, 2) << args << ": " << r.err;
+      EXPECT_NE(r.err.find(option + ": needs a value; the next argument '--overwrite' is an option"),
+                std::string::npos)
+          << args << ": " << r.err;
+    }
+  for (const std::string& args : std::vector<std::string>{
+           "run " + scene + " --out -", "run --resume -", "compare " + scene + " --out -",
+           "bench accuracy --out -", "bench realtime --out -", "fabric-test tensile --out -",
+           "body a.zae b.bvh --image -", "ccd-eval -"}) {
+    const loom::test::CliResult r = loom::test::run_loom(args);
+    if (r.err.find("unknown command") != std::string::npos) continue;
+    EXPECT_EQ(r.code, 2) << args << ": " << r.err;
+    EXPECT_NE(r.err.find("'-' (standard input/output) is not a path"), std::string::npos)
+        << args << ": " << r.err;
+  }
+  EXPECT_FALSE(fs::exists("-"));
+  EXPECT_FALSE(fs::exists("--overwrite"));
+}
+
+// `--opt=value` is `--opt value` for every option of every command; an option that takes no value given one
+// is refused; `--` ends the options (a scene named -x.json); options before the benchmark's name are a
+// mistake named as such.
+TEST(BadInputCli, OptionsTakeValuesAfterEqualsAndDoubleDashEndsThem) {
+  const fs::path dir = loom::test::test_dir();
+  std::ofstream(dir / "-x.json") << kValid;
+  fs::remove_all(dir / "o");
+  const std::string cd = "cd '" + dir.string() + "' && " + LOOM_BINARY;
+  ASSERT_EQ(std::system((cd + " run --frames=2 --out=o -- -x.json >/dev/null 2>&1").c_str()), 0);
+  const auto summary = nlohmann::json::parse(loom::test::slurp(dir / "o" / "summary.json"));
+  EXPECT_EQ(summary["frames"].get<int>(), 2);
+  EXPECT_NE(std::system((cd + " run -x.json --out=o2 >/dev/null 2>&1").c_str()), 0);  // an unknown option
+  EXPECT_FALSE(fs::exists(dir / "o2"));
+  const std::string csv =
+      std::string(LOOM_TEST_DATA) + "/ccd-sample-queries/erleben-spikes/vertex-face/data_0_0.csv";
+  const std::string scene = (dir / "-x.json").string();
+  // Every value option in its '=' form, then --help: parsed, accepted, nothing run (exit 0).
+  for (const std::string args :
+       {"run --out=d --frames=3 --threads=1 --checkpoint-every=2 --set=fps=60 --help",
+        "compare --out=d --frames=2 --set=fps=60 --help",
+        "bench accuracy --sizes=8 --out=d --duration=0.25 --threads=1 --perturbation=0 --methods=verlet "
+        "--configs=x --repeats=1 --help",
+        "bench realtime --out=d --seconds=1 --sheet=8 --toy=9 --scenes=sheet --repeats=1 --help",
+        "fabric-test --material=cotton --model=springs --resolution=9 --overhang-ratio=2 --span=0.5 "
+        "--solver=static --settle-frames=9 --settle-speed=1e-6 --out=d --help",
+        "ccd-eval --scale-exp=1 --translate=0 --min-separation=0 --tolerance=1e-6 --help",
+        "body --seconds=1 --image=x.png --help"}) {
+    const loom::test::CliResult r = loom::test::run_loom(args);
+    if (r.err.find("unknown command") != std::string::npos) continue;
+    EXPECT_EQ(r.code, 0) << args << ": " << r.err;
+  }
+  const loom::test::CliResult ccd = loom::test::run_loom("ccd-eval --scale-exp=2 " + csv);
+  EXPECT_EQ(ccd.code, 0) << ccd.err;
+  EXPECT_NE(ccd.out.find("queries="), std::string::npos);
+  for (const auto& [args, message] : std::vector<std::pair<std::string, std::string>>{
+           {"run " + scene + " --overwrite=yes", "--overwrite: takes no value (got '--overwrite=yes')"},
+           {"fabric-test tensile --json=1", "--json: takes no value"},
+           {"run " + scene + " --frames=2 --frames=3", "--frames given twice"},
+           {"run " + scene + " --out=", "--out: is an empty string"},
+           {"bench --out x accuracy", "name the benchmark before its options"},
+           {"bench nosuch", "unknown benchmark 'nosuch'"}}) {
+    const loom::test::CliResult r = loom::test::run_loom(args);
+    if (r.err.find("unknown command") != std::string::npos) continue;
+    EXPECT_EQ(r.code, 2) << args << ": " << r.err;
+    EXPECT_NE(r.err.find(message), std::string::npos) << args << ": " << r.err;
+  }
+}
+
+// A run resumed with another thread count is the run it continues: results are bit-identical for any
+// thread count, so --threads is allowed on --resume, and the frames equal an uninterrupted run's byte for
+// byte. --census is refused (it counts from frame 0; the checkpoint holds no count).
+TEST(BadInputCli, ResumeOnOtherThreadsIsBitIdenticalAndCensusIsRefused) {
+  const fs::path dir = loom::test::test_dir();
+  std::ofstream(dir / "scene.json") << kValid;
+  const std::string run = "run " + (dir / "scene.json").string() +
+                          " --set 'cloths[0].mesh.nodes=[24,24]' --set solver.substeps=8 --set duration=0.2";
+  for (const char* d : {"straight", "resumed"}) fs::remove_all(dir / d);
+  ASSERT_EQ(loom::test::run_loom(run + " --threads 1 --frames 12 --out " + (dir / "straight").string()).code,
+            0);
+  ASSERT_EQ(loom::test::run_loom(run + " --threads 1 --frames 8 --checkpoint-every 5 --out " +
+                                 (dir / "resumed").string())
+                .code,
+            0);
+  const loom::test::CliResult census =
+      loom::test::run_loom("run --resume " + (dir / "resumed").string() + " --census");
+  EXPECT_EQ(census.code, 2) << census.err;
+  EXPECT_NE(census.err.find("--census: not with --resume"), std::string::npos) << census.err;
+  const loom::test::CliResult r =
+      loom::test::run_loom("run --resume " + (dir / "resumed").string() + " --threads 2 --frames 12");
+  ASSERT_EQ(r.code, 0) << r.err;
+  for (int f = 6; f <= 12; ++f) {
+    char name[32];
+    std::snprintf(name, sizeof name, "frame_%05d.obj", f);
+    const std::string a = loom::test::slurp(dir / "straight" / "frames" / name);
+    EXPECT_FALSE(a.empty()) << name;
+    EXPECT_EQ(a, loom::test::slurp(dir / "resumed" / "frames" / name)) << name;
+  }
+}
+
+// `loom body` names an operand too many, and MESH and CLIP.bvh given the other way round.
+TEST(BadInputCli, BodyNamesTheExtraOperandAndSwappedOperands) {
+  const loom::test::CliResult extra = loom::test::run_loom("body a.zae b.bvh c.bvh");
+  if (extra.err.find("unknown command") != std::string::npos) GTEST_SKIP() << "no loom::characters";
+  EXPECT_EQ(extra.code, 2) << extra.err;
+  EXPECT_NE(extra.err.find("a third file 'c.bvh'"), std::string::npos) << extra.err;
+  const std::string mesh = std::string(LOOM_TEST_DATA) + "/body/human.zae";
+  const std::string clip = std::string(LOOM_TEST_DATA) + "/mocap/01_01.bvh";
+  const loom::test::CliResult swapped = loom::test::run_loom("body " + clip + " " + mesh);
+  EXPECT_EQ(swapped.code, 2) << swapped.err;
+  EXPECT_NE(swapped.err.find("the operands are swapped"), std::string::npos) << swapped.err;
+  EXPECT_EQ(swapped.err.find("scale"), std::string::npos) << swapped.err;
+}
+
+// The static solver does not settle: fabric-test reports its solves and whether they converged, never
+// "0 frames, NOT settled" for a good solve. `loom --help` lists every fabric test of the one table.
+TEST(BadInputCli, FabricTestStaticSolveIsReportedAsConverged) {
+  const fs::path dir = loom::test::test_dir();
+  fs::remove_all(dir / "t");
+  const loom::test::CliResult r =
+      loom::test::run_loom("fabric-test tensile --resolution 9 --json --out " + (dir / "t").string());
+  ASSERT_EQ(r.code, 0) << r.err;
+  const auto j = nlohmann::json::parse(r.out);
+  EXPECT_TRUE(j["settled"].is_null());
+  EXPECT_TRUE(j["settle_frames"].is_null());
+  EXPECT_TRUE(j["converged"].get<bool>());
+  EXPECT_GE(j["static_solves"].get<int>(), 3);  // one per pull at least
+  const loom::test::CliResult text =
+      loom::test::run_loom("fabric-test tensile --resolution 9 --overwrite --out " + (dir / "t").string());
+  ASSERT_EQ(text.code, 0) << text.err;
+  EXPECT_EQ(text.out.find("NOT"), std::string::npos) << text.out;
+  EXPECT_NE(text.out.find("solver static: converged in"), std::string::npos) << text.out;
+  const std::string help = loom::test::run_loom("--help").out;
+  for (const char* test : {"cantilever", "tensile", "shear", "catenary", "drape"})
+    EXPECT_NE(help.find(test), std::string::npos) << test;
+  EXPECT_NE(loom::test::run_loom("fabric-test --help").out.find("{cantilever,tensile,shear,catenary,drape}"),
+            std::string::npos);
 }
 
 }  // namespace

@@ -499,7 +499,7 @@ TEST(HostileBody, TheImageFollowsTheOutputRules) {
   EXPECT_EQ(read_bytes(dir / "human.zae"), input);
   r = run_loom(body + "''");
   EXPECT_EQ(r.code, 2) << r.err;
-  EXPECT_NE(r.err.find("--image: is empty"), std::string::npos) << r.err;
+  EXPECT_NE(r.err.find("--image: is an empty string"), std::string::npos) << r.err;
   r = run_loom(body + "/dev/full");
   EXPECT_EQ(r.code, 1) << r.err;
   EXPECT_NE(r.err.find("/dev/full: --image: is not a regular file"), std::string::npos) << r.err;

@@ -278,10 +278,11 @@ int bench_accuracy(const AccuracyOptions& o) {
   for (int n : o.sizes) {
     const Scene s = make_scene(n, o.duration, o.perturbation);
     if (selected_rows(o, s, loom_sweep_table(s.explicit_steps, o.quick), registered) == 0)
-      throw loom::Error("", o.configs.empty() ? "--methods" : "--methods/--configs",
-                        "selects no configuration at N=" + std::to_string(n) +
-                            (o.configs.empty() ? "" : " (no label contains '" + o.configs + "')") +
-                            ": nothing would be measured");
+      throw loom::Error(
+          "", o.configs.empty() ? "--methods" : "--methods/--configs",
+          "selects no configuration at N=" + std::to_string(n) +
+              (o.configs.empty() ? "" : " (no label contains '" + show_value(o.configs) + "')") +
+              ": nothing would be measured");
   }
   if (!o.out_given) refuse_linked_default(o.out, "--out");
   OutputFolder folder(
@@ -311,10 +312,11 @@ int bench_accuracy(const AccuracyOptions& o) {
     run_bullet_rows(o, s, ref.x, rows);
     // A selection that runs nothing would write an empty table and pass its reference check.
     if (rows.size() == first)
-      throw loom::Error("", o.configs.empty() ? "--methods" : "--methods/--configs",
-                        "selects no configuration at N=" + std::to_string(n) +
-                            (o.configs.empty() ? "" : " (no label contains '" + o.configs + "')") +
-                            ": nothing would be measured");
+      throw loom::Error(
+          "", o.configs.empty() ? "--methods" : "--methods/--configs",
+          "selects no configuration at N=" + std::to_string(n) +
+              (o.configs.empty() ? "" : " (no label contains '" + show_value(o.configs) + "')") +
+              ": nothing would be measured");
     if (!skipped_methods.empty()) {
       std::printf("  skipped (not registered in this build):");
       for (const auto& m : skipped_methods) std::printf(" %s", m.c_str());
@@ -337,184 +339,6 @@ int bench_accuracy(const AccuracyOptions& o) {
   std::printf("wrote %s/accuracy.csv, %s/reference_check.csv, %s/accuracy.png\n", shown.c_str(),
               shown.c_str(), shown.c_str());
   return 0;
-}
-
-namespace {
-
-// clang-format off
-const char* kBenchUsage =
-    "Usage: loom bench accuracy [--sizes 32,64,128] [--out DIR] [--quick] [--duration S] [--threads 1,2]\n"
-    "                           [--methods LIST] [--configs TEXT] [--repeats R]\n"
-    "\n"
-    "The accuracy-vs-time benchmark on the hanging-cloth scene (1 m cotton square, 0.2 kg, two corners pinned,\n"
-    "released horizontally, 60 Hz frames, damping off). Every registered solver runs over its knob sweep, and\n"
-    "both Bullet twins (classic btSoftBody, deformable world) over iterations and substeps, against a reference\n"
-    "(Verlet far below the explicit stability bound, checked by halving its step).\n"
-    "Writes DIR/accuracy.csv (system,method,size,config,threads,ms_per_frame,rms_error_max,rms_error_end,\n"
-    "max_strain,mean_strain,energy_drift,diverged), DIR/reference_check.csv, DIR/accuracy_N.png per size and\n"
-    "DIR/accuracy.png (the last size).\n"
-    "\n"
-    "Options:\n"
-    "  --sizes LIST    nodes per side (default 32,64)\n"
-    "  --out DIR       output folder (default out/bench_accuracy), owned through DIR/.loom-manifest\n"
-    "  --overwrite     write into a non-empty folder Loom did not write (files of its names replaced)\n"
-    "  --quick         tiny run for tests: N=8, 0.25 s, one configuration per method\n"
-    "  --duration S    simulated seconds (default 0.25; longer runs lose a converged reference)\n"
-    "  --threads LIST  thread counts for Loom's solvers (default 1,2)\n"
-    "  --perturbation M  amplitude of the start bump that fixes the buckling direction (default 0.001 m)\n"
-    "  --methods LIST  only these solvers / bullet_classic / bullet_deformable (default: all)\n"
-    "  --configs TEXT  only the Loom configurations whose label contains TEXT, e.g. 'substeps=1 cg_tolerance=0.02'\n"
-    "  --repeats R     run each Loom row R times, thread counts interleaved, and keep the fastest (default 1;\n"
-    "                  for thread ratios on a shared machine); a repeat with other results is reported\n";
-// clang-format on
-
-bool parse_list(const std::string& s, std::vector<int>& out, int min) {
-  out.clear();
-  std::stringstream ss(s);
-  std::string item;
-  while (std::getline(ss, item, ',')) {
-    char* end = nullptr;
-    // Exactly the digits: strtol alone would take " 2" (leading white space) or "+2".
-    if (item.empty() || item.size() > 9 || item.find_first_not_of("0123456789") != std::string::npos)
-      return false;
-    const long v = std::strtol(item.c_str(), &end, 10);
-    if (*end || v < min || v > 4096) return false;
-    out.push_back(static_cast<int>(v));
-  }
-  return !out.empty();
-}
-
-}  // namespace
-
-int bench_main(int argc, char** argv) {
-  if (argc < 3 || !std::strcmp(argv[2], "-h") || !std::strcmp(argv[2], "--help")) {
-    std::cout << kBenchUsage;
-    return argc < 3 ? 2 : 0;
-  }
-  if (std::strcmp(argv[2], "accuracy") != 0) {
-    std::fprintf(stderr, "loom: error: unknown benchmark '%s' (see loom bench --help)\n",
-                 loom::show_hidden(argv[2]).c_str());
-    return 2;
-  }
-  AccuracyOptions o;
-  bool sizes_given = false, duration_given = false;
-  std::set<std::string> seen;  // options that take a value, given once
-  for (int i = 3; i < argc; ++i) {
-    const std::string a = argv[i];
-    auto value = [&]() -> std::string {
-      if (i + 1 >= argc) {
-        std::fprintf(stderr, "loom: error: %s needs a value (see loom bench --help)\n", a.c_str());
-        std::exit(2);
-      }
-      if (!seen.insert(a).second) {  // a second value would silently win over the first
-        std::fprintf(stderr, "loom: error: %s given twice (give each option once)\n", a.c_str());
-        std::exit(2);
-      }
-      return argv[++i];
-    };
-    if (a == "-h" || a == "--help") {
-      std::cout << kBenchUsage;
-      return 0;
-    } else if (a == "--sizes") {
-      const std::string v = value();
-      if (!parse_list(v, o.sizes, 3)) {
-        std::fprintf(
-            stderr,
-            "loom: error: --sizes expects a comma-separated list of whole numbers in [3, 4096], got '%s'\n",
-            loom::show_hidden(v).c_str());
-        return 2;
-      }
-      sizes_given = true;
-    } else if (a == "--threads") {
-      const std::string v = value();
-      if (!parse_list(v, o.threads, 1)) {
-        std::fprintf(
-            stderr,
-            "loom: error: --threads expects a comma-separated list of whole numbers in [1, 4096], got '%s'\n",
-            loom::show_hidden(v).c_str());
-        return 2;
-      }
-    } else if (a == "--methods") {
-      for (const std::string& m : [](std::string v) {
-             std::vector<std::string> out;
-             std::stringstream ss(v);
-             std::string item;
-             while (std::getline(ss, item, ',')) out.push_back(item);
-             return out;
-           }(value()))
-        o.methods.insert(m);
-      // An empty name (an unset variable, a stray comma) would select nothing or everything.
-      if (o.methods.count("") || o.methods.empty()) {
-        std::fprintf(stderr, "loom: error: --methods: an empty method name (an unset variable?)\n");
-        return 2;
-      }
-      // An unknown name would select nothing and pass with an empty table.
-      std::vector<std::string> known = cloth::solver_names();
-      for (const char* extra : {"bullet_classic", "bullet_deformable", "hybrid"}) known.push_back(extra);
-      for (const std::string& m : o.methods)
-        if (std::find(known.begin(), known.end(), m) == known.end()) {
-          std::string list;
-          for (const auto& k : known) list += (list.empty() ? "" : ", ") + k;
-          std::fprintf(stderr, "loom: error: --methods: unknown method '%s' (known: %s)\n",
-                       loom::show_hidden(m).c_str(), list.c_str());
-          return 2;
-        }
-    } else if (a == "--configs") {
-      o.configs = value();
-      if (o.configs.empty()) {
-        std::fprintf(stderr, "loom: error: --configs is an empty string (an unset variable?)\n");
-        return 2;
-      }
-    } else if (a == "--out") {
-      o.out = value();
-      o.out_given = true;
-      if (o.out.empty()) {
-        std::fprintf(stderr, "loom: error: --out is an empty string (an unset variable?); give a path\n");
-        return 2;
-      }
-    } else if (a == "--duration") {
-      const std::string v = value();
-      char* end = nullptr;
-      o.duration = std::strtod(v.c_str(), &end);
-      if (v.empty() || *end || !(o.duration > 0.0) || o.duration > 60.0) {
-        std::fprintf(stderr, "loom: error: --duration expects seconds in (0, 60], got '%s'\n",
-                     loom::show_hidden(v).c_str());
-        return 2;
-      }
-      duration_given = true;
-    } else if (a == "--perturbation") {
-      const std::string v = value();
-      char* end = nullptr;
-      o.perturbation = std::strtod(v.c_str(), &end);
-      if (v.empty() || *end || !(o.perturbation >= 0.0) || o.perturbation > 0.1) {
-        std::fprintf(stderr, "loom: error: --perturbation expects metres in [0, 0.1], got '%s'\n",
-                     loom::show_hidden(v).c_str());
-        return 2;
-      }
-    } else if (a == "--repeats") {
-      const std::string v = value();
-      std::vector<int> r;
-      if (!parse_list(v, r, 1) || r.size() != 1) {
-        std::fprintf(stderr, "loom: error: --repeats expects one whole number in [1, 4096], got '%s'\n",
-                     loom::show_hidden(v).c_str());
-        return 2;
-      }
-      o.repeats = r[0];
-    } else if (a == "--overwrite") {
-      o.overwrite = true;
-    } else if (a == "--quick") {
-      o.quick = true;
-    } else {
-      std::fprintf(stderr, "loom: error: unknown option '%s' (see loom bench --help)\n",
-                   loom::show_hidden(a).c_str());
-      return 2;
-    }
-  }
-  if (o.quick) {
-    if (!sizes_given) o.sizes = {8};
-    if (!duration_given) o.duration = 0.25;
-  }
-  return bench_accuracy(o);
 }
 
 }  // namespace loom::eval

@@ -10,6 +10,7 @@
 #include <sstream>
 
 #include "loom/cloth/Error.h"
+#include "loom/cloth/HiddenText.h"
 #include "loom/cloth/InputFile.h"
 
 namespace loom::eval {
@@ -17,6 +18,7 @@ namespace {
 
 // Exact rational -> double; throws when the rational is not exactly a double.
 double exact_double(const std::string& num, const std::string& den, const std::string& file, int line) {
+  const std::string shown = show_value(num) + "/" + show_value(den);  // a 100,000-digit cell: its first bytes
   // Digits only, an optional sign: GMP's set_str skips blanks inside a number ("1 0" would read as 10).
   auto integer_text = [](const std::string& t) {
     const size_t start = !t.empty() && (t[0] == '-' || t[0] == '+') ? 1 : 0;
@@ -25,16 +27,14 @@ double exact_double(const std::string& num, const std::string& den, const std::s
   mpz_class n, d;
   if (!integer_text(num) || !integer_text(den) || n.set_str(num[0] == '+' ? num.substr(1) : num, 10) != 0 ||
       d.set_str(den[0] == '+' ? den.substr(1) : den, 10) != 0)
-    throw loom::Error(file, "line " + std::to_string(line),
-                      "'" + num + "/" + den + "' is not a rational of integers");
-  if (d == 0)
-    throw loom::Error(file, "line " + std::to_string(line), "zero denominator in '" + num + "/" + den + "'");
+    throw loom::Error(file, "line " + std::to_string(line), "'" + shown + "' is not a rational of integers");
+  if (d == 0) throw loom::Error(file, "line " + std::to_string(line), "zero denominator in '" + shown + "'");
   mpq_class q(n, d);
   q.canonicalize();
   const double x = q.get_d();  // truncates; checked below
   if (!std::isfinite(x) || mpq_class(x) != q)
     throw loom::Error(file, "line " + std::to_string(line),
-                      "'" + num + "/" + den + "' is not exactly representable as a double");
+                      "'" + shown + "' is not exactly representable as a double");
   return x;
 }
 
@@ -79,7 +79,7 @@ std::vector<CcdQuery> read_ccd_queries(const std::string& path) {
                         "expected 7 comma-separated integers, got " + std::to_string(f.size()));
     if (f[6] != "0" && f[6] != "1")
       throw loom::Error(path, "line " + std::to_string(line),
-                        "truth column must be 0 or 1, got '" + f[6] + "'");
+                        "truth column must be 0 or 1, got '" + show_value(f[6]) + "'");
     if (row == 0) {
       q.points.fill(Vec3::Zero());
       q.vertex_face = vf;

@@ -7,6 +7,7 @@
 #include <limits>
 
 #include "loom/cloth/Error.h"
+#include "loom/cloth/HiddenText.h"
 #include "loom/cloth/LoadTerm.h"
 #include "loom/cloth/Model.h"
 #include "loom/cloth/Simulation.h"
@@ -280,6 +281,9 @@ double pulled_strain(const FabricTestOptions& o, double line_load, int n, double
   sim.cloths()[0]->add_term(std::make_unique<LoadTerm>(verts, forces));
   FabricTestResult settled;
   settle(sim, 1e-12, o, settled);
+  // The test's record: frames over all its pulls, settled when every pull settled.
+  r.settled = (r.settle_frames == 0 || r.settled) && settled.settled;
+  r.settle_frames += settled.settle_frames;
   if (o.solver != "static" && !settled.settled) {  // measured nothing
     r.settle_frames = settled.settle_frames;
     return std::numeric_limits<double>::quiet_NaN();
@@ -568,11 +572,17 @@ std::vector<std::string> fabric_test_names() {
   return {"cantilever", "tensile", "shear", "catenary", "drape"};
 }
 
+std::string fabric_test_list() {
+  std::string list;
+  for (const std::string& t : fabric_test_names()) list += (list.empty() ? "" : ", ") + t;
+  return list;
+}
+
 void check_fabric_test_options(const FabricTestOptions& o) {
   const std::vector<std::string> tests = fabric_test_names();
   if (std::find(tests.begin(), tests.end(), o.test) == tests.end())
     throw Error("", "test",
-                "unknown fabric test '" + o.test + "' (known: cantilever, tensile, shear, catenary, drape)");
+                "unknown fabric test '" + show_value(o.test) + "' (known: " + fabric_test_list() + ")");
   if (o.resolution != 0 && (o.resolution < kMinFabricResolution || o.resolution > kMaxFabricResolution))
     throw Error("", "--resolution",
                 "must be in [" + std::to_string(kMinFabricResolution) + ", " +
@@ -595,11 +605,11 @@ void check_fabric_test_options(const FabricTestOptions& o) {
   if (std::find(solvers.begin(), solvers.end(), o.solver) == solvers.end()) {
     std::string known;
     for (const std::string& s : solvers) known += (known.empty() ? "" : ", ") + s;
-    throw Error("", "--solver", "unknown solver '" + o.solver + "' (known: " + known + ")");
+    throw Error("", "--solver", "unknown solver '" + show_value(o.solver) + "' (known: " + known + ")");
   }
   const std::vector<std::string> models = model_names();
   if (std::find(models.begin(), models.end(), o.model) == models.end())
-    throw Error("", "--model", "unknown model '" + o.model + "'");
+    throw Error("", "--model", "unknown model '" + show_value(o.model) + "'");
 }
 
 FabricTestResult run_fabric_test(const FabricTestOptions& o) {
@@ -619,7 +629,7 @@ FabricTestResult run_fabric_test(const FabricTestOptions& o) {
     r = drape(o);
   } else {
     throw Error("", "test",
-                "unknown fabric test '" + o.test + "' (known: cantilever, tensile, shear, catenary, drape)");
+                "unknown fabric test '" + show_value(o.test) + "' (known: " + fabric_test_list() + ")");
   }
   // A dynamic solver that did not settle measured nothing (tensile and shear: pulled_strain).
   if (o.solver != "static" && !r.settled &&

@@ -101,4 +101,23 @@ inline std::string show_hidden(const std::string& s) {
   return out;
 }
 
+// How many bytes of an input value a message quotes (show_value).
+inline constexpr std::size_t kShownValueBytes = 60;
+
+// An input value quoted in a message (a number as written, an option's value, a cell or line of a file, a
+// scene string): show_hidden of its first `max_bytes` bytes (cut at a character boundary), then
+// "…(N bytes)" when it is longer, so a 100,000-digit number makes a one-line message, not a 100 KB
+// one. File names are not values: they are shown whole (show_hidden).
+inline std::string show_value(const std::string& s, std::size_t max_bytes = kShownValueBytes) {
+  if (s.size() <= max_bytes) return show_hidden(s);
+  std::size_t cut = 0;
+  for (std::size_t i = 0; i < s.size();) {
+    const HiddenChar h = decode_char(s, i);
+    if (i + h.length > max_bytes) break;
+    i += h.length;
+    cut = i;
+  }
+  return show_hidden(s.substr(0, cut)) + "\xe2\x80\xa6(" + std::to_string(s.size()) + " bytes)";
+}
+
 }  // namespace loom

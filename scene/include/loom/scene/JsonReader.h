@@ -11,6 +11,13 @@
 
 namespace loom::scene {
 
+// A number in a message ("got X"): the shortest %g text of at least `min_digits` significant digits that
+// reads back to the same double.
+std::string show_number(double v, int min_digits = 6);
+// `j` with every whole number written with a fraction or an exponent (4.0, 1e2) made the integer it is:
+// JSON has one number type, so every integer field takes 4.0 as 4 (parse_scene reads this copy).
+nlohmann::json whole_numbers_as_integers(const nlohmann::json& j);
+
 class JsonReader {
  public:
   JsonReader(const nlohmann::json& j, std::string path, std::string file);

@@ -22,9 +22,8 @@ struct AccuracyOptions {
   int repeats = 1;                // runs of each Loom row (thread counts interleaved); the fastest is kept
 };
 
-// Returns the process exit code: 0 ok, 1 I/O error.
+// Returns the process exit code: 0 ok, 1 I/O error. The options are checked by the command line
+// (apps/loom/BenchCommand.cpp): sizes and thread counts each once, a duration of whole 1/60 s frames.
 int bench_accuracy(const AccuracyOptions& options);
-// `loom bench ...` command line (argv[1] == "bench"); returns the exit code (2 for a bad command line).
-int bench_main(int argc, char** argv);
 
 }  // namespace loom::eval

@@ -59,13 +59,16 @@ struct FabricTestResult {
   std::vector<std::pair<double, double>> curve, theory_curve;
   double seconds = 0.0;      // s, wall time of the simulation (set-up and solve/settle; not the theory)
   double cpu_seconds = 0.0;  // s, process CPU time of the same (the comparable figure on a busy machine)
-  // Settling (every test that settles): frames run, and for dynamic solvers whether the speed fell below
-  // settle_speed before settle_frames (the static solver: 1 when its Newton residual met its tolerance).
+  // Settling: frames run (summed over a test's pulls), and for dynamic solvers whether the speed fell below
+  // settle_speed before settle_frames; for the static solver these are its static solves (one a frame) and
+  // whether the largest move of the last one met the test's tolerance (converged), not a settling.
   int settle_frames = 0;
   bool settled = false;
 };
 
 std::vector<std::string> fabric_test_names();
+// fabric_test_names() as "cantilever, tensile, ...": every list of the tests shown to a user.
+std::string fabric_test_list();
 // Throws loom::Error naming the option (or "test") for an unknown test, solver or model, or an option out of
 // range; run_fabric_test checks the same, so a command can refuse its options before it writes anything.
 void check_fabric_test_options(const FabricTestOptions& options);
