@@ -632,6 +632,19 @@ TEST(HostileRender, ImageSizeIsEstimatedBeforeTheRun) {
   EXPECT_FALSE(fs::exists(out)) << "the folder was claimed before the estimate";
 }
 
+// Bytes that are not UTF-8, quoted from an input (a JSON parser's "last read"), reach the terminal as \xNN,
+// never raw: a terminal would take them for part of a character.
+TEST(HostileText, BytesThatAreNotUtf8AreShownEscaped) {
+  const fs::path dir = test_dir(), out = dir / "out";
+  const fs::path bad = dir / "bad.json";
+  std::ofstream(bad, std::ios::binary) << "{\"name\": \"a\xff\"";
+  const auto r = run_loom("run " + bad.string() + " --out " + out.string());
+  EXPECT_EQ(r.code, 1) << r.err;
+  EXPECT_NE(r.err.find("invalid JSON"), std::string::npos) << r.err;
+  EXPECT_NE(r.err.find("a\\xff"), std::string::npos) << r.err;
+  EXPECT_EQ(r.err.find('\xff'), std::string::npos) << "a raw byte reached the terminal";
+}
+
 // An empty LOOM_SCENES (an unset shell variable exported) is unset: `loom run` never reads the working
 // directory's character_layers.json.
 TEST(HostileEnv, AnEmptyScenesVariableIsUnset) {

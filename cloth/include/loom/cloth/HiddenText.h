@@ -80,15 +80,18 @@ inline std::string show_code(std::uint32_t c) {
   return s;
 }
 
-// `s` with every hidden character shown as \xNN (C0, DEL) or \u{XXXX} (the others), safe to print.
+// `s` with every hidden character shown as \xNN (C0, DEL, bytes that are not UTF-8) or \u{XXXX} (the others),
+// safe to print.
 inline std::string show_hidden(const std::string& s) {
   std::string out;
   out.reserve(s.size());
   for (std::size_t i = 0; i < s.size();) {
     const HiddenChar h = decode_char(s, i);
-    if (is_hidden_code(h.code)) {
+    // A byte that starts no valid UTF-8 sequence (decode_char's one byte of value >= 0x80) is shown as
+    // \xNN too: a terminal would take it for part of a character.
+    if (is_hidden_code(h.code) || (h.length == 1 && h.code >= 0x80)) {
       char esc[16];
-      if (h.code < 0x80)
+      if (h.code < 0x80 || h.length == 1)
         std::snprintf(esc, sizeof esc, "\\x%02x", static_cast<unsigned>(h.code));
       else
         std::snprintf(esc, sizeof esc, "\\u{%04X}", static_cast<unsigned>(h.code));
