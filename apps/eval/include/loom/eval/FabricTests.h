@@ -63,6 +63,10 @@ struct FabricTestResult {
   // settle_speed before settle_frames (the static solver: 1 when its Newton residual met its tolerance).
   int settle_frames = 0;
   bool settled = false;
+  // Why the run measured nothing although frames were left: a frame the simulation failed (its cause and
+  // frame, Simulation::failure()) or a static solve that did not converge. "" otherwise; when set, measured,
+  // error, the measured fields and the simulated curve are NaN / empty.
+  std::string failure;
 };
 
 std::vector<std::string> fabric_test_names();
