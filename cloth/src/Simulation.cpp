@@ -285,15 +285,10 @@ FrameStats Simulation::step_frame() {
   } else {
     // Guard.h: snapshot, run, check; a rejected frame is rolled back and retried with twice the substeps.
     auto start = Clock::now();
-    std::string start_why;  // the run's start breaks the guard's criteria (frame 0, as built)
     if (!start_sample_) {
       FrameStats s0;
       fill_stats(s0);
       start_sample_ = guard_sample(s0);
-      if (frame_ == 0) {
-        start_why = guard_violation(setup_.guard, *start_sample_, *start_sample_, energy_scale_);
-        if (!start_why.empty()) stats = s0;
-      }
       if (budget_ref_ < 0.0) {  // the energy budget's reference: the start of the run (Guard.h)
         budget_ref_ = std::max(s0.kinetic + std::max(0.0, s0.elastic), guard_weight_scale(setup_, cloths_));
         budget_potential0_ = s0.potential;
@@ -304,15 +299,7 @@ FrameStats Simulation::step_frame() {
     guard_ms_ += ms_since(start);
     failure_.clear();
     long steps = 0;  // solver steps of this frame, every try
-    if (!start_why.empty()) {
-      // Frame 0 is written as built (pins at their first targets): a start the guard would reject at a
-      // frame end is no state to run from, whatever the solver.
-      ++failed_frames_;
-      failure_ = start_why + " at the start (frame 0: the cloths as built, pins at their first targets), " +
-                 "before frame 1";
-      stats.finite = false;
-    }
-    for (int attempt = 0; start_why.empty(); ++attempt) {
+    for (int attempt = 0;; ++attempt) {
       const long n = static_cast<long>(setup_.substeps) << attempt;
       steps += n;
       std::string why = run_substeps(static_cast<int>(n), true);

@@ -202,7 +202,7 @@ int settle(Simulation& sim, double tol, const FabricTestOptions& o, FabricTestRe
   if (!dynamic) {
     std::ostringstream why;
     why << "the static solve did not converge: the largest vertex move was still above " << tol << " m after "
-        << max_frames << " frames of Newton iterations (solver.iterations each)";
+        << max_frames << " frames of Newton iterations (the shape it stopped at is no equilibrium)";
     r.failure = why.str();
   }
   return max_frames;
