@@ -470,8 +470,8 @@ bool ImplicitSolver::newton(Cloth& cloth, double t, double h, int threads, int i
       slope += g_[i].dot(p_dir_[i]);
       fnc_p += (f_[i] - fc_[i]).dot(p_dir_[i]);
     }
-    // A stop before the residual halved, with a predicted decrease above the round-off of Φ, is a failed
-    // solve (violation()).
+    // A stop before the residual halved, with a predicted decrease above the round-off of Φ (or a
+    // non-finite one), is a failed solve (violation()); a finite non-descent direction is not counted.
     const auto stalled = [&](const char* what) {
       if (!(gnorm > 0.5 * g0)) return false;
       const double phi = incremental_potential(cloth, vplus, t + h, threads);
@@ -479,7 +479,7 @@ bool ImplicitSolver::newton(Cloth& cloth, double t, double h, int threads, int i
       std::ostringstream why;
       why << "the " << name() << " step of h = " << h << " s did not converge (" << what
           << " at Newton iteration " << it + 1 << ", residual " << gnorm << " of " << g0
-          << "): the step is too long for this cloth; more solver.substeps (or a lower fps step)";
+          << "): the step is too long for this cloth; give more solver.substeps";
       newton_failure_ = why.str();
       return true;
     };

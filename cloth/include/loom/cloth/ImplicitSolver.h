@@ -111,8 +111,8 @@ class ImplicitSolver final : public Solver {
   }
   void step(Cloth& cloth, double t, double h, int threads) override;
   // A step whose Newton iterations (full Newton, or the safeguard's correction) stopped because the line
-  // search found no decrease of Φ (or no descent direction) before the residual |g|_M⁻¹ fell to half its
-  // start value, while the predicted decrease -gᵀp was above the round-off of Φ: that step is not a
+  // search found no decrease of Φ (or the direction was not finite) before the residual |g|_M⁻¹ fell to half
+  // its start value, while the predicted decrease -gᵀp was above the round-off of Φ: that step is not a
   // solution (kept, it freezes the cloth at its start): "" or why, read by the guard like a stage's
   // violation (Stage.h: the frame is retried with smaller steps). With adaptive = 1 the substep is halved
   // first.
