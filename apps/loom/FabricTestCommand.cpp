@@ -103,8 +103,9 @@ void write_report(eval::OutputFolder& folder, const eval::FabricTestResult& r) {
      << "| " << r.quantity << " measured | " << shown(r.measured, r.unit) << " |\n"
      << "| theory | " << shown(r.theory, r.unit) << " |\n| error | " << shown(r.error, r.unit) << " |\n";
   for (const auto& [k, v] : r.fields) md << "| " << k << " | " << shown(v, "") << " |\n";
-  md << "| solver | " << r.solver << " |\n| " << settling(r) << " |\n| wall time | " << r.seconds
-     << " s |\n| CPU time | " << r.cpu_seconds << " s |\n\n";
+  md << "| solver | " << r.solver << " |\n| " << settling(r) << " |\n";
+  if (!r.failure.empty()) md << "| failed | " << r.failure << " (no measurement, no simulated curve) |\n";
+  md << "| wall time | " << r.seconds << " s |\n| CPU time | " << r.cpu_seconds << " s |\n\n";
   // The plot, through gnuplot when it is installed; column 1 is a string: compared with strcol.
   const bool shape = r.test == "cantilever" || r.test == "catenary" || r.test == "drape";
   std::ostringstream g;
@@ -215,6 +216,14 @@ int fabric_test_main(int argc, char** argv) {
                             {});  // no input file
   const eval::FabricTestResult r = eval::run_fabric_test(o);
   write_report(folder, r);
+  if (!r.failure.empty()) {  // a failed frame or an unconverged static solve: more frames do not help
+    std::fprintf(stderr,
+                 "loom: error: %s: measured no finite %s (solver %s, stopped after %d frames): %s; the "
+                 "report in %s holds no measurement\n",
+                 r.test.c_str(), r.quantity.c_str(), r.solver.c_str(), r.settle_frames, r.failure.c_str(),
+                 printable(folder.dir().string()).c_str());
+    return 3;
+  }
   if (!std::isfinite(r.measured)) {  // the report says "-"; the run is not passed off as a measurement
     std::fprintf(
         stderr,

@@ -4,6 +4,7 @@
 #include <chrono>
 #include <cmath>
 #include <cstring>
+#include <sstream>
 
 #include "loom/cloth/SpringTerm.h"
 
@@ -236,6 +237,8 @@ bool ImplicitSolver::substep(Cloth& cloth, double t, double h, int threads) {
   };
   Vec3s& vplus = vk_;
   vplus.resize(n);
+  bool solved = true;
+  newton_failure_.clear();
   if (p_.newton_iterations <= 1) {
     // Linearised step (Baraff & Witkin 1998 eq. 18; Choi & Ko 2002 for BDF2).
     cloth.compute_forces(s.x, s.v, t, threads, f_);
@@ -275,13 +278,13 @@ bool ImplicitSolver::substep(Cloth& cloth, double t, double h, int threads) {
       if (incremental_potential(cloth, vtry_, t + h, threads) <
           incremental_potential(cloth, vplus, t + h, threads))
         vplus.swap(vtry_);
-      newton(cloth, t, h, threads, p_.safeguard_newton_iterations);
+      solved = newton(cloth, t, h, threads, p_.safeguard_newton_iterations);
       for (int i = 0; i < n; ++i) dv_[i] = vplus[i] - s.v[i];  // the next step's warm start
     }
   } else {
     // Newton on the incremental potential with a backtracking line search.
     for (int i = 0; i < n; ++i) vplus[i] = fixed_[i] ? pinned_velocity(i) : s.v[i];
-    newton(cloth, t, h, threads, p_.newton_iterations);
+    solved = newton(cloth, t, h, threads, p_.newton_iterations);
   }
   // Commit: free vertices x+ = x_b + γ v+; kinematic vertices x+ = x + h v exactly.
   y_.resize(n);
@@ -306,7 +309,7 @@ bool ImplicitSolver::substep(Cloth& cloth, double t, double h, int threads) {
   v_hist_.swap(tmp_);
   h_hist_ = h;
   has_history_ = true;
-  return s.is_finite();
+  return s.is_finite() && solved;
 }
 
 std::vector<const Term*> ImplicitSolver::term_list(const Cloth& cloth) {
@@ -423,7 +426,7 @@ PcgResult ImplicitSolver::solve_with_contacts(const Cloth& cloth, Vec3s& x, bool
                     &dinv_);
 }
 
-void ImplicitSolver::newton(Cloth& cloth, double t, double h, int threads, int iterations) {
+bool ImplicitSolver::newton(Cloth& cloth, double t, double h, int threads, int iterations) {
   // Newton on the incremental potential Φ from the iterate in vk_, with a backtracking line search.
   ClothState& s = cloth.state();
   const int n = n_;
@@ -467,7 +470,20 @@ void ImplicitSolver::newton(Cloth& cloth, double t, double h, int threads, int i
       slope += g_[i].dot(p_dir_[i]);
       fnc_p += (f_[i] - fc_[i]).dot(p_dir_[i]);
     }
-    if (!(slope < 0.0)) break;  // no descent direction (truncated CG on an indefinite model)
+    // A stop before the residual halved, with a predicted decrease above the round-off of Φ (or a
+    // non-finite one), is a failed solve (violation()); a finite non-descent direction is not counted.
+    const auto stalled = [&](const char* what) {
+      if (!(gnorm > 0.5 * g0)) return false;
+      const double phi = incremental_potential(cloth, vplus, t + h, threads);
+      if (std::isfinite(slope) && !(-slope > 1e-8 * std::abs(phi))) return false;
+      std::ostringstream why;
+      why << "the " << name() << " step of h = " << h << " s did not converge (" << what
+          << " at Newton iteration " << it + 1 << ", residual " << gnorm << " of " << g0
+          << "): the step is too long for this cloth; give more solver.substeps";
+      newton_failure_ = why.str();
+      return true;
+    };
+    if (!(slope < 0.0)) return !stalled("no descent direction");  // truncated CG, indefinite model
     multiply(D_, p_dir_, tmp_, threads);
     double pDp = 0.0;
     for (int i = 0; i < n; ++i) pDp += p_dir_[i].dot(tmp_[i]);
@@ -487,15 +503,18 @@ void ImplicitSolver::newton(Cloth& cloth, double t, double h, int threads, int i
       step *= 0.5;
       ++counters_.line_search_halvings;
     }
-    if (!accepted) break;
+    if (!accepted) return !stalled("the line search found no decrease of the incremental potential");
     vplus.swap(vtry_);
   }
+  return true;
 }
 
 void ImplicitSolver::step(Cloth& cloth, double t, double h, int threads) {
   prepare(cloth);
+  violation_.clear();
   if (!p_.adaptive) {
     substep(cloth, t, h, threads);
+    violation_ = newton_failure_;
     ++counters_.substeps;
     return;
   }
@@ -535,7 +554,10 @@ void ImplicitSolver::step(Cloth& cloth, double t, double h, int threads) {
       h_sub_ = std::min(2.0 * h_sub_, h);
       streak_ = 0;
     }
-    if (!finite) return;  // could not be rescued at the smallest substep: leave it to the caller
+    if (!finite) {  // could not be rescued at the smallest substep: leave it to the caller
+      violation_ = newton_failure_;
+      return;
+    }
   }
 }
 

@@ -8,6 +8,7 @@
 #include "GuardInternal.h"
 #include "loom/cloth/Error.h"
 #include "loom/cloth/GravityTerm.h"
+#include "loom/cloth/ImplicitSolver.h"
 #include "loom/cloth/Model.h"
 
 namespace loom::cloth {
@@ -70,6 +71,16 @@ class SolveStage final : public Stage {
           it->second += value;
       }
     return out;
+  }
+  // The first solver's violation (an implicit step that did not converge, ImplicitSolver::violation()),
+  // naming its cloth.
+  std::string violation() const override {
+    for (size_t k = 0; k < solvers_.size(); ++k) {
+      const auto* implicit = dynamic_cast<const ImplicitSolver*>(solvers_[k].get());
+      const std::string why = implicit ? implicit->violation() : std::string();
+      if (!why.empty()) return "cloth '" + cloths_[k]->name() + "': " + why;
+    }
+    return {};
   }
   // Each cloth's solver history (Solver.h).
   void save_state(StateWriter& out) const override {

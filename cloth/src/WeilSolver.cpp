@@ -3,6 +3,7 @@
 #include <chrono>
 #include <cmath>
 #include <limits>
+#include <sstream>
 
 #include "loom/cloth/Error.h"
 #include "loom/cloth/GravityTerm.h"
@@ -162,6 +163,36 @@ void WeilSolver::check(const Cloth& cloth) const {
       throw Error("", "effects.wind", "the weil drape has no dynamics: wind needs a dynamic solver");
     else if (std::string(t->name()) == "pressure")
       throw Error("", "cloths[].pressure", "the weil drape has no dynamics: pressure needs a dynamic solver");
+  // The catenaries hang along -y under a weight the shape does not depend on: a gravity of another
+  // direction (or none) has no drape.
+  Vec3 g = Vec3::Zero();
+  for (const auto& t : cloth.terms())
+    if (const auto* gt = dynamic_cast<const GravityTerm*>(t.get())) g += gt->g();
+  if (!(g.squaredNorm() > 0.0) || !(-g.y() >= (1.0 - 1e-12) * g.norm())) {
+    std::ostringstream why;
+    why << "the weil drape hangs the cloth straight down along -y: gravity must point along -y with a "
+           "non-zero magnitude (got ["
+        << g.x() << ", " << g.y() << ", " << g.z() << "] m/s^2; other directions need a dynamic solver)";
+    throw Error("", "gravity", why.str());
+  }
+  // Two constraint points farther apart than the cloth between them (rest distance) would stretch it
+  // straight, and two vertices at one point fold it onto itself: neither has a catenary drape.
+  const Vec3s& X = cloth.mesh().rest_positions();
+  const auto& pins = cloth.pins();
+  for (size_t p = 0; p < pins.size(); ++p)
+    for (size_t q = p + 1; q < pins.size(); ++q) {
+      if (pins[p].vertex == pins[q].vertex) continue;
+      const double rest = (X[pins[q].vertex] - X[pins[p].vertex]).norm();
+      const double apart = (pins[q].anchor - pins[p].anchor).norm();
+      std::ostringstream why;
+      if (!(apart > 1e-9 * rest))
+        why << "its anchor coincides with pins[" << p << "]'s (vertices " << pins[p].vertex << " and "
+            << pins[q].vertex << ", " << rest << " m apart at rest): the weil drape has no shape for it";
+      else if (apart > rest * (1.0 + 1e-9))
+        why << "its anchor lies " << apart << " m from pins[" << p << "]'s, farther than the cloth between "
+            << "them (rest distance " << rest << " m): the weil drape cannot stretch the cloth";
+      if (!why.str().empty()) throw Error("", "cloths[].pins[" + std::to_string(q) + "].anchor", why.str());
+    }
   const ClothState& s = cloth.state();
   for (int i = 0; i < s.size(); ++i)
     if (s.inv_mass[i] != 0.0 && s.v[i].squaredNorm() > 0.0)

@@ -177,5 +177,30 @@ TEST(Weil, RefusesScenesThatNeedMotion) {
   }
 }
 
+// The drape hangs along -y from anchors it can reach: another gravity, anchors farther apart than the
+// cloth between them and two vertices at one anchor are refused by field.
+TEST(Weil, RefusesGravityOffTheVerticalAndUnreachableAnchors) {
+  for (const Vec3& g : {Vec3(0, 0, 0), Vec3(1, 0, 0), Vec3(0, 9.81, 0), Vec3(0.5, -9.81, 0)}) {
+    SimulationSetup s = strip(0.8);
+    s.gravity = g;
+    expect_refused(s, "gravity");
+  }
+  {
+    SimulationSetup s = strip(0.8);
+    s.gravity = Vec3(0, -3.0, 0);  // any magnitude along -y: the catenary shape does not depend on it
+    Simulation sim(s, "scene.json");
+    EXPECT_TRUE(sim.step_frame().finite);
+  }
+  {
+    SimulationSetup s = strip(1.5);  // ends 1.5 m apart on a 1 m strip
+    expect_refused(s, "pins[1].anchor");
+  }
+  {
+    SimulationSetup s = strip(0.8);
+    for (auto& p : s.cloths[0].pins) p.anchor = Vec3(0, 1, 0);  // all four corners at one point
+    expect_refused(s, "anchor");
+  }
+}
+
 }  // namespace
 }  // namespace loom::cloth

@@ -5,6 +5,8 @@
 #include <cmath>
 #include <ctime>
 #include <limits>
+#include <set>
+#include <sstream>
 
 #include "loom/cloth/Error.h"
 #include "loom/cloth/HiddenText.h"
@@ -181,6 +183,10 @@ int settle(Simulation& sim, double tol, const FabricTestOptions& o, FabricTestRe
     if (!std::isfinite(moved) || !std::isfinite(speed))
       throw Error("", "fabric-test", "the simulation became non-finite");
     r.settle_frames = f;
+    if (!stats.finite) {  // a failed frame (the guard's cause): not settled, and no frames can settle it
+      r.failure = sim.failure();
+      return f;
+    }
     if (!dynamic) {
       if (moved < tol) {
         r.settled = true;
@@ -188,12 +194,17 @@ int settle(Simulation& sim, double tol, const FabricTestOptions& o, FabricTestRe
       }
       continue;
     }
-    if (!stats.finite) return f;  // a failed frame: not settled
     quiet = moved < tol && speed < o.settle_speed ? quiet + 1 : 0;
     if (quiet >= kQuietFrames) {
       r.settled = true;
       return f;
     }
+  }
+  if (!dynamic) {
+    std::ostringstream why;
+    why << "the static solve did not converge: the largest vertex move was still above " << tol << " m after "
+        << max_frames << " frames of Newton iterations (the shape it stopped at is no equilibrium)";
+    r.failure = why.str();
   }
   return max_frames;
 }
@@ -284,8 +295,10 @@ double pulled_strain(const FabricTestOptions& o, double line_load, int n, double
   // The test's record: frames over all its pulls, settled when every pull settled.
   r.settled = (r.settle_frames == 0 || r.settled) && settled.settled;
   r.settle_frames += settled.settle_frames;
-  if (o.solver != "static" && !settled.settled) {  // measured nothing
+  if (!settled.settled) {  // measured nothing (a failed frame, an unsettled run, a static solve that did not
+                           // converge)
     r.settle_frames = settled.settle_frames;
+    if (r.failure.empty()) r.failure = settled.failure;
     return std::numeric_limits<double>::quiet_NaN();
   }
   const ClothState& st = sim.cloths()[0]->state();
@@ -631,10 +644,19 @@ FabricTestResult run_fabric_test(const FabricTestOptions& o) {
     throw Error("", "test",
                 "unknown fabric test '" + show_value(o.test) + "' (known: " + fabric_test_list() + ")");
   }
-  // A dynamic solver that did not settle measured nothing (tensile and shear: pulled_strain).
-  if (o.solver != "static" && !r.settled &&
-      (o.test == "cantilever" || o.test == "catenary" || o.test == "drape"))
-    r.measured = r.error = std::numeric_limits<double>::quiet_NaN();
+  // A run that did not settle or failed measured nothing (tensile and shear: pulled_strain): no measured
+  // figure, no simulated curve, no field derived from the final shape.
+  if (!r.failure.empty() ||
+      (!r.settled && (o.test == "cantilever" || o.test == "catenary" || o.test == "drape"))) {
+    const double nan = std::numeric_limits<double>::quiet_NaN();
+    r.measured = r.error = nan;
+    r.curve.clear();
+    const std::set<std::string> inputs = {"overhang_ratio", "overhang_m", "bending_length_m",
+                                          "rigidity_Nm",    "span_m",     "length_m",
+                                          "static_frames",  "frames",     "vertices"};
+    for (auto& field : r.fields)
+      if (!inputs.count(field.first)) field.second = nan;
+  }
   r.test = o.test;
   r.material = o.material.name;
   r.model = o.model;

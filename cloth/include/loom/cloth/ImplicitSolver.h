@@ -110,6 +110,13 @@ class ImplicitSolver final : public Solver {
     return scheme_ == Scheme::kBdf2 ? "bdf2" : scheme_ == Scheme::kImex ? "imex" : "implicit_euler";
   }
   void step(Cloth& cloth, double t, double h, int threads) override;
+  // A step whose Newton iterations (full Newton, or the safeguard's correction) stopped because the line
+  // search found no decrease of Φ (or the direction was not finite) before the residual |g|_M⁻¹ fell to half
+  // its start value, while the predicted decrease -gᵀp was above the round-off of Φ: that step is not a
+  // solution (kept, it freezes the cloth at its start): "" or why, read by the guard like a stage's
+  // violation (Stage.h: the frame is retried with smaller steps). With adaptive = 1 the substep is halved
+  // first.
+  const std::string& violation() const { return violation_; }
   void reset() override {
     has_history_ = false;
     energy_cache_valid_ = false;
@@ -131,7 +138,8 @@ class ImplicitSolver final : public Solver {
                 const Vec3s* y = nullptr, Vec3s* ky = nullptr);
   void multiply(const BlockMatrix& m, const Vec3s& x, Vec3s& y, int threads) const;
   double incremental_potential(Cloth& cloth, const Vec3s& v, double t, int threads);
-  void newton(Cloth& cloth, double t, double h, int threads, int iterations);
+  // False when it stopped without solving the step (violation()); the reason goes into violation_.
+  bool newton(Cloth& cloth, double t, double h, int threads, int iterations);
   // Kinetic energy of the free vertices (returned) and, unless kinetic_only, each conservative term's energy
   // (per_term), J.
   double mechanical_energy(const Cloth& cloth, const Vec3s& x, const Vec3s& v, double t, int threads,
@@ -178,7 +186,9 @@ class ImplicitSolver final : public Solver {
   std::vector<const Term*> energy_cache_terms_;
   bool energy_cache_valid_ = false;
   double gamma_ = 0.0;
-  double h_dv_ = 0.0;  // s, step of the Δv kept in dv_ (the PCG's warm start); 0 = none
+  std::string violation_;       // violation() of the last step
+  std::string newton_failure_;  // why the last substep's Newton did not solve it ("" if it did)
+  double h_dv_ = 0.0;           // s, step of the Δv kept in dv_ (the PCG's warm start); 0 = none
   bool d_written_ =
       false;  // the last assembly wrote df/dv into D_ (so D_ must be cleared before it is skipped)
 };

@@ -64,6 +64,10 @@ struct FabricTestResult {
   // whether the largest move of the last one met the test's tolerance (converged), not a settling.
   int settle_frames = 0;
   bool settled = false;
+  // Why the run measured nothing although frames were left: a frame the simulation failed (its cause and
+  // frame, Simulation::failure()) or a static solve that did not converge. "" otherwise; when set, measured,
+  // error, the measured fields and the simulated curve are NaN / empty.
+  std::string failure;
 };
 
 std::vector<std::string> fabric_test_names();
