@@ -22,6 +22,32 @@ constexpr int kMaxFbxDepth = 512;
 // expand to more than kMaxExpandedNodes (counted on the instancing graph, each node once).
 void check_collada_instances(const std::string& file, const std::string& text);
 
+// Input offsets and sets a COLLADA <input> may name, the largest accessor stride (a 4x4 matrix has 16), and
+// the values, indices and per-joint lists a COLLADA document's counts may imply per byte of the file.
+constexpr std::uint64_t kMaxInputOffset = 255;
+constexpr std::uint64_t kMaxInputSet = 255;
+constexpr std::uint64_t kMaxAccessorStride = 1024;
+constexpr std::uint64_t kColladaValuesPerByte = 4;
+
+// A COLLADA document's data, as assimp's COLLADA reader would trust it (`text` holds <COLLADA>; other XML
+// passes). Refused, naming the line and the element or attribute:
+// - a <float_array>, <int_array>, <Name_array>, <IDREF_array> or <bool_array> whose count is missing, not a
+//   whole number, or not the number of values it holds, or with a value that is not of its type (floats
+//   finite);
+// - an <accessor> whose source is no array of the file, whose count, stride (1 to kMaxAccessorStride) or
+//   offset is not a whole number, that reads past its array (offset + count * stride) or whose <param>s
+//   read more values than its stride;
+// - an <input> offset or set past kMaxInputOffset / kMaxInputSet;
+// - a primitive (<triangles>, <polylist>, ...) whose <vcount> and <p> tokens are not whole numbers or do
+//   not match its count and its inputs (max offset + 1 indices per vertex), that has indices but no VERTEX
+//   input of its mesh's <vertices> (with a POSITION), or an index past the accessor read at its offset;
+// - a <skin> whose bind_shape_matrix is not 16 numbers, whose inverse bind matrices do not cover its
+//   joints, whose <vertex_weights> count, <vcount> and <v> disagree, index a joint or weight that is not
+//   there or cover fewer vertices than the skinned mesh indexes;
+// - an animation <channel> whose OUTPUT values per key overrun the transform it targets;
+// - a document whose counts imply more than kColladaValuesPerByte values per byte (plus 2^20).
+void check_collada_data(const std::string& file, const std::string& text);
+
 // A glTF's JSON (text starting with '{') or a binary glTF (.glb, magic "glTF"): every node has at most one
 // parent, no node is its own ancestor, and the scenes' root lists expand to at most kMaxExpandedNodes.
 // Text that is not JSON passes (assimp names the syntax error).
