@@ -278,10 +278,9 @@ struct DaeInput {
   std::uint64_t offset = 0;
   std::size_t at = 0;
 };
-struct DaeArray {
-  char kind;  // 'f' float, 'i' int, 'b' bool, 'n' Name, 'r' IDREF
-  std::uint64_t count;
-  std::size_t at;
+struct DaeArrays {  // the arrays of one id (ids should be unique; each duplicate is checked)
+  std::uint64_t min_count = ~std::uint64_t(0), max_count = 0;
+  bool names = false, numbers = false;  // <Name_array>/<IDREF_array>; the others
 };
 struct DaeAccessor {
   std::string array;  // the source attribute without its '#'
@@ -353,7 +352,7 @@ void check_collada_data(const std::string& file, const std::string& text) {
   auto refuse = [&](std::size_t at, const std::string& problem) {
     throw Error(file, line_at(text, at), problem);
   };
-  std::unordered_map<std::string, std::vector<DaeArray>> arrays;
+  std::unordered_map<std::string, DaeArrays> arrays;
   std::unordered_map<std::string, std::vector<DaeAccessor>> accessors;  // by the enclosing <source>'s id
   std::vector<DaeMesh> meshes;
   std::vector<DaeVertices> vertices;
@@ -574,7 +573,10 @@ void check_collada_data(const std::string& file, const std::string& text) {
       if (tokens_seen != count)
         refuse(start, "<" + element + " id=\"" + attr("id") + "\" count=\"" + std::to_string(count) +
                           "\"> holds " + std::to_string(tokens_seen) + " values");
-      arrays[attr("id")].push_back({kind, count, start});
+      DaeArrays& same = arrays[attr("id")];
+      same.min_count = std::min(same.min_count, count);
+      same.max_count = std::max(same.max_count, count);
+      (kind == 'n' || kind == 'r' ? same.names : same.numbers) = true;
       implied += count;
       continue;  // its end tag is read: it is not pushed
     }
@@ -752,30 +754,50 @@ void check_collada_data(const std::string& file, const std::string& text) {
     if (!empty) open.push_back(element);
   }
 
-  // References, once every definition is known.
-  for (const auto& [source, list] : accessors)
+  // References, once every definition is known. The accessors of one <source> id are summed up (the
+  // smallest count and stride, the widest element) so duplicate ids cost no more than distinct ones.
+  struct Source {
+    std::uint64_t count = ~std::uint64_t(0), stride = ~std::uint64_t(0), size = 0, names = 0;
+    bool strings = false, numbers = false, plain = true;  // plain: every accessor has stride 1, offset 0
+    std::size_t at = 0;
+    std::string array;
+  };
+  std::unordered_map<std::string, Source> sources;
+  for (const auto& [id, list] : accessors) {
+    Source& src = sources[id];
     for (const DaeAccessor& a : list) {
       const auto found = arrays.find(a.array);
       if (found == arrays.end()) refuse(a.at, "<accessor source=\"#" + a.array + "\">: no array has that id");
-      for (const DaeArray& arr : found->second)
-        if (a.offset > arr.count || a.count > (arr.count - a.offset) / a.stride)
-          refuse(a.at, "<accessor source=\"#" + a.array + "\" count=\"" + std::to_string(a.count) +
-                           "\" stride=\"" + std::to_string(a.stride) + "\" offset=\"" +
-                           std::to_string(a.offset) + "\"> reads past the " + std::to_string(arr.count) +
-                           " values of its array");
+      const DaeArrays& arr = found->second;
+      if (a.offset > arr.min_count || a.count > (arr.min_count - a.offset) / a.stride)
+        refuse(a.at, "<accessor source=\"#" + a.array + "\" count=\"" + std::to_string(a.count) +
+                         "\" stride=\"" + std::to_string(a.stride) + "\" offset=\"" +
+                         std::to_string(a.offset) + "\"> reads past the " + std::to_string(arr.min_count) +
+                         " values of its array");
+      if (src.array.empty()) {
+        src.array = a.array;
+        src.at = a.at;
+      }
+      src.count = std::min(src.count, a.count);
+      src.stride = std::min(src.stride, a.stride);
+      src.size = std::max(src.size, a.size);
+      src.names = std::max(src.names, arr.max_count);
+      src.strings = src.strings || arr.names;
+      src.numbers = src.numbers || arr.numbers;
+      src.plain = src.plain && a.stride == 1 && a.offset == 0;
     }
-  auto accessor_of = [&](const DaeInput& in, std::size_t at) -> const std::vector<DaeAccessor>& {
-    const auto found = accessors.find(in.source);
-    if (found == accessors.end())
+  }
+  auto source_of = [&](const DaeInput& in, std::size_t at) -> const Source& {
+    const auto found = sources.find(in.source);
+    if (found == sources.end())
       refuse(at, "<input semantic=\"" + in.semantic + "\" source=\"#" + in.source +
                      "\">: no <source> with that id holds an <accessor>");
     return found->second;
   };
-  auto array_kinds = [&](const DaeAccessor& a, bool strings, const DaeInput& in) {
-    for (const DaeArray& arr : arrays[a.array])
-      if ((arr.kind == 'n' || arr.kind == 'r') != strings)
-        refuse(in.at, "<input semantic=\"" + in.semantic + "\" source=\"#" + in.source + "\">: its array #" +
-                          a.array + (strings ? " holds numbers, not names" : " holds names, not numbers"));
+  auto array_kinds = [&](const Source& src, bool strings, const DaeInput& in) {
+    if (strings ? src.numbers : src.strings)
+      refuse(in.at, "<input semantic=\"" + in.semantic + "\" source=\"#" + in.source + "\">: its array #" +
+                        src.array + (strings ? " holds numbers, not names" : " holds names, not numbers"));
   };
   for (const DaeUse& u : uses) {
     std::vector<DaeInput> through;
@@ -790,39 +812,39 @@ void check_collada_data(const std::string& file, const std::string& text) {
     } else {
       through.push_back(u.input);
     }
-    for (const DaeInput& in : through)
-      for (const DaeAccessor& a : accessor_of(in, u.input.at)) {
-        array_kinds(a, false, in);
-        if (u.max >= a.count)
-          refuse(u.at, "index " + std::to_string(u.max) + " read through <input semantic=\"" +
-                           u.input.semantic + "\" offset=\"" + std::to_string(u.input.offset) +
-                           "\"> is past the " + std::to_string(a.count) + " elements of source #" +
-                           in.source);
-      }
+    for (const DaeInput& in : through) {
+      const Source& src = source_of(in, u.input.at);
+      array_kinds(src, false, in);
+      if (u.max >= src.count)
+        refuse(u.at, "index " + std::to_string(u.max) + " read through <input semantic=\"" +
+                         u.input.semantic + "\" offset=\"" + std::to_string(u.input.offset) +
+                         "\"> is past the " + std::to_string(src.count) + " elements of source #" +
+                         in.source);
+    }
   }
+  std::unordered_multimap<std::string, std::size_t> meshes_by_geometry;
+  for (std::size_t k = 0; k < meshes.size(); ++k) meshes_by_geometry.emplace(meshes[k].geometry, k);
   for (const DaeSkin& s : skins) {
     std::uint64_t joints = 0;
     for (const DaeInput& in : s.joints) {
       if (in.semantic != "JOINT") continue;
-      for (const DaeAccessor& a : accessor_of(in, s.at)) {
-        array_kinds(a, true, in);
-        if (a.stride != 1 || a.offset != 0)
-          refuse(a.at,
-                 "<accessor> of the joint names: stride and offset must be 1 and 0 (the reader reads "
-                 "every name of the array in order)");
-        for (const DaeArray& arr : arrays[a.array]) joints = std::max(joints, arr.count);
-      }
+      const Source& src = source_of(in, s.at);
+      array_kinds(src, true, in);
+      if (!src.plain)
+        refuse(src.at,
+               "<accessor> of the joint names: stride and offset must be 1 and 0 (the reader reads "
+               "every name of the array in order)");
+      joints = std::max(joints, src.names);
     }
     for (const DaeInput& in : s.joints) {
       if (in.semantic != "INV_BIND_MATRIX") continue;
-      for (const DaeAccessor& a : accessor_of(in, s.at)) {
-        array_kinds(a, false, in);
-        if (a.stride < 16 || a.count < joints)
-          refuse(a.at, "<accessor> of the inverse bind matrices (count " + std::to_string(a.count) +
-                           ", stride " + std::to_string(a.stride) +
+      const Source& src = source_of(in, s.at);
+      array_kinds(src, false, in);
+      if (src.stride < 16 || src.count < joints)
+        refuse(src.at, "<accessor> of the inverse bind matrices (count " + std::to_string(src.count) +
+                           ", stride " + std::to_string(src.stride) +
                            ") does not hold a 4x4 matrix for each of the " + std::to_string(joints) +
                            " joints");
-      }
     }
     if (!s.has_weights) continue;
     if (s.count > 0 && !s.vcount) refuse(s.weights_at, "<vertex_weights> has no <vcount>");
@@ -833,16 +855,17 @@ void check_collada_data(const std::string& file, const std::string& text) {
       if (in.semantic == "JOINT" && max >= joints)
         refuse(s.v_at, "<v>: joint index " + std::to_string(max) + " is past the " + std::to_string(joints) +
                            " joints");
-      if (in.semantic == "WEIGHT")
-        for (const DaeAccessor& a : accessor_of(in, s.weights_at)) {
-          array_kinds(a, false, in);
-          if (max >= a.count)
-            refuse(s.v_at, "<v>: weight index " + std::to_string(max) + " is past the " +
-                               std::to_string(a.count) + " weights of source #" + in.source);
-        }
+      if (in.semantic == "WEIGHT") {
+        const Source& src = source_of(in, s.weights_at);
+        array_kinds(src, false, in);
+        if (max >= src.count)
+          refuse(s.v_at, "<v>: weight index " + std::to_string(max) + " is past the " +
+                             std::to_string(src.count) + " weights of source #" + in.source);
+      }
     }
-    for (const DaeMesh& m : meshes) {
-      if (m.geometry != s.mesh) continue;
+    const auto [first, last] = meshes_by_geometry.equal_range(s.mesh);
+    for (auto it = first; it != last; ++it) {
+      const DaeMesh& m = meshes[it->second];
       if (m.indexed && m.max_vertex >= s.count)
         refuse(s.weights_at, "<vertex_weights count=\"" + std::to_string(s.count) +
                                  "\">: the skinned mesh #" + s.mesh + " indexes vertex " +
@@ -856,15 +879,14 @@ void check_collada_data(const std::string& file, const std::string& text) {
     if (sampler == samplers.end()) continue;  // assimp names an unresolved sampler
     for (const DaeInput& in : sampler->second) {
       if (in.semantic != "INPUT" && in.semantic != "OUTPUT") continue;
-      const auto found = accessors.find(in.source);
-      if (found == accessors.end()) continue;  // assimp names an unresolved source
-      for (const DaeAccessor& a : found->second) {
-        array_kinds(a, false, in);
-        if (in.semantic == "OUTPUT" && target_sub_element(c.target) + a.size > 16)
-          refuse(c.at, "<channel target=\"" + c.target + "\">: its OUTPUT source #" + in.source + " holds " +
-                           std::to_string(a.size) + " values per key, more than the target has room for");
-        implied += a.count;
-      }
+      const auto found = sources.find(in.source);
+      if (found == sources.end()) continue;  // assimp names an unresolved source
+      const Source& src = found->second;
+      array_kinds(src, false, in);
+      if (in.semantic == "OUTPUT" && target_sub_element(c.target) + src.size > 16)
+        refuse(c.at, "<channel target=\"" + c.target + "\">: its OUTPUT source #" + in.source + " holds " +
+                         std::to_string(src.size) + " values per key, more than the target has room for");
+      implied += src.count;
     }
   }
   const std::uint64_t budget = kColladaValuesPerByte * std::uint64_t(n) + (std::uint64_t(1) << 20);
