@@ -1,9 +1,11 @@
 #pragma once
-// ImportPrescan: checks of a file's node graph and nesting that must run before assimp reads it, because
-// assimp's readers expand or recurse without bound: a COLLADA <instance_node> cycle or a chain of nodes
-// each instancing the next twice, a glTF node listed as the child of two parents, an FBX nested deeper
-// than its reader's stack. Each check streams over the file's text (no document tree is built beyond a
-// glTF's node list) and throws loom::Error naming the file and the line, node or byte offset.
+// ImportPrescan: checks of a file's node graph, nesting and counts that must run before assimp reads it,
+// because assimp's readers expand or recurse without bound or trust the counts a file gives: a COLLADA
+// <instance_node> cycle or a chain of nodes each instancing the next twice, a COLLADA array, accessor or
+// index list whose counts disagree with its data, a glTF node listed as the child of two parents, an FBX
+// nested deeper than its reader's stack. Each check streams over the file's text (no document tree is
+// built beyond a glTF's node list and a COLLADA file's per-id summaries) and throws loom::Error naming the
+// file and the line, node or byte offset.
 #include <cstdint>
 #include <string>
 
