@@ -4,6 +4,7 @@
 #include <cctype>
 #include <charconv>
 #include <cmath>
+#include <cstdio>
 #include <cstring>
 #include <filesystem>
 #include <functional>
@@ -255,7 +256,7 @@ bool parse_whole(const char* b, const char* e, std::uint64_t& out) {
 
 // A finite number as assimp's reader takes it: an optional sign, digits with a '.' or (as written under some
 // locales) a ',' before the fraction, an optional exponent.
-bool parse_finite(const char* b, const char* e) {
+bool parse_finite(const char* b, const char* e, double* value = nullptr) {
   if (b < e && *b == '+') ++b;
   if (b == e || e - b > 256) return false;
   char copy[257];
@@ -264,6 +265,7 @@ bool parse_finite(const char* b, const char* e) {
     copy[size++] = *c == ',' && c + 1 < e && c[1] >= '0' && c[1] <= '9' ? '.' : *c;
   double v = 0;
   const auto r = std::from_chars(copy, copy + size, v);
+  if (value) *value = v;
   return r.ec == std::errc() && r.ptr == copy + size && std::isfinite(v);
 }
 
@@ -281,6 +283,7 @@ struct DaeInput {
 struct DaeArrays {  // the arrays of one id (ids should be unique; each duplicate is checked)
   std::uint64_t min_count = ~std::uint64_t(0), max_count = 0;
   bool names = false, numbers = false;  // <Name_array>/<IDREF_array>; the others
+  std::size_t text = 0;                 // where the last one's values start (assimp keeps the last)
 };
 struct DaeAccessor {
   std::string array;  // the source attribute without its '#'
@@ -561,6 +564,7 @@ void check_collada_data(const std::string& file, const std::string& text) {
                                             : 'b';
       const std::uint64_t count = whole_attr(start, tag_end, element, "count", 0, 0xffffffffu, true);
       std::uint64_t tokens_seen = 0;
+      arrays[attr("id")].text = at;
       if (!empty)
         at = tokens(at, element, start, [&](const char* b, const char* e) {
           ++tokens_seen;
@@ -761,6 +765,7 @@ void check_collada_data(const std::string& file, const std::string& text) {
     bool strings = false, numbers = false, plain = true;  // plain: every accessor has stride 1, offset 0
     std::size_t at = 0;
     std::string array;
+    std::uint64_t first_offset = 0, first_stride = 1, first_count = 0;  // of its first accessor
   };
   std::unordered_map<std::string, Source> sources;
   for (const auto& [id, list] : accessors) {
@@ -777,6 +782,9 @@ void check_collada_data(const std::string& file, const std::string& text) {
       if (src.array.empty()) {
         src.array = a.array;
         src.at = a.at;
+        src.first_offset = a.offset;
+        src.first_stride = a.stride;
+        src.first_count = a.count;
       }
       src.count = std::min(src.count, a.count);
       src.stride = std::min(src.stride, a.stride);
@@ -887,6 +895,31 @@ void check_collada_data(const std::string& file, const std::string& text) {
         refuse(c.at, "<channel target=\"" + c.target + "\">: its OUTPUT source #" + in.source + " holds " +
                          std::to_string(src.size) + " values per key, more than the target has room for");
       implied += src.count;
+      // assimp samples a rotation's ANGLE key interval once per 90 degrees turned (past 180).
+      if (in.semantic == "OUTPUT" && c.target.size() > 6 &&
+          c.target.compare(c.target.size() - 6, 6, ".ANGLE") == 0) {
+        double turns = 0, previous = 0;
+        std::uint64_t k = 0, read = 0;
+        const std::size_t end = std::min(n, text.find('<', arrays[src.array].text));
+        for (std::size_t at = arrays[src.array].text; at < end && read < src.first_count;) {
+          while (at < end && xml_space(text[at])) ++at;
+          const std::size_t b = at;
+          while (at < end && !xml_space(text[at])) ++at;
+          if (at == b) break;
+          if (k++ < src.first_offset || (k - 1 - src.first_offset) % src.first_stride != 0) continue;
+          double v = 0;
+          parse_finite(text.data() + b, text.data() + at, &v);
+          if (read++ > 0) turns += std::abs(v - previous) / 90;
+          previous = v;
+        }
+        if (turns > double(kColladaValuesPerByte) * double(n) + double(1 << 20)) {
+          char degrees[32];
+          std::snprintf(degrees, sizeof degrees, "%.6g", turns * 90);
+          refuse(c.at, "<channel target=\"" + c.target + "\">: its angles turn " + degrees +
+                           " degrees, sampled every 90 degrees: more samples than the file's size allows");
+        }
+        implied += std::uint64_t(std::min(turns, 1e18));
+      }
     }
   }
   const std::uint64_t budget = kColladaValuesPerByte * std::uint64_t(n) + (std::uint64_t(1) << 20);

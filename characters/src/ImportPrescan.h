@@ -46,7 +46,8 @@ constexpr std::uint64_t kColladaValuesPerByte = 4;
 // - a <skin> whose bind_shape_matrix is not 16 numbers, whose inverse bind matrices do not cover its
 //   joints, whose <vertex_weights> count, <vcount> and <v> disagree, index a joint or weight that is not
 //   there or cover fewer vertices than the skinned mesh indexes;
-// - an animation <channel> whose OUTPUT values per key overrun the transform it targets;
+// - an animation <channel> whose OUTPUT values per key overrun the transform it targets, or whose ANGLE
+//   keys turn through more 90-degree steps (assimp samples each) than the bound below;
 // - a document whose counts imply more than kColladaValuesPerByte values per byte (plus 2^20).
 void check_collada_data(const std::string& file, const std::string& text);
 

@@ -239,6 +239,19 @@ const std::vector<Mutation>& mutations() {
       {{{"target=\"tip/transform\"", "target=\"tip/transform(3)(3)\""}},
        "<channel",
        "<channel target=\"tip/transform(3)(3)\">: its OUTPUT source #anim-m holds 16 values per key"},
+      // A rotation's ANGLE keys: assimp samples every 90 degrees turned between two keys.
+      {{{"<node id=\"tip\" sid=\"tip\" name=\"tip\" type=\"JOINT\">\n",
+         "<node id=\"tip\" sid=\"tip\" name=\"tip\" type=\"JOINT\">\n<rotate sid=\"rz\">0 0 1 0</rotate>\n"},
+        {"target=\"tip/transform\"", "target=\"tip/rz.ANGLE\""},
+        {"<source id=\"anim-m\">",
+         "<source id=\"anim-a\"><float_array id=\"anim-a-array\" count=\"2\">0 "
+         "1e9</float_array><technique_common>"
+         "<accessor source=\"#anim-a-array\" count=\"2\"><param name=\"ANGLE\" type=\"float\"/></accessor>"
+         "</technique_common></source>\n<source id=\"anim-m\">"},
+        {"<input semantic=\"OUTPUT\" source=\"#anim-m\"/>",
+         "<input semantic=\"OUTPUT\" source=\"#anim-a\"/>"}},
+       "<channel",
+       "<channel target=\"tip/rz.ANGLE\">: its angles turn 1e+09 degrees, sampled every 90 degrees"},
   };
   return rows;
 }
