@@ -194,6 +194,7 @@ void check_zip_entry(const std::string& file, const std::string& zip, const ZipE
     throw Error(file, e.name + ", line " + std::to_string(scan.line()),
                 "XML elements nest more than " + std::to_string(kMaxXmlDepth) + " levels deep");
   check_collada_instances(file + ": " + e.name, whole);  // ImportPrescan.h: cycles and node bombs
+  check_collada_data(file + ": " + e.name, whole);       // ImportPrescan.h: counts, accessors, indices
 }
 
 std::uint64_t line_of(const std::string& text, std::size_t at) {
@@ -246,6 +247,7 @@ bool check_content(const std::string& file, const std::function<bool(std::uint64
       throw Error(file, "line " + std::to_string(scan.line()),
                   "XML elements nest more than " + std::to_string(kMaxXmlDepth) + " levels deep");
     check_collada_instances(file, text);  // ImportPrescan.h
+    check_collada_data(file, text);       // ImportPrescan.h
   } else {
     check_mtllib(file, text);
     check_gltf_nodes(file, text);   // ImportPrescan.h

@@ -2,8 +2,12 @@
 
 #include <algorithm>
 #include <cctype>
+#include <charconv>
+#include <cmath>
+#include <cstdio>
 #include <cstring>
 #include <filesystem>
+#include <functional>
 #include <nlohmann/json.hpp>
 #include <unordered_map>
 #include <utility>
@@ -40,8 +44,9 @@ struct DaeRef {
   std::string target;  // the url without its leading '#'
 };
 
-// The attribute `key` of the start tag text[begin, end) ("" if absent); values in ' or " quotes.
-std::string attribute(const std::string& text, std::size_t begin, std::size_t end, const char* key) {
+// The attribute `key` of the start tag text[begin, end) into `out`; false if absent. Values in ' or " quotes.
+bool find_attribute(const std::string& text, std::size_t begin, std::size_t end, const char* key,
+                    std::string& out) {
   const std::size_t key_size = std::strlen(key);
   std::size_t at = begin;
   while (at < end && !std::isspace(static_cast<unsigned char>(text[at])) && text[at] != '/') ++at;  // name
@@ -54,15 +59,23 @@ std::string attribute(const std::string& text, std::size_t begin, std::size_t en
     if (at >= end || text[at] != '=') continue;
     ++at;
     while (at < end && std::isspace(static_cast<unsigned char>(text[at]))) ++at;
-    if (at >= end || (text[at] != '"' && text[at] != '\'')) return "";
+    if (at >= end || (text[at] != '"' && text[at] != '\'')) return false;
     const char quote = text[at++];
     const std::size_t value = at;
     while (at < end && text[at] != quote) ++at;
-    if (name_end - name == key_size && text.compare(name, key_size, key) == 0)
-      return text.substr(value, at - value);
+    if (name_end - name == key_size && text.compare(name, key_size, key) == 0) {
+      out = text.substr(value, at - value);
+      return true;
+    }
     ++at;
   }
-  return "";
+  return false;
+}
+
+// The attribute `key` of the start tag text[begin, end) ("" if absent).
+std::string attribute(const std::string& text, std::size_t begin, std::size_t end, const char* key) {
+  std::string value;
+  return find_attribute(text, begin, end, key, value) ? value : std::string();
 }
 
 std::string dae_label(const DaeNode& n) {
@@ -220,6 +233,701 @@ void check_collada_instances(const std::string& file, const std::string& text) {
                     ": with its <instance_node> copies the scene expands to more than " +
                     std::to_string(kMaxExpandedNodes) + " nodes");
   }
+}
+
+// ---- COLLADA: data arrays, accessors, index lists and skins ----
+
+namespace {
+
+bool xml_space(char c) { return c == ' ' || c == '\t' || c == '\n' || c == '\r'; }
+
+// A whole number of digits only (no sign), at most 2^63; false otherwise.
+bool parse_whole(const char* b, const char* e, std::uint64_t& out) {
+  if (b == e) return false;
+  std::uint64_t v = 0;
+  for (const char* c = b; c < e; ++c) {
+    if (*c < '0' || *c > '9') return false;
+    if (v > (std::uint64_t(1) << 63) / 10) return false;
+    v = v * 10 + std::uint64_t(*c - '0');
+  }
+  out = v;
+  return true;
+}
+
+// A finite number as assimp's reader takes it: an optional sign, digits with a '.' or (as written under some
+// locales) a ',' before the fraction, an optional exponent.
+bool parse_finite(const char* b, const char* e, double* value = nullptr) {
+  if (b < e && *b == '+') ++b;
+  if (b == e || e - b > 256) return false;
+  char copy[257];
+  std::size_t size = 0;
+  for (const char* c = b; c < e; ++c)
+    copy[size++] = *c == ',' && c + 1 < e && c[1] >= '0' && c[1] <= '9' ? '.' : *c;
+  double v = 0;
+  const auto r = std::from_chars(copy, copy + size, v);
+  if (value) *value = v;
+  return r.ec == std::errc() && r.ptr == copy + size && std::isfinite(v);
+}
+
+bool parse_int(const char* b, const char* e) {
+  if (b < e && (*b == '-' || *b == '+')) ++b;
+  std::uint64_t v = 0;
+  return parse_whole(b, e, v);
+}
+
+struct DaeInput {
+  std::string semantic, source;  // source without its '#'
+  std::uint64_t offset = 0;
+  std::size_t at = 0;
+};
+struct DaeArrays {  // the arrays of one id (ids should be unique; each duplicate is checked)
+  std::uint64_t min_count = ~std::uint64_t(0), max_count = 0;
+  bool names = false, numbers = false;  // <Name_array>/<IDREF_array>; the others
+  std::size_t text = 0;                 // where the last one's values start (assimp keeps the last)
+};
+struct DaeAccessor {
+  std::string array;  // the source attribute without its '#'
+  std::uint64_t count = 0, stride = 1, offset = 0, params = 0, size = 0;  // size: assimp's (float4x4 16)
+  std::size_t at = 0;
+};
+struct DaeMesh {
+  std::string geometry;  // the id of its <geometry>
+  int vertices = -1;     // its <vertices>
+  bool indexed = false;  // a primitive indexed VERTEX
+  std::uint64_t max_vertex = 0, primitives = 0;
+};
+struct DaeVertices {
+  std::string id;
+  std::vector<DaeInput> inputs;
+};
+struct DaeUse {  // an index list's largest index read through one input (checked once the file is read)
+  DaeInput input;
+  int vertices;  // for VERTEX: the mesh's <vertices>
+  std::uint64_t max;
+  std::size_t at;  // the index list
+};
+struct DaeSkin {
+  std::string mesh;
+  std::size_t at = 0;
+  std::vector<DaeInput> joints, weights;
+  bool has_weights = false;
+  std::uint64_t count = 0, vsum = 0, vcount_tokens = 0;
+  std::size_t weights_at = 0, vcount_at = 0, v_at = 0;
+  bool vcount = false, v = false;
+  std::vector<std::uint64_t> max_v;  // per offset
+};
+struct DaeChannel {
+  std::string sampler, target;
+  std::size_t at;
+};
+
+// The input semantics assimp's COLLADA reader keeps (the others are dropped and take no index slot).
+bool known_semantic(const std::string& s) {
+  return s == "POSITION" || s == "VERTEX" || s == "NORMAL" || s == "TEXCOORD" || s == "COLOR" ||
+         s == "BINORMAL" || s == "TEXBINORMAL" || s == "TANGENT" || s == "TEXTANGENT";
+}
+
+// assimp's sub-element of an animation channel target ("node/transform.X", "node/matrix(1)(2)").
+std::uint64_t target_sub_element(const std::string& target) {
+  const std::size_t slash = target.find('/');
+  if (slash == std::string::npos) return 0;
+  std::uint64_t sub = 0;
+  const std::size_t dot = target.find('.');
+  if (dot != std::string::npos) {
+    const std::string s = target.substr(dot + 1);
+    sub = s == "ANGLE" ? 3 : s == "Y" ? 1 : s == "Z" ? 2 : 0;
+  }
+  const std::size_t bracket = target.find('(');
+  if (bracket != std::string::npos) {
+    const std::string s = target.substr(bracket);
+    if (s.size() == 6 && s[0] == '(' && s[2] == ')' && s[3] == '(' && s[5] == ')' && s[1] >= '0' &&
+        s[1] <= '3' && s[4] >= '0' && s[4] <= '3')
+      sub = std::uint64_t(s[1] - '0') + 4 * std::uint64_t(s[4] - '0');
+  }
+  return sub;
+}
+
+}  // namespace
+
+void check_collada_data(const std::string& file, const std::string& text) {
+  if (text.find("<COLLADA") == std::string::npos) return;
+  const std::size_t n = text.size();
+  auto refuse = [&](std::size_t at, const std::string& problem) {
+    throw Error(file, line_at(text, at), problem);
+  };
+  std::unordered_map<std::string, DaeArrays> arrays;
+  std::unordered_map<std::string, std::vector<DaeAccessor>> accessors;  // by the enclosing <source>'s id
+  std::vector<DaeMesh> meshes;
+  std::vector<DaeVertices> vertices;
+  std::vector<DaeUse> uses;
+  std::vector<DaeSkin> skins;
+  std::unordered_map<std::string, std::vector<DaeInput>> samplers;
+  std::vector<DaeChannel> channels;
+  std::uint64_t implied = 0;  // numbers, indices and per-joint lists the counts imply
+
+  // The open elements: name, and for <source>, <geometry>, <mesh>, <vertices>, <skin>, <sampler> and the
+  // primitives the index of what they fill.
+  std::vector<std::string> open;
+  std::vector<std::string> source_ids, geometry_ids;
+  std::vector<DaeAccessor> accessor_stack;
+  // The primitive element being read.
+  struct Primitive {
+    std::string kind;
+    std::uint64_t count = 0;
+    std::size_t at = 0;
+    int mesh = -1;
+    std::vector<DaeInput> inputs;
+    bool read_indices = false, vcount = false;
+    std::uint64_t lists = 0, vsum = 0, slots = 1;
+    std::vector<std::uint64_t> max;  // per offset
+    std::vector<bool> seen;
+  } prim;
+  bool in_prim = false;
+  DaeSkin skin;
+  bool in_skin = false;
+  std::string sampler_id;
+  std::vector<DaeInput> sampler_inputs;
+
+  auto nearest = [&](const char* name) {
+    for (std::size_t k = open.size(); k-- > 0;)
+      if (open[k] == name) return int(k);
+    return -1;
+  };
+  auto parent_is = [&](const char* name) { return !open.empty() && open.back() == name; };
+  auto whole_attr = [&](std::size_t start, std::size_t end, const std::string& element, const char* key,
+                        std::uint64_t fallback, std::uint64_t max, bool required) {
+    std::string value;
+    if (!find_attribute(text, start + 1, end, key, value)) {
+      if (required) refuse(start, "<" + element + ">: the " + key + " attribute is missing");
+      return fallback;
+    }
+    std::uint64_t v = 0;
+    std::size_t b = 0, e = value.size();
+    while (b < e && xml_space(value[b])) ++b;
+    while (e > b && xml_space(value[e - 1])) --e;
+    if (!parse_whole(value.data() + b, value.data() + e, v) || v > max)
+      refuse(start, "<" + element + "> " + key + "=\"" + value.substr(0, 40) +
+                        "\": not a whole number from 0 to " + std::to_string(max));
+    return v;
+  };
+  // The text of a data element from `begin` (past its start tag) to its end tag; tokens go to `each`.
+  auto tokens = [&](std::size_t begin, const std::string& element, std::size_t start,
+                    const std::function<void(const char*, const char*)>& each) {
+    const std::size_t end = std::min(n, text.find('<', begin));
+    const std::string close = "</" + element;
+    if (end >= n || text.compare(end, close.size(), close) != 0 ||
+        (end + close.size() < n && text[end + close.size()] != '>' && !xml_space(text[end + close.size()])))
+      refuse(start,
+             "<" + element + "> holds markup or is not closed (the reader takes only plain text here)");
+    for (std::size_t at = begin; at < end;) {
+      while (at < end && xml_space(text[at])) ++at;
+      const std::size_t b = at;
+      while (at < end && !xml_space(text[at])) ++at;
+      if (at > b) each(text.data() + b, text.data() + at);
+    }
+    const std::size_t gt = text.find('>', end);
+    return gt == std::string::npos ? n : gt + 1;
+  };
+  auto token_at = [&](const char* p) { return std::size_t(p - text.data()); };
+  auto bad_token = [&](const char* b, const char* e, const std::string& element, const std::string& want) {
+    refuse(token_at(b), "<" + element + ">: '" +
+                            std::string(b, std::min<std::size_t>(40, std::size_t(e - b))) + "' is not " +
+                            want);
+  };
+  // An index list (<p>, <v>) read through `inputs` with `slots` indices per vertex: every token a whole
+  // number, the largest per slot kept; returns the number of tokens.
+  auto index_list = [&](std::size_t begin, const std::string& element, std::size_t start, std::uint64_t slots,
+                        std::vector<std::uint64_t>& max, std::vector<bool>& seen, std::size_t& end) {
+    std::uint64_t count = 0;
+    if (max.size() < slots) {
+      max.resize(slots, 0);
+      seen.resize(slots, false);
+    }
+    end = tokens(begin, element, start, [&](const char* b, const char* e) {
+      std::uint64_t v = 0;
+      if (!parse_whole(b, e, v) || v > 0xffffffffu)
+        bad_token(b, e, element, "an index (a whole number >= 0)");
+      const std::size_t slot = std::size_t(count % slots);
+      if (!seen[slot] || v > max[slot]) max[slot] = v;
+      seen[slot] = true;
+      ++count;
+    });
+    return count;
+  };
+
+  for (std::size_t at = text.find('<'); at < n; at = text.find('<', at)) {
+    if (text.compare(at, 4, "<!--") == 0) {
+      const std::size_t e = text.find("-->", at + 4);
+      at = e == std::string::npos ? n : e + 3;
+      continue;
+    }
+    if (text.compare(at, 9, "<![CDATA[") == 0) {
+      const std::size_t e = text.find("]]>", at + 9);
+      at = e == std::string::npos ? n : e + 3;
+      continue;
+    }
+    if (text.compare(at, 2, "<?") == 0) {
+      const std::size_t e = text.find("?>", at + 2);
+      at = e == std::string::npos ? n : e + 2;
+      continue;
+    }
+    if (text.compare(at, 2, "<!") == 0) {
+      int brackets = 0;
+      for (++at; at < n && !(text[at] == '>' && brackets <= 0); ++at)
+        brackets += text[at] == '[' ? 1 : text[at] == ']' ? -1 : 0;
+      ++at;
+      continue;
+    }
+    if (text.compare(at, 2, "</") == 0) {
+      at = std::min(n, text.find('>', at));
+      if (at < n) ++at;
+      if (open.empty()) continue;
+      const std::string closing = open.back();
+      open.pop_back();
+      // The element ends: what it gathered is checked or filed.
+      if (closing == "source" && !source_ids.empty()) {
+        source_ids.pop_back();
+      } else if (closing == "geometry" && !geometry_ids.empty()) {
+        geometry_ids.pop_back();
+      } else if (closing == "accessor" && !accessor_stack.empty()) {
+        const DaeAccessor a = accessor_stack.back();
+        accessor_stack.pop_back();
+        if (std::max(a.params, a.size) > a.stride)
+          refuse(a.at, "<accessor source=\"#" + a.array + "\">: its <param>s read " +
+                           std::to_string(std::max(a.params, a.size)) + " values per element but stride is " +
+                           std::to_string(a.stride));
+        if (!source_ids.empty() && !source_ids.back().empty()) accessors[source_ids.back()].push_back(a);
+      } else if (closing == "sampler") {
+        if (!sampler_id.empty()) samplers[sampler_id] = sampler_inputs;
+        sampler_id.clear();
+        sampler_inputs.clear();
+      } else if (in_prim && (closing == prim.kind)) {
+        in_prim = false;
+        const Primitive& p = prim;
+        const bool strips =
+            p.kind == "polygons" || p.kind == "trifans" || p.kind == "tristrips" || p.kind == "linestrips";
+        if (strips && p.count != p.lists)
+          refuse(p.at, "<" + p.kind + " count=\"" + std::to_string(p.count) + "\"> holds " +
+                           std::to_string(p.lists) + " <p> lists (count is the number of lists)");
+        if (p.kind == "polylist" && p.count > 0 && !p.vcount)
+          refuse(p.at, "<polylist count=\"" + std::to_string(p.count) + "\"> has no <vcount>");
+        if (p.read_indices) {
+          DaeMesh& mesh = meshes[std::size_t(p.mesh)];
+          ++mesh.primitives;
+          bool vertex = false;
+          for (const DaeInput& in : p.inputs) {
+            if (!known_semantic(in.semantic)) continue;
+            if (!p.seen[std::size_t(in.offset)]) continue;
+            const std::uint64_t max = p.max[std::size_t(in.offset)];
+            if (in.semantic == "VERTEX") {
+              vertex = true;
+              if (mesh.vertices < 0 || vertices[std::size_t(mesh.vertices)].id != in.source)
+                refuse(in.at, "<input semantic=\"VERTEX\" source=\"#" + in.source +
+                                  "\">: not the <vertices> of its <mesh> (declared before the primitives)");
+              mesh.max_vertex = mesh.indexed ? std::max(mesh.max_vertex, max) : max;
+              mesh.indexed = true;
+            }
+            uses.push_back({in, in.semantic == "VERTEX" ? mesh.vertices : -1, max, p.at});
+          }
+          if (!vertex) refuse(p.at, "<" + p.kind + "> has indices but no <input semantic=\"VERTEX\">");
+        }
+      } else if (in_skin && closing == "skin") {
+        in_skin = false;
+        skins.push_back(skin);
+      }
+      continue;
+    }
+    // A start tag.
+    const std::size_t start = at;
+    char quote = 0;
+    for (++at; at < n && (quote || text[at] != '>'); ++at)
+      if (quote ? text[at] == quote : text[at] == '"' || text[at] == '\'') quote = quote ? 0 : text[at];
+    const std::size_t tag_end = at;
+    const bool empty = at < n && text[at - 1] == '/';
+    at = std::min(n, at + 1);
+    std::size_t name_end = start + 1;
+    while (name_end < tag_end && !xml_space(text[name_end]) && text[name_end] != '/') ++name_end;
+    const std::string element = text.substr(start + 1, name_end - start - 1);
+    auto attr = [&](const char* key) { return attribute(text, start + 1, tag_end, key); };
+    auto reference = [&](const char* key) {
+      std::string v = attr(key);
+      if (!v.empty() && v[0] == '#') v.erase(0, 1);
+      return v;
+    };
+
+    if (element == "float_array" || element == "int_array" || element == "Name_array" ||
+        element == "IDREF_array" || element == "bool_array") {
+      const char kind = element[0] == 'f'   ? 'f'
+                        : element[0] == 'i' ? 'i'
+                        : element[0] == 'N' ? 'n'
+                        : element[0] == 'I' ? 'r'
+                                            : 'b';
+      const std::uint64_t count = whole_attr(start, tag_end, element, "count", 0, 0xffffffffu, true);
+      std::uint64_t tokens_seen = 0;
+      arrays[attr("id")].text = at;
+      if (!empty)
+        at = tokens(at, element, start, [&](const char* b, const char* e) {
+          ++tokens_seen;
+          if (kind == 'f' && !parse_finite(b, e)) bad_token(b, e, element, "a finite number");
+          if (kind == 'i' && !parse_int(b, e)) bad_token(b, e, element, "a whole number");
+          if (kind == 'b' && !(std::string(b, e) == "true" || std::string(b, e) == "false" ||
+                               std::string(b, e) == "1" || std::string(b, e) == "0"))
+            bad_token(b, e, element, "true or false");
+        });
+      if (tokens_seen != count)
+        refuse(start, "<" + element + " id=\"" + attr("id") + "\" count=\"" + std::to_string(count) +
+                          "\"> holds " + std::to_string(tokens_seen) + " values");
+      DaeArrays& same = arrays[attr("id")];
+      same.min_count = std::min(same.min_count, count);
+      same.max_count = std::max(same.max_count, count);
+      (kind == 'n' || kind == 'r' ? same.names : same.numbers) = true;
+      implied += count;
+      continue;  // its end tag is read: it is not pushed
+    }
+    if (element == "source") {
+      source_ids.push_back(attr("id"));
+    } else if (element == "geometry") {
+      geometry_ids.push_back(attr("id"));
+    } else if (element == "mesh") {
+      meshes.push_back({geometry_ids.empty() ? std::string() : geometry_ids.back(), -1, false, 0, 0});
+    } else if (element == "accessor") {
+      DaeAccessor a;
+      a.at = start;
+      a.array = attr("source");
+      if (a.array.empty() || a.array[0] != '#')
+        refuse(start, "<accessor source=\"" + a.array + "\">: not a reference to an array in the file (#id)");
+      a.array.erase(0, 1);
+      a.count = whole_attr(start, tag_end, element, "count", 0, 0xffffffffu, true);
+      a.stride = whole_attr(start, tag_end, element, "stride", 1, kMaxAccessorStride, false);
+      a.offset = whole_attr(start, tag_end, element, "offset", 0, 0xffffffffu, false);
+      if (a.stride < 1) refuse(start, "<accessor> stride=\"0\": the stride is at least 1");
+      if (!empty) {
+        accessor_stack.push_back(a);
+      } else if (!source_ids.empty() && !source_ids.back().empty()) {
+        accessors[source_ids.back()].push_back(a);
+      }
+    } else if (element == "param" && parent_is("accessor") && !accessor_stack.empty()) {
+      DaeAccessor& a = accessor_stack.back();
+      ++a.params;
+      std::string type;
+      if (find_attribute(text, start + 1, tag_end, "type", type)) a.size += type == "float4x4" ? 16 : 1;
+    } else if (element == "vertices" && nearest("mesh") >= 0 && !meshes.empty()) {
+      meshes.back().vertices = int(vertices.size());
+      vertices.push_back({attr("id"), {}});
+    } else if ((element == "triangles" || element == "lines" || element == "linestrips" ||
+                element == "polygons" || element == "polylist" || element == "trifans" ||
+                element == "tristrips") &&
+               nearest("mesh") >= 0 && !meshes.empty() && !empty) {
+      prim = Primitive();
+      prim.kind = element;
+      prim.at = start;
+      prim.mesh = int(meshes.size()) - 1;
+      prim.count = whole_attr(start, tag_end, element, "count", 0, 0xffffffffu, false);
+      in_prim = true;
+    } else if (element == "input") {
+      DaeInput in;
+      in.semantic = attr("semantic");
+      in.source = reference("source");
+      in.at = start;
+      in.offset = whole_attr(start, tag_end, element, "offset", 0, kMaxInputOffset, false);
+      whole_attr(start, tag_end, element, "set", 0, kMaxInputSet, false);
+      if (parent_is("vertices") && !vertices.empty()) {
+        vertices.back().inputs.push_back(in);
+      } else if (in_prim && parent_is(prim.kind.c_str())) {
+        if (prim.read_indices || prim.vcount)
+          refuse(start, "<input> after the index lists of its <" + prim.kind + ">");
+        prim.inputs.push_back(in);
+        if (known_semantic(in.semantic)) prim.slots = std::max(prim.slots, in.offset + 1);
+      } else if (in_skin && parent_is("joints")) {
+        skin.joints.push_back(in);
+      } else if (in_skin && parent_is("vertex_weights")) {
+        if (skin.vcount || skin.v) refuse(start, "<input> after the <vcount> or <v> of its <vertex_weights>");
+        skin.weights.push_back(in);
+      } else if (parent_is("sampler")) {
+        sampler_inputs.push_back(in);
+      }
+    } else if (element == "vcount" && in_prim && parent_is(prim.kind.c_str())) {
+      if (prim.vcount) refuse(start, "a second <vcount> in its <" + prim.kind + ">");
+      prim.vcount = true;
+      std::uint64_t seen = 0;
+      if (!empty)
+        at = tokens(at, element, start, [&](const char* b, const char* e) {
+          std::uint64_t v = 0;
+          if (!parse_whole(b, e, v) || v > 0xffffffffu) bad_token(b, e, element, "a whole number >= 0");
+          prim.vsum += v;
+          ++seen;
+        });
+      if (seen != prim.count)
+        refuse(start, "<vcount> holds " + std::to_string(seen) + " values but its <" + prim.kind +
+                          "> has count=\"" + std::to_string(prim.count) + "\"");
+      continue;
+    } else if ((element == "p" || element == "h") && in_prim &&
+               (parent_is(prim.kind.c_str()) || parent_is("ph"))) {
+      for (const DaeInput& in : prim.inputs)
+        if (!known_semantic(in.semantic) && in.offset >= prim.slots)
+          refuse(in.at, "<input semantic=\"" + in.semantic + "\" offset=\"" + std::to_string(in.offset) +
+                            "\">: the reader skips this semantic and would read the index list with " +
+                            std::to_string(prim.slots) + " indices per vertex");
+      std::size_t end = at;
+      const std::uint64_t got =
+          empty ? 0 : index_list(at, element, start, prim.slots, prim.max, prim.seen, end);
+      at = empty ? at : end;
+      implied += got;
+      if (element == "h") continue;
+      ++prim.lists;
+      const std::uint64_t slots = prim.slots;
+      std::uint64_t want = 0;
+      std::string why;
+      if (prim.kind == "triangles") {
+        want = 3 * prim.count * slots;
+        why = "count " + std::to_string(prim.count) + " x 3 vertices";
+      } else if (prim.kind == "polylist") {
+        want = prim.vsum * slots;
+        why = "the <vcount> sum " + std::to_string(prim.vsum);
+      }
+      if (!why.empty() && got != want)
+        refuse(start, "<p> holds " + std::to_string(got) + " indices; " + why + " x " +
+                          std::to_string(slots) + " inputs needs " + std::to_string(want));
+      if (got % slots != 0 || (prim.kind == "lines" && got % (2 * slots) != 0))
+        refuse(start, "<p> holds " + std::to_string(got) + " indices, not whole vertices of " +
+                          std::to_string(slots) + " inputs" + (prim.kind == "lines" ? " in pairs" : ""));
+      const std::uint64_t least = prim.kind == "tristrips" || prim.kind == "trifans" ? 3
+                                  : prim.kind == "linestrips"                        ? 2
+                                                                                     : 0;
+      if (got / slots < least)
+        refuse(start, "<p> of a <" + prim.kind + "> holds " + std::to_string(got / slots) +
+                          " vertices (at least " + std::to_string(least) + ")");
+      if (got > 0) prim.read_indices = true;
+      continue;
+    } else if (element == "skin" && !empty) {
+      skin = DaeSkin();
+      skin.mesh = reference("source");
+      skin.at = start;
+      in_skin = true;
+    } else if (element == "bind_shape_matrix" && in_skin) {
+      std::uint64_t seen = 0;
+      if (!empty)
+        at = tokens(at, element, start, [&](const char* b, const char* e) {
+          if (!parse_finite(b, e)) bad_token(b, e, element, "a finite number");
+          ++seen;
+        });
+      if (seen != 16) refuse(start, "<bind_shape_matrix> holds " + std::to_string(seen) + " numbers (16)");
+      continue;
+    } else if (element == "vertex_weights" && in_skin) {
+      skin.has_weights = true;
+      skin.weights_at = start;
+      skin.count = whole_attr(start, tag_end, element, "count", 0, 0xffffffffu, true);
+    } else if (element == "vcount" && in_skin && parent_is("vertex_weights")) {
+      if (skin.vcount) refuse(start, "a second <vcount> in its <vertex_weights>");
+      skin.vcount = true;
+      skin.vcount_at = start;
+      if (!empty)
+        at = tokens(at, element, start, [&](const char* b, const char* e) {
+          std::uint64_t v = 0;
+          if (!parse_whole(b, e, v) || v > 0xffffffffu) bad_token(b, e, element, "a whole number >= 0");
+          skin.vsum += v;
+          ++skin.vcount_tokens;
+        });
+      if (skin.vcount_tokens != skin.count)
+        refuse(start, "<vcount> holds " + std::to_string(skin.vcount_tokens) +
+                          " values but its <vertex_weights> has count=\"" + std::to_string(skin.count) +
+                          "\"");
+      continue;
+    } else if (element == "v" && in_skin && parent_is("vertex_weights")) {
+      if (skin.v) refuse(start, "a second <v> in its <vertex_weights>");
+      skin.v = true;
+      skin.v_at = start;
+      std::uint64_t slots = 1;
+      for (const DaeInput& in : skin.weights) slots = std::max(slots, in.offset + 1);
+      std::vector<bool> seen;
+      std::size_t end = at;
+      const std::uint64_t got = empty ? 0 : index_list(at, element, start, slots, skin.max_v, seen, end);
+      at = empty ? at : end;
+      implied += got;
+      if (got != skin.vsum * slots)
+        refuse(start, "<v> holds " + std::to_string(got) + " indices; the <vcount> sum " +
+                          std::to_string(skin.vsum) + " x " + std::to_string(slots) + " inputs needs " +
+                          std::to_string(skin.vsum * slots));
+      continue;
+    } else if (element == "sampler") {
+      sampler_id = attr("id");
+      sampler_inputs.clear();
+    } else if (element == "channel") {
+      channels.push_back({reference("source"), attr("target"), start});
+    }
+    if (!empty) open.push_back(element);
+  }
+
+  // References, once every definition is known. The accessors of one <source> id are summed up (the
+  // smallest count and stride, the widest element) so duplicate ids cost no more than distinct ones.
+  struct Source {
+    std::uint64_t count = ~std::uint64_t(0), stride = ~std::uint64_t(0), size = 0, names = 0;
+    bool strings = false, numbers = false, plain = true;  // plain: every accessor has stride 1, offset 0
+    std::size_t at = 0;
+    std::string array;
+    std::uint64_t first_offset = 0, first_stride = 1, first_count = 0;  // of its first accessor
+  };
+  std::unordered_map<std::string, Source> sources;
+  for (const auto& [id, list] : accessors) {
+    Source& src = sources[id];
+    for (const DaeAccessor& a : list) {
+      const auto found = arrays.find(a.array);
+      if (found == arrays.end()) refuse(a.at, "<accessor source=\"#" + a.array + "\">: no array has that id");
+      const DaeArrays& arr = found->second;
+      if (a.offset > arr.min_count || a.count > (arr.min_count - a.offset) / a.stride)
+        refuse(a.at, "<accessor source=\"#" + a.array + "\" count=\"" + std::to_string(a.count) +
+                         "\" stride=\"" + std::to_string(a.stride) + "\" offset=\"" +
+                         std::to_string(a.offset) + "\"> reads past the " + std::to_string(arr.min_count) +
+                         " values of its array");
+      if (src.array.empty()) {
+        src.array = a.array;
+        src.at = a.at;
+        src.first_offset = a.offset;
+        src.first_stride = a.stride;
+        src.first_count = a.count;
+      }
+      src.count = std::min(src.count, a.count);
+      src.stride = std::min(src.stride, a.stride);
+      src.size = std::max(src.size, a.size);
+      src.names = std::max(src.names, arr.max_count);
+      src.strings = src.strings || arr.names;
+      src.numbers = src.numbers || arr.numbers;
+      src.plain = src.plain && a.stride == 1 && a.offset == 0;
+    }
+  }
+  auto source_of = [&](const DaeInput& in, std::size_t at) -> const Source& {
+    const auto found = sources.find(in.source);
+    if (found == sources.end())
+      refuse(at, "<input semantic=\"" + in.semantic + "\" source=\"#" + in.source +
+                     "\">: no <source> with that id holds an <accessor>");
+    return found->second;
+  };
+  auto array_kinds = [&](const Source& src, bool strings, const DaeInput& in) {
+    if (strings ? src.numbers : src.strings)
+      refuse(in.at, "<input semantic=\"" + in.semantic + "\" source=\"#" + in.source + "\">: its array #" +
+                        src.array + (strings ? " holds numbers, not names" : " holds names, not numbers"));
+  };
+  for (const DaeUse& u : uses) {
+    std::vector<DaeInput> through;
+    if (u.vertices >= 0) {
+      for (const DaeInput& in : vertices[std::size_t(u.vertices)].inputs)
+        if (known_semantic(in.semantic)) through.push_back(in);
+      bool position = false;
+      for (const DaeInput& in : through) position = position || in.semantic == "POSITION";
+      if (!position)
+        refuse(u.input.at, "<input semantic=\"VERTEX\" source=\"#" + u.input.source +
+                               "\">: its <vertices> has no POSITION input");
+    } else {
+      through.push_back(u.input);
+    }
+    for (const DaeInput& in : through) {
+      const Source& src = source_of(in, u.input.at);
+      array_kinds(src, false, in);
+      if (u.max >= src.count)
+        refuse(u.at, "index " + std::to_string(u.max) + " read through <input semantic=\"" +
+                         u.input.semantic + "\" offset=\"" + std::to_string(u.input.offset) +
+                         "\"> is past the " + std::to_string(src.count) + " elements of source #" +
+                         in.source);
+    }
+  }
+  std::unordered_multimap<std::string, std::size_t> meshes_by_geometry;
+  for (std::size_t k = 0; k < meshes.size(); ++k) meshes_by_geometry.emplace(meshes[k].geometry, k);
+  for (const DaeSkin& s : skins) {
+    std::uint64_t joints = 0;
+    for (const DaeInput& in : s.joints) {
+      if (in.semantic != "JOINT") continue;
+      const Source& src = source_of(in, s.at);
+      array_kinds(src, true, in);
+      if (!src.plain)
+        refuse(src.at,
+               "<accessor> of the joint names: stride and offset must be 1 and 0 (the reader reads "
+               "every name of the array in order)");
+      joints = std::max(joints, src.names);
+    }
+    for (const DaeInput& in : s.joints) {
+      if (in.semantic != "INV_BIND_MATRIX") continue;
+      const Source& src = source_of(in, s.at);
+      array_kinds(src, false, in);
+      if (src.stride < 16 || src.count < joints)
+        refuse(src.at, "<accessor> of the inverse bind matrices (count " + std::to_string(src.count) +
+                           ", stride " + std::to_string(src.stride) +
+                           ") does not hold a 4x4 matrix for each of the " + std::to_string(joints) +
+                           " joints");
+    }
+    if (!s.has_weights) continue;
+    if (s.count > 0 && !s.vcount) refuse(s.weights_at, "<vertex_weights> has no <vcount>");
+    for (const DaeInput& in : s.weights) {
+      if (in.offset >= s.max_v.size()) continue;
+      const std::uint64_t max = s.max_v[std::size_t(in.offset)];
+      if (s.vsum == 0) continue;
+      if (in.semantic == "JOINT" && max >= joints)
+        refuse(s.v_at, "<v>: joint index " + std::to_string(max) + " is past the " + std::to_string(joints) +
+                           " joints");
+      if (in.semantic == "WEIGHT") {
+        const Source& src = source_of(in, s.weights_at);
+        array_kinds(src, false, in);
+        if (max >= src.count)
+          refuse(s.v_at, "<v>: weight index " + std::to_string(max) + " is past the " +
+                             std::to_string(src.count) + " weights of source #" + in.source);
+      }
+    }
+    const auto [first, last] = meshes_by_geometry.equal_range(s.mesh);
+    for (auto it = first; it != last; ++it) {
+      const DaeMesh& m = meshes[it->second];
+      if (m.indexed && m.max_vertex >= s.count)
+        refuse(s.weights_at, "<vertex_weights count=\"" + std::to_string(s.count) +
+                                 "\">: the skinned mesh #" + s.mesh + " indexes vertex " +
+                                 std::to_string(m.max_vertex) + " (count is the mesh's number of vertices)");
+      implied += joints * m.primitives;
+    }
+    implied += s.count;
+  }
+  for (const DaeChannel& c : channels) {
+    const auto sampler = samplers.find(c.sampler);
+    if (sampler == samplers.end()) continue;  // assimp names an unresolved sampler
+    for (const DaeInput& in : sampler->second) {
+      if (in.semantic != "INPUT" && in.semantic != "OUTPUT") continue;
+      const auto found = sources.find(in.source);
+      if (found == sources.end()) continue;  // assimp names an unresolved source
+      const Source& src = found->second;
+      array_kinds(src, false, in);
+      if (in.semantic == "OUTPUT" && target_sub_element(c.target) + src.size > 16)
+        refuse(c.at, "<channel target=\"" + c.target + "\">: its OUTPUT source #" + in.source + " holds " +
+                         std::to_string(src.size) + " values per key, more than the target has room for");
+      implied += src.count;
+      // assimp samples a rotation's ANGLE key interval once per 90 degrees turned (past 180).
+      if (in.semantic == "OUTPUT" && c.target.size() > 6 &&
+          c.target.compare(c.target.size() - 6, 6, ".ANGLE") == 0) {
+        double turns = 0, previous = 0;
+        std::uint64_t k = 0, read = 0;
+        const std::size_t end = std::min(n, text.find('<', arrays[src.array].text));
+        for (std::size_t at = arrays[src.array].text; at < end && read < src.first_count;) {
+          while (at < end && xml_space(text[at])) ++at;
+          const std::size_t b = at;
+          while (at < end && !xml_space(text[at])) ++at;
+          if (at == b) break;
+          if (k++ < src.first_offset || (k - 1 - src.first_offset) % src.first_stride != 0) continue;
+          double v = 0;
+          parse_finite(text.data() + b, text.data() + at, &v);
+          if (read++ > 0) turns += std::abs(v - previous) / 90;
+          previous = v;
+        }
+        if (turns > double(kColladaValuesPerByte) * double(n) + double(1 << 20)) {
+          char degrees[32];
+          std::snprintf(degrees, sizeof degrees, "%.6g", turns * 90);
+          refuse(c.at, "<channel target=\"" + c.target + "\">: its angles turn " + degrees +
+                           " degrees, sampled every 90 degrees: more samples than the file's size allows");
+        }
+        implied += std::uint64_t(std::min(turns, 1e18));
+      }
+    }
+  }
+  const std::uint64_t budget = kColladaValuesPerByte * std::uint64_t(n) + (std::uint64_t(1) << 20);
+  if (implied > budget)
+    throw Error(file, "",
+                "its counts imply " + std::to_string(implied) +
+                    " values, indices and joint lists, more than " + std::to_string(budget) +
+                    " for a file of " + std::to_string(n) + " bytes");
 }
 
 // ---- glTF: the node forest ----

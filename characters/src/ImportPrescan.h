@@ -1,9 +1,11 @@
 #pragma once
-// ImportPrescan: checks of a file's node graph and nesting that must run before assimp reads it, because
-// assimp's readers expand or recurse without bound: a COLLADA <instance_node> cycle or a chain of nodes
-// each instancing the next twice, a glTF node listed as the child of two parents, an FBX nested deeper
-// than its reader's stack. Each check streams over the file's text (no document tree is built beyond a
-// glTF's node list) and throws loom::Error naming the file and the line, node or byte offset.
+// ImportPrescan: checks of a file's node graph, nesting and counts that must run before assimp reads it,
+// because assimp's readers expand or recurse without bound or trust the counts a file gives: a COLLADA
+// <instance_node> cycle or a chain of nodes each instancing the next twice, a COLLADA array, accessor or
+// index list whose counts disagree with its data, a glTF node listed as the child of two parents, an FBX
+// nested deeper than its reader's stack. Each check streams over the file's text (no document tree is
+// built beyond a glTF's node list and a COLLADA file's per-id summaries) and throws loom::Error naming the
+// file and the line, node or byte offset.
 #include <cstdint>
 #include <string>
 
@@ -21,6 +23,33 @@ constexpr int kMaxFbxDepth = 512;
 // instances itself, directly or through others) naming the nodes and the line, and a scene whose nodes
 // expand to more than kMaxExpandedNodes (counted on the instancing graph, each node once).
 void check_collada_instances(const std::string& file, const std::string& text);
+
+// Input offsets and sets a COLLADA <input> may name, the largest accessor stride (a 4x4 matrix has 16), and
+// the values, indices and per-joint lists a COLLADA document's counts may imply per byte of the file.
+constexpr std::uint64_t kMaxInputOffset = 255;
+constexpr std::uint64_t kMaxInputSet = 255;
+constexpr std::uint64_t kMaxAccessorStride = 1024;
+constexpr std::uint64_t kColladaValuesPerByte = 4;
+
+// A COLLADA document's data, as assimp's COLLADA reader would trust it (`text` holds <COLLADA>; other XML
+// passes). Refused, naming the line and the element or attribute:
+// - a <float_array>, <int_array>, <Name_array>, <IDREF_array> or <bool_array> whose count is missing, not a
+//   whole number, or not the number of values it holds, or with a value that is not of its type (floats
+//   finite);
+// - an <accessor> whose source is no array of the file, whose count, stride (1 to kMaxAccessorStride) or
+//   offset is not a whole number, that reads past its array (offset + count * stride) or whose <param>s
+//   read more values than its stride;
+// - an <input> offset or set past kMaxInputOffset / kMaxInputSet;
+// - a primitive (<triangles>, <polylist>, ...) whose <vcount> and <p> tokens are not whole numbers or do
+//   not match its count and its inputs (max offset + 1 indices per vertex), that has indices but no VERTEX
+//   input of its mesh's <vertices> (with a POSITION), or an index past the accessor read at its offset;
+// - a <skin> whose bind_shape_matrix is not 16 numbers, whose inverse bind matrices do not cover its
+//   joints, whose <vertex_weights> count, <vcount> and <v> disagree, index a joint or weight that is not
+//   there or cover fewer vertices than the skinned mesh indexes;
+// - an animation <channel> whose OUTPUT values per key overrun the transform it targets, or whose ANGLE
+//   keys turn through more 90-degree steps (assimp samples each) than the bound below;
+// - a document whose counts imply more than kColladaValuesPerByte values per byte (plus 2^20).
+void check_collada_data(const std::string& file, const std::string& text);
 
 // A glTF's JSON (text starting with '{') or a binary glTF (.glb, magic "glTF"): every node has at most one
 // parent, no node is its own ancestor, and the scenes' root lists expand to at most kMaxExpandedNodes.
