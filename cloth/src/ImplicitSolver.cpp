@@ -434,7 +434,7 @@ bool ImplicitSolver::newton(Cloth& cloth, double t, double h, int threads, int i
   Vec3s& vplus = vk_;
   const Vec3s zero(n, Vec3::Zero());
   g_.resize(n);
-  double g0 = 0.0;
+  double g0 = 0.0, g_scale = 0.0;
   Vec3s xk(n);
   for (int it = 0; it < iterations; ++it) {
     for (int i = 0; i < n; ++i) xk[i] = xb_[i] + gamma * vplus[i];
@@ -445,7 +445,20 @@ bool ImplicitSolver::newton(Cloth& cloth, double t, double h, int threads, int i
       if (!fixed_[i]) gnorm += g_[i].squaredNorm() / s.mass[i];
     }
     gnorm = std::sqrt(gnorm);
-    if (it == 0) g0 = gnorm;
+    if (it == 0) {
+      g0 = gnorm;
+      // The size of the residual's two parts, m (v+ - v_b) and γ f, in the same norm: a residual a
+      // billionth of it is round-off, a converged step whatever the line search finds next.
+      // At rest with no load both vanish: the floor is the momentum of the free mass at 1 mm/s.
+      double momentum = 0.0, impulse = 0.0, mass = 0.0;
+      for (int i = 0; i < n; ++i)
+        if (!fixed_[i]) {
+          momentum += s.mass[i] * (vplus[i] - vb_[i]).squaredNorm() + s.mass[i] * vb_[i].squaredNorm();
+          impulse += (gamma * f_[i]).squaredNorm() / s.mass[i];
+          mass += s.mass[i];
+        }
+      g_scale = std::sqrt(momentum) + std::sqrt(impulse) + 1e-3 * std::sqrt(mass);
+    }
     if (!std::isfinite(gnorm)) break;
     if (gnorm == 0.0 || (it > 0 && gnorm <= p_.cg_tolerance * g0)) break;
     ++counters_.newton_iterations;
@@ -470,10 +483,11 @@ bool ImplicitSolver::newton(Cloth& cloth, double t, double h, int threads, int i
       slope += g_[i].dot(p_dir_[i]);
       fnc_p += (f_[i] - fc_[i]).dot(p_dir_[i]);
     }
-    // A stop before the residual halved, with a predicted decrease above the round-off of Φ (or a
-    // non-finite one), is a failed solve (violation()); a finite non-descent direction is not counted.
+    // A stop before the residual halved, with a residual above round-off (g_scale) and a predicted
+    // decrease above the round-off of Φ (or a non-finite one), is a failed solve (violation()); a finite
+    // non-descent direction is not counted.
     const auto stalled = [&](const char* what) {
-      if (!(gnorm > 0.5 * g0)) return false;
+      if (!(gnorm > 0.5 * g0) || gnorm <= 1e-9 * g_scale) return false;
       const double phi = incremental_potential(cloth, vplus, t + h, threads);
       if (std::isfinite(slope) && !(-slope > 1e-8 * std::abs(phi))) return false;
       std::ostringstream why;

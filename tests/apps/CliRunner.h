@@ -7,6 +7,7 @@
 #include <cstdlib>
 #include <filesystem>
 #include <fstream>
+#include <nlohmann/json.hpp>
 #include <sstream>
 #include <string>
 
@@ -32,6 +33,11 @@ std::string write_json_scene(const std::string& name, const Json& j) {
   const auto path = test_dir() / name;
   std::ofstream(path) << j.dump(1);
   return path.string();
+}
+
+// DIR/summary.json of a run's output folder, parsed.
+inline nlohmann::json summary_of(const std::string& out) {
+  return nlohmann::json::parse(slurp(std::filesystem::path(out) / "summary.json"));
 }
 
 inline CliResult run_loom(const std::string& args) {

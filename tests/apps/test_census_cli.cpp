@@ -29,9 +29,7 @@ nlohmann::json base_scene() {
           {"output", {{"frames", false}}}};
 }
 
-nlohmann::json summary_of(const std::string& out) {
-  return nlohmann::json::parse(loom::test::slurp(std::filesystem::path(out) / "summary.json"));
-}
+using loom::test::summary_of;
 
 // Two sheets crossing each other (no collision handling): the census counts their intersecting pairs.
 TEST(CensusCli, CountsCrossingSheets) {

@@ -19,9 +19,7 @@ using loom::test::run_loom;
 using loom::test::test_dir;
 using loom::test::write_json_scene;
 
-nlohmann::json summary_of(const std::string& out) {
-  return nlohmann::json::parse(loom::test::slurp(std::filesystem::path(out) / "summary.json"));
-}
+using loom::test::summary_of;
 
 // The middle vertex (of 5x5) of "lower" at y = 0 goes up by 0.1 m over 0.1 s (6 frames), through "upper"
 // (3x3, every vertex pinned) at y = 0.05.

@@ -15,9 +15,7 @@ using loom::test::run_loom;
 using loom::test::test_dir;
 using loom::test::write_json_scene;
 
-nlohmann::json summary_of(const std::string& out) {
-  return nlohmann::json::parse(loom::test::slurp(std::filesystem::path(out) / "summary.json"));
-}
+using loom::test::summary_of;
 
 // A sheet thrown down at 5 m/s onto a tilted box rising at 3 m/s through it, balanced tier.
 nlohmann::json rising_box(const std::string& method) {
