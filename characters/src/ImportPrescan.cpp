@@ -78,6 +78,18 @@ std::string attribute(const std::string& text, std::size_t begin, std::size_t en
   return find_attribute(text, begin, end, key, value) ? value : std::string();
 }
 
+// A markup declaration other than a comment or CDATA (<!DOCTYPE, <!ENTITY, ...): COLLADA is defined by an
+// XML Schema and has none, and a document type's internal subset (quoted brackets, entities) would hide the
+// rest of the file from these scans while the XML reader behind assimp reads it. Refused by line.
+[[noreturn]] void refuse_declaration(const std::string& file, const std::string& text, std::size_t at) {
+  std::size_t end = at + 2;
+  while (end < text.size() && end < at + 12 && std::isalpha(static_cast<unsigned char>(text[end]))) ++end;
+  throw Error(file, line_at(text, at),
+              "'" + text.substr(at, end - at) +
+                  "': a markup declaration (a document type or an entity); COLLADA files have none and Loom "
+                  "reads none");
+}
+
 std::string dae_label(const DaeNode& n) {
   return "'" + (n.id.empty() ? n.name.empty() ? std::string("(unnamed)") : n.name : n.id) + "'";
 }
@@ -104,10 +116,7 @@ void check_collada_instances(const std::string& file, const std::string& text) {
     } else if (text.compare(at, 2, "<?") == 0) {
       at = skip_past(at + 2, "?>");
     } else if (text.compare(at, 2, "<!") == 0) {
-      int brackets = 0;
-      for (++at; at < n && !(text[at] == '>' && brackets <= 0); ++at)
-        brackets += text[at] == '[' ? 1 : text[at] == ']' ? -1 : 0;
-      ++at;
+      refuse_declaration(file, text, at);
     } else if (text.compare(at, 2, "</") == 0) {
       if (!open.empty()) {
         if (open.back() == 'n' && !node_stack.empty()) node_stack.pop_back();
@@ -471,13 +480,7 @@ void check_collada_data(const std::string& file, const std::string& text) {
       at = e == std::string::npos ? n : e + 2;
       continue;
     }
-    if (text.compare(at, 2, "<!") == 0) {
-      int brackets = 0;
-      for (++at; at < n && !(text[at] == '>' && brackets <= 0); ++at)
-        brackets += text[at] == '[' ? 1 : text[at] == ']' ? -1 : 0;
-      ++at;
-      continue;
-    }
+    if (text.compare(at, 2, "<!") == 0) refuse_declaration(file, text, at);
     if (text.compare(at, 2, "</") == 0) {
       at = std::min(n, text.find('>', at));
       if (at < n) ++at;

@@ -135,8 +135,7 @@ ObjCounts count_obj_elements(const std::string& path) {
   std::ifstream in(path, std::ios::binary);
   if (!in) throw Error(path, "", "cannot read");
   ObjCounts c;
-  // Per line: its first token, and for `f` lines the number of corner tokens. A line continued with a
-  // trailing backslash is counted as the line it continues (an overestimate at worst).
+  // Per line: its first token, and for `f` lines the number of corner tokens.
   std::vector<char> buf(1 << 20);
   bool line_start = true, in_first = false, is_v = false, is_f = false, in_token = false;
   std::string first;
@@ -147,16 +146,23 @@ ObjCounts count_obj_elements(const std::string& path) {
     line_start = true, in_first = false, is_v = is_f = in_token = false, corners = 0;
     first.clear();
   };
+  bool first_chunk = true;
   while (in) {
     in.read(buf.data(), static_cast<std::streamsize>(buf.size()));
     const std::streamsize n = in.gcount();
-    for (std::streamsize i = 0; i < n; ++i) {
+    std::streamsize i = 0;
+    // A UTF-8 byte order mark is not part of the first line (input_lines, InputFile.h).
+    if (first_chunk && n >= 3 && std::string(buf.data(), 3) == "\xef\xbb\xbf") i = 3;
+    first_chunk = false;
+    for (; i < n; ++i) {
       const char ch = buf[static_cast<size_t>(i)];
-      if (ch == '\n') {
+      // Lines and words as the OBJ reader splits them (ObjReader.h): a line ends at LF or a bare CR (CRLF
+      // is then a line and an empty one), and every std::isspace character separates words.
+      if (ch == '\n' || ch == '\r') {
         end_line();
         continue;
       }
-      const bool space = ch == ' ' || ch == '\t' || ch == '\r';
+      const bool space = ch == ' ' || ch == '\t' || ch == '\v' || ch == '\f';
       if (line_start && !space) {
         line_start = false;
         in_first = true;

@@ -112,6 +112,14 @@ std::string line_of(const std::string& text, const std::string& anchor) {
 
 const std::vector<Mutation>& mutations() {
   static const std::vector<Mutation> rows = {
+      // A document type whose internal subset quotes a bracket would hide the rest of the file from a scan
+      // that counts brackets (and what follows it, a broken index list, would reach assimp).
+      {{{"?>\n", "?>\n<!DOCTYPE COLLADA [ <!ENTITY e \"[\"> ]>\n"}, {"<p>0 0 3", "<p>x 0 3"}},
+       "<!DOCTYPE",
+       "'<!DOCTYPE': a markup declaration (a document type or an entity); COLLADA files have none"},
+      {{{"<library_geometries>", "<!ENTITY e \"x\"><library_geometries>"}},
+       "<!ENTITY",
+       "'<!ENTITY': a markup declaration"},
       // Index lists: a token that is not a whole number (assimp's reader would push zeros without end).
       {{{"<p>0 0 3", "<p>x 0 3"}}, "<p>x", "<p>: 'x' is not an index (a whole number >= 0)"},
       {{{"<p>0 0 3", "<p>1e 0 3"}}, "<p>1e", "<p>: '1e' is not an index (a whole number >= 0)"},

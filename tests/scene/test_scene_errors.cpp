@@ -7,6 +7,7 @@
 
 #include "TestDir.h"
 #include "loom/cloth/Error.h"
+#include "loom/cloth/ObjFile.h"
 #include "loom/scene/Scene.h"
 #include "loom/scene/SceneLimits.h"
 
@@ -361,6 +362,38 @@ TEST(Scene, CollidersBodiesAndClothsPastTheBoundAreRefusedByCount) {
             << msg;
       }
     }
+  }
+}
+
+// The memory estimate's OBJ count splits lines and words as the reader does: whatever line endings (LF,
+// CRLF, a bare CR) and word separators (space, tab, vertical tab, form feed) a file uses, and a byte order
+// mark, the counted vertices and triangles are the ones the reader makes.
+TEST(Scene, ObjCountsMatchWhatTheReaderReads) {
+  const std::string body = "v 0 0 0~v 1 0 0~v 1 1 0~v 0 1 0~vt 0 0~# v 9 9 9~f 1 2 3 4~f 1 3 4~";
+  struct Variant {
+    const char* name;
+    const char* line_end;
+    const char* space;
+    bool bom;
+  };
+  for (const Variant& v :
+       {Variant{"lf", "\n", " ", false}, Variant{"crlf", "\r\n", "\t", false},
+        Variant{"cr", "\r", " ", false}, Variant{"vt", "\n", "\v", false}, Variant{"ff", "\r", "\f", true}}) {
+    std::string text = v.bom ? "\xef\xbb\xbf" : "";
+    for (const char c : body) {
+      if (c == '~')
+        text += v.line_end;
+      else if (c == ' ')
+        text += v.space;
+      else
+        text += c;
+    }
+    const std::string path = write_scene(std::string(v.name) + ".obj", text);
+    const ObjCounts counts = count_obj_elements(path);
+    const cloth::ObjFile obj = cloth::read_obj_file(path);
+    EXPECT_EQ(counts.vertices, static_cast<double>(obj.positions.size())) << v.name;
+    EXPECT_EQ(counts.vertices, 4.0) << v.name;
+    EXPECT_EQ(counts.triangles, 3.0) << v.name;  // a quad (2) and a triangle
   }
 }
 
