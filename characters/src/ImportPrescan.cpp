@@ -9,11 +9,14 @@
 #include <filesystem>
 #include <functional>
 #include <nlohmann/json.hpp>
+#include <set>
+#include <string>
 #include <unordered_map>
 #include <utility>
 #include <vector>
 
 #include "loom/cloth/Error.h"
+#include "loom/cloth/HiddenText.h"
 
 namespace loom::characters {
 
@@ -952,12 +955,39 @@ void check_gltf_nodes(const std::string& file, const std::string& text) {
     if (begin >= end || text[begin] != '{') return;
   }
   // Only "nodes" and "scenes" are kept (the rest, buffers as data URIs included, is parsed and dropped).
-  const Json::parser_callback_t keep = [](int depth, Json::parse_event_t event, Json& parsed) {
+  // The document must read the same to this check and to assimp's reader: text that is not JSON (bytes
+  // that are not UTF-8 included, which assimp's reader passes) and a key given twice in one object (this
+  // reader keeps the last, assimp's the first) are refused, so no node graph goes unchecked.
+  // keys[d]: the keys seen so far of the object open at depth d - 1 (an object started at depth d has its
+  // keys at depth d + 1; the callback is not told every object's end, so a start clears its level).
+  std::vector<std::set<std::string>> keys;
+  std::string twice;  // the first key given twice
+  const Json::parser_callback_t keep = [&](int depth, Json::parse_event_t event, Json& parsed) {
+    const std::size_t d = static_cast<std::size_t>(std::max(depth, 0));
+    if (event == Json::parse_event_t::object_start) {
+      if (keys.size() < d + 2) keys.resize(d + 2);
+      keys[d + 1].clear();
+    }
+    if (event == Json::parse_event_t::key) {
+      if (keys.size() < d + 1) keys.resize(d + 1);
+      if (!keys[d].insert(parsed.get<std::string>()).second && twice.empty())
+        twice = parsed.get<std::string>();
+    }
     return !(depth == 1 && event == Json::parse_event_t::key && parsed != "nodes" && parsed != "scenes");
   };
-  const Json doc = Json::parse(text.begin() + static_cast<std::ptrdiff_t>(begin),
-                               text.begin() + static_cast<std::ptrdiff_t>(end), keep, false);
-  if (doc.is_discarded() || !doc.is_object()) return;
+  Json doc;
+  try {
+    doc = Json::parse(text.begin() + static_cast<std::ptrdiff_t>(begin),
+                      text.begin() + static_cast<std::ptrdiff_t>(end), keep, true);
+  } catch (const Json::exception& e) {
+    throw Error(file, "",
+                std::string("not JSON Loom can check before reading it: ") + show_value(e.what(), 160));
+  }
+  if (!twice.empty())
+    throw Error(file, "",
+                "the key '" + show_value(twice) +
+                    "' is given twice in one object: readers differ on which one counts, so none is taken");
+  if (!doc.is_object()) return;
   const auto nodes = doc.find("nodes");
   if (nodes == doc.end() || !nodes->is_array()) return;
   const std::size_t count = nodes->size();
@@ -1106,8 +1136,8 @@ bool looks_like_ascii_fbx(const std::string& file, const std::string& text) {
 }  // namespace
 
 void check_fbx_nesting(const std::string& file, const std::string& text) {
-  if (text.compare(0, 21, std::string("Kaydara FBX Binary  \0", 21)) == 0)
-    return check_fbx_binary(file, text);
+  // Assimp takes a file for binary FBX by its first 18 bytes (the rest of the 21-byte magic unchecked).
+  if (text.compare(0, 18, "Kaydara FBX Binary") == 0) return check_fbx_binary(file, text);
   if (!looks_like_ascii_fbx(file, text)) return;
   int depth = 0;
   bool quoted = false;
@@ -1115,8 +1145,8 @@ void check_fbx_nesting(const std::string& file, const std::string& text) {
     const char c = text[at];
     if (quoted) {
       quoted = c != '"';
-    } else if (c == ';') {  // a comment, to the end of its line
-      at = text.find('\n', at);
+    } else if (c == ';') {  // a comment, to the end of its line: CR, LF, FF or NUL, as assimp's tokenizer
+      at = text.find_first_of(std::string("\r\n\f\0", 4), at);
       if (at == std::string::npos) return;
     } else if (c == '"') {
       quoted = true;

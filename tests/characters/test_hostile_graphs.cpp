@@ -4,6 +4,7 @@
 // assimp reads the file.
 #include <gtest/gtest.h>
 
+#include <algorithm>
 #include <fstream>
 #include <string>
 
@@ -122,6 +123,35 @@ TEST(HostileGraphs, GltfNodesWithTwoParentsOrCyclesAreRefused) {
   EXPECT_EQ(e.find("expand"), std::string::npos) << e;
 }
 
+// The glTF node check reads the document as assimp's reader does or refuses it: bytes that are not UTF-8
+// (assimp's reader passes them, a strict one stops) and a key given twice in one object (readers differ on
+// which counts: a bomb under the one the check does not read) are refused before assimp reads the file.
+TEST(HostileGraphs, GltfTheNodeCheckCannotReadIsRefused) {
+  const std::string dag = loom::test::gltf_two_parents(30);  // refused as it is: nodes with two parents
+  std::string e = error_of([&] { Motion::load(write("dag.gltf", dag)); });
+  EXPECT_NE(e.find("is already a child of"), std::string::npos) << e;
+  std::string utf = dag;
+  utf.replace(utf.find("\"2.0\""), 5, "\"2.0\xff\xfe\"");
+  const std::string utf_path = write("dag_utf8.gltf", utf);
+  e = error_of([&] { Motion::load(utf_path); });
+  EXPECT_NE(e.find(utf_path + ": not JSON Loom can check before reading it"), std::string::npos) << e;
+  EXPECT_NE(e.find("ill-formed UTF-8"), std::string::npos) << e;
+  // The bomb first, a harmless node list last: one reader takes each.
+  std::string dup = dag;
+  dup.insert(dup.size() - 2, ",\"nodes\":[{\"name\":\"Hips\"}]");
+  const std::string dup_path = write("dag_dup.gltf", dup);
+  e = error_of([&] { Motion::load(dup_path); });
+  EXPECT_NE(e.find(dup_path + ": the key 'nodes' is given twice in one object"), std::string::npos) << e;
+  // In a nested object too (a node's children given twice), after objects whose ends the parser's
+  // callback is not told.
+  std::string nested = loom::test::gltf_two_parents(0);
+  nested.replace(nested.find("\"children\":[1,2]"), 16, "\"children\":[1],\"children\":[2]");
+  const std::string nested_path = write("nested_dup.gltf", nested);
+  e = error_of([&] { Motion::load(nested_path); });
+  EXPECT_NE(e.find(nested_path + ": the key 'children' is given twice in one object"), std::string::npos)
+      << e;
+}
+
 // FBX scopes nested a million deep made assimp's reader overflow its stack: ASCII braces (outside strings
 // and comments) are refused by line past 512, binary node records by byte offset; a record whose end
 // offset points past the file is refused by its offset.
@@ -134,10 +164,31 @@ TEST(HostileGraphs, DeeplyNestedFbxIsRefusedBeforeAssimpReadsIt) {
   EXPECT_NE(e.find(ascii + ": line 515: FBX scopes"), std::string::npos) << e;
   e = error_of([&] { Motion::load(write("shallow.fbx", loom::test::ascii_fbx(512))); });
   EXPECT_EQ(e.find("nest more than"), std::string::npos) << e;
+  // A comment ends where assimp's tokenizer ends it (CR, LF, FF, NUL): a file of CR line ends, or a first
+  // comment ended by a form feed, is scanned all the same.
+  for (const char end : {'\r', '\f'}) {
+    std::string text = loom::test::ascii_fbx(100000);
+    if (end == '\r')
+      std::replace(text.begin(), text.end(), '\n', '\r');
+    else
+      text[text.find('\n')] = '\f';
+    const std::string path = write(end == '\r' ? "deep_cr.fbx" : "deep_ff.fbx", text);
+    e = error_of([&] { Motion::load(path); });
+    EXPECT_NE(e.find(path + ": line "), std::string::npos) << e;
+    EXPECT_NE(e.find("FBX scopes ('{') nest more than 512 levels deep"), std::string::npos) << e;
+  }
 
   const std::string binary = write("deep_binary.fbx", loom::test::binary_fbx(100000));
   e = error_of([&] { Motion::load(binary); });
   EXPECT_NE(e.find(binary + ": byte 7195: FBX node records nest more than 512 levels deep"),
+            std::string::npos)
+      << e;
+  // Assimp reads a file as binary FBX by its first 18 bytes: the check does too.
+  std::string magic = loom::test::binary_fbx(100000);
+  magic.replace(18, 2, "XY");
+  const std::string magic_path = write("deep_magic.fbx", magic);
+  e = error_of([&] { Motion::load(magic_path); });
+  EXPECT_NE(e.find(magic_path + ": byte 7195: FBX node records nest more than 512 levels deep"),
             std::string::npos)
       << e;
   const std::string shallow = write("shallow_binary.FBX", loom::test::binary_fbx(100));

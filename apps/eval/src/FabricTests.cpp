@@ -319,7 +319,9 @@ FabricTestResult tensile(const FabricTestOptions& o) {
   }
   r.quantity = "stretch modulus at 5 gf/cm (weft)";
   r.unit = "N/m";
-  r.measured = 5 * kGramForcePerCm / strain[0];
+  // One pull that measured nothing (a failed or unsettled run) leaves the test without a measurement.
+  const bool whole = std::isfinite(strain[0]) && std::isfinite(strain[1]) && std::isfinite(strain[2]);
+  r.measured = whole ? 5 * kGramForcePerCm / strain[0] : std::numeric_limits<double>::quiet_NaN();
   r.theory = o.material.stretch_weft;
   r.error = r.measured - r.theory;
   r.fields = {{"E5_percent", strain[0] * 100},
