@@ -358,6 +358,7 @@ TEST(HostileOutputPaths, AFolderInsideOrAroundOneInUseIsRefused) {
                                   "compare " + scene + " --frames 1 --overwrite --out " + top.string(),
                                   "fabric-test catenary --resolution 8 --overwrite --out " + top.string()}) {
     const auto r = run_loom(args);
+    if (r.err.find("unknown command") != std::string::npos) continue;  // a build without Bullet
     EXPECT_EQ(r.code, 1) << args << ": " << r.err;
     EXPECT_NE(r.err.find(top.string() + ": in use by another loom command (it contains " + held +
                          ", which another loom command is using)"),
