@@ -460,15 +460,13 @@ void SceneRun::check_export_sizes() const {
         render::render_memory_bytes(rs, rendered, vertices, colliders ? double(colliders->size()) : 0.0);
     const double budget = static_cast<double>(scene::memory_budget());
     if (!(need <= budget))
-      throw Error(
-          scene_path_, "output.render.width",
-          "--render at " + std::to_string(rs.width) + "x" + std::to_string(rs.height) + " px for " +
-              std::to_string(static_cast<long long>(rendered)) + " rendered frames of " +
-              std::to_string(static_cast<long long>(vertices)) + " vertices needs about " +
-              scene::show_bytes(need) + " of memory; " + scene::show_bytes(budget) +
-              (scene::memory_limit_env() == scene::memory_budget() ? " (set by LOOM_MEMORY_LIMIT)" : "") +
-              " is available: lower output.render.width and height, raise output.render.every or "
-              "lower --frames");
+      throw Error(scene_path_, "output.render.width",
+                  "--render at " + std::to_string(rs.width) + "x" + std::to_string(rs.height) + " px for " +
+                      std::to_string(static_cast<long long>(rendered)) + " rendered frames of " +
+                      std::to_string(static_cast<long long>(vertices)) + " vertices needs about " +
+                      scene::show_bytes(need) + " of memory; " + scene::available_memory_text(budget) +
+                      ": lower output.render.width and height, raise output.render.every or "
+                      "lower --frames");
   }
 #endif
 }

@@ -97,38 +97,40 @@ std::string about(const std::string& figure) {
   return figure.rfind("more than", 0) == 0 ? figure : "about " + figure;
 }
 
-std::string available_text(double budget) {
-  return show_bytes(budget) + (memory_limit_env() == memory_budget() ? " (set by LOOM_MEMORY_LIMIT)" : "") +
-         " is available";
+// Refuses (naming `field`) the scene when its estimate passes the budget: `what` says which count grew,
+// `advice` what lowers it.
+void check_budget(const Scene& scene, const std::string& field, const std::string& what, const char* advice) {
+  const double need = scene_bytes(scene);
+  const double budget = static_cast<double>(memory_budget());
+  // Also refused: a count that is not a number (the estimate of a degenerate field).
+  if (!(need <= budget))
+    throw Error(scene.file, field,
+                what + ", which need " + about(show_bytes(need)) + " of memory with the rest of the scene (" +
+                    std::to_string(kBytesPerVertex) + " bytes per cloth vertex, " +
+                    std::to_string(kBytesPerColliderTriangle) + " per collider triangle); " +
+                    available_memory_text(budget) + ": " + advice);
 }
 
 }  // namespace
 
+std::string available_memory_text(double budget) {
+  return show_bytes(budget) + (memory_limit_env() == memory_budget() ? " (set by LOOM_MEMORY_LIMIT)" : "") +
+         " is available";
+}
+
 void reserve_vertices(Scene& scene, const std::string& field, double vertices) {
   scene.vertices += vertices;
-  const double need = scene_bytes(scene);
-  const double budget = static_cast<double>(memory_budget());
-  // Also refused: a count that is not a number (the estimate of a degenerate field).
-  if (!(need <= budget)) {
-    throw Error(scene.file, field,
-                "the scene's cloths would have " + about(show_count(scene.vertices)) +
-                    " vertices, which need " + about(show_bytes(need)) + " of memory (" +
-                    std::to_string(kBytesPerVertex) + " bytes per vertex, with the collider meshes); " +
-                    available_text(budget) + ": use fewer nodes or a coarser resolution");
-  }
+  check_budget(scene, field,
+               "the scene's cloths would have " + about(show_count(scene.vertices)) + " vertices",
+               "use fewer nodes or a coarser resolution");
 }
 
 void reserve_collider_triangles(Scene& scene, const std::string& field, double triangles) {
   scene.collider_triangles += triangles;
-  const double need = scene_bytes(scene);
-  const double budget = static_cast<double>(memory_budget());
-  if (!(need <= budget)) {
-    throw Error(scene.file, field,
-                "the scene's collider meshes would have " + about(show_count(scene.collider_triangles)) +
-                    " triangles, which need " + about(show_bytes(need)) + " of memory with the cloths (" +
-                    std::to_string(kBytesPerColliderTriangle) + " bytes per triangle); " +
-                    available_text(budget) + ": use a coarser collider mesh");
-  }
+  check_budget(
+      scene, field,
+      "the scene's collider meshes would have " + about(show_count(scene.collider_triangles)) + " triangles",
+      "use a coarser collider mesh");
 }
 
 ObjCounts count_obj_elements(const std::string& path) {

@@ -84,6 +84,8 @@ std::optional<std::uint64_t> memory_limit_env();
 // Adds `vertices` cloth vertices (of the cloth at JSON path `field`) to the scene's count and refuses when
 // the estimate kBytesPerVertex x count exceeds memory_budget().
 void reserve_vertices(Scene& scene, const std::string& field, double vertices);
+// "1.5 GB (set by LOOM_MEMORY_LIMIT) is available": memory_budget() as messages give it.
+std::string available_memory_text(double budget);
 // Counts and byte figures in messages are finite: at or above kMaxShownCount (and inf, NaN) they read
 // "more than ...".
 constexpr double kMaxShownCount = 1e15;
