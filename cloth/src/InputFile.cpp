@@ -98,23 +98,20 @@ std::string read_input_file(const std::string& path, std::uint64_t max_bytes) {
   return text;
 }
 
-std::vector<std::string> input_lines(const std::string& text) {
-  std::vector<std::string> lines;
-  // A UTF-8 byte order mark (written by some editors) is not part of the first line.
+void for_each_input_line(const std::string& text, const std::function<void(const std::string&)>& visit) {
   size_t start = text.compare(0, 3, "\xef\xbb\xbf") == 0 ? 3 : 0;
   for (size_t i = start; i < text.size(); ++i) {
     if (text[i] != '\n' && text[i] != '\r') continue;
-    lines.push_back(text.substr(start, i - start));
+    visit(text.substr(start, i - start));
     if (text[i] == '\r' && i + 1 < text.size() && text[i + 1] == '\n') ++i;
     start = i + 1;
   }
-  if (start < text.size()) lines.push_back(text.substr(start));
-  return lines;
+  if (start < text.size()) visit(text.substr(start));
 }
 
 std::string line_where(long number, const std::string& line) {
-  std::string quoted = show_hidden(line.substr(0, 80));
-  if (line.size() > 80) quoted += "...";
+  std::string quoted = show_hidden(line.substr(0, kQuotedChars));
+  if (line.size() > kQuotedChars) quoted += "...";
   return "line " + std::to_string(number) + " ('" + quoted + "')";
 }
 

@@ -32,7 +32,7 @@ bool integer(const std::string& tok, long& out) {
 }  // namespace
 
 ObjFile read_obj_file(const std::string& path) {
-  const std::vector<std::string> lines = input_lines(read_input_file(path));
+  const std::string file = read_input_file(path);
   ObjFile obj;
   obj.path = path;
   obj.groups.push_back({"default"});
@@ -40,12 +40,12 @@ ObjFile read_obj_file(const std::string& path) {
   long line_no = 0;
   std::string line;
   auto fail = [&](const std::string& problem) { throw Error(path, line_where(line_no, line), problem); };
-  for (const std::string& text : lines) {
+  for_each_input_line(file, [&](const std::string& text) {
     line = text;
     ++line_no;
     std::istringstream ls(line);
     std::string tag;
-    if (!(ls >> tag) || tag[0] == '#') continue;
+    if (!(ls >> tag) || tag[0] == '#') return;
     auto read_numbers = [&](int count, double* out) {
       std::string tok;
       for (int k = 0; k < count; ++k)
@@ -84,7 +84,7 @@ ObjFile read_obj_file(const std::string& path) {
       ObjFace face;
       face.group = static_cast<int>(obj.groups.size()) - 1;
       face.line = line_no;
-      face.text = line;
+      face.text = line.substr(0, kQuotedChars + 1);  // what line_where quotes
       std::string corner;
       // 1-based index, or negative counting back from the end; 0 and beyond `count` are refused.
       auto parse_index = [&](const std::string& s, long count, const char* what) {
@@ -124,11 +124,11 @@ ObjFile read_obj_file(const std::string& path) {
       if (names.empty()) names.push_back("default");
       obj.groups.push_back(std::move(names));
     } else if (tag == "o" || tag == "s" || tag == "usemtl" || tag == "mtllib" || tag == "l" || tag == "vp") {
-      continue;
+      return;
     } else {
       fail("unknown OBJ directive '" + tag + "'");
     }
-  }
+  });
   return obj;
 }
 

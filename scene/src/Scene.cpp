@@ -166,7 +166,9 @@ std::shared_ptr<const cloth::ClothMesh> parse_mesh(const JsonReader& r, Scene& s
                path);  // as written: input_file resolves it against the scene's folder
     // Its memory is estimated from its `v` lines before it is parsed (the parser's own copies would
     // otherwise be the first thing a huge file exhausts).
-    reserve_vertices(scene, r.path(), build([&] { return count_obj_elements(p.string()); }).vertices);
+    const ObjCounts counts = build([&] { return count_obj_elements(p.string()); });
+    reserve_vertices(scene, r.path(), counts.vertices);
+    check_obj_reading(scene, r.child("path"), counts);
     // Coordinates first, by their line: a vertex past the bound (1e308) would otherwise be blamed on a
     // triangle's area.
     build([&] {

@@ -166,6 +166,15 @@ void parse_character(const JsonReader& root, Scene& scene) {
       }
       if (spec.type == "obj") {
         spec.path = input_file(scene, g.child("path"), g.string("path"));
+        // Its vertices and the memory of reading it, estimated from its lines before it is parsed.
+        ObjCounts counts;
+        try {
+          counts = count_obj_elements(spec.path);
+        } catch (const Error& e) {
+          throw Error(scene.file, g.child("path"), e.what());
+        }
+        reserve_vertices(scene, g.child("path"), counts.vertices);
+        check_obj_reading(scene, g.child("path"), counts);
         spec.scale = g.length("scale", 1.0, true);
         if (spec.scale < kMinMeshScale) g.fail("scale", "must be >= 1e-06 (a mesh too small to simulate)");
         spec.translate = g.point("translate", cloth::Vec3::Zero());

@@ -259,13 +259,14 @@ void parse_colliders(const JsonReader& root, Scene& scene) {
           r.fail("scale", limit.str());
         }
         // Estimated from its `f` lines before it is parsed.
-        double triangles = 0.0;
+        ObjCounts counts;
         try {
-          triangles = count_obj_elements(p.string()).triangles;
+          counts = count_obj_elements(p.string());
         } catch (const Error& e) {
           throw Error(scene.file, r.child("obj"), e.what());
         }
-        reserve_collider_triangles(scene, r.child("obj"), triangles);
+        reserve_collider_triangles(scene, r.child("obj"), counts.triangles);
+        check_obj_reading(scene, r.child("obj"), counts);
         try {
           read_obj(p.string(), scale, s.vertices, s.triangles);
         } catch (const Error& e) {

@@ -1,5 +1,6 @@
 #include "loom/scene/SceneLimits.h"
 
+#include <algorithm>
 #include <cerrno>
 #include <cstdio>
 #include <cstdlib>
@@ -97,10 +98,11 @@ std::string about(const std::string& figure) {
   return figure.rfind("more than", 0) == 0 ? figure : "about " + figure;
 }
 
-// Refuses (naming `field`) the scene when its estimate passes the budget: `what` says which count grew,
-// `advice` what lowers it.
-void check_budget(const Scene& scene, const std::string& field, const std::string& what, const char* advice) {
-  const double need = scene_bytes(scene);
+// Refuses (naming `field`) the scene when its estimate, with `transient_bytes` held only for a while (a file
+// being read), passes the budget: `what` says which count grew, `advice` what lowers it.
+void check_budget(const Scene& scene, const std::string& field, const std::string& what, const char* advice,
+                  double transient_bytes = 0.0) {
+  const double need = scene_bytes(scene) + transient_bytes;
   const double budget = static_cast<double>(memory_budget());
   // Also refused: a count that is not a number (the estimate of a degenerate field).
   if (!(need <= budget))
@@ -137,28 +139,41 @@ ObjCounts count_obj_elements(const std::string& path) {
   std::ifstream in(path, std::ios::binary);
   if (!in) throw Error(path, "", "cannot read");
   ObjCounts c;
-  // Per line: its first token, and for `f` lines the number of corner tokens.
+  // Per line: its first token and how many follow it (a face's corners, a group's names).
   std::vector<char> buf(1 << 20);
-  bool line_start = true, in_first = false, is_v = false, is_f = false, in_token = false;
+  bool line_start = true, in_first = false, in_token = false;
   std::string first;
-  long corners = 0;
+  double tokens = 0.0, file_bytes = 0.0;
+  // The reader's allocations per line kind, bounded above (vectors grow by doubling, each heap block has a
+  // 16-byte header): a position and its line number; a texture coordinate; a face (its record, its corner
+  // list and its quoted text); a group line (its name list and each name).
   auto end_line = [&] {
-    if (is_v) c.vertices += 1.0;
-    if (is_f && corners >= 3) c.triangles += static_cast<double>(corners - 2);
-    line_start = true, in_first = false, is_v = is_f = in_token = false, corners = 0;
+    if (first == "v") {
+      c.vertices += 1.0;
+      c.bytes += 64.0;
+    } else if (first == "vt") {
+      c.bytes += 32.0;
+    } else if (first == "f") {
+      if (tokens >= 3.0) c.triangles += tokens - 2.0;
+      c.bytes += 320.0 + 16.0 * tokens;
+    } else if (first == "g") {
+      c.bytes += 64.0 + 96.0 * std::max(tokens, 1.0);
+    }
+    line_start = true, in_first = false, in_token = false, tokens = 0.0;
     first.clear();
   };
   bool first_chunk = true;
   while (in) {
     in.read(buf.data(), static_cast<std::streamsize>(buf.size()));
     const std::streamsize n = in.gcount();
+    file_bytes += static_cast<double>(n);
     std::streamsize i = 0;
-    // A UTF-8 byte order mark is not part of the first line (input_lines, InputFile.h).
+    // A UTF-8 byte order mark is not part of the first line (for_each_input_line, InputFile.h).
     if (first_chunk && n >= 3 && std::string(buf.data(), 3) == "\xef\xbb\xbf") i = 3;
     first_chunk = false;
     for (; i < n; ++i) {
       const char ch = buf[static_cast<size_t>(i)];
-      // Lines and words as the OBJ reader splits them (ObjReader.h): a line ends at LF or a bare CR (CRLF
+      // Lines and words as the OBJ reader splits them (ObjFile.cpp): a line ends at LF or a bare CR (CRLF
       // is then a line and an empty one), and every std::isspace character separates words.
       if (ch == '\n' || ch == '\r') {
         end_line();
@@ -170,25 +185,26 @@ ObjCounts count_obj_elements(const std::string& path) {
         in_first = true;
       }
       if (in_first) {
-        if (space) {
+        if (space)
           in_first = false;
-          is_v = first == "v";
-          is_f = first == "f";
-        } else if (first.size() < 2) {
-          first += ch;
-        } else {
-          first = "xx";  // a longer keyword: neither v nor f
-        }
+        else if (first.size() < 3)
+          first += ch;  // "v", "vt", "f", "g"; a longer keyword is none of them
         continue;
       }
-      if (is_f) {
-        if (!space && !in_token) ++corners;
-        in_token = !space;
-      }
+      if (!space && !in_token) tokens += 1.0;
+      in_token = !space;
     }
   }
   end_line();
+  // The file's text, held while it is read, and the line being read.
+  c.bytes += 2.0 * file_bytes;
   return c;
+}
+
+void check_obj_reading(const Scene& scene, const std::string& field, const ObjCounts& counts) {
+  check_budget(scene, field,
+               "reading its OBJ file takes " + about(show_bytes(counts.bytes)) + " while it is read",
+               "use a smaller mesh file", counts.bytes);
 }
 
 }  // namespace loom::scene

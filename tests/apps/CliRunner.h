@@ -40,10 +40,12 @@ inline nlohmann::json summary_of(const std::string& out) {
   return nlohmann::json::parse(slurp(std::filesystem::path(out) / "summary.json"));
 }
 
-inline CliResult run_loom(const std::string& args) {
+// `loom ARGS` in a shell, with `env` (NAME=VALUE words, may be empty) in its environment.
+inline CliResult run_loom(const std::string& args, const std::string& env = "") {
   const auto dir = test_dir();
   const std::string out = (dir / "stdout.txt").string(), err = (dir / "stderr.txt").string();
-  const int status = std::system((std::string(LOOM_BINARY) + " " + args + " >" + out + " 2>" + err).c_str());
+  const int status =
+      std::system((env + " " + std::string(LOOM_BINARY) + " " + args + " >" + out + " 2>" + err).c_str());
   return {WIFEXITED(status) ? WEXITSTATUS(status) : -1, slurp(out), slurp(err)};
 }
 

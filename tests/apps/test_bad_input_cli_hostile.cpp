@@ -562,7 +562,8 @@ TEST(HostileCompare, ValuesTheTwinsCannotCarryAreRefusedByField) {
 }
 
 // An OBJ's memory is estimated from its `v` and `f` lines before it is parsed: a collider mesh (counted
-// per triangle) and a cloth mesh (per vertex) past the budget are refused by field, before the folder.
+// per triangle), a cloth mesh (per vertex) and a file whose reading alone passes the budget are refused by
+// field, before the folder.
 TEST(HostileMemory, ObjMeshesAreEstimatedBeforeTheyAreParsed) {
   const fs::path dir = test_dir(), out = dir / "out";
   {
@@ -594,6 +595,17 @@ TEST(HostileMemory, ObjMeshesAreEstimatedBeforeTheyAreParsed) {
   EXPECT_EQ(code, 1) << err;
   EXPECT_NE(err.find("cloths[0].mesh: the scene's cloths would have about 4e+04 vertices"), std::string::npos)
       << err;
+  EXPECT_FALSE(fs::exists(out));
+  // Three vertices and 300000 faces that repeat them: few vertices, but reading the faces needs the memory.
+  {
+    std::ofstream obj(dir / "stuffed.obj");
+    obj << "v 0 0 0\nv 1 0 0\nv 0 0 1\n";
+    for (int i = 0; i < 300000; ++i) obj << "f 1 2 3\n";
+  }
+  std::tie(code, err) =
+      run("cloths[0].mesh={\"type\":\"obj\",\"path\":\"" + (dir / "stuffed.obj").string() + "\"}");
+  EXPECT_EQ(code, 1) << err;
+  EXPECT_NE(err.find("cloths[0].mesh.path: reading its OBJ file takes about"), std::string::npos) << err;
   EXPECT_FALSE(fs::exists(out));
 }
 

@@ -213,5 +213,29 @@ TEST(HostileFilesCli, ObjGarmentErrorsGiveNoParametricHint) {
   EXPECT_EQ(r.err.find("resolution"), std::string::npos) << r.err;
 }
 
+// An OBJ garment is counted before it is read, like a cloth mesh: its vertices join the scene's estimate,
+// and a file whose lines would take more memory to read than there is (here three vertices and 300000
+// faces repeating them) is refused by the garment's path, before the folder is made.
+TEST(HostileFilesCli, ObjGarmentIsEstimatedBeforeItIsRead) {
+  const fs::path dir = test_dir();
+  {
+    std::ofstream obj(dir / "stuffed.obj");
+    obj << "g top\nv 0 1.5 0\nv 0.1 1.5 0\nv 0 1.4 0\n";
+    for (int i = 0; i < 300000; ++i) obj << "f 1 2 3\n";
+  }
+  const std::string scene = cape_scene(
+      dir, {{"bvh", std::string(LOOM_TEST_DATA) + "/mocap/01_01.bvh"},
+            {"garments", {{{"type", "obj"}, {"path", "stuffed.obj"}, {"attach", {{"top", "Neck"}}}}}}});
+  const fs::path out = dir / "out";
+  const auto r = run_loom("run " + scene + " --frames 1 --out " + out.string(), "LOOM_MEMORY_LIMIT=50000000");
+  if (r.err.find("this build has no loom::characters") != std::string::npos) GTEST_SKIP() << r.err;
+  EXPECT_EQ(r.code, 1) << r.err;
+  EXPECT_NE(r.err.find(scene + ": character.garments[0].path: reading its OBJ file takes about"),
+            std::string::npos)
+      << r.err;
+  EXPECT_NE(r.err.find("(set by LOOM_MEMORY_LIMIT) is available"), std::string::npos) << r.err;
+  EXPECT_FALSE(fs::exists(out));
+}
+
 }  // namespace
 }  // namespace loom::test

@@ -3,9 +3,10 @@
 // queries, checkpoint): the path must name a regular file (a symbolic link is followed to its target; a
 // folder, a device such as /dev/zero, a pipe or a socket is refused before anything is read) of at most
 // `max_bytes`. Errors are loom::Error naming the path and the problem.
+#include <cstddef>
 #include <cstdint>
+#include <functional>
 #include <string>
-#include <vector>
 
 namespace loom {
 
@@ -16,11 +17,14 @@ void check_input_file(const std::string& path, std::uint64_t max_bytes = kMaxInp
 // The whole file, after check_input_file; reading stops at `max_bytes` even if the file grew meanwhile.
 std::string read_input_file(const std::string& path, std::uint64_t max_bytes = kMaxInputFileBytes);
 
-// The lines of `text`: a line ends at "\n", "\r\n" or a lone "\r" (old Mac line endings), so a line number
-// always counts the lines an editor shows, never the whole file as line 1. A leading UTF-8 byte order mark
-// is dropped.
-std::vector<std::string> input_lines(const std::string& text);
-// "line N ('TEXT')": where an error in a text file is, quoting the faulty line itself (at most 80
+// Calls `visit` with each line of `text`, in order, one at a time (a reader keeps no copy of the file's
+// lines, so its memory is what it builds): a line ends at "\n", "\r\n" or a lone "\r" (old Mac line
+// endings), so a line number always counts the lines an editor shows, never the whole file as line 1. A
+// leading UTF-8 byte order mark is dropped.
+void for_each_input_line(const std::string& text, const std::function<void(const std::string&)>& visit);
+// Characters of a line that line_where quotes; a longer line is quoted as its first kQuotedChars and "...".
+constexpr std::size_t kQuotedChars = 80;
+// "line N ('TEXT')": where an error in a text file is, quoting the faulty line itself (at most kQuotedChars
 // characters, control characters shown as \xNN).
 std::string line_where(long number, const std::string& line);
 

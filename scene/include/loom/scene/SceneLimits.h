@@ -58,13 +58,18 @@ constexpr std::uint64_t kBytesPerVertex = 8192;
 constexpr std::uint64_t kBytesPerColliderTriangle = 1024;
 
 // The vertex (`v`) lines and the triangles its `f` lines make (a face of k corners: k - 2) of an OBJ file,
-// counted in one streaming pass without building anything: what reading it will allocate is estimated from
-// these before it is parsed. Errors name the file.
+// counted in one streaming pass without building anything, and `bytes`, an upper bound of what reading it
+// (cloth::read_obj_file) allocates at its peak, from the file's size and its lines of each kind: what a
+// file will cost is known before it is parsed. Errors name the file.
 struct ObjCounts {
   double vertices = 0.0;
   double triangles = 0.0;
+  double bytes = 0.0;
 };
 ObjCounts count_obj_elements(const std::string& path);
+// Refuses (naming `field`) an OBJ file whose reading (counts.bytes, held only while it is read) would pass
+// memory_budget() with the scene's estimate so far.
+void check_obj_reading(const Scene& scene, const std::string& field, const ObjCounts& counts);
 // Adds `triangles` collider mesh triangles (of the collider at JSON path `field`) to the scene's count and
 // refuses when, with the cloth vertices, the estimate exceeds memory_budget().
 void reserve_collider_triangles(Scene& scene, const std::string& field, double triangles);
