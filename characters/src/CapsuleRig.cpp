@@ -229,12 +229,6 @@ namespace {
 const std::set<std::string> kArm = {"LeftArm",  "RightArm",  "LeftForeArm",    "RightForeArm",
                                     "LeftHand", "RightHand", "LeftFingerBase", "RightFingerBase"};
 
-// Samples (>= 1) and span (s) of the motion as it is played (clamped, or one loop).
-double played_span(const Motion& motion) {
-  const MotionSettings& ms = motion.settings();
-  return ms.loop ? motion.duration() / ms.speed : std::max(0.0, (motion.duration() - ms.start) / ms.speed);
-}
-
 }  // namespace
 
 int CapsuleRig::keep_clear_of(const Motion& motion, const std::vector<std::pair<int, Vec3>>& points,
@@ -243,12 +237,10 @@ int CapsuleRig::keep_clear_of(const Motion& motion, const std::vector<std::pair<
   std::vector<int> arms;
   for (size_t k = 0; k < bones_.size(); ++k)
     if (kArm.count(bones_[k].canonical) && !bones_[k].overridden) arms.push_back(static_cast<int>(k));
-  const double span = played_span(motion);
-  const int samples = std::max(1, static_cast<int>(std::ceil(span * rate)));
   std::vector<double> closest(bones_.size(), std::numeric_limits<double>::infinity());  // m, axis to a point
   std::vector<Transform> pose;
-  for (int k = 0; k <= samples; ++k) {
-    motion.pose(span * k / samples, pose);
+  for (const double t : motion.played_samples(rate)) {
+    motion.pose(t, pose);
     for (int b : arms) {
       const Vec3 a = pose[bones_[b].joint].translation(), d = pose[bones_[b].child].translation() - a;
       const double l2 = d.squaredNorm();
@@ -280,12 +272,10 @@ int CapsuleRig::fit_to_motion(const Motion& motion, double gap, double rate) {
         pairs.emplace_back(int(a), int(b));
   if (pairs.empty()) return 0;
   // Closest approach (m) of each pair's axes over the motion as it is played (clamped or one loop).
-  const double span = played_span(motion);
-  const int samples = std::max(1, static_cast<int>(std::ceil(span * rate)));
   std::vector<double> closest(pairs.size(), std::numeric_limits<double>::infinity());
   std::vector<Transform> pose;
-  for (int k = 0; k <= samples; ++k) {
-    motion.pose(span * k / samples, pose);
+  for (const double t : motion.played_samples(rate)) {
+    motion.pose(t, pose);
     for (size_t p = 0; p < pairs.size(); ++p) {
       const Bone &a = bones_[pairs[p].first], &b = bones_[pairs[p].second];
       const double d2 =

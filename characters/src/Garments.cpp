@@ -45,17 +45,11 @@ double clearance_of(const Vec3& p, const std::vector<Segment>& caps) {
   return g;
 }
 
-// Poses of the motion over the simulated time it plays (sampled at 30 Hz; one clip length when looping).
+// Poses of the motion over the simulated time it plays (Motion::played_samples at 30 Hz of clip time).
 std::vector<std::vector<Transform>> motion_samples(const Motion& motion) {
-  const MotionSettings& ms = motion.settings();
-  // 30 samples per second of the clip's own time (the poses do not depend on the playback speed, so a slow
-  // playback must not multiply them: speed 1e-6 asked for 3e7 poses per clip second and hung).
-  const double clip_span =
-      ms.loop ? motion.duration() : std::max(0.0, motion.duration() - ms.start);  // s of clip
-  const double span = clip_span / ms.speed;                                       // s of playback
-  const int samples = std::max(1, static_cast<int>(std::ceil(clip_span * 30.0)));
-  std::vector<std::vector<Transform>> poses(samples + 1);
-  for (int k = 0; k <= samples; ++k) motion.pose(span * k / samples, poses[k]);
+  const std::vector<double> times = motion.played_samples(30.0);
+  std::vector<std::vector<Transform>> poses(times.size());
+  for (std::size_t k = 0; k < times.size(); ++k) motion.pose(times[k], poses[k]);
   return poses;
 }
 

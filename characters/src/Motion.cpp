@@ -530,6 +530,21 @@ Transform Motion::local(int joint, double tau) const {
   return out;
 }
 
+std::vector<double> Motion::played_samples(double rate) const {
+  const double clip_span = settings_.loop ? duration_ : std::max(0.0, duration_ - settings_.start);  // s
+  std::size_t keys = 2;
+  for (const JointTrack& t : tracks_)
+    keys = std::max({keys, t.position_times.size(), t.rotation_times.size()});
+  const double by_keys = static_cast<double>(kSamplesPerKeyInterval) * static_cast<double>(keys - 1);
+  // NaN-safe: a rate times a span that is not a number falls back to one interval.
+  const double count = std::max(1.0, std::min(std::ceil(clip_span * rate), by_keys));
+  const int samples = static_cast<int>(count);
+  const double span = clip_span / settings_.speed;  // s of playback
+  std::vector<double> times(static_cast<std::size_t>(samples) + 1);
+  for (int k = 0; k <= samples; ++k) times[static_cast<std::size_t>(k)] = span * k / samples;
+  return times;
+}
+
 void Motion::clip_pose(double tau, std::vector<Transform>& global) const {
   global.resize(joints_.size());
   for (int k = 0; k < num_joints(); ++k) {

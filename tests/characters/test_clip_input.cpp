@@ -203,6 +203,30 @@ TEST(ClipInput, ABvhChannelGivenTwiceIsRefusedByLineAndJoint) {
       << e;
 }
 
+// The poses sampled over a played clip (garment fitting, capsule radii) are bounded by its keys, not by its
+// times: three frames an hour apart give at most Motion::kSamplesPerKeyInterval per interval, whatever the
+// rate or the playback speed; an ordinary clip is sampled at the rate asked for.
+TEST(ClipInput, PlayedSamplesAreBoundedByTheKeysNotByTheClipsSeconds) {
+  std::string hour = bvh("Yrotation", "0");
+  hour.replace(hour.find("Frame Time: 0.01"), 16, "Frame Time: 3600");
+  const std::string path = write_test_file("hour.bvh", hour);
+  for (const double speed : {1.0, 1e-6}) {
+    MotionSettings ms;
+    ms.speed = speed;
+    const Motion m = Motion::load(path, ms);
+    ASSERT_DOUBLE_EQ(m.duration(), 7200.0);
+    const std::vector<double> t = m.played_samples(120.0);
+    EXPECT_EQ(t.size(), static_cast<std::size_t>(2 * Motion::kSamplesPerKeyInterval + 1)) << speed;
+    EXPECT_EQ(t.front(), 0.0);
+    EXPECT_DOUBLE_EQ(t.back(), 7200.0 / speed);
+    for (std::size_t k = 1; k < t.size(); ++k) EXPECT_GT(t[k], t[k - 1]);
+  }
+  const Motion brief = Motion::load(write_test_file("brief.bvh", bvh("Yrotation", "0")));
+  const std::vector<double> t = brief.played_samples(1000.0);  // 0.02 s of clip at 1 kHz: 20 intervals
+  EXPECT_EQ(t.size(), 17u);                           // ... capped by the two key intervals at 8 each
+  EXPECT_EQ(brief.played_samples(100.0).size(), 3u);  // 0.02 s at 100 Hz: 2 intervals
+}
+
 TEST(ClipInput, AJumpPastTheKeySpeedBoundIsRefusedByJointAndFrame) {
   MotionSettings ms;
   ms.scale = 1.0;

@@ -59,9 +59,9 @@ class CapsuleRig {
   // swinging past the hip overlaps the pelvis capsule), and cloth
   // caught between two overlapping capsules cannot be outside both. For every pair of an arm bone
   // (upper arm, forearm, hand, finger base) and a torso or leg bone (pelvis, spine, chest, hips, thighs,
-  // shins), the closest approach of the two axes over the played motion (sampled at `rate` Hz) is measured;
-  // when the capsules come closer than `gap` (m), the arm's radius shrinks (down to half its table value),
-  // then the body's. Overridden radii are kept. Returns the number of radii changed.
+  // shins), the closest approach of the two axes over the played motion (Motion::played_samples(rate)) is
+  // measured; when the capsules come closer than `gap` (m), the arm's radius shrinks (down to half its table
+  // value), then the body's. Overridden radii are kept. Returns the number of radii changed.
   int fit_to_motion(const Motion& motion, double gap, double rate = 120.0);
   // Shrinks arm capsules (as fit_to_motion, down to half their table radius) that come closer than `gap` (m)
   // to any of `points` (a joint and a position in its frame: garment vertices attached to bones) over the

@@ -71,6 +71,13 @@ class Motion {
   void clip_pose(double tau, std::vector<Transform>& global) const;
   // Global transforms at simulated time t (s): speed, start, looping, root motion and placement applied.
   void pose(double t, std::vector<Transform>& global) const;
+  // Simulated times (s, from 0, ascending, at least two) that sample the clip as it plays: one cycle when
+  // looping, else from `start` to the end. At most `rate` samples per second of clip time (the poses do not
+  // depend on the playback speed) and at most kSamplesPerKeyInterval per interval between the keys of the
+  // most-keyed joint (between keys a pose is an interpolation), so the count is bounded by the file's keys
+  // whatever its times say.
+  std::vector<double> played_samples(double rate) const;
+  static constexpr int kSamplesPerKeyInterval = 8;
   // Clip time played at simulated time t (s), before wrapping (loop) or clamping.
   double clip_time(double t) const { return settings_.start + settings_.speed * t; }
 
