@@ -9,6 +9,7 @@
 #include <filesystem>
 #include <functional>
 #include <nlohmann/json.hpp>
+#include <optional>
 #include <set>
 #include <string>
 #include <unordered_map>
@@ -938,9 +939,227 @@ void check_collada_data(const std::string& file, const std::string& text) {
 
 // ---- glTF: the node forest ----
 
+namespace {
+
+using GltfJson = nlohmann::json;
+
+// glTF 2.0 (Khronos specification, section 5: buffers, bufferViews, accessors and their sparse storage):
+// every offset and length checked against what it points into, in 64-bit arithmetic on whole numbers below
+// 2^53, so no reader indexes past a buffer. `bin_length`: the bytes of a binary glTF's BIN chunk (the
+// buffer without a uri), or -1 when there is none.
+class GltfData {
+ public:
+  GltfData(const std::string& file, const GltfJson& doc, long long bin_length)
+      : file_(file), doc_(doc), bin_length_(bin_length) {}
+
+  void check() {
+    const GltfJson& buffers = list("buffers");
+    for (std::size_t b = 0; b < buffers.size(); ++b) buffer_lengths_.push_back(buffer(buffers[b], b));
+    const GltfJson& views = list("bufferViews");
+    for (std::size_t v = 0; v < views.size(); ++v) view(views[v], v);
+    const GltfJson& accessors = list("accessors");
+    for (std::size_t a = 0; a < accessors.size(); ++a) accessor(accessors[a], a);
+    const GltfJson& animations = list("animations");
+    for (std::size_t a = 0; a < animations.size(); ++a) animation(animations[a], a);
+  }
+
+ private:
+  static constexpr std::uint64_t kMaxWhole = std::uint64_t(1) << 53;
+
+  [[noreturn]] void fail(const std::string& where, const std::string& problem) const {
+    throw Error(file_, where, problem);
+  }
+  const GltfJson& list(const char* key) const {
+    static const GltfJson empty = GltfJson::array();
+    const auto it = doc_.find(key);
+    if (it == doc_.end()) return empty;
+    if (!it->is_array()) fail(key, "must be an array");
+    return *it;
+  }
+  static std::string at(const std::string& parent, std::size_t k) {
+    return parent + "[" + std::to_string(k) + "]";
+  }
+  // A whole number in [lo, 2^53) at obj[key] (`fallback` when absent; nullopt fallback: required).
+  std::uint64_t whole(const GltfJson& obj, const std::string& where, const char* key,
+                      std::optional<std::uint64_t> fallback, std::uint64_t lo = 0) const {
+    if (!obj.is_object()) fail(where, "must be an object");
+    const auto it = obj.find(key);
+    if (it == obj.end()) {
+      if (!fallback) fail(where + "." + key, "is required");
+      return *fallback;
+    }
+    const bool whole_number =
+        it->is_number_unsigned() || (it->is_number_integer() && it->get<long long>() >= 0);
+    if (!whole_number || it->get<std::uint64_t>() < lo || it->get<std::uint64_t>() >= kMaxWhole)
+      fail(where + "." + key, "must be a whole number in [" + std::to_string(lo) + ", 2^53) (got " +
+                                  show_value(it->dump(), 40) + ")");
+    return it->get<std::uint64_t>();
+  }
+  std::uint64_t index(const GltfJson& obj, const std::string& where, const char* key, std::size_t count,
+                      const char* what) const {
+    const std::uint64_t i = whole(obj, where, key, std::nullopt);
+    if (i >= count)
+      fail(where + "." + key,
+           "names " + std::string(what) + " " + std::to_string(i) + " of " + std::to_string(count));
+    return i;
+  }
+  void within(const std::string& where, std::uint64_t end, std::uint64_t length,
+              const std::string& of) const {
+    if (end > length)
+      fail(where,
+           "reaches byte " + std::to_string(end) + " of " + of + ", which has " + std::to_string(length));
+  }
+
+  std::uint64_t buffer(const GltfJson& b, std::size_t k) const {
+    const std::string where = at("buffers", k);
+    const std::uint64_t length = whole(b, where, "byteLength", std::nullopt, 1);
+    const auto uri = b.find("uri");
+    if (uri == b.end()) {
+      if (bin_length_ < 0) fail(where, "has no uri and the file has no binary (BIN) chunk");
+      if (k != 0) fail(where, "has no uri: only buffers[0] can be a binary glTF's BIN chunk");
+      within(where + ".byteLength", length, static_cast<std::uint64_t>(bin_length_), "the BIN chunk");
+    } else if (uri->is_string() && uri->get<std::string>().rfind("data:", 0) == 0) {
+      // A data URI: ";base64," then 4 characters per 3 bytes.
+      const std::string& text = uri->get_ref<const std::string&>();
+      const std::size_t comma = text.find(',');
+      if (comma == std::string::npos || text.rfind(";base64", comma) != comma - 7)
+        fail(where + ".uri", "a data URI must be base64 (data:...;base64,...)");
+      std::uint64_t chars = text.size() - comma - 1;
+      while (chars > 0 && text[comma + chars] == '=') --chars;
+      within(where + ".byteLength", length, chars * 3 / 4, "its data URI");
+    }
+    return length;
+  }
+
+  void view(const GltfJson& v, std::size_t k) {
+    const std::string where = at("bufferViews", k);
+    const std::uint64_t b = index(v, where, "buffer", buffer_lengths_.size(), "buffer");
+    const std::uint64_t offset = whole(v, where, "byteOffset", 0);
+    const std::uint64_t length = whole(v, where, "byteLength", std::nullopt, 1);
+    within(where + ".byteLength", offset + length, buffer_lengths_[b], at("buffers", b));
+    const std::uint64_t stride = whole(v, where, "byteStride", 0);
+    if (v.contains("byteStride") && (stride < 4 || stride > 252 || stride % 4 != 0))
+      fail(where + ".byteStride", "must be a multiple of 4 in [4, 252] (got " + std::to_string(stride) + ")");
+    views_.push_back({length, stride});
+  }
+
+  static std::uint64_t component_bytes(std::uint64_t type) {
+    switch (type) {
+      case 5120:  // BYTE
+      case 5121:  // UNSIGNED_BYTE
+        return 1;
+      case 5122:  // SHORT
+      case 5123:  // UNSIGNED_SHORT
+        return 2;
+      case 5125:  // UNSIGNED_INT
+      case 5126:  // FLOAT
+        return 4;
+      default:
+        return 0;
+    }
+  }
+
+  void accessor(const GltfJson& a, std::size_t k) {
+    const std::string where = at("accessors", k);
+    const std::uint64_t component = component_bytes(whole(a, where, "componentType", std::nullopt));
+    if (component == 0) fail(where + ".componentType", "must be 5120, 5121, 5122, 5123, 5125 or 5126");
+    static const std::unordered_map<std::string, std::uint64_t> kComponents = {
+        {"SCALAR", 1}, {"VEC2", 2}, {"VEC3", 3}, {"VEC4", 4}, {"MAT2", 4}, {"MAT3", 9}, {"MAT4", 16}};
+    const auto type = a.find("type");
+    if (type == a.end() || !type->is_string() || !kComponents.count(type->get<std::string>()))
+      fail(where + ".type", "must be SCALAR, VEC2, VEC3, VEC4, MAT2, MAT3 or MAT4");
+    const std::uint64_t element = component * kComponents.at(type->get<std::string>());
+    const std::uint64_t count = whole(a, where, "count", std::nullopt, 1);
+    accessors_.push_back({count, type->get<std::string>()});
+    const std::uint64_t offset = whole(a, where, "byteOffset", 0);
+    if (a.contains("bufferView")) {
+      const View& view = views_[index(a, where, "bufferView", views_.size(), "buffer view")];
+      const std::uint64_t stride = view.stride ? view.stride : element;
+      within(where + ".count", offset + stride * (count - 1) + element, view.length,
+             at("bufferViews", a["bufferView"].get<std::size_t>()));
+    }
+    const auto sparse = a.find("sparse");
+    if (sparse == a.end()) return;
+    const std::string s = where + ".sparse";
+    const std::uint64_t patched = whole(*sparse, s, "count", std::nullopt, 1);
+    if (patched > count)
+      fail(s + ".count",
+           std::to_string(patched) + " is more than the accessor's count " + std::to_string(count));
+    for (const char* part : {"indices", "values"}) {
+      const std::string p = s + "." + part;
+      const auto it = sparse->find(part);
+      if (it == sparse->end()) fail(p, "is required");
+      const std::uint64_t v = index(*it, p, "bufferView", views_.size(), "buffer view");
+      std::uint64_t size = element;
+      if (std::string(part) == "indices") {
+        const std::uint64_t t = whole(*it, p, "componentType", std::nullopt);
+        size = t == 5121 || t == 5123 || t == 5125 ? component_bytes(t) : 0;
+        if (size == 0) fail(p + ".componentType", "must be 5121, 5123 or 5125");
+      }
+      within(p + ".byteOffset", whole(*it, p, "byteOffset", 0) + patched * size, views_[v].length,
+             at("bufferViews", v));
+    }
+  }
+
+  // A channel that moves a node (translation, rotation, scale) reads its sampler's output as one value per
+  // key time (three for CUBICSPLINE: in-tangent, value, out-tangent) of the path's type, and its input as
+  // scalar times.
+  void animation(const GltfJson& anim, std::size_t k) const {
+    const std::string where = at("animations", k);
+    if (!anim.is_object()) fail(where, "must be an object");
+    static const GltfJson empty = GltfJson::array();
+    const GltfJson& samplers = anim.contains("samplers") ? anim["samplers"] : empty;
+    const GltfJson& channels = anim.contains("channels") ? anim["channels"] : empty;
+    if (!samplers.is_array()) fail(where + ".samplers", "must be an array");
+    if (!channels.is_array()) fail(where + ".channels", "must be an array");
+    static const std::unordered_map<std::string, std::string> kPathType = {
+        {"translation", "VEC3"}, {"rotation", "VEC4"}, {"scale", "VEC3"}};
+    for (std::size_t c = 0; c < channels.size(); ++c) {
+      const std::string cw = where + at(".channels", c);
+      const std::uint64_t si = index(channels[c], cw, "sampler", samplers.size(), "sampler");
+      const auto target = channels[c].find("target");
+      if (target == channels[c].end() || !target->is_object()) fail(cw + ".target", "is required");
+      const auto path = target->find("path");
+      if (path == target->end() || !path->is_string()) fail(cw + ".target.path", "is required");
+      const auto type = kPathType.find(path->get<std::string>());
+      if (type == kPathType.end()) continue;  // morph weights: not read as a node's motion
+      const GltfJson& sampler = samplers[si];
+      const std::string sw = where + at(".samplers", si);
+      const Accessor& in = accessors_[index(sampler, sw, "input", accessors_.size(), "accessor")];
+      const Accessor& out = accessors_[index(sampler, sw, "output", accessors_.size(), "accessor")];
+      if (in.type != "SCALAR") fail(sw + ".input", "must be a SCALAR accessor of key times");
+      if (out.type != type->second)
+        fail(sw + ".output", "must be a " + type->second + " accessor for a " + path->get<std::string>() +
+                                 " channel (got " + out.type + ")");
+      const auto interpolation = sampler.find("interpolation");
+      const bool cubic = interpolation != sampler.end() && *interpolation == "CUBICSPLINE";
+      if (out.count != (cubic ? 3 : 1) * in.count)
+        fail(sw + ".output", "has " + std::to_string(out.count) + " values for " + std::to_string(in.count) +
+                                 " key times (" + (cubic ? "3 per key for CUBICSPLINE" : "1 per key") + ")");
+    }
+  }
+
+  struct View {
+    std::uint64_t length, stride;
+  };
+  struct Accessor {
+    std::uint64_t count;
+    std::string type;
+  };
+  std::vector<Accessor> accessors_;
+  const std::string& file_;
+  const GltfJson& doc_;
+  long long bin_length_;
+  std::vector<std::uint64_t> buffer_lengths_;
+  std::vector<View> views_;
+};
+
+}  // namespace
+
 void check_gltf_nodes(const std::string& file, const std::string& text) {
   using Json = nlohmann::json;
   std::size_t begin = 0, end = text.size();
+  long long bin_length = -1;              // bytes of a binary glTF's BIN chunk
   if (text.compare(0, 4, "glTF") == 0) {  // binary glTF: a 12-byte header, then the JSON chunk
     if (text.size() < 20 || text.compare(16, 4, "JSON") != 0) return;
     const std::uint64_t length = std::uint64_t(static_cast<unsigned char>(text[12])) |
@@ -949,12 +1168,22 @@ void check_gltf_nodes(const std::string& file, const std::string& text) {
                                  std::uint64_t(static_cast<unsigned char>(text[15])) << 24;
     begin = 20;
     end = static_cast<std::size_t>(std::min<std::uint64_t>(text.size(), 20 + length));
+    // The BIN chunk, if any, follows the JSON chunk padded to 4 bytes: its length (what the file holds of
+    // it) and "BIN\0".
+    const std::uint64_t bin = 20 + (length + 3) / 4 * 4;
+    if (bin + 8 <= text.size() && text.compare(bin + 4, 4, std::string("BIN\0", 4)) == 0)
+      bin_length = static_cast<long long>(std::min<std::uint64_t>(
+          text.size() - bin - 8, std::uint64_t(static_cast<unsigned char>(text[bin])) |
+                                     std::uint64_t(static_cast<unsigned char>(text[bin + 1])) << 8 |
+                                     std::uint64_t(static_cast<unsigned char>(text[bin + 2])) << 16 |
+                                     std::uint64_t(static_cast<unsigned char>(text[bin + 3])) << 24));
   } else {
     if (text.compare(0, 3, "\xEF\xBB\xBF") == 0) begin = 3;
     while (begin < end && std::isspace(static_cast<unsigned char>(text[begin]))) ++begin;
     if (begin >= end || text[begin] != '{') return;
   }
-  // Only "nodes" and "scenes" are kept (the rest, buffers as data URIs included, is parsed and dropped).
+  // Only "nodes", "scenes", the data's layout ("buffers", "bufferViews", "accessors") and "animations"
+  // are kept (the rest, images as data URIs included, is parsed and dropped).
   // The document must read the same to this check and to assimp's reader: text that is not JSON (bytes
   // that are not UTF-8 included, which assimp's reader passes) and a key given twice in one object (this
   // reader keeps the last, assimp's the first) are refused, so no node graph goes unchecked.
@@ -973,7 +1202,9 @@ void check_gltf_nodes(const std::string& file, const std::string& text) {
       if (!keys[d].insert(parsed.get<std::string>()).second && twice.empty())
         twice = parsed.get<std::string>();
     }
-    return !(depth == 1 && event == Json::parse_event_t::key && parsed != "nodes" && parsed != "scenes");
+    static const std::set<std::string> kKept = {"nodes",       "scenes",    "buffers",
+                                                "bufferViews", "accessors", "animations"};
+    return !(depth == 1 && event == Json::parse_event_t::key && !kKept.count(parsed.get<std::string>()));
   };
   Json doc;
   try {
@@ -988,6 +1219,7 @@ void check_gltf_nodes(const std::string& file, const std::string& text) {
                 "the key '" + show_value(twice) +
                     "' is given twice in one object: readers differ on which one counts, so none is taken");
   if (!doc.is_object()) return;
+  GltfData(file, doc, bin_length).check();
   const auto nodes = doc.find("nodes");
   if (nodes == doc.end() || !nodes->is_array()) return;
   const std::size_t count = nodes->size();

@@ -53,7 +53,12 @@ void check_collada_data(const std::string& file, const std::string& text);
 
 // A glTF's JSON (text starting with '{') or a binary glTF (.glb, magic "glTF"): every node has at most one
 // parent, no node is its own ancestor, and the scenes' root lists expand to at most kMaxExpandedNodes.
-// Text that is not JSON passes (assimp names the syntax error).
+// Every buffer view lies inside its buffer, every accessor (and its sparse indices and values) inside its
+// view, a buffer inside its data URI or the BIN chunk, with whole-number fields below 2^53 and valid
+// component types (glTF 2.0, section 5), and an animation channel's sampler reads key times from a SCALAR
+// accessor and one value per key (three for CUBICSPLINE) of its path's type: refused naming the field
+// (`accessors[1].sparse.indices.byteOffset`, `animations[0].samplers[0].output`).
+// A document that is not JSON, or gives a key twice in one object, is refused.
 void check_gltf_nodes(const std::string& file, const std::string& text);
 
 // An FBX: binary (magic "Kaydara FBX Binary") by its node records (end offset, property count and length,

@@ -7,6 +7,7 @@
 #include <cmath>
 #include <cstring>
 #include <fstream>
+#include <nlohmann/json.hpp>
 #include <sstream>
 #include <string>
 #include <vector>
@@ -104,6 +105,100 @@ TEST(ClipInput, AConstantUniformScaleAtTheRootIsAppliedToTheJointsBelowIt) {
   EXPECT_NEAR(pa[head].translation().y(), 3.0, 1e-6);
   EXPECT_NEAR(pb[head].translation().y(), 5.0, 1e-6);
   EXPECT_NEAR(b.rest_height(), 5.0, 1e-6);
+}
+
+// Every offset and length of a glTF's data is checked before assimp reads it (glTF 2.0, section 5): a view
+// past its buffer, an accessor past its view, sparse indices or values past theirs (a byteOffset of 2^32 - 1
+// made the reader copy from far outside the file), numbers that are not whole or reach 2^53, and an
+// animation sampler whose values do not match its key times and path (CUBICSPLINE keys are three values).
+// Each is refused naming the file and the field; the unchanged clip, as .gltf and as .glb, loads.
+TEST(ClipInput, GltfDataOutsideItsBuffersIsRefusedByField) {
+  using Json = nlohmann::json;
+  MotionSettings ms;
+  ms.scale = 1.0;
+  const Json base = Json::parse(gltf(GltfClip{}));
+  EXPECT_EQ(error_of([&] { Motion::load(write_test_file("base.gltf", base.dump()), ms); }), "");
+  const Json sparse = {{"count", 1},
+                       {"indices", {{"bufferView", 0}, {"componentType", 5125}, {"byteOffset", 0}}},
+                       {"values", {{"bufferView", 1}, {"byteOffset", 0}}}};
+  struct Case {
+    const char* pointer;
+    Json value;
+    const char* problem;
+  };
+  const std::vector<Case> cases = {
+      {"/bufferViews/1/byteLength", 64,
+       "bufferViews[1].byteLength: reaches byte 72 of buffers[0], which has 64"},
+      {"/bufferViews/1/byteOffset", -8, "bufferViews[1].byteOffset: must be a whole number in [0, 2^53)"},
+      {"/bufferViews/1/byteOffset", 8.5, "bufferViews[1].byteOffset: must be a whole number"},
+      {"/bufferViews/1/byteStride", 2, "bufferViews[1].byteStride: must be a multiple of 4 in [4, 252]"},
+      {"/accessors/1/count", 3, "accessors[1].count: reaches byte 48 of bufferViews[1], which has 32"},
+      {"/accessors/1/count", 0, "accessors[1].count: must be a whole number in [1, 2^53)"},
+      {"/accessors/1/byteOffset", 9007199254740992.0, "accessors[1].byteOffset: must be a whole number"},
+      {"/accessors/1/componentType", 5124, "accessors[1].componentType: must be 5120, 5121"},
+      {"/accessors/1/bufferView", 7, "accessors[1].bufferView: names buffer view 7 of 3"},
+      {"/buffers/0/byteLength", 65, "buffers[0].byteLength: reaches byte 65 of its data URI, which has 64"},
+      {"/accessors/1/sparse", sparse, ""},
+      {"/accessors/1/sparse/indices/byteOffset", 4294967295u,
+       "accessors[1].sparse.indices.byteOffset: reaches byte 4294967299 of bufferViews[0], which has 8"},
+      {"/accessors/1/sparse/values/byteOffset", 1000,
+       "accessors[1].sparse.values.byteOffset: reaches byte 1016 of bufferViews[1], which has 32"},
+      {"/accessors/1/sparse/count", 3, "accessors[1].sparse.count: 3 is more than the accessor's count 2"},
+      {"/accessors/1/sparse/indices/componentType", 5126, "accessors[1].sparse.indices.componentType"},
+      {"/animations/0/samplers/0/interpolation", "CUBICSPLINE",
+       "animations[0].samplers[0].output: has 2 values for 2 key times (3 per key for CUBICSPLINE)"},
+      {"/animations/0/samplers/0/output", 2,
+       "animations[0].samplers[0].output: must be a VEC4 accessor for a rotation channel (got VEC3)"},
+      {"/animations/0/samplers/0/input", 1, "animations[0].samplers[0].input: must be a SCALAR accessor"},
+      {"/animations/0/channels/0/sampler", 5, "animations[0].channels[0].sampler: names sampler 5 of 2"},
+  };
+  Json doc = base;
+  for (std::size_t k = 0; k < cases.size(); ++k) {
+    // The sparse cases build on the valid sparse storage the case before them adds.
+    if (std::string(cases[k].pointer).rfind("/accessors/1/sparse/", 0) != 0) doc = base;
+    if (std::string(cases[k].pointer) == "/accessors/1/sparse") doc = base;
+    Json mutated = doc;
+    mutated[Json::json_pointer(cases[k].pointer)] = cases[k].value;
+    if (std::string(cases[k].pointer) == "/accessors/1/sparse") doc = mutated;
+    const std::string path = write_test_file("data_" + std::to_string(k) + ".gltf", mutated.dump());
+    const std::string e = error_of([&] { Motion::load(path, ms); });
+    if (*cases[k].problem == '\0') {
+      EXPECT_EQ(e, "") << cases[k].pointer;
+      continue;
+    }
+    EXPECT_NE(e.find(path + ": " + cases[k].problem), std::string::npos) << cases[k].pointer << ": " << e;
+  }
+  // The same clip as a binary glTF: buffers[0] without a uri is the BIN chunk, which must hold its length.
+  auto glb = [&](std::uint32_t bin_length) {
+    Json j = base;
+    const std::string uri = j["buffers"][0]["uri"];
+    j["buffers"][0].erase("uri");
+    std::string json = j.dump();
+    json.resize((json.size() + 3) / 4 * 4, ' ');
+    // The 64 data bytes, decoded from the data URI's base64.
+    std::string bin;
+    const std::string digits = "ABCDEFGHIJKLMNOPQRSTUVWXYZabcdefghijklmnopqrstuvwxyz0123456789+/";
+    unsigned acc = 0;
+    int bits = 0;
+    for (const char c : uri.substr(uri.find(',') + 1)) {
+      if (c == '=') break;
+      acc = acc << 6 | static_cast<unsigned>(digits.find(c));
+      if ((bits += 6) >= 8) bin += static_cast<char>((acc >> (bits -= 8)) & 0xff);
+    }
+    bin.resize(std::min<std::size_t>(bin.size(), bin_length));
+    auto u32 = [](std::uint32_t v) {
+      return std::string{char(v & 0xff), char(v >> 8 & 0xff), char(v >> 16 & 0xff), char(v >> 24 & 0xff)};
+    };
+    const std::string body =
+        u32(std::uint32_t(json.size())) + "JSON" + json + u32(bin_length) + std::string("BIN\0", 4) + bin;
+    return "glTF" + u32(2) + u32(std::uint32_t(12 + body.size())) + body;
+  };
+  EXPECT_EQ(error_of([&] { Motion::load(write_test_file("base.glb", glb(64)), ms); }), "");
+  const std::string short_bin = write_test_file("short.glb", glb(60));
+  const std::string e = error_of([&] { Motion::load(short_bin, ms); });
+  EXPECT_NE(e.find(short_bin + ": buffers[0].byteLength: reaches byte 64 of the BIN chunk, which has 60"),
+            std::string::npos)
+      << e;
 }
 
 TEST(ClipInput, AScaleThatChangesTheBonesIsRefusedByJointAndKey) {
