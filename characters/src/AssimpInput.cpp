@@ -201,19 +201,19 @@ std::uint64_t line_of(const std::string& text, std::size_t at) {
   return 1 + static_cast<std::uint64_t>(std::count(text.begin(), text.begin() + static_cast<long>(at), '\n'));
 }
 
-// `mtllib` directives of an OBJ (a line's first word): assimp reads the named library once per directive.
+// `mtllib` directives of an OBJ: assimp reads the named library once per directive. Every `mtllib` word
+// counts, wherever it stands (a word: bounded by the file's ends, whitespace or control characters): lines
+// end, and words begin, at more characters in assimp's reader (CR, form feed, NUL) than a line-based
+// count would see, and a word counted too many only lowers a bound no real file comes near.
 void check_mtllib(const std::string& file, const std::string& text) {
+  auto separator = [&](std::size_t at) { return static_cast<unsigned char>(text[at]) <= ' '; };
   int count = 0;
-  for (std::size_t at = 0; at < text.size();) {
-    std::size_t word = at;
-    while (word < text.size() && (text[word] == ' ' || text[word] == '\t')) ++word;
-    if (text.compare(word, 6, "mtllib") == 0 && word + 6 < text.size() &&
-        (text[word + 6] == ' ' || text[word + 6] == '\t') && ++count > kMaxMtllib)
-      throw Error(file, "line " + std::to_string(line_of(text, word)),
+  for (std::size_t at = text.find("mtllib"); at != std::string::npos; at = text.find("mtllib", at + 6)) {
+    const bool word = (at == 0 || separator(at - 1)) && (at + 6 == text.size() || separator(at + 6));
+    if (word && ++count > kMaxMtllib)
+      throw Error(file, "line " + std::to_string(line_of(text, at)),
                   "more than " + std::to_string(kMaxMtllib) +
                       " 'mtllib' directives (each makes the reader load a material library again)");
-    const std::size_t next = text.find('\n', at);
-    at = next == std::string::npos ? text.size() : next + 1;
   }
 }
 

@@ -1018,7 +1018,34 @@ class GltfData {
       if (bin_length_ < 0) fail(where, "has no uri and the file has no binary (BIN) chunk");
       if (k != 0) fail(where, "has no uri: only buffers[0] can be a binary glTF's BIN chunk");
       within(where + ".byteLength", length, static_cast<std::uint64_t>(bin_length_), "the BIN chunk");
-    } else if (uri->is_string() && uri->get<std::string>().rfind("data:", 0) == 0) {
+    } else if (!uri->is_string()) {
+      fail(where + ".uri", "must be a string");
+    } else if (uri->get<std::string>().rfind("data:", 0) != 0) {
+      // A file beside the clip: a relative path that stays in the clip's folder or below it, checked as
+      // written and with its percent-escapes (%2E is '.') decoded.
+      const std::string& written = uri->get_ref<const std::string&>();
+      std::string path;
+      for (std::size_t k = 0; k < written.size(); ++k) {
+        if (written[k] == '%' && k + 2 < written.size() &&
+            std::isxdigit(static_cast<unsigned char>(written[k + 1])) &&
+            std::isxdigit(static_cast<unsigned char>(written[k + 2]))) {
+          path += static_cast<char>(std::stoi(written.substr(k + 1, 2), nullptr, 16));
+          k += 2;
+        } else {
+          path += written[k];
+        }
+      }
+      bool outside = path.empty() || path[0] == '/' || path[0] == '\\' || path.find(':') != std::string::npos;
+      for (std::size_t at = 0; at <= path.size() && !outside;) {
+        const std::size_t end = std::min(path.find_first_of("/\\", at), path.size());
+        outside = path.compare(at, end - at, "..") == 0 && end - at == 2;
+        at = end + 1;
+      }
+      if (outside)
+        fail(where + ".uri",
+             "'" + show_value(written, 80) +
+                 "' is not a file beside the clip (a relative path without '..', or a data URI)");
+    } else {
       // A data URI: ";base64," then 4 characters per 3 bytes.
       const std::string& text = uri->get_ref<const std::string&>();
       const std::size_t comma = text.find(',');
@@ -1070,7 +1097,7 @@ class GltfData {
       fail(where + ".type", "must be SCALAR, VEC2, VEC3, VEC4, MAT2, MAT3 or MAT4");
     const std::uint64_t element = component * kComponents.at(type->get<std::string>());
     const std::uint64_t count = whole(a, where, "count", std::nullopt, 1);
-    accessors_.push_back({count, type->get<std::string>()});
+    accessors_.push_back({count, type->get<std::string>(), a["componentType"].get<std::uint64_t>()});
     const std::uint64_t offset = whole(a, where, "byteOffset", 0);
     if (a.contains("bufferView")) {
       const View& view = views_[index(a, where, "bufferView", views_.size(), "buffer view")];
@@ -1127,7 +1154,10 @@ class GltfData {
       const std::string sw = where + at(".samplers", si);
       const Accessor& in = accessors_[index(sampler, sw, "input", accessors_.size(), "accessor")];
       const Accessor& out = accessors_[index(sampler, sw, "output", accessors_.size(), "accessor")];
-      if (in.type != "SCALAR") fail(sw + ".input", "must be a SCALAR accessor of key times");
+      if (in.type != "SCALAR" || in.component != 5126)
+        fail(sw + ".input", "must be a SCALAR FLOAT (5126) accessor of key times");
+      if (out.component != 5126)
+        fail(sw + ".output", "must be a FLOAT (5126) accessor: Loom reads a node's keys as floats");
       if (out.type != type->second)
         fail(sw + ".output", "must be a " + type->second + " accessor for a " + path->get<std::string>() +
                                  " channel (got " + out.type + ")");
@@ -1145,6 +1175,7 @@ class GltfData {
   struct Accessor {
     std::uint64_t count;
     std::string type;
+    std::uint64_t component;
   };
   std::vector<Accessor> accessors_;
   const std::string& file_;

@@ -110,7 +110,8 @@ TEST(ClipInput, AConstantUniformScaleAtTheRootIsAppliedToTheJointsBelowIt) {
 // Every offset and length of a glTF's data is checked before assimp reads it (glTF 2.0, section 5): a view
 // past its buffer, an accessor past its view, sparse indices or values past theirs (a byteOffset of 2^32 - 1
 // made the reader copy from far outside the file), numbers that are not whole or reach 2^53, and an
-// animation sampler whose values do not match its key times and path (CUBICSPLINE keys are three values).
+// animation sampler whose values do not match its key times and path (CUBICSPLINE keys are three values)
+// or are not floats, and a buffer file outside the clip's folder.
 // Each is refused naming the file and the field; the unchanged clip, as .gltf and as .glb, loads.
 TEST(ClipInput, GltfDataOutsideItsBuffersIsRefusedByField) {
   using Json = nlohmann::json;
@@ -149,8 +150,13 @@ TEST(ClipInput, GltfDataOutsideItsBuffersIsRefusedByField) {
        "animations[0].samplers[0].output: has 2 values for 2 key times (3 per key for CUBICSPLINE)"},
       {"/animations/0/samplers/0/output", 2,
        "animations[0].samplers[0].output: must be a VEC4 accessor for a rotation channel (got VEC3)"},
-      {"/animations/0/samplers/0/input", 1, "animations[0].samplers[0].input: must be a SCALAR accessor"},
+      {"/animations/0/samplers/0/input", 1, "animations[0].samplers[0].input: must be a SCALAR FLOAT"},
       {"/animations/0/channels/0/sampler", 5, "animations[0].channels[0].sampler: names sampler 5 of 2"},
+      {"/accessors/0/componentType", 5121, "animations[0].samplers[0].input: must be a SCALAR FLOAT (5126)"},
+      {"/buffers/0/uri", "../up.bin", "buffers[0].uri: '../up.bin' is not a file beside the clip"},
+      {"/buffers/0/uri", "/etc/hostname", "buffers[0].uri: '/etc/hostname' is not a file beside the clip"},
+      {"/buffers/0/uri", "a/%2e%2E/%2E%2e/up.bin", "buffers[0].uri: 'a/%2e%2E/%2E%2e/up.bin' is not a file"},
+      {"/buffers/0/uri", "file:///etc/hostname", "buffers[0].uri: 'file:///etc/hostname' is not a file"},
   };
   Json doc = base;
   for (std::size_t k = 0; k < cases.size(); ++k) {

@@ -84,8 +84,8 @@ TEST(HostileFiles, TheBvhChecksRunForAnyLetterCase) {
   EXPECT_NE(e.find(frames + ": Frames: says 2000000000 frames"), std::string::npos) << e;
 }
 
-// An OBJ names at most 16 material libraries (assimp reads a library again for each directive); a few
-// still load.
+// An OBJ names at most 16 material libraries (assimp reads a library again for each directive), however
+// its lines are separated; a few still load.
 TEST(HostileFiles, ObjMaterialLibrariesAreBounded) {
   write("m.mtl", "newmtl a\nKd 1 0 0\n");
   const std::string tri = "v 0 0 0\nv 1 0 0\nv 0 1 0\nf 1 2 3\n";
@@ -94,6 +94,15 @@ TEST(HostileFiles, ObjMaterialLibrariesAreBounded) {
   const std::string obj = write("many.obj", many + tri);
   const std::string e = error_of([&] { loom::characters::load_static_mesh(obj); });
   EXPECT_NE(e.find(obj + ": line 17: more than 16 'mtllib' directives"), std::string::npos) << e;
+  // Directives apart by what else ends a line or starts a word for the reader: a lone CR, a form feed, NUL.
+  for (const std::string& sep :
+       {std::string("\r"), std::string("\f"), std::string(1, '\0'), std::string("\r\t")}) {
+    std::string hidden;
+    for (int k = 0; k < 17; ++k) hidden += "mtllib m.mtl" + sep;
+    const std::string path = write("hidden.obj", hidden + "\n" + tri);
+    const std::string h = error_of([&] { loom::characters::load_static_mesh(path); });
+    EXPECT_NE(h.find(path + ": line 1: more than 16 'mtllib' directives"), std::string::npos) << h;
+  }
   EXPECT_EQ(loom::characters::load_static_mesh(write("two.obj", "mtllib m.mtl\nmtllib m.mtl\n" + tri))
                 .triangles.size(),
             1u);
