@@ -19,6 +19,7 @@
 
 #include "AssimpInput.h"
 #include "loom/cloth/Error.h"
+#include "loom/cloth/HiddenText.h"
 #include "loom/cloth/InputFile.h"
 
 namespace loom::characters {
@@ -122,6 +123,33 @@ void check_format(const std::string& path) {
                   ", in any letter case)");
 }
 
+// A number as the BVH reader's parser takes it and Loom keeps it: an optional sign, digits with an optional
+// decimal point (at least one digit), an optional exponent with digits; "1e", "--1", "nan", "inf" and
+// "0x10" are not numbers here (the reader stops on some with no line, reads others as non-finite).
+bool bvh_number(const std::string& text, size_t begin, size_t end) {
+  size_t k = begin;
+  if (k < end && (text[k] == '+' || text[k] == '-')) ++k;
+  size_t digits = 0;
+  while (k < end && std::isdigit(static_cast<unsigned char>(text[k]))) ++k, ++digits;
+  if (k < end && text[k] == '.') ++k;
+  while (k < end && std::isdigit(static_cast<unsigned char>(text[k]))) ++k, ++digits;
+  if (digits == 0) return false;
+  if (k < end && (text[k] == 'e' || text[k] == 'E')) {
+    ++k;
+    if (k < end && (text[k] == '+' || text[k] == '-')) ++k;
+    size_t exponent = 0;
+    while (k < end && std::isdigit(static_cast<unsigned char>(text[k]))) ++k, ++exponent;
+    if (exponent == 0) return false;
+  }
+  return k == end;
+}
+
+// 1-based line of the character at `at`.
+unsigned long long line_number(const std::string& text, size_t at) {
+  return 1 + static_cast<unsigned long long>(
+                 std::count(text.begin(), text.begin() + static_cast<std::ptrdiff_t>(at), '\n'));
+}
+
 // The MOTION lines from `at` (just past the frame time): the rest of the frame time's line is empty, then
 // one line per frame (blank lines skipped), each holding exactly `channels` numbers, `frames` lines in all;
 // one more (Frames one short, as in the Biovision sample Boxing_Toes.bvh) is tolerated, and not read.
@@ -137,7 +165,12 @@ void check_bvh_frame_lines(const std::string& path, const std::string& text, siz
       while (k < end && std::isspace(static_cast<unsigned char>(text[k]))) ++k;
       if (k == end) break;
       ++numbers;
+      const size_t start = k;
       while (k < end && !std::isspace(static_cast<unsigned char>(text[k]))) ++k;
+      if (!bvh_number(text, start, k))
+        throw Error(path, "line " + std::to_string(line),
+                    "value " + std::to_string(numbers) + " of the line, '" +
+                        show_value(text.substr(start, k - start), 40) + "', is not a decimal number");
     }
     at = end + 1;
     if (numbers == 0) continue;
@@ -208,6 +241,15 @@ void check_bvh_nesting(const std::string& path) {
       }
       at = after;
     }
+    if (tok == "OFFSET") {  // three numbers
+      for (int k = 0; k < 3; ++k) {
+        const std::string n = next();
+        if (!bvh_number(n, 0, n.size()))
+          throw Error(
+              path, "line " + std::to_string(line_number(text, at)),
+              "joint '" + joint + "': OFFSET needs three decimal numbers (got '" + show_value(n, 40) + "')");
+      }
+    }
     if (tok == "ROOT" || tok == "JOINT") {  // its name, read ahead (a nameless joint's "{" stays a token)
       const size_t after = at;
       joint = next();
@@ -229,7 +271,10 @@ void check_bvh_nesting(const std::string& path) {
   // assimp's reader makes one key out of no data for "Frames: 0" (and a clip of 2^32 - 1 frame times).
   if (frames == 0) throw Error(path, "Frames", "the MOTION section holds no frame (Frames must be >= 1)");
   if (next() != "Frame" || next() != "Time:") return;  // the reader names what is missing
-  next();  // the frame time (checked against the animation's rate after reading)
+  const std::string frame_time = next();  // its range is checked against the animation's rate after reading
+  if (!bvh_number(frame_time, 0, frame_time.size()))
+    throw Error(path, "Frame Time",
+                "expected a decimal number of seconds (got '" + show_value(frame_time, 40) + "')");
   check_bvh_frame_lines(path, text, at, frames, channels);
 }
 

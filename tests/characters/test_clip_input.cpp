@@ -304,6 +304,37 @@ TEST(ClipInput, ABvhChannelGivenTwiceIsRefusedByLineAndJoint) {
       << e;
 }
 
+// Every number of a BVH is checked before the reader parses it, so a value its parser stops on (or reads as
+// non-finite) is named by line: a frame value, an OFFSET (two numbers before CHANNELS) and the frame time.
+TEST(ClipInput, BvhNumbersTheReaderCannotParseAreNamedByLine) {
+  for (const char* bad : {"1e", "--1", "nan", "inf", "0x10", "1.2.3"}) {
+    const std::string path = write_test_file("bad_value.bvh", bvh("Yrotation", bad));
+    const std::string e = error_of([&] { Motion::load(path); });
+    EXPECT_NE(
+        e.find(path + ": line 21: value 1 of the line, '" + std::string(bad) + "', is not a decimal number"),
+        std::string::npos)
+        << e;
+  }
+  for (const char* good : {"+1", "-.5", "2.", "1e-3", "1E+2"})
+    EXPECT_EQ(error_of([&] { Motion::load(write_test_file("good_value.bvh", bvh("Yrotation", good))); }), "")
+        << good;
+  std::string offset = bvh("Yrotation", "0");
+  offset.replace(offset.find("OFFSET 0 1 0\n    CHANNELS"), 12, "OFFSET 0 1");
+  const std::string offset_path = write_test_file("offset.bvh", offset);
+  std::string e = error_of([&] { Motion::load(offset_path); });
+  EXPECT_NE(
+      e.find(offset_path + ": line 9: joint 'Chest': OFFSET needs three decimal numbers (got 'CHANNELS')"),
+      std::string::npos)
+      << e;
+  std::string hex = bvh("Yrotation", "0");
+  hex.replace(hex.find("Frame Time: 0.01"), 16, "Frame Time: 0x1p-7");
+  const std::string hex_path = write_test_file("hex.bvh", hex);
+  e = error_of([&] { Motion::load(hex_path); });
+  EXPECT_NE(e.find(hex_path + ": Frame Time: expected a decimal number of seconds (got '0x1p-7')"),
+            std::string::npos)
+      << e;
+}
+
 // The poses sampled over a played clip (garment fitting, capsule radii) are bounded by its keys, not by its
 // times: three frames an hour apart give at most Motion::kSamplesPerKeyInterval per interval, whatever the
 // rate or the playback speed; an ordinary clip is sampled at the rate asked for.
