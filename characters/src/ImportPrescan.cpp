@@ -660,7 +660,10 @@ void check_collada_data(const std::string& file, const std::string& text) {
       if (!empty)
         at = tokens(at, element, start, [&](const char* b, const char* e) {
           std::uint64_t v = 0;
-          if (!parse_whole(b, e, v) || v > 0xffffffffu) bad_token(b, e, element, "a whole number >= 0");
+          // Each value is one face's vertex count (1 and 2 make points and lines): a face of none makes the
+          // triangulation assert.
+          if (!parse_whole(b, e, v) || v > 0xffffffffu || v < 1)
+            bad_token(b, e, element, "a face's vertex count, a whole number >= 1");
           prim.vsum += v;
           ++seen;
         });
@@ -700,6 +703,7 @@ void check_collada_data(const std::string& file, const std::string& text) {
                           std::to_string(slots) + " inputs" + (prim.kind == "lines" ? " in pairs" : ""));
       const std::uint64_t least = prim.kind == "tristrips" || prim.kind == "trifans" ? 3
                                   : prim.kind == "linestrips"                        ? 2
+                                  : prim.kind == "polygons"                          ? 1
                                                                                      : 0;
       if (got / slots < least)
         refuse(start, "<p> of a <" + prim.kind + "> holds " + std::to_string(got / slots) +
@@ -731,7 +735,10 @@ void check_collada_data(const std::string& file, const std::string& text) {
       if (!empty)
         at = tokens(at, element, start, [&](const char* b, const char* e) {
           std::uint64_t v = 0;
-          if (!parse_whole(b, e, v) || v > 0xffffffffu) bad_token(b, e, element, "a whole number >= 0");
+          // Each value is one face's vertex count (1 and 2 make points and lines): a face of none makes the
+          // triangulation assert.
+          if (!parse_whole(b, e, v) || v > 0xffffffffu || v < 1)
+            bad_token(b, e, element, "a face's vertex count, a whole number >= 1");
           skin.vsum += v;
           ++skin.vcount_tokens;
         });
@@ -961,6 +968,8 @@ class GltfData {
     for (std::size_t a = 0; a < accessors.size(); ++a) accessor(accessors[a], a);
     const GltfJson& animations = list("animations");
     for (std::size_t a = 0; a < animations.size(); ++a) animation(animations[a], a);
+    const GltfJson& meshes = list("meshes");
+    for (std::size_t m = 0; m < meshes.size(); ++m) mesh(meshes[m], m);
   }
 
  private:
@@ -1169,6 +1178,42 @@ class GltfData {
     }
   }
 
+  // A primitive's accessors exist, its indices are unsigned scalars, and it has the vertices its mode
+  // needs (points 1, lines 2, triangles 3: a strip of one index made the reader allocate 2^64 - 1 bytes).
+  void mesh(const GltfJson& m, std::size_t k) const {
+    const std::string where = at("meshes", k);
+    if (!m.is_object()) fail(where, "must be an object");
+    const auto primitives = m.find("primitives");
+    if (primitives == m.end()) return;
+    if (!primitives->is_array()) fail(where + ".primitives", "must be an array");
+    for (std::size_t p = 0; p < primitives->size(); ++p) {
+      const GltfJson& prim = (*primitives)[p];
+      const std::string pw = where + at(".primitives", p);
+      const std::uint64_t mode = whole(prim, pw, "mode", 4);
+      if (mode > 6)
+        fail(pw + ".mode", "must be 0 to 6 (points, lines, line loop, line strip, triangles, strip, fan)");
+      std::uint64_t vertices = 0;
+      const auto attributes = prim.find("attributes");
+      if (attributes == prim.end() || !attributes->is_object()) fail(pw + ".attributes", "must be an object");
+      for (auto it = attributes->begin(); it != attributes->end(); ++it) {
+        const std::uint64_t a =
+            index(*attributes, pw + ".attributes", it.key().c_str(), accessors_.size(), "accessor");
+        if (it.key() == "POSITION") vertices = accessors_[a].count;
+      }
+      if (prim.contains("indices")) {
+        const Accessor& indices = accessors_[index(prim, pw, "indices", accessors_.size(), "accessor")];
+        if (indices.type != "SCALAR" ||
+            !(indices.component == 5121 || indices.component == 5123 || indices.component == 5125))
+          fail(pw + ".indices", "must be a SCALAR accessor of unsigned integers (5121, 5123 or 5125)");
+        vertices = indices.count;
+      }
+      const std::uint64_t least = mode == 0 ? 1 : mode <= 3 ? 2 : 3;
+      if (vertices < least)
+        fail(pw, "has " + std::to_string(vertices) + " vertices (indices, or POSITION values); its mode " +
+                     std::to_string(mode) + " needs at least " + std::to_string(least));
+    }
+  }
+
   struct View {
     std::uint64_t length, stride;
   };
@@ -1233,8 +1278,8 @@ void check_gltf_nodes(const std::string& file, const std::string& text) {
       if (!keys[d].insert(parsed.get<std::string>()).second && twice.empty())
         twice = parsed.get<std::string>();
     }
-    static const std::set<std::string> kKept = {"nodes",       "scenes",    "buffers",
-                                                "bufferViews", "accessors", "animations"};
+    static const std::set<std::string> kKept = {"nodes",     "scenes",     "buffers", "bufferViews",
+                                                "accessors", "animations", "meshes",  "asset"};
     return !(depth == 1 && event == Json::parse_event_t::key && !kKept.count(parsed.get<std::string>()));
   };
   Json doc;
@@ -1250,7 +1295,14 @@ void check_gltf_nodes(const std::string& file, const std::string& text) {
                 "the key '" + show_value(twice) +
                     "' is given twice in one object: readers differ on which one counts, so none is taken");
   if (!doc.is_object()) return;
-  GltfData(file, doc, bin_length).check();
+  // glTF 1.0 (its buffers, views and accessors are dictionaries, read by assimp's older reader) is not
+  // checked here: the layout rules are glTF 2.0's.
+  const auto asset = doc.find("asset");
+  const Json version =
+      asset != doc.end() && asset->is_object() && asset->contains("version") ? (*asset)["version"] : Json();
+  const bool version1 = (version.is_string() && version.get<std::string>().rfind('1', 0) == 0) ||
+                        (version.is_number() && version.get<double>() < 2.0);
+  if (!version1) GltfData(file, doc, bin_length).check();
   const auto nodes = doc.find("nodes");
   if (nodes == doc.end() || !nodes->is_array()) return;
   const std::size_t count = nodes->size();

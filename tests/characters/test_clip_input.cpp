@@ -111,7 +111,8 @@ TEST(ClipInput, AConstantUniformScaleAtTheRootIsAppliedToTheJointsBelowIt) {
 // past its buffer, an accessor past its view, sparse indices or values past theirs (a byteOffset of 2^32 - 1
 // made the reader copy from far outside the file), numbers that are not whole or reach 2^53, and an
 // animation sampler whose values do not match its key times and path (CUBICSPLINE keys are three values)
-// or are not floats, and a buffer file outside the clip's folder.
+// or are not floats, a mesh primitive with fewer vertices than its mode needs, and a buffer file outside
+// the clip's folder.
 // Each is refused naming the file and the field; the unchanged clip, as .gltf and as .glb, loads.
 TEST(ClipInput, GltfDataOutsideItsBuffersIsRefusedByField) {
   using Json = nlohmann::json;
@@ -153,6 +154,12 @@ TEST(ClipInput, GltfDataOutsideItsBuffersIsRefusedByField) {
       {"/animations/0/samplers/0/input", 1, "animations[0].samplers[0].input: must be a SCALAR FLOAT"},
       {"/animations/0/channels/0/sampler", 5, "animations[0].channels[0].sampler: names sampler 5 of 2"},
       {"/accessors/0/componentType", 5121, "animations[0].samplers[0].input: must be a SCALAR FLOAT (5126)"},
+      {"/meshes", Json::parse(R"([{"primitives": [{"attributes": {"POSITION": 2}, "mode": 5}]}])"),
+       "meshes[0].primitives[0]: has 2 vertices (indices, or POSITION values); its mode 5 needs at least 3"},
+      {"/meshes", Json::parse(R"([{"primitives": [{"attributes": {"POSITION": 2}, "indices": 0}]}])"),
+       "meshes[0].primitives[0].indices: must be a SCALAR accessor of unsigned integers"},
+      {"/meshes", Json::parse(R"([{"primitives": [{"attributes": {"POSITION": 2}, "mode": 7}]}])"),
+       "meshes[0].primitives[0].mode: must be 0 to 6"},
       {"/buffers/0/uri", "../up.bin", "buffers[0].uri: '../up.bin' is not a file beside the clip"},
       {"/buffers/0/uri", "/etc/hostname", "buffers[0].uri: '/etc/hostname' is not a file beside the clip"},
       {"/buffers/0/uri", "a/%2e%2E/%2E%2e/up.bin", "buffers[0].uri: 'a/%2e%2E/%2E%2e/up.bin' is not a file"},

@@ -126,7 +126,11 @@ const std::vector<Mutation>& mutations() {
       {{{"<p>0 0 3", "<p>-1 0 3"}}, "<p>-1", "<p>: '-1' is not an index (a whole number >= 0)"},
       {{{"<vcount>4 4 4 4 4 4", "<vcount>4 4 4 4 4 n"}},
        "<vcount>4",
-       "<vcount>: 'n' is not a whole number >= 0"},
+       "<vcount>: 'n' is not a face's vertex count, a whole number >= 1"},
+      // A face of no vertices (refused before the sum is compared with <p>) made the triangulation assert.
+      {{{"<vcount>4 4 4 4 4 4", "<vcount>4 4 4 4 4 0"}},
+       "<vcount>4",
+       "<vcount>: '0' is not a face's vertex count, a whole number >= 1"},
       {{{"0 1 1 1 1 0 1 0</v>", "0 1 1 1 1 0 1 x</v>"}},
        "<v>",
        "<v>: 'x' is not an index (a whole number >= 0)"},
