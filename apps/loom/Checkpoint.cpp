@@ -1,14 +1,17 @@
 #include "Checkpoint.h"
 
+#include <algorithm>
 #include <cctype>
 #include <cmath>
 #include <cstring>
 #include <limits>
 #include <nlohmann/json.hpp>
+#include <set>
 #include <sstream>
 #include <stdexcept>
 
 #include "loom/cloth/Error.h"
+#include "loom/cloth/HiddenText.h"
 #include "loom/cloth/InputFile.h"
 #include "loom/cloth/OutputFile.h"
 #include "loom/eval/Hex.h"
@@ -144,8 +147,20 @@ Checkpoint decode_checkpoint(const std::string& data, const std::string& source)
   if (hn > end - pos) throw bad("cut short in the header");
   Checkpoint c;
   std::string field;
+  const std::string header = data.substr(pos, hn);
+  // The header as encode_checkpoint writes it, byte for byte: a key given twice, a key Loom does not write,
+  // other spacing or nesting (checked before parsing) are a header Loom did not write.
+  check_json_nesting(source, header, 3);
   try {
-    const nlohmann::json j = nlohmann::json::parse(data.substr(pos, hn));
+    const nlohmann::json j = nlohmann::json::parse(header);
+    if (j.dump() != header) throw bad("the header is not as Loom writes it (a key twice, or edited)");
+    static const std::set<std::string> kKeys = {
+        "format",       "scene",           "scene_text",       "sets",          "run_id",   "inputs",
+        "frames_total", "threads",         "checkpoint_every", "render",        "frame",    "frame_digits",
+        "max_strain",   "mean_strain_sum", "sim_ms",           "logged_frames", "log_hash", "frames_hash"};
+    for (auto it = j.begin(); it != j.end(); ++it)
+      if (!kKeys.count(it.key()))
+        throw bad("the header holds a key Loom does not write: '" + show_value(it.key()) + "'");
     auto at = [&](const char* key) -> const nlohmann::json& {
       field = key;
       return j.at(key);
@@ -164,6 +179,9 @@ Checkpoint decode_checkpoint(const std::string& data, const std::string& source)
       in.hash = unhex(f.at("hash").get<std::string>());
       c.inputs.push_back(in);
     }
+    // Every run reads its scene file: a list without it would leave the inputs unchecked.
+    if (std::none_of(c.inputs.begin(), c.inputs.end(), [&](const InputFile& f) { return f.path == c.scene; }))
+      throw bad("the header's inputs do not list its scene");
     c.frames_total = static_cast<int>(integer_in(at("frames_total"), 0, kIntMax));
     c.threads = static_cast<int>(integer_in(at("threads"), 1, kIntMax));
     c.checkpoint_every = static_cast<int>(integer_in(at("checkpoint_every"), 0, kIntMax));

@@ -237,6 +237,34 @@ void check_state_matches_stats(const std::string& file, const cloth::FrameStats&
   }
 }
 
+// The run's totals the checkpoint carries (max strain, the sum of mean strains, the pipeline's ms) against
+// the stats rows they were summed from (frames 0 to the checkpoint's; 10 significant digits each): totals
+// edited with the checksum recomputed are refused naming the checkpoint and the field.
+void check_totals_match_stats(const std::string& file, const Checkpoint& c, const std::string& rows) {
+  double max_strain = 0.0, mean_strain_sum = 0.0, sim_ms = 0.0;
+  std::istringstream in(rows);
+  for (std::string line; std::getline(in, line);) {
+    std::vector<double> cell;
+    std::istringstream row(line);
+    for (std::string v; std::getline(row, v, ',');) cell.push_back(std::strtod(v.c_str(), nullptr));
+    if (cell.size() < 8) continue;
+    max_strain = std::max(max_strain, cell[5]);
+    if (cell[0] >= 1.0) mean_strain_sum += cell[6], sim_ms += cell[7];
+  }
+  const std::pair<const char*, std::pair<double, double>> totals[] = {
+      {"max_strain", {c.max_strain, max_strain}},
+      {"mean_strain_sum", {c.mean_strain_sum, mean_strain_sum}},
+      {"sim_ms", {c.sim_ms, sim_ms}}};
+  for (const auto& [name, v] : totals)
+    if (!(std::abs(v.first - v.second) <= 1e-7 * std::max(std::abs(v.first), std::abs(v.second)) + 1e-9)) {
+      std::ostringstream why;
+      why << std::setprecision(10) << "is " << v.first << " in the checkpoint but " << v.second
+          << " from stats.csv's rows up to frame " << c.frame
+          << ": the checkpoint was changed after it was saved";
+      throw Error(file, name, why.str());
+    }
+}
+
 // --resume DIR: the run's options come from DIR's checkpoint, after its run id and every input it read
 // (scene, meshes, motion clips) are checked against what the checkpoint recorded.
 std::optional<Checkpoint> apply_resume(RunOptions& o) {
@@ -371,7 +399,7 @@ SceneRun::SceneRun(const RunOptions& options) : o_(options) {
   const fs::path canon = fs::weakly_canonical(fs::absolute(scene_path_), canon_ec);
   scene_abs_ = (canon_ec ? fs::absolute(scene_path_).lexically_normal() : canon).string();
   scene_text_ = read_text_file(scene_path_);
-  inputs_ = {fingerprint(scene_path_)};
+  inputs_ = {fingerprint(scene_abs_)};  // the path the checkpoint records as its scene
   for (const std::string& f : sc_.inputs) inputs_.push_back(fingerprint(f));
   if (o_.threads > 0) sc_.setup.threads = o_.threads;
   // Threads beyond the machine's only queue on the cores (and thousands exhaust the OpenMP runtime).
@@ -539,6 +567,7 @@ void SceneRun::open_outputs() {
     kept_rows = kept_stats_rows(out_, first_);
     check_state_matches_stats((out_ / "checkpoint" / "checkpoint.bin").string(), sim_->measure(), first_,
                               kept_rows);
+    check_totals_match_stats((out_ / "checkpoint" / "checkpoint.bin").string(), *resume_, kept_rows);
   }
   if (in_memory)
     log_ = std::make_unique<FrameLog>(*folder_, resume_ ? resume_->logged_frames : 0,

@@ -18,6 +18,7 @@
 
 #include "loom/cloth/Error.h"
 #include "loom/cloth/HiddenText.h"
+#include "loom/cloth/InputFile.h"
 
 namespace loom::characters {
 
@@ -1282,6 +1283,7 @@ void check_gltf_nodes(const std::string& file, const std::string& text) {
                                                 "accessors", "animations", "meshes",  "asset"};
     return !(depth == 1 && event == Json::parse_event_t::key && !kKept.count(parsed.get<std::string>()));
   };
+  check_json_nesting(file, text.substr(begin, end - begin), kMaxGltfJsonDepth);
   Json doc;
   try {
     doc = Json::parse(text.begin() + static_cast<std::ptrdiff_t>(begin),

@@ -60,6 +60,8 @@ void check_collada_data(const std::string& file, const std::string& text);
 // (`accessors[1].sparse.indices.byteOffset`, `animations[0].samplers[0].output`).
 // A document that is not JSON, or gives a key twice in one object, is refused.
 void check_gltf_nodes(const std::string& file, const std::string& text);
+// JSON nesting of a glTF (its `extras` may nest; every reader's work and stack grow with the depth).
+constexpr int kMaxGltfJsonDepth = 1000;
 
 // An FBX: binary (magic "Kaydara FBX Binary") by its node records (end offset, property count and length,
 // name; Blender's and assimp's reading of the format), refusing records out of range by byte offset and

@@ -109,6 +109,31 @@ void for_each_input_line(const std::string& text, const std::function<void(const
   if (start < text.size()) visit(text.substr(start));
 }
 
+void check_json_nesting(const std::string& file, const std::string& text, int max_depth) {
+  int depth = 0;
+  bool in_string = false;
+  long line = 1;
+  std::size_t line_start = 0;
+  for (std::size_t i = 0; i < text.size(); ++i) {
+    const char c = text[i];
+    if (c == '\n') line += 1, line_start = i + 1;
+    if (in_string) {
+      if (c == '\\')
+        ++i;  // the escaped character cannot end the string
+      else if (c == '"')
+        in_string = false;
+    } else if (c == '"') {
+      in_string = true;
+    } else if (c == '[' || c == '{') {
+      if (++depth > max_depth)
+        throw Error(file, "line " + std::to_string(line) + ", column " + std::to_string(i - line_start + 1),
+                    "JSON arrays and objects nest deeper than " + std::to_string(max_depth) + " levels");
+    } else if (c == ']' || c == '}') {
+      --depth;
+    }
+  }
+}
+
 std::string line_where(long number, const std::string& line) {
   std::string quoted = show_hidden(line.substr(0, kQuotedChars));
   if (line.size() > kQuotedChars) quoted += "...";

@@ -140,6 +140,7 @@ nlohmann::json read_json_file(const std::string& path) {
   // first one for the end of the input.
   if (const size_t nul = text.find('\0'); nul != std::string::npos)
     throw Error(path, line_column(text, nul), "not JSON text: a NUL byte (binary data)");
+  check_json_nesting(path, text, kMaxJsonDepth);
   nlohmann::json j;
   try {
     j = nlohmann::json::parse(text);
@@ -238,6 +239,7 @@ void apply_override(nlohmann::json& root, const std::string& assignment, const s
       node = &(*node)[key];
     }
   }
+  check_json_nesting(file + ": " + where, value, kMaxJsonDepth);
   nlohmann::json v;
   try {
     v = nlohmann::json::parse(value);

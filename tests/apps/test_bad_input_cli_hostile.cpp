@@ -476,6 +476,56 @@ TEST(HostileCheckpoint, AForgedStateWithARecomputedChecksumIsRefused) {
   EXPECT_EQ(r.code, 0) << "the untouched checkpoint resumes: " << r.err;
 }
 
+// A checkpoint whose header was edited and its checksum recomputed: the run's totals are checked against
+// the stats rows they were summed from, and the header must be as Loom writes it (no key twice, no key it
+// does not write, its scene among its inputs). Each refusal names the checkpoint and the field or problem.
+TEST(HostileCheckpoint, AForgedHeaderWithARecomputedChecksumIsRefused) {
+  const fs::path dir = test_dir(), out = dir / "out";
+  std::ofstream(dir / "scene.json") << kScene;
+  ASSERT_EQ(run_loom("run " + (dir / "scene.json").string() + " --frames 4 --checkpoint-every 2 --out " +
+                     out.string())
+                .code,
+            0);
+  const fs::path ckpt = out / "checkpoint" / "checkpoint.bin";
+  const std::string original = read_bytes(ckpt);
+  // "LOOMCKPT3\n", the header's length (8 bytes), the header, the state's length, the state, the checksum.
+  std::uint64_t hn = 0;
+  std::memcpy(&hn, original.data() + 10, 8);
+  const std::string header = original.substr(18, hn);
+  auto with_header = [&](const std::string& h) {
+    std::string data = original.substr(0, 10);
+    const std::uint64_t n = h.size();
+    data.append(reinterpret_cast<const char*>(&n), 8);
+    data += h + original.substr(18 + hn);
+    resum(data);
+    return data;
+  };
+  auto replace_value = [&](const std::string& key, const std::string& value) {
+    const size_t at = header.find("\"" + key + "\":") + key.size() + 3;
+    return header.substr(0, at) + value + header.substr(header.find_first_of(",}", at));
+  };
+  const std::pair<std::string, std::string> forgeries[] = {
+      {replace_value("max_strain", "1e+308"), "max_strain: is 1e+308 in the checkpoint but"},
+      {replace_value("mean_strain_sum", "-1.0"), "mean_strain_sum: is -1 in the checkpoint but"},
+      {replace_value("sim_ms", "1e+300"), "sim_ms: is 1e+300 in the checkpoint but"},
+      {"{\"frame\":2," + header.substr(1), "the header is not as Loom writes it"},
+      {header.substr(0, header.size() - 1) + ",\"zz\":1}",
+       "the header holds a key Loom does not write: 'zz'"},
+      {header.substr(0, header.find("\"inputs\":") + 9) + "[]" + header.substr(header.find("}]") + 2),
+       "the header's inputs do not list its scene"},
+  };
+  for (const auto& [h, problem] : forgeries) {
+    std::ofstream(ckpt, std::ios::binary | std::ios::trunc) << with_header(h);
+    const auto r = run_loom("run --resume " + out.string());
+    EXPECT_EQ(r.code, 1) << problem << ": " << r.err;
+    EXPECT_NE(r.err.find(ckpt.string() + ": "), std::string::npos) << r.err;
+    EXPECT_NE(r.err.find(problem), std::string::npos) << r.err;
+  }
+  std::ofstream(ckpt, std::ios::binary | std::ios::trunc) << with_header(header);
+  const auto r = run_loom("run --resume " + out.string());
+  EXPECT_EQ(r.code, 0) << "the same header, rewritten, resumes: " << r.err;
+}
+
 // `loom body --image` writes by the output rules of `loom run`: never through a link, never over an input,
 // never to a device; an empty path is exit 2; the image is whole or absent.
 TEST(HostileBody, TheImageFollowsTheOutputRules) {

@@ -22,6 +22,10 @@ std::string read_input_file(const std::string& path, std::uint64_t max_bytes = k
 // endings), so a line number always counts the lines an editor shows, never the whole file as line 1. A
 // leading UTF-8 byte order mark is dropped.
 void for_each_input_line(const std::string& text, const std::function<void(const std::string&)>& visit);
+// Refuses JSON `text` whose arrays and objects nest deeper than `max_depth` (brackets outside strings are
+// counted before any parser builds or walks the tree: a parser's work and stack grow with the depth), with
+// Error(file, "line L, column C", ...) at the first bracket past it.
+void check_json_nesting(const std::string& file, const std::string& text, int max_depth);
 // Characters of a line that line_where quotes; a longer line is quoted as its first kQuotedChars and "...".
 constexpr std::size_t kQuotedChars = 80;
 // "line N ('TEXT')": where an error in a text file is, quoting the faulty line itself (at most kQuotedChars

@@ -14,6 +14,9 @@ namespace loom::scene {
 struct Scene;
 
 constexpr std::uint64_t kMaxInputBytes = std::uint64_t(1) << 30;  // a scene, mesh or motion file: 1 GiB
+// Nesting of arrays and objects in a scene file or a --set value (a scene nests a few levels; a parser's
+// work and stack grow with the depth).
+constexpr int kMaxJsonDepth = 100;
 static_assert(kMaxInputBytes <= loom::kMaxInputFileBytes, "one bound for every input file");
 constexpr double kMaxCoordinate = 1e6;  // m, |x| of a mesh size, origin, translation, anchor, collider
 // m, a contact thickness: a collider's, a cloth material's, the collision block's (`thickness`, `layers`,
