@@ -474,18 +474,19 @@ void parse_solver(const JsonReader& r, const nlohmann::json& root, Scene& scene,
 
 constexpr double kDegree = 3.141592653589793 / 180.0;  // rad
 
-// `effects.wind`: drag and lift of a gusting wind (AeroTerm.h). Angles in degrees.
+// `effects.wind`: drag and lift of a gusting wind (AeroTerm.h). Angles in degrees. The non-negative fields
+// are read with their minimum 0, so a value below kMinPositive (a subnormal) is refused by the reader.
 cloth::WindSettings parse_wind(const JsonReader& w) {
   cloth::WindSettings ws;
   ws.velocity = w.vec3("velocity");
-  ws.density = w.number("density", ws.density);
-  ws.drag = w.number("drag", ws.drag);
-  ws.lift = w.number("lift", ws.lift);
+  ws.density = w.number("density", ws.density, 0.0);
+  ws.drag = w.number("drag", ws.drag, 0.0);
+  ws.lift = w.number("lift", ws.lift, 0.0);
   if (w.has("gusts"))
     for (const JsonReader& g : w.objects("gusts")) {
       cloth::Gust gust;
-      gust.amplitude = g.number("amplitude");
-      gust.frequency = g.number("frequency");
+      gust.amplitude = g.number("amplitude", std::nullopt, 0.0);
+      gust.frequency = g.number("frequency", std::nullopt, 0.0);
       gust.phase = g.number("phase", 0.0);  // degrees, bounded as written, then in radians
       if (!(std::abs(gust.phase) <= 1e6))
         g.fail("phase", "must be in [-1000000, 1000000] degrees (got " + show(gust.phase) + ")");
@@ -498,7 +499,7 @@ cloth::WindSettings parse_wind(const JsonReader& w) {
     const double angle = sw.number("angle", std::nullopt, 0.0);
     if (!(angle <= 180.0)) sw.fail("angle", "must be in [0, 180] degrees (got " + show(angle) + ")");
     ws.swing_angle = angle * kDegree;
-    ws.swing_frequency = sw.number("frequency");
+    ws.swing_frequency = sw.number("frequency", std::nullopt, 0.0);
     ws.swing_axis = sw.vec3("axis", ws.swing_axis);
     sw.finish();
   }
@@ -579,7 +580,7 @@ cloth::PressureSettings parse_pressure(const JsonReader& p, const cloth::ClothMe
   cloth::PressureSettings ps;
   ps.ideal_gas = p.string("model", "constant", {"constant", "ideal_gas"}) == "ideal_gas";
   ps.overpressure = p.number("overpressure");
-  ps.ambient = p.number("ambient", ps.ambient);
+  ps.ambient = p.number("ambient", ps.ambient, 0.0);
   if (p.has("ambient") && !ps.ideal_gas)
     p.fail("ambient", "only the ideal_gas model uses the ambient pressure");
   p.finish();
