@@ -52,11 +52,10 @@ struct MemoryEstimate {
   std::string basis;   // "300000 frames of 96 channels", "a 65 MB glTF with its buffers"
 };
 // Bytes per number of a BVH's MOTION section that loading the clip holds at its peak (assimp's keys, the
-// clip's tracks; measured: a character run's peak resident memory grows by 37 bytes per number plus one per
-// byte of the file).
+// clip's tracks), above one per byte of the file (measured: docs/guarantees.md).
 constexpr double kBvhBytesPerValue = 40.0;
-// Bytes per byte an assimp import reads (import_source_bytes) that loading holds at its peak (measured on
-// a glTF clip: 4.6 per byte of its buffers).
+// Bytes per byte an assimp import reads (import_source_bytes) that loading holds at its peak (measured on a
+// glTF clip: docs/guarantees.md).
 constexpr double kImportBytesPerByte = 5.0;
 // A BVH: Frames x the joints' CHANNELS from its header (read as a stream of words up to "Frames:")
 // x kBvhBytesPerValue plus the file's size; any other file: what its import reads x kImportBytesPerByte. A
