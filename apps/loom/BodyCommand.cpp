@@ -23,6 +23,7 @@
 #include "loom/cloth/Error.h"
 #include "loom/collision/Distance.h"
 #include "loom/eval/OutputFolder.h"
+#include "loom/scene/SceneLimits.h"
 #ifdef LOOM_HAVE_RENDER
 #include "loom/render/Renderer.h"
 #endif
@@ -73,8 +74,23 @@ void check_image_path(const std::string& image, const std::vector<std::string>& 
   std::string parent =
       image.substr(0, image.find_last_of('/') == std::string::npos ? 0 : image.find_last_of('/') + 1);
   if (parent.empty()) parent = ".";
-  if (::stat(parent.c_str(), &st) != 0 || !S_ISDIR(st.st_mode))
+  if (::stat(parent.c_str(), &st) != 0 || !S_ISDIR(st.st_mode)) {
+    // A folder reached through a symbolic link whose target is missing: named, with the link's target.
+    for (std::size_t end = parent.find('/', 1);; end = parent.find('/', end + 1)) {
+      const std::string prefix = parent.substr(0, end);
+      struct stat ls, ts;
+      if (::lstat(prefix.c_str(), &ls) == 0 && S_ISLNK(ls.st_mode) && ::stat(prefix.c_str(), &ts) != 0) {
+        char target[4096];
+        const ssize_t n = ::readlink(prefix.c_str(), target, sizeof target - 1);
+        throw Error(image, "--image",
+                    "its folder is reached through the symbolic link " + printable(prefix) + " to '" +
+                        printable(std::string(target, n > 0 ? static_cast<std::size_t>(n) : 0)) +
+                        "', which does not exist (a relative target is read from the link's folder)");
+      }
+      if (end == std::string::npos) break;
+    }
     throw Error(image, "--image", "its folder does not exist");
+  }
 }
 
 // Writes `bytes` to `path` through a new temporary file (O_EXCL | O_NOFOLLOW, never an existing file or a
@@ -167,6 +183,14 @@ int body_main(int argc, char** argv) {
 #ifndef LOOM_HAVE_RENDER
   if (!image.empty()) throw Error("--image", "", "this build has no renderer (OSMesa)");
 #endif
+  // What reading the mesh and the clip holds, against the memory, before anything is read or written.
+  {
+    const ch::MemoryEstimate mesh = ch::estimate_import_memory(files[0]);
+    const ch::MemoryEstimate clip = ch::estimate_clip_memory(files[1]);
+    scene::check_memory(files[1], "CLIP", mesh.bytes + clip.bytes,
+                        "reading the mesh (" + mesh.basis + ") and the clip (" + clip.basis + ") needs",
+                        "use a shorter clip or a smaller mesh");
+  }
   const ch::Motion motion = ch::Motion::load(files[1]);
   // The image's folder and those above it are locked (shared) for the command (eval::FolderLock): a folder
   // another loom command is using (a run's output folder), or one inside it, is refused, so the PNG never

@@ -109,6 +109,9 @@ std::string encode_checkpoint(const Checkpoint& c) {
   j["logged_frames"] = c.logged_frames;
   j["log_hash"] = hex(c.log_hash);
   j["frames_hash"] = hex(c.frames_hash);
+  std::string frame_hashes;  // 16 hex digits per frame file
+  for (std::uint64_t h : c.frame_hashes) frame_hashes += hex(h);
+  j["frame_hashes"] = frame_hashes;
   const std::string header = j.dump();
   std::string out = std::string(kMagicPrefix) + std::to_string(kCheckpointFormat) + "\n";
   put_u64(out, header.size());
@@ -157,7 +160,8 @@ Checkpoint decode_checkpoint(const std::string& data, const std::string& source)
     static const std::set<std::string> kKeys = {
         "format",       "scene",           "scene_text",       "sets",          "run_id",   "inputs",
         "frames_total", "threads",         "checkpoint_every", "render",        "frame",    "frame_digits",
-        "max_strain",   "mean_strain_sum", "sim_ms",           "logged_frames", "log_hash", "frames_hash"};
+        "max_strain",   "mean_strain_sum", "sim_ms",           "logged_frames", "log_hash", "frames_hash",
+        "frame_hashes"};
     for (auto it = j.begin(); it != j.end(); ++it)
       if (!kKeys.count(it.key()))
         throw bad("the header holds a key Loom does not write: '" + show_value(it.key()) + "'");
@@ -200,6 +204,12 @@ Checkpoint decode_checkpoint(const std::string& data, const std::string& source)
     c.logged_frames = static_cast<long>(integer_in(at("logged_frames"), 0, std::numeric_limits<long>::max()));
     c.log_hash = unhex(at("log_hash").get<std::string>());
     c.frames_hash = unhex(at("frames_hash").get<std::string>());
+    if (j.contains("frame_hashes")) {  // absent in checkpoints of earlier looms
+      const std::string hashes = at("frame_hashes").get<std::string>();
+      if (hashes.size() % 16 != 0) throw std::invalid_argument("expected 16 hex digits per frame file");
+      for (std::size_t k = 0; k < hashes.size(); k += 16)
+        c.frame_hashes.push_back(unhex(hashes.substr(k, 16)));
+    }
     field.clear();
   } catch (const Error&) {
     throw;

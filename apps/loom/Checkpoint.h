@@ -66,6 +66,9 @@ struct Checkpoint {
   // FNV-1a 64 of the frame files frames/frame_N.obj written up to `frame`, their bytes in frame order: resume
   // refuses a folder whose frames were removed or changed since (the run would not be whole).
   std::uint64_t frames_hash = kFnvOffset;
+  // FNV-1a 64 of each of those frame files alone, in frame order: on a frames_hash mismatch they name the
+  // first file that changed (empty in checkpoints of earlier looms).
+  std::vector<std::uint64_t> frame_hashes;
   std::string state;  // cloth::Simulation state archive
 };
 

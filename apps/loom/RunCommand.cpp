@@ -64,9 +64,10 @@ extern "C" void on_sigint(int sig) { g_interrupted = sig; }
 constexpr int kStopSignals[] = {SIGINT, SIGTERM, SIGHUP};
 int interrupted_exit_code() { return 128 + (g_interrupted > 0 ? static_cast<int>(g_interrupted) : SIGINT); }
 
-// Writes one OBJ frame; returns `hash` continued over the file's bytes (Checkpoint::frames_hash).
+// Writes one OBJ frame; returns `hash` continued over the file's bytes (Checkpoint::frames_hash) and
+// appends the file's own hash to `file_hashes` (Checkpoint::frame_hashes).
 std::uint64_t write_obj(const fs::path& path, const std::vector<std::unique_ptr<cloth::Cloth>>& cloths,
-                        std::uint64_t hash) {
+                        std::uint64_t hash, std::vector<std::uint64_t>& file_hashes) {
   std::ostringstream text;
   text << std::setprecision(9);
   int base = 1;
@@ -83,6 +84,7 @@ std::uint64_t write_obj(const fs::path& path, const std::vector<std::unique_ptr<
   out.write(bytes.data(), static_cast<std::streamsize>(bytes.size()));
   out.close();
   if (!out) throw Error(path.string(), "", out.write_failure());
+  file_hashes.push_back(fnv1a(bytes.data(), bytes.size(), kFnvOffset));
   return fnv1a(bytes.data(), bytes.size(), hash);
 }
 
@@ -362,9 +364,10 @@ class SceneRun {
   std::unique_ptr<DetailView> shown_;  // cloths with `detail` are written and rendered as their surface
   std::unique_ptr<FrameLog> log_;      // frames pc2/gltf/--render keep in memory, logged for --resume
   int digits_ = 5;
-  std::vector<std::string> export_files_;   // the exporters' files, relative to out_
-  bool no_frame_written_ = false;           // frame 0 was not finite: the run stopped before it
-  std::uint64_t frames_hash_ = kFnvOffset;  // the OBJ frames written so far (Checkpoint::frames_hash)
+  std::vector<std::string> export_files_;    // the exporters' files, relative to out_
+  bool no_frame_written_ = false;            // frame 0 was not finite: the run stopped before it
+  std::uint64_t frames_hash_ = kFnvOffset;   // the OBJ frames written so far (Checkpoint::frames_hash)
+  std::vector<std::uint64_t> frame_hashes_;  // each of them alone (Checkpoint::frame_hashes)
   bool obj_ = false;
   fs::path stats_partial_;
   OutputFile csv_, bodies_csv_;
@@ -402,6 +405,9 @@ SceneRun::SceneRun(const RunOptions& options) : o_(options) {
   inputs_ = {fingerprint(scene_abs_)};  // the path the checkpoint records as its scene
   for (const std::string& f : sc_.inputs) inputs_.push_back(fingerprint(f));
   if (o_.threads > 0) sc_.setup.threads = o_.threads;
+  for (const std::string& w : sc_.start_warnings)
+    std::cerr << "loom: warning: " << printable(scene_path_) << ": " << printable(w)
+              << ": contact pushes it out in the first step (move the cloth or the collider apart)\n";
   // Threads beyond the machine's only queue on the cores (and thousands exhaust the OpenMP runtime).
   const int hardware = std::max(1, static_cast<int>(std::thread::hardware_concurrency()));
   if (sc_.setup.threads > hardware) {
@@ -486,15 +492,12 @@ void SceneRun::check_export_sizes() const {
     const auto colliders = pipeline_->colliders();
     const double need =
         render::render_memory_bytes(rs, rendered, vertices, colliders ? double(colliders->size()) : 0.0);
-    const double budget = static_cast<double>(scene::memory_budget());
-    if (!(need <= budget))
-      throw Error(scene_path_, "output.render.width",
-                  "--render at " + std::to_string(rs.width) + "x" + std::to_string(rs.height) + " px for " +
-                      std::to_string(static_cast<long long>(rendered)) + " rendered frames of " +
-                      std::to_string(static_cast<long long>(vertices)) + " vertices needs about " +
-                      scene::show_bytes(need) + " of memory; " + scene::available_memory_text(budget) +
-                      ": lower output.render.width and height, raise output.render.every or "
-                      "lower --frames");
+    scene::check_memory(scene_path_, "output.render.width", need,
+                        "--render at " + std::to_string(rs.width) + "x" + std::to_string(rs.height) +
+                            " px for " + std::to_string(static_cast<long long>(rendered)) +
+                            " rendered frames of " + std::to_string(static_cast<long long>(vertices)) +
+                            " vertices needs",
+                        "lower output.render.width and height, raise output.render.every or lower --frames");
   }
 #endif
 }
@@ -676,6 +679,8 @@ void SceneRun::check_kept_frames() {
   const bool obj = sc_.output.frames && std::find(sc_.output.formats.begin(), sc_.output.formats.end(),
                                                   "obj") != sc_.output.formats.end();
   std::uint64_t h = kFnvOffset;
+  std::vector<std::uint64_t> hashes;  // each file's own
+  std::string changed;                // the first file whose own hash differs from the checkpoint's
   const int every = std::max(1, sc_.output.every);
   for (int f = 0; obj && f <= first_; f += every) {
     const fs::path path = out_ / frame_name(f);
@@ -686,13 +691,20 @@ void SceneRun::check_kept_frames() {
                       ", so the folder no longer holds the whole run; run the scene again");
     const std::string bytes = read_text_file(path.string());
     h = fnv1a(bytes.data(), bytes.size(), h);
+    hashes.push_back(fnv1a(bytes.data(), bytes.size(), kFnvOffset));
+    const std::size_t k = hashes.size() - 1;
+    if (changed.empty() && k < resume_->frame_hashes.size() && hashes[k] != resume_->frame_hashes[k])
+      changed = path.string();
   }
   if (h != resume_->frames_hash)
-    throw Error((out_ / "frames").string(), "--resume",
-                "the frame files written before the checkpoint at frame " + std::to_string(first_) +
-                    " were changed since (their contents no longer match the checkpoint), so the folder no "
+    throw Error(changed.empty() ? (out_ / "frames").string() : changed, "--resume",
+                std::string(changed.empty() ? "the frame files written" : "this frame file, written") +
+                    " before the checkpoint at frame " + std::to_string(first_) +
+                    (changed.empty() ? ", were" : ", was") +
+                    " changed since (contents no longer match the checkpoint), so the folder no "
                     "longer holds the whole run; run the scene again");
   frames_hash_ = h;
+  frame_hashes_ = hashes;
 }
 
 void SceneRun::keep_frame(bool exported, bool rendered) {
@@ -725,6 +737,7 @@ void SceneRun::save_checkpoint() {
   c.logged_frames = log_ ? log_->entries() : 0;
   c.log_hash = log_ ? log_->hash() : 0;
   c.frames_hash = frames_hash_;
+  c.frame_hashes = frame_hashes_;
   cloth::StateWriter w;
   sim_->save_state(w);
   c.state = w.data();
@@ -774,7 +787,8 @@ void SceneRun::start() {
   write_row(s0);
   write_bodies(0);
   run_census();
-  if (obj_) frames_hash_ = write_obj(folder_->claim(frame_name(0)), shown_->cloths(), frames_hash_);
+  if (obj_)
+    frames_hash_ = write_obj(folder_->claim(frame_name(0)), shown_->cloths(), frames_hash_, frame_hashes_);
   keep_frame(true, true);
   max_strain_ = s0.max_strain;
   done_ = first_;
@@ -843,7 +857,7 @@ void SceneRun::step_frames() {
     write_bodies(f);
     run_census();
     if (obj_ && f % sc_.output.every == 0)
-      frames_hash_ = write_obj(folder_->claim(frame_name(f)), shown_->cloths(), frames_hash_);
+      frames_hash_ = write_obj(folder_->claim(frame_name(f)), shown_->cloths(), frames_hash_, frame_hashes_);
     if (s.max_strain > max_strain_) max_strain_ = s.max_strain, max_strain_frame_ = f;
     mean_strain_sum_ += s.mean_strain;
     done_ = f;

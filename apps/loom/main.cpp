@@ -147,6 +147,16 @@ int run_main(int argc, char** argv) {
       args.unknown();
     }
   }
+  // --set's own syntax is the command line's: a value without PATH= is a malformed option (exit 2); what
+  // PATH and VALUE say is the scene's to check.
+  for (const std::string& set : o.sets) {
+    const std::size_t eq = set.find('=');
+    if (eq == std::string::npos || eq == 0) {
+      std::fprintf(stderr, "loom: error: --set: expected PATH=VALUE (got '%s')\n",
+                   loom::app::printable(set).c_str());
+      return 2;
+    }
+  }
   if (!o.resume.empty() && !o.scene.empty()) {
     std::fprintf(stderr,
                  "loom: error: --resume takes the scene from the checkpoint; do not also give one ('%s')\n",

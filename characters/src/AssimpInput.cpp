@@ -10,6 +10,7 @@
 #include <filesystem>
 #include <fstream>
 #include <functional>
+#include <nlohmann/json.hpp>
 
 #include "ImportPrescan.h"
 #include "loom/cloth/Error.h"
@@ -473,6 +474,36 @@ long xml_too_deep(const std::string& text, int max_depth) {
   XmlDepthScan scan(max_depth);
   if (scan.feed(text.data(), text.size()) && scan.finish()) return -1;
   return static_cast<long>(scan.offset());
+}
+
+std::uint64_t import_source_bytes(const std::string& path) {
+  std::error_code ec;
+  if (!std::filesystem::is_regular_file(path, ec)) return 0;  // never opened: a FIFO would block
+  const std::uint64_t size = std::filesystem::file_size(path, ec);
+  if (ec || size > kMaxImportBytes) return ec ? 0 : size;
+  std::ifstream in(path, std::ios::binary);
+  char head[4] = {};
+  in.read(head, sizeof head);
+  if (std::string(head, 4) == "PK\x03\x04") {  // a zip archive: what it unpacks to
+    try {
+      std::uint64_t unpacked = 0;
+      for (const ZipEntry& e : zip_entries(path, read_input_file(path))) unpacked += e.unpacked;
+      return std::max(size, unpacked);
+    } catch (const Error&) {
+      return size;  // the import names what is wrong with the archive
+    }
+  }
+  // A glTF's JSON: its buffers (external .bin files or data URIs) hold the keys.
+  std::string ext = std::filesystem::path(path).extension().string();
+  for (char& c : ext) c = static_cast<char>(std::tolower(static_cast<unsigned char>(c)));
+  if (ext != ".gltf") return size;
+  const nlohmann::json doc = nlohmann::json::parse(read_input_file(path), nullptr, false);
+  std::uint64_t buffers = 0;
+  if (doc.is_object() && doc.contains("buffers") && doc["buffers"].is_array())
+    for (const nlohmann::json& b : doc["buffers"])
+      if (b.is_object() && b.contains("byteLength") && b["byteLength"].is_number_unsigned())
+        buffers += std::min<std::uint64_t>(b["byteLength"].get<std::uint64_t>(), kMaxImportBytes);
+  return size + buffers;
 }
 
 bool RecordingIOSystem::spend(const std::string& file, std::uint64_t bytes) {

@@ -48,6 +48,11 @@ class RecordingIOSystem : public Assimp::DefaultIOSystem {
   std::string refused_, refusal_;
 };
 
+// What an import of `path` reads before it builds anything, in bytes, found without reading it through
+// assimp: the file's size, a zip archive's (a .zae's) unpacked size by its directory, a glTF's JSON plus the
+// byteLength of its buffers. 0 for a file that cannot be read (the import names it).
+std::uint64_t import_source_bytes(const std::string& path);
+
 // Reads `path` with `importer` (post-processing `flags`) through a RecordingIOSystem, on a thread with a
 // 256 MB stack (assimp's readers recurse per nesting level of formats Loom does not pre-scan), and appends
 // every file read to `files`. Throws loom::Error naming `path` (and the referenced file it refused, if any)

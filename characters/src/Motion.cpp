@@ -419,6 +419,45 @@ struct HierarchyReader {
 
 }  // namespace
 
+MemoryEstimate estimate_import_memory(const std::string& path) {
+  const double bytes = static_cast<double>(import_source_bytes(path));
+  char basis[96];
+  std::snprintf(basis, sizeof basis, "%.3g MB read by the import, %.0f bytes held per byte", bytes / 1e6,
+                kImportBytesPerByte);
+  return {bytes * kImportBytesPerByte, basis};
+}
+
+MemoryEstimate estimate_clip_memory(const std::string& path) {
+  std::error_code ec;
+  // Only a regular file is opened here (a FIFO would block): anything else is refused by loading.
+  if (!std::filesystem::is_regular_file(path, ec)) return {};
+  if (!is_bvh(path)) return estimate_import_memory(path);
+  const double size = static_cast<double>(std::filesystem::file_size(path, ec));
+  if (ec) return {};
+  // The header as the reader splits it: whitespace-separated words (a word read at most 64 bytes at a time).
+  std::ifstream in(path, std::ios::binary);
+  std::string word;
+  double channels = 0.0, frames = -1.0;
+  while (in >> std::setw(64) >> word) {
+    if (word == "CHANNELS" && in >> std::setw(64) >> word && word.size() <= 2 &&
+        word.find_first_not_of("0123456789") == std::string::npos)
+      channels += std::stod(word);
+    if (word == "Frames:") {
+      if (in >> std::setw(64) >> word && !word.empty() && word.size() <= 19 &&
+          word.find_first_not_of("0123456789") == std::string::npos)
+        frames = std::stod(word);
+      break;
+    }
+  }
+  // A header without a frame count or channels: the reader refuses it (its text is all it holds).
+  if (frames < 0.0 || channels == 0.0) return {size, "the file's text"};
+  // A count past what the file's lines can hold (a number and a space each) is refused by its lines.
+  frames = std::min(frames, size / (2.0 * channels));
+  char basis[96];
+  std::snprintf(basis, sizeof basis, "%.0f frames of %.0f channels", frames, channels);
+  return {frames * channels * kBvhBytesPerValue + size, basis};
+}
+
 Motion Motion::load(const std::string& path, const MotionSettings& settings) {
   check_settings(path, settings);
   try {  // a regular file of bounded size (InputFile.h) before assimp or the nesting check reads it

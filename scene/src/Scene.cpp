@@ -643,6 +643,7 @@ void parse_cloths(const JsonReader& r, Scene& scene, const std::string& file) {
     }
     c.finish();
     scene.setup.cloths.push_back(std::move(cs));
+    scene.cloth_fields.push_back(c.path());
   }
 }
 
@@ -755,9 +756,9 @@ void check_coincident_cloths(const Scene& scene, const std::string& file) {
               const cloth::Vec3& q = scene.setup.cloths[oc].mesh->rest_positions()[ov];
               if ((q - x[v]).norm() >= tol) continue;
               throw Error(
-                  file, "cloths[" + std::to_string(c) + "]",
-                  "starts on top of cloths[" + std::to_string(oc) + "] (its vertex " + std::to_string(v) +
-                      " is " + show((q - x[v]).norm()) + " m from vertex " + std::to_string(ov) +
+                  file, scene.cloth_field(static_cast<int>(c)),
+                  "starts on top of " + scene.cloth_field(oc) + " (its vertex " + std::to_string(v) + " is " +
+                      show((q - x[v]).norm()) + " m from vertex " + std::to_string(ov) +
                       "): cloth-cloth collision keeps cloths on the sides they start on, so they must "
                       "start apart; move one by at least its thickness");
             }
@@ -891,10 +892,11 @@ Scene parse_scene(const nlohmann::json& written, const std::string& file) {
   check_coincident_cloths(scene, file);
   const bool halvings_given = root.is_object() && root.contains("guard") && root["guard"].is_object() &&
                               root["guard"].contains("max_halvings");
-  if (!halvings_given)
-    for (const RegimeOutlier& o : regime_outliers(scene))
-      if (!o.step_bound)
-        scene.setup.guard.max_halvings = std::min(scene.setup.guard.max_halvings, kRegimeOutsideHalvings);
+  for (const RegimeOutlier& o : regime_outliers(scene)) {
+    if (!halvings_given && !o.step_bound)
+      scene.setup.guard.max_halvings = std::min(scene.setup.guard.max_halvings, kRegimeOutsideHalvings);
+    if (o.start) scene.start_warnings.push_back(o.text);
+  }
   return scene;
 }
 

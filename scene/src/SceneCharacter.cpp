@@ -10,6 +10,7 @@
 
 #include "loom/cloth/Error.h"
 #include "loom/cloth/Model.h"
+#include "loom/cloth/ObjFile.h"
 #include "loom/scene/JsonReader.h"
 #include "loom/scene/Scene.h"
 #include "loom/scene/SceneLimits.h"
@@ -69,6 +70,11 @@ void parse_character(const JsonReader& root, Scene& scene) {
   if (ms.speed > kMaxClipSpeed) c.fail("speed", "must be in (0, 100] clip seconds per second");
   ms.start = c.number("start", ms.start, 0.0);
   if (ms.start > kMaxClipStart) c.fail("start", "must be in [0, 1000000] s (the clip time at t = 0)");
+  // What loading the clip holds, counted against the memory before it is read.
+  {
+    const ch::MemoryEstimate clip = ch::estimate_clip_memory(motion_path);
+    reserve_input_bytes(scene, c.child("bvh"), clip.bytes, "the clip (" + clip.basis + ") needs");
+  }
   auto character = std::make_shared<ch::Character>();
   try {
     character->motion = ch::Motion::load(motion_path, ms);
@@ -184,6 +190,27 @@ void parse_character(const JsonReader& root, Scene& scene) {
         const JsonReader ar = g.object("attach");
         for (auto it = aj.begin(); it != aj.end(); ++it) spec.attach[it.key()] = ar.string(it.key());
         ar.finish();
+        // Coordinates by their line before the mesh is built, as an OBJ cloth's are (cloths[].mesh.scale).
+        const cloth::ObjFile obj = [&] {
+          try {
+            return cloth::read_obj_file(spec.path);
+          } catch (const Error& e) {  // as make_garment names a file it cannot read
+            throw Error(file, g.path(), e.what());
+          }
+        }();
+        Eigen::AlignedBox3d box;
+        for (size_t i = 0; i < obj.positions.size(); ++i) {
+          const cloth::Vec3 x = spec.scale * obj.positions[i] + spec.translate;
+          if (!(x.cwiseAbs().maxCoeff() <= kMaxCoordinate))
+            g.fail("scale", "puts vertex " + std::to_string(i + 1) + " (line " +
+                                std::to_string(obj.position_lines[i]) + " of " + g.string("path") + ") at (" +
+                                show_size(x.x()) + ", " + show_size(x.y()) + ", " + show_size(x.z()) +
+                                ") m with translate: coordinates must be within +-1e+06 m");
+          box.extend(x);
+        }
+        if (!(box.diagonal().norm() >= kMinMeshSize))
+          g.fail("scale", "makes the garment " + show_size(box.diagonal().norm()) + " m across; at least " +
+                              show_size(kMinMeshSize) + " m");
       }
       cloth::Material material = parse_material(g, file);
       const std::string model = g.string("model", "springs", cloth::model_names());
@@ -201,6 +228,25 @@ void parse_character(const JsonReader& root, Scene& scene) {
               ".resolution, clearance, length, width, flare and the character's height, scale and radii)");
         }
       }();
+      // The garment as made: within the coordinate bound and at least kMinMeshSize across, as a cloth's mesh
+      // (an OBJ garment by its scale, a generated one by the fields it is made from).
+      {
+        Eigen::AlignedBox3d box;
+        for (const cloth::Vec3& x : garment.mesh->rest_positions()) box.extend(x);
+        const double across = box.isEmpty() ? 0.0 : box.diagonal().norm();
+        const bool inside = !box.isEmpty() && box.min().cwiseAbs().maxCoeff() <= kMaxCoordinate &&
+                            box.max().cwiseAbs().maxCoeff() <= kMaxCoordinate;
+        const std::string problem = !inside ? "puts a vertex beyond +-1e+06 m"
+                                            : "makes the garment " + show_size(across) +
+                                                  " m across; at least " + show_size(kMinMeshSize) + " m";
+        if (!inside || !(across >= kMinMeshSize)) {
+          if (spec.type == "obj") g.fail("scale", problem);
+          throw Error(file, g.path(),
+                      problem + " (the garment is made from " + g.path() +
+                          ".resolution, clearance, length, width, flare and the character's height, scale "
+                          "and radii)");
+        }
+      }
       layers.insert(layers.end(), garment.mesh->rest_positions().begin(),
                     garment.mesh->rest_positions().end());
       if (g.has("mass"))
@@ -209,6 +255,7 @@ void parse_character(const JsonReader& root, Scene& scene) {
         scene.detail[static_cast<int>(scene.setup.cloths.size())] = parse_detail(g.object("detail"));
       g.finish();
       character->add_garment(scene.setup, garment, name, material, model);
+      scene.cloth_fields.push_back(g.path());
     }
   }
   // Arms kept clear of the attached garment vertices over the clip (an attached vertex cannot be pushed out).

@@ -81,12 +81,12 @@ void parse_collision(const JsonReader& root, Scene& scene) {
         const auto [first, last] = cloth_of.equal_range(name);
         if (first == last) return -1;
         if (std::next(first) != last)
-          f.fail(field, "'" + show_value(name) + "' names cloths[" + std::to_string(first->second) +
-                            "] and cloths[" + std::to_string(std::next(first)->second) +
-                            "]: a friction pair needs names that stand for one cloth each");
+          f.fail(field, "'" + show_value(name) + "' names " + scene.cloth_field(first->second) + " and " +
+                            scene.cloth_field(std::next(first)->second) +
+                            ": a friction pair needs names that stand for one cloth each");
         if (or_collider && collider_of.count(name))
-          f.fail(field, "'" + show_value(name) + "' names cloths[" + std::to_string(first->second) +
-                            "] and colliders[" + std::to_string(collider_of.at(name)) +
+          f.fail(field, "'" + show_value(name) + "' names " + scene.cloth_field(first->second) +
+                            " and colliders[" + std::to_string(collider_of.at(name)) +
                             "]: a friction pair needs names that stand for one object each");
         return first->second;
       };

@@ -1,5 +1,7 @@
 #include "loom/scene/SceneLimits.h"
 
+#include <sys/resource.h>
+
 #include <algorithm>
 #include <cerrno>
 #include <cstdio>
@@ -8,6 +10,7 @@
 #include <fstream>
 #include <limits>
 #include <optional>
+#include <sstream>
 #include <vector>
 
 #include "loom/cloth/Error.h"
@@ -36,18 +39,44 @@ std::string input_file(Scene& scene, const std::string& field, const std::string
   return p.string();
 }
 
-std::uint64_t memory_budget() {
-  std::uint64_t budget = std::numeric_limits<std::uint64_t>::max();
-  std::ifstream in("/proc/meminfo");
-  std::string key;
-  std::uint64_t kb = 0;
-  std::string unit;
-  while (in >> key >> kb >> unit)
-    if (key == "MemAvailable:") budget = kb * 1024;
-  if (const std::optional<std::uint64_t> limit = memory_limit_env(); limit && *limit < budget)
-    budget = *limit;
-  return budget;
+namespace {
+
+// A "Key: N kB" field of a /proc file in bytes; nullopt when absent.
+std::optional<std::uint64_t> proc_kb(const char* file, const std::string& field) {
+  std::ifstream in(file);
+  std::string line;
+  while (std::getline(in, line)) {
+    if (line.compare(0, field.size(), field) != 0) continue;
+    std::istringstream words(line.substr(field.size()));
+    std::uint64_t kb = 0;
+    if (words >> kb) return kb * 1024;
+  }
+  return std::nullopt;
 }
+
+// What the soft limit `resource` leaves above `used` bytes (the process's current mapping of that kind).
+std::optional<std::uint64_t> rlimit_left(int resource, const std::optional<std::uint64_t>& used) {
+  rlimit limit{};
+  if (::getrlimit(resource, &limit) != 0 || limit.rlim_cur == RLIM_INFINITY) return std::nullopt;
+  const std::uint64_t cur = static_cast<std::uint64_t>(limit.rlim_cur), now = used.value_or(0);
+  return cur > now ? cur - now : 0;
+}
+
+}  // namespace
+
+MemoryBudget memory_budget_bound() {
+  MemoryBudget b{std::numeric_limits<std::uint64_t>::max(), ""};
+  auto take = [&b](const std::optional<std::uint64_t>& bytes, const char* source) {
+    if (bytes && *bytes < b.bytes) b = {*bytes, source};
+  };
+  take(proc_kb("/proc/meminfo", "MemAvailable:"), "MemAvailable");
+  take(rlimit_left(RLIMIT_AS, proc_kb("/proc/self/status", "VmSize:")), "RLIMIT_AS");
+  take(rlimit_left(RLIMIT_DATA, proc_kb("/proc/self/status", "VmData:")), "RLIMIT_DATA");
+  take(memory_limit_env(), "LOOM_MEMORY_LIMIT");
+  return b;
+}
+
+std::uint64_t memory_budget() { return memory_budget_bound().bytes; }
 
 std::optional<std::uint64_t> memory_limit_env() {
   const char* env = std::getenv("LOOM_MEMORY_LIMIT");
@@ -87,10 +116,10 @@ std::string show_bytes(double bytes) {
 
 namespace {
 
-// The scene's estimate: its cloth vertices and collider triangles so far.
+// The scene's estimate: its cloth vertices, collider triangles and read inputs so far.
 double scene_bytes(const Scene& scene) {
   return scene.vertices * static_cast<double>(kBytesPerVertex) +
-         scene.collider_triangles * static_cast<double>(kBytesPerColliderTriangle);
+         scene.collider_triangles * static_cast<double>(kBytesPerColliderTriangle) + scene.input_bytes;
 }
 
 // "about 3.2e+07", or "more than 1e15" as show_count and show_bytes give it past their bound.
@@ -99,40 +128,55 @@ std::string about(const std::string& figure) {
 }
 
 // Refuses (naming `field`) the scene when its estimate, with `transient_bytes` held only for a while (a file
-// being read), passes the budget: `what` says which count grew, `advice` what lowers it.
-void check_budget(const Scene& scene, const std::string& field, const std::string& what, const char* advice,
-                  double transient_bytes = 0.0) {
-  const double need = scene_bytes(scene) + transient_bytes;
-  const double budget = static_cast<double>(memory_budget());
-  // Also refused: a count that is not a number (the estimate of a degenerate field).
-  if (!(need <= budget))
-    throw Error(scene.file, field,
-                what + ", which need " + about(show_bytes(need)) + " of memory with the rest of the scene (" +
-                    std::to_string(kBytesPerVertex) + " bytes per cloth vertex, " +
-                    std::to_string(kBytesPerColliderTriangle) + " per collider triangle); " +
-                    available_memory_text(budget) + ": " + advice);
+// being read), passes the budget: `what` says which count grew (ending in its verb), `advice` what lowers it.
+void check_budget(const Scene& scene, const std::string& field, const std::string& what,
+                  const std::string& advice, double transient_bytes = 0.0) {
+  check_memory(scene.file, field, scene_bytes(scene) + transient_bytes, what, advice,
+               " with the rest of the scene (" + std::to_string(kBytesPerVertex) +
+                   " bytes per cloth vertex, " + std::to_string(kBytesPerColliderTriangle) +
+                   " per collider triangle" +
+                   (scene.input_bytes > 0.0 ? ", and what reading its clip takes" : "") + ")");
 }
 
 }  // namespace
 
-std::string available_memory_text(double budget) {
-  return show_bytes(budget) + (memory_limit_env() == memory_budget() ? " (set by LOOM_MEMORY_LIMIT)" : "") +
-         " is available";
+std::string available_memory_text(const MemoryBudget& budget) {
+  std::string why;
+  if (budget.source == "LOOM_MEMORY_LIMIT") why = " (set by LOOM_MEMORY_LIMIT)";
+  if (budget.source == "MemAvailable") why = " (MemAvailable in /proc/meminfo)";
+  if (budget.source == "RLIMIT_AS") why = " (left under RLIMIT_AS, ulimit -v)";
+  if (budget.source == "RLIMIT_DATA") why = " (left under RLIMIT_DATA, ulimit -d)";
+  return show_bytes(static_cast<double>(budget.bytes)) + why + " is available";
+}
+
+void check_memory(const std::string& file, const std::string& field, double need, const std::string& what,
+                  const std::string& advice, const std::string& basis) {
+  const MemoryBudget budget = memory_budget_bound();
+  // Also refused: a need that is not a number (the estimate of a degenerate field).
+  if (!(need <= static_cast<double>(budget.bytes)))
+    throw Error(file, field,
+                what + " " + about(show_bytes(need)) + " of memory" + basis + "; " +
+                    available_memory_text(budget) + ": " + advice);
 }
 
 void reserve_vertices(Scene& scene, const std::string& field, double vertices) {
   scene.vertices += vertices;
   check_budget(scene, field,
-               "the scene's cloths would have " + about(show_count(scene.vertices)) + " vertices",
+               "the scene's cloths would have " + about(show_count(scene.vertices)) + " vertices, which need",
                "use fewer nodes or a coarser resolution");
 }
 
 void reserve_collider_triangles(Scene& scene, const std::string& field, double triangles) {
   scene.collider_triangles += triangles;
-  check_budget(
-      scene, field,
-      "the scene's collider meshes would have " + about(show_count(scene.collider_triangles)) + " triangles",
-      "use a coarser collider mesh");
+  check_budget(scene, field,
+               "the scene's collider meshes would have " + about(show_count(scene.collider_triangles)) +
+                   " triangles, which need",
+               "use a coarser collider mesh");
+}
+
+void reserve_input_bytes(Scene& scene, const std::string& field, double bytes, const std::string& what) {
+  scene.input_bytes += bytes;
+  check_budget(scene, field, what, "use a shorter clip (fewer frames or joints)");
 }
 
 ObjCounts count_obj_elements(const std::string& path) {
@@ -203,7 +247,7 @@ ObjCounts count_obj_elements(const std::string& path) {
 
 void check_obj_reading(const Scene& scene, const std::string& field, const ObjCounts& counts) {
   check_budget(scene, field,
-               "reading its OBJ file takes " + about(show_bytes(counts.bytes)) + " while it is read",
+               "reading its OBJ file (" + about(show_bytes(counts.bytes)) + " while it is read) needs",
                "use a smaller mesh file", counts.bytes);
 }
 

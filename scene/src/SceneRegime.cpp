@@ -256,16 +256,48 @@ std::vector<RegimeOutlier> regime_outliers(const Scene& scene) {
     for (size_t i = 0; i < s.cloths.size(); ++i) {
       if (!box.overlaps(cloth_box[i])) continue;
       const cloth::Vec3s& x = s.cloths[i].mesh->rest_positions();
+      auto in_box = [&box](const cloth::Vec3& p) {
+        return (p.array() >= box.lo.array()).all() && (p.array() <= box.hi.array()).all();
+      };
+      auto depth = [&](const cloth::Vec3& p) {
+        return collision::signed_distance(c, at_start.curr, p, nullptr) - c.thickness;
+      };
       double deepest = HUGE_VAL;
       int vertex = -1;
+      std::vector<double> dv(x.size(), std::nan(""));  // m, each vertex's depth once computed
       for (int v = 0; v < static_cast<int>(x.size()); ++v) {
-        if (!((x[v].array() >= box.lo.array()).all() && (x[v].array() <= box.hi.array()).all())) continue;
-        const double d = collision::signed_distance(c, at_start.curr, x[v], nullptr) - c.thickness;
+        if (!in_box(x[v])) continue;
+        const double d = dv[v] = depth(x[v]);
         if (d < deepest) deepest = d, vertex = v;
       }
-      if (vertex >= 0 && deepest < 0.0)
-        add("cloths[" + std::to_string(i) + "] starts inside " + at + " '" + c.name +
-            "' or its thickness (vertex " + std::to_string(vertex) + ", " + fig(-deepest) + " m in)");
+      // A collider thinner than the cloth's edges can pass between its vertices: each edge within the
+      // collider's box that may reach inside it is sampled at kEdgeSamples interior points. The signed
+      // distance is 1-Lipschitz, so no point of an edge of length l is inside when d_i + d_j > l.
+      constexpr int kEdgeSamples = 8;
+      cloth::Edge edge{-1, -1};
+      if (!(vertex >= 0 && deepest < 0.0))
+        for (const cloth::Edge& e : s.cloths[i].mesh->edges()) {
+          collision::Aabb eb;
+          eb.grow(x[e.i]);
+          eb.grow(x[e.j]);
+          if (!box.overlaps(eb)) continue;
+          for (const int v : {e.i, e.j})
+            if (std::isnan(dv[v])) dv[v] = depth(x[v]);
+          if (dv[e.i] + dv[e.j] > (x[e.j] - x[e.i]).norm()) continue;
+          for (int q = 1; q <= kEdgeSamples; ++q) {
+            const cloth::Vec3 p = x[e.i] + (x[e.j] - x[e.i]) * (q / (kEdgeSamples + 1.0));
+            if (!in_box(p)) continue;
+            const double d = depth(p);
+            if (d < deepest) deepest = d, edge = e, vertex = -1;
+          }
+        }
+      const std::string where = vertex >= 0 ? "vertex " + std::to_string(vertex)
+                                            : "its edge between vertices " + std::to_string(edge.i) +
+                                                  " and " + std::to_string(edge.j);
+      if ((vertex >= 0 || edge.i >= 0) && deepest < 0.0)
+        out.push_back({scene.cloth_field(static_cast<int>(i)) + " starts inside " + at + " '" + c.name +
+                           "' or its thickness (" + where + ", " + fig(-deepest) + " m in)",
+                       false, true});
     }
   }
 #ifdef LOOM_HAVE_CHARACTERS

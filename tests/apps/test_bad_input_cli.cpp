@@ -499,6 +499,37 @@ const BadInput kCases[] = {
      "scene",
      "character.garments[0].resolution",
      "have more than 1e15 vertices, which need more than 1e6 GB"},
+    // An OBJ garment is held to an OBJ cloth's bounds, by its scale: every vertex within +-1e6 m after
+    // scale and translate, and at least 1 mm across.
+    {"garment_obj_scale_huge",
+     nullptr,
+     {"@BVH:100000", "--set",
+      "character.garments=[{\"type\":\"obj\",\"path\":\"mesh.obj\",\"attach\":{\"top\":\"Neck\"},"
+      "\"scale\":1e6}]"},
+     "v -0.5 1.5 -0.5\nv 0.5 1.5 -0.5\nv -0.5 1.5 0.5\nv 0.5 1.5 0.5\ng top\nf 1 2 3\ng rest\nf 2 4 3\n",
+     "scene",
+     "character.garments[0].scale",
+     "puts vertex 1 (line 1 of mesh.obj) at (-5e+05, 1.5e+06, -5e+05) m"},
+    {"garment_obj_scale_tiny",
+     nullptr,
+     {"@BVH:100000", "--set",
+      "character.garments=[{\"type\":\"obj\",\"path\":\"mesh.obj\",\"attach\":{\"top\":\"Neck\"},"
+      "\"scale\":1e-6}]"},
+     "v -0.5 1.5 -0.5\nv 0.5 1.5 -0.5\nv -0.5 1.5 0.5\nv 0.5 1.5 0.5\ng top\nf 1 2 3\ng rest\nf 2 4 3\n",
+     "scene",
+     "character.garments[0].scale",
+     "m across; at least 0.001 m"},
+    // A friction pair's name that stands for two garments names the fields the scene wrote.
+    {"friction_pair_names_two_garments",
+     nullptr,
+     {"@BVH:100000", "--set",
+      "character.garments=[{\"type\":\"cape\",\"name\":\"g\",\"resolution\":0.1},"
+      "{\"type\":\"cape\",\"name\":\"g\",\"resolution\":0.1}]",
+      "--set", "collision={\"friction_pairs\":[{\"a\":\"g\",\"b\":\"g\",\"friction\":0.5}]}"},
+     nullptr,
+     "scene",
+     "collision.friction_pairs[0].a",
+     "'g' names character.garments[0] and character.garments[1]"},
     // A BVH whose frame time or frame count makes no motion.
     {"bvh_frame_time_zero",
      nullptr,
@@ -1076,3 +1107,39 @@ TEST(BadInputCli, FabricTestStaticSolveIsReportedAsConverged) {
 }
 
 }  // namespace
+
+// --set without PATH= is a malformed option like any other: exit 2, naming --set, before the scene is read.
+TEST(BadInputCli, ASetWithoutPathIsAMalformedOption) {
+  const fs::path dir = loom::test::test_dir();
+  std::ofstream(dir / "scene.json") << kValid;
+  for (const std::string set : {"--set=", "--set=x", "--set '=1'", "--set 'a b'"}) {
+    fs::remove_all(dir / "o9");
+    const loom::test::CliResult r = loom::test::run_loom("run '" + (dir / "scene.json").string() + "' " +
+                                                         set + " --out '" + (dir / "o9").string() + "'");
+    EXPECT_EQ(r.code, 2) << set << ": " << r.err;
+    EXPECT_NE(r.err.find("--set: expected PATH=VALUE"), std::string::npos) << set << ": " << r.err;
+    EXPECT_FALSE(fs::exists(dir / "o9")) << set;
+  }
+}
+
+// A collider that starts through the cloth is warned about in every tier, also when it is thinner than the
+// cloth's edges (a 4 cm cylinder across a sheet with 6 cm between its rows passes between its vertices).
+TEST(BadInputCli, AColliderStartingThroughTheClothIsWarnedAboutInEveryTier) {
+  const fs::path dir = loom::test::test_dir();
+  for (const std::string tier : {"balanced", "realtime", "reference"}) {
+    std::ofstream(dir / "scene.json") << R"({"name": "bt", "duration": 0.02, "fps": 60, "quality": ")" << tier
+                                      << R"(", "cloths": [{"name": "sheet", "mesh": {"type": "grid",
+      "size": [1, 1], "nodes": [17, 17], "plane": "xz", "origin": [-0.5, 0.5, -0.5]},
+      "material": {"preset": "cotton"}, "mass": 0.2, "pins": [{"grid": [0, 0]}, {"grid": [-1, -1]}]}],
+      "colliders": [{"shape": "cylinder", "radius": 0.02, "half_height": 0.6, "position": [0, 0.5, 0.03],
+                     "rotation": {"axis": [0, 0, 1], "degrees": 90}, "thickness": 0.001, "name": "c"}]})";
+    fs::remove_all(dir / "o");
+    const loom::test::CliResult r = loom::test::run_loom("run '" + (dir / "scene.json").string() +
+                                                         "' --frames 1 --out '" + (dir / "o").string() + "'");
+    EXPECT_NE(r.err.find("warning: " + (dir / "scene.json").string() +
+                         ": cloths[0] starts inside colliders[0] 'c' or its thickness (its edge between "
+                         "vertices"),
+              std::string::npos)
+        << tier << ": " << r.err;
+  }
+}

@@ -4,6 +4,7 @@
 
 #include <cmath>
 #include <cstdlib>
+#include <filesystem>
 #include <fstream>
 #include <string>
 #include <vector>
@@ -70,4 +71,20 @@ TEST(BodyCli, RefusesBadInputNamingIt) {
     EXPECT_EQ(r.code, c.code) << c.args << ": " << r.err;
     EXPECT_NE(r.err.find(c.message), std::string::npos) << c.args << ": " << r.err;
   }
+}
+
+// --image in a folder reached through a symbolic link whose target is missing: refused before the clip is
+// read, naming the link and its target (not a folder that "does not exist").
+TEST(BodyCli, AnImageFolderThroughADanglingLinkIsNamed) {
+  const auto dir = loom::test::test_dir();
+  std::filesystem::remove(dir / "imgl");
+  std::filesystem::create_directory_symlink("../no_such_folder_here", dir / "imgl");
+  const loom::test::CliResult r =
+      loom::test::run_loom("body " + kMesh + " " + kClip + " --image " + (dir / "imgl" / "new.png").string());
+  SKIP_WITHOUT_BODY(r);
+  EXPECT_EQ(r.code, 1) << r.err;
+  EXPECT_NE(r.err.find("--image: its folder is reached through the symbolic link " + (dir / "imgl").string() +
+                       " to '../no_such_folder_here', which does not exist"),
+            std::string::npos)
+      << r.err;
 }

@@ -3,9 +3,11 @@
 // and joint; a file without an animated skeleton is refused as such; a jump between two keys is refused past
 // 1e4 m/s and named by the scene's regime report (file, joint, frame) past the validated speed.
 #include <gtest/gtest.h>
+#include <sys/stat.h>
 
 #include <cmath>
 #include <cstring>
+#include <filesystem>
 #include <fstream>
 #include <nlohmann/json.hpp>
 #include <sstream>
@@ -424,6 +426,35 @@ TEST(ClipInput, AClipFasterThanTheValidatedSpeedIsNamedByFileJointAndFrame) {
   const std::string advice = loom::scene::divergence_suspects(scene);
   EXPECT_NE(advice.find("character.bvh ("), std::string::npos) << advice;
   EXPECT_EQ(advice.find("more solver.substeps"), std::string::npos) << advice;
+}
+
+// What loading a clip holds is estimated from the file before it is read: a BVH by Frames x its joints'
+// CHANNELS (arm_swing.bvh: 511 frames of 31 joints, 6 + 30 x 3 channels), bounded by what its lines can
+// hold; a glTF by its JSON and the byteLength of its buffers; a FIFO is never opened.
+TEST(ClipMemory, EstimatedFromTheFileBeforeItIsRead) {
+  namespace ch = loom::characters;
+  const std::string arm = loom::test::mocap("arm_swing.bvh");
+  const ch::MemoryEstimate e = ch::estimate_clip_memory(arm);
+  EXPECT_EQ(e.basis, "511 frames of 96 channels");
+  EXPECT_DOUBLE_EQ(
+      e.bytes, 511.0 * 96.0 * ch::kBvhBytesPerValue + static_cast<double>(std::filesystem::file_size(arm)));
+  // A header that claims 10^18 frames is bounded by its file: each number takes two bytes at least.
+  std::ifstream in(arm);
+  std::stringstream text;
+  text << in.rdbuf();
+  std::string claimed = text.str();
+  claimed.replace(claimed.find("Frames: 511"), 11, "Frames: 1000000000000000000");
+  const std::string huge = write_test_file("claims_frames.bvh", claimed);
+  EXPECT_LE(ch::estimate_clip_memory(huge).bytes,
+            static_cast<double>(claimed.size()) * (0.5 * ch::kBvhBytesPerValue + 1.0));
+  const std::string gl = write_test_file(
+      "buffers.gltf",
+      R"({"asset": {"version": "2.0"}, "buffers": [{"uri": "a.bin", "byteLength": 1000000}]})");
+  EXPECT_GE(ch::estimate_clip_memory(gl).bytes, 1e6 * ch::kImportBytesPerByte);
+  const std::string fifo = (std::filesystem::path(gl).parent_path() / "clip_fifo.bvh").string();
+  std::filesystem::remove(fifo);
+  ASSERT_EQ(::mkfifo(fifo.c_str(), 0600), 0);
+  EXPECT_EQ(ch::estimate_clip_memory(fifo).bytes, 0.0);
 }
 
 }  // namespace

@@ -265,14 +265,10 @@ int bench_accuracy(const AccuracyOptions& o) {
     const double frames = std::max(1.0, std::round(o.duration * 60.0)) + 1.0;
     const double bytes =
         static_cast<double>(n) * n * (static_cast<double>(scene::kBytesPerVertex) + 2.0 * 24.0 * frames);
-    const std::uint64_t budget = scene::memory_budget();
-    if (bytes > static_cast<double>(budget))
-      throw loom::Error(
-          "", "--sizes",
-          "N=" + std::to_string(n) + " (" + std::to_string(static_cast<long long>(n) * n) + " vertices, " +
-              scene::show_count(frames) + " frames) needs about " + scene::show_bytes(bytes) +
-              " of memory, more than the " + scene::show_bytes(static_cast<double>(budget)) + " available" +
-              (scene::memory_limit_env() ? " (LOOM_MEMORY_LIMIT)" : "") + "; give a smaller size");
+    scene::check_memory("", "--sizes", bytes,
+                        "N=" + std::to_string(n) + " (" + std::to_string(static_cast<long long>(n) * n) +
+                            " vertices, " + scene::show_count(frames) + " frames) needs",
+                        "give a smaller size");
   }
   // A selection that runs nothing is refused before the folder or any (expensive) reference run.
   for (int n : o.sizes) {

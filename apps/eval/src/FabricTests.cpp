@@ -604,15 +604,16 @@ void check_fabric_test_options(const FabricTestOptions& o) {
                     std::to_string(kMaxFabricResolution) + "]");
   // Memory before anything is built: every test's specimen has at most 4 n^2 vertices at resolution n (the
   // shear square n^2, the drape disc about 3 n^2, the strips fewer), each kBytesPerVertex (SceneLimits.h).
-  if (o.resolution > 0) {
-    const double n = o.resolution, bytes = 4.0 * n * n * static_cast<double>(scene::kBytesPerVertex);
-    const std::uint64_t budget = scene::memory_budget();
-    if (bytes > static_cast<double>(budget))
-      throw Error("", "--resolution",
-                  std::to_string(o.resolution) + " may need about " + scene::show_bytes(bytes) +
-                      " of memory, more than the " + scene::show_bytes(static_cast<double>(budget)) +
-                      " available" + (scene::memory_limit_env() ? " (LOOM_MEMORY_LIMIT)" : "") +
-                      "; give a smaller resolution");
+  // Without --resolution the test's default n is checked the same way.
+  {
+    const int given = o.resolution > 0         ? o.resolution
+                      : o.test == "drape"      ? 20
+                      : o.test == "cantilever" ? 33
+                                               : 41;
+    const double n = given, bytes = 4.0 * n * n * static_cast<double>(scene::kBytesPerVertex);
+    scene::check_memory("", "--resolution", bytes,
+                        (o.resolution > 0 ? "" : "the default ") + std::to_string(given) + " may need",
+                        "give a smaller resolution");
   }
   if (!(o.overhang_ratio > 0.05 && o.overhang_ratio < 10.0))
     throw Error("", "--overhang-ratio", "must be in (0.05, 10)");

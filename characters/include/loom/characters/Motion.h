@@ -46,6 +46,24 @@ struct JointTrack {
   double scale = 1.0;  // 1, the joint's uniform scale from its scaling keys (constant over the clip)
 };
 
+// What reading a file takes in memory, estimated before it is read, and what the estimate counts.
+struct MemoryEstimate {
+  double bytes = 0.0;  // bytes
+  std::string basis;   // "300000 frames of 96 channels", "a 65 MB glTF with its buffers"
+};
+// Bytes per number of a BVH's MOTION section that loading the clip holds at its peak (assimp's keys, the
+// clip's tracks), above one per byte of the file (measured: docs/guarantees.md).
+constexpr double kBvhBytesPerValue = 40.0;
+// Bytes per byte an assimp import reads (import_source_bytes) that loading holds at its peak (measured on a
+// glTF clip: docs/guarantees.md).
+constexpr double kImportBytesPerByte = 5.0;
+// A BVH: Frames x the joints' CHANNELS from its header (read as a stream of words up to "Frames:")
+// x kBvhBytesPerValue plus the file's size; any other file: what its import reads x kImportBytesPerByte. A
+// file that is not a regular file estimates 0 and is not opened (loading names it).
+MemoryEstimate estimate_clip_memory(const std::string& path);
+// Any file assimp reads (a mesh, a clip that is not a BVH): what its import reads x kImportBytesPerByte.
+MemoryEstimate estimate_import_memory(const std::string& path);
+
 class Motion {
  public:
   // Loads the file's node hierarchy and its first animation. Throws loom::Error naming the file on a read

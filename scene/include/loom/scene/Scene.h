@@ -45,6 +45,7 @@ struct Scene {
   std::vector<std::string> inputs;  // every other file the scene read (meshes, motion clips), as opened
   double vertices = 0.0;            // cloth vertices asked for so far (SceneLimits.h, reserve_vertices)
   double collider_triangles = 0.0;  // collider mesh triangles so far (reserve_collider_triangles)
+  double input_bytes = 0.0;         // bytes, what reading inputs such as a clip takes (reserve_input_bytes)
   std::string name;
   cloth::SimulationSetup setup;
   double duration = 1.0;  // s
@@ -68,6 +69,17 @@ struct Scene {
   // `cloths[i].detail` (hybrid detail): cloth index -> its curved-face surface settings; the cloths
   // listed are shown (OBJ frames, exports, renders) as their refined surface instead of the simulated mesh.
   std::map<int, cloth::DetailSettings> detail;
+  // The JSON path of each cloth of setup.cloths as the scene writes it: "character.garments[k]" for a
+  // garment, "cloths[k]" for an entry of `cloths` (messages name the field the user wrote).
+  std::vector<std::string> cloth_fields;
+  // A cloth that starts inside a collider or its thickness, as regime_outliers (SceneRegime.h) words it:
+  // `loom run` prints each as a warning, in every tier.
+  std::vector<std::string> start_warnings;
+  std::string cloth_field(int cloth) const {
+    return cloth >= 0 && cloth < static_cast<int>(cloth_fields.size())
+               ? cloth_fields[cloth]
+               : "cloths[" + std::to_string(cloth) + "]";
+  }
 };
 
 class JsonReader;

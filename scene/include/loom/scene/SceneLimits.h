@@ -76,6 +76,10 @@ void check_obj_reading(const Scene& scene, const std::string& field, const ObjCo
 // Adds `triangles` collider mesh triangles (of the collider at JSON path `field`) to the scene's count and
 // refuses when, with the cloth vertices, the estimate exceeds memory_budget().
 void reserve_collider_triangles(Scene& scene, const std::string& field, double triangles);
+// Adds `bytes` that reading an input (a character's clip at JSON path `field`) will take to the scene's
+// estimate and refuses as above when the total exceeds memory_budget(); `what` says what is read, ending in
+// its verb ("the clip x.bvh (300000 frames of 96 channels) needs").
+void reserve_input_bytes(Scene& scene, const std::string& field, double bytes, const std::string& what);
 
 // Refuses (naming `file`, `field`) a path that is missing, not a regular file (a folder, a device such as
 // /dev/zero, a pipe) or larger than kMaxInputBytes.
@@ -83,8 +87,15 @@ void check_input_file(const std::string& file, const std::string& field, const s
 // Resolves `path` as written in the scene (relative: to the scene file's folder), checks it as above and
 // records it in scene.inputs (checkpoints hash every input).
 std::string input_file(Scene& scene, const std::string& field, const std::string& path);
-// Memory a run may use, in bytes: MemAvailable of /proc/meminfo, or LOOM_MEMORY_LIMIT (bytes) when set and
-// smaller; the largest 64-bit value when neither is known.
+// What bounds the memory a run may use: the smallest of MemAvailable in /proc/meminfo, what the process's
+// soft limits leave (RLIMIT_AS, `ulimit -v`, less the address space mapped now; RLIMIT_DATA, `ulimit -d`,
+// less the data segment now) and LOOM_MEMORY_LIMIT; `source` names the one that gave `bytes`.
+struct MemoryBudget {
+  std::uint64_t bytes = 0;  // bytes; the largest 64-bit value when nothing is known
+  std::string source;       // "MemAvailable", "RLIMIT_AS", "RLIMIT_DATA", "LOOM_MEMORY_LIMIT" or ""
+};
+MemoryBudget memory_budget_bound();
+// memory_budget_bound().bytes: the memory a run may use, in bytes.
 std::uint64_t memory_budget();
 // LOOM_MEMORY_LIMIT: nullopt when unset, else its value, a whole number of bytes in [1, 2^64 - 1] written
 // in decimal digits only; anything else (abc, -1, 1.5, 1e9, past 64 bits) throws Error naming the variable.
@@ -92,8 +103,15 @@ std::optional<std::uint64_t> memory_limit_env();
 // Adds `vertices` cloth vertices (of the cloth at JSON path `field`) to the scene's count and refuses when
 // the estimate kBytesPerVertex x count exceeds memory_budget().
 void reserve_vertices(Scene& scene, const std::string& field, double vertices);
-// "1.5 GB (set by LOOM_MEMORY_LIMIT) is available": memory_budget() as messages give it.
-std::string available_memory_text(double budget);
+// "1.5 GB (set by LOOM_MEMORY_LIMIT) is available", "300 MB (under RLIMIT_AS, ulimit -v) is available":
+// a budget as every message that gives a memory figure says it.
+std::string available_memory_text(const MemoryBudget& budget);
+// The one memory check of everything loom reads or builds: refuses (Error naming `file`, `field`) when
+// `need` bytes (or a need that is not a number) exceed memory_budget_bound(). The message reads `what`
+// (ending in its verb: "... needs") + " about <need> of memory" + `basis` + "; " + available_memory_text +
+// ": " + `advice`.
+void check_memory(const std::string& file, const std::string& field, double need, const std::string& what,
+                  const std::string& advice, const std::string& basis = "");
 // Counts and byte figures in messages are finite: at or above kMaxShownCount (and inf, NaN) they read
 // "more than ...".
 constexpr double kMaxShownCount = 1e15;

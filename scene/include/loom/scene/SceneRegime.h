@@ -33,9 +33,12 @@ std::string divergence_suspects(const Scene& scene);
 // guard's retries with more substeps bring it back. A scene with an outlier that is not step-bound gets
 // guard.max_halvings of at most kRegimeOutsideHalvings unless it sets the field (Scene.cpp): more substeps
 // seldom carry such a frame, and each retry doubles its cost.
+// start: a cloth that starts inside a collider or its thickness (a vertex, or a point of an edge a thin
+// collider passes through), pushed out in the first step: `loom run` prints it as a warning in every tier.
 struct RegimeOutlier {
   std::string text;
   bool step_bound = false;
+  bool start = false;
 };
 std::vector<RegimeOutlier> regime_outliers(const Scene& scene);
 constexpr int kRegimeOutsideHalvings = 1;
