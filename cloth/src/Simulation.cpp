@@ -348,14 +348,16 @@ FrameStats Simulation::step_frame() {
       start_sample_ = kept;
       guard_ms_ += ms_since(start);
       const bool capped = steps + 2 * n > kMaxStepsPerFrame;
-      if (attempt >= setup_.guard.max_halvings || capped) {
+      // The drape is the same shape at any number of substeps: no retry.
+      if (attempt >= setup_.guard.max_halvings || capped || geometric) {
         ++failed_frames_;
         const bool out = output_frame_ > 0;  // the output frame's span, not this step's
         const double t0 = out ? (output_frame_ - 1) * output_frame_dt_ : t_;
         const double t1 = out ? output_frame_ * output_frame_dt_ : (frame_ + 1) * setup_.frame_dt;
         failure_ = why + " in frame " + std::to_string(out ? output_frame_ : frame_ + 1) +
-                   " (t = " + std::to_string(t0) + " to " + std::to_string(t1) + " s), also with " +
-                   std::to_string(n) + " substeps";
+                   " (t = " + std::to_string(t0) + " to " + std::to_string(t1) + " s)" +
+                   (geometric ? std::string(", the weil drape's one shape")
+                              : ", also with " + std::to_string(n) + " substeps");
         if (capped && attempt < setup_.guard.max_halvings)
           failure_ += "; no further retry: one with " + std::to_string(2 * n) + " substeps would bring the " +
                       "frame to " + std::to_string(steps + 2 * n) + " solver steps, above the " +

@@ -272,6 +272,28 @@ TEST(Weil, LongNarrowGridDrapesUnderTheGuard) {
   }
 }
 
+// Anchors the catenaries reach only by stretching the cloth (two corners of a square 1e-8 m apart, the other
+// two spread): the frame fails on guard.max_strain at once, with no retry and no word of substeps (the drape
+// is one shape at any number of them).
+TEST(Weil, AStretchedDrapeFailsWithoutRetriesOrSubsteps) {
+  SimulationSetup s = strip(0.8);
+  GridSpec g;
+  g.nodes_u = g.nodes_v = 33;
+  g.origin = Vec3(-0.5, 1.5, -0.5);
+  s.cloths[0].mesh = ClothMesh::grid(g);
+  s.cloths[0].model = "springs";
+  const double h = 0.35;
+  s.cloths[0].pins = {PinSpec{0, Vec3(-h, 1.5, -h), {}, {}}, PinSpec{32, Vec3(-h, 1.5, -h + 1e-8), {}, {}},
+                      PinSpec{32 * 33, Vec3(-h, 1.5, h), {}, {}},
+                      PinSpec{33 * 33 - 1, Vec3(h, 1.5, h), {}, {}}};
+  Simulation sim(s, "scene.json");
+  EXPECT_FALSE(sim.step_frame().finite);
+  EXPECT_NE(sim.failure().find("the strain exploded"), std::string::npos) << sim.failure();
+  EXPECT_NE(sim.failure().find("the weil drape's one shape"), std::string::npos) << sim.failure();
+  EXPECT_EQ(sim.failure().find("substeps"), std::string::npos) << sim.failure();
+  EXPECT_EQ(sim.rollbacks(), 0);
+}
+
 // A refusal names the cloth's field with its index (cloths[1].pins[1].anchor), not a template.
 TEST(Weil, RefusalNamesTheClothByIndex) {
   SimulationSetup s = strip(0.8);
