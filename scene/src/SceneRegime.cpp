@@ -289,9 +289,9 @@ std::string divergence_suspects(const Scene& scene) {
   const cloth::SimulationSetup& s = scene.setup;
   const int substeps = s.substeps > 0 ? s.substeps : cloth::default_substeps(s.solver.method, s.frame_dt);
   if (out.empty() && s.solver.method == "weil")  // one geometric shape: no steps to add
-    return "; the weil drape has no substeps: its catenaries between the pins' anchors (cloths[].pins[k]"
-           ".anchor) reach this shape only by stretching the cloth; move the anchors or use the static "
-           "solver";
+    return "; no scene value is outside the validated regime, and the weil drape has no substeps: its "
+           "catenaries between the pins' anchors (cloths[].pins[k].anchor) reach this shape only by "
+           "stretching the cloth; move the anchors or use the static solver";
   if (out.empty())
     return "; no scene value is outside the validated regime: more solver.substeps (now " +
            std::to_string(substeps) + " per frame)" +
