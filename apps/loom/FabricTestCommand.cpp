@@ -8,6 +8,7 @@
 #include <fstream>
 #include <iostream>
 #include <nlohmann/json.hpp>
+#include <optional>
 #include <set>
 #include <sstream>
 #include <string>
@@ -47,7 +48,8 @@ const char* kFabricUsageRest =
     "  --overhang-ratio X    cantilever: overhang l over bending length c (default 2)\n"
     "  --span D              catenary: span in metres for a 1 m strip (default 0.8)\n"
     "  --solver S            static (default) or a dynamic solver that settles the strip\n"
-    "  --settle-frames N     dynamic solvers: at most N frames of 0.01 s (default 400); the static solver\n"
+    "  --settle-frames N     dynamic solvers: at most N frames of 0.01 s per settling, each tensile pull\n"
+    "                        its own (default 400); the static solver\n"
     "                        reports its static solves and whether they converged (no settling)\n"
     "  --settle-speed V      dynamic solvers: settled after 3 frames in a row below V m/s (default 1e-6)\n"
     "  --json                print one JSON object (test, material, model, resolution, measured, theory, "
@@ -197,6 +199,7 @@ int fabric_test_main(int argc, char** argv) {
   // The cantilever is validated against the elastica with choi_ko and baraff_witkin; the springs model's
   // bending springs do not follow it (README, "Fabric tests"), so it is not the default there.
   if (o.test == "cantilever" && !model_given) o.model = "choi_ko";
+  o.model_is_default = !model_given;
   if (o.test == "cantilever" && o.model == "springs")
     std::fprintf(
         stderr,
@@ -207,14 +210,21 @@ int fabric_test_main(int argc, char** argv) {
   } catch (const Error& e) {
     throw Error("", "--material", e.what());  // the option that named it
   }
-  // Every option is checked before the report folder is claimed (a refused command leaves no folder), and
-  // the folder before the test runs, so a refused folder costs nothing.
+  // Every option is checked before the report folder is claimed (a refused command leaves no folder): the
+  // options alone, then the scene the test builds from them (a solver that cannot take the model, a specimen
+  // it cannot hang: refused naming --solver). The folder is claimed after that and before the test runs, so
+  // a refused folder costs nothing.
   eval::check_fabric_test_options(o);
   const fs::path dir = out.empty() ? fs::path("out") / "fabric-test" / o.test : fs::path(out);
   if (out.empty()) eval::refuse_linked_default(dir, "--out");
-  eval::OutputFolder folder(dir, "--out", overwrite, false, {"curve.csv", "report.md", "plot.gp", "plot.png"},
-                            {});  // no input file
+  std::optional<eval::OutputFolder> claimed;
+  o.on_ready = [&]() {
+    claimed.emplace(dir, "--out", overwrite, false,
+                    std::vector<std::string>{"curve.csv", "report.md", "plot.gp", "plot.png"},
+                    std::vector<std::string>{});  // no input file
+  };
   const eval::FabricTestResult r = eval::run_fabric_test(o);
+  eval::OutputFolder& folder = *claimed;
   write_report(folder, r);
   if (!r.failure.empty()) {  // a failed frame or an unconverged static solve: more frames do not help
     std::fprintf(stderr,
@@ -227,10 +237,12 @@ int fabric_test_main(int argc, char** argv) {
   if (!std::isfinite(r.measured)) {  // the report says "-"; the run is not passed off as a measurement
     std::fprintf(
         stderr,
-        "loom: error: %s: measured no finite %s (solver %s, %s after %d frames): try --solver static "
+        "loom: error: %s: measured no finite %s (solver %s, %s%s after %d frames%s): try --solver static "
         "(the default) or more --settle-frames; the report in %s holds no measurement\n",
-        r.test.c_str(), r.quantity.c_str(), r.solver.c_str(), r.settled ? "settled" : "not settled",
-        r.settle_frames, printable(folder.dir().string()).c_str());
+        r.test.c_str(), r.quantity.c_str(), r.solver.c_str(), r.unsettled_in.c_str(),
+        r.unsettled_in.empty() ? (r.settled ? "settled" : "not settled") : " not settled", r.settle_frames,
+        r.unsettled_in.empty() ? "" : " (--settle-frames counts each pull)",
+        printable(folder.dir().string()).c_str());
     return 3;
   }
   if (json) {

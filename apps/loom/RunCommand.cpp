@@ -790,7 +790,14 @@ void SceneRun::start() {
   if (obj_)
     frames_hash_ = write_obj(folder_->claim(frame_name(0)), shown_->cloths(), frames_hash_, frame_hashes_);
   keep_frame(true, true);
-  max_strain_ = s0.max_strain;
+  // Frame 0 counts in the run's max_strain only when every pin starts at its vertex's rest position: a pin
+  // anchored elsewhere puts its vertex at its target before any step, a stretch no solver made (the row of
+  // stats.csv still shows it). docs/cli.md, summary.json.
+  bool pins_at_rest = true;
+  for (const auto& c : sim_->cloths())
+    for (const cloth::Pin& p : c->pins())
+      pins_at_rest = pins_at_rest && p.target(0.0) == c->mesh().rest_positions()[p.vertex];
+  max_strain_ = pins_at_rest ? s0.max_strain : 0.0;
   done_ = first_;
 }
 
@@ -1033,7 +1040,7 @@ nlohmann::ordered_json SceneRun::summary() const {
   j["rollbacks"] = sim_->rollbacks();
   j["quality"] = sc_.quality.name;
   j["solver"] = sim_->setup().solver.method;  // in a Bullet world: the solver the bridge's tier runs
-  j["substeps"] = sc_.setup.substeps;
+  j["substeps"] = sim_->setup().substeps;  // the steps run per frame (the static solver: one, Simulation.h)
   j["dt"] = sim_->step_size();
   j["threads"] = sc_.setup.threads;
   int vertices = 0, triangles = 0;

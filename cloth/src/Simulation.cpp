@@ -103,6 +103,12 @@ Simulation::Simulation(SimulationSetup setup, const std::string& file) : setup_(
     throw Error(file, "fps", "frame time step must be > 0");
   if (setup_.substeps < 0) throw Error(file, "solver.substeps", "must be >= 1 (or 0: the solver's default)");
   if (setup_.substeps == 0) setup_.substeps = default_substeps(setup_.solver.method, setup_.frame_dt);
+  // A static equilibrium does not depend on the step (StaticSolver.h): one solve per frame, warm-started
+  // from the last frame's. Only pins moving along a path make the substeps continuation steps of the solve.
+  bool paths = false;
+  for (const ClothSetup& c : setup_.cloths)
+    for (const PinSpec& p : c.pins) paths = paths || !p.times.empty();
+  if (setup_.solver.method == "static" && !paths) setup_.substeps = 1;
   if (setup_.threads < 1) throw Error(file, "threads", "must be >= 1");
   if (setup_.strain_limit &&
       !(setup_.strain_limit->max_stretch >= 0.0 && setup_.strain_limit->max_stretch < 1e6))
@@ -166,7 +172,11 @@ Simulation::Simulation(SimulationSetup setup, const std::string& file) : setup_(
     try {
       solver->check(*cloth);
     } catch (const Error& e) {
-      throw Error(file, "", e.what());  // the solver names the field; the scene file goes in front
+      // The solver names the field ("cloths[].pins[1].anchor"), this cloth's index goes in, the file in
+      // front.
+      std::string why = e.what();
+      if (why.rfind("cloths[]", 0) == 0) why.replace(0, 8, where);
+      throw Error(file, "", why);
     }
     solvers.push_back(std::move(solver));
     cloths_.push_back(std::move(cloth));
@@ -316,10 +326,15 @@ FrameStats Simulation::step_frame() {
       stats = FrameStats();
       fill_stats(stats);
       stats_total_ms_ += ms_since(start);
-      if (why.empty())
-        why = guard_violation(setup_.guard, *start_sample_, guard_sample(stats), energy_scale_);
+      // The weil drape is a geometric shape, not a motion: the elastic energy of its edges (compressed where
+      // the cloth folds) is none a step converted, so only the finite and strain criteria apply to it.
+      const bool geometric = setup_.solver.method == "weil";
+      GuardSettings bounds = setup_.guard;
+      if (geometric) bounds.energy_growth = HUGE_VAL;
+      if (why.empty()) why = guard_violation(bounds, *start_sample_, guard_sample(stats), energy_scale_);
       double pin_work = 0.0;
-      if (why.empty() && setup_.guard.energy_bound > 0.0) why = energy_budget_violation(stats, &pin_work);
+      if (why.empty() && setup_.guard.energy_bound > 0.0 && !geometric)
+        why = energy_budget_violation(stats, &pin_work);
       if (why.empty()) {
         pin_work_ += pin_work;
         start_sample_ = guard_sample(stats);
@@ -333,14 +348,16 @@ FrameStats Simulation::step_frame() {
       start_sample_ = kept;
       guard_ms_ += ms_since(start);
       const bool capped = steps + 2 * n > kMaxStepsPerFrame;
-      if (attempt >= setup_.guard.max_halvings || capped) {
+      // The drape is the same shape at any number of substeps: no retry.
+      if (attempt >= setup_.guard.max_halvings || capped || geometric) {
         ++failed_frames_;
         const bool out = output_frame_ > 0;  // the output frame's span, not this step's
         const double t0 = out ? (output_frame_ - 1) * output_frame_dt_ : t_;
         const double t1 = out ? output_frame_ * output_frame_dt_ : (frame_ + 1) * setup_.frame_dt;
         failure_ = why + " in frame " + std::to_string(out ? output_frame_ : frame_ + 1) +
-                   " (t = " + std::to_string(t0) + " to " + std::to_string(t1) + " s), also with " +
-                   std::to_string(n) + " substeps";
+                   " (t = " + std::to_string(t0) + " to " + std::to_string(t1) + " s)" +
+                   (geometric ? std::string(", the weil drape's one shape")
+                              : ", also with " + std::to_string(n) + " substeps");
         if (capped && attempt < setup_.guard.max_halvings)
           failure_ += "; no further retry: one with " + std::to_string(2 * n) + " substeps would bring the " +
                       "frame to " + std::to_string(steps + 2 * n) + " solver steps, above the " +
@@ -459,7 +476,9 @@ void Simulation::fill_stats(FrameStats& s) const {
                     const double strain = (st.x[d.j] - st.x[d.i]).norm() / d.rest_length - 1.0;
                     out.max_strain =
                         std::max(out.max_strain, strain);  // a NaN strain is skipped here, caught by the sum
-                    out.strain_sum += std::abs(strain);
+                    // The mean of the stretch the max counts (compression is not strain here), so
+                    // max_strain >= mean_strain in every frame; a NaN strain is kept.
+                    out.strain_sum += strain < 0.0 ? 0.0 : strain;
                   }
                 });
     for (const StatChunk& ch : chunks) {

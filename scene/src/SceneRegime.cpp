@@ -320,6 +320,10 @@ std::string divergence_suspects(const Scene& scene) {
   for (const RegimeOutlier& o : regime_outliers(scene)) out.push_back(o.text);
   const cloth::SimulationSetup& s = scene.setup;
   const int substeps = s.substeps > 0 ? s.substeps : cloth::default_substeps(s.solver.method, s.frame_dt);
+  if (out.empty() && s.solver.method == "weil")  // one geometric shape: no steps to add
+    return "; no scene value is outside the validated regime, and the weil drape has no substeps: its "
+           "catenaries between the pins' anchors (cloths[].pins[k].anchor) reach this shape only by "
+           "stretching the cloth; move the anchors or use the static solver";
   if (out.empty())
     return "; no scene value is outside the validated regime: more solver.substeps (now " +
            std::to_string(substeps) + " per frame)" +

@@ -2,7 +2,9 @@
 // static solver agreeing with a settled dynamic solver.
 #include <gtest/gtest.h>
 
+#include <cmath>
 #include <cstdio>
+#include <string>
 
 #include "SymplecticSetup.h"
 #include "loom/cloth/Error.h"
@@ -202,6 +204,114 @@ TEST(StaticSolver, RejectsNonConservativeTermsAtSetUp) {
   FabricTestOptions o = options("tensile", "springs");
   o.test = "no_such_test";
   EXPECT_THROW(run_fabric_test(o), Error);
+}
+
+// A static equilibrium does not depend on the step: a scene's substeps do not repeat the Newton solve within
+// a frame (one solve per frame, warm-started from the last); pins moving along a path keep the substeps as
+// continuation steps.
+TEST(StaticSolver, SolvesOncePerFrameWhateverTheSubsteps) {
+  auto steps_of = [](const Simulation& sim) {
+    for (const StageProfile& p : sim.profile())
+      if (p.name == "solve")
+        for (const auto& [name, value] : p.counters)
+          if (name == "steps") return value;
+    return -1.0;
+  };
+  SimulationSetup s = loom::test::symplectic_setup();
+  ClothSetup c;
+  GridSpec g;
+  g.nodes_u = g.nodes_v = 6;
+  c.mesh = ClothMesh::grid(g);
+  c.material = material_preset("cotton");
+  c.pins = {PinSpec{0, {}, {}, {}}, PinSpec{5, {}, {}, {}}};
+  s.cloths.push_back(c);
+  s.gravity = Vec3(0, -9.81, 0);
+  s.solver.method = "static";
+  s.substeps = 20;
+  s.frame_dt = 1.0 / 30.0;
+  Simulation sim(s, "scene.json");
+  for (int f = 0; f < 2; ++f) ASSERT_TRUE(sim.step_frame().finite) << sim.failure();
+  EXPECT_EQ(steps_of(sim), 2.0);
+  EXPECT_EQ(sim.setup().substeps, 1);
+  s.substeps = 1;
+  Simulation one(s, "scene.json");
+  for (int f = 0; f < 2; ++f) one.step_frame();
+  EXPECT_EQ(one.cloths()[0]->state().x, sim.cloths()[0]->state().x);  // the same solves
+  s.substeps = 4;
+  s.cloths[0].pins[1].times = {0.0, 1.0};
+  s.cloths[0].pins[1].offsets = {Vec3::Zero(), Vec3(-0.1, 0, 0)};
+  Simulation moving(s, "scene.json");
+  ASSERT_TRUE(moving.step_frame().finite) << moving.failure();
+  EXPECT_EQ(steps_of(moving), 4.0);
+}
+
+// Every dynamic solver on tensile with --settle-frames 60: a pull that does not settle within the 60 frames
+// ends the test measuring nothing, and the frames reported are that pull's (at most 60), named.
+TEST(FabricTests, SettleFramesBoundEachTensilePull) {
+  for (const std::string& solver : solver_names()) {
+    if (solver == "static" || solver == "weil") continue;
+    FabricTestOptions o = options("tensile", "springs");
+    o.resolution = 9;
+    o.solver = solver;
+    o.settle_frames = 60;
+    const FabricTestResult r = run_fabric_test(o);
+    if (r.settled && r.failure.empty()) {
+      EXPECT_TRUE(std::isfinite(r.measured)) << solver;
+      EXPECT_TRUE(r.unsettled_in.empty()) << solver;
+      continue;
+    }
+    EXPECT_FALSE(std::isfinite(r.measured)) << solver;
+    EXPECT_LE(r.settle_frames, 60) << solver << " in " << r.unsettled_in;
+    if (r.failure.empty()) {
+      EXPECT_NE(r.unsettled_in.find("gf/cm pull"), std::string::npos) << solver;
+    }
+  }
+}
+
+// A solver that cannot take the test's model or specimen is refused naming --solver and --model with what
+// to give instead, before on_ready (where a command claims its output), and never by a scene field.
+TEST(FabricTests, AnIncompatibleSolverIsRefusedByOptionBeforeOnReady) {
+  struct Case {
+    const char *test, *solver, *model, *advice;
+  };
+  for (const Case& k : {Case{"cantilever", "pbd", "choi_ko", "give --model springs"},
+                        Case{"cantilever", "xpbd", "choi_ko", "give --model springs"},
+                        Case{"drape", "projective", "baraff_witkin", "give --model springs"},
+                        Case{"cantilever", "weil", "choi_ko", "give --model springs"},
+                        Case{"tensile", "weil", "springs", "give --solver"},
+                        Case{"shear", "weil", "springs", "give --solver"}}) {
+    FabricTestOptions o = options(k.test, k.model);
+    o.solver = k.solver;
+    bool ready = false;
+    o.on_ready = [&ready]() { ready = true; };
+    try {
+      run_fabric_test(o);
+      ADD_FAILURE() << k.test << " " << k.solver << " accepted";
+    } catch (const Error& e) {
+      const std::string msg = e.what();
+      EXPECT_EQ(msg.rfind(std::string("--solver: ") + k.solver + " cannot run the " + k.test +
+                              " test with --model " + k.model,
+                          0),
+                0u)
+          << msg;
+      EXPECT_NE(msg.find(k.advice), std::string::npos) << msg;
+      for (const char* field : {"solver.method", "cloths[", "gravity:"})
+        EXPECT_EQ(msg.find(field), std::string::npos) << msg;
+    }
+    EXPECT_FALSE(ready) << k.test << " " << k.solver;
+  }
+  FabricTestOptions ok = options("catenary", "springs");
+  ok.resolution = 9;
+  int calls = 0;
+  ok.on_ready = [&calls]() { ++calls; };
+  run_fabric_test(ok);
+  EXPECT_EQ(calls, 1);
+  ok = options("tensile", "springs");
+  ok.resolution = 5;
+  calls = 0;
+  ok.on_ready = [&calls]() { ++calls; };
+  run_fabric_test(ok);
+  EXPECT_EQ(calls, 1);  // once for the three pulls
 }
 
 }  // namespace

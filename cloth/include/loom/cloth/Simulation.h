@@ -63,7 +63,7 @@ struct FrameStats {
   double potential = 0.0;    // J, gravitational, zero at y = 0 (along -g)
   double elastic = 0.0;      // J
   double max_strain = 0.0;   // 1, largest stretch l/L - 1 over strain edges (0 if none stretched)
-  double mean_strain = 0.0;  // 1, mean |l/L - 1| over strain edges
+  double mean_strain = 0.0;  // 1, mean stretch max(0, l/L - 1) over strain edges (<= max_strain)
   bool finite = true;
   std::vector<double> stage_ms;  // per row of stage_names(), this frame
   double total_ms = 0.0;         // the frame's pipeline time: top-level stages only (no "solve/<term>" rows)

@@ -5,6 +5,8 @@
 // -df/dx with the positive-semi-definite options (compressed springs' transverse terms clamped), plus a
 // Levenberg shift mu I that grows when the factorisation fails or the step is not a descent direction.
 // Sparse LDLᵀ (Eigen SimplicialLDLT) over the free degrees of freedom. Velocities are zero after a step.
+// The equilibrium does not depend on the step: Simulation runs one step per frame (warm-started from the
+// last frame's shape) unless a pin follows a path, whose substeps are then continuation steps.
 // It cannot use non-conservative terms (drag): check() says so when the scene is loaded.
 #include "loom/cloth/Solver.h"
 

@@ -32,6 +32,12 @@ class WeilSolver final : public Solver {
   const char* name() const override { return "weil"; }
   void check(const Cloth& cloth) const override;
   void step(Cloth& cloth, double t, double h, int threads) override;
+  // The drape is made again after a state is restored (the guard's rollback, a checkpoint): the restored
+  // state is the undraped one.
+  void load_state(StateReader& in, const Cloth& cloth) override {
+    (void)in, (void)cloth;
+    placed_ = nullptr;
+  }
   double last_ms() const { return last_ms_; }  // ms, time of the last synthesis
 
  private:

@@ -19,6 +19,7 @@
 //    theory and error are NaN (null in --json).
 // Static measurements use the static (energy-minimisation) solver; each test reports measured, theory,
 // error, and its own fields.
+#include <functional>
 #include <string>
 #include <utility>
 #include <vector>
@@ -47,6 +48,12 @@ struct FabricTestOptions {
   int settle_frames = 400;
   double settle_dt = 0.01;     // s
   double settle_speed = 1e-6;  // m/s, dynamic solvers: settled when every vertex moves slower than this
+  // The model is the test's default, not a choice of the caller (named so in a refusal).
+  bool model_is_default = false;
+  // Called once, after the test's scene is built and checked and before it runs: a scene the solver refuses
+  // (a model term it cannot use, a specimen or load it cannot take) throws loom::Error naming --solver and
+  // --model before this, so a command can claim its output here and a refused run leaves none.
+  std::function<void()> on_ready;
 };
 
 struct FabricTestResult {
@@ -59,7 +66,8 @@ struct FabricTestResult {
   std::vector<std::pair<double, double>> curve, theory_curve;
   double seconds = 0.0;      // s, wall time of the simulation (set-up and solve/settle; not the theory)
   double cpu_seconds = 0.0;  // s, process CPU time of the same (the comparable figure on a busy machine)
-  // Settling: frames run (summed over a test's pulls), and for dynamic solvers whether the speed fell below
+  // Settling: frames run (summed over a test's pulls; a pull that did not settle ends the test, and then they
+  // are that pull's frames, at most settle_frames), and for dynamic solvers whether the speed fell below
   // settle_speed before settle_frames; for the static solver these are its static solves (one a frame) and
   // whether the largest move of the last one met the test's tolerance (converged), not a settling.
   int settle_frames = 0;
@@ -68,6 +76,8 @@ struct FabricTestResult {
   // frame, Simulation::failure()) or a static solve that did not converge. "" otherwise; when set, measured,
   // error, the measured fields and the simulated curve are NaN / empty.
   std::string failure;
+  // The step of a test of several (tensile's pulls) that did not settle, e.g. "the 20 gf/cm pull"; "" else.
+  std::string unsettled_in;
 };
 
 std::vector<std::string> fabric_test_names();
@@ -76,7 +86,8 @@ std::string fabric_test_list();
 // Throws loom::Error naming the option (or "test") for an unknown test, solver or model, or an option out of
 // range; run_fabric_test checks the same, so a command can refuse its options before it writes anything.
 void check_fabric_test_options(const FabricTestOptions& options);
-// Throws loom::Error for an unknown test or option out of range (check_fabric_test_options).
+// Throws loom::Error for an unknown test or option out of range (check_fabric_test_options), and naming
+// --solver for a scene the solver refuses (FabricTestOptions::on_ready).
 FabricTestResult run_fabric_test(const FabricTestOptions& options);
 
 // Exact inextensible elastica: tip chord angle (degrees) of a cantilever with overhang ratio l/c, and the
