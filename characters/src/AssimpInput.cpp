@@ -14,6 +14,7 @@
 
 #include "ImportPrescan.h"
 #include "loom/cloth/Error.h"
+#include "loom/cloth/HiddenText.h"
 #include "loom/cloth/InputFile.h"
 
 namespace loom::characters {
@@ -113,8 +114,14 @@ std::vector<ZipEntry> zip_entries(const std::string& file, const std::string& zi
 // methods other than stored and deflate (which the reader cannot unpack) are not. Throws loom::Error naming
 // `file`, the entry and the line of the first element nested deeper than kMaxXmlDepth.
 void check_zip_entry(const std::string& file, const std::string& zip, const ZipEntry& e) {
-  if ((e.flags & 1u) || (e.method != 0 && e.method != 8)) return;
   if (std::uint64_t(e.local) + 30 > zip.size() || zip.compare(e.local, 4, "PK\x03\x04") != 0) return;
+  // The unzip reader refuses an entry whose local header disagrees with the directory on its method, and
+  // the importer then reports the entry as missing: named here for what it is.
+  if (le16(zip, e.local + 8) != e.method)
+    throw Error(file, "zip entry '" + show_value(e.name, 80) + "'",
+                "its local header says compression method " + std::to_string(le16(zip, e.local + 8)) +
+                    ", the central directory " + std::to_string(e.method) + " (a damaged archive)");
+  if ((e.flags & 1u) || (e.method != 0 && e.method != 8)) return;
   const std::uint64_t data = std::uint64_t(e.local) + 30 + le16(zip, e.local + 26) + le16(zip, e.local + 28);
   if (data > zip.size()) return;
   const std::uint64_t packed = std::min<std::uint64_t>(e.packed, zip.size() - data);

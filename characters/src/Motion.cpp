@@ -16,6 +16,7 @@
 #include <iterator>
 #include <limits>
 #include <map>
+#include <sstream>
 
 #include "AssimpInput.h"
 #include "loom/cloth/Error.h"
@@ -171,6 +172,12 @@ void check_bvh_frame_lines(const std::string& path, const std::string& text, siz
         throw Error(path, "line " + std::to_string(line),
                     "value " + std::to_string(numbers) + " of the line, '" +
                         show_value(text.substr(start, k - start), 40) + "', is not a decimal number");
+      if (!(std::abs(std::strtod(text.substr(start, k - start).c_str(), nullptr)) <=
+            std::numeric_limits<float>::max()))
+        throw Error(path, "line " + std::to_string(line),
+                    "value " + std::to_string(numbers) + " of the line, '" +
+                        show_value(text.substr(start, k - start), 40) +
+                        "', is past the 3.4e38 the reader's 32-bit floats hold");
     }
     at = end + 1;
     if (numbers == 0) continue;
@@ -303,6 +310,11 @@ double ticks_per_second(const std::string& path, const aiAnimation* anim) {
   return anim && anim->mTicksPerSecond > 0.0 ? anim->mTicksPerSecond : 25.0;  // assimp's default
 }
 
+// What a non-finite key read from a file was: the reader keeps values as 32-bit floats.
+constexpr const char* kPastFloats =
+    " (as read: a NaN or infinity, or a number past the 3.4e38 of the reader's "
+    "32-bit floats)";
+
 // The keys of one joint's channel, times in seconds (key time / tps).
 JointTrack read_track(const std::string& path, const std::string& joint, const aiNodeAnim* ch, double tps) {
   JointTrack track;
@@ -310,9 +322,15 @@ JointTrack read_track(const std::string& path, const std::string& joint, const a
   // otherwise (a corrupt or cut number, 1e999) is refused here, before any pose can turn non-finite.
   auto bad_key = [&](const char* kind, unsigned k, const std::vector<double>& times) {
     const double t = times.back();
-    if (!std::isfinite(t) || (times.size() > 1 && t < times[times.size() - 2]))
-      throw Error(path, "joint '" + joint + "'",
-                  std::string(kind) + " key " + std::to_string(k) + ": time not finite or going back");
+    const std::string key = std::string(kind) + " key " + std::to_string(k);
+    if (!std::isfinite(t))
+      throw Error(path, "joint '" + joint + "'", key + ": its time is not finite" + kPastFloats);
+    if (times.size() > 1 && t < times[times.size() - 2]) {
+      std::ostringstream why;
+      why << key << ": its time " << t << " s comes before the previous key's " << times[times.size() - 2]
+          << " s (key times never go back)";
+      throw Error(path, "joint '" + joint + "'", why.str());
+    }
   };
   for (unsigned k = 0; k < ch->mNumPositionKeys; ++k) {
     const aiVectorKey& key = ch->mPositionKeys[k];
@@ -320,7 +338,8 @@ JointTrack read_track(const std::string& path, const std::string& joint, const a
     track.positions.emplace_back(key.mValue.x, key.mValue.y, key.mValue.z);
     bad_key("position", k, track.position_times);
     if (!track.positions.back().allFinite())
-      throw Error(path, "joint '" + joint + "'", "position key " + std::to_string(k) + " is not finite");
+      throw Error(path, "joint '" + joint + "'",
+                  "position key " + std::to_string(k) + " is not finite" + kPastFloats);
   }
   for (unsigned k = 0; k < ch->mNumRotationKeys; ++k) {
     const aiQuatKey& key = ch->mRotationKeys[k];

@@ -324,6 +324,12 @@ TEST(ClipInput, BvhNumbersTheReaderCannotParseAreNamedByLine) {
         std::string::npos)
         << e;
   }
+  const std::string huge = write_test_file("huge_value.bvh", bvh("Yrotation", "1e300"));
+  const std::string h = error_of([&] { Motion::load(huge); });
+  EXPECT_NE(
+      h.find(huge + ": line 21: value 1 of the line, '1e300', is past the 3.4e38 the reader's 32-bit floats"),
+      std::string::npos)
+      << h;
   for (const char* good : {"+1", "-.5", "2.", "1e-3", "1E+2"})
     EXPECT_EQ(error_of([&] { Motion::load(write_test_file("good_value.bvh", bvh("Yrotation", good))); }), "")
         << good;

@@ -130,6 +130,21 @@ TEST(HostileFiles, ArchivesCountWhatTheyUnpackTo) {
   EXPECT_GT(body.triangles.size(), 1000u);
 }
 
+// An entry whose local header and central directory disagree on its compression method is one the unzip
+// reader will not open (the importer then called it missing): refused naming the archive and the entry.
+TEST(HostileFiles, ArchiveEntriesWhoseHeadersDisagreeAreNamed) {
+  std::string archive = zip({{"a.dae", deep_collada(1)}}, 0, true);
+  const std::size_t dir = archive.find("PK\x01\x02");
+  ASSERT_NE(dir, std::string::npos);
+  archive[dir + 10] = 0;  // the directory says stored, the local header deflated
+  const std::string path = write("methods.zae", archive);
+  const std::string e = error_of([&] { loom::characters::load_static_mesh(path); });
+  EXPECT_NE(e.find(path + ": zip entry 'a.dae': its local header says compression method 8, the central "
+                          "directory 0"),
+            std::string::npos)
+      << e;
+}
+
 // XML inside an archive is scanned as its entries are inflated (stored or deflated, whatever the entry's
 // name if its text starts with '<'): a COLLADA nested 20,000 deep is refused by the archive, the entry and
 // the line before assimp reads it. An archive of a shallow one, a PNG-like binary entry full of '<' beside
