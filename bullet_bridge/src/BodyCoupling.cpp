@@ -329,8 +329,9 @@ void BodyCoupling::find_candidates(const cloth::Cloth& cloth, size_t index) {
     if ((col.shape.type == ShapeType::convex || col.shape.type == ShapeType::mesh) && !col.geometry)
       collision::prepare_collider(col);
     const CoupledBody* b = body_of(k);
-    w.features[k] = settings_.features && b && b->dynamic() ? collision::collider_features(col)
-                                                            : collision::ColliderFeatures{};
+    if (!features_current_)
+      w.features[k] = settings_.features && b && b->dynamic() ? collision::collider_features(col)
+                                                              : collision::ColliderFeatures{};
     w.placed[k].version = w.placed[k].features_version = -1;
     w.placed[k].prev = b ? b->pose0 * collider_local[k] : col.prev;
     if (col.shape.type == ShapeType::plane) {
@@ -368,6 +369,8 @@ void BodyCoupling::find_candidates(const cloth::Cloth& cloth, size_t index) {
     }
   }
 }
+
+void BodyCoupling::colliders_changed() { features_current_ = false; }
 
 // Contacts: vertices against bodies.
 void BodyCoupling::solve_vertex_contacts(cloth::ClothState& s, int it) {
@@ -596,9 +599,11 @@ void BodyCoupling::solve(cloth::Cloth& cloth, size_t index, double h) {
   w.vertex_pairs.clear();
   w.tri_pairs.clear();
   w.stamp.assign(mesh.triangles().size(), -1);
-  w.features.resize(nc);
   w.placed.resize(nc);
+  if (w.features.size() != static_cast<size_t>(nc)) features_current_ = false;
+  w.features.resize(nc);
   find_candidates(cloth, index);
+  if (index + 1 == w.cloths.size()) features_current_ = true;
 
   const bool have_prev = s.x_prev.size() == s.x.size();
   const int iterations = std::max(1, settings_.iterations);

@@ -91,6 +91,10 @@ class BodyCoupling {
   std::vector<int> collider_body;
   std::vector<Transform> collider_local;
 
+  // The owner refilled the ColliderSet (shapes or bodies may differ): the colliders' features are rebuilt at
+  // the next step (they are kept from step to step otherwise).
+  void colliders_changed();
+
   std::unique_ptr<cloth::Stage> make_predict_stage();  // before the solver
   std::unique_ptr<cloth::Stage> make_solve_stage();    // after the solver
 
@@ -129,7 +133,8 @@ class BodyCoupling {
   BodyCouplingSettings settings_;
   std::unique_ptr<Work> work_;
   double last_penetration_ = 0.0;
-  bool anchored_ = false;  // some cloth has pinned (or attached) vertices
+  bool anchored_ = false;          // some cloth has pinned (or attached) vertices
+  bool features_current_ = false;  // work_->features match the colliders (colliders_changed)
   long vertex_contacts_ = 0, face_contacts_ = 0;
 };
 

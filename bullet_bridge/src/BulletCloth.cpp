@@ -472,6 +472,7 @@ void BulletCloth::make_colliders(const std::vector<btRigidBody*>& bodies, double
     coupling_->bodies.clear();
     coupling_->collider_body.clear();
     coupling_->collider_local.clear();
+    coupling_->colliders_changed();
   }
   for (btRigidBody* rb : bodies) {
     BodyTrack& tr = track(rb);
