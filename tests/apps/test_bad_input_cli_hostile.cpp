@@ -432,17 +432,21 @@ void resum(std::string& data) {
   std::memcpy(&data[data.size() - 8], &h, 8);
 }
 
+// A run of kScene into `out`, 4 frames, checkpointed at frame 2: its exit code.
+int checkpointed_run(const fs::path& out) {
+  std::ofstream(test_dir() / "scene.json") << kScene;
+  return run_loom("run " + (test_dir() / "scene.json").string() + " --frames 4 --checkpoint-every 2 --out " +
+                  out.string())
+      .code;
+}
+
 // A checkpoint whose state was edited and its checksum recomputed is refused by what the state holds: a
 // pinned vertex off its pin (1 cm), a position past the scene bound, a non-finite velocity, a clock that is
 // not the checkpoint's frame, energies that are not those of stats.csv's row of that frame (written from the
 // saved state). The message names the checkpoint file and the quantity.
 TEST(HostileCheckpoint, AForgedStateWithARecomputedChecksumIsRefused) {
-  const fs::path dir = test_dir(), out = dir / "out";
-  std::ofstream(dir / "scene.json") << kScene;
-  ASSERT_EQ(run_loom("run " + (dir / "scene.json").string() + " --frames 4 --checkpoint-every 2 --out " +
-                     out.string())
-                .code,
-            0);
+  const fs::path out = test_dir() / "out";
+  ASSERT_EQ(checkpointed_run(out), 0);
   const fs::path ckpt = out / "checkpoint" / "checkpoint.bin";
   const std::string original = read_bytes(ckpt);
   // The state: tag "loom-simulation-state-3", the time, ..., tag "cloth:sheet", then x, v (25 triples each).
@@ -494,12 +498,8 @@ TEST(HostileCheckpoint, AForgedStateWithARecomputedChecksumIsRefused) {
 // the stats rows they were summed from, and the header must be as Loom writes it (no key twice, no key it
 // does not write, its scene among its inputs). Each refusal names the checkpoint and the field or problem.
 TEST(HostileCheckpoint, AForgedHeaderWithARecomputedChecksumIsRefused) {
-  const fs::path dir = test_dir(), out = dir / "out";
-  std::ofstream(dir / "scene.json") << kScene;
-  ASSERT_EQ(run_loom("run " + (dir / "scene.json").string() + " --frames 4 --checkpoint-every 2 --out " +
-                     out.string())
-                .code,
-            0);
+  const fs::path out = test_dir() / "out";
+  ASSERT_EQ(checkpointed_run(out), 0);
   const fs::path ckpt = out / "checkpoint" / "checkpoint.bin";
   const std::string original = read_bytes(ckpt);
   // "LOOMCKPT3\n", the header's length (8 bytes), the header, the state's length, the state, the checksum.
