@@ -481,8 +481,8 @@ const BadInput kCases[] = {
      "OFFSET 0 5 0\n  }\n }\n}\n"
      "MOTION\nFrames: 2\nFrame Time: 0.0333333\n0 90 0 0 0 0 0 0 0\n1e999 90 0 0 0 0 0 0 0\n",
      "motion.bvh",
-     "joint 'Hips'",
-     "position key 1 is not finite"},
+     "line 20",
+     "value 1 of the line, '1e999', is past the 3.4e38"},
     // A garment resolution that would allocate without bound: estimated and refused before it is made.
     {"garment_resolution_tiny",
      nullptr,
