@@ -969,6 +969,17 @@ class GltfData {
     for (std::size_t a = 0; a < accessors.size(); ++a) accessor(accessors[a], a);
     const GltfJson& animations = list("animations");
     for (std::size_t a = 0; a < animations.size(); ++a) animation(animations[a], a);
+    // The reader copies each channel's keys out of the shared accessors: every animation (not only the
+    // first, which Loom reads) and every channel, so accessors shared by many channels or animations
+    // expand. At most one key value per byte of the buffers (four times what distinct accessors hold),
+    // plus 2^20.
+    double bytes = 0.0;
+    for (const std::uint64_t b : buffer_lengths_) bytes += static_cast<double>(b);
+    if (expanded_values_ > bytes + 1048576.0)
+      fail("animations", "their channels read " + std::to_string(static_cast<long long>(expanded_values_)) +
+                             " key values from " + std::to_string(static_cast<long long>(bytes)) +
+                             " bytes of buffers (more than one per byte plus 2^20): accessors shared by many "
+                             "channels or animations expand when read");
     const GltfJson& meshes = list("meshes");
     for (std::size_t m = 0; m < meshes.size(); ++m) mesh(meshes[m], m);
   }
@@ -1141,7 +1152,7 @@ class GltfData {
   // A channel that moves a node (translation, rotation, scale) reads its sampler's output as one value per
   // key time (three for CUBICSPLINE: in-tangent, value, out-tangent) of the path's type, and its input as
   // scalar times.
-  void animation(const GltfJson& anim, std::size_t k) const {
+  void animation(const GltfJson& anim, std::size_t k) {
     const std::string where = at("animations", k);
     if (!anim.is_object()) fail(where, "must be an object");
     static const GltfJson empty = GltfJson::array();
@@ -1173,6 +1184,8 @@ class GltfData {
                                  " channel (got " + out.type + ")");
       const auto interpolation = sampler.find("interpolation");
       const bool cubic = interpolation != sampler.end() && *interpolation == "CUBICSPLINE";
+      expanded_values_ += static_cast<double>(in.count) +
+                          static_cast<double>(out.count) * (type->second == "VEC4" ? 4.0 : 3.0);
       if (out.count != (cubic ? 3 : 1) * in.count)
         fail(sw + ".output", "has " + std::to_string(out.count) + " values for " + std::to_string(in.count) +
                                  " key times (" + (cubic ? "3 per key for CUBICSPLINE" : "1 per key") + ")");
@@ -1224,6 +1237,7 @@ class GltfData {
     std::uint64_t component;
   };
   std::vector<Accessor> accessors_;
+  double expanded_values_ = 0.0;  // key values the reader copies out for all channels of all animations
   const std::string& file_;
   const GltfJson& doc_;
   long long bin_length_;

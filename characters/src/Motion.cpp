@@ -456,8 +456,9 @@ MemoryEstimate estimate_clip_memory(const std::string& path) {
   // The header as the reader splits it: whitespace-separated words (a word read at most 64 bytes at a time).
   std::ifstream in(path, std::ios::binary);
   std::string word;
-  double channels = 0.0, frames = -1.0;
+  double channels = 0.0, joints = 0.0, frames = -1.0;
   while (in >> std::setw(64) >> word) {
+    if (word == "ROOT" || word == "JOINT") joints += 1.0;
     if (word == "CHANNELS" && in >> std::setw(64) >> word && word.size() <= 2 &&
         word.find_first_not_of("0123456789") == std::string::npos)
       channels += std::stod(word);
@@ -472,9 +473,10 @@ MemoryEstimate estimate_clip_memory(const std::string& path) {
   if (frames < 0.0 || channels == 0.0) return {size, "the file's text"};
   // A count past what the file's lines can hold (a number and a space each) is refused by its lines.
   frames = std::min(frames, size / (2.0 * channels));
-  char basis[96];
-  std::snprintf(basis, sizeof basis, "%.0f frames of %.0f channels", frames, channels);
-  return {frames * channels * kBvhBytesPerValue + size, basis};
+  char basis[128];
+  std::snprintf(basis, sizeof basis, "%.0f frames of %.0f joints and %.0f channels", frames, joints,
+                channels);
+  return {frames * (joints * kBvhBytesPerJointFrame + channels * kBvhBytesPerValue) + size, basis};
 }
 
 Motion Motion::load(const std::string& path, const MotionSettings& settings) {

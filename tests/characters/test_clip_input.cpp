@@ -183,6 +183,16 @@ TEST(ClipInput, GltfDataOutsideItsBuffersIsRefusedByField) {
     }
     EXPECT_NE(e.find(path + ": " + cases[k].problem), std::string::npos) << cases[k].pointer << ": " << e;
   }
+  // One sampler shared by 110000 channels: 1.1 million key values copied out of a 64-byte buffer.
+  Json shared = base;
+  const Json channel = shared["animations"][0]["channels"][0];
+  for (int k = 0; k < 110000; ++k) shared["animations"][0]["channels"].push_back(channel);
+  const std::string shared_path = write_test_file("shared.gltf", shared.dump());
+  const std::string s = error_of([&] { Motion::load(shared_path, ms); });
+  EXPECT_NE(
+      s.find(shared_path + ": animations: their channels read 1100010 key values from 64 bytes of buffers"),
+      std::string::npos)
+      << s.substr(0, 300);
   // The same clip as a binary glTF: buffers[0] without a uri is the BIN chunk, which must hold its length.
   auto glb = [&](std::uint32_t bin_length) {
     Json j = base;
@@ -434,16 +444,16 @@ TEST(ClipInput, AClipFasterThanTheValidatedSpeedIsNamedByFileJointAndFrame) {
   EXPECT_EQ(advice.find("more solver.substeps"), std::string::npos) << advice;
 }
 
-// What loading a clip holds is estimated from the file before it is read: a BVH by Frames x its joints'
-// CHANNELS (arm_swing.bvh: 511 frames of 31 joints, 6 + 30 x 3 channels), bounded by what its lines can
+// What loading a clip holds is estimated from the file before it is read: a BVH by Frames x its joints and
+// their CHANNELS (arm_swing.bvh: 511 frames of 31 joints, 6 + 30 x 3 channels), bounded by what its lines can
 // hold; a glTF by its JSON and the byteLength of its buffers; a FIFO is never opened.
 TEST(ClipMemory, EstimatedFromTheFileBeforeItIsRead) {
   namespace ch = loom::characters;
   const std::string arm = loom::test::mocap("arm_swing.bvh");
   const ch::MemoryEstimate e = ch::estimate_clip_memory(arm);
-  EXPECT_EQ(e.basis, "511 frames of 96 channels");
-  EXPECT_DOUBLE_EQ(
-      e.bytes, 511.0 * 96.0 * ch::kBvhBytesPerValue + static_cast<double>(std::filesystem::file_size(arm)));
+  EXPECT_EQ(e.basis, "511 frames of 31 joints and 96 channels");
+  EXPECT_DOUBLE_EQ(e.bytes, 511.0 * (31.0 * ch::kBvhBytesPerJointFrame + 96.0 * ch::kBvhBytesPerValue) +
+                                static_cast<double>(std::filesystem::file_size(arm)));
   // A header that claims 10^18 frames is bounded by its file: each number takes two bytes at least.
   std::ifstream in(arm);
   std::stringstream text;
@@ -452,7 +462,8 @@ TEST(ClipMemory, EstimatedFromTheFileBeforeItIsRead) {
   claimed.replace(claimed.find("Frames: 511"), 11, "Frames: 1000000000000000000");
   const std::string huge = write_test_file("claims_frames.bvh", claimed);
   EXPECT_LE(ch::estimate_clip_memory(huge).bytes,
-            static_cast<double>(claimed.size()) * (0.5 * ch::kBvhBytesPerValue + 1.0));
+            static_cast<double>(claimed.size()) *
+                (0.5 * (31.0 / 96.0 * ch::kBvhBytesPerJointFrame + ch::kBvhBytesPerValue) + 1.0));
   const std::string gl = write_test_file(
       "buffers.gltf",
       R"({"asset": {"version": "2.0"}, "buffers": [{"uri": "a.bin", "byteLength": 1000000}]})");

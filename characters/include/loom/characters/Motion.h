@@ -51,15 +51,18 @@ struct MemoryEstimate {
   double bytes = 0.0;  // bytes
   std::string basis;   // "300000 frames of 96 channels", "a 65 MB glTF with its buffers"
 };
-// Bytes per number of a BVH's MOTION section that loading the clip holds at its peak (assimp's keys, the
-// clip's tracks), above one per byte of the file (measured: docs/guarantees.md).
-constexpr double kBvhBytesPerValue = 40.0;
+// What loading a BVH holds at its peak, above one byte per byte of the file: per joint and frame (assimp
+// keeps a position and a rotation key for every animated node, the clip's track a time, position and
+// rotation, whatever its channels) and per number of the MOTION section (measured: docs/guarantees.md).
+constexpr double kBvhBytesPerJointFrame = 80.0;
+constexpr double kBvhBytesPerValue = 20.0;
 // Bytes per byte an assimp import reads (import_source_bytes) that loading holds at its peak (measured on a
 // glTF clip: docs/guarantees.md).
 constexpr double kImportBytesPerByte = 5.0;
-// A BVH: Frames x the joints' CHANNELS from its header (read as a stream of words up to "Frames:")
-// x kBvhBytesPerValue plus the file's size; any other file: what its import reads x kImportBytesPerByte. A
-// file that is not a regular file estimates 0 and is not opened (loading names it).
+// A BVH: Frames x (its joints x kBvhBytesPerJointFrame + their CHANNELS x kBvhBytesPerValue), from its
+// header (read as a stream of words up to "Frames:"), plus the file's size; any other file: what its import
+// reads x kImportBytesPerByte. A file that is not a regular file estimates 0 and is not opened (loading names
+// it).
 MemoryEstimate estimate_clip_memory(const std::string& path);
 // Any file assimp reads (a mesh, a clip that is not a BVH): what its import reads x kImportBytesPerByte.
 MemoryEstimate estimate_import_memory(const std::string& path);
