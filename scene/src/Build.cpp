@@ -35,14 +35,14 @@ std::unique_ptr<cloth::Simulation> build_simulation(const Scene& scene,
     const collision::RealtimeBodyContactStage* first = contact.get();
     sim->add_stage(std::move(contact));
     // The tier's strain limiting after contact, then contact again (positions only) on the vertices the
-    // strain limiting moved, in turn with the limit on the stretch that contact causes (the pushed vertex
-    // held, its neighbour moved): body contact has the last word on penetration, and the stretch it leaves
-    // is limited too.
+    // strain limiting moved: strain limiting has the last word on the stretch a contact caused, body
+    // contact on penetration. The final pass's own strain-limit rounds (RealtimeContactSettings::
+    // strain_limit) are not used here: they move vertices after the proximity cloth-cloth stage, and the
+    // census of the character scenes finds crossed triangle pairs.
     if (scene.strain_limit_after_contact) {
       sim->add_stage(std::make_unique<cloth::StrainLimitStage>(*scene.strain_limit_after_contact));
       collision::RealtimeContactSettings last;
       last.positions_only = true;
-      last.strain_limit = scene.strain_limit_after_contact;
       auto final_contact = std::make_unique<collision::RealtimeBodyContactStage>(colliders, last);
       final_contact->set_earlier(first);
       sim->add_stage(std::move(final_contact));
