@@ -8,49 +8,74 @@ namespace {
 constexpr double kSkip = 1.0 - 1e-9;  // 1, squared-length margin below which a spring is within the limit
 }  // namespace
 
+std::vector<int> limited_springs(const ClothMesh& mesh) {
+  std::vector<int> list;
+  const auto& springs = mesh.springs();
+  for (int k = 0; k < static_cast<int>(springs.size()); ++k) {
+    const SpringKind kind = springs[k].kind;
+    if (kind == SpringKind::kStructural || kind == SpringKind::kShear || kind == SpringKind::kEdge)
+      list.push_back(k);
+  }
+  return list;
+}
+
+long limit_stretch(const ClothMesh& mesh, const std::vector<int>& list, double max_stretch, int sweeps,
+                   const std::vector<char>& held, ClothState& s, std::vector<int>& moved) {
+  const auto& springs = mesh.springs();
+  const double stretch = 1.0 + max_stretch;
+  const int m = static_cast<int>(list.size());
+  const bool any_held = !held.empty();
+  long corrections = 0;
+  for (int it = 0; it < sweeps; ++it) {
+    const bool forward = it % 2 == 0;
+    long sweep_corrections = 0;
+    for (int q = 0; q < m; ++q) {
+      const SpringDef& sp = springs[list[forward ? q : m - 1 - q]];
+      // A spring the previous sweep left within the limit stays so while neither end moves: after the first
+      // sweep only springs with an end moved in the previous sweep or in this one are tested (moved holds
+      // 1 + the last sweep that moved the vertex).
+      if (it > 0 && moved[sp.i] < it && moved[sp.j] < it) continue;
+      double wi = s.inv_mass[sp.i], wj = s.inv_mass[sp.j];
+      if (wi + wj == 0.0) continue;
+      const Vec3 d = s.x[sp.j] - s.x[sp.i];
+      const double l_max = stretch * sp.rest_length;
+      // Most springs are well within the limit: a squared test with a margin skips their square root
+      // (the exact test below decides the rest, so the result does not depend on the shortcut).
+      const double l2 = d.squaredNorm();
+      if (l2 < kSkip * l_max * l_max) continue;
+      const double l = std::sqrt(l2);
+      if (l <= l_max) continue;
+      if (any_held && held[sp.i] != held[sp.j]) (held[sp.i] ? wi : wj) = 0.0;
+      if (wi + wj == 0.0) continue;
+      // Provot 1995: move the ends along the spring so that l = (1 + τ) L.
+      const Vec3 corr = ((l - l_max) / ((wi + wj) * l)) * d;
+      s.x[sp.i] += wi * corr;
+      s.x[sp.j] -= wj * corr;
+      if (wi > 0.0) moved[sp.i] = it + 1;
+      if (wj > 0.0) moved[sp.j] = it + 1;
+      ++sweep_corrections;
+    }
+    corrections += sweep_corrections;
+    if (sweep_corrections == 0) break;
+  }
+  return corrections;
+}
+
 void StrainLimitStage::run(StageContext& ctx) {
   if (limited_.size() != ctx.cloths.size()) {
     limited_.assign(ctx.cloths.size(), {});
-    for (size_t c = 0; c < ctx.cloths.size(); ++c) {
-      const auto& springs = ctx.cloths[c]->mesh().springs();
-      for (int k = 0; k < static_cast<int>(springs.size()); ++k) {
-        const SpringKind kind = springs[k].kind;
-        if (kind == SpringKind::kStructural || kind == SpringKind::kShear || kind == SpringKind::kEdge)
-          limited_[c].push_back(k);
-      }
-    }
+    for (size_t c = 0; c < ctx.cloths.size(); ++c) limited_[c] = limited_springs(ctx.cloths[c]->mesh());
   }
   const double stretch = 1.0 + settings_.max_stretch;
   remaining_ = 0;
+  const std::vector<char> none;
   for (size_t c = 0; c < ctx.cloths.size(); ++c) {
     ClothState& s = ctx.cloths[c]->state();
     const auto& springs = ctx.cloths[c]->mesh().springs();
     const std::vector<int>& list = limited_[c];
-    const int m = static_cast<int>(list.size());
     moved_.assign(s.size(), 0);
-    for (int it = 0; it < settings_.iterations; ++it) {
-      const bool forward = it % 2 == 0;
-      for (int q = 0; q < m; ++q) {
-        const SpringDef& sp = springs[list[forward ? q : m - 1 - q]];
-        const double wi = s.inv_mass[sp.i], wj = s.inv_mass[sp.j];
-        if (wi + wj == 0.0) continue;
-        const Vec3 d = s.x[sp.j] - s.x[sp.i];
-        const double l_max = stretch * sp.rest_length;
-        // Most springs are well within the limit: a squared test with a margin skips their square root
-        // (the exact test below decides the rest, so the result does not depend on the shortcut).
-        const double l2 = d.squaredNorm();
-        if (l2 < kSkip * l_max * l_max) continue;
-        const double l = std::sqrt(l2);
-        if (l <= l_max) continue;
-        // Provot 1995: move the ends along the spring so that l = (1 + τ) L.
-        const Vec3 corr = ((l - l_max) / ((wi + wj) * l)) * d;
-        s.x[sp.i] += wi * corr;
-        s.x[sp.j] -= wj * corr;
-        moved_[sp.i] |= wi > 0.0;
-        moved_[sp.j] |= wj > 0.0;
-        ++corrections_;
-      }
-    }
+    corrections_ += limit_stretch(ctx.cloths[c]->mesh(), list, settings_.max_stretch, settings_.iterations,
+                                  none, s, moved_);
     for (int i = 0; i < s.size(); ++i)
       if (moved_[i]) s.v[i] = (s.x[i] - s.x_prev[i]) / ctx.h;
     for (int k : list) {

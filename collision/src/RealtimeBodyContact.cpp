@@ -89,11 +89,13 @@ double RealtimeBodyContactStage::thickness(const Collider& c, double material_th
 }
 
 std::vector<std::pair<std::string, double>> RealtimeBodyContactStage::counters() const {
-  return {{"candidates", static_cast<double>(candidates_)},
-          {"contacts", static_cast<double>(contacts_)},
-          {"ccd_tests", static_cast<double>(ccd_tests_)},
-          {"ccd_hits", static_cast<double>(ccd_hits_)},
-          {"unresolved", static_cast<double>(unresolved_)}};
+  std::vector<std::pair<std::string, double>> out = {{"candidates", static_cast<double>(candidates_)},
+                                                     {"contacts", static_cast<double>(contacts_)},
+                                                     {"ccd_tests", static_cast<double>(ccd_tests_)},
+                                                     {"ccd_hits", static_cast<double>(ccd_hits_)},
+                                                     {"unresolved", static_cast<double>(unresolved_)}};
+  if (limits_strain()) out.emplace_back("strain_corrections", static_cast<double>(strain_corrections_));
+  return out;
 }
 
 void RealtimeBodyContactStage::run(cloth::StageContext& ctx) {
@@ -111,7 +113,7 @@ void RealtimeBodyContactStage::run(cloth::StageContext& ctx) {
                                         : nullptr;
     if (unsettled_.size() < nc) unsettled_.resize(nc);
     unsettled_[c].clear();
-    run_cloth(*ctx.cloths[c], ctx.h, unchanged, unsettled_[c]);
+    run_cloth(c, *ctx.cloths[c], ctx.h, unchanged, unsettled_[c]);
   }
   after_.resize(nc);
   for (size_t c = 0; c < nc; ++c) {
@@ -136,8 +138,8 @@ struct RealtimeBodyContactStage::ColliderGrid {
   }
 };
 
-void RealtimeBodyContactStage::run_cloth(cloth::Cloth& cloth, double h, const cloth::Vec3s* unchanged,
-                                         std::vector<int>& unsettled) {
+void RealtimeBodyContactStage::run_cloth(size_t index, cloth::Cloth& cloth, double h,
+                                         const cloth::Vec3s* unchanged, std::vector<int>& unsettled) {
   ColliderSet& set = *colliders_;
   ClothState& s = cloth.state();
   const int n = s.size();
@@ -147,20 +149,26 @@ void RealtimeBodyContactStage::run_cloth(cloth::Cloth& cloth, double h, const cl
   // (the box holds the collider at curr inflated by the thickness), so x0's colliders are not needed.
   const bool end_only = settings_.positions_only;
   // The vertices to visit (with an earlier stage: those moved since it), and their box over the step (end
-  // positions only when end_only).
+  // positions only when end_only; every free vertex's when the strain limit's rounds follow, they may move
+  // any of them).
+  const bool rounds = limits_strain();
   visit_.clear();
   Vec3 lo = Vec3::Constant(kInf), hi = Vec3::Constant(-kInf);
   for (int i = 0; i < n; ++i) {
-    if (!(s.inv_mass[i] > 0.0) || (unchanged && (*unchanged)[i] == s.x[i])) continue;
-    visit_.push_back(i);
+    if (!(s.inv_mass[i] > 0.0)) continue;
+    const bool visit = !(unchanged && (*unchanged)[i] == s.x[i]);
+    if (visit) visit_.push_back(i);
+    if (!visit && !rounds) continue;
     lo = lo.cwiseMin(s.x[i]), hi = hi.cwiseMax(s.x[i]);
     if (!end_only) lo = lo.cwiseMin(s.x_prev[i]), hi = hi.cwiseMax(s.x_prev[i]);
   }
-  if (visit_.empty()) return;
+  if (visit_.empty() && !rounds) return;
+  if (!(lo.array() <= hi.array()).all()) return;  // no free vertex
   prepare_colliders(set, cloth.material().thickness, lo, hi);
-  if (active_.empty()) return;
+  if (active_.empty() && !rounds) return;
   const ColliderGrid grid = build_grid(lo, hi);
 
+  if (rounds) held_.assign(n, 0);
   int cand[kMaxCandidates];
   for (int i : visit_) {
     const double m = s.mass[i];
@@ -173,8 +181,45 @@ void RealtimeBodyContactStage::run_cloth(cloth::Cloth& cloth, double h, const cl
     if (settings_.continuous && !settings_.positions_only) sweep(set, cand, nc, x0, x);
     const bool moved = project(set, cand, nc, m, x0, h, x, v);
     if (moved) pinch_exit(set, cand, nc, x), unsettled.push_back(i);
+    if (rounds && x != s.x[i]) held_[i] = 1;  // pushed out (project's result: moved in its last pass)
     s.x[i] = x;
     s.v[i] = v;
+  }
+  if (rounds) limit_rounds(index, cloth, h, grid, unsettled);
+}
+
+void RealtimeBodyContactStage::limit_rounds(size_t index, cloth::Cloth& cloth, double h,
+                                            const ColliderGrid& grid, std::vector<int>& unsettled) {
+  ColliderSet& set = *colliders_;
+  ClothState& s = cloth.state();
+  const int n = s.size();
+  if (limited_.size() <= index) limited_.resize(index + 1);
+  if (limited_[index].empty()) limited_[index] = cloth::limited_springs(cloth.mesh());
+  const double max_stretch = settings_.strain_limit->max_stretch;
+  int cand[kMaxCandidates];
+  for (int round = 0; round < settings_.rounds; ++round) {
+    limit_moved_.assign(n, 0);
+    const long corrections = cloth::limit_stretch(cloth.mesh(), limited_[index], max_stretch,
+                                                  settings_.sweeps, held_, s, limit_moved_);
+    strain_corrections_ += corrections;
+    if (corrections == 0) break;
+    bool projected = false;
+    for (int i = 0; i < n; ++i) {
+      if (!limit_moved_[i]) continue;
+      s.v[i] = (s.x[i] - s.x_prev[i]) / h;
+      Vec3 x = s.x[i];
+      const int nc = gather_candidates(grid, x, x, cand);
+      if (nc == 0) continue;
+      candidates_ += nc;
+      Vec3 v = s.v[i];
+      if (project(set, cand, nc, s.mass[i], s.x[i], h, x, v))
+        pinch_exit(set, cand, nc, x), unsettled.push_back(i);
+      if (x == s.x[i]) continue;
+      held_[i] = 1;
+      projected = true;
+      s.x[i] = x;
+    }
+    if (!projected) break;
   }
 }
 

@@ -36,7 +36,9 @@ std::unique_ptr<cloth::Simulation> build_simulation(const Scene& scene,
     sim->add_stage(std::move(contact));
     // The tier's strain limiting after contact, then contact again (positions only) on the vertices the
     // strain limiting moved: strain limiting has the last word on the stretch a contact caused, body
-    // contact on penetration.
+    // contact on penetration. The final pass's own strain-limit rounds (RealtimeContactSettings::
+    // strain_limit) are not used here: they move vertices after the proximity cloth-cloth stage, and the
+    // census of the character scenes finds crossed triangle pairs.
     if (scene.strain_limit_after_contact) {
       sim->add_stage(std::make_unique<cloth::StrainLimitStage>(*scene.strain_limit_after_contact));
       collision::RealtimeContactSettings last;

@@ -93,6 +93,43 @@ TEST(ConstraintPasses, ProvotReportsRemainingViolationsWithFewIterations) {
   EXPECT_GT(stage.remaining_violations(), 0);
 }
 
+// limit_stretch with held vertices: a held vertex is kinematic for the limit (its neighbour moves all the
+// way), a spring with both ends held shares the correction by inverse mass; the sweeps stop once one
+// corrected nothing, with the same result as running all of them.
+TEST(ConstraintPasses, LimitStretchMovesTheFreeEndOfAHeldVertex) {
+  Simulation sim(soft_sheet(9, 100.0));
+  Cloth& cloth = *sim.cloths()[0];
+  ClothState& s = cloth.state();
+  const double rest = (s.x[1] - s.x[0]).norm();
+  // Out of the sheet's plane by 0.6 spring lengths: the springs at vertex 70 reach sqrt(1.36) - 1 = 17 %,
+  // and 40, 41 (joined by a spring) go opposite ways.
+  const Vec3 normal = (s.x[1] - s.x[0]).cross(s.x[9] - s.x[0]).normalized();
+  s.x[70] += 0.6 * rest * normal;
+  s.x[40] += 0.6 * rest * normal;
+  s.x[41] -= 0.6 * rest * normal;
+  ASSERT_GT(max_stretch(cloth), 0.15);
+  const Vec3s start = s.x;
+  std::vector<char> held(s.size(), 0);
+  for (int i : {40, 41, 70}) held[i] = 1;
+  const std::vector<int> springs = limited_springs(cloth.mesh());
+  std::vector<int> moved(s.size(), 0);
+  const long corrections = limit_stretch(cloth.mesh(), springs, 0.1, 5000, held, s, moved);
+  EXPECT_GT(corrections, 0);
+  EXPECT_LE(max_stretch(cloth), 0.1 + 1e-9);
+  EXPECT_EQ(s.x[0], start[0]);    // kinematic
+  EXPECT_EQ(s.x[70], start[70]);  // held, and no spring joins it to another held vertex
+  EXPECT_EQ(moved[70], 0);
+  EXPECT_GT(moved[69], 0);  // its neighbour followed
+  // 40 and 41 are held and joined: that spring's correction moves both.
+  EXPECT_NE(s.x[40], start[40]);
+  EXPECT_GT(moved[40], 0);
+  // The sweeps stopped after one without correction: more sweeps change nothing.
+  const Vec3s converged = s.x;
+  std::vector<int> again(s.size(), 0);
+  EXPECT_EQ(limit_stretch(cloth.mesh(), springs, 0.1, 5000, held, s, again), 0);
+  EXPECT_TRUE(s.x == converged);
+}
+
 TEST(ConstraintPasses, StrainLimitedRunStaysNearTheLimit) {
   SimulationSetup s = soft_sheet(9, 30.0);  // so soft it sags by far more than 10% without the pass
   FrameStats free_run, limited_run;

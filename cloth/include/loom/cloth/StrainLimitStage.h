@@ -4,7 +4,8 @@
 // Every structural and shear spring (edges on meshes) stretched beyond (1 + τ) L is shortened to exactly
 // (1 + τ) L by moving its ends along the spring, in inverse-mass proportion (half each for equal masses,
 // all of it to the free end if the other is kinematic). Gauss-Seidel sweeps alternate their order
-// (forward, backward, ...) so the result does not favour one side. Velocities of the moved vertices are
+// (forward, backward, ...) so the result does not favour one side; `iterations` is their most, the sweeps
+// stop early once one corrected nothing. Velocities of the moved vertices are
 // recomputed from the corrected positions, v = (x_corr - x_prev) / h, so springs do not re-stretch.
 #include <vector>
 
@@ -16,6 +17,19 @@ struct StrainLimitSettings {
   double max_stretch = 0.1;  // 1, τ: largest allowed l/L - 1
   int iterations = 4;        // Gauss-Seidel sweeps per step
 };
+
+// The springs a strain limit acts on: indices into mesh.springs() of the structural and shear springs (grids)
+// or the edges (triangle meshes).
+std::vector<int> limited_springs(const ClothMesh& mesh);
+
+// Provot's projection on state.x over `springs` (indices into mesh.springs()): Gauss-Seidel sweeps in
+// alternating order, at most `sweeps`, stopping after a sweep that corrected nothing (the sweeps after it
+// would change nothing either). held (empty, or one flag per vertex): a held vertex is kinematic for the
+// limit (weight 0: the other end moves all the way), unless both ends are held (inverse-mass weights).
+// moved (one entry per vertex, zeroed by the caller): 1 + the last sweep that moved the vertex, 0 when none
+// did. Returns the corrections made.
+long limit_stretch(const ClothMesh& mesh, const std::vector<int>& springs, double max_stretch, int sweeps,
+                   const std::vector<char>& held, ClothState& state, std::vector<int>& moved);
 
 class StrainLimitStage final : public Stage {
  public:
@@ -30,7 +44,7 @@ class StrainLimitStage final : public Stage {
  private:
   StrainLimitSettings settings_;
   std::vector<std::vector<int>> limited_;  // per cloth: indices of the limited springs in mesh().springs()
-  std::vector<char> moved_;                // scratch
+  std::vector<int> moved_;                 // scratch (limit_stretch)
   long corrections_ = 0;
   long remaining_ = 0;
 };

@@ -27,9 +27,11 @@
 // sum of their normals until outside all of them; one still inside after 8 rounds is counted in
 // `unresolved`. Vertices are visited in index order on one
 // thread: results do not depend on the thread count.
+#include <optional>
 #include <vector>
 
 #include "loom/cloth/Stage.h"
+#include "loom/cloth/StrainLimitStage.h"
 #include "loom/collision/Collider.h"
 
 namespace loom::collision {
@@ -43,6 +45,15 @@ struct RealtimeContactSettings {
   // Positions only (steps 1, 2 and 4's projection; no velocity change, no friction, no reactions, no swept
   // test): a last pass after a constraint pass that may have moved vertices into a collider.
   bool positions_only = false;
+  // Positions only: the strain limit (its max_stretch) and this projection in turn (Gauss-Seidel over the
+  // two), after the first projection: the limit, at most `sweeps` sweeps, with every vertex this stage
+  // pushed out of a collider held (weight 0, its neighbour moves: StrainLimitStage.h, limit_stretch), then
+  // the projection of the vertices the limit moved, which join the held ones; until the limit corrects
+  // nothing or the projection moves nothing, at most `rounds` times. The projection keeps the last word;
+  // the vertices the limit moved get v = (x - x_prev) / h.
+  std::optional<cloth::StrainLimitSettings> strain_limit;
+  int rounds = 8;
+  int sweeps = 16;
 };
 
 class RealtimeBodyContactStage final : public cloth::Stage {
@@ -53,7 +64,8 @@ class RealtimeBodyContactStage final : public cloth::Stage {
   }
   void run(cloth::StageContext& ctx) override;
   // candidates (vertex-collider tests past the culling), contacts (responses), ccd_tests, ccd_hits,
-  // unresolved (vertices left inside a collider after the passes, summed over steps).
+  // unresolved (vertices left inside a collider after the passes, summed over steps); with a strain limit,
+  // strain_corrections (its spring projections).
   std::vector<std::pair<std::string, double>> counters() const override;
   const ColliderSetPtr& colliders() const { return colliders_; }
   // A positions-only stage after a constraint pass: `earlier` is the contact stage that ran before that
@@ -80,7 +92,12 @@ class RealtimeBodyContactStage final : public cloth::Stage {
 
   // unchanged: positions after the earlier stage (set_earlier), or null; unsettled: gets the vertices whose
   // last projection pass still moved them.
-  void run_cloth(cloth::Cloth& cloth, double h, const cloth::Vec3s* unchanged, std::vector<int>& unsettled);
+  void run_cloth(size_t index, cloth::Cloth& cloth, double h, const cloth::Vec3s* unchanged,
+                 std::vector<int>& unsettled);
+  // The rounds of settings_.strain_limit on one cloth after the first projection (`held`: the vertices it
+  // moved); grid and prepared_ as for that projection.
+  void limit_rounds(size_t index, cloth::Cloth& cloth, double h, const ColliderGrid& grid,
+                    std::vector<int>& unsettled);
   // Fills the pose data of prepared_ (the same for every cloth of the step).
   void prepare_poses(const ColliderSet& set);
   // Fills the rest of prepared_ for every collider and active_ with those whose box meets the cloth's box
@@ -94,6 +111,7 @@ class RealtimeBodyContactStage final : public cloth::Stage {
                Vec3& v);
   void pinch_exit(const ColliderSet& set, const int* cand, int nc, Vec3& x);
   double thickness(const Collider& c, double material_thickness) const;
+  bool limits_strain() const { return settings_.positions_only && settings_.strain_limit.has_value(); }
 
   ColliderSetPtr colliders_;
   RealtimeContactSettings settings_;
@@ -106,7 +124,11 @@ class RealtimeBodyContactStage final : public cloth::Stage {
   std::vector<cloth::Vec3s> after_;          // per cloth: positions at the end of this stage's last run (NaN:
                                              // a vertex its passes did not settle)
   std::vector<std::vector<int>> unsettled_;  // scratch: per cloth, vertices whose last pass moved them
+  std::vector<std::vector<int>> limited_;    // per cloth: the strain limit's springs (limit_rounds)
+  std::vector<char> held_;                   // scratch: per vertex of a cloth (limit_rounds)
+  std::vector<int> limit_moved_;             // scratch: per vertex of a cloth (limit_rounds)
   long candidates_ = 0, contacts_ = 0, ccd_tests_ = 0, ccd_hits_ = 0, unresolved_ = 0;
+  long strain_corrections_ = 0;
 };
 
 }  // namespace loom::collision
