@@ -223,6 +223,23 @@ void check_mtllib(const std::string& file, const std::string& text) {
                   "more than " + std::to_string(kMaxMtllib) +
                       " 'mtllib' directives (each makes the reader load a material library again)");
   }
+  // `o` and `usemtl` as a line's first word, a line ending at any character the reader ends one at.
+  int objects = 0, switches = 0;
+  for (std::size_t at = 0; at < text.size();) {
+    while (at < text.size() && (text[at] == ' ' || text[at] == '\t')) ++at;
+    std::size_t end = at;
+    while (end < text.size() && !separator(end)) ++end;
+    const std::string first = text.substr(at, std::min<std::size_t>(end - at, 7));
+    if ((first == "o" && ++objects > kMaxObjObjects) || (first == "usemtl" && ++switches > kMaxObjObjects))
+      throw Error(file, "line " + std::to_string(line_of(text, at)),
+                  "more than " + std::to_string(kMaxObjObjects) + " '" + first +
+                      "' directives (the reader makes and searches one " +
+                      (first == "o" ? "object" : "mesh") + " per directive)");
+    while (end < text.size() && text[end] != '\n' && text[end] != '\r' && text[end] != '\f' &&
+           text[end] != '\0')
+      ++end;
+    at = end + 1;
+  }
 }
 
 // What Open checks on the first opening of a file's content (throws loom::Error naming the file). A zip

@@ -120,6 +120,25 @@ TEST(HostileFiles, BodyMeshVerticesPastTheCoordinateBoundAreRefusedByVertex) {
             1u);
 }
 
+// An OBJ holds at most 1024 objects (`o`) and 1024 material switches (`usemtl`): assimp's reader makes and
+// searches one object or mesh per directive (65536 took 11-15 s, usemtl 2.2 GB). Lines split at a lone CR
+// count too; 1024 of each still load.
+TEST(HostileFiles, ObjObjectsAndMaterialSwitchesAreBounded) {
+  const std::string tri = "v 0 0 0\nv 1 0 0\nv 0 1 0\nf 1 2 3\n";
+  for (const std::string directive : {"o", "usemtl"}) {
+    std::string many;
+    for (int k = 0; k < 1025; ++k) many += directive + " n" + std::to_string(k) + (k % 2 ? "\r" : "\n");
+    const std::string path = write(directive + ".obj", tri + many);
+    const std::string e = error_of([&] { loom::characters::load_static_mesh(path); });
+    EXPECT_NE(e.find(path + ": line "), std::string::npos) << e;
+    EXPECT_NE(e.find("more than 1024 '" + directive + "' directives"), std::string::npos) << e;
+    std::string enough;
+    for (int k = 0; k < 1024; ++k) enough += directive + " n" + std::to_string(k) + "\n" + tri;
+    EXPECT_EQ(error_of([&] { loom::characters::load_static_mesh(write(directive + "_ok.obj", enough)); }), "")
+        << directive;
+  }
+}
+
 // An archive counts what it unpacks to (its directory's sizes) towards the 1 GiB an import may read: a
 // small file claiming 2 GiB is refused before anything is unpacked. The body mesh shipped as a .zae loads.
 TEST(HostileFiles, ArchivesCountWhatTheyUnpackTo) {
