@@ -224,7 +224,7 @@ void check_mtllib(const std::string& file, const std::string& text) {
                       " 'mtllib' directives (each makes the reader load a material library again)");
   }
   // `o` and `usemtl` as a line's first word, a line ending at any character the reader ends one at.
-  int objects = 0, switches = 0;
+  int objects = 0, switches = 0, groups = 0;
   for (std::size_t at = 0; at < text.size();) {
     while (at < text.size() && (text[at] == ' ' || text[at] == '\t')) ++at;
     std::size_t end = at;
@@ -235,6 +235,10 @@ void check_mtllib(const std::string& file, const std::string& text) {
                   "more than " + std::to_string(kMaxObjObjects) + " '" + first +
                       "' directives (the reader makes and searches one " +
                       (first == "o" ? "object" : "mesh") + " per directive)");
+    if (first == "g" && ++groups > kMaxObjGroups)
+      throw Error(
+          file, "line " + std::to_string(line_of(text, at)),
+          "more than " + std::to_string(kMaxObjGroups) + " 'g' lines (the reader keeps about 1.6 KB each)");
     while (end < text.size() && text[end] != '\n' && text[end] != '\r' && text[end] != '\f' &&
            text[end] != '\0')
       ++end;

@@ -122,7 +122,7 @@ TEST(HostileFiles, BodyMeshVerticesPastTheCoordinateBoundAreRefusedByVertex) {
 
 // An OBJ holds at most 1024 objects (`o`) and 1024 material switches (`usemtl`): assimp's reader makes and
 // searches one object or mesh per directive (65536 took 11-15 s, usemtl 2.2 GB). Lines split at a lone CR
-// count too; 1024 of each still load.
+// count too; 1024 of each still load. Group lines (`g`, 1.6 KB each to the reader) at most 16384.
 TEST(HostileFiles, ObjObjectsAndMaterialSwitchesAreBounded) {
   const std::string tri = "v 0 0 0\nv 1 0 0\nv 0 1 0\nf 1 2 3\n";
   for (const std::string directive : {"o", "usemtl"}) {
@@ -137,6 +137,11 @@ TEST(HostileFiles, ObjObjectsAndMaterialSwitchesAreBounded) {
     EXPECT_EQ(error_of([&] { loom::characters::load_static_mesh(write(directive + "_ok.obj", enough)); }), "")
         << directive;
   }
+  std::string groups;
+  for (int k = 0; k < 16385; ++k) groups += "g n" + std::to_string(k) + "\n";
+  const std::string path = write("groups.obj", tri + groups);
+  const std::string e = error_of([&] { loom::characters::load_static_mesh(path); });
+  EXPECT_NE(e.find(path + ": line 16389: more than 16384 'g' lines"), std::string::npos) << e;
 }
 
 // An archive counts what it unpacks to (its directory's sizes) towards the 1 GiB an import may read: a
