@@ -646,8 +646,10 @@ void SceneRun::run_census() {
   if (!o_.census) return;
   std::vector<collision::CensusInput> in;
   for (const auto& c : sim_->cloths()) in.push_back({&c->mesh(), &c->state().x});
-  census_intersections_ =
-      std::max(census_intersections_, collision::count_all_intersections(in, sc_.setup.threads));
+  // A stop request (Ctrl-C, SIGTERM) ends a long census at once (-1: no count); the run then stops as
+  // interrupted at its next check.
+  census_intersections_ = std::max(census_intersections_,
+                                   collision::count_all_intersections(in, sc_.setup.threads, &g_interrupted));
   if (pipeline_->colliders())
     census_penetration_ =
         std::max(census_penetration_, collision::max_penetration(in, *pipeline_->colliders()));

@@ -19,7 +19,8 @@ std::shared_ptr<const loom::cloth::ClothMesh> borrow(const loom::cloth::ClothMes
 
 }  // namespace
 
-long count_intersecting_pairs_between(const CensusInput& a, const CensusInput& b, int threads) {
+long count_intersecting_pairs_between(const CensusInput& a, const CensusInput& b, int threads,
+                                      const volatile std::sig_atomic_t* stop) {
   ClothBvh ta(borrow(a.mesh)), tb(borrow(b.mesh));
   ta.rebuild(*a.x, *a.x, 0.0, threads);
   tb.rebuild(*b.x, *b.x, 0.0, threads);
@@ -32,21 +33,24 @@ long count_intersecting_pairs_between(const CensusInput& a, const CensusInput& b
   long count = 0;
 #pragma omp parallel for num_threads(threads) if (threads > 1) reduction(+ : count) schedule(dynamic, 64)
   for (long i = 0; i < n; ++i) {
+    if (stop && *stop) continue;
     const auto& p = t0[pairs[i].first];
     const auto& q = t1[pairs[i].second];
     count += triangles_intersect(x0[p[0]], x0[p[1]], x0[p[2]], x1[q[0]], x1[q[1]], x1[q[2]]);
   }
-  return count;
+  return stop && *stop ? -1 : count;
 }
 
-long count_all_intersections(const std::vector<CensusInput>& cloths, int threads) {
+long count_all_intersections(const std::vector<CensusInput>& cloths, int threads,
+                             const volatile std::sig_atomic_t* stop) {
   long count = 0;
   for (size_t i = 0; i < cloths.size(); ++i) {
-    count += count_intersecting_pairs(*cloths[i].mesh, *cloths[i].x, threads);
+    if (stop && *stop) return -1;
+    count += count_intersecting_pairs(*cloths[i].mesh, *cloths[i].x, threads, stop);
     for (size_t j = i + 1; j < cloths.size(); ++j)
-      count += count_intersecting_pairs_between(cloths[i], cloths[j], threads);
+      count += count_intersecting_pairs_between(cloths[i], cloths[j], threads, stop);
   }
-  return count;
+  return stop && *stop ? -1 : count;
 }
 
 bool IntersectingPair::operator<(const IntersectingPair& o) const {

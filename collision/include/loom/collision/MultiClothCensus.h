@@ -3,6 +3,7 @@
 // cloth (IntersectionCensus.h: intersecting pairs of triangles sharing no vertex) plus, for every pair of
 // cloths, the count of intersecting triangle pairs between them (all pairs: two cloths share no vertex).
 // Exact predicates (ExactPredicates.h); the count is independent of the thread count.
+#include <csignal>
 #include <vector>
 
 #include "loom/cloth/ClothMesh.h"
@@ -16,10 +17,13 @@ struct CensusInput {
   const loom::cloth::Vec3s* x = nullptr;  // m, one position per mesh vertex
 };
 
-// Intersecting triangle pairs between two different cloths.
-long count_intersecting_pairs_between(const CensusInput& a, const CensusInput& b, int threads = 1);
-// Self census of every cloth plus every cloth pair.
-long count_all_intersections(const std::vector<CensusInput>& cloths, int threads = 1);
+// Intersecting triangle pairs between two different cloths. `stop` as for count_intersecting_pairs
+// (IntersectionCensus.h): once set, -1.
+long count_intersecting_pairs_between(const CensusInput& a, const CensusInput& b, int threads = 1,
+                                      const volatile std::sig_atomic_t* stop = nullptr);
+// Self census of every cloth plus every cloth pair; -1 once `stop` is set.
+long count_all_intersections(const std::vector<CensusInput>& cloths, int threads = 1,
+                             const volatile std::sig_atomic_t* stop = nullptr);
 // One intersecting triangle pair: triangle tri_a of cloth cloth_a and triangle tri_b of cloth cloth_b
 // (indices into the census input), (cloth_a, tri_a) < (cloth_b, tri_b); within one cloth the two share no
 // vertex.
