@@ -684,8 +684,8 @@ void parse_output(const JsonReader& r, Scene& scene) {
       if (rr.has("camera")) {
         const JsonReader c = rr.object("camera");
         ro.camera = true;
-        ro.eye = c.vec3("eye");
-        ro.target = c.vec3("target");
+        ro.eye = c.point("eye");  // within the scene's coordinate bound, as every position
+        ro.target = c.point("target");
         ro.fov = c.number("fov", 40.0, 0.0, true);
         if (ro.fov >= 170.0) c.fail("fov", "must be < 170 degrees");
         if ((ro.eye - ro.target).norm() < 1e-9) c.fail("target", "must differ from camera.eye");

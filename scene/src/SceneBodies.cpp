@@ -47,8 +47,11 @@ Transform parse_body_pose(const JsonReader& r) {
     const double largest = axis.cwiseAbs().maxCoeff();
     if (!(largest > 0.0)) o.fail("axis", "must not be zero");
     axis /= largest;
-    t.linear() = Eigen::AngleAxisd(std::fmod(o.number("degrees"), 360.0) * M_PI / 180.0, axis.normalized())
-                     .toRotationMatrix();
+    const double degrees = o.number("degrees");
+    if (!(std::abs(degrees) <= kMaxDegrees))
+      o.fail("degrees", "must be within +-1000000 degrees (got " + show_number(degrees, 9) + ")");
+    t.linear() =
+        Eigen::AngleAxisd(std::fmod(degrees, 360.0) * M_PI / 180.0, axis.normalized()).toRotationMatrix();
     o.finish();
   }
   t.translation() = r.point("position", Vec3::Zero());

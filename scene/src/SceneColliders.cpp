@@ -76,6 +76,8 @@ Eigen::Matrix3d parse_rotation(const JsonReader& r, const std::string& key) {
   const JsonReader o = r.object(key);
   const Vec3 axis = unit_axis(o, "axis");
   const double degrees = o.number("degrees");
+  if (!(std::abs(degrees) <= kMaxDegrees))
+    o.fail("degrees", "must be within +-1000000 degrees (got " + show_number(degrees, 9) + ")");
   o.finish();
   return Eigen::AngleAxisd(std::fmod(degrees, 360.0) * kDeg, axis).toRotationMatrix();
 }

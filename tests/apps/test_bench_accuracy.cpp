@@ -177,6 +177,13 @@ TEST(BenchAccuracy, EmptySelectionIsAnErrorNotAnEmptyPass) {
   EXPECT_EQ(r.code, 1) << r.out << r.err;
   EXPECT_NE(r.err.find("selects no configuration at N=4"), std::string::npos) << r.err;
   EXPECT_EQ(r.out.find("reference:"), std::string::npos) << r.out;
+  // Without --methods: --configs names Loom configurations, so a text no Loom label holds selects nothing
+  // (the Bullet rows and the static scenes' rows beside them do not count).
+  r = run("bench accuracy --quick --sizes 4 --configs zzzz" + out, dir);
+  EXPECT_EQ(r.code, 1) << r.out << r.err;
+  EXPECT_NE(r.err.find("selects no configuration at N=4 (no label contains 'zzzz')"), std::string::npos)
+      << r.err;
+  EXPECT_FALSE(fs::exists(dir / "out"));
   for (const char* empty : {"--methods ''", "--methods ,", "--configs ''"}) {
     r = run(std::string("bench accuracy --quick ") + empty + out, dir);
     EXPECT_EQ(r.code, 2) << empty << ": " << r.err;

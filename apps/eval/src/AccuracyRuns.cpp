@@ -410,6 +410,9 @@ void run_static_scenes(const AccuracyOptions& o, const std::vector<std::string>&
       header = true;
     }
     for (const auto& [d, sag_ref] : spans) {
+      // --configs selects these Loom rows by their label too.
+      if (!o.configs.empty() && ("scene=catenary span=" + num(d)).find(o.configs) == std::string::npos)
+        continue;
       SimulationSetup setup;
       ClothSetup c;
       GridSpec g;
@@ -433,7 +436,7 @@ void run_static_scenes(const AccuracyOptions& o, const std::vector<std::string>&
       r.system = "loom";
       r.method = method;
       r.size = nodes;
-      r.config = "scene=catenary span=" + num(d);
+      r.config = "scene=catenary span=" + num(d);  // the label --configs matches
       r.threads = 1;
       try {
         Simulation sim(setup);

@@ -17,6 +17,8 @@ constexpr std::uint64_t kMaxInputBytes = std::uint64_t(1) << 30;  // a scene, me
 // Nesting of arrays and objects in a scene file or a --set value (a scene nests a few levels; a parser's
 // work and stack grow with the depth).
 constexpr int kMaxJsonDepth = 100;
+// A rotation's `degrees` (bodies, colliders): a turn written past a million degrees is no pose anyone means.
+constexpr double kMaxDegrees = 1e6;
 static_assert(kMaxInputBytes <= loom::kMaxInputFileBytes, "one bound for every input file");
 constexpr double kMaxCoordinate = 1e6;  // m, |x| of a mesh size, origin, translation, anchor, collider
 // m, a contact thickness: a collider's, a cloth material's, the collision block's (`thickness`, `layers`,
