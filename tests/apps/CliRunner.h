@@ -15,6 +15,20 @@
 
 namespace loom::test {
 
+// True in the AddressSanitizer build (GCC's and clang's spellings): its binaries run many times slower and
+// stop before main under a `ulimit -v`.
+#if defined(__SANITIZE_ADDRESS__)
+constexpr bool kAddressSanitizer = true;
+#elif defined(__has_feature)
+#if __has_feature(address_sanitizer)
+constexpr bool kAddressSanitizer = true;
+#else
+constexpr bool kAddressSanitizer = false;
+#endif
+#else
+constexpr bool kAddressSanitizer = false;
+#endif
+
 struct CliResult {
   int code = -1;  // exit code, -1 if the process did not exit normally
   std::string out, err;

@@ -17,34 +17,14 @@ namespace {
 
 namespace fs = std::filesystem;
 
-// AddressSanitizer maps terabytes of shadow memory at start: under a `ulimit -v` the sanitizer build of loom
-// stops before main, so the address-space tests run in the other builds only.
-#if defined(__SANITIZE_ADDRESS__)
-constexpr bool kAddressSanitizer = true;
-#elif defined(__has_feature)
-#if __has_feature(address_sanitizer)
-constexpr bool kAddressSanitizer = true;
-#else
-constexpr bool kAddressSanitizer = false;
-#endif
-#else
-constexpr bool kAddressSanitizer = false;
-#endif
-using loom::test::slurp;
+using loom::test::CliResult;
+using loom::test::kAddressSanitizer;
+using loom::test::run_loom;
 using loom::test::test_dir;
 
-struct Outcome {
-  int code = -1;
-  std::string err;
-};
-
-// `loom ARGS` with the shell prefix `env` ("LOOM_MEMORY_LIMIT=... ", "ulimit -v ...; ").
-Outcome run_with(const std::string& env, const std::string& args) {
-  const fs::path err = test_dir() / "err.txt";
-  const std::string cmd =
-      "cd " + test_dir().string() + " && " + env + LOOM_BINARY + " " + args + " >/dev/null 2>" + err.string();
-  const int status = std::system(cmd.c_str());
-  return {WIFEXITED(status) ? WEXITSTATUS(status) : -1, slurp(err)};
+// `loom ARGS` from the test's folder, with `env` (shell words before the command: a ulimit, NAME=VALUE).
+CliResult run_with(const std::string& env, const std::string& args) {
+  return run_loom(args, "cd " + test_dir().string() + " && " + env);
 }
 
 // tests/data/mocap/arm_swing.bvh with its MOTION lines repeated to `frames` frames, as DIR/`name`.
@@ -76,7 +56,7 @@ TEST(MemoryBudget, AClipIsCountedBeforeItIsRead) {
   std::ofstream(test_dir() / "scene.json")
       << R"({"name": "m", "quality": "realtime", "duration": 0.02, "fps": 60,
             "character": {"bvh": "long.bvh", "garments": [{"type": "cape", "resolution": 0.1}]}})";
-  const Outcome r = run_with("LOOM_MEMORY_LIMIT=100000000 ", "run scene.json --out out");
+  const CliResult r = run_with("LOOM_MEMORY_LIMIT=100000000 ", "run scene.json --out out");
   if (r.err.find("no loom::characters") != std::string::npos) GTEST_SKIP() << "no loom::characters";
   EXPECT_EQ(r.code, 1) << r.err;
   EXPECT_NE(r.err.find("character.bvh: the clip (30000 frames of 31 joints and 96 channels) needs about"),
@@ -85,7 +65,7 @@ TEST(MemoryBudget, AClipIsCountedBeforeItIsRead) {
   EXPECT_NE(r.err.find("100 MB (set by LOOM_MEMORY_LIMIT) is available"), std::string::npos) << r.err;
   EXPECT_FALSE(fs::exists(test_dir() / "out"));
   // The same clip within a budget that holds it runs.
-  const Outcome ok = run_with("LOOM_MEMORY_LIMIT=1000000000 ", "run scene.json --frames 1 --out out");
+  const CliResult ok = run_with("LOOM_MEMORY_LIMIT=1000000000 ", "run scene.json --frames 1 --out out");
   EXPECT_EQ(ok.code, 0) << ok.err;
 }
 
@@ -93,8 +73,8 @@ TEST(MemoryBudget, AClipIsCountedBeforeItIsRead) {
 // read or written.
 TEST(MemoryBudget, BodyAndDefaultFabricTestAreChecked) {
   const std::string data = LOOM_TEST_DATA;
-  const Outcome body = run_with("LOOM_MEMORY_LIMIT=1 ", "body " + data + "/body/human.zae " + data +
-                                                            "/mocap/arm_swing.bvh --image img.png");
+  const CliResult body = run_with("LOOM_MEMORY_LIMIT=1 ", "body " + data + "/body/human.zae " + data +
+                                                              "/mocap/arm_swing.bvh --image img.png");
   if (body.err.find("unknown command") == std::string::npos) {
     EXPECT_EQ(body.code, 1) << body.err;
     EXPECT_NE(body.err.find("CLIP: reading the mesh"), std::string::npos) << body.err;
@@ -102,7 +82,7 @@ TEST(MemoryBudget, BodyAndDefaultFabricTestAreChecked) {
         << body.err;
     EXPECT_FALSE(fs::exists(test_dir() / "img.png"));
   }
-  const Outcome drape = run_with("LOOM_MEMORY_LIMIT=1 ", "fabric-test drape --out ft");
+  const CliResult drape = run_with("LOOM_MEMORY_LIMIT=1 ", "fabric-test drape --out ft");
   if (drape.err.find("unknown command") == std::string::npos) {
     EXPECT_EQ(drape.code, 1) << drape.err;
     EXPECT_NE(drape.err.find("--resolution: the default 20 may need about"), std::string::npos) << drape.err;
@@ -116,7 +96,7 @@ TEST(MemoryBudget, BodyAndDefaultFabricTestAreChecked) {
 TEST(MemoryBudget, TheMessageNamesTheBoundThatHolds) {
   if (kAddressSanitizer) GTEST_SKIP() << "a ulimit -v stops the sanitizer build before main";
   const std::string env = "ulimit -v 4000000; LOOM_MEMORY_LIMIT=18446744073709551615 ";
-  const Outcome ft = run_with(env, "fabric-test shear --resolution 2000 --out ft");
+  const CliResult ft = run_with(env, "fabric-test shear --resolution 2000 --out ft");
   if (ft.err.find("unknown command") == std::string::npos) {
     EXPECT_EQ(ft.code, 1) << ft.err;
     EXPECT_NE(ft.err.find("--resolution: 2000 may need about"), std::string::npos) << ft.err;
@@ -124,7 +104,7 @@ TEST(MemoryBudget, TheMessageNamesTheBoundThatHolds) {
     EXPECT_NE(ft.err.find("(left under RLIMIT_AS, ulimit -v) is available"), std::string::npos) << ft.err;
     EXPECT_FALSE(fs::exists(test_dir() / "ft"));
   }
-  const Outcome acc = run_with(env, "bench accuracy --quick --sizes 4096 --out acc");
+  const CliResult acc = run_with(env, "bench accuracy --quick --sizes 4096 --out acc");
   if (acc.err.find("unknown command") == std::string::npos) {
     EXPECT_EQ(acc.code, 1) << acc.err;
     EXPECT_NE(acc.err.find("--sizes: N=4096"), std::string::npos) << acc.err;
@@ -138,7 +118,7 @@ TEST(MemoryBudget, TheMessageNamesTheBoundThatHolds) {
 // --render is refused by its field before the run, naming RLIMIT_AS, instead of failing after it.
 TEST(MemoryBudget, TheAddressSpaceLimitBoundsTheBudget) {
   if (kAddressSanitizer) GTEST_SKIP() << "a ulimit -v stops the sanitizer build before main";
-  const Outcome r =
+  const CliResult r =
       run_with("ulimit -v 2000000; ", "run " + std::string(LOOM_SOURCE_DIR) +
                                           "/scenes/hanging_cloth.json --frames 1 --render --set "
                                           "'output.render={\"width\":8192,\"height\":8192}' --out out");

@@ -66,17 +66,7 @@ bool wait_for(const fs::path& p, int seconds) {
 
 // Substeps per frame that make a frame of hanging_cloth take seconds: fewer in the sanitizer build, whose
 // `loom` runs each step many times slower (every test must end within ctest's 300 s).
-#if defined(__SANITIZE_ADDRESS__)
-constexpr const char* kSlowSubsteps = "solver.substeps=2000";
-#elif defined(__has_feature)
-#if __has_feature(address_sanitizer)
-constexpr const char* kSlowSubsteps = "solver.substeps=2000";
-#else
-constexpr const char* kSlowSubsteps = "solver.substeps=40000";
-#endif
-#else
-constexpr const char* kSlowSubsteps = "solver.substeps=40000";
-#endif
+constexpr const char* kSlowSubsteps = kAddressSanitizer ? "solver.substeps=2000" : "solver.substeps=40000";
 
 // A run of 4 frames of hanging_cloth slow enough (many substeps) that frame 0 is on disk long before the
 // last frame and summary.json are written.
