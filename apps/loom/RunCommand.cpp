@@ -331,7 +331,7 @@ class SceneRun {
   void print_warnings() const;
   void write_row(const cloth::FrameStats& s);
   void write_bodies(int f);
-  void run_census();
+  bool run_census(int f);
   std::string frame_name(int f) const;
   // Deletes the files DIR/<folder>/frame_<number><ext> the manifest lists whose number is `from` or more
   // (whatever its width): frames an earlier run wrote beyond what this one writes.
@@ -452,18 +452,24 @@ std::string video_rate_text(double hz) {
 constexpr double kMaxExportBytes = 2147483648.0;
 
 // PC2: written frames x vertices x 12 bytes. glTF (GltfWriter.h): as much for the morph targets plus 12 bytes
-// a written frame (its time, and the sparse index and value of its animation weight). The sparse weights
-// address keys x targets elements with 32-bit indices, which bounds the written frames to 65536.
+// a written frame (its time, and the sparse index and value of its animation weight) in the .bin; in the
+// .gltf, and in memory until the run ends, one accessor, buffer view, target and name per cloth and written
+// frame (measured: 226 bytes of JSON text and 2.6 kB of memory each, with 40 cloths over 5000 frames). The
+// sparse weights address keys x targets elements with 32-bit indices, which bounds the written frames to
+// 65536.
+constexpr double kGltfTextBytesPerTarget = 240.0, kGltfMemoryBytesPerTarget = 2700.0;
+
 void SceneRun::check_export_sizes() const {
   const double written = std::floor(frames_ / double(std::max(1, sc_.output.every))) + 1.0;
   double vertices = 0.0;
   for (const auto& c : shown_->cloths()) vertices += c->state().size();
+  const double targets = (written - 1.0) * static_cast<double>(shown_->cloths().size());
   for (const std::string& f : sc_.output.formats) {
     double bytes = 0.0;
     if (f == "pc2")
       bytes = written * vertices * 12.0;
     else if (f == "gltf")
-      bytes = written * vertices * 12.0 + written * 12.0;
+      bytes = std::max(written * vertices * 12.0 + written * 12.0, targets * kGltfTextBytesPerTarget);
     else
       continue;
     if (f == "gltf" && written * (written - 1.0) > 4294967295.0)
@@ -471,10 +477,15 @@ void SceneRun::check_export_sizes() const {
                   "\"gltf\" would hold " + std::to_string(static_cast<long long>(written)) +
                       " written frames, above the 65536 its animation weights can address (32-bit sparse "
                       "indices): lower --frames (or raise output.every) or drop \"gltf\"");
+    if (f == "gltf")
+      scene::check_memory(
+          scene_path_, "output.formats", targets * kGltfMemoryBytesPerTarget,
+          "\"gltf\" (one morph target per cloth and written frame: " + scene::show_count(targets) + ") needs",
+          "lower --frames (or raise output.every), or drop \"gltf\"");
     if (bytes <= kMaxExportBytes) continue;
     char figure[160];
-    std::snprintf(figure, sizeof figure, "%.3g GB for %.0f written frames of %.0f vertices", bytes / 1e9,
-                  written, vertices);
+    std::snprintf(figure, sizeof figure, "%.3g GB for %.0f written frames of %.0f vertices in %zu cloths",
+                  bytes / 1e9, written, vertices, shown_->cloths().size());
     throw Error(
         scene_path_, "output.formats",
         "\"" + f + "\" would take " + figure +
@@ -642,17 +653,32 @@ void SceneRun::write_bodies(int f) {
 
 // --census: exact count of intersecting triangle pairs (self, non-adjacent, and between cloths) and the
 // deepest vertex inside a collider, after every frame; summary.json gets the largest of each.
-void SceneRun::run_census() {
-  if (!o_.census) return;
+// A census past its candidate bound (collision::kCensusCandidateBound: triangles piled onto each other) stops
+// the run with the frame and the cloths named; the frames before are valid.
+bool SceneRun::run_census(int f) {
+  if (!o_.census) return true;
   std::vector<collision::CensusInput> in;
   for (const auto& c : sim_->cloths()) in.push_back({&c->mesh(), &c->state().x});
   // A stop request (Ctrl-C, SIGTERM) ends a long census at once (-1: no count); the run then stops as
   // interrupted at its next check.
-  census_intersections_ = std::max(census_intersections_,
-                                   collision::count_all_intersections(in, sc_.setup.threads, &g_interrupted));
+  try {
+    census_intersections_ = std::max(
+        census_intersections_, collision::count_all_intersections(in, sc_.setup.threads, &g_interrupted));
+  } catch (const collision::CensusBoundExceeded& e) {
+    const auto& cloths = sim_->cloths();
+    const std::string a = "'" + cloths[e.cloth_a]->name() + "'", b = "'" + cloths[e.cloth_b]->name() + "'";
+    error_ = "--census: at frame " + std::to_string(f) + " the triangles of cloth " + a +
+             (e.cloth_a == e.cloth_b ? "" : " and cloth " + b) + " are piled onto each other: more than " +
+             std::to_string(e.bound) +
+             " candidate triangle pairs, past the census's bound; run without --census" +
+             (f == first_ ? "; stopped before frame " + std::to_string(f) + ", no frame written"
+                          : "; stopped, frames up to " + std::to_string(f - 1) + " are valid");
+    return false;
+  }
   if (pipeline_->colliders())
     census_penetration_ =
         std::max(census_penetration_, collision::max_penetration(in, *pipeline_->colliders()));
+  return true;
 }
 
 std::string SceneRun::frame_name(int f) const {
@@ -786,9 +812,12 @@ void SceneRun::start() {
       error_ += scene::divergence_suspects(sc_);
     return;
   }
+  if (!run_census(first_)) {
+    no_frame_written_ = true;
+    return;
+  }
   write_row(s0);
   write_bodies(0);
-  run_census();
   if (obj_)
     frames_hash_ = write_obj(folder_->claim(frame_name(0)), shown_->cloths(), frames_hash_, frame_hashes_);
   keep_frame(true, true);
@@ -862,9 +891,9 @@ void SceneRun::step_frames() {
       finite_ = false;
       break;
     }
+    if (!run_census(f)) break;
     write_row(s);
     write_bodies(f);
-    run_census();
     if (obj_ && f % sc_.output.every == 0)
       frames_hash_ = write_obj(folder_->claim(frame_name(f)), shown_->cloths(), frames_hash_, frame_hashes_);
     if (s.max_strain > max_strain_) max_strain_ = s.max_strain, max_strain_frame_ = f;
@@ -892,7 +921,7 @@ void SceneRun::run() {
     if (kStopSignals[k] != SIGINT && old_handlers_[k] == SIG_IGN) std::signal(kStopSignals[k], SIG_IGN);
   }
   start();
-  if (finite_) step_frames();
+  if (finite_ && error_.empty()) step_frames();
   exports_->finish();
   // A run stopped before frame 0 wrote no frame: exports holding none are not left as if they were a run.
   if (no_frame_written_)
@@ -1036,7 +1065,7 @@ nlohmann::ordered_json SceneRun::summary() const {
     if (!tier_strain_held() && max_strain_frame_ > 0) sl["breach_frame"] = max_strain_frame_;
     j["tier_strain_limit"] = sl;
   }
-  j["completed"] = finite_ && !interrupted_ && done_ == frames_;
+  j["completed"] = error_.empty() && !interrupted_ && done_ == frames_;
   if (interrupted_) j["interrupted"] = true;
   if (resume_) j["resumed_from_frame"] = first_;
   j["rollbacks"] = sim_->rollbacks();
@@ -1070,7 +1099,7 @@ nlohmann::ordered_json SceneRun::summary() const {
     if (!bodies_world_->warnings().empty()) j["unsupported_shapes"] = bodies_world_->warnings();
   }
 #endif
-  if (!finite_) j["error"] = error_;
+  if (!error_.empty()) j["error"] = error_;
   return j;
 }
 
@@ -1102,7 +1131,7 @@ int SceneRun::finish() {
                    summary().dump(2) + "\n");
   if (o_.profile) print_profile(*sim_, done_);
   print_warnings();
-  if (!finite_) {
+  if (!error_.empty()) {
     std::cerr << "loom: error: " << printable(scene_path_) << ": " << printable(error_) << "\n";
     return 3;
   }

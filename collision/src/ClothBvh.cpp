@@ -311,7 +311,7 @@ std::vector<TrianglePair> ClothBvh::self_pairs(bool skip_adjacent) const {
 // Magnenat-Thalmann 1994 need nothing more) and fine meshes keep their culling.
 bool ClothBvh::cullable(int n, const Vec3s& x0, const Vec3s& x1, double margin) const {
   const Node& nd = nodes_[n];
-  if (!cones_valid_) return false;  // stale cones (box-only refit): nothing is culled
+  if (!cones_valid_ || margin < 0.0) return false;  // stale cones (box-only refit), or no culling asked
   if (nd.count < kConeMin || !nd.connected || !(nd.angle < 0.5 * M_PI * (1.0 - 1e-9))) return false;
   const std::vector<EdgeKey>& c = contour_[n];
   const Vec3 d = nd.axis;
@@ -431,6 +431,86 @@ std::vector<TrianglePair> ClothBvh::self_pairs_culled(const Vec3s& x0, const Vec
   sort_pairs(out);
   if (culled) *culled = n_culled;
   return out;
+}
+
+bool ClothBvh::walk_self_task(std::pair<int, int> task, bool skip_adjacent,
+                              const std::function<bool(int, int)>& visit) const {
+  // An explicit stack of node pairs: {n, n} = pairs below n, {a, b} = pairs between a and b.
+  std::vector<std::pair<int, int>> stack{task};
+  while (!stack.empty()) {
+    const auto [a, b] = stack.back();
+    stack.pop_back();
+    const Node& na = nodes_[a];
+    if (a == b) {
+      if (na.left < 0) continue;
+      stack.push_back({na.left, na.left});
+      stack.push_back({na.right, na.right});
+      stack.push_back({na.left, na.right});
+      continue;
+    }
+    const Node& nb = nodes_[b];
+    if (!na.box.overlaps(nb.box)) continue;
+    if (na.left < 0 && nb.left < 0) {
+      if (skip_adjacent && adjacent(na.triangle, nb.triangle)) continue;
+      if (!visit(std::min(na.triangle, nb.triangle), std::max(na.triangle, nb.triangle))) return false;
+    } else if (nb.left < 0 || (na.left >= 0 && na.count >= nb.count)) {
+      stack.push_back({na.left, b});
+      stack.push_back({na.right, b});
+    } else {
+      stack.push_back({a, nb.left});
+      stack.push_back({a, nb.right});
+    }
+  }
+  return true;
+}
+
+std::vector<std::pair<int, int>> ClothBvh::cross_pair_tasks(const ClothBvh& other) const {
+  std::vector<std::pair<int, int>> tasks, next;
+  if (nodes_.empty() || other.nodes_.empty()) return tasks;
+  tasks.push_back({0, 0});
+  // Overlapping internal pairs are split breadth-first until there are about kTasks of them.
+  constexpr size_t kTasks = 64;
+  bool split = true;
+  while (split && tasks.size() < kTasks) {
+    split = false;
+    next.clear();
+    for (const auto& [a, b] : tasks) {
+      const Node& na = nodes_[a];
+      const Node& nb = other.nodes_[b];
+      if (!na.box.overlaps(nb.box)) continue;
+      if (na.left < 0 && nb.left < 0) {
+        next.push_back({a, b});
+      } else if (nb.left < 0 || (na.left >= 0 && na.count >= nb.count)) {
+        next.push_back({na.left, b}), next.push_back({na.right, b}), split = true;
+      } else {
+        next.push_back({a, nb.left}), next.push_back({a, nb.right}), split = true;
+      }
+    }
+    tasks.swap(next);
+  }
+  return tasks;
+}
+
+bool ClothBvh::walk_cross_task(const ClothBvh& other, std::pair<int, int> task,
+                               const std::function<bool(int, int)>& visit) const {
+  std::vector<std::pair<int, int>> stack{task};
+  while (!stack.empty()) {
+    const auto [a, b] = stack.back();
+    stack.pop_back();
+    const Node& na = nodes_[a];
+    const Node& nb = other.nodes_[b];
+    if (!na.box.overlaps(nb.box)) continue;
+    if (na.left < 0 && nb.left < 0) {
+      if (!visit(na.triangle, nb.triangle)) return false;
+    } else if (nb.left < 0 || (na.left >= 0 && na.count >= nb.count)) {
+      stack.push_back({na.left, b});
+      stack.push_back({na.right, b});
+    } else {
+      stack.push_back({a, nb.left});
+      stack.push_back({a, nb.right});
+    }
+  }
+  return true;
 }
 
 std::vector<int> ClothBvh::query(const Aabb& box) const {

@@ -5,6 +5,7 @@
 #include <memory>
 #include <tuple>
 
+#include "CensusWalk.h"
 #include "loom/collision/ClothBvh.h"
 #include "loom/collision/ColliderDistance.h"
 #include "loom/collision/ExactPredicates.h"
@@ -19,38 +20,53 @@ std::shared_ptr<const loom::cloth::ClothMesh> borrow(const loom::cloth::ClothMes
 
 }  // namespace
 
-long count_intersecting_pairs_between(const CensusInput& a, const CensusInput& b, int threads,
-                                      const volatile std::sig_atomic_t* stop) {
+namespace {
+
+long count_between(const CensusInput& a, const CensusInput& b, int threads,
+                   const volatile std::sig_atomic_t* stop, long& budget) {
   ClothBvh ta(borrow(a.mesh)), tb(borrow(b.mesh));
   ta.rebuild(*a.x, *a.x, 0.0, threads);
   tb.rebuild(*b.x, *b.x, 0.0, threads);
-  const std::vector<TrianglePair> pairs = ta.cross_pairs(tb);
+  const std::vector<std::pair<int, int>> tasks = ta.cross_pair_tasks(tb);
   const auto& t0 = a.mesh->triangles();
   const auto& t1 = b.mesh->triangles();
   const loom::cloth::Vec3s& x0 = *a.x;
   const loom::cloth::Vec3s& x1 = *b.x;
-  const long n = static_cast<long>(pairs.size());
-  long count = 0;
-#pragma omp parallel for num_threads(threads) if (threads > 1) reduction(+ : count) schedule(dynamic, 64)
-  for (long i = 0; i < n; ++i) {
-    if (stop && *stop) continue;
-    const auto& p = t0[pairs[i].first];
-    const auto& q = t1[pairs[i].second];
-    count += triangles_intersect(x0[p[0]], x0[p[1]], x0[p[2]], x1[q[0]], x1[q[1]], x1[q[2]]);
-  }
-  return stop && *stop ? -1 : count;
+  return census_walk(
+      static_cast<int>(tasks.size()),
+      [&](int k, const std::function<bool(int, int)>& visit) {
+        return ta.walk_cross_task(tb, tasks[k], visit);
+      },
+      [&](int i, int j) {
+        const auto& p = t0[i];
+        const auto& q = t1[j];
+        return triangles_intersect(x0[p[0]], x0[p[1]], x0[p[2]], x1[q[0]], x1[q[1]], x1[q[2]]);
+      },
+      threads, stop, budget);
+}
+
+}  // namespace
+
+long count_intersecting_pairs_between(const CensusInput& a, const CensusInput& b, int threads,
+                                      const volatile std::sig_atomic_t* stop, long bound) {
+  const long n = count_between(a, b, threads, stop, bound);
+  if (n == -2) throw CensusBoundExceeded(0, 1, bound);
+  return n;
 }
 
 long count_all_intersections(const std::vector<CensusInput>& cloths, int threads,
-                             const volatile std::sig_atomic_t* stop) {
-  long count = 0;
+                             const volatile std::sig_atomic_t* stop, long bound) {
+  long count = 0, budget = bound;
   for (size_t i = 0; i < cloths.size(); ++i) {
-    if (stop && *stop) return -1;
-    count += count_intersecting_pairs(*cloths[i].mesh, *cloths[i].x, threads, stop);
-    for (size_t j = i + 1; j < cloths.size(); ++j)
-      count += count_intersecting_pairs_between(cloths[i], cloths[j], threads, stop);
+    for (size_t j = i; j < cloths.size(); ++j) {
+      const long n = i == j ? count_self_intersections(*cloths[i].mesh, *cloths[i].x, threads, stop, budget)
+                            : count_between(cloths[i], cloths[j], threads, stop, budget);
+      if (n == -1) return -1;
+      if (n == -2) throw CensusBoundExceeded(static_cast<int>(i), static_cast<int>(j), bound);
+      count += n;
+    }
   }
-  return stop && *stop ? -1 : count;
+  return count;
 }
 
 bool IntersectingPair::operator<(const IntersectingPair& o) const {
@@ -102,6 +118,32 @@ std::vector<IntersectingPair> intersecting_pairs(const std::vector<CensusInput>&
     trees.push_back(own.back().get());
   }
   return intersecting_pairs(cloths, trees, threads);
+}
+
+std::optional<PiledCloths> piled_cloths(const std::vector<CensusInput>& cloths, bool self, int threads) {
+  std::vector<std::unique_ptr<ClothBvh>> trees;
+  for (const CensusInput& c : cloths) {
+    trees.push_back(std::make_unique<ClothBvh>(borrow(c.mesh)));
+    trees.back()->rebuild(*c.x, *c.x, 0.0, threads);
+  }
+  for (size_t i = 0; i < cloths.size(); ++i) {
+    for (size_t j = self ? i : i + 1; j < cloths.size(); ++j) {
+      const long triangles = cloths[i].mesh->num_triangles() + (i == j ? 0 : cloths[j].mesh->num_triangles());
+      PiledCloths p{static_cast<int>(i), static_cast<int>(j), 0,
+                    std::max(kPiledPairsMin, kPiledPairsPerTriangle * triangles)};
+      const auto count = [&p](int, int) { return ++p.pairs <= p.bound; };
+      bool within = true;
+      if (i == j) {
+        for (const auto& task : trees[i]->self_pair_tasks(*cloths[i].x, *cloths[i].x, -1.0))
+          if (!(within = trees[i]->walk_self_task(task, /*skip_adjacent=*/true, count))) break;
+      } else {
+        for (const auto& task : trees[i]->cross_pair_tasks(*trees[j]))
+          if (!(within = trees[i]->walk_cross_task(*trees[j], task, count))) break;
+      }
+      if (!within) return p;
+    }
+  }
+  return std::nullopt;
 }
 
 double max_penetration(const std::vector<CensusInput>& cloths, const ColliderSet& colliders) {

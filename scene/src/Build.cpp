@@ -1,8 +1,12 @@
 #include "loom/scene/Build.h"
 
+#include <string>
+
+#include "loom/cloth/Error.h"
 #include "loom/collision/BodyCollisionStage.h"
 #include "loom/collision/ContactGuardStage.h"
 #include "loom/collision/IntersectionGuardStage.h"
+#include "loom/collision/MultiClothCensus.h"
 #include "loom/collision/RealtimeBodyContact.h"
 #include "loom/collision/RealtimeSelfCollision.h"
 
@@ -25,6 +29,22 @@ std::unique_ptr<cloth::Simulation> build_simulation(const Scene& scene,
   // Effects from other modules add their stages here, each only when the scene names it.
   // Body collision: only when there is something to collide with (scene colliders, rig capsules).
   const bool cloth_collision = scene.collision && (scene.collision->self || scene.setup.cloths.size() > 1);
+  // Every self- and cloth-cloth stage tests the pairs of triangles that lie close: cloths that start piled
+  // onto each other would have them test every pair at every step (minutes per frame), so they are refused.
+  if (cloth_collision) {
+    std::vector<collision::CensusInput> in;
+    for (const auto& c : sim->cloths()) in.push_back({&c->mesh(), &c->state().x});
+    if (const auto piled = collision::piled_cloths(in, scene.collision->self, scene.setup.threads)) {
+      const auto& c = sim->cloths();
+      const std::string a = "'" + c[piled->cloth_a]->name() + "'", b = "'" + c[piled->cloth_b]->name() + "'";
+      throw Error(scene.file, "collision",
+                  (piled->cloth_a == piled->cloth_b ? "the triangles of cloth " + a
+                                                    : "the triangles of cloths " + a + " and " + b) +
+                      " start piled onto each other: more than " + std::to_string(piled->bound) +
+                      " pairs of triangles overlap (a triangle soup, or a mesh scaled to a point); self- and "
+                      "cloth-cloth collision would test every pair at every step");
+    }
+  }
   // Cloth-cloth by proximity (the realtime and balanced tiers) runs before body contact, so the body stage
   // has the last word at each step's end: no vertex is left inside a collider by a cloth-cloth push.
   if (cloth_collision && scene.proximity)

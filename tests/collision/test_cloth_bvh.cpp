@@ -83,6 +83,49 @@ TEST(ClothBvh, RefitEqualsRebuildEqualsBruteForce) {
   EXPECT_GT(non_adjacent_total, 1000);  // the deformations really bring distant triangles together
 }
 
+// The census's walks (no pairs stored) visit exactly the pairs self_pairs and cross_pairs return, task by
+// task, and a visit returning false ends the walk at once.
+TEST(ClothBvh, WalksVisitTheSamePairsAsTheStoredLists) {
+  const auto mesh = sheet(17);
+  std::mt19937_64 rng(7);
+  for (int it = 0; it < 4; ++it) {
+    const Vec3s xa = deform(*mesh, rng, 0.004 * it), xb = deform(*mesh, rng, 0.004 * it);
+    lc::ClothBvh a(mesh), b(mesh);
+    a.rebuild(xa, xa, 0.001);
+    b.rebuild(xb, xb, 0.001);
+    for (bool skip : {false, true}) {
+      std::vector<lc::TrianglePair> walked;
+      for (const auto& task : a.self_pair_tasks(xa, xa, -1.0))
+        EXPECT_TRUE(a.walk_self_task(task, skip, [&](int i, int j) {
+          walked.emplace_back(i, j);
+          return true;
+        }));
+      std::sort(walked.begin(), walked.end());
+      EXPECT_EQ(walked, a.self_pairs(skip)) << it << " " << skip;
+    }
+    std::vector<lc::TrianglePair> crossed;
+    const auto tasks = a.cross_pair_tasks(b);
+    for (const auto& task : tasks)
+      a.walk_cross_task(b, task, [&](int i, int j) {
+        crossed.emplace_back(i, j);
+        return true;
+      });
+    std::sort(crossed.begin(), crossed.end());
+    const auto expect = a.cross_pairs(b);
+    EXPECT_EQ(crossed, expect) << it;
+    ASSERT_GT(expect.size(), 100u);
+    EXPECT_GT(tasks.size(), 8u);  // split for threads
+    int visits = 0;
+    bool ended = true;
+    for (const auto& task : tasks) {
+      ended = a.walk_cross_task(b, task, [&](int, int) { return ++visits < 3; });
+      if (!ended) break;
+    }
+    EXPECT_FALSE(ended);
+    EXPECT_EQ(visits, 3);
+  }
+}
+
 TEST(ClothBvh, SameResultForOneAndTwoThreads) {
   const auto mesh = sheet(33);
   std::mt19937_64 rng(5);

@@ -2,10 +2,13 @@
 #include <gtest/gtest.h>
 
 #include <cmath>
+#include <csignal>
 #include <random>
 
+#include "loom/collision/ClothBvh.h"
 #include "loom/collision/ExactPredicates.h"
 #include "loom/collision/IntersectionCensus.h"
+#include "loom/collision/MultiClothCensus.h"
 
 namespace lc = loom::collision;
 using lc::Vec3;
@@ -101,4 +104,70 @@ TEST(IntersectionCensus, FlatSheetHasNoneAndAFoldThroughItselfHasSome) {
     for (Vec3& p : y) p = 0.3 * p + 0.03 * Vec3(u(rng), u(rng), u(rng));
     EXPECT_EQ(lc::count_intersecting_pairs(*mesh, y), brute_census(*mesh, y)) << it;
   }
+}
+
+// A cloth crushed into a 2 mm ball: every leaf box overlaps every other, so the candidates are quadratic in
+// the triangles. The census walks them without storing them, and past its candidate bound it throws instead
+// of running on; the bound is exact (the candidates of brute force) and the same for every thread count.
+TEST(IntersectionCensus, APilePastTheCandidateBoundThrowsAtTheSameCountForEveryThreadCount) {
+  const auto mesh = sheet(17);
+  std::mt19937_64 rng(9);
+  std::uniform_real_distribution<double> u(-1.0, 1.0);
+  Vec3s pile = mesh->rest_positions();
+  for (Vec3& p : pile) p = 0.001 * Vec3(u(rng), u(rng), u(rng));
+  const long candidates = static_cast<long>(lc::brute_force_pairs(*mesh, pile, pile, 0.0, true).size());
+  ASSERT_GT(candidates, 90000);  // 512 triangles: most of their 130 816 pairs
+  const long census = brute_census(*mesh, pile);
+  for (int threads : {1, 2}) {
+    EXPECT_EQ(lc::count_intersecting_pairs(*mesh, pile, threads, nullptr, candidates), census) << threads;
+    EXPECT_THROW(lc::count_intersecting_pairs(*mesh, pile, threads, nullptr, candidates - 1),
+                 lc::CensusBoundExceeded)
+        << threads;
+    EXPECT_THROW(lc::count_intersecting_pairs(*mesh, pile, threads, nullptr, 1000), lc::CensusBoundExceeded);
+  }
+  // Over several cloths the bound holds for the whole call and the exception names the cloth walked.
+  const Vec3s flat = mesh->rest_positions();
+  std::vector<lc::CensusInput> in{{mesh.get(), &flat}, {mesh.get(), &pile}};
+  try {
+    lc::count_all_intersections(in, 2, nullptr, candidates - 1);
+    ADD_FAILURE() << "no CensusBoundExceeded";
+  } catch (const lc::CensusBoundExceeded& e) {
+    EXPECT_EQ(e.cloth_a, 1);
+    EXPECT_EQ(e.cloth_b, 1);
+    EXPECT_EQ(e.bound, candidates - 1);
+  }
+  // A stop request ends the walk: -1, no count and no exception.
+  volatile std::sig_atomic_t stop = 1;
+  EXPECT_EQ(lc::count_intersecting_pairs(*mesh, pile, 1, &stop, 1000), -1);
+  EXPECT_EQ(lc::count_all_intersections(in, 1, &stop), -1);
+}
+
+// piled_cloths: a sheet at rest, or folded through itself, has few overlapping pairs per triangle; the
+// same sheet crushed into a ball, or two sheets crushed into one, pass the bound (max(1e6, 64 per triangle)).
+TEST(IntersectionCensus, PiledClothsAreFoundWithinAClothAndBetweenTwo) {
+  const auto mesh = sheet(129);  // 32 768 triangles: bound 2.1e6 within it, 4.2e6 between two
+  Vec3s folded = mesh->rest_positions();
+  for (Vec3& p : folded)
+    if (p.x() > 0) p = Vec3(-p.x(), 0.6 * p.x() * p.z(), p.z());
+  std::mt19937_64 rng(2);
+  std::uniform_real_distribution<double> u(-1.0, 1.0);
+  Vec3s ball = mesh->rest_positions();
+  for (Vec3& p : ball) p = 0.002 * Vec3(u(rng), u(rng), u(rng));
+  const Vec3s rest = mesh->rest_positions();
+  using In = std::vector<lc::CensusInput>;
+  EXPECT_FALSE(lc::piled_cloths(In{{mesh.get(), &rest}}, true));
+  EXPECT_FALSE(lc::piled_cloths(In{{mesh.get(), &folded}}, true));
+  const auto one = lc::piled_cloths(In{{mesh.get(), &rest}, {mesh.get(), &ball}}, true);
+  ASSERT_TRUE(one);
+  EXPECT_EQ(one->cloth_a, 1);
+  EXPECT_EQ(one->cloth_b, 1);
+  EXPECT_EQ(one->bound, 64L * mesh->num_triangles());
+  EXPECT_EQ(one->pairs, one->bound + 1);
+  // Without self-collision only the pairs between cloths count: the ball alone passes, two balls do not.
+  EXPECT_FALSE(lc::piled_cloths(In{{mesh.get(), &rest}, {mesh.get(), &ball}}, false));
+  const auto two = lc::piled_cloths(In{{mesh.get(), &ball}, {mesh.get(), &ball}}, false, 2);
+  ASSERT_TRUE(two);
+  EXPECT_EQ(two->cloth_a, 0);
+  EXPECT_EQ(two->cloth_b, 1);
+  EXPECT_EQ(two->bound, 2 * 64L * mesh->num_triangles());
 }

@@ -14,6 +14,7 @@
 // edges sharing no vertex come closer than `margin` in projection, bounded through their motion).
 #include <algorithm>
 #include <cmath>
+#include <functional>
 #include <memory>
 #include <utility>
 #include <vector>
@@ -77,11 +78,24 @@ class ClothBvh {
   // The same search split into tasks, for callers that consume the pairs as they come (without the sort):
   // {a, a} = pairs below node a, {a, b} = pairs between subtrees a and b. The split does not depend on the
   // thread count, so visiting the tasks in order gives the same pairs in the same order for any thread count.
+  // margin < 0: nothing is culled (x0, x1 unused).
   std::vector<std::pair<int, int>> self_pair_tasks(const Vec3s& x0, const Vec3s& x1, double margin,
                                                    long* culled = nullptr) const;
   // The pairs of one task, in traversal order (unsorted), appended to `out`; `culled` counts culled nodes.
   void self_pairs_of_task(std::pair<int, int> task, const Vec3s& x0, const Vec3s& x1, double margin,
                           bool skip_adjacent, std::vector<TrianglePair>& out, long& culled) const;
+  // Walks without storing them: `visit(i, j)` is called for each pair of the task (the pairs
+  // self_pairs_of_task would append with no culling; margin < 0 in self_pair_tasks culls nothing), in any
+  // order, and returns false to end the walk; the walk returns false when it was ended. Memory: the tree's
+  // depth, whatever the number of pairs (a census of a cloth piled onto itself meets every pair of it).
+  bool walk_self_task(std::pair<int, int> task, bool skip_adjacent,
+                      const std::function<bool(int, int)>& visit) const;
+  // Tasks covering cross_pairs(other) ({a, b}: leaf pairs below node a of this tree and node b of `other`),
+  // about 64 when the trees overlap that much, the same for every thread count; and the walk of one task as
+  // above (pairs (i in this tree, j in other)).
+  std::vector<std::pair<int, int>> cross_pair_tasks(const ClothBvh& other) const;
+  bool walk_cross_task(const ClothBvh& other, std::pair<int, int> task,
+                       const std::function<bool(int, int)>& visit) const;
   // Triangles whose leaf box overlaps `box`, sorted.
   std::vector<int> query(const Aabb& box) const;
   // Pairs (i in this tree, j in `other`) whose leaf boxes overlap, sorted: cloth-cloth candidates.
