@@ -146,9 +146,18 @@ void check_file_order(const std::string& mesh, const std::string& clip) {
                  printable(mesh).c_str());
     std::exit(2);
   }
+  if (looks_like_bvh(mesh)) {
+    std::fprintf(stderr,
+                 "loom: error: body: MESH '%s' is a BVH clip, not a body mesh: give a skinned mesh (glTF, "
+                 "COLLADA, FBX, ...) first, then CLIP.bvh\n",
+                 printable(mesh).c_str());
+    std::exit(2);
+  }
 }
 
 }  // namespace
+
+constexpr double kBodyFps = 30.0;  // frames per second the clip is played at
 
 int body_main(int argc, char** argv) {
   std::vector<std::string> files;
@@ -167,7 +176,7 @@ int body_main(int argc, char** argv) {
       std::cout << kBodyUsage;
       return 0;
     } else if (a == "--seconds") {
-      seconds = cli_number(a, args.value(), 0.0, 3600.0);
+      seconds = cli_number(a, args.value(), 1.0 / 30.0, 3600.0);  // at least one frame at 30 fps
     } else if (a == "--image") {
       image = cli_path(a, args.value());
     } else {
@@ -192,6 +201,11 @@ int body_main(int argc, char** argv) {
                         "use a shorter clip or a smaller mesh");
   }
   const ch::Motion motion = ch::Motion::load(files[1]);
+  // The clip plays at 30 frames per second: a clip shorter than one frame plays nothing to measure.
+  if (motion.duration() * kBodyFps + 1e-9 < 1.0)
+    throw Error(files[1], "CLIP",
+                "lasts " + cli_show(motion.duration()) +
+                    " s, less than one frame at 30 frames per second: nothing to play");
   // The image's folder and those above it are locked (shared) for the command (eval::FolderLock): a folder
   // another loom command is using (a run's output folder), or one inside it, is refused, so the PNG never
   // lands among that run's files.
@@ -228,7 +242,7 @@ int body_main(int argc, char** argv) {
   contact.thickness = 0.005;
   garment.set_colliders(ch::body_colliders(fit, motion), contact);
   const ch::CapsuleRig rig = ch::CapsuleRig::build(motion, ch::body_capsule_radii(fit, motion));
-  const double fps = 30.0, end = std::min(seconds, motion.duration());
+  const double fps = kBodyFps, end = std::min(seconds, motion.duration());
   const int frames = static_cast<int>(std::floor(end * fps + 1e-9));
   double worst_over = 0.0, worst_behind = 0.0, hem = 0.0, deepest = 0.0;
   for (int f = 1; f <= frames; ++f) {

@@ -202,6 +202,13 @@ void check_bvh_frame_lines(const std::string& path, const std::string& text, siz
 void check_bvh_nesting(const std::string& path) {
   if (!is_bvh(path)) return;
   const std::string text = read_input_file(path);  // a regular file of bounded size (InputFile.h)
+  // Frames are lines: a carriage return must end a line with its line feed (CRLF); a lone one (old Mac
+  // line ends) would join every frame into one line.
+  for (size_t cr = text.find('\r'); cr != std::string::npos; cr = text.find('\r', cr + 1))
+    if (cr + 1 == text.size() || text[cr + 1] != '\n')
+      throw Error(path, "line " + std::to_string(line_number(text, cr)),
+                  "a carriage return without a line feed (old Mac line ends): BVH lines end with LF or CRLF; "
+                  "convert the file's line ends");
   // The file as whitespace-separated tokens, as assimp's BVH reader reads it (line breaks mean nothing).
   size_t at = 0;
   auto skip = [&]() {  // to the end of the next token; false at the end of the file

@@ -483,6 +483,18 @@ const BadInput kCases[] = {
      "motion.bvh",
      "line 20",
      "value 1 of the line, '1e999', is past the 3.4e38"},
+    // Old Mac line ends (CR alone): the frames would read as one line; the first lone CR is named.
+    {"bvh_cr_line_ends",
+     nullptr,
+     {"@BVHTEXT"},
+     "HIERARCHY\nROOT Hips\n{\n OFFSET 0 0 0\n CHANNELS 6 Xposition Yposition Zposition Zrotation Xrotation "
+     "Yrotation\n"
+     " JOINT Spine\n {\n  OFFSET 0 10 0\n  CHANNELS 3 Zrotation Xrotation Yrotation\n  End Site\n  {\n   "
+     "OFFSET 0 5 0\n  }\n }\n}\n"
+     "MOTION\nFrames: 2\nFrame Time: 0.0333333\r0 90 0 0 0 0 0 0 0\r1 90 0 0 0 0 0 0 0\r",
+     "motion.bvh",
+     "line 18",
+     "a carriage return without a line feed"},
     // A garment resolution that would allocate without bound: estimated and refused before it is made.
     {"garment_resolution_tiny",
      nullptr,

@@ -50,7 +50,20 @@ TEST(BodyCli, RefusesBadInputNamingIt) {
   std::ofstream(bvh) << "HIERARCHY\nROOT Hips\n{\n OFFSET 0 0 0\n CHANNELS 6 Xposition Yposition Zposition "
                         "Zrotation Xrotation Yrotation\n JOINT Spine\n {\n  OFFSET 0 10 0\n  CHANNELS 3 "
                         "Zrotation Xrotation Yrotation\n  End Site\n  {\n   OFFSET 0 10 0\n  }\n }\n}\n"
-                        "MOTION\nFrames: 1\nFrame Time: 0.01\n0 0 0 0 0 0 0 0 0\n";
+                        "MOTION\nFrames: 4\nFrame Time: 0.02\n0 0 0 0 0 0 0 0 0\n0 0 0 0 0 0 0 0 0\n"
+                        "0 0 0 0 0 0 0 0 0\n0 0 0 0 0 0 0 0 0\n";
+  // A clip of one frame: it lasts 0 s, less than the one 1/30 s frame a measurement needs.
+  const auto one = dir / "one.bvh";
+  {
+    std::ifstream in(kClip);
+    std::ofstream out(one);
+    std::string line;
+    while (std::getline(in, line) && line.rfind("Frame Time:", 0) != 0)
+      out << (line.rfind("Frames:", 0) == 0 ? std::string("Frames: 1") : line) << "\n";
+    out << line << "\n";
+    std::getline(in, line);
+    out << line << "\n";
+  }
   struct Case {
     std::string args;
     int code;
@@ -61,6 +74,10 @@ TEST(BodyCli, RefusesBadInputNamingIt) {
       {"body " + kMesh, 2, "needs MESH and CLIP.bvh"},
       {"body " + kMesh + " " + kClip + " --seconds nan", 2, "--seconds"},
       {"body " + kMesh + " " + kClip + " --seconds -1", 2, "--seconds"},
+      {"body " + kMesh + " " + kClip + " --seconds 0", 2, "--seconds"},
+      {"body " + kMesh + " " + kClip + " --seconds 0.03", 2, "--seconds"},
+      {"body " + kMesh + " " + one.string(), 1, "CLIP: lasts 0 s, less than one frame"},
+      {"body " + kClip + " " + kClip, 2, "is a BVH clip, not a body mesh"},
       {"body " + kMesh + " " + kClip + " --bogus", 2, "unknown option '--bogus'"},
       {"body " + kMesh + " " + bvh.string(), 1, "joints: no joint 'LeftUpLeg'"},
       {"body " + (dir / "missing.zae").string() + " " + kClip, 1, "missing.zae"},

@@ -55,7 +55,8 @@ TEST(CcdEvalCli, ErrorsAndExitCodes) {
 }
 
 // Exact means exact: a number with a blank inside ("1 0", which GMP would read as 10) is refused by line,
-// and a --scale-exp that would overflow or underflow a coordinate is refused by the option.
+// and a --scale-exp that would overflow or underflow a coordinate is refused by the option, the file and the
+// query's line.
 TEST(CcdEvalCli, InexactInputsAreRefusedNeverReadApproximately) {
   const std::filesystem::path dir = loom::test::test_dir() / "vertex-face";
   std::filesystem::create_directories(dir);
@@ -85,6 +86,6 @@ TEST(CcdEvalCli, InexactInputsAreRefusedNeverReadApproximately) {
   }
   const CcdEvalRun over = ccd_eval(write("big.csv", big) + " --scale-exp 200");
   EXPECT_NE(over.code, 0) << over.err;
-  EXPECT_NE(over.err.find("--scale-exp: 200: a coordinate"), std::string::npos) << over.err;
+  EXPECT_NE(over.err.find("big.csv: line 1: --scale-exp 200: a coordinate"), std::string::npos) << over.err;
   EXPECT_NE(over.err.find("overflows or underflows"), std::string::npos) << over.err;
 }

@@ -8,6 +8,7 @@
 #include <cstdlib>
 #include <filesystem>
 #include <fstream>
+#include <nlohmann/json.hpp>
 #include <string>
 #include <vector>
 
@@ -67,6 +68,38 @@ TEST(MemoryBudget, AClipIsCountedBeforeItIsRead) {
   // The same clip within a budget that holds it runs.
   const CliResult ok = run_with("LOOM_MEMORY_LIMIT=1000000000 ", "run scene.json --frames 1 --out out");
   EXPECT_EQ(ok.code, 0) << ok.err;
+}
+
+// A glTF export holds one morph target per cloth and written frame in its JSON, built in memory as the run
+// ends: 40 small cloths over 5000 frames (200 000 targets, about 540 MB) are refused by `output.formats`
+// before the run under a 300 MB limit, and no output folder is made; 500 frames (20 000 targets) run.
+TEST(MemoryBudget, TheGltfTargetsAreCountedBeforeTheRun) {
+  nlohmann::json cloths = nlohmann::json::array();
+  for (int k = 0; k < 40; ++k)
+    cloths.push_back(
+        {{"name", "c" + std::to_string(k)},
+         {"mesh",
+          {{"type", "grid"}, {"size", {0.1, 0.1}}, {"nodes", {2, 2}}, {"origin", {0.3 * k, 1.0, 0.0}}}},
+         {"material", "cotton"}});
+  const nlohmann::json scene = {{"name", "many"},
+                                {"duration", 5000.0 / 60.0},
+                                {"fps", 60},
+                                {"gravity", {0, 0, 0}},
+                                {"solver", {{"method", "xpbd"}, {"substeps", 1}}},
+                                {"cloths", cloths},
+                                {"output", {{"frames", false}, {"formats", {"gltf"}}}}};
+  std::ofstream(test_dir() / "many.json") << scene.dump();
+  const CliResult r = run_with("LOOM_MEMORY_LIMIT=300000000 ", "run many.json --out out");
+  EXPECT_EQ(r.code, 1) << r.err;
+  EXPECT_NE(r.err.find("many.json: output.formats: \"gltf\" (one morph target per cloth and written frame: "
+                       "2e+05) needs about"),
+            std::string::npos)
+      << r.err;
+  EXPECT_NE(r.err.find("300 MB (set by LOOM_MEMORY_LIMIT) is available"), std::string::npos) << r.err;
+  EXPECT_FALSE(fs::exists(test_dir() / "out"));
+  const CliResult ok = run_with("LOOM_MEMORY_LIMIT=300000000 ", "run many.json --frames 500 --out out");
+  EXPECT_EQ(ok.code, 0) << ok.err;
+  EXPECT_TRUE(fs::exists(test_dir() / "out" / "animation.gltf"));
 }
 
 // `loom body` and `loom fabric-test` at its default resolution go through the same check, before a file is

@@ -84,6 +84,7 @@ std::vector<CcdQuery> read_ccd_queries(const std::string& path) {
       q.points.fill(Vec3::Zero());
       q.vertex_face = vf;
       q.line = line;
+      q.file = path;
       q.truth = f[6] == "1";
     } else if (q.truth != (f[6] == "1")) {
       throw loom::Error(path, "line " + std::to_string(line), "truth differs from the query's first row");
@@ -109,9 +110,10 @@ Vec3 scale_translate_exactly(CcdQuery& query, int k, const Vec3& offset) {
       if (!std::isfinite(scaled) || std::ldexp(scaled, -k) != p[axis]) {
         char text[160];
         std::snprintf(text, sizeof text,
-                      "%d: a coordinate %.17g x 2^%d is not a double exactly (it overflows or underflows)", k,
-                      p[axis], k);
-        throw loom::Error("", "--scale-exp", text);
+                      "--scale-exp %d: a coordinate %.17g x 2^%d is not a double exactly (it overflows or "
+                      "underflows)",
+                      k, p[axis], k);
+        throw loom::Error(query.file, "line " + std::to_string(query.line), text);
       }
       p[axis] = scaled;
     }

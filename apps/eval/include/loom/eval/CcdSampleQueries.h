@@ -19,6 +19,7 @@ struct CcdQuery {
   std::array<Vec3, 8> points;  // m; in the row order above
   bool truth = false;          // ground truth: the primitives touch at some t in [0, 1]
   int line = 0;                // first CSV line of the query (1-based)
+  std::string file;            // the CSV file it was read from
 };
 
 // Throws loom::Error(file, "line N", problem) for unreadable files, malformed rows, zero denominators,
@@ -27,7 +28,9 @@ std::vector<CcdQuery> read_ccd_queries(const std::string& path);
 
 // The same query with every coordinate multiplied by 2^k (exact) and then translated by about
 // `offset` (m, per axis): the translation is rounded to a multiple of the coordinates' granularity and halved
-// until every sum is exact, so the ground truth is unchanged. Returns the translation actually applied.
+// until every sum is exact, so the ground truth is unchanged. Returns the translation actually applied. A
+// coordinate that 2^k takes past double range (or below its precision) throws loom::Error naming the query's
+// file and line and the option.
 Vec3 scale_translate_exactly(CcdQuery& query, int k, const Vec3& offset);
 
 struct CcdEvalStats {
