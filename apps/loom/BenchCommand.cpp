@@ -7,6 +7,7 @@
 #include <cstdio>
 #include <iostream>
 #include <string>
+#include <thread>
 #include <vector>
 
 #include "CliValue.h"
@@ -84,6 +85,18 @@ int bench_accuracy_main(int argc, char** argv) {
       sizes_given = true;
     } else if (a == "--threads") {
       o.threads = int_list(a, args.value(), 1, 4096);
+      // Threads beyond the machine's only queue on its cores (and thousands exhaust the OpenMP runtime):
+      // each count is capped at the hardware threads, as loom run does, and a count met twice runs once.
+      const int hardware = std::max(1, static_cast<int>(std::thread::hardware_concurrency()));
+      std::vector<int> capped;
+      for (int t : o.threads) {
+        if (t > hardware)
+          std::cerr << "loom: warning: --threads " << t << " capped at the " << hardware
+                    << " hardware threads of this machine\n";
+        if (std::find(capped.begin(), capped.end(), std::min(t, hardware)) == capped.end())
+          capped.push_back(std::min(t, hardware));
+      }
+      o.threads = capped;
     } else if (a == "--methods") {
       const std::vector<std::string> methods = cli_list(a, args.value());
       // An unknown name would select nothing and pass with an empty table.

@@ -107,11 +107,23 @@ int compare_main(int argc, char** argv) {
   // What the Bullet twins cannot run is refused by field before the folder is claimed: scene colliders
   // (the three systems run in a Bullet world, whose shapes are `bodies`: with colliders ignored every row
   // would be a free fall), and moving pins (they bridge fixed pins only; a pin with a `path` moves).
-  if (!sc.character && !sc.colliders.empty())
+  if (!sc.colliders.empty())
     throw Error(sc.file, "colliders",
-                "loom compare runs the cloth in a Bullet world, where the shapes are `bodies` (mass 0 for a "
-                "static or kinematic one); its systems do not see scene colliders (compare a scene with "
-                "bodies, or loom run this one)");
+                sc.character
+                    ? std::string("loom compare's Bullet twin of a character carries its capsules only; "
+                                  "it does not see scene colliders (compare the character without "
+                                  "them, or loom run this one)")
+                    : std::string("loom compare runs the cloth in a Bullet world, where the shapes are "
+                                  "`bodies` (mass 0 for a static or kinematic one); its systems do not "
+                                  "see scene colliders (compare a scene with bodies, or loom run this "
+                                  "one)"));
+  // A character scene's twin runs its garments only: a cloth of `cloths` beside them is refused.
+  if (sc.character)
+    for (size_t c = 0; c < sc.setup.cloths.size(); ++c)
+      if (sc.cloth_field(static_cast<int>(c)).rfind("character.garments", 0) != 0)
+        throw Error(sc.file, sc.cloth_field(static_cast<int>(c)),
+                    "loom compare's Bullet twin of a character runs its garments only; compare the character "
+                    "without other cloths (or loom run this one)");
   if (!sc.character)
     for (size_t c = 0; c < sc.setup.cloths.size(); ++c) {
       const cloth::ClothSetup& cs = sc.setup.cloths[c];

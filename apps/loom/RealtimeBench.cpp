@@ -11,17 +11,20 @@
 #include <set>
 #include <sstream>
 #include <string>
+#include <tuple>
 #include <vector>
 
 #include "BenchCommand.h"
 #include "CliValue.h"
 #include "loom/bullet/BodyCrossings.h"
 #include "loom/bullet/Compare.h"
+#include "loom/cloth/Error.h"
 #include "loom/collision/MultiClothCensus.h"
 #include "loom/eval/AccuracyPlot.h"
 #include "loom/eval/CsvNumber.h"
 #include "loom/eval/OutputFolder.h"
 #include "loom/scene/Scene.h"
+#include "loom/scene/SceneLimits.h"
 #include "loom/scene/ScenePipeline.h"
 #ifdef LOOM_HAVE_CHARACTER_COMPARE
 #include "CompareCharacter.h"
@@ -285,11 +288,35 @@ int bench_realtime(int argc, char** argv) {
         {"toy_box", "toy_box.json"}}) {
     if (!only.count(bench)) continue;
     const scene::Scene sc = scene::load_scene(scenes + file);
+    // What each benchmark runs (a character and its Bullet twin; a Bullet world and Bullet classic's twin)
+    // must be in the scene it reads, and what the twins would not see must not be.
+    if (std::string(bench) == "character" && !sc.character)
+      throw loom::Error(scenes + file, "character", "the character benchmark needs a scene with a character");
+    if (std::string(bench) == "toy_box" && sc.bodies.empty())
+      throw loom::Error(scenes + file, "bodies",
+                        "the toy-box benchmark needs a scene with rigid bodies (a Bullet world)");
+    if (!sc.colliders.empty())
+      throw loom::Error(scenes + file, "colliders",
+                        "the benchmark's Bullet twin does not see scene colliders, so its rows would compare "
+                        "different problems");
     inputs.push_back(scenes + file);
     inputs.insert(inputs.end(), sc.inputs.begin(), sc.inputs.end());
   }
-  eval::OutputFolder folder(out, "--out", overwrite, false, writes, inputs);
   const int frames = static_cast<int>(std::lround(seconds * 60.0));  // whole frames (whole_frames)
+  // What the sheet and toy-box runs hold, before the folder is claimed: each simulation
+  // (scene::kBytesPerVertex a vertex) and every frame of the reference, the best and the current run (24
+  // bytes a vertex and frame).
+  for (const auto& [bench, option, n] :
+       {std::tuple<const char*, const char*, int>{"sheet", "--sheet", sheet_n},
+        {"toy_box", "--toy", toy_n}}) {
+    if (!only.count(bench)) continue;
+    const double vertices = double(n + 1) * double(n + 1);
+    scene::check_memory("", option, vertices * (double(scene::kBytesPerVertex) + 3.0 * 24.0 * (frames + 1)),
+                        std::string(option) + " " + std::to_string(n) + " over " + std::to_string(frames) +
+                            " frames (three runs' frames kept for the errors) needs",
+                        "lower " + std::string(option) + " or --seconds");
+  }
+  eval::OutputFolder folder(out, "--out", overwrite, false, writes, inputs);
   const std::vector<std::string> tiers = {"realtime", "balanced", "reference"};
 
   // The character: tiers on the reference variant's garments and motion; the reference tier is that file.

@@ -6,6 +6,7 @@
 #include <functional>
 
 #include "loom/cloth/ClothMesh.h"
+#include "loom/collision/ClothBvh.h"
 
 namespace loom::collision {
 
@@ -16,8 +17,9 @@ long census_walk(int tasks, const std::function<bool(int, const std::function<bo
                  const std::function<bool(int, int)>& intersect, int threads,
                  const volatile std::sig_atomic_t* stop, long& budget);
 
-// The self census of one cloth within `budget` candidates (census_walk's -1 and -2).
-long count_self_intersections(const loom::cloth::ClothMesh& mesh, const loom::cloth::Vec3s& x, int threads,
+// The self census of one cloth within `budget` candidates (census_walk's -1 and -2); `bvh` built on x.
+long count_self_intersections(const ClothBvh& bvh, const loom::cloth::ClothMesh& mesh,
+                              const loom::cloth::Vec3s& x, int threads,
                               const volatile std::sig_atomic_t* stop, long& budget);
 
 }  // namespace loom::collision

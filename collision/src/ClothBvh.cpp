@@ -433,6 +433,17 @@ std::vector<TrianglePair> ClothBvh::self_pairs_culled(const Vec3s& x0, const Vec
   return out;
 }
 
+void ClothBvh::split_pair(const Node& na, int a, const Node& nb, int b,
+                          std::vector<std::pair<int, int>>& out) {
+  if (nb.left < 0 || (na.left >= 0 && na.count >= nb.count)) {
+    out.push_back({na.left, b});
+    out.push_back({na.right, b});
+  } else {
+    out.push_back({a, nb.left});
+    out.push_back({a, nb.right});
+  }
+}
+
 bool ClothBvh::walk_self_task(std::pair<int, int> task, bool skip_adjacent,
                               const std::function<bool(int, int)>& visit) const {
   // An explicit stack of node pairs: {n, n} = pairs below n, {a, b} = pairs between a and b.
@@ -453,12 +464,8 @@ bool ClothBvh::walk_self_task(std::pair<int, int> task, bool skip_adjacent,
     if (na.left < 0 && nb.left < 0) {
       if (skip_adjacent && adjacent(na.triangle, nb.triangle)) continue;
       if (!visit(std::min(na.triangle, nb.triangle), std::max(na.triangle, nb.triangle))) return false;
-    } else if (nb.left < 0 || (na.left >= 0 && na.count >= nb.count)) {
-      stack.push_back({na.left, b});
-      stack.push_back({na.right, b});
     } else {
-      stack.push_back({a, nb.left});
-      stack.push_back({a, nb.right});
+      split_pair(na, a, nb, b, stack);
     }
   }
   return true;
@@ -480,10 +487,9 @@ std::vector<std::pair<int, int>> ClothBvh::cross_pair_tasks(const ClothBvh& othe
       if (!na.box.overlaps(nb.box)) continue;
       if (na.left < 0 && nb.left < 0) {
         next.push_back({a, b});
-      } else if (nb.left < 0 || (na.left >= 0 && na.count >= nb.count)) {
-        next.push_back({na.left, b}), next.push_back({na.right, b}), split = true;
       } else {
-        next.push_back({a, nb.left}), next.push_back({a, nb.right}), split = true;
+        split_pair(na, a, nb, b, next);
+        split = true;
       }
     }
     tasks.swap(next);
@@ -502,12 +508,8 @@ bool ClothBvh::walk_cross_task(const ClothBvh& other, std::pair<int, int> task,
     if (!na.box.overlaps(nb.box)) continue;
     if (na.left < 0 && nb.left < 0) {
       if (!visit(na.triangle, nb.triangle)) return false;
-    } else if (nb.left < 0 || (na.left >= 0 && na.count >= nb.count)) {
-      stack.push_back({na.left, b});
-      stack.push_back({na.right, b});
     } else {
-      stack.push_back({a, nb.left});
-      stack.push_back({a, nb.right});
+      split_pair(na, a, nb, b, stack);
     }
   }
   return true;

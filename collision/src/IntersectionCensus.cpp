@@ -51,16 +51,17 @@ long census_walk(int tasks, const std::function<bool(int, const std::function<bo
 
 long count_intersecting_pairs(const loom::cloth::ClothMesh& mesh, const loom::cloth::Vec3s& x, int threads,
                               const volatile std::sig_atomic_t* stop, long bound) {
-  const long n = count_self_intersections(mesh, x, threads, stop, bound);
+  // A non-owning shared_ptr: the tree lives only inside this call.
+  ClothBvh bvh(std::shared_ptr<const loom::cloth::ClothMesh>(&mesh, [](const loom::cloth::ClothMesh*) {}));
+  bvh.rebuild(x, x, 0.0, threads);
+  const long n = count_self_intersections(bvh, mesh, x, threads, stop, bound);
   if (n == -2) throw CensusBoundExceeded(-1, -1, bound);
   return n;
 }
 
-long count_self_intersections(const loom::cloth::ClothMesh& mesh, const loom::cloth::Vec3s& x, int threads,
+long count_self_intersections(const ClothBvh& bvh, const loom::cloth::ClothMesh& mesh,
+                              const loom::cloth::Vec3s& x, int threads,
                               const volatile std::sig_atomic_t* stop, long& budget) {
-  // A non-owning shared_ptr: the tree lives only inside this call.
-  ClothBvh bvh(std::shared_ptr<const loom::cloth::ClothMesh>(&mesh, [](const loom::cloth::ClothMesh*) {}));
-  bvh.rebuild(x, x, 0.0, threads);
   const std::vector<std::pair<int, int>> tasks = bvh.self_pair_tasks(x, x, -1.0);
   const auto& t = mesh.triangles();
   return census_walk(

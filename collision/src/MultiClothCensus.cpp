@@ -22,11 +22,8 @@ std::shared_ptr<const loom::cloth::ClothMesh> borrow(const loom::cloth::ClothMes
 
 namespace {
 
-long count_between(const CensusInput& a, const CensusInput& b, int threads,
-                   const volatile std::sig_atomic_t* stop, long& budget) {
-  ClothBvh ta(borrow(a.mesh)), tb(borrow(b.mesh));
-  ta.rebuild(*a.x, *a.x, 0.0, threads);
-  tb.rebuild(*b.x, *b.x, 0.0, threads);
+long count_between(const ClothBvh& ta, const ClothBvh& tb, const CensusInput& a, const CensusInput& b,
+                   int threads, const volatile std::sig_atomic_t* stop, long& budget) {
   const std::vector<std::pair<int, int>> tasks = ta.cross_pair_tasks(tb);
   const auto& t0 = a.mesh->triangles();
   const auto& t1 = b.mesh->triangles();
@@ -45,11 +42,39 @@ long count_between(const CensusInput& a, const CensusInput& b, int threads,
       threads, stop, budget);
 }
 
+// One tree per cloth, built on its positions (boxes of the triangles, no thickness).
+std::vector<std::unique_ptr<ClothBvh>> build_trees(const std::vector<CensusInput>& cloths, int threads) {
+  std::vector<std::unique_ptr<ClothBvh>> trees;
+  for (const CensusInput& c : cloths) {
+    trees.push_back(std::make_unique<ClothBvh>(borrow(c.mesh)));
+    trees.back()->rebuild(*c.x, *c.x, 0.0, threads);
+  }
+  return trees;
+}
+
+// The pairs (i < j) of cloths whose root boxes overlap, sorted: a sweep along x, so many cloths apart cost
+// n log n, not a test per pair.
+std::vector<std::pair<int, int>> overlapping_cloths(const std::vector<std::unique_ptr<ClothBvh>>& trees) {
+  const int n = static_cast<int>(trees.size());
+  std::vector<Aabb> box(n);
+  std::vector<int> order(n);
+  for (int i = 0; i < n; ++i) box[i] = trees[i]->root_box(), order[i] = i;
+  std::sort(order.begin(), order.end(), [&](int a, int b) { return box[a].lo.x() < box[b].lo.x(); });
+  std::vector<std::pair<int, int>> out;
+  for (int k = 0; k < n; ++k)
+    for (int m = k + 1; m < n && box[order[m]].lo.x() <= box[order[k]].hi.x(); ++m)
+      if (box[order[k]].overlaps(box[order[m]]))
+        out.push_back({std::min(order[k], order[m]), std::max(order[k], order[m])});
+  std::sort(out.begin(), out.end());
+  return out;
+}
+
 }  // namespace
 
 long count_intersecting_pairs_between(const CensusInput& a, const CensusInput& b, int threads,
                                       const volatile std::sig_atomic_t* stop, long bound) {
-  const long n = count_between(a, b, threads, stop, bound);
+  const auto trees = build_trees({a, b}, threads);
+  const long n = count_between(*trees[0], *trees[1], a, b, threads, stop, bound);
   if (n == -2) throw CensusBoundExceeded(0, 1, bound);
   return n;
 }
@@ -57,14 +82,18 @@ long count_intersecting_pairs_between(const CensusInput& a, const CensusInput& b
 long count_all_intersections(const std::vector<CensusInput>& cloths, int threads,
                              const volatile std::sig_atomic_t* stop, long bound) {
   long count = 0, budget = bound;
-  for (size_t i = 0; i < cloths.size(); ++i) {
-    for (size_t j = i; j < cloths.size(); ++j) {
-      const long n = i == j ? count_self_intersections(*cloths[i].mesh, *cloths[i].x, threads, stop, budget)
-                            : count_between(cloths[i], cloths[j], threads, stop, budget);
-      if (n == -1) return -1;
-      if (n == -2) throw CensusBoundExceeded(static_cast<int>(i), static_cast<int>(j), bound);
-      count += n;
-    }
+  const auto trees = build_trees(cloths, threads);
+  std::vector<std::pair<int, int>> pairs;  // self (i, i) first, then the overlapping cloth pairs
+  for (int i = 0; i < static_cast<int>(cloths.size()); ++i) pairs.push_back({i, i});
+  for (const auto& p : overlapping_cloths(trees)) pairs.push_back(p);
+  for (const auto& [i, j] : pairs) {
+    if (stop && *stop) return -1;
+    const long n =
+        i == j ? count_self_intersections(*trees[i], *cloths[i].mesh, *cloths[i].x, threads, stop, budget)
+               : count_between(*trees[i], *trees[j], cloths[i], cloths[j], threads, stop, budget);
+    if (n == -1) return -1;
+    if (n == -2) throw CensusBoundExceeded(i, j, bound);
+    count += n;
   }
   return count;
 }
@@ -121,27 +150,24 @@ std::vector<IntersectingPair> intersecting_pairs(const std::vector<CensusInput>&
 }
 
 std::optional<PiledCloths> piled_cloths(const std::vector<CensusInput>& cloths, bool self, int threads) {
-  std::vector<std::unique_ptr<ClothBvh>> trees;
-  for (const CensusInput& c : cloths) {
-    trees.push_back(std::make_unique<ClothBvh>(borrow(c.mesh)));
-    trees.back()->rebuild(*c.x, *c.x, 0.0, threads);
-  }
-  for (size_t i = 0; i < cloths.size(); ++i) {
-    for (size_t j = self ? i : i + 1; j < cloths.size(); ++j) {
-      const long triangles = cloths[i].mesh->num_triangles() + (i == j ? 0 : cloths[j].mesh->num_triangles());
-      PiledCloths p{static_cast<int>(i), static_cast<int>(j), 0,
-                    std::max(kPiledPairsMin, kPiledPairsPerTriangle * triangles)};
-      const auto count = [&p](int, int) { return ++p.pairs <= p.bound; };
-      bool within = true;
-      if (i == j) {
-        for (const auto& task : trees[i]->self_pair_tasks(*cloths[i].x, *cloths[i].x, -1.0))
-          if (!(within = trees[i]->walk_self_task(task, /*skip_adjacent=*/true, count))) break;
-      } else {
-        for (const auto& task : trees[i]->cross_pair_tasks(*trees[j]))
-          if (!(within = trees[i]->walk_cross_task(*trees[j], task, count))) break;
-      }
-      if (!within) return p;
+  const auto trees = build_trees(cloths, threads);
+  std::vector<std::pair<int, int>> pairs;
+  if (self)
+    for (int i = 0; i < static_cast<int>(cloths.size()); ++i) pairs.push_back({i, i});
+  for (const auto& p : overlapping_cloths(trees)) pairs.push_back(p);
+  for (const auto& [i, j] : pairs) {
+    const long triangles = cloths[i].mesh->num_triangles() + (i == j ? 0 : cloths[j].mesh->num_triangles());
+    PiledCloths p{i, j, 0, std::max(kPiledPairsMin, kPiledPairsPerTriangle * triangles)};
+    const auto count = [&p](int, int) { return ++p.pairs <= p.bound; };
+    bool within = true;
+    if (i == j) {
+      for (const auto& task : trees[i]->self_pair_tasks(*cloths[i].x, *cloths[i].x, -1.0))
+        if (!(within = trees[i]->walk_self_task(task, /*skip_adjacent=*/true, count))) break;
+    } else {
+      for (const auto& task : trees[i]->cross_pair_tasks(*trees[j]))
+        if (!(within = trees[i]->walk_cross_task(*trees[j], task, count))) break;
     }
+    if (!within) return p;
   }
   return std::nullopt;
 }

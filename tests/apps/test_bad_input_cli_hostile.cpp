@@ -761,6 +761,35 @@ TEST(HostileEnv, AnEmptyScenesVariableIsUnset) {
   EXPECT_NE(summary["scene"].get<std::string>(), (dir / "character_layers.json").string());
 }
 
+// The scenes `bench realtime` reads from LOOM_SCENES must hold what each benchmark runs: a character
+// scene without a character, a toy box without bodies, or either with scene colliders (which the Bullet
+// twins do not see) is refused by file and field before the output folder is made (no signal).
+TEST(HostileEnv, BenchRealtimeScenesMustHoldWhatTheyBenchmark) {
+  const fs::path dir = test_dir(), scenes = dir / "scenes", out = dir / "out";
+  fs::create_directories(scenes);
+  const std::string sheet =
+      R"({"name": "s", "duration": 0.1, "cloths": [{"name": "c", "mesh": {"type": "grid", "size": [0.3, 0.3], )"
+      R"("nodes": [5, 5]}, "material": "cotton"}])";
+  struct Case {
+    std::string bench, file, text, field;
+  };
+  for (const Case& c :
+       {Case{"character", "character_layers_reference.json", sheet + "}", "character"},
+        Case{"toy_box", "toy_box.json", sheet + "}", "bodies"},
+        Case{"toy_box", "toy_box.json",
+             sheet + R"(, "bodies": [{"name": "b", "shape": "sphere", "radius": 0.05, "mass": 0.2, )"
+                     R"("position": [0, 1, 0]}], "colliders": [{"name": "k", "shape": "sphere", )"
+                     R"("radius": 0.1, "position": [0, -1, 0]}]})",
+             "colliders"}}) {
+    std::ofstream(scenes / c.file) << c.text;
+    const auto r = run_loom("bench realtime --quick --scenes " + c.bench + " --out " + out.string(),
+                            "LOOM_SCENES=" + scenes.string() + " ");
+    EXPECT_EQ(r.code, 1) << c.bench << " " << c.field << ": " << r.err;
+    EXPECT_NE(r.err.find(c.file + ": " + c.field + ": "), std::string::npos) << r.err;
+    EXPECT_FALSE(fs::exists(out)) << c.field;
+  }
+}
+
 // --render makes its video after the whole run: a frame rate the encoders cannot take (fps, or fps /
 // output.render.every, below 1 Hz) and a missing ffmpeg are refused before the run, by field, and the
 // output folder is never made.

@@ -47,6 +47,18 @@ std::set<std::string> registered_solvers(const fs::path& dir) {
   return names;
 }
 
+// Thread counts past the machine's are capped at its hardware threads with a warning (as loom run does), and
+// a count the cap makes twice runs once: the rows state the threads that ran.
+TEST(BenchAccuracy, ThreadsPastTheMachineAreCapped) {
+  const auto dir = loom::test::test_dir() / "thr";
+  const auto r = loom::test::run_loom(
+      "bench accuracy --quick --sizes 3 --methods verlet --threads 1,4096 --out " + dir.string());
+  ASSERT_EQ(r.code, 0) << r.err;
+  EXPECT_NE(r.err.find("--threads 4096 capped at the"), std::string::npos) << r.err;
+  const std::string csv = loom::test::slurp(dir / "accuracy.csv");
+  EXPECT_EQ(csv.find(",4096,"), std::string::npos) << csv;
+}
+
 }  // namespace
 
 TEST(BenchAccuracy, QuickRunWritesTheCsvWithEveryMethodAndTheReferenceCheck) {

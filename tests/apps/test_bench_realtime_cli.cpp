@@ -77,4 +77,16 @@ TEST(BenchRealtime, QuickRunWritesEveryTierAndBulletClassicForThreeScenes) {
 }
 
 }  // namespace
+// What the sheet and toy-box runs hold (the simulations and the frames kept for the errors) is checked
+// against the memory budget before the folder is made, by the option that sets it.
+TEST(BenchRealtime, TheSheetIsCountedBeforeTheFolderIsMade) {
+  const auto out = loom::test::test_dir() / "big";
+  const auto r = loom::test::run_loom("bench realtime --scenes sheet --sheet 512 --out " + out.string(),
+                                      "LOOM_MEMORY_LIMIT=200000000 ");
+  EXPECT_EQ(r.code, 1) << r.err;
+  EXPECT_NE(r.err.find("--sheet: --sheet 512 over 120 frames"), std::string::npos) << r.err;
+  EXPECT_NE(r.err.find("(set by LOOM_MEMORY_LIMIT) is available"), std::string::npos) << r.err;
+  EXPECT_FALSE(std::filesystem::exists(out));
+}
+
 }  // namespace loom::test

@@ -171,3 +171,27 @@ TEST(IntersectionCensus, PiledClothsAreFoundWithinAClothAndBetweenTwo) {
   EXPECT_EQ(two->cloth_b, 1);
   EXPECT_EQ(two->bound, 2 * 64L * mesh->num_triangles());
 }
+
+// The census over many cloths tests only the pairs of cloths whose boxes overlap (a sweep), with one tree per
+// cloth: its count equals the self census of each plus the census of every pair. 40 sheets in a row, every
+// other one upright, each crossing its neighbours.
+TEST(IntersectionCensus, ManyClothsCountAsEveryPairCounted) {
+  const auto mesh = sheet(7);
+  std::vector<Vec3s> x(40, mesh->rest_positions());
+  for (size_t k = 0; k < x.size(); ++k)
+    for (Vec3& p : x[k]) p = (k % 2 ? Vec3(p.x(), p.z(), 0.01 * k) : p) + Vec3(0.6 * k, 0.0, 0.0);
+  std::vector<lc::CensusInput> in;
+  for (const Vec3s& xk : x) in.push_back({mesh.get(), &xk});
+  long expect = 0, crossing_pairs = 0;
+  for (size_t i = 0; i < in.size(); ++i) {
+    expect += lc::count_intersecting_pairs(*mesh, x[i]);
+    for (size_t j = i + 1; j < in.size(); ++j) {
+      const long n = lc::count_intersecting_pairs_between(in[i], in[j]);
+      expect += n;
+      crossing_pairs += n > 0;
+    }
+  }
+  EXPECT_GT(crossing_pairs, 30);
+  EXPECT_EQ(lc::count_all_intersections(in), expect);
+  EXPECT_EQ(lc::count_all_intersections(in, 2), expect);
+}

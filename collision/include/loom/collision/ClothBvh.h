@@ -101,6 +101,8 @@ class ClothBvh {
   // Pairs (i in this tree, j in `other`) whose leaf boxes overlap, sorted: cloth-cloth candidates.
   std::vector<TrianglePair> cross_pairs(const ClothBvh& other) const;
 
+  // The root's box (every leaf box; an empty box for a mesh without triangles).
+  Aabb root_box() const { return nodes_.empty() ? Aabb{} : nodes_[0].box; }
   double surface_area_sum() const;  // m^2, over the internal nodes
   // Normal cone of a node (root = 0): unit axis and half-angle (rad, pi when none exists).
   std::pair<Vec3, double> cone(int node) const { return {nodes_[node].axis, nodes_[node].angle}; }
@@ -128,6 +130,9 @@ class ClothBvh {
   void self_recurse(int n, bool skip_adjacent, std::vector<TrianglePair>& out) const;
   void cross_recurse(int a, int b, bool skip_adjacent, std::vector<TrianglePair>& out) const;
   bool adjacent(int i, int j) const;
+  // The two child pairs of nodes a and b (not both leaves) in `out`: the internal one with more triangles
+  // (a on a tie) is split, as in cross_recurse.
+  static void split_pair(const Node& na, int a, const Node& nb, int b, std::vector<std::pair<int, int>>& out);
   void two_tree_recurse(int a, const ClothBvh& other, int b, std::vector<TrianglePair>& out) const;
 
   std::shared_ptr<const loom::cloth::ClothMesh> mesh_;
