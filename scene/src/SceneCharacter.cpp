@@ -154,21 +154,28 @@ void parse_character(const JsonReader& root, Scene& scene) {
         g.fail("length", "must be in [0.01, 100] m");
       if (spec.type == "cape" && g.has("width") && !(spec.width >= 0.01 && spec.width <= 100.0))
         g.fail("width", "must be in [0.01, 100] m");
+      if (spec.type == "skirt") {
+        spec.flare = g.number("flare", spec.flare, 0.0, true);
+        if (!(spec.flare >= 0.1 && spec.flare <= 10.0))
+          g.fail("flare", "must be in [0.1, 10] (hem over waist)");
+      }
       if (spec.type != "obj") {
         // Vertices of a generated garment, before it is made: its area over an equilateral triangle's
         // (sqrt(3)/4 r^2) per vertex pair. A garment is fitted around the body, so its area is bounded by
         // twice the square of the body's size (the diagonal of its joints' box in the first pose; a 2.5 m x
         // 2.5 m sheet at least), or by length x width when they say more: a huge `scale` makes a huge
         // garment, refused here rather than by the allocator.
-        const double area =
-            std::max({6.25, std::max(spec.length, 2.5) * std::max(spec.width, 2.5), 2.0 * body * body});
+        // A skirt is a frustum from the waist (radius at most a quarter of the figure, w) to a hem `flare`
+        // times as wide: lateral area pi (w + flare w) x slant, slant <= length + |flare - 1| w.
+        const double waist = 0.25 * body;
+        const double frustum = spec.type == "skirt"
+                                   ? M_PI * waist * (1.0 + spec.flare) *
+                                         (std::max(spec.length, 0.0) + std::abs(spec.flare - 1.0) * waist)
+                                   : 0.0;
+        const double area = std::max(
+            {6.25, std::max(spec.length, 2.5) * std::max(spec.width, 2.5), 2.0 * body * body, frustum});
         reserve_vertices(scene, g.child("resolution"),
                          2.0 * area / (std::sqrt(3.0) * spec.resolution * spec.resolution));
-      }
-      if (spec.type == "skirt") {
-        spec.flare = g.number("flare", spec.flare, 0.0, true);
-        if (!(spec.flare >= 0.1 && spec.flare <= 10.0))
-          g.fail("flare", "must be in [0.1, 10] (hem over waist)");
       }
       if (spec.type == "obj") {
         spec.path = input_file(scene, g.child("path"), g.string("path"));

@@ -200,6 +200,16 @@ std::function<Transform(double)> parse_motion(const JsonReader& m, const Transfo
     if (!(std::abs(rate) <= kMaxSpeed))
       s.fail("rate", "must be within +-" + std::to_string(static_cast<long>(kMaxSpeed)) + " rad/s");
     centre = s.point("centre", centre);
+    // The orbit about the centre stays within the coordinate bound (with what the velocity adds), and its
+    // surface moves no faster than a keyframed path may.
+    const double radius = (start.translation() - centre).norm();
+    if (!(centre.cwiseAbs().maxCoeff() + radius + velocity.norm() * duration <= kMaxCoordinate))
+      s.fail("centre", "puts the collider's orbit (radius " + show_number(radius) + " m) beyond +-" +
+                           kCoordinateLimit + " m within the scene's duration");
+    if (!(std::abs(rate) * radius <= kMaxSpeed))
+      s.fail("rate", "moves the collider at " + show_number(std::abs(rate) * radius) + " m/s about its centre " +
+                         show_number(radius) + " m away, above the " +
+                         std::to_string(static_cast<long>(kMaxSpeed)) + " m/s a collider may move");
     s.finish();
   }
   m.finish();

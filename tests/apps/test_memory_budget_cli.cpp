@@ -102,6 +102,29 @@ TEST(MemoryBudget, TheGltfTargetsAreCountedBeforeTheRun) {
   EXPECT_TRUE(fs::exists(test_dir() / "out" / "animation.gltf"));
 }
 
+// The vertex estimate of a generated garment is an upper bound of what is built: a skirt 100 m long with a
+// hem ten times its waist (a frustum 2.2 times the area of a cylinder) is estimated at no fewer vertices
+// than the run makes.
+TEST(MemoryBudget, AFlaredSkirtIsNotUnderestimated) {
+  const std::string sets =
+      " --set 'character.garments[0].length=100' --set 'character.garments[0].flare=10'"
+      " --set 'character.garments[0].resolution=0.2'";
+  const std::string scene = std::string(LOOM_SOURCE_DIR) + "/scenes/character_skirt.json";
+  const CliResult refused =
+      run_with("LOOM_MEMORY_LIMIT=30000000 ", "run " + scene + " --frames 1 --out o" + sets);
+  if (refused.err.find("no loom::characters") != std::string::npos) GTEST_SKIP() << "no loom::characters";
+  EXPECT_EQ(refused.code, 1) << refused.err;
+  const std::string about = "would have about ";
+  const size_t at = refused.err.find(about);
+  ASSERT_NE(at, std::string::npos) << refused.err;
+  const double estimate = std::stod(refused.err.substr(at + about.size()));
+  const CliResult ran = run_with("", "run " + scene + " --frames 1 --out o" + sets);
+  ASSERT_EQ(ran.code, 0) << ran.err;
+  std::ifstream in(test_dir() / "o" / "summary.json");
+  const nlohmann::json summary = nlohmann::json::parse(in);
+  EXPECT_GE(estimate, summary["vertices"].get<double>()) << refused.err;
+}
+
 // `loom body` and `loom fabric-test` at its default resolution go through the same check, before a file is
 // read or written.
 TEST(MemoryBudget, BodyAndDefaultFabricTestAreChecked) {
