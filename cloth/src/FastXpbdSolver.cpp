@@ -447,9 +447,14 @@ void FastXpbdSolver::step(Cloth& cloth, double t, double h, int threads) {
   const bool turn = framed_ && axes_ != Mat3::Identity();
   s.x_prev.resize(n);
   const bool with_lambda = iterations_ > 1;
-#pragma omp parallel num_threads(threads) if (threads > 1 && ns >= kMinParallelSprings)
-  {
-    const int team = omp_get_num_threads(), me = omp_get_thread_num();
+  // The step on thread `me` of `team`. A team of one runs without OpenMP: libgomp's barrier and the end of a
+  // parallel region wake waiting threads with a system call even when there are none, one per colour.
+  auto body = [&](int me, int team) {
+    auto sync = [team] {
+      if (team > 1) {
+#pragma omp barrier
+      }
+    };
     int b = 0, e = 0;
     if (with_lambda) {
       share(0, ns, me, team, &b, &e);
@@ -465,12 +470,12 @@ void FastXpbdSolver::step(Cloth& cloth, double t, double h, int threads) {
 #pragma omp atomic write
       stale = 1;
     }
-#pragma omp barrier
+    sync();
     if (stale) {
       share(0, ns, me, team, &b, &e);
       update_denominators(s, h, b, e);
       std::copy(s.inv_mass.begin() + vb, s.inv_mass.begin() + ve, inv_mass_.begin() + vb);
-#pragma omp barrier
+      sync();
     }
     for (int it = 0; it < iterations_; ++it)
       for (int c = 0; c < num_colors; ++c) {
@@ -479,12 +484,18 @@ void FastXpbdSolver::step(Cloth& cloth, double t, double h, int threads) {
           project_lambda(b, e);
         else
           project(b, e);
-#pragma omp barrier
+        sync();
       }
     if (turn)
       finish<true>(s, h, gravity_mass, g, vb, ve);
     else
       finish<false>(s, h, gravity_mass, g, vb, ve);
+  };
+  if (threads > 1 && ns >= kMinParallelSprings) {
+#pragma omp parallel num_threads(threads)
+    body(omp_get_thread_num(), omp_get_num_threads());
+  } else {
+    body(0, 1);
   }
   h_ = h;
   sweeps_ += iterations_;

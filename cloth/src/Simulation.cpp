@@ -441,8 +441,12 @@ template <class F>
 void stat_chunks(int n, int threads, std::vector<StatChunk>& chunks, const F& fill) {
   const int count = (n + kStatChunk - 1) / kStatChunk;
   chunks.assign(count, StatChunk());
-  const bool par = threads > 1 && n >= kParallelMinVertices;
-#pragma omp parallel for num_threads(threads) if (par) schedule(static)
+  // One thread runs without OpenMP (the end of a parallel region costs a system call even for one thread).
+  if (!(threads > 1 && n >= kParallelMinVertices)) {
+    for (int ch = 0; ch < count; ++ch) fill(ch * kStatChunk, std::min(n, (ch + 1) * kStatChunk), chunks[ch]);
+    return;
+  }
+#pragma omp parallel for num_threads(threads) schedule(static)
   for (int ch = 0; ch < count; ++ch) fill(ch * kStatChunk, std::min(n, (ch + 1) * kStatChunk), chunks[ch]);
 }
 }  // namespace

@@ -76,10 +76,18 @@ void StrainLimitStage::run(StageContext& ctx) {
     moved_.assign(s.size(), 0);
     corrections_ += limit_stretch(ctx.cloths[c]->mesh(), list, settings_.max_stretch, settings_.iterations,
                                   none, s, moved_);
-    for (int i = 0; i < s.size(); ++i)
-      if (moved_[i]) s.v[i] = (s.x[i] - s.x_prev[i]) / ctx.h;
+    // The sweeps stopped early (no vertex moved by the last allowed one, moved_ < iterations everywhere):
+    // the last sweep found every spring it tested within the limit and the others have not moved since
+    // theirs, so only springs between two kinematic vertices (never corrected) can be above it.
+    bool converged = true;
+    for (int i = 0; i < s.size(); ++i) {
+      if (!moved_[i]) continue;
+      s.v[i] = (s.x[i] - s.x_prev[i]) / ctx.h;
+      converged = converged && moved_[i] < settings_.iterations;
+    }
     for (int k : list) {
       const SpringDef& sp = springs[k];
+      if (converged && s.inv_mass[sp.i] + s.inv_mass[sp.j] != 0.0) continue;
       const double l_max = stretch * sp.rest_length * (1.0 + 1e-9);
       const double l2 = (s.x[sp.j] - s.x[sp.i]).squaredNorm();
       if (l2 >= kSkip * l_max * l_max && std::sqrt(l2) > l_max) ++remaining_;

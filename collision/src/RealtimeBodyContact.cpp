@@ -3,6 +3,9 @@
 #include <algorithm>
 #include <cmath>
 #include <limits>
+#ifdef __SSE2__
+#include <emmintrin.h>
+#endif
 
 #include "GridCell.h"
 #include "loom/collision/ColliderDistance.h"
@@ -295,6 +298,8 @@ RealtimeBodyContactStage::ColliderGrid RealtimeBodyContactStage::build_grid(cons
       for (int c = 0; c < num_cells; ++c) grid_start_[c + 1] += grid_start_[c];
       grid_items_.resize(grid_start_[num_cells]);
       grid_fill_.assign(grid_start_.begin(), grid_start_.end() - 1);
+      for (int a = 0; a < 3; ++a)
+        grid_lo_[a].resize(grid_start_[num_cells] + 2), grid_hi_[a].resize(grid_start_[num_cells] + 2);
     }
     for (int k : active_) {
       const Prepared& pc = prepared_[k];
@@ -303,10 +308,13 @@ RealtimeBodyContactStage::ColliderGrid RealtimeBodyContactStage::build_grid(cons
         for (int y = g.cell_of(blo, 1); y <= g.cell_of(bhi, 1); ++y)
           for (int x = g.cell_of(blo, 0); x <= g.cell_of(bhi, 0); ++x) {
             const int c = (z * dims[1] + y) * dims[0] + x;
-            if (pass == 0)
+            if (pass == 0) {
               ++grid_start_[c + 1];
-            else
-              grid_items_[grid_fill_[c]++] = k;
+            } else {
+              const int slot = grid_fill_[c]++;
+              grid_items_[slot] = k;
+              for (int a = 0; a < 3; ++a) grid_lo_[a][slot] = pc.lo[a], grid_hi_[a][slot] = pc.hi[a];
+            }
           }
     }
   }
@@ -321,14 +329,37 @@ int RealtimeBodyContactStage::gather_candidates(const ColliderGrid& grid, const 
   // from all active colliders.
   int nc = 0;
   const Vec3 lo = x.cwiseMin(x0), hi = x.cwiseMax(x0);
-  auto add = [&](int k) {
-    const Prepared& pc = prepared_[k];
-    if (nc < kMaxCandidates && (lo.array() <= pc.hi.array()).all() && (pc.lo.array() <= hi.array()).all() &&
-        std::find(cand, cand + nc, k) == cand + nc)
-      cand[nc++] = k;
+  // The collider k whose box meets the path's box [lo, hi] (tested by the caller) unless listed; `fresh`: no
+  // collider added yet and the entries from one cell (each collider once), so none is listed.
+  auto add = [&](int k, bool fresh) {
+    if (nc < kMaxCandidates && (fresh || std::find(cand, cand + nc, k) == cand + nc)) cand[nc++] = k;
   };
+  // The entries of cell c, in order, whose box meets [lo, hi]: lo <= box hi and box lo <= hi on every axis
+  // (false for NaN, as the comparisons of Eigen arrays), two entries at a time.
   auto add_cell = [&](int c) {
-    for (int it = grid_start_[c]; it < grid_start_[c + 1]; ++it) add(grid_items_[it]);
+    const bool fresh = nc == 0;
+    const int begin = grid_start_[c], end = grid_start_[c + 1];
+#ifdef __SSE2__
+    const __m128d lx = _mm_set1_pd(lo.x()), ly = _mm_set1_pd(lo.y()), lz = _mm_set1_pd(lo.z());
+    const __m128d hx = _mm_set1_pd(hi.x()), hy = _mm_set1_pd(hi.y()), hz = _mm_set1_pd(hi.z());
+    for (int it = begin; it < end; it += 2) {
+      __m128d m = _mm_and_pd(_mm_cmple_pd(lx, _mm_loadu_pd(&grid_hi_[0][it])),
+                             _mm_cmple_pd(_mm_loadu_pd(&grid_lo_[0][it]), hx));
+      m = _mm_and_pd(m, _mm_and_pd(_mm_cmple_pd(ly, _mm_loadu_pd(&grid_hi_[1][it])),
+                                   _mm_cmple_pd(_mm_loadu_pd(&grid_lo_[1][it]), hy)));
+      m = _mm_and_pd(m, _mm_and_pd(_mm_cmple_pd(lz, _mm_loadu_pd(&grid_hi_[2][it])),
+                                   _mm_cmple_pd(_mm_loadu_pd(&grid_lo_[2][it]), hz)));
+      unsigned bits = static_cast<unsigned>(_mm_movemask_pd(m));
+      if (end - it < 2) bits &= 1u;
+      if (bits & 1u) add(grid_items_[it], fresh);
+      if (bits & 2u) add(grid_items_[it + 1], fresh);
+    }
+#else
+    for (int it = begin; it < end; ++it)
+      if (lo.x() <= grid_hi_[0][it] && grid_lo_[0][it] <= hi.x() && lo.y() <= grid_hi_[1][it] &&
+          grid_lo_[1][it] <= hi.y() && lo.z() <= grid_hi_[2][it] && grid_lo_[2][it] <= hi.z())
+        add(grid_items_[it], fresh);
+#endif
   };
   int first[3], last[3];
   long cells = 1;
@@ -337,7 +368,10 @@ int RealtimeBodyContactStage::gather_candidates(const ColliderGrid& grid, const 
     cells *= last[a] - first[a] + 1;
   }
   if (cells > 8) {
-    for (int k : active_) add(k);
+    for (int k : active_) {  // each collider once
+      const Prepared& pc = prepared_[k];
+      if ((lo.array() <= pc.hi.array()).all() && (pc.lo.array() <= hi.array()).all()) add(k, true);
+    }
     return nc;
   }
   const int c1 = grid.cell_index(x), c0 = grid.cell_index(x0);

@@ -307,16 +307,18 @@ void RealtimeSelfCollisionStage::broad_phase() {
     }
     for (int k = 0; k < 3; ++k)
       r[k] = grid_.axis(tri_lo_[q][k] - base, k), r[k + 3] = grid_.axis(tri_hi_[q][k] + base, k);
+    const char* const occupied = occupied_.data();
+    int* const counts = bucket_start_.data();
     for (int z = r[2]; z <= r[5]; ++z)
       for (int y = r[1]; y <= r[4]; ++y) {
         const int row = grid_.index(0, y, z);
-        for (int x = r[0]; x <= r[3]; ++x)
-          if (occupied_[row + x]) {
-            if (entries == static_cast<long>(entry_cell_.size()))
-              entry_cell_.resize(2 * entries + 1024), entry_tri_.resize(2 * entries + 1024);
-            ++bucket_start_[row + x + 1];
-            entry_cell_[entries] = row + x, entry_tri_[entries] = q, ++entries;
-          }
+        for (int x = r[0]; x <= r[3]; ++x) {
+          if (!occupied[row + x]) continue;
+          if (entries == static_cast<long>(entry_cell_.size()))
+            entry_cell_.resize(2 * entries + 1024), entry_tri_.resize(2 * entries + 1024);
+          ++counts[row + x + 1];
+          entry_cell_[entries] = row + x, entry_tri_[entries] = q, ++entries;
+        }
       }
   }
   large_boxes_ += static_cast<long>(large_.size());
@@ -380,16 +382,24 @@ void RealtimeSelfCollisionStage::broad_phase() {
       std::sort(hit_.begin(), hit_.begin() + nh);
       nh = static_cast<int>(std::unique(hit_.begin(), hit_.begin() + nh) - hit_.begin());
     }
-    const auto rest_begin = rest_tri_.begin() + rest_start_[g],
-               rest_end = rest_tri_.begin() + rest_start_[g + 1];
+    // The hits and g's rest neighbours (rest_tri_) are both in ascending order: one merge walk.
+    const int* rest = rest_tri_.data() + rest_start_[g];
+    const int* const rest_end = rest_tri_.data() + rest_start_[g + 1];
+    const int* const hits = hit_.data();
+    const std::array<int, 3>* const tris = tri_.data();
+    const int* const tri_cloth = tri_cloth_.data();
+    const int cloth_g = vert_cloth_[g];
+    const bool self = settings_.self;
     for (int k = 0; k < nh; ++k) {
-      const int q = hit_[k];
-      const auto& tri = tri_[q];
+      const int q = hits[k];
+      const auto& tri = tris[q];
       if (tri[0] == g || tri[1] == g || tri[2] == g) continue;
-      const bool same = tri_cloth_[q] == vert_cloth_[g];
-      if (same && !settings_.self) continue;
-      if (same && std::find(rest_begin, rest_end, q) != rest_end)
-        continue;  // neighbours on the rest shape are not contacts
+      const bool same = tri_cloth[q] == cloth_g;
+      if (same && !self) continue;
+      if (same) {
+        while (rest != rest_end && *rest < q) ++rest;
+        if (rest != rest_end && *rest == q) continue;  // neighbours on the rest shape are not contacts
+      }
       cand_.emplace_back(g, q);
     }
   }
@@ -451,8 +461,10 @@ void RealtimeSelfCollisionStage::run(cloth::StageContext& ctx) {
     tri_n_[q] = len > 1e-20 ? Vec3(nq / len) : Vec3::Zero();
   }
   // Step 2: the candidates in (vertex, triangle) order whose vertex lay in the box at the run's start.
+  const FloatPoint* const start = start_.data();
+  const FloatBox* const boxes = run_boxes_.data();
   for (const auto& [g, q] : cand_) {
-    if (!in_box(start_[g].p, run_boxes_[q].lo, run_boxes_[q].hi)) continue;
+    if (!in_box(start[g].p, boxes[q].lo, boxes[q].hi)) continue;
     Vec3& p = *xs[g];
     const auto& tri = tri_[q];
     const bool same = tri_cloth_[q] == vert_cloth_[g];

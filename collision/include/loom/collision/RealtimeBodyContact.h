@@ -120,6 +120,9 @@ class RealtimeBodyContactStage final : public cloth::Stage {
   std::vector<int> visit_;   // scratch: the vertices of a cloth this run visits
   std::vector<int> grid_start_, grid_items_,
       grid_fill_;  // scratch: the per-step collider grid (counting sort)
+  // scratch: per grid entry its collider's box [lo, hi], one array per axis (tested two at a time); 2 spare
+  // entries at the end
+  std::vector<double> grid_lo_[3], grid_hi_[3];
   const RealtimeBodyContactStage* earlier_ = nullptr;
   std::vector<cloth::Vec3s> after_;          // per cloth: positions at the end of this stage's last run (NaN:
                                              // a vertex its passes did not settle)
