@@ -13,14 +13,15 @@
 // world), cpu_ms_per_frame (process CPU time; the twin's includes building its world), cloth_ms_per_frame
 // (system 0: the cloth pipeline alone, wall).
 //
-// BM_ClothOverFloor: a 33 x 33 cloth (1.2 m, implicit Euler, BulletClothSettings' setup tier: the bridge's
-// vertex + edge contacts), 60 Bullet steps after a 60-step settle; floor 0: none, 1: btStaticPlaneShape,
-// 2: a 200 m btBoxShape, top at y = 0 both. place 0: tied at its four corners 1.5 m above the floor (out of
-// reach: the plane, infinite, is still a broad-phase candidate); place 1: free, released flat 5 mm above the
-// floor (resting on it; with no floor it falls freely). The ratio floor / no floor in one run is what a
-// large static shape costs. Counters: cpu_ms_per_step, cloth_steps_per_step, contact_ms_per_step and
-// contacts_per_step (the bridge's ContactStage). Built twice from this file (BM_ToyBox only in the float
-// one): loom_bench_bullet_cloth (float Bullet), loom_bench_bullet_cloth_double.
+// BM_ClothOverFloor: a 33 x 33 cloth (1.2 m, implicit Euler, BulletClothSettings' setup tier: its default
+// feature contacts, collision/FeatureContact.h), 60 Bullet steps after a 60-step settle; floor 0: none, 1:
+// btStaticPlaneShape, 2: a 200 m btBoxShape, top at y = 0 both. place 0: tied at its four corners 1.5 m above
+// the floor (out of reach: the plane, infinite, is still a broad-phase candidate); place 1: free, released
+// flat 5 mm above the floor (resting on it; with no floor it falls freely). The ratio floor / no floor in one
+// run is what a large static shape costs. Counters: cpu_ms_per_step, cloth_steps_per_step,
+// contact_ms_per_step and contacts_per_step (FeatureContactStage's vertex contacts). Built twice from this
+// file (BM_ToyBox only in the float one): loom_bench_bullet_cloth (float Bullet),
+// loom_bench_bullet_cloth_double.
 #include <benchmark/benchmark.h>
 #include <btBulletDynamicsCommon.h>
 #include <time.h>
@@ -43,7 +44,7 @@
 
 namespace {
 
-// The bridge's setup tier (the sheet's own implicit Euler, vertex contacts), the one these figures measure.
+// The bridge's setup tier (the sheet's own implicit Euler, feature contacts), the one these figures measure.
 loom::bullet::BulletClothSettings setup_tier() {
   loom::bullet::BulletClothSettings s;
   s.tier = loom::bullet::BulletClothSettings::Tier::setup;
@@ -135,13 +136,13 @@ BENCHMARK(BM_BulletStep)
     ->Unit(benchmark::kMillisecond)
     ->MeasureProcessCPUTime();
 
-// The bridge's contact stage: (ms, contacts) summed since the cloth was made.
+// The setup tier's contact stage: (ms, vertex contacts) summed since the cloth was made.
 std::pair<double, double> contact_stage(const loom::bullet::BulletCloth& cloth) {
   for (const loom::cloth::StageProfile& p : cloth.simulation().profile()) {
-    if (p.name != "bullet_contacts") continue;
+    if (p.name != "feature_contact") continue;
     double n = 0.0;
     for (const auto& c : p.counters)
-      if (c.first == "contacts") n = c.second;
+      if (c.first == "vertex_contacts") n = c.second;
     return {p.total_ms, n};
   }
   return {0.0, 0.0};

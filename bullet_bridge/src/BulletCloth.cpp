@@ -7,7 +7,6 @@
 
 #include "BodyCoupling.h"
 #include "BulletConvert.h"
-#include "ContactStage.h"
 #include "loom/cloth/Error.h"
 #include "loom/collision/BodyCollisionStage.h"
 #include "loom/collision/ColliderGeometry.h"
@@ -232,18 +231,16 @@ BulletCloth::BulletCloth(cloth::SimulationSetup setup, const BulletClothSettings
     auto body = std::make_unique<collision::BodyCollisionStage>(colliders_, bs);
     body_ = body.get();
     sim_->add_stage(std::move(body), cloth::Simulation::Slot::after_solve);
-  } else if (settings.contacts == BulletClothSettings::Contacts::features) {
+  } else {
+    // Contacts::features, or Contacts::vertex: the same stage without its face phase.
     collision::FeatureContactSettings fs;
     fs.thickness = thickness;
     fs.friction = settings.friction;
     fs.static_friction = std::max(settings.friction, settings.static_friction);
+    fs.faces = settings.contacts != BulletClothSettings::Contacts::vertex;
     auto features = std::make_unique<collision::FeatureContactStage>(colliders_, fs);
     features_ = features.get();
     sim_->add_stage(std::move(features), cloth::Simulation::Slot::after_solve);
-  } else {
-    auto contacts = std::make_unique<ContactStage>(colliders_, thickness, settings.edge_contacts);
-    contacts_ = contacts.get();
-    sim_->add_stage(std::move(contacts), cloth::Simulation::Slot::after_solve);
   }
   thickness_ = thickness;
   sim_->add_stage(std::make_unique<ReactionStage>(*this, *attach_ptr), cloth::Simulation::Slot::after_solve);
@@ -351,7 +348,6 @@ void BulletCloth::updateAction(btCollisionWorld* world, btScalar dt_bt) {
   last_stats_ = sim_->step_frame();
   if (sim_->interrupted()) return;  // back at this substep's start: no reaction from an abandoned step
   pen = coupling_   ? coupling_->last_penetration()
-        : contacts_ ? contacts_->last_penetration()
         : features_ ? features_->last_penetration()
                     : std::max(0.0, body_->max_deficit() - thickness_);
   apply_coupled_solve(coupled);

@@ -6,6 +6,7 @@
 #include <utility>
 
 #include "GridCell.h"
+#include "loom/cloth/Error.h"
 #include "loom/collision/ColliderDistance.h"
 #include "loom/collision/ColliderGeometry.h"
 #include "loom/collision/SweptCollider.h"
@@ -146,7 +147,10 @@ struct FeatureContactStage::Grid {
 };
 
 FeatureContactStage::FeatureContactStage(ColliderSetPtr colliders, FeatureContactSettings settings)
-    : colliders_(std::move(colliders)), settings_(settings), grid_(std::make_unique<Grid>()) {}
+    : colliders_(std::move(colliders)), settings_(settings), grid_(std::make_unique<Grid>()) {
+  if (!(settings_.face_slack >= 0.0 && settings_.face_slack < 1.0))
+    throw Error("", "feature_contact.face_slack", "must be in [0, 1)");
+}
 
 FeatureContactStage::~FeatureContactStage() = default;
 
@@ -166,10 +170,17 @@ void FeatureContactStage::run(cloth::StageContext& ctx) {
       prepare_collider(c);
     features_[k] = settings_.faces ? collider_features(c) : ColliderFeatures{};
   }
+  if (!settings_.vertices &&
+      std::all_of(features_.begin(), features_.end(), [](const ColliderFeatures& f) { return f.a.empty(); }))
+    return;  // face phase alone and no collider with features (planes, meshes)
   for (auto& cl : ctx.cloths) run_cloth(*cl, ctx.h);
 }
 
 namespace {
+
+// Largest displacement of a triangle's vertex per unit of the depth it corrects (face phase): at most 3 for
+// free vertices of equal mass, larger only when the point lies by held ones.
+constexpr double kMaxLever = 4.0;
 
 // Velocity response of a contact point with normal N (unit, from the body to the cloth): removes the
 // approaching part of rel (the point's velocity relative to the body's) and applies Coulomb friction
@@ -284,7 +295,7 @@ void FeatureContactStage::run_cloth(cloth::Cloth& cloth, double h) {
 
     for (int iter = 0; iter < std::max(1, settings_.iterations); ++iter) {
       // 1. Vertices.
-      push_vertices(s, pass, h, iter == 0 && have_prev);
+      if (settings_.vertices) push_vertices(s, pass, h, iter == 0 && have_prev);
       // 2. Collider features against cloth triangles.
       push_triangles(s, mesh, pass, f, h, have_prev);
     }
@@ -298,12 +309,14 @@ void FeatureContactStage::gather_candidates(const cloth::ClothState& s, size_t k
   cand_v_.clear();
   cand_t_.clear();
   if (pass.plane) {
-    for (int i = 0; i < s.size(); ++i) cand_v_.push_back(i);
+    if (settings_.vertices)
+      for (int i = 0; i < s.size(); ++i) cand_v_.push_back(i);
   } else {
-    grid.query(blo, bhi, grid.vert_start, grid.verts, [&](int i) {
-      const Vec3& x = s.x[i];
-      if ((x.array() >= blo.array()).all() && (x.array() <= bhi.array()).all()) cand_v_.push_back(i);
-    });
+    if (settings_.vertices)
+      grid.query(blo, bhi, grid.vert_start, grid.verts, [&](int i) {
+        const Vec3& x = s.x[i];
+        if ((x.array() >= blo.array()).all() && (x.array() <= bhi.array()).all()) cand_v_.push_back(i);
+      });
     if (!features_[k].a.empty()) {
       const Vec3 r = Vec3::Constant(grid.tri_reach + features_[k].radius);
       grid.query(blo - r, bhi + r, grid.tri_start, grid.tris, [&](int t) { cand_t_.push_back(t); });
@@ -360,6 +373,7 @@ void FeatureContactStage::push_triangles(cloth::ClothState& s, const cloth::Clot
     if (!(n_len > 1e-14)) continue;
     n /= n_len;
     const double reach = f.radius + thick;
+    const double slack = settings_.face_slack * thick;  // m
     for (int e = 0; e < nf; ++e) {
       const Vec3 &A = fa_[e], &B = fb_[e];
       const double sA = (A - a).dot(n), sB = (B - a).dot(n);
@@ -382,7 +396,7 @@ void FeatureContactStage::push_triangles(cloth::ClothState& s, const cloth::Clot
       const double h0 = side * (sA + u0 * (sB - sA)), h1 = side * (sA + u1 * (sB - sA));
       const double u = h0 <= h1 ? u0 : u1;
       const double depth = reach - std::min(h0, h1);
-      if (!(depth > 0.0)) continue;
+      if (!(depth > slack)) continue;
       const Vec3 p = A + u * (B - A);
       // Barycentric weights of p's projection.
       const Vec3 q = p - (p - a).dot(n) * n;
@@ -393,6 +407,22 @@ void FeatureContactStage::push_triangles(cloth::ClothState& s, const cloth::Clot
       const double bc = 1.0 - ba - bb;
       const double inv_w = wa * ba * ba + wb * bb * bb + wc * bc * bc;
       if (!(inv_w > 0.0)) continue;
+      // Vertex j moves by w_j b_j / inv_w times the depth. A point by held vertices (pins, attachments: a
+      // cloth attached to this body) would fling its free vertices; there the held ones carry the contact.
+      if (std::max({wa * ba, wb * bb, wc * bc}) > kMaxLever * inv_w) continue;
+      // A held vertex of the triangle within the reach of this feature (a cloth attached to the body's
+      // surface): the attachment holds the triangle there, a push would only stretch it.
+      {
+        bool held_here = false;
+        const Vec3 ab = B - A;
+        const double ab2 = ab.squaredNorm();
+        for (int j : {ia, ib, ic}) {
+          if (s.inv_mass[j] != 0.0) continue;
+          const double tj = ab2 > 0.0 ? std::clamp((s.x[j] - A).dot(ab) / ab2, 0.0, 1.0) : 0.0;
+          held_here |= (s.x[j] - (A + tj * ab)).norm() < reach;
+        }
+        if (held_here) continue;
+      }
       ++face_contacts_;
       last_penetration_ = std::max(last_penetration_, depth - thick);
       const Vec3 N = -side * n;  // from the body to the cloth

@@ -84,6 +84,16 @@ RealtimeBodyContactStage::RealtimeBodyContactStage(ColliderSetPtr colliders, Rea
     : colliders_(std::move(colliders)), settings_(settings) {
   if (!colliders_) colliders_ = std::make_shared<ColliderSet>();
   settings_.passes = std::max(1, settings_.passes);
+  if (settings_.faces && !settings_.positions_only) {
+    FeatureContactSettings fs;
+    fs.thickness = settings_.thickness;
+    if (settings_.friction >= 0.0) fs.friction = settings_.friction;
+    if (settings_.static_friction >= 0.0) fs.static_friction = settings_.static_friction;
+    fs.iterations = 1;    // the vertex projection follows
+    fs.face_slack = 0.5;  // a garment wrapped round a capsule stays with the vertex projection
+    fs.vertices = false;
+    faces_ = std::make_unique<FeatureContactStage>(colliders_, fs);
+  }
 }
 
 double RealtimeBodyContactStage::thickness(const Collider& c, double material_thickness) const {
@@ -97,6 +107,11 @@ std::vector<std::pair<std::string, double>> RealtimeBodyContactStage::counters()
                                                      {"ccd_tests", static_cast<double>(ccd_tests_)},
                                                      {"ccd_hits", static_cast<double>(ccd_hits_)},
                                                      {"unresolved", static_cast<double>(unresolved_)}};
+  double face_contacts = 0.0;
+  if (faces_)
+    for (const auto& [name, value] : faces_->counters())
+      if (name == "face_contacts") face_contacts = value;
+  out.emplace_back("face_contacts", face_contacts);
   if (limits_strain()) out.emplace_back("strain_corrections", static_cast<double>(strain_corrections_));
   return out;
 }
@@ -106,6 +121,7 @@ void RealtimeBodyContactStage::run(cloth::StageContext& ctx) {
     if (c.motion) c.prev = c.motion(ctx.t), c.curr = c.motion(ctx.t + ctx.h);
     if (c.shape.type == ShapeType::convex || c.shape.type == ShapeType::mesh) prepare_collider(c);
   }
+  if (faces_) faces_->run(ctx);  // step 0: collider features against cloth triangles
   prepare_poses(*colliders_);
   const size_t nc = ctx.cloths.size();
   for (size_t c = 0; c < nc; ++c) {

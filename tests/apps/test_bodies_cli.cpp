@@ -67,7 +67,7 @@ TEST(BodiesCli, TrampolineBoxBouncesBack) {
   EXPECT_EQ(s["quality"], "reference");
   EXPECT_EQ(s["bullet_tier"], "setup");
   EXPECT_EQ(s["solver"], "implicit_euler");
-  EXPECT_TRUE(s["stages"].contains("bullet_contacts"));
+  EXPECT_TRUE(s["stages"].contains("feature_contact"));
   EXPECT_FALSE(s["stages"].contains("body_coupling"));
   // The usual outputs: stats rows for frames 0..50, OBJ frames.
   std::istringstream stats(slurp(dir / "stats.csv"));
@@ -94,7 +94,7 @@ TEST(BodiesCli, QualityPicksTheBridgeTier) {
   EXPECT_EQ(s["bullet_tier"], "coupled");
   EXPECT_EQ(s["solver"], "xpbd");
   EXPECT_TRUE(s["stages"].contains("body_coupling"));
-  EXPECT_FALSE(s["stages"].contains("bullet_contacts"));
+  EXPECT_FALSE(s["stages"].contains("feature_contact"));
   s = summary("--set quality=balanced --set 'solver={}'", "balanced");
   EXPECT_EQ(s["bullet_tier"], "coupled");
   EXPECT_TRUE(s["stages"].contains("body_coupling"));
@@ -102,7 +102,7 @@ TEST(BodiesCli, QualityPicksTheBridgeTier) {
   EXPECT_EQ(s["quality"], "realtime");
   EXPECT_EQ(s["bullet_tier"], "setup");
   EXPECT_EQ(s["solver"], "implicit_euler");
-  EXPECT_TRUE(s["stages"].contains("bullet_contacts"));
+  EXPECT_TRUE(s["stages"].contains("feature_contact"));
   const CliResult bad =
       run_loom("run " + scene + " --frames 1 --set quality=fast --out " + (test_dir() / "bad").string());
   EXPECT_EQ(bad.code, 1);

@@ -19,7 +19,7 @@ using cloth::Vec3;
 inline btVector3 bt(const Vec3& v) { return btVector3(btScalar(v.x()), btScalar(v.y()), btScalar(v.z())); }
 inline Vec3 eig(const btVector3& v) { return Vec3(v.x(), v.y(), v.z()); }
 
-// The bridge's setup tier (the SimulationSetup's own solver, vertex contacts, reactions after the step), for
+// The bridge's setup tier (the SimulationSetup's own solver, feature contacts, reactions after the step), for
 // the tests that validate it; BulletClothSettings' default is the real-time (coupled) tier.
 inline bullet::BulletClothSettings setup_tier() {
   bullet::BulletClothSettings s;

@@ -2,7 +2,11 @@
 // triangles, and the two-way coupling's momentum balance with them.
 #include <gtest/gtest.h>
 
+#include <algorithm>
 #include <cmath>
+#include <cstdlib>
+#include <string>
+#include <vector>
 
 #include "BulletTestWorld.h"
 #include "loom/collision/FeatureContact.h"
@@ -26,10 +30,19 @@ Vec3 momentum(const bullet::BulletCloth& c) {
   return p;
 }
 
-// A 6 cm box falls corner-first onto the middle of one triangle of a coarse sheet (3 x 3 nodes, 0.3 m legs,
-// pinned at its corners): every cloth vertex stays far outside the box, so only the corner against the
-// triangle can hold it. Returns the box centre's lowest height over the run (m).
-double corner_first_drop(bullet::BulletClothSettings::Contacts contacts, double* cloth_min_y) {
+enum class Body { box_corner, capsule_end };
+
+struct DropRun {
+  double lowest = HUGE_VAL;  // m, the body centre's lowest height over the run
+  int frames_under = 0;      // frames ending with the body's centre under the cloth (ray_test)
+};
+
+// A small body falls at 1 m/s onto the middle of one triangle of a coarse sheet (3 x 3 nodes, 0.3 m legs,
+// pinned at its corners): a 6 cm box corner-first, or a capsule (2 cm radius, 12 cm long) end-first. Every
+// cloth vertex stays far outside the body, so only the body's corner or end against the triangle can hold
+// it. After every frame the body's centre must be over the cloth: a ray from it straight down meets the
+// cloth and one straight up does not (bullet::BulletCloth::ray_test).
+DropRun drop_on_triangle(Body body, const bullet::BulletClothSettings& s) {
   TestWorld w;
   cloth::SimulationSetup setup = sheet(3, 0.6, Vec3(-0.3, 1.0, -0.3));
   for (int v : {0, 2, 6, 8}) {
@@ -41,44 +54,107 @@ double corner_first_drop(bullet::BulletClothSettings::Contacts contacts, double*
   const cloth::Tri& t = mesh.triangles()[0];
   const Vec3 centroid =
       (mesh.rest_positions()[t[0]] + mesh.rest_positions()[t[1]] + mesh.rest_positions()[t[2]]) / 3.0;
-  // Corner down: the diagonal (1, 1, 1) turned onto -y.
-  btBoxShape* shape = new btBoxShape(btVector3(0.03, 0.03, 0.03));
-  btRigidBody* box = w.add_body(shape, 0.5, centroid + Vec3(0, 0.12, 0));
-  btTransform tf = box->getWorldTransform();
-  const Eigen::Quaterniond q = Eigen::Quaterniond::FromTwoVectors(Vec3(1, 1, 1).normalized(), Vec3(0, -1, 0));
-  tf.setRotation(btQuaternion(q.x(), q.y(), q.z(), q.w()));
-  box->setWorldTransform(tf);
-  box->getMotionState()->setWorldTransform(tf);
-  box->setLinearVelocity(btVector3(0, -1, 0));
-  bullet::BulletClothSettings s = feature_settings(2);
-  s.contacts = contacts;
+  btRigidBody* rb = nullptr;
+  if (body == Body::box_corner) {
+    rb = w.add_body(new btBoxShape(btVector3(0.03, 0.03, 0.03)), 0.5, centroid + Vec3(0, 0.12, 0));
+    // Corner down: the diagonal (1, 1, 1) turned onto -y.
+    btTransform tf = rb->getWorldTransform();
+    const Eigen::Quaterniond q =
+        Eigen::Quaterniond::FromTwoVectors(Vec3(1, 1, 1).normalized(), Vec3(0, -1, 0));
+    tf.setRotation(btQuaternion(q.x(), q.y(), q.z(), q.w()));
+    rb->setWorldTransform(tf);
+    rb->getMotionState()->setWorldTransform(tf);
+  } else {
+    // Axis along y: the lower hemisphere's pole 6 cm under the centre.
+    rb = w.add_body(new btCapsuleShape(0.02, 0.08), 0.3, centroid + Vec3(0, 0.12, 0));
+  }
+  rb->setLinearVelocity(btVector3(0, -1, 0));
   bullet::BulletCloth* c = w.add_cloth(setup, s);
-  double lowest = HUGE_VAL;
-  *cloth_min_y = HUGE_VAL;
+  DropRun r;
   for (int f = 0; f < 90; ++f) {
     w.frame();
-    lowest = std::min(lowest, double(box->getCenterOfMassPosition().y()));
-    for (const Vec3& x : c->simulation().cloths()[0]->state().x) *cloth_min_y = std::min(*cloth_min_y, x.y());
+    const Vec3 x = eig(rb->getCenterOfMassPosition());
+    r.lowest = std::min(r.lowest, x.y());
+    const bool over = c->ray_test(x, x - Vec3(0, 10, 0)).hit && !c->ray_test(x, x + Vec3(0, 10, 0)).hit;
+    if (!over) ++r.frames_under;
   }
-  return lowest;
+  if (std::getenv("LOOM_DIAG"))
+    for (const cloth::StageProfile& p : c->simulation().profile()) {
+      std::printf("  %-28s", p.name.c_str());
+      for (const auto& [k, v] : p.counters) std::printf(" %s=%.0f", k.c_str(), v);
+      std::printf("\n");
+    }
+  return r;
 }
 
-TEST(FeatureContact, CornerFirstBoxStaysOnTriangle) {
-  double cloth_low = 0.0;
-  const double lowest = corner_first_drop(bullet::BulletClothSettings::Contacts::features, &cloth_low);
-  std::printf("features: box centre lowest %.4f m, cloth lowest %.4f m\n", lowest, cloth_low);
-  // The corner (0.052 m below the centre) rests on the sagging triangle: the centre stays above the
-  // cloth's lowest point by at least the corner's depth.
-  EXPECT_GT(lowest, cloth_low + 0.04);
-  EXPECT_GT(lowest, 0.5);  // held by the sheet, not fallen through it
+bullet::BulletClothSettings drop_settings(bullet::BulletClothSettings::Tier tier) {
+  bullet::BulletClothSettings s = feature_settings(2);
+  s.contacts = bullet::BulletClothSettings{}.contacts;  // the default
+  s.tier = tier;
+  return s;
 }
 
-// Control: vertex-only contacts (the bridge's ContactStage, edges included) let the same corner through.
-TEST(FeatureContact, CornerFirstBoxFallsThroughWithVertexContacts) {
-  double cloth_low = 0.0;
-  const double lowest = corner_first_drop(bullet::BulletClothSettings::Contacts::vertex, &cloth_low);
-  std::printf("vertex contacts: box centre lowest %.4f m\n", lowest);
-  EXPECT_LT(lowest, 0.5);
+TEST(FeatureContact, SetupTierDefaultIsFeatureContacts) {
+  EXPECT_EQ(bullet::BulletClothSettings{}.contacts, bullet::BulletClothSettings::Contacts::features);
+  TestWorld w;
+  bullet::BulletCloth* c = w.add_cloth(sheet(3, 0.6, Vec3(-0.3, 1.0, -0.3)), setup_tier());
+  const std::vector<std::string> names = c->simulation().stage_names();
+  EXPECT_NE(std::find(names.begin(), names.end(), "feature_contact"), names.end());
+}
+
+// The setup tier's default contacts (Contacts::features) hold a box corner and a capsule end on the triangle.
+TEST(FeatureContact, SetupTierHoldsBoxCornerOnTriangle) {
+  const DropRun r =
+      drop_on_triangle(Body::box_corner, drop_settings(bullet::BulletClothSettings::Tier::setup));
+  std::printf("setup tier, box corner: centre lowest %.4f m, %d frames under the cloth\n", r.lowest,
+              r.frames_under);
+  EXPECT_EQ(r.frames_under, 0);
+  EXPECT_GT(r.lowest, 0.5);  // held by the sheet (at 1.0 m), not fallen through it
+}
+
+TEST(FeatureContact, SetupTierHoldsCapsuleEndOnTriangle) {
+  const DropRun r =
+      drop_on_triangle(Body::capsule_end, drop_settings(bullet::BulletClothSettings::Tier::setup));
+  std::printf("setup tier, capsule end: centre lowest %.4f m, %d frames under the cloth\n", r.lowest,
+              r.frames_under);
+  EXPECT_EQ(r.frames_under, 0);
+  EXPECT_GT(r.lowest, 0.5);
+}
+
+// The coupled real-time tier (BodyCoupling.h: body features against triangles, mass-aware) likewise.
+// Disabled: these fail (run them with --gtest_also_run_disabled_tests). On this 3 x 3 sheet the coupled solve
+// records face contacts (box: 1415, capsule: 490 over the run, LOOM_DIAG=1 prints them) yet both bodies end
+// under the cloth (box centre at -1.14 m, capsule at -1.01 m; 45 and 43 of 90 frames under it).
+TEST(FeatureContact, DISABLED_CoupledTierHoldsBoxCornerOnTriangle) {
+  const DropRun r =
+      drop_on_triangle(Body::box_corner, drop_settings(bullet::BulletClothSettings::Tier::realtime));
+  std::printf("coupled tier, box corner: centre lowest %.4f m, %d frames under the cloth\n", r.lowest,
+              r.frames_under);
+  EXPECT_EQ(r.frames_under, 0);
+  EXPECT_GT(r.lowest, 0.5);
+}
+
+TEST(FeatureContact, DISABLED_CoupledTierHoldsCapsuleEndOnTriangle) {
+  const DropRun r =
+      drop_on_triangle(Body::capsule_end, drop_settings(bullet::BulletClothSettings::Tier::realtime));
+  std::printf("coupled tier, capsule end: centre lowest %.4f m, %d frames under the cloth\n", r.lowest,
+              r.frames_under);
+  EXPECT_EQ(r.frames_under, 0);
+  EXPECT_GT(r.lowest, 0.5);
+}
+
+// Control: vertex-only contacts (Contacts::vertex, the face phase off) let the same corner and end through,
+// so the checks above can fail.
+TEST(FeatureContact, BoxCornerAndCapsuleEndFallThroughWithVertexContacts) {
+  bullet::BulletClothSettings s = drop_settings(bullet::BulletClothSettings::Tier::setup);
+  s.contacts = bullet::BulletClothSettings::Contacts::vertex;
+  for (Body b : {Body::box_corner, Body::capsule_end}) {
+    const DropRun r = drop_on_triangle(b, s);
+    std::printf("vertex contacts: centre lowest %.4f m, %d frames under the cloth\n", r.lowest,
+                r.frames_under);
+    EXPECT_GT(r.frames_under, 0);
+    EXPECT_LT(r.lowest, 0.5);
+  }
 }
 
 // Free cloth + free rigid box, no gravity: total linear momentum is conserved through the face contacts.

@@ -1,6 +1,6 @@
-// Large static shapes under a cloth (the bridge's ContactStage, BulletClothSettings' setup tier): a cloth
-// resting on a btStaticPlaneShape stays on it and ends where it ends on a 200 m btBoxShape with the same top
-// face; a plane far under a hanging cloth changes neither the cloth's steps nor its motion.
+// Large static shapes under a cloth (BulletClothSettings' setup tier, its default FeatureContactStage): a
+// cloth resting on a btStaticPlaneShape stays on it and ends where it ends on a 200 m btBoxShape with the
+// same top face; a plane far under a hanging cloth changes neither the cloth's steps nor its motion.
 #include <gtest/gtest.h>
 
 #include <algorithm>
@@ -11,10 +11,10 @@
 namespace loom::test {
 namespace {
 
-// A ContactStage counter ("contacts", "edge_contacts") summed since the cloth was made.
+// A FeatureContactStage counter ("vertex_contacts", "face_contacts") summed since the cloth was made.
 double contact_counter(const bullet::BulletCloth& cloth, const std::string& name) {
   for (const cloth::StageProfile& p : cloth.simulation().profile())
-    if (p.name == "bullet_contacts")
+    if (p.name == "feature_contact")
       for (const auto& c : p.counters)
         if (c.first == name) return c.second;
   return -1.0;
@@ -25,7 +25,7 @@ enum class Floor { none, plane, box };
 struct FloorRun {
   std::vector<cloth::Vec3s> frames;  // every frame's vertex positions
   double lowest = HUGE_VAL;          // m, lowest vertex over all frames
-  double contacts = 0.0, edge_contacts = 0.0;
+  double contacts = 0.0, face_contacts = 0.0;
   long cloth_steps = 0;
 };
 
@@ -48,8 +48,8 @@ FloorRun run(Floor floor, double height, bool tied, int frames) {
     r.frames.push_back(x);
     for (const Vec3& p : x) r.lowest = std::min(r.lowest, p.y());
   }
-  r.contacts = contact_counter(*c, "contacts");
-  r.edge_contacts = contact_counter(*c, "edge_contacts");
+  r.contacts = contact_counter(*c, "vertex_contacts");
+  r.face_contacts = contact_counter(*c, "face_contacts");
   r.cloth_steps = c->cloth_steps();
   return r;
 }
@@ -64,12 +64,13 @@ TEST(BulletFloor, ClothRestsOnPlaneAsOnLargeBox) {
   EXPECT_GE(plane.lowest, -thickness);
   EXPECT_GE(box.lowest, -thickness);
   for (const Vec3& p : plane.frames.back()) EXPECT_NEAR(p.y(), thickness, 0.5 * thickness);
-  // A flat face has no edge or corner to slice between two vertices.
-  EXPECT_EQ(plane.edge_contacts, 0.0);
-  EXPECT_EQ(box.edge_contacts, 0.0);
-  // The plane and the box's top face are the same surface: the same contacts and positions (round-off of
-  // the box's frame 100 m away).
-  EXPECT_EQ(plane.contacts, box.contacts);
+  // A flat face has no edge or corner to press into a triangle (the box's edges are 100 m away).
+  EXPECT_EQ(plane.face_contacts, 0.0);
+  EXPECT_EQ(box.face_contacts, 0.0);
+  // The plane and the box's top face are the same surface: the same steps and positions (to the round-off
+  // of the box's frame 100 m away; the contact counts are not compared: that round-off decides whether a
+  // vertex left at the offset by one sweep tests inside it in the next).
+  EXPECT_GT(box.contacts, 0.0);
   EXPECT_EQ(plane.cloth_steps, box.cloth_steps);
   double diff = 0.0;
   for (size_t f = 0; f < plane.frames.size(); ++f)

@@ -67,7 +67,7 @@ TEST(BulletQuality, RealtimeRunsTheCoupledTier) {
   EXPECT_TRUE(b.coupled);
   EXPECT_EQ(b.solver, "xpbd");
   EXPECT_TRUE(has(b.stages, "body_coupling"));
-  EXPECT_FALSE(has(b.stages, "bullet_contacts"));
+  EXPECT_FALSE(has(b.stages, "feature_contact"));
   EXPECT_FALSE(has(b.stages, "tethers"));
   EXPECT_EQ(b.steps,
             2);  // the bridge's 2 coupled steps per Bullet substep, not the cloth tier's 12 per frame
@@ -85,7 +85,7 @@ TEST(BulletQuality, ReferenceAndNoKeyRunTheSetupTierWithTheScenesSolver) {
     EXPECT_FALSE(b.coupled) << extra.dump();
     EXPECT_EQ(b.solver, "implicit_euler");
     EXPECT_EQ(b.steps, 2);  // 8 per frame over 4 Bullet substeps
-    EXPECT_TRUE(has(b.stages, "bullet_contacts"));
+    EXPECT_TRUE(has(b.stages, "feature_contact"));
     EXPECT_FALSE(has(b.stages, "body_coupling"));
     EXPECT_TRUE(b.finite);
   }
@@ -125,7 +125,7 @@ TEST(BulletQuality, ExplicitValuesWin) {
     const Built b = build(world({{"quality", "realtime"}, {"solver", {{"method", "implicit_euler"}}}}));
     EXPECT_FALSE(b.coupled);
     EXPECT_EQ(b.solver, "implicit_euler");
-    EXPECT_TRUE(has(b.stages, "bullet_contacts"));
+    EXPECT_TRUE(has(b.stages, "feature_contact"));
   }
 }
 

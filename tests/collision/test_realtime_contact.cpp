@@ -209,5 +209,74 @@ TEST(RealtimeContact, ReactionIsMinusTheClothMomentumChange) {
   EXPECT_LT(std::abs((*set)[0].reaction_impulse.x()), 0.1 * std::abs((*set)[0].reaction_impulse.y()));
 }
 
+// A small body pressed down at 0.5 m/s onto the middle of one triangle of a coarse sheet (3 x 3 nodes,
+// 0.3 m legs, pinned at its corners), 2 cm above it at first and 3 cm below its rest plane at the end of the
+// motion: a 6 cm box corner-first or a capsule (2 cm radius, 12 cm long) end-first, kinematic (`motion`).
+// Every cloth vertex stays far outside the body, so only the face step (the body's corner or axis against
+// the triangle) keeps the cloth under it. Returns the lowest clearance (m) over all steps between the body's
+// lowest point and the cloth's surface straight under it (negative: the point went through the cloth).
+double pressed_clearance(ShapeType type, bool faces) {
+  cloth::ClothSetup c = sheet(3, 0.6, cloth::GridPlane::kXZ, Vec3(-0.3, 0.0, -0.3));
+  for (int i : {0, 2, 6, 8}) c.pins.push_back({i, {}, {}, {}});
+  SimulationSetup s = realtime(std::move(c), 12);
+  Simulation sim(s);
+  const cloth::ClothMesh& mesh = sim.cloths()[0]->mesh();
+  const cloth::Tri& t = mesh.triangles()[0];
+  const Vec3 centroid =
+      (mesh.rest_positions()[t[0]] + mesh.rest_positions()[t[1]] + mesh.rest_positions()[t[2]]) / 3.0;
+  auto set = std::make_shared<ColliderSet>();
+  Transform rest = Transform::Identity();
+  Vec3 tip;  // the body's lowest point in its frame
+  if (type == ShapeType::box) {
+    set->push_back(shape(ShapeType::box, 0, 0, Vec3(0.03, 0.03, 0.03)));
+    rest.linear() = Eigen::Quaterniond::FromTwoVectors(Vec3(1, 1, 1).normalized(), Vec3(0, -1, 0))
+                        .toRotationMatrix();  // corner down
+    tip = Vec3(0.03, 0.03, 0.03);
+  } else {
+    set->push_back(shape(ShapeType::capsule, 0.02, 0.04));
+    tip = Vec3(0, -0.06, 0);
+  }
+  const double depth = -(rest.linear() * tip).y();
+  const Vec3 start = centroid + Vec3(0, depth + 0.02, 0);
+  set->back().motion = [rest, start](double time) {
+    Transform p = rest;
+    p.translation() = start - Vec3(0, 0.5 * std::min(time, 0.1), 0);
+    return p;
+  };
+  set->back().prev = set->back().curr = set->back().motion(0.0);
+  RealtimeContactSettings rs;
+  rs.faces = faces;
+  sim.add_stage(std::make_unique<RealtimeBodyContactStage>(set, rs));
+  double lowest = HUGE_VAL;
+  sim.add_stage(std::make_unique<CheckStage>([&](cloth::StageContext& ctx) {
+    const cloth::ClothState& st = ctx.cloths[0]->state();
+    const Vec3 p = set->back().curr * tip;
+    // The cloth's height under p: the triangle whose xz projection holds p's.
+    for (const cloth::Tri& tri : mesh.triangles()) {
+      const Vec3 &a = st.x[tri[0]], &b = st.x[tri[1]], &c = st.x[tri[2]];
+      auto cross2 = [](const Vec3& u, const Vec3& v) { return u.z() * v.x() - u.x() * v.z(); };
+      const double area = cross2(b - a, c - a);
+      if (std::abs(area) < 1e-12) continue;
+      const double wb = cross2(p - a, c - a) / area, wc = cross2(b - a, p - a) / area, wa = 1.0 - wb - wc;
+      if (wa < 0.0 || wb < 0.0 || wc < 0.0) continue;
+      lowest = std::min(lowest, p.y() - (wa * a.y() + wb * b.y() + wc * c.y()));
+      break;
+    }
+  }));
+  for (int f = 0; f < 30; ++f) EXPECT_TRUE(sim.step_frame().finite);
+  return lowest;
+}
+
+TEST(RealtimeContact, BoxCornerAndCapsuleEndPressedOnATriangleStayOverIt) {
+  for (ShapeType type : {ShapeType::box, ShapeType::capsule}) {
+    const double with_faces = pressed_clearance(type, true);
+    const double vertices_only = pressed_clearance(type, false);
+    std::printf("%s: lowest clearance %.4f m with the face step, %.4f m without\n",
+                type == ShapeType::box ? "box corner" : "capsule end", with_faces, vertices_only);
+    EXPECT_GT(with_faces, 0.0);
+    EXPECT_LT(vertices_only, -0.01);  // the control: vertex contacts alone let it through
+  }
+}
+
 }  // namespace
 }  // namespace loom::collision

@@ -34,7 +34,6 @@ class btCollisionWorld;
 class btIDebugDraw;
 
 namespace loom::bullet {
-class ContactStage;
 class BodyCoupling;
 }  // namespace loom::bullet
 namespace loom::collision {
@@ -79,17 +78,19 @@ struct BulletClothSettings {
   int max_cloth_substeps = 16;
   double friction = 0.3;         // 1, kinetic Coulomb coefficient cloth vs bodies
   double static_friction = 0.4;  // 1, static coefficient (>= friction)
-  // Contact response of Tier::setup:
-  //   vertex (default): the bridge's vertex projection and cloth-edge pass (ContactStage.h), the one the
-  //     bridge tests validate;
-  //   features: collision/FeatureContact.h, cloth vertices against collider surfaces and collider features
-  //     (corners, edges, capsule axes, sphere centres) against cloth triangles, so a small box corner cannot
-  //     pass through a triangle between its vertices; not validated on the scene tests (docs/bullet.md);
-  //   body_collision: the collision library's BodyCollisionStage (CCD + proximity + edges); not validated
-  //     here (docs/bullet.md).
-  enum class Contacts { vertex, features, body_collision };
-  Contacts contacts = Contacts::vertex;
-  bool edge_contacts = true;  // Contacts::vertex: also the cloth-edge pass (ContactStage.cpp)
+  // Contact response of Tier::setup, from the collision library (the bridge has no contact code of its own):
+  //   features (default): collision/FeatureContact.h, cloth vertices against collider surfaces and collider
+  //     features (corners, edges, capsule axes, sphere centres) against cloth triangles, so a small box
+  //     corner or a capsule's end cannot pass through a triangle between its vertices; the one the bridge
+  //     tests validate (tests/bullet: the scenes, the floor, the corner-first drops);
+  //   body_collision: the collision library's BodyCollisionStage (CCD + proximity + cloth edges, the
+  //     characters' reference tier), the exact option for vertices: no vertex crosses a collider surface
+  //     within a step, whatever the speed; it has no collider-corner-against-triangle phase and is not
+  //     validated on the scenes (docs/bullet.md);
+  //   vertex: FeatureContactStage with its face phase off (FeatureContactSettings::faces), cloth vertices
+  //     only: a collider corner or edge can pass between vertices. For comparison only.
+  enum class Contacts { features, body_collision, vertex };
+  Contacts contacts = Contacts::features;
 };
 
 // Colliders for one Bullet shape placed at `pose` (world frame of the shape: body transform times compound
@@ -195,8 +196,7 @@ class BulletCloth : public btActionInterface {
   btDynamicsWorld* world_ = nullptr;
   std::vector<std::string> warnings_;
   std::function<void(const std::string&)> warn_;
-  ContactStage* contacts_ = nullptr;                    // owned by sim_ (Contacts::vertex)
-  collision::FeatureContactStage* features_ = nullptr;  // owned by sim_ (Contacts::features)
+  collision::FeatureContactStage* features_ = nullptr;  // owned by sim_ (Contacts::features, vertex)
   collision::BodyCollisionStage* body_ = nullptr;       // owned by sim_ (Contacts::body_collision)
   std::unique_ptr<BodyCoupling> coupling_;              // Tier::realtime
   double thickness_ = 0.0;                              // m, the contact thickness in use

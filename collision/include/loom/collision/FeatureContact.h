@@ -38,6 +38,16 @@ struct FeatureContactSettings {
   std::optional<double> static_friction;  // 1; static coefficient for every collider (else the collider's)
   int iterations = 2;                     // alternations of the vertex and face phases per step
   bool faces = true;                      // phase 2 (collider features against cloth triangles)
+  // Phase 1 (cloth vertices against collider surfaces). Off: the face phase alone, for a caller with its own
+  // vertex contacts (RealtimeBodyContactStage runs it before its vertex projection).
+  bool vertices = true;
+  // Phase 2's trigger, a fraction of the thickness in [0, 1): a feature acts on a triangle only once it is
+  // closer to the triangle's plane than radius + (1 - face_slack) thickness, and then pushes it to radius +
+  // thickness. 0: at once. A cloth wrapped round a rounded collider at the thickness has its triangles'
+  // middles nearer than its vertices by the chord's sag (edge² / (8 (radius + thickness))); a slack above
+  // that sag leaves such a cloth to the vertex contacts and acts only where a corner or an end presses into a
+  // triangle.
+  double face_slack = 0.0;
 };
 
 // A collider's features in its local frame: segments (a point is a segment with a == b) with a radius.

@@ -23,16 +23,27 @@
 //      Δv_n/|v_t|).
 //   5. the reaction -m Δv of every velocity change, and its moment about curr's origin, is added to the
 //      collider's reaction_impulse / reaction_angular_impulse (two-way coupling).
+//   0. faces (`faces`, off by default; before steps 3-5, not in a positions-only stage): the collider
+//   features of FeatureContact.h
+//      (sphere centres, capsule axes, box, cylinder and hull edges) against cloth triangles, one face phase
+//      of FeatureContactStage (FeatureContactSettings::vertices off), so a box corner or a capsule's end
+//      cannot pass through a coarse triangle whose three vertices are all outside the body; its impulses go
+//      to the colliders' reactions as in step 5. It acts once a feature is nearer a triangle than its radius
+//      + half the thickness (FeatureContactSettings::face_slack 0.5: a garment wrapped round a capsule at the
+//      thickness, whose triangles' middles sag towards it by less than that, is left to the vertex steps).
+//      The vertex steps follow and keep the last word.
 // Postcondition: a vertex left inside colliders after the passes (a pinch between two) is moved along the
 // sum of their normals until outside all of them; one still inside after 8 rounds is counted in
 // `unresolved`. Vertices are visited in index order on one
 // thread: results do not depend on the thread count.
+#include <memory>
 #include <optional>
 #include <vector>
 
 #include "loom/cloth/Stage.h"
 #include "loom/cloth/StrainLimitStage.h"
 #include "loom/collision/Collider.h"
+#include "loom/collision/FeatureContact.h"
 
 namespace loom::collision {
 
@@ -42,6 +53,7 @@ struct RealtimeContactSettings {
   double static_friction = -1.0;  // 1; static coefficient for every collider (< 0: the collider's own)
   int passes = 3;                 // discrete passes per vertex per step (overlapping colliders)
   bool continuous = true;         // the swept test of step 3
+  bool faces = false;             // step 0 (collider features against cloth triangles); off by default
   // Positions only (steps 1, 2 and 4's projection; no velocity change, no friction, no reactions, no swept
   // test): a last pass after a constraint pass that may have moved vertices into a collider.
   bool positions_only = false;
@@ -64,8 +76,8 @@ class RealtimeBodyContactStage final : public cloth::Stage {
   }
   void run(cloth::StageContext& ctx) override;
   // candidates (vertex-collider tests past the culling), contacts (responses), ccd_tests, ccd_hits,
-  // unresolved (vertices left inside a collider after the passes, summed over steps); with a strain limit,
-  // strain_corrections (its spring projections).
+  // unresolved (vertices left inside a collider after the passes, summed over steps), face_contacts (step 0's
+  // responses); with a strain limit, strain_corrections (its spring projections).
   std::vector<std::pair<std::string, double>> counters() const override;
   const ColliderSetPtr& colliders() const { return colliders_; }
   // A positions-only stage after a constraint pass: `earlier` is the contact stage that ran before that
@@ -124,6 +136,7 @@ class RealtimeBodyContactStage final : public cloth::Stage {
   // entries at the end
   std::vector<double> grid_lo_[3], grid_hi_[3];
   const RealtimeBodyContactStage* earlier_ = nullptr;
+  std::unique_ptr<FeatureContactStage> faces_;  // step 0 (null: settings_.faces off or positions only)
   std::vector<cloth::Vec3s> after_;          // per cloth: positions at the end of this stage's last run (NaN:
                                              // a vertex its passes did not settle)
   std::vector<std::vector<int>> unsettled_;  // scratch: per cloth, vertices whose last pass moved them
