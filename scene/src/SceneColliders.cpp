@@ -207,8 +207,8 @@ std::function<Transform(double)> parse_motion(const JsonReader& m, const Transfo
       s.fail("centre", "puts the collider's orbit (radius " + show_number(radius) + " m) beyond +-" +
                            kCoordinateLimit + " m within the scene's duration");
     if (!(std::abs(rate) * radius <= kMaxSpeed))
-      s.fail("rate", "moves the collider at " + show_number(std::abs(rate) * radius) + " m/s about its centre " +
-                         show_number(radius) + " m away, above the " +
+      s.fail("rate", "moves the collider at " + show_number(std::abs(rate) * radius) +
+                         " m/s about its centre " + show_number(radius) + " m away, above the " +
                          std::to_string(static_cast<long>(kMaxSpeed)) + " m/s a collider may move");
     s.finish();
   }
