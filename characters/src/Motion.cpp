@@ -332,6 +332,13 @@ JointTrack read_track(const std::string& path, const std::string& joint, const a
     const std::string key = std::string(kind) + " key " + std::to_string(k);
     if (!std::isfinite(t))
       throw Error(path, "joint '" + joint + "'", key + ": its time is not finite" + kPastFloats);
+    // A clip's time line starts at 0 (glTF 2.0 3.11: animation input values are >= 0), so its length is
+    // its last key time: a key before 0 would make the clip's length and its playback disagree.
+    if (t < 0.0) {
+      std::ostringstream why;
+      why << key << ": its time " << t << " s is negative (a clip's key times start at 0 or later)";
+      throw Error(path, "joint '" + joint + "'", why.str());
+    }
     if (times.size() > 1 && t < times[times.size() - 2]) {
       std::ostringstream why;
       why << key << ": its time " << t << " s comes before the previous key's " << times[times.size() - 2]

@@ -151,10 +151,16 @@ void parse_bodies(const JsonReader& root, Scene& scene) {
   std::map<std::pair<int, int>, std::string> held;
   // Per cloth, vertex -> its first pin (-1: none), built when a body first attaches to the cloth.
   std::vector<std::vector<int>> pin_of(scene.setup.cloths.size());
+  std::map<std::string, size_t> names;  // body name -> its index in bodies
   for (size_t i = 0; i < bodies.size(); ++i) {
     const JsonReader& r = bodies[i];
     RigidBodySpec b;
     b.name = r.name("name", "body" + std::to_string(i));
+    // bodies.csv keys its rows by name: two bodies of one name could not be told apart.
+    const auto [named, fresh] = names.emplace(b.name, i);
+    if (!fresh)
+      r.fail("name", "'" + b.name + "' is also the name of bodies[" + std::to_string(named->second) +
+                         "]: body names must be unique (bodies.csv names its rows by them)");
     const std::string shape =
         r.string("shape", std::nullopt, {"plane", "sphere", "capsule", "box", "cylinder"});
     if (shape == "plane") {

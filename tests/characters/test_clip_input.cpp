@@ -50,13 +50,14 @@ struct GltfClip {
   std::string node_scale;  // a "scale" for node 2 ("Chest"), e.g. "[0,0,0]" ("": none)
   std::string mesh_scale;  // a "scale" for node 4 ("Mesh", beside the skeleton)
   bool animated = true;
+  float t0 = 0, t1 = 1;  // the two key times (s)
 };
 
 // Four nodes in a chain, Root > Hips > Chest > Head, 1 unit apart on y, and a node "Mesh" under Root beside
 // the skeleton; Hips turns about y over 1 s.
 std::string gltf(const GltfClip& c) {
   const float h = std::sqrt(0.5f);
-  const std::vector<float> data = {0, 1, 0,       0,       0,       1,       0,       h,
+  const std::vector<float> data = {c.t0, c.t1, 0, 0,       0,       1,       0,       h,
                                    0, h, c.s0[0], c.s0[1], c.s0[2], c.s1[0], c.s1[1], c.s1[2]};
   std::ostringstream j;
   j << R"({"asset": {"version": "2.0"}, "scene": 0, "scenes": [{"nodes": [0]}], "nodes": [)"
@@ -76,8 +77,9 @@ std::string gltf(const GltfClip& c) {
     << R"("}], "bufferViews": [{"buffer": 0, "byteOffset": 0, "byteLength": 8},)"
     << R"( {"buffer": 0, "byteOffset": 8, "byteLength": 32},)"
     << R"( {"buffer": 0, "byteOffset": 40, "byteLength": 24}],)"
-    << R"( "accessors": [{"bufferView": 0, "componentType": 5126, "count": 2, "type": "SCALAR", "min": [0],)"
-    << R"( "max": [1]}, {"bufferView": 1, "componentType": 5126, "count": 2, "type": "VEC4"},)"
+    << R"( "accessors": [{"bufferView": 0, "componentType": 5126, "count": 2, "type": "SCALAR", "min": [)" << c.t0
+    << R"(],)"
+    << R"( "max": [)" << c.t1 << R"(]}, {"bufferView": 1, "componentType": 5126, "count": 2, "type": "VEC4"},)"
     << R"( {"bufferView": 2, "componentType": 5126, "count": 2, "type": "VEC3"}]})";
   return j.str();
 }
@@ -107,6 +109,25 @@ TEST(ClipInput, AConstantUniformScaleAtTheRootIsAppliedToTheJointsBelowIt) {
   EXPECT_NEAR(pa[head].translation().y(), 3.0, 1e-6);
   EXPECT_NEAR(pb[head].translation().y(), 5.0, 1e-6);
   EXPECT_NEAR(b.rest_height(), 5.0, 1e-6);
+}
+
+// A clip's time line starts at 0 (glTF 2.0: animation inputs are >= 0) and its length is its last key
+// time: a key before 0 is refused by joint and key, so that every reader of the clip sees one length.
+TEST(ClipInput, AKeyTimeBeforeZeroIsRefusedByJointAndKey) {
+  GltfClip early;
+  early.t0 = -5;
+  early.t1 = -4;
+  EXPECT_NE(load_error(early, "early.gltf").find("joint 'Hips': rotation key 0: its time -5 s is negative"),
+            std::string::npos)
+      << load_error(early, "early.gltf");
+  GltfClip straddling;
+  straddling.t0 = -0.5;
+  EXPECT_NE(load_error(straddling, "straddling.gltf").find("rotation key 0: its time -0.5 s is negative"),
+            std::string::npos);
+  GltfClip late;  // starting after 0 is allowed: the clip holds its first pose until then
+  late.t0 = 0.5;
+  late.t1 = 2;
+  EXPECT_EQ(load_error(late, "late.gltf"), "");
 }
 
 // Every offset and length of a glTF's data is checked before assimp reads it (glTF 2.0, section 5): a view

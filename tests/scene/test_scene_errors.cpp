@@ -233,6 +233,17 @@ const Case kCases[] = {
       "\"radius\": 0.1}]"},
      "colliders[1].name",
      "also the name of colliders[0]"},
+    {"body_name_twice",
+     {"bodies=[{\"name\": \"box\", \"shape\": \"sphere\", \"radius\": 0.05, \"position\": [0, 2, 0]}, "
+      "{\"name\": \"box\", \"shape\": \"sphere\", \"radius\": 0.05, \"position\": [1, 2, 0]}]"},
+     "bodies[1].name",
+     "'box' is also the name of bodies[0]"},
+    // A default name (body<i>) counts too: bodies.csv could not tell the two rows apart.
+    {"body_default_name_taken",
+     {"bodies=[{\"name\": \"body1\", \"shape\": \"sphere\", \"radius\": 0.05, \"position\": [0, 2, 0]}, "
+      "{\"shape\": \"sphere\", \"radius\": 0.05, \"position\": [1, 2, 0]}]"},
+     "bodies[1].name",
+     "'body1' is also the name of bodies[0]"},
     {"body_oscillation_frequency_huge",
      {"bodies=[{\"name\": \"b\", \"shape\": \"sphere\", \"radius\": 0.05, \"position\": [0, 2, 0], "
       "\"motion\": {\"oscillate\": {\"amplitude\": [0.1, 0, 0], \"frequency\": 1e308}}}]"},
