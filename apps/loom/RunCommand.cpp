@@ -407,7 +407,7 @@ SceneRun::SceneRun(const RunOptions& options) : o_(options) {
   if (o_.threads > 0) sc_.setup.threads = o_.threads;
   for (const std::string& w : sc_.start_warnings)
     std::cerr << "loom: warning: " << printable(scene_path_) << ": " << printable(w)
-              << ": contact pushes it out in the first step (move the cloth or the collider apart)\n";
+              << ": contact pushes it out in the first step (move them apart)\n";
   // Threads beyond the machine's only queue on the cores (and thousands exhaust the OpenMP runtime).
   const int hardware = std::max(1, static_cast<int>(std::thread::hardware_concurrency()));
   if (sc_.setup.threads > hardware) {

@@ -50,6 +50,58 @@ double surface_speed(const std::function<collision::Transform(double)>& motion, 
   return v;
 }
 
+// Where a cloth's rest mesh starts inside collider `c` (at pose c.curr) or its thickness: "vertex 12,
+// 0.03 m in" or "its edge between vertices 3 and 4, ..."; empty when no point is inside. Vertices with
+// held[v] != 0, and the edges that end at them, are left out (held may be empty).
+std::string start_inside(const collision::Collider& c, const cloth::ClothMesh& mesh,
+                         const collision::Aabb& cloth_box, const std::vector<char>& held) {
+  const collision::Aabb box = collision::swept_collider_box(c, c.thickness);
+  if (!box.overlaps(cloth_box)) return "";
+  const cloth::Vec3s& x = mesh.rest_positions();
+  auto in_box = [&box](const cloth::Vec3& p) {
+    return (p.array() >= box.lo.array()).all() && (p.array() <= box.hi.array()).all();
+  };
+  auto depth = [&](const cloth::Vec3& p) {
+    return collision::signed_distance(c, c.curr, p, nullptr) - c.thickness;
+  };
+  auto is_held = [&held](int v) { return !held.empty() && held[v] != 0; };
+  double deepest = HUGE_VAL;
+  int vertex = -1;
+  std::vector<double> dv(x.size(), std::nan(""));  // m, each vertex's depth once computed
+  for (int v = 0; v < static_cast<int>(x.size()); ++v) {
+    if (is_held(v) || !in_box(x[v])) continue;
+    const double d = dv[v] = depth(x[v]);
+    if (d < deepest) deepest = d, vertex = v;
+  }
+  // A collider thinner than the cloth's edges can pass between its vertices: each edge within the
+  // collider's box that may reach inside it is sampled at kEdgeSamples interior points. The signed
+  // distance is 1-Lipschitz, so no point of an edge of length l is inside when d_i + d_j > l.
+  constexpr int kEdgeSamples = 8;
+  cloth::Edge edge{-1, -1};
+  if (!(vertex >= 0 && deepest < 0.0))
+    for (const cloth::Edge& e : mesh.edges()) {
+      if (is_held(e.i) || is_held(e.j)) continue;
+      collision::Aabb eb;
+      eb.grow(x[e.i]);
+      eb.grow(x[e.j]);
+      if (!box.overlaps(eb)) continue;
+      for (const int v : {e.i, e.j})
+        if (std::isnan(dv[v])) dv[v] = depth(x[v]);
+      if (dv[e.i] + dv[e.j] > (x[e.j] - x[e.i]).norm()) continue;
+      for (int q = 1; q <= kEdgeSamples; ++q) {
+        const cloth::Vec3 p = x[e.i] + (x[e.j] - x[e.i]) * (q / (kEdgeSamples + 1.0));
+        if (!in_box(p)) continue;
+        const double d = depth(p);
+        if (d < deepest) deepest = d, edge = e, vertex = -1;
+      }
+    }
+  if (!((vertex >= 0 || edge.i >= 0) && deepest < 0.0)) return "";
+  return (vertex >= 0
+              ? "vertex " + std::to_string(vertex)
+              : "its edge between vertices " + std::to_string(edge.i) + " and " + std::to_string(edge.j)) +
+         ", " + fig(-deepest) + " m in";
+}
+
 // A collider's reach: the farthest point of its local box (a plane: 0, its origin's speed only).
 double collider_reach(const collision::Collider& c) {
   if (c.shape.type == collision::ShapeType::plane) return 0.0;
@@ -252,51 +304,30 @@ std::vector<RegimeOutlier> regime_outliers(const Scene& scene) {
     // A cloth that starts inside the collider or its thickness is pushed out at once.
     collision::Collider at_start = c;
     at_start.prev = at_start.curr = c.motion ? c.motion(0.0) : c.curr;
-    const collision::Aabb box = collision::swept_collider_box(at_start, c.thickness);
     for (size_t i = 0; i < s.cloths.size(); ++i) {
-      if (!box.overlaps(cloth_box[i])) continue;
-      const cloth::Vec3s& x = s.cloths[i].mesh->rest_positions();
-      auto in_box = [&box](const cloth::Vec3& p) {
-        return (p.array() >= box.lo.array()).all() && (p.array() <= box.hi.array()).all();
-      };
-      auto depth = [&](const cloth::Vec3& p) {
-        return collision::signed_distance(c, at_start.curr, p, nullptr) - c.thickness;
-      };
-      double deepest = HUGE_VAL;
-      int vertex = -1;
-      std::vector<double> dv(x.size(), std::nan(""));  // m, each vertex's depth once computed
-      for (int v = 0; v < static_cast<int>(x.size()); ++v) {
-        if (!in_box(x[v])) continue;
-        const double d = dv[v] = depth(x[v]);
-        if (d < deepest) deepest = d, vertex = v;
-      }
-      // A collider thinner than the cloth's edges can pass between its vertices: each edge within the
-      // collider's box that may reach inside it is sampled at kEdgeSamples interior points. The signed
-      // distance is 1-Lipschitz, so no point of an edge of length l is inside when d_i + d_j > l.
-      constexpr int kEdgeSamples = 8;
-      cloth::Edge edge{-1, -1};
-      if (!(vertex >= 0 && deepest < 0.0))
-        for (const cloth::Edge& e : s.cloths[i].mesh->edges()) {
-          collision::Aabb eb;
-          eb.grow(x[e.i]);
-          eb.grow(x[e.j]);
-          if (!box.overlaps(eb)) continue;
-          for (const int v : {e.i, e.j})
-            if (std::isnan(dv[v])) dv[v] = depth(x[v]);
-          if (dv[e.i] + dv[e.j] > (x[e.j] - x[e.i]).norm()) continue;
-          for (int q = 1; q <= kEdgeSamples; ++q) {
-            const cloth::Vec3 p = x[e.i] + (x[e.j] - x[e.i]) * (q / (kEdgeSamples + 1.0));
-            if (!in_box(p)) continue;
-            const double d = depth(p);
-            if (d < deepest) deepest = d, edge = e, vertex = -1;
-          }
-        }
-      const std::string where = vertex >= 0 ? "vertex " + std::to_string(vertex)
-                                            : "its edge between vertices " + std::to_string(edge.i) +
-                                                  " and " + std::to_string(edge.j);
-      if ((vertex >= 0 || edge.i >= 0) && deepest < 0.0)
+      const std::string where = start_inside(at_start, *s.cloths[i].mesh, cloth_box[i], {});
+      if (!where.empty())
         out.push_back({scene.cloth_field(static_cast<int>(i)) + " starts inside " + at + " '" + c.name +
-                           "' or its thickness (" + where + ", " + fig(-deepest) + " m in)",
+                           "' or its thickness (" + where + ")",
+                       false, true});
+    }
+  }
+  // The same for the bodies, at their pose at t = 0; a body's attached vertices (and the edges that end at
+  // them) are where the body holds the cloth, not a start inside it.
+  for (size_t k = 0; k < scene.bodies.size(); ++k) {
+    const collision::RigidBodySpec& b = scene.bodies[k];
+    collision::Collider at_start;
+    at_start.shape = b.shape;
+    at_start.prev = at_start.curr = b.motion ? b.motion(0.0) : b.pose;
+    for (size_t i = 0; i < s.cloths.size(); ++i) {
+      std::vector<char> held(s.cloths[i].mesh->num_vertices(), 0);
+      for (const collision::BodyAttachment& a : b.attachments)
+        if (a.cloth == static_cast<int>(i) && a.vertex >= 0 && a.vertex < static_cast<int>(held.size()))
+          held[a.vertex] = 1;
+      const std::string where = start_inside(at_start, *s.cloths[i].mesh, cloth_box[i], held);
+      if (!where.empty())
+        out.push_back({scene.cloth_field(static_cast<int>(i)) + " starts inside bodies[" + std::to_string(k) +
+                           "] '" + b.name + "' (" + where + ")",
                        false, true});
     }
   }

@@ -57,8 +57,8 @@ struct GltfClip {
 // the skeleton; Hips turns about y over 1 s.
 std::string gltf(const GltfClip& c) {
   const float h = std::sqrt(0.5f);
-  const std::vector<float> data = {c.t0, c.t1, 0, 0,       0,       1,       0,       h,
-                                   0, h, c.s0[0], c.s0[1], c.s0[2], c.s1[0], c.s1[1], c.s1[2]};
+  const std::vector<float> data = {c.t0, c.t1, 0,       0,       0,       1,       0,       h,
+                                   0,    h,    c.s0[0], c.s0[1], c.s0[2], c.s1[0], c.s1[1], c.s1[2]};
   std::ostringstream j;
   j << R"({"asset": {"version": "2.0"}, "scene": 0, "scenes": [{"nodes": [0]}], "nodes": [)"
     << R"({"name": "Root", "children": [1, 4]}, {"name": "Hips", "translation": [0, 1, 0], "children": [2]},)"
@@ -77,9 +77,10 @@ std::string gltf(const GltfClip& c) {
     << R"("}], "bufferViews": [{"buffer": 0, "byteOffset": 0, "byteLength": 8},)"
     << R"( {"buffer": 0, "byteOffset": 8, "byteLength": 32},)"
     << R"( {"buffer": 0, "byteOffset": 40, "byteLength": 24}],)"
-    << R"( "accessors": [{"bufferView": 0, "componentType": 5126, "count": 2, "type": "SCALAR", "min": [)" << c.t0
-    << R"(],)"
-    << R"( "max": [)" << c.t1 << R"(]}, {"bufferView": 1, "componentType": 5126, "count": 2, "type": "VEC4"},)"
+    << R"( "accessors": [{"bufferView": 0, "componentType": 5126, "count": 2, "type": "SCALAR", "min": [)"
+    << c.t0 << R"(],)"
+    << R"( "max": [)" << c.t1
+    << R"(]}, {"bufferView": 1, "componentType": 5126, "count": 2, "type": "VEC4"},)"
     << R"( {"bufferView": 2, "componentType": 5126, "count": 2, "type": "VEC3"}]})";
   return j.str();
 }

@@ -135,6 +135,37 @@ TEST(SceneRegime, FastCollidersAndClothsStartingInsideOneAreNamed) {
   EXPECT_NE(slow.find("no scene value is outside the validated regime"), std::string::npos) << slow;
 }
 
+// Bullet bodies as colliders: a cloth that starts inside a body at its pose at t = 0 (a static plane whose
+// solid half-space (below y = 5) holds the sheet, a box across it, a kinematic sphere) is named by the body's
+// field and name; a body's own attached vertices, where it holds the cloth, are not a start inside it.
+TEST(SceneRegime, ClothsStartingInsideABodyAreNamedByTheBody) {
+  const RegimeCase cases[] = {
+      {{"bodies=[{\"name\":\"wall\",\"shape\":\"plane\",\"position\":[0,5,0]}]"},
+       "cloths[0] starts inside bodies[0] 'wall' (vertex",
+       "m in)"},
+      {{"bodies=[{\"name\":\"block\",\"shape\":\"box\",\"half_extents\":[0.2,0.2,0.2],"
+        "\"position\":[0.5,1.5,0.5]}]"},
+       "cloths[0] starts inside bodies[0] 'block' (vertex",
+       "m in)"},
+      {{"bodies=[{\"name\":\"ball\",\"shape\":\"sphere\",\"radius\":0.05,\"position\":[0,1.5,0],"
+        "\"motion\":{\"oscillate\":{\"amplitude\":[0,0.1,0],\"frequency\":1}}}]"},
+       "cloths[0] starts inside bodies[0] 'ball' (vertex 0, 0.05 m in)",
+       "starts inside"},
+  };
+  for (const RegimeCase& c : cases) expect_named(c);
+  // A sphere holding the middle vertex (and no other point of the cloth inside it) is not named.
+  const std::string held =
+      suspects({"bodies=[{\"name\":\"ball\",\"shape\":\"sphere\",\"radius\":0.05,"
+                "\"position\":[0.5,1.5,0.5],\"mass\":1,\"attach\":[{\"grid\":[4,4]}]}]"});
+  EXPECT_NE(held.find("no scene value is outside the validated regime"), std::string::npos) << held;
+  const std::string free_ball =
+      suspects({"bodies=[{\"name\":\"ball\",\"shape\":\"sphere\",\"radius\":0.05,"
+                "\"position\":[0.5,1.5,0.5],\"mass\":1}]"});
+  EXPECT_NE(free_ball.find("cloths[0] starts inside bodies[0] 'ball' (vertex 40, 0.05 m in)"),
+            std::string::npos)
+      << free_ball;
+}
+
 // A scene outside the regime gets one retry of a failed frame unless it sets guard.max_halvings; inside it,
 // or outside it only by values per solver step, the default five.
 TEST(SceneRegime, ASceneOutsideTheRegimeRetriesAFrameOnceUnlessItSaysOtherwise) {
