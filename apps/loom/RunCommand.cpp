@@ -509,6 +509,11 @@ void SceneRun::check_export_sizes() const {
                             " rendered frames of " + std::to_string(static_cast<long long>(vertices)) +
                             " vertices needs",
                         "lower output.render.width and height, raise output.render.every or lower --frames");
+    // The video is encoded after the run by ffmpeg, a process of its own under the same limits.
+    scene::check_memory(scene_path_, "output.render.width", eval::ffmpeg_memory_bytes(rs.width, rs.height),
+                        "ffmpeg's encoding of " + std::to_string(rs.width) + "x" + std::to_string(rs.height) +
+                            " px frames with " + std::to_string(eval::ffmpeg_threads()) + " threads needs",
+                        "lower output.render.width and height", "", scene::MemoryOf::child_process);
   }
 #endif
 }

@@ -64,14 +64,20 @@ std::optional<std::uint64_t> rlimit_left(int resource, const std::optional<std::
 
 }  // namespace
 
-MemoryBudget memory_budget_bound() {
+MemoryBudget memory_budget_bound(MemoryOf of) {
   MemoryBudget b{std::numeric_limits<std::uint64_t>::max(), ""};
   auto take = [&b](const std::optional<std::uint64_t>& bytes, const char* source) {
     if (bytes && *bytes < b.bytes) b = {*bytes, source};
   };
+  // A child process starts with no mapping of its own: the limits bound it whole.
+  const bool self = of == MemoryOf::this_process;
   take(proc_kb("/proc/meminfo", "MemAvailable:"), "MemAvailable");
-  take(rlimit_left(RLIMIT_AS, proc_kb("/proc/self/status", "VmSize:")), "RLIMIT_AS");
-  take(rlimit_left(RLIMIT_DATA, proc_kb("/proc/self/status", "VmData:")), "RLIMIT_DATA");
+  take(rlimit_left(RLIMIT_AS,
+                   self ? proc_kb("/proc/self/status", "VmSize:") : std::optional<std::uint64_t>(0)),
+       "RLIMIT_AS");
+  take(rlimit_left(RLIMIT_DATA,
+                   self ? proc_kb("/proc/self/status", "VmData:") : std::optional<std::uint64_t>(0)),
+       "RLIMIT_DATA");
   take(memory_limit_env(), "LOOM_MEMORY_LIMIT");
   return b;
 }
@@ -150,8 +156,8 @@ std::string available_memory_text(const MemoryBudget& budget) {
 }
 
 void check_memory(const std::string& file, const std::string& field, double need, const std::string& what,
-                  const std::string& advice, const std::string& basis) {
-  const MemoryBudget budget = memory_budget_bound();
+                  const std::string& advice, const std::string& basis, MemoryOf of) {
+  const MemoryBudget budget = memory_budget_bound(of);
   // Also refused: a need that is not a number (the estimate of a degenerate field).
   if (!(need <= static_cast<double>(budget.bytes)))
     throw Error(file, field,

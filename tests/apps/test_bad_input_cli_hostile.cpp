@@ -751,6 +751,27 @@ TEST(HostileRender, ImageSizeIsEstimatedBeforeTheRun) {
   EXPECT_FALSE(fs::exists(out)) << "the folder was claimed before the estimate";
 }
 
+// The video is encoded after the run by ffmpeg, a process of its own: its memory at the image size is
+// checked before the run too, so a size Loom's own drawing fits but the encoder does not is refused by
+// field before the folder is made (not found by a failed encoding after the simulation).
+TEST(HostileRender, TheEncodersMemoryIsEstimatedBeforeTheRun) {
+  const fs::path out = test_dir() / "out";
+  const std::string cmd = "LOOM_MEMORY_LIMIT=600000000 " + std::string(LOOM_BINARY) + " run " +
+                          std::string(LOOM_SOURCE_DIR) + "/scenes/hanging_cloth.json --frames 1 --render " +
+                          "--set 'output.render={\"width\":2048,\"height\":2048}' --out " + out.string() +
+                          " 2>" + (test_dir() / "err.txt").string() + " >/dev/null";
+  const int status = std::system(cmd.c_str());
+  const std::string err = slurp(test_dir() / "err.txt");
+  if (err.find("offscreen renderer") != std::string::npos ||
+      err.find("ffmpeg not found") != std::string::npos)
+    GTEST_SKIP() << "no renderer";
+  EXPECT_TRUE(WIFEXITED(status) && WEXITSTATUS(status) == 1) << err;
+  EXPECT_NE(err.find("output.render.width: ffmpeg's encoding of 2048x2048 px frames with"), std::string::npos)
+      << err;
+  EXPECT_NE(err.find("set by LOOM_MEMORY_LIMIT"), std::string::npos) << err;
+  EXPECT_FALSE(fs::exists(out)) << "the folder was claimed before the estimate";
+}
+
 // Bytes that are not UTF-8, quoted from an input (a JSON parser's "last read"), reach the terminal as \xNN,
 // never raw: a terminal would take them for part of a character.
 TEST(HostileText, BytesThatAreNotUtf8AreShownEscaped) {

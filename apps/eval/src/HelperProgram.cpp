@@ -7,10 +7,12 @@
 #include <sys/wait.h>
 #include <unistd.h>
 
+#include <algorithm>
 #include <cerrno>
 #include <cstdio>
 #include <cstdlib>
 #include <sstream>
+#include <thread>
 
 #include "loom/cloth/Error.h"
 #include "loom/cloth/OutputFile.h"
@@ -155,6 +157,14 @@ std::string gnuplot_png(OutputFolder& folder, const std::string& name, const std
   return run_staged(folder, {"gnuplot", "@DIR@/" + name + ".gp"}, name + ".png", name + ".gp", script);
 }
 
+int ffmpeg_threads() { return static_cast<int>(std::clamp(std::thread::hardware_concurrency(), 1u, 4u)); }
+
+double ffmpeg_memory_bytes(int width, int height) {
+  const double threads = ffmpeg_threads();
+  const double pixels = double(width + 1) * double(height + 1);  // padded to even sizes
+  return 440e6 + 40e6 * threads + pixels * (24.0 + 10.0 * threads);
+}
+
 void ffmpeg_video(OutputFolder& folder, const std::string& frames, double fps,
                   const std::vector<std::string>& format_args, const std::string& file,
                   const std::string& field, int count) {
@@ -168,7 +178,7 @@ void ffmpeg_video(OutputFolder& folder, const std::string& frames, double fps,
   std::vector<std::string> argv = {"ffmpeg", "-hide_banner", "-loglevel",
                                    "error",  "-n",           "-framerate",
                                    rate,     "-i",           "@DIR@/" + frames + "/frame_%05d.png"};
-  argv.insert(argv.end(), {"-frames:v", std::to_string(count)});
+  argv.insert(argv.end(), {"-frames:v", std::to_string(count), "-threads", std::to_string(ffmpeg_threads())});
   argv.insert(argv.end(), format_args.begin(), format_args.end());
   argv.push_back("@STAGED@");
   const std::string why = run_staged(folder, argv, file, "", "");

@@ -96,7 +96,10 @@ struct MemoryBudget {
   std::uint64_t bytes = 0;  // bytes; the largest 64-bit value when nothing is known
   std::string source;       // "MemAvailable", "RLIMIT_AS", "RLIMIT_DATA", "LOOM_MEMORY_LIMIT" or ""
 };
-MemoryBudget memory_budget_bound();
+// Whose memory a budget bounds: this process (what its limits leave above its current mapping), or a
+// helper program it starts (ffmpeg: the limits whole, as the child inherits them with no mapping yet).
+enum class MemoryOf { this_process, child_process };
+MemoryBudget memory_budget_bound(MemoryOf of = MemoryOf::this_process);
 // memory_budget_bound().bytes: the memory a run may use, in bytes.
 std::uint64_t memory_budget();
 // LOOM_MEMORY_LIMIT: nullopt when unset, else its value, a whole number of bytes in [1, 2^64 - 1] written
@@ -113,7 +116,8 @@ std::string available_memory_text(const MemoryBudget& budget);
 // (ending in its verb: "... needs") + " about <need> of memory" + `basis` + "; " + available_memory_text +
 // ": " + `advice`.
 void check_memory(const std::string& file, const std::string& field, double need, const std::string& what,
-                  const std::string& advice, const std::string& basis = "");
+                  const std::string& advice, const std::string& basis = "",
+                  MemoryOf of = MemoryOf::this_process);
 // Counts and byte figures in messages are finite: at or above kMaxShownCount (and inf, NaN) they read
 // "more than ...".
 constexpr double kMaxShownCount = 1e15;

@@ -45,4 +45,14 @@ void ffmpeg_video(OutputFolder& folder, const std::string& frames, double fps,
                   const std::vector<std::string>& format_args, const std::string& file,
                   const std::string& field, int count);
 
+// The encoder threads ffmpeg_video gives ffmpeg (`-threads`): a bound, so that its memory does not grow
+// with the machine's cores (x264 starts 1.5 threads per core by default, each with its frame buffers).
+int ffmpeg_threads();
+
+// Address space (bytes) ffmpeg takes at most to encode `width` x `height` frames with ffmpeg_threads()
+// threads: 440 MB of libraries and heap, 40 MB per thread (stack and lookahead) and (24 + 10 per thread)
+// bytes per pixel. The figures are the least `ulimit -v` under which Debian 12's ffmpeg 5.1 (libx264
+// 164) encoded 512^2 to 4096^2 PNG frames with 1 to 16 threads, each rounded up (docs/cli.md).
+double ffmpeg_memory_bytes(int width, int height);
+
 }  // namespace loom::eval
