@@ -247,7 +247,9 @@ std::string Simulation::run_substeps(int n, bool stop_on_violation) {
   std::string why;
   for (int s = 0; s < n; ++s) {
     StageContext ctx{cloths_, t_, h, setup_.threads};
-    for (size_t k = 0; k < stages_.size(); ++k) {
+    // A stop request is read after each stage: the step is abandoned there (the caller restores the frame's
+    // start), so a stop waits for one stage at most, not for the whole step.
+    for (size_t k = 0; k < stages_.size() && !stop_requested(); ++k) {
       const auto start = Clock::now();
       stages_[k]->run(ctx);
       stage_total_ms_[k] += ms_since(start);

@@ -3,6 +3,8 @@
 #include <gtest/gtest.h>
 
 #include <algorithm>
+#include <csignal>
+#include <memory>
 
 #include "TestUtil.h"
 #include "loom/cloth/Error.h"
@@ -85,6 +87,49 @@ TEST(Pipeline, PinnedVerticesFollowTheirPath) {
       const Vec3 expected = start + (t <= 0.5 ? Vec3(0, 0.4 * t, 0) : Vec3(0.2 * (t - 0.5), 0.2, 0));
       ASSERT_LT((sim.cloths()[0]->state().x[v] - expected).norm(), 1e-12) << method << " frame " << f;
     }
+  }
+}
+
+// A stage that raises the stop flag on its first run (as a SIGINT handler would mid-step), and one that
+// counts its runs.
+class StopRaiser : public Stage {
+ public:
+  explicit StopRaiser(volatile std::sig_atomic_t* flag) : flag_(flag) {}
+  const char* name() const override { return "stop_raiser"; }
+  void run(StageContext&) override { *flag_ = 1; }
+
+ private:
+  volatile std::sig_atomic_t* flag_;
+};
+class RunCounter : public Stage {
+ public:
+  explicit RunCounter(int* runs) : runs_(runs) {}
+  const char* name() const override { return "run_counter"; }
+  void run(StageContext&) override { ++*runs_; }
+
+ private:
+  int* runs_;
+};
+
+// A stop request is read after each stage: the stages after the one during which it came do not run, the
+// frame is abandoned and the state is the frame's start, with the guard on and off.
+TEST(Pipeline, AStopRequestEndsTheStepAfterTheStageDuringWhichItCame) {
+  for (const bool guard : {true, false}) {
+    SimulationSetup s = hanging(9, true, false);
+    s.guard.enabled = guard;
+    Simulation sim(s);
+    volatile std::sig_atomic_t flag = 0;
+    int runs = 0;
+    sim.add_stage(std::make_unique<StopRaiser>(&flag));
+    sim.add_stage(std::make_unique<RunCounter>(&runs));
+    sim.set_stop_flag(&flag);
+    const Vec3s start = sim.cloths()[0]->state().x;
+    sim.step_frame();
+    EXPECT_TRUE(sim.interrupted()) << guard;
+    EXPECT_EQ(runs, 0) << guard;
+    const Vec3s& x = sim.cloths()[0]->state().x;
+    ASSERT_EQ(x.size(), start.size());
+    for (size_t i = 0; i < x.size(); ++i) EXPECT_EQ(x[i], start[i]) << guard << " vertex " << i;
   }
 }
 

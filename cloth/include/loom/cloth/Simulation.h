@@ -88,7 +88,7 @@ class Simulation {
 
   // Runs `substeps` pipeline steps and returns the frame's statistics.
   FrameStats step_frame();
-  // A stop request (a SIGINT handler's flag, nullptr: none), read between steps and between the guard's
+  // A stop request (a SIGINT handler's flag, nullptr: none), read between stages and between the guard's
   // retries: once it is non-zero the frame in progress is abandoned and the state restored to the frame's
   // start (interrupted() is then true until the next step_frame()).
   void set_stop_flag(const volatile std::sig_atomic_t* flag) { stop_flag_ = flag; }
