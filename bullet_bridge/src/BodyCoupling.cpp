@@ -45,6 +45,26 @@ void apply_positional_impulse(CoupledBody& b, const Vec3& P, const Vec3& r) {
   ++b.version;
 }
 
+// Velocity u after a step that started with u_pred, cut so that the step's change du = u - u_pred, along
+// d = du / |du|, stops the motion along d but does not reverse or raise it: u.d <= max(0, u_pred.d).
+Vec3 no_rebound(const Vec3& u, const Vec3& u_pred) {
+  const Vec3 du = u - u_pred;
+  const double len = du.norm();
+  if (!(len > 0.0)) return u;
+  const Vec3 d = du / len;
+  const double excess = u.dot(d) - std::max(0.0, u_pred.dot(d));
+  return excess > 0.0 ? Vec3(u - excess * d) : u;
+}
+
+// Body velocities from the pose change over the step (Müller et al. 2020, Alg. 2).
+void pose_velocities(const CoupledBody& b, double h, Vec3& v, Vec3& w) {
+  v = (b.pose.translation() - b.pose0.translation()) / h;
+  Eigen::Quaterniond dq =
+      Eigen::Quaterniond(b.pose.linear()) * Eigen::Quaterniond(b.pose0.linear()).conjugate();
+  if (dq.w() < 0.0) dq.coeffs() = -dq.coeffs();
+  w = 2.0 * dq.vec() / h;
+}
+
 }  // namespace
 
 // Collider k placed in the world now: its pose, the inverse, its features' end points, and their box grown
@@ -131,6 +151,7 @@ void BodyCoupling::predict(double h) {
   for (CoupledBody& b : bodies) {
     b.pose0 = b.pose;
     b.v_pred = b.v;
+    b.w_pred = b.w;
     if (!b.dynamic()) continue;
     b.pose.translation() += h * b.v;
     Eigen::Quaterniond q(b.pose.linear());
@@ -246,24 +267,56 @@ void BodyCoupling::move_vertex(cloth::ClothState& s, int i, double lam, const Ve
   apply_positional_impulse(b, (lam * mn * wv / (wv + wb)) * nrm, r);
 }
 
+// Inelastic contacts (Müller et al. 2020, Sec. 3.6, eq. 34 with restitution 0): each vertex still within
+// kTouch thicknesses of its contact point ends the step with the body point's normal velocity,
+// v_n = (v_vertex - v_point).n -> 0, by an equal and opposite impulse -v_n / (w_v + w_b) on vertex and body
+// at the vertex's position (the body's share is added to its velocity from the pose change).
+void BodyCoupling::contact_velocities(cloth::ClothState& s, double h) {
+  const Work& w = *work_;
+  const double thick = settings_.thickness;
+  const int n = s.size();
+  for (int i = 0; i < n; ++i) {
+    const int k = w.contact[i];
+    const double wv = s.inv_mass[i];
+    if (k < 0 || wv == 0.0) continue;
+    const Vec3& nrm = w.normal[i];
+    const Vec3 p = placed(k).pose * w.point_local[i];
+    if ((s.x[i] - p).dot(nrm) > kTouch * thick) continue;  // no longer touching
+    CoupledBody* b = body_of(k);
+    Vec3 vp = Vec3::Zero(), r = Vec3::Zero();
+    double wb = 0.0;
+    if (b && b->dynamic()) {
+      Vec3 bv, bw;
+      pose_velocities(*b, h, bv, bw);
+      r = s.x[i] - b->pose.translation();  // at the vertex: the pair's angular momentum is kept exactly
+      vp = bv + b->dv + (bw + b->dw).cross(r);
+      wb = generalized_inv_mass(*b, r, nrm);
+    } else {
+      const Placed& pl = placed(k);
+      vp = (p - pl.prev * w.point_local[i]) / h;
+    }
+    const double vn = (s.v[i] - vp).dot(nrm);
+    if (vn == 0.0) continue;
+    const double P = -vn / (wv + wb);  // normal impulse (kg m/s) on the vertex
+    s.v[i] += (wv * P) * nrm;
+    if (wb > 0.0) {
+      b->dv -= (b->inv_mass * P) * nrm;
+      b->dw -= b->inv_inertia * r.cross(P * nrm);
+    }
+  }
+}
+
 void BodyCoupling::update_body_velocities(double h) {
   for (CoupledBody& b : bodies) {
     if (!b.dynamic()) continue;
-    // Müller et al. 2020, Alg. 2.
-    b.v = (b.pose.translation() - b.pose0.translation()) / h;
-    Eigen::Quaterniond dq =
-        Eigen::Quaterniond(b.pose.linear()) * Eigen::Quaterniond(b.pose0.linear()).conjugate();
-    if (dq.w() < 0.0) dq.coeffs() = -dq.coeffs();
-    b.w = 2.0 * dq.vec() / h;
-    // No rebound: v.d <= max(0, v_pred.d) along the direction d of the step's velocity change; only
-    // against a cloth with pinned vertices (a free cloth keeps the pair's momentum exactly).
+    pose_velocities(b, h, b.v, b.w);
+    b.v += b.dv, b.w += b.dw;
+    b.dv.setZero(), b.dw.setZero();
+    // No rebound: v.d <= max(0, v_pred.d) along the direction d of the step's velocity change, and likewise
+    // for w; only against a cloth with pinned vertices (a free cloth keeps the pair's momentum exactly).
     if (!anchored_) continue;
-    const Vec3 dv = b.v - b.v_pred;
-    const double len = dv.norm();
-    if (!(len > 0.0)) continue;
-    const Vec3 d = dv / len;
-    const double excess = b.v.dot(d) - std::max(0.0, b.v_pred.dot(d));
-    if (excess > 0.0) b.v -= excess * d;
+    b.v = no_rebound(b.v, b.v_pred);
+    b.w = no_rebound(b.w, b.w_pred);
   }
 }
 
@@ -619,6 +672,7 @@ void BodyCoupling::solve(cloth::Cloth& cloth, size_t index, double h) {
   if (have_prev)
     for (int i = 0; i < n; ++i)
       if (s.inv_mass[i] > 0.0) s.v[i] = (s.x[i] - s.x_prev[i]) / h;
+  if (have_prev) contact_velocities(s, h);
 }
 
 }  // namespace loom::bullet

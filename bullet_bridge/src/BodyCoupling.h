@@ -18,8 +18,10 @@
 //       triangles likewise, the triangle's point weighted by barycentric coordinates (Bridson et al. 2002);
 //     tethers (Kim, Chentanez, Müller-Fischer 2012, "Long range attachments"): each free vertex stays within
 //       (1 + tether_stretch) of its rest distance to each of its nearest pinned vertices (0: the paper's
-//       inextensible tether; at the edges' 10 % a heavy body sinks the cloth until the curved path to the
-//       anchor stretches its edges past 10 % before the straight tether binds);
+//       inextensible tether, with which a cloth tied at four corners cannot sag at all and the bodies' weight
+//       is held by limits that Gauss-Seidel leaves violated; at the edges' 10 % and a large slack a heavy
+//       body sinks the cloth until the curved path to the anchor stretches its edges past 10 % before the
+//       straight tether binds);
 //     strain limit (Provot 1995): structural and shear edges no longer than (1 + max_stretch) L.
 //     In tethers and edges a vertex in contact that would move into its body moves the body with it: along
 //     the contact normal n its inverse mass is that of the pair, w_c = w_v w_b / (w_v + w_b), and the body
@@ -31,11 +33,20 @@
 //       fully if below mu_s times the normal correction, else by mu_k times it, with both inverse masses;
 //   velocities: v = (x - x_prev) / h for cloth vertices; for bodies v = (x - x0) / h and
 //     w = 2 vec(q q0^-1) / h (Müller et al. 2020, Alg. 2);
+//   inelastic contacts (Müller et al. 2020, Sec. 3.6, eq. 34, restitution 0): a vertex still touching its
+//     body (or a static or kinematic collider) ends the step with the body point's normal velocity, by an
+//     equal and opposite impulse -v_n / (w_v + w_b) on the pair. Without it a position correction of a
+//     millimetre in a step of a few hundred microseconds leaves the vertex moving at metres per second
+//     against the body, which the next step's contact undoes: a period-two jitter that also drives the
+//     adaptive step count (BulletClothSettings::step_motion);
 //   no rebound from a cloth with pinned vertices (restitution 0, Müller et al. 2020, Sec. 3.6 with e = 0;
 //     a free cloth is left alone, so the pair's momentum stays exact): the change the step
 //     made to a body's velocity, dv = v - v_pred along d = dv / |dv|, may stop the body along d but not throw
-//     it: v.d is cut to max(0, v_pred.d). The position correction beyond that moves the body without giving
-//     it velocity, as split-impulse penetration recovery does in rigid-body solvers (Bullet's
+//     it: v.d is cut to max(0, v_pred.d); likewise the angular velocity w against w_pred (a contact's
+//     rotation of the body stays in its pose but does not become spin: w = 2 dtheta / h of a step of a few
+//     hundred microseconds turned millimetre corrections into tens of rad/s; so the cloth can stop a body's
+//     spin but not start one). The position correction beyond that moves the body without giving it
+//     velocity, as split-impulse penetration recovery does in rigid-body solvers (Bullet's
 //     btContactSolverInfo::m_splitImpulse). Without it, a limit left violated at a step's end (a heavy
 //     body pressing the light cloth past its limit, which Gauss-Seidel corrects over many steps) becomes
 //     velocity: the cloth acts as a stiff undamped spring on the body and throws it back out of the bag.
@@ -64,15 +75,18 @@ struct CoupledBody {
   Mat3 inv_inertia = Mat3::Zero();          // 1/(kg m²), world frame at `pose`
   bool touched = false;                     // a contact moved it in the current Bullet substep
   Vec3 v_pred = Vec3::Zero();               // m/s, v at the cloth step's start (after predict: unchanged)
-  long version = 0;                         // counts the changes of `pose` (the coupling's pose caches)
+  Vec3 w_pred = Vec3::Zero();               // rad/s, w at the cloth step's start
+  // m/s, rad/s: the velocity changes of the step's inelastic-contact pass (added to those from the poses)
+  Vec3 dv = Vec3::Zero(), dw = Vec3::Zero();
+  long version = 0;  // counts the changes of `pose` (the coupling's pose caches)
   bool dynamic() const { return inv_mass > 0.0; }
 };
 
 struct BodyCouplingSettings {
-  double thickness = 0.005;      // m, contact offset
-  double max_stretch = 0.1;      // 1, edges at most (1 + max_stretch) times their rest length
-  double tether_stretch = 0.0;   // 1, tethers at most (1 + tether_stretch) times their rest distance
-  int iterations = 2;            // alternations of contacts, tethers and edges per cloth step
+  double thickness = 0.005;       // m, contact offset
+  double max_stretch = 0.1;       // 1, edges at most (1 + max_stretch) times their rest length
+  double tether_stretch = 0.015;  // 1, tethers at most (1 + tether_stretch) times their rest distance
+  int iterations = 3;             // alternations of contacts, tethers and edges per cloth step
   int tether_anchors = 4;        // pinned vertices each free vertex is tethered to (nearest at rest); 0: none
   bool features = true;          // body features against cloth triangles
   double friction = 0.3;         // 1, kinetic
@@ -126,6 +140,8 @@ class BodyCoupling {
   // Tethers, then edges in alternating sweep order.
   void solve_limits(cloth::ClothState& s, size_t index, int it);
   void apply_friction(cloth::ClothState& s);
+  // Inelastic contacts: the relative normal velocity of each vertex still touching its body set to zero.
+  void contact_velocities(cloth::ClothState& s, double h);
   // Body velocities from the pose change of the step, then the no-rebound cut (see above).
   void update_body_velocities(double h);
 

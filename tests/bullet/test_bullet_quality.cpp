@@ -72,7 +72,10 @@ TEST(BulletQuality, RealtimeRunsTheCoupledTier) {
   EXPECT_EQ(b.steps,
             2);  // the bridge's 2 coupled steps per Bullet substep, not the cloth tier's 12 per frame
   EXPECT_TRUE(b.finite);
-  EXPECT_GT(b.box_y, 0.5);  // the box fell onto the sheet and lies on it (sheet at 0.5, half size 0.1)
+  // The box fell onto the sheet and lies on it: sheet at 0.5, box half size 0.1, and the sheet's centre
+  // (0.707 m from each pin) sags at most sqrt(1.015^2 - 1) 0.707 = 0.123 m under the tier's 1.5 % tether
+  // slack.
+  EXPECT_GT(b.box_y, 0.47);
   EXPECT_LT(b.box_y, 0.7);
 }
 

@@ -62,10 +62,10 @@ struct BulletClothSettings {
   std::string realtime_solver = "xpbd";  // realtime: any of cloth::solver_names() taking `iterations`
   int realtime_iterations = 1;           // realtime: solver iterations per cloth step
   int realtime_substeps = 2;             // realtime: cloth steps per Bullet substep, at least
-  int coupling_iterations = 2;           // realtime: contact, tether and edge sweeps per cloth step
+  int coupling_iterations = 3;           // realtime: contact, tether and edge sweeps per cloth step
   int tether_anchors = 4;                // realtime: pinned vertices each vertex is tethered to (0: none)
   double max_stretch = 0.1;              // 1, realtime: strain limit l/L - 1 of edges
-  double tether_stretch = 0.0;           // 1, realtime: tethers at most (1 + this) x their rest distance
+  double tether_stretch = 0.015;         // 1, realtime: tethers at most (1 + this) x their rest distance
 
   // Adaptive cloth steps: a Bullet substep runs n = ceil(relative motion / (step_motion * thickness)) cloth
   // steps, cloth_substeps <= n <= max_cloth_substeps, where the relative motion (m) is the farthest any point
