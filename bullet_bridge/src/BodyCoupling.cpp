@@ -47,12 +47,14 @@ void apply_positional_impulse(CoupledBody& b, const Vec3& P, const Vec3& r) {
 
 // Velocity u after a step that started with u_pred, cut so that the step's change du = u - u_pred, along
 // d = du / |du|, stops the motion along d but does not reverse or raise it: u.d <= max(0, u_pred.d).
-Vec3 no_rebound(const Vec3& u, const Vec3& u_pred) {
+Vec3 no_rebound(const Vec3& u, const Vec3& u_pred, const std::vector<Vec3>& carried) {
   const Vec3 du = u - u_pred;
   const double len = du.norm();
   if (!(len > 0.0)) return u;
   const Vec3 d = du / len;
-  const double excess = u.dot(d) - std::max(0.0, u_pred.dot(d));
+  double allowed = std::max(0.0, u_pred.dot(d));
+  for (const Vec3& c : carried) allowed = std::max(allowed, c.dot(d));
+  const double excess = u.dot(d) - allowed;
   return excess > 0.0 ? Vec3(u - excess * d) : u;
 }
 
@@ -106,6 +108,7 @@ struct BodyCoupling::Work {
   std::vector<collision::ColliderFeatures> features;
   std::vector<Placed> placed;            // per collider
   std::vector<Vec3> block_lo, block_hi;  // m, per block of kBlock vertices: the box of their positions
+  std::vector<Vec3> anchor_v;  // m/s, this cloth step's velocities of the pinned vertices, all cloths
 };
 
 class BodyCoupling::Predict final : public cloth::Stage {
@@ -124,6 +127,7 @@ class BodyCoupling::Solve final : public cloth::Stage {
   const char* name() const override { return "body_coupling"; }
   void run(cloth::StageContext& ctx) override {
     o_.last_penetration_ = 0.0;
+    o_.work_->anchor_v.clear();
     for (size_t c = 0; c < ctx.cloths.size(); ++c) o_.solve(*ctx.cloths[c], c, ctx.h);
     o_.update_body_velocities(ctx.h);
     collision::ColliderSet& cs = *o_.colliders_;
@@ -315,8 +319,8 @@ void BodyCoupling::update_body_velocities(double h) {
     // No rebound: v.d <= max(0, v_pred.d) along the direction d of the step's velocity change, and likewise
     // for w; only against a cloth with pinned vertices (a free cloth keeps the pair's momentum exactly).
     if (!anchored_) continue;
-    b.v = no_rebound(b.v, b.v_pred);
-    b.w = no_rebound(b.w, b.w_pred);
+    b.v = no_rebound(b.v, b.v_pred, work_->anchor_v);
+    b.w = no_rebound(b.w, b.w_pred, {});
   }
 }
 
@@ -670,8 +674,14 @@ void BodyCoupling::solve(cloth::Cloth& cloth, size_t index, double h) {
 
   // Velocities from the corrected positions.
   if (have_prev)
-    for (int i = 0; i < n; ++i)
-      if (s.inv_mass[i] > 0.0) s.v[i] = (s.x[i] - s.x_prev[i]) / h;
+    for (int i = 0; i < n; ++i) {
+      const Vec3 v = (s.x[i] - s.x_prev[i]) / h;
+      if (s.inv_mass[i] > 0.0) {
+        s.v[i] = v;
+      } else if (v.squaredNorm() > 0.0) {
+        w.anchor_v.push_back(v);
+      }
+    }
   if (have_prev) contact_velocities(s, h);
 }
 

@@ -42,10 +42,12 @@
 //   no rebound from a cloth with pinned vertices (restitution 0, Müller et al. 2020, Sec. 3.6 with e = 0;
 //     a free cloth is left alone, so the pair's momentum stays exact): the change the step
 //     made to a body's velocity, dv = v - v_pred along d = dv / |dv|, may stop the body along d but not throw
-//     it: v.d is cut to max(0, v_pred.d); likewise the angular velocity w against w_pred (a contact's
-//     rotation of the body stays in its pose but does not become spin: w = 2 dtheta / h of a step of a few
-//     hundred microseconds turned millimetre corrections into tens of rad/s; so the cloth can stop a body's
-//     spin but not start one). The position correction beyond that moves the body without giving it
+//     it faster than the cloth's anchors move: v.d is cut to max(0, v_pred.d, max_a u_a.d), u_a the velocity
+//     of pinned vertex a over the step (a cape on a moving character carries a crate at its pins' speed; a
+//     cloth tied to fixed points gives none); likewise the angular velocity w against w_pred alone (a
+//     contact's rotation of the body stays in its pose but does not become spin: w = 2 dtheta / h of a step
+//     of a few hundred microseconds turned millimetre corrections into tens of rad/s; so the cloth can stop
+//     a body's spin but not start one). The position correction beyond that moves the body without giving it
 //     velocity, as split-impulse penetration recovery does in rigid-body solvers (Bullet's
 //     btContactSolverInfo::m_splitImpulse). Without it, a limit left violated at a step's end (a heavy
 //     body pressing the light cloth past its limit, which Gauss-Seidel corrects over many steps) becomes
