@@ -121,11 +121,9 @@ TEST(FeatureContact, SetupTierHoldsCapsuleEndOnTriangle) {
   EXPECT_GT(r.lowest, 0.5);
 }
 
-// The coupled real-time tier (BodyCoupling.h: body features against triangles, mass-aware) likewise.
-// Disabled: these fail (run them with --gtest_also_run_disabled_tests). On this 3 x 3 sheet the coupled solve
-// records face contacts (box: 1415, capsule: 490 over the run, LOOM_DIAG=1 prints them) yet both bodies end
-// under the cloth (box centre at -1.14 m, capsule at -1.01 m; 45 and 43 of 90 frames under it).
-TEST(FeatureContact, DISABLED_CoupledTierHoldsBoxCornerOnTriangle) {
+// The coupled real-time tier (BodyCoupling.h: body features against triangles, mass-aware, inelastic)
+// likewise.
+TEST(FeatureContact, CoupledTierHoldsBoxCornerOnTriangle) {
   const DropRun r =
       drop_on_triangle(Body::box_corner, drop_settings(bullet::BulletClothSettings::Tier::realtime));
   std::printf("coupled tier, box corner: centre lowest %.4f m, %d frames under the cloth\n", r.lowest,
@@ -134,7 +132,7 @@ TEST(FeatureContact, DISABLED_CoupledTierHoldsBoxCornerOnTriangle) {
   EXPECT_GT(r.lowest, 0.5);
 }
 
-TEST(FeatureContact, DISABLED_CoupledTierHoldsCapsuleEndOnTriangle) {
+TEST(FeatureContact, CoupledTierHoldsCapsuleEndOnTriangle) {
   const DropRun r =
       drop_on_triangle(Body::capsule_end, drop_settings(bullet::BulletClothSettings::Tier::realtime));
   std::printf("coupled tier, capsule end: centre lowest %.4f m, %d frames under the cloth\n", r.lowest,
