@@ -245,7 +245,9 @@ Checkpoint read_checkpoint(const fs::path& out) {
   const fs::path path = checkpoint_file(out);
   std::error_code ec;  // only a missing file is "no checkpoint"; a loop of links gets its own reason below
   if (!fs::exists(path, ec) && (!ec || ec == std::errc::no_such_file_or_directory))
-    throw Error(path.string(), "--resume", "no checkpoint here (write one with --checkpoint-every N)");
+    throw Error(path.string(), "--resume",
+                "no checkpoint here (a run writes one with --checkpoint-every N; a scene with rigid "
+                "bodies cannot write one, so its runs cannot be resumed)");
   return decode_checkpoint(read_text_file(path.string()), path.string());
 }
 

@@ -158,6 +158,11 @@ int default_substeps(const std::string& method, double frame_dt) {
   return static_cast<int>(std::clamp(std::ceil(frame_dt / kFastXpbdStep - 1e-9), 1.0, 1e6));
 }
 
+bool takes_springs_only(const std::string& method) {
+  return method == "pbd" || method == "xpbd" || method == "fast_xpbd" || method == "projective" ||
+         method == "desbrun";
+}
+
 std::vector<std::string> solver_names() {
   std::vector<std::string> names;
   for (const Entry& e : registry()) names.push_back(e.name);

@@ -16,6 +16,7 @@
 #include "loom/cloth/HiddenText.h"
 #include "loom/cloth/Model.h"
 #include "loom/cloth/ObjFile.h"
+#include "loom/cloth/Solver.h"
 #include "loom/scene/JsonReader.h"
 #include "loom/scene/SceneBodies.h"
 #include "loom/scene/SceneCharacter.h"
@@ -829,6 +830,33 @@ void check_static(const Scene& scene, const std::string& file) {
   }
 }
 
+// A cloth's model against the method that will run it: the coupled solve of a Bullet world and the
+// position-based and projective solvers take the springs model only (Solver.h, takes_springs_only), so
+// another model is refused by the cloth's `model`, naming who picked the method.
+void check_models(const JsonReader& r, const Scene& scene, const std::string& file) {
+  const bool method_given = r.has("solver") && r.object("solver").has("method");
+  const std::string& method = scene.setup.solver.method;
+  for (size_t i = 0; i < scene.setup.cloths.size(); ++i) {
+    const std::string& model = scene.setup.cloths[i].model;
+    if (model == "springs") continue;
+    const std::string field = scene.cloth_field(static_cast<int>(i)) + ".model";
+    if (scene.world.coupled)
+      throw Error(file, field,
+                  "'" + model + "' cannot run in the coupled solve of a Bullet world (quality \"" +
+                      scene.quality.name +
+                      "\"), which takes the springs model only: use \"springs\", or run the setup tier "
+                      "with \"quality\": \"reference\"");
+    if (cloth::takes_springs_only(method))
+      throw Error(
+          file, field,
+          "'" + model + "' cannot run with solver.method '" + method + "' (" +
+              (method_given ? std::string("the scene's")
+                            : "picked by \"quality\": \"" + scene.quality.name + "\"") +
+              "), which takes the springs model only: use \"springs\", or a solver that takes it "
+              "(implicit_euler, bdf2, imex or an explicit one; \"quality\": \"reference\" picks one)");
+  }
+}
+
 // A scene with `bodies`: how its cloths run in the Bullet world (SceneQuality.h, WorldTier). In the coupled
 // tier the bridge solves cloth, contacts, edges and tethers together, so the tier's tether pass is dropped
 // and the explicit values that apply become its settings.
@@ -884,6 +912,7 @@ Scene parse_scene(const nlohmann::json& written, const std::string& file) {
   parse_colliders(r, scene);   // Rigid colliders and their motion (SceneColliders.cpp)
   parse_collision(r, scene);   // Self- and cloth-cloth collision, friction pairs (SceneCollision.cpp)
   parse_world_tier(r, scene);  // a Bullet world's tier (SceneQuality.h)
+  check_models(r, scene, file);
 
   parse_output(r, scene);
   r.finish();

@@ -187,7 +187,7 @@ std::vector<RegimeOutlier> regime_outliers(const Scene& scene) {
   double cloth_mass = 0.0;
   for (size_t i = 0; i < s.cloths.size(); ++i) {
     const cloth::ClothSetup& c = s.cloths[i];
-    const std::string at = "cloths[" + std::to_string(i) + "]";
+    const std::string at = scene.cloth_field(static_cast<int>(i));
     const double rho = c.material.areal_density;  // kg/m^2
     cloth_mass += rho * c.mesh->total_area();
     const double wave = std::sqrt(std::max(c.material.stretch_weft, c.material.stretch_warp) / rho);
@@ -226,10 +226,20 @@ std::vector<RegimeOutlier> regime_outliers(const Scene& scene) {
       cloth::Vec3 target = p.anchor.value_or(start);
       if (!p.offsets.empty()) target += p.offsets.front();
       const double d = (target - start).norm();
+      const std::string pin =
+          k < c.pin_fields.size() ? c.pin_fields[k] : at + ".pins[" + std::to_string(k) + "]";
       if (d > reach)
-        add((k < c.pin_fields.size() ? c.pin_fields[k] : at + ".pins[" + std::to_string(k) + "]") +
-            " (its first target lies " + fig(d) + " m from its vertex; validated up to " + fig(reach) +
+        add(pin + " (its first target lies " + fig(d) + " m from its vertex; validated up to " + fig(reach) +
             " m, a quarter of the cloth's size)");
+      // A path moves its vertex linearly between keys: its speed is the fastest key interval's, as for a
+      // kinematic collider, over the keys that start within the scene's duration.
+      double v = 0.0;
+      for (size_t q = 1; q < p.times.size() && q < p.offsets.size() && p.times[q - 1] < scene.duration; ++q)
+        if (p.times[q] > p.times[q - 1])
+          v = std::max(v, (p.offsets[q] - p.offsets[q - 1]).norm() / (p.times[q] - p.times[q - 1]));
+      if (v > kRegimeSpeed)
+        add(pin + ".path (moves its vertex at up to " + fig(v) + " m/s; validated up to " +
+            fig(kRegimeSpeed) + ")");
     }
     // PressureTerm.h: |f| = |dp| A on a face, dp = p_in - p_out the net pressure, so a = |dp| / rho. At the
     // rest volume dp is `overpressure` for both models (an ideal gas holds ambient + overpressure inside

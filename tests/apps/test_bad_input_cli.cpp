@@ -597,7 +597,8 @@ const BadInput kCases[] = {
      nullptr,
      "checkpoint.bin",
      "--resume",
-     "no checkpoint here"},
+     "no checkpoint here (a run writes one with --checkpoint-every N; a scene with rigid bodies cannot write "
+     "one"},
     {"resume_broken_checkpoint",
      nullptr,
      {"--resume", "@BROKEN"},

@@ -52,6 +52,18 @@ TEST(CcdEvalCli, ErrorsAndExitCodes) {
   const CcdEvalRun none = ccd_eval(empty.string());
   EXPECT_EQ(none.code, 1);
   EXPECT_NE(none.err.find("empty.csv: holds no queries"), std::string::npos) << none.err;
+  // The query type comes from the path: a path naming both types, or neither, is refused saying which.
+  const std::filesystem::path both = loom::test::test_dir() / "edge-edge" / "vertex-face-q.csv";
+  std::filesystem::create_directories(both.parent_path());
+  std::ofstream(both) << "\n";
+  const CcdEvalRun two = ccd_eval(both.string());
+  EXPECT_EQ(two.code, 1);
+  EXPECT_NE(two.err.find("contains both 'vertex-face' and 'edge-edge'"), std::string::npos) << two.err;
+  const std::filesystem::path neither = loom::test::test_dir() / "queries.csv";
+  std::ofstream(neither) << "\n";
+  const CcdEvalRun zero = ccd_eval(neither.string());
+  EXPECT_EQ(zero.code, 1);
+  EXPECT_NE(zero.err.find("contains neither 'vertex-face' nor 'edge-edge'"), std::string::npos) << zero.err;
 }
 
 // Exact means exact: a number with a blank inside ("1 0", which GMP would read as 10) is refused by line,

@@ -466,6 +466,17 @@ TEST(ClipInput, AClipFasterThanTheValidatedSpeedIsNamedByFileJointAndFrame) {
   EXPECT_EQ(advice.find("more solver.substeps"), std::string::npos) << advice;
 }
 
+// A garment's values outside the regime are named by the garment's field (the scene has no `cloths`).
+TEST(ClipInput, AGarmentOutsideTheRegimeIsNamedByItsGarmentField) {
+  const loom::scene::Scene scene = loom::scene::load_scene(
+      std::string(LOOM_SOURCE_DIR) + "/scenes/character_cape.json",
+      {"character.garments[0].material={\"preset\":\"cotton\",\"stretch\":1e12}", "duration=0.2"});
+  const std::string advice = loom::scene::divergence_suspects(scene);
+  EXPECT_NE(advice.find("character.garments[0].material stretch with its areal density"), std::string::npos)
+      << advice;
+  EXPECT_EQ(advice.find("cloths["), std::string::npos) << advice;
+}
+
 // What loading a clip holds is estimated from the file before it is read: a BVH by Frames x its joints and
 // their CHANNELS (arm_swing.bvh: 511 frames of 31 joints, 6 + 30 x 3 channels), bounded by what its lines can
 // hold; a glTF by its JSON and the byteLength of its buffers; a FIFO is never opened.

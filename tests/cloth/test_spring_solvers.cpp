@@ -547,6 +547,25 @@ class MysteryTerm final : public Term {
   void add_jacobians(const EvalContext&, const JacobianOptions&, BlockMatrix*, BlockMatrix*) const override {}
 };
 
+// takes_springs_only (what scenes check a cloth's model against) names exactly the methods whose check()
+// refuses a term that is not a spring.
+TEST(SpringSolvers, TakesSpringsOnlyNamesTheMethodsThatRefuseOtherTerms) {
+  for (const std::string& method : solver_names()) {
+    Simulation sim(sheet(5, "symplectic_euler"));
+    Cloth& cloth = *sim.cloths()[0];
+    cloth.add_term(std::make_unique<MysteryTerm>());
+    bool refused = false;
+    try {
+      make_solver(settings(method, {}))->check(cloth);
+    } catch (const Error&) {
+      refused = true;
+    }
+    EXPECT_EQ(refused, takes_springs_only(method)) << method;
+  }
+  EXPECT_TRUE(takes_springs_only("fast_xpbd"));
+  EXPECT_FALSE(takes_springs_only("implicit_euler"));
+}
+
 TEST(SpringSolvers, RejectTermsTheyCannotUseNamingThem) {
   for (const char* method : {"pbd", "xpbd", "projective", "desbrun"}) {
     Simulation sim(sheet(5, "symplectic_euler"));

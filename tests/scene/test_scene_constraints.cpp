@@ -99,8 +99,13 @@ const Case kCases[] = {
      "unknown parameter for method 'desbrun'"},
     {"projective_choi_ko",
      {"solver.method=projective", "cloths[0].model=choi_ko"},
-     "solver.method",
-     "cannot use term 'choi_ko'"},
+     "cloths[0].model",
+     "'choi_ko' cannot run with solver.method 'projective' (the scene's), which takes the springs model "
+     "only"},
+    {"realtime_tier_baraff_witkin",
+     {"quality=realtime", "solver={}", "cloths[0].model=baraff_witkin"},
+     "cloths[0].model",
+     "'baraff_witkin' cannot run with solver.method 'fast_xpbd' (picked by \"quality\": \"realtime\")"},
 };
 
 INSTANTIATE_TEST_SUITE_P(All, ConstraintSceneErrors, ::testing::ValuesIn(kCases),

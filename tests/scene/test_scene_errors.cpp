@@ -233,6 +233,14 @@ const Case kCases[] = {
       "\"radius\": 0.1}]"},
      "colliders[1].name",
      "also the name of colliders[0]"},
+    // The coupled solve of a Bullet world takes the springs model only: another model is named by the
+    // cloth's field, with the way out.
+    {"coupled_tier_choi_ko",
+     {"quality=realtime", "solver={}", "cloths[0].model=choi_ko",
+      "bodies=[{\"name\": \"ball\", \"shape\": \"sphere\", \"radius\": 0.05, \"position\": [5, 5, 5], "
+      "\"mass\": 1}]"},
+     "cloths[0].model",
+     "'choi_ko' cannot run in the coupled solve of a Bullet world (quality \"realtime\")"},
     {"body_name_twice",
      {"bodies=[{\"name\": \"box\", \"shape\": \"sphere\", \"radius\": 0.05, \"position\": [0, 2, 0]}, "
       "{\"name\": \"box\", \"shape\": \"sphere\", \"radius\": 0.05, \"position\": [1, 2, 0]}]"},

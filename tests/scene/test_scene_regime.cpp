@@ -166,6 +166,17 @@ TEST(SceneRegime, ClothsStartingInsideABodyAreNamedByTheBody) {
       << free_ball;
 }
 
+// A pin's path moves its vertex like a kinematic collider moves its surface: a key interval faster than the
+// regime's speed is named by the path with its figure; a slow path is not.
+TEST(SceneRegime, AFastPinPathIsNamedByThePath) {
+  expect_named({{"cloths[0].pins[1].path={\"times\":[0,0.01],\"offsets\":[[0,0,0],[5,0,0]]}"},
+                "cloths[0].pins[1].path (moves its vertex at up to 500 m/s",
+                "validated up to 100"});
+  const std::string slow =
+      suspects({"cloths[0].pins[1].path={\"times\":[0,1],\"offsets\":[[0,0,0],[5,0,0]]}"});
+  EXPECT_NE(slow.find("no scene value is outside the validated regime"), std::string::npos) << slow;
+}
+
 // A scene outside the regime gets one retry of a failed frame unless it sets guard.max_halvings; inside it,
 // or outside it only by values per solver step, the default five.
 TEST(SceneRegime, ASceneOutsideTheRegimeRetriesAFrameOnceUnlessItSaysOtherwise) {

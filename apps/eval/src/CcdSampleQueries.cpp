@@ -60,7 +60,10 @@ std::vector<CcdQuery> read_ccd_queries(const std::string& path) {
   const bool ee = path.find("edge-edge") != std::string::npos;
   if (vf == ee)
     throw loom::Error(path, "",
-                      "cannot tell the query type: the path must contain 'vertex-face' or 'edge-edge'");
+                      std::string("cannot tell the query type: the path ") +
+                          (vf ? "contains both 'vertex-face' and 'edge-edge'"
+                              : "contains neither 'vertex-face' nor 'edge-edge'") +
+                          " (it must contain exactly one)");
   std::istringstream in(loom::read_input_file(path));  // a regular file of bounded size (InputFile.h)
   std::vector<CcdQuery> out;
   std::string text;

@@ -74,6 +74,9 @@ class Solver {
 // a parameter the method does not take or a value out of its range. Registry: SolverFactory.cpp.
 std::unique_ptr<Solver> make_solver(const SolverSettings& settings, const std::string& file = "");
 std::vector<std::string> solver_names();
+// Whether `method` takes the springs model only (its check() refuses other models' terms): pbd, xpbd,
+// fast_xpbd, projective and desbrun. Scenes refuse another model with it by the cloth's `model`.
+bool takes_springs_only(const std::string& method);
 // Steps per frame of `frame_dt` (s) for SimulationSetup::substeps = 0 ("the solver's default"): fast_xpbd
 // takes steps of at most 1/720 s (12 per 60 Hz frame, the real-time tier's), every other method one step.
 int default_substeps(const std::string& method, double frame_dt);
