@@ -85,9 +85,18 @@ void StrainLimitStage::run(StageContext& ctx) {
       s.v[i] = (s.x[i] - s.x_prev[i]) / ctx.h;
       converged = converged && moved_[i] < settings_.iterations;
     }
-    for (int k : list) {
+    if (converged) {
+      if (kinematic_.size() != ctx.cloths.size())
+        kinematic_.assign(ctx.cloths.size(), {}), kinematic_mass_.assign(ctx.cloths.size(), {});
+      if (kinematic_mass_[c] != s.inv_mass) {
+        kinematic_mass_[c] = s.inv_mass;
+        kinematic_[c].clear();
+        for (int k : list)
+          if (s.inv_mass[springs[k].i] + s.inv_mass[springs[k].j] == 0.0) kinematic_[c].push_back(k);
+      }
+    }
+    for (int k : converged ? kinematic_[c] : list) {
       const SpringDef& sp = springs[k];
-      if (converged && s.inv_mass[sp.i] + s.inv_mass[sp.j] != 0.0) continue;
       const double l_max = stretch * sp.rest_length * (1.0 + 1e-9);
       const double l2 = (s.x[sp.j] - s.x[sp.i]).squaredNorm();
       if (l2 >= kSkip * l_max * l_max && std::sqrt(l2) > l_max) ++remaining_;

@@ -21,10 +21,24 @@ using Prepared = RealtimeBodyContactStage::Prepared;
 namespace {
 
 constexpr double kInf = std::numeric_limits<double>::infinity();
-constexpr int kMaxCandidates = 64;  // colliders tested per vertex
-constexpr int kPinchRounds = 8;     // rounds of the pinch exit
-constexpr double kGridCell = 0.1;   // m, target cell size of the per-step collider grid
-constexpr int kMaxGridDim = 32;     // cells per axis at most
+constexpr int kMaxCandidates = 64;     // colliders tested per vertex
+constexpr int kPinchRounds = 8;        // rounds of the pinch exit
+constexpr double kGridCell = 0.1;      // m, target cell size of the per-step collider grid
+constexpr int kMaxGridDim = 32;        // cells per axis at most
+constexpr size_t kMaskColliders = 64;  // colliders a mask holds (bits of an unsigned long long)
+constexpr double kMaskMargin = 0.02;   // m, the least margin of a mask box
+constexpr double kMaskSteps = 6.0;     // steps of motion a mask box's margin covers
+
+// True when [alo, ahi] and [blo, bhi] overlap (false for NaN).
+inline bool boxes_meet(const Vec3& alo, const Vec3& ahi, const Vec3& blo, const Vec3& bhi) {
+  return alo.x() <= bhi.x() && blo.x() <= ahi.x() && alo.y() <= bhi.y() && blo.y() <= ahi.y() &&
+         alo.z() <= bhi.z() && blo.z() <= ahi.z();
+}
+// True when [ilo, ihi] lies inside [olo, ohi] (false for NaN).
+inline bool box_holds(const Vec3& olo, const Vec3& ohi, const Vec3& ilo, const Vec3& ihi) {
+  return olo.x() <= ilo.x() && olo.y() <= ilo.y() && olo.z() <= ilo.z() && ihi.x() <= ohi.x() &&
+         ihi.y() <= ohi.y() && ihi.z() <= ohi.z();
+}
 
 // Radius (m) of a sphere about the shape's origin that holds the whole shape (infinite for a plane).
 double bounding_radius(const Shape& s) {
@@ -185,7 +199,13 @@ void RealtimeBodyContactStage::run_cloth(size_t index, cloth::Cloth& cloth, doub
   if (!(lo.array() <= hi.array()).all()) return;  // no free vertex
   prepare_colliders(set, cloth.material().thickness, lo, hi);
   if (active_.empty() && !rounds) return;
-  const ColliderGrid grid = build_grid(lo, hi);
+  // The masks when the colliders fit in one (the strain limit's rounds look colliders up on the grid).
+  const bool masked = !rounds && set.size() <= kMaskColliders;
+  ColliderGrid grid;
+  if (masked)
+    refresh_masks(index, n);
+  else
+    grid = build_grid(lo, hi);
 
   if (rounds) held_.assign(n, 0);
   int cand[kMaxCandidates];
@@ -193,7 +213,8 @@ void RealtimeBodyContactStage::run_cloth(size_t index, cloth::Cloth& cloth, doub
     const double m = s.mass[i];
     Vec3 x = s.x[i];
     const Vec3 x0 = s.x_prev[i];
-    const int nc = gather_candidates(grid, x, end_only ? x : x0, cand);
+    const int nc = masked ? masked_candidates(index, i, x, end_only ? x : x0, cand)
+                          : gather_candidates(grid, x, end_only ? x : x0, cand);
     if (nc == 0) continue;
     candidates_ += nc;
     Vec3 v = s.v[i];
@@ -384,7 +405,7 @@ int RealtimeBodyContactStage::gather_candidates(const ColliderGrid& grid, const 
     cells *= last[a] - first[a] + 1;
   }
   if (cells > 8) {
-    for (int k : active_) {  // each collider once
+    for (int k : active_) {  // each collider once, in ascending order
       const Prepared& pc = prepared_[k];
       if ((lo.array() <= pc.hi.array()).all() && (pc.lo.array() <= hi.array()).all()) add(k, true);
     }
@@ -400,6 +421,58 @@ int RealtimeBodyContactStage::gather_candidates(const ColliderGrid& grid, const 
           const int c = (z * grid.dims[1] + y) * grid.dims[0] + xx;
           if (c != c0 && c != c1) add_cell(c);
         }
+  if (c0 != c1 || cells > 2) std::sort(cand, cand + nc);  // one cell lists them in ascending order
+  return nc;
+}
+
+void RealtimeBodyContactStage::refresh_masks(size_t index, int n) {
+  if (masks_.size() <= index) masks_.resize(index + 1);
+  ColliderMasks& cm = masks_[index];
+  const int nk = static_cast<int>(prepared_.size());
+  constexpr double kNaN = std::numeric_limits<double>::quiet_NaN();
+  if (static_cast<int>(cm.vlo.size()) != n || static_cast<int>(cm.lo[0].size()) != nk) {
+    for (int a = 0; a < 3; ++a) cm.lo[a].assign(nk, kNaN), cm.hi[a].assign(nk, kNaN);
+    cm.vlo.assign(n, Vec3::Constant(kNaN)), cm.vhi.assign(n, Vec3::Constant(kNaN));
+    cm.mask.assign(n, 0);
+  }
+  for (int k = 0; k < nk; ++k) {
+    const Prepared& pc = prepared_[k];
+    const Vec3 blo(cm.lo[0][k], cm.lo[1][k], cm.lo[2][k]), bhi(cm.hi[0][k], cm.hi[1][k], cm.hi[2][k]);
+    if (box_holds(blo, bhi, pc.lo, pc.hi)) continue;
+    const double margin = std::max(kMaskMargin, kMaskSteps * pc.motion);
+    const Vec3 nlo = pc.lo - Vec3::Constant(margin), nhi = pc.hi + Vec3::Constant(margin);
+    for (int a = 0; a < 3; ++a) cm.lo[a][k] = nlo[a], cm.hi[a][k] = nhi[a];
+    const unsigned long long bit = 1ull << k;
+    for (int i = 0; i < n; ++i) {
+      if (boxes_meet(cm.vlo[i], cm.vhi[i], nlo, nhi))
+        cm.mask[i] |= bit;
+      else
+        cm.mask[i] &= ~bit;
+    }
+  }
+}
+
+int RealtimeBodyContactStage::masked_candidates(size_t index, int i, const Vec3& x, const Vec3& x0,
+                                                int* cand) {
+  ColliderMasks& cm = masks_[index];
+  const Vec3 lo = x.cwiseMin(x0), hi = x.cwiseMax(x0);
+  if (!box_holds(cm.vlo[i], cm.vhi[i], lo, hi)) {
+    const double margin = std::max(kMaskMargin, kMaskSteps * (x - x0).norm());
+    cm.vlo[i] = lo - Vec3::Constant(margin), cm.vhi[i] = hi + Vec3::Constant(margin);
+    unsigned long long mask = 0;
+    const int nk = static_cast<int>(prepared_.size());
+    for (int k = 0; k < nk; ++k)
+      if (boxes_meet(cm.vlo[i], cm.vhi[i], Vec3(cm.lo[0][k], cm.lo[1][k], cm.lo[2][k]),
+                     Vec3(cm.hi[0][k], cm.hi[1][k], cm.hi[2][k])))
+        mask |= 1ull << k;
+    cm.mask[i] = mask;
+  }
+  int nc = 0;
+  for (unsigned long long bits = cm.mask[i]; bits; bits &= bits - 1) {
+    const int k = __builtin_ctzll(bits);
+    const Prepared& pc = prepared_[k];
+    if (pc.active && boxes_meet(lo, hi, pc.lo, pc.hi)) cand[nc++] = k;
+  }
   return nc;
 }
 

@@ -17,7 +17,8 @@ namespace {
 
 // Barycentric weights (u, v, w) of p's projection onto the plane of (a, b, c), Ericson 2005, "Real-Time
 // Collision Detection", Sec. 3.4; false for a degenerate triangle.
-bool barycentric(const Vec3& a, const Vec3& b, const Vec3& c, const Vec3& p, double bw[3]) {
+inline __attribute__((always_inline)) bool barycentric(const Vec3& a, const Vec3& b, const Vec3& c,
+                                                       const Vec3& p, double bw[3]) {
   const Vec3 e0 = b - a, e1 = c - a, e2 = p - a;
   const double d00 = e0.dot(e0), d01 = e0.dot(e1), d11 = e1.dot(e1), d20 = e2.dot(e0), d21 = e2.dot(e1);
   const double den = d00 * d11 - d01 * d01;

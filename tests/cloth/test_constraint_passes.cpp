@@ -93,6 +93,25 @@ TEST(ConstraintPasses, ProvotReportsRemainingViolationsWithFewIterations) {
   EXPECT_GT(stage.remaining_violations(), 0);
 }
 
+TEST(ConstraintPasses, ProvotCountsASpringBetweenVerticesPinnedAfterTheFirstRun) {
+  // Springs between two kinematic vertices are never corrected, so they are counted as remaining when
+  // stretched, also when the vertices became kinematic after an earlier run.
+  Simulation sim(soft_sheet(9, 100.0));
+  ClothState& s = sim.cloths()[0]->state();
+  StrainLimitStage stage(StrainLimitSettings{0.1, 5000});
+  StageContext ctx{sim.cloths(), 0.0, 0.01, 1};
+  s.x_prev = s.x;
+  stage.run(ctx);
+  EXPECT_EQ(stage.remaining_violations(), 0);
+  // Pin vertex 1 (vertex 0, its neighbour in the first row, is pinned) 50% of the edge beyond its rest place.
+  s.inv_mass[1] = 0.0;
+  s.x[1] = s.x[0] + 1.5 * (s.x[1] - s.x[0]);
+  s.x_prev = s.x;
+  stage.run(ctx);
+  EXPECT_GE(stage.remaining_violations(), 1);
+  EXPECT_EQ(stage.remaining_violations(), 1);  // the free neighbours were brought within the limit
+}
+
 // limit_stretch with held vertices: a held vertex is kinematic for the limit (its neighbour moves all the
 // way), a spring with both ends held shares the correction by inverse mass; the sweeps stop once one
 // corrected nothing, with the same result as running all of them.

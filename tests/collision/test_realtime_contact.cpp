@@ -80,6 +80,45 @@ TEST(RealtimeContact, CullingDropsNoContact) {
 }
 
 // Largest l/L - 1 over the springs a strain limit acts on.
+TEST(RealtimeContact, CullingDropsNoContactWhenCollidersJump) {
+  // The stage keeps, per vertex, the colliders that may reach it over several steps (the collider masks);
+  // colliders that jump between frames with no motion in their poses (prev = curr at the new place), by
+  // more than any margin, must still be found: after every step every vertex is outside every sphere.
+  SimulationSetup s = realtime(sheet(17, 1.0, cloth::GridPlane::kXZ, Vec3(-0.5, 0.4, -0.5)), 8);
+  Simulation sim(s);
+  auto set = std::make_shared<ColliderSet>();
+  std::vector<Vec3> home;
+  for (int k = 0; k < 30; ++k) {
+    set->push_back(shape(ShapeType::sphere, 0.05 + 0.01 * (k % 3)));
+    home.push_back(Vec3(-0.45 + 0.03 * k, 0.2 + 0.004 * k, -0.4 + 0.027 * k));
+    set->back().prev = set->back().curr = at(home.back());
+  }
+  auto stage = std::make_unique<RealtimeBodyContactStage>(set);
+  const RealtimeBodyContactStage* rt = stage.get();
+  sim.add_stage(std::move(stage));
+  const double thickness = sim.cloths()[0]->material().thickness;
+  sim.add_stage(std::make_unique<CheckStage>([&](cloth::StageContext& ctx) {
+    EXPECT_GT(worst_gap(ctx.cloths[0]->state(), *set, thickness), -1e-9) << "t=" << ctx.t;
+  }));
+  auto contacts = [&] {
+    for (const auto& kv : rt->counters())
+      if (kv.first == "contacts") return kv.second;
+    return 0.0;
+  };
+  for (int f = 0; f < 20; ++f) ASSERT_TRUE(sim.step_frame().finite);
+  const double draped = contacts();
+  EXPECT_GT(draped, 0.0);
+  for (int f = 0; f < 20; ++f) {
+    // Each sphere jumps 0.15 m along x and back up under the sheet, alternately.
+    for (int k = 0; k < 30; ++k) {
+      const Vec3 p = home[k] + Vec3(f % 2 == 0 ? 0.15 : -0.15, 0.05, 0.0);
+      (*set)[k].prev = (*set)[k].curr = at(p);
+    }
+    ASSERT_TRUE(sim.step_frame().finite);
+  }
+  EXPECT_GT(contacts(), draped);  // the jumps met the sheet
+}
+
 double max_stretch(const cloth::Cloth& c) {
   double m = -1.0;
   const auto& springs = c.mesh().springs();

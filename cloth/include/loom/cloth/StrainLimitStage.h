@@ -45,6 +45,10 @@ class StrainLimitStage final : public Stage {
   StrainLimitSettings settings_;
   std::vector<std::vector<int>> limited_;  // per cloth: indices of the limited springs in mesh().springs()
   std::vector<int> moved_;                 // scratch (limit_stretch)
+  // Per cloth: the limited springs whose ends both have inverse mass 0, for the inverse masses in
+  // kinematic_mass_ (recomputed when they change).
+  std::vector<std::vector<int>> kinematic_;
+  std::vector<std::vector<double>> kinematic_mass_;
   long corrections_ = 0;
   long remaining_ = 0;
 };

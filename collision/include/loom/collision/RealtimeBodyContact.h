@@ -116,8 +116,13 @@ class RealtimeBodyContactStage final : public cloth::Stage {
   // [lo, hi].
   void prepare_colliders(const ColliderSet& set, double material_thickness, const Vec3& lo, const Vec3& hi);
   ColliderGrid build_grid(const Vec3& lo, const Vec3& hi);
-  // Writes into cand (kMaxCandidates at most) the active colliders whose box holds x or x0; their count.
+  // Writes into cand (kMaxCandidates at most) the active colliders whose box meets the box of the path
+  // x0 -> x, in ascending order; their count.
   int gather_candidates(const ColliderGrid& grid, const Vec3& x, const Vec3& x0, int* cand) const;
+  // The same set from the collider masks of cloth `index` (at most 64 colliders): refresh_masks() first in
+  // the step, then per vertex i with its path x0 -> x.
+  void refresh_masks(size_t index, int n);
+  int masked_candidates(size_t index, int i, const Vec3& x, const Vec3& x0, int* cand);
   void sweep(const ColliderSet& set, const int* cand, int nc, const Vec3& x0, Vec3& x);
   bool project(ColliderSet& set, const int* cand, int nc, double m, const Vec3& x0, double h, Vec3& x,
                Vec3& v);
@@ -135,6 +140,19 @@ class RealtimeBodyContactStage final : public cloth::Stage {
   // scratch: per grid entry its collider's box [lo, hi], one array per axis (tested two at a time); 2 spare
   // entries at the end
   std::vector<double> grid_lo_[3], grid_hi_[3];
+  // Per cloth: the collider masks, a cache of which colliders may meet each vertex's path over several
+  // steps. Collider k has a box B_k holding its box of the step (Prepared::lo/hi) inflated by a margin of a
+  // few steps of its motion; vertex i a box V_i holding its path's box inflated by a few steps of its own
+  // motion, and bit k of mask[i] says whether B_k meets V_i. While the step's box of k lies in B_k and the
+  // path of i in V_i, k can meet the path only if bit k is set, so the candidates of i are the set bits
+  // whose step box meets the path's box: the set the grid gives. A box that no longer holds its step box
+  // is refitted and its bits recomputed (a collider: its bit in every vertex; a vertex: its mask).
+  struct ColliderMasks {
+    std::vector<double> lo[3], hi[3];  // m, per collider: B_k
+    std::vector<Vec3> vlo, vhi;        // m, per vertex: V_i (NaN: none yet)
+    std::vector<unsigned long long> mask;
+  };
+  std::vector<ColliderMasks> masks_;
   const RealtimeBodyContactStage* earlier_ = nullptr;
   std::unique_ptr<FeatureContactStage> faces_;  // step 0 (null: settings_.faces off or positions only)
   std::vector<cloth::Vec3s> after_;          // per cloth: positions at the end of this stage's last run (NaN:
