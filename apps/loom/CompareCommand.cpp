@@ -159,6 +159,10 @@ int compare_main(int argc, char** argv) {
     if (cs.pressure) refuse(at + ".pressure", "is set");
     if (!sc.character && cs.initial_velocity != cloth::Vec3::Zero()) refuse(at + ".velocity", "is not zero");
   }
+  // Self-collision: the twins run without it (the deformable twin sets it off, the classic one has none).
+  // A character scene keeps it in the loom row: the garments' collision is part of the character pipeline
+  // its comparison measures (docs/cli.md).
+  if (!sc.character && sc.collision) refuse("collision", "is set (self-collision)");
   if (!sc.character && sc.setup.cloths.size() > 1)
     refuse("cloths",
            "has " + std::to_string(sc.setup.cloths.size()) + " cloths (the twins run the first one)");

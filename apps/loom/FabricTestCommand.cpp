@@ -155,6 +155,7 @@ int fabric_test_main(int argc, char** argv) {
   eval::FabricTestOptions o;
   std::string material = "cotton", out;
   bool json = false, have_test = false, model_given = false, overwrite = false;
+  bool span_given = false, overhang_given = false;
   CliArgs args(argc, argv, 2, "fabric-test");
   while (args.next()) {
     const std::string a = args.arg();
@@ -174,8 +175,10 @@ int fabric_test_main(int argc, char** argv) {
       o.resolution = parse_count(a, args.value(), eval::kMinFabricResolution, eval::kMaxFabricResolution);
     } else if (a == "--overhang-ratio") {
       o.overhang_ratio = parse_number(a, args.value(), 0.1, 100.0);
+      overhang_given = true;
     } else if (a == "--span") {
       o.span = parse_number(a, args.value(), 0.01, 0.999);  // below the strip's 1 m length
+      span_given = true;
     } else if (a == "--solver") {
       o.solver = args.value();
     } else if (a == "--settle-frames") {
@@ -215,6 +218,12 @@ int fabric_test_main(int argc, char** argv) {
   // it cannot hang: refused naming --solver). The folder is claimed after that and before the test runs, so
   // a refused folder costs nothing.
   eval::check_fabric_test_options(o);
+  // An option of another test would have no effect on this one.
+  if (span_given && o.test != "catenary")
+    throw Error("", "--span", "belongs to the catenary test; the " + o.test + " test does not use it");
+  if (overhang_given && o.test != "cantilever")
+    throw Error("", "--overhang-ratio",
+                "belongs to the cantilever test; the " + o.test + " test does not use it");
   const fs::path dir = out.empty() ? fs::path("out") / "fabric-test" / o.test : fs::path(out);
   if (out.empty()) eval::refuse_linked_default(dir, "--out");
   std::optional<eval::OutputFolder> claimed;

@@ -1078,6 +1078,12 @@ nlohmann::ordered_json SceneRun::summary() const {
   j["solver"] = sim_->setup().solver.method;  // in a Bullet world: the solver the bridge's tier runs
   j["substeps"] = sim_->setup().substeps;  // the steps run per frame (the static solver: one, Simulation.h)
   j["dt"] = sim_->step_size();
+#ifdef LOOM_HAVE_BULLET
+  if (bodies_world_) {  // a Bullet world: the fewest cloth steps per frame and the longest step (adaptive)
+    j["substeps"] = bodies_world_->min_cloth_steps_per_frame();
+    j["dt"] = bodies_world_->frame_dt() / bodies_world_->min_cloth_steps_per_frame();
+  }
+#endif
   j["threads"] = sc_.setup.threads;
   int vertices = 0, triangles = 0;
   for (const auto& c : sim_->cloths()) {

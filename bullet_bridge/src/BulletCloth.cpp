@@ -496,9 +496,13 @@ void BulletCloth::make_colliders(const std::vector<btRigidBody*>& bodies, double
   }
 }
 
+int BulletCloth::min_cloth_steps() const {
+  return coupling_ ? std::max(settings_.cloth_substeps, settings_.realtime_substeps)
+                   : settings_.cloth_substeps;
+}
+
 int BulletCloth::cloth_step_count(const std::vector<btRigidBody*>& bodies, double dt) const {
-  int steps =
-      coupling_ ? std::max(settings_.cloth_substeps, settings_.realtime_substeps) : settings_.cloth_substeps;
+  int steps = min_cloth_steps();
   if (settings_.max_cloth_substeps > steps && !colliders_->empty()) {
     double v_cloth = 0.0;  // m/s
     for (const auto& c : sim_->cloths())

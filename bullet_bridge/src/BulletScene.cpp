@@ -98,6 +98,7 @@ cloth::Simulation& BulletScene::simulation() { return cloth_->simulation(); }
 const cloth::Simulation& BulletScene::simulation() const { return cloth_->simulation(); }
 double BulletScene::time() const { return frame_ * frame_dt_; }
 long BulletScene::cloth_steps() const { return cloth_->cloth_steps(); }
+int BulletScene::min_cloth_steps_per_frame() const { return substeps_ * cloth_->min_cloth_steps(); }
 size_t BulletScene::num_bodies() const { return world_->bodies.size(); }
 Vec3 BulletScene::body_position(size_t k) const {
   return to_eigen(world_->bodies.at(k)->getCenterOfMassPosition());

@@ -143,9 +143,11 @@ CapsuleRig CapsuleRig::build(const Motion& motion, const std::map<std::string, d
     if (const double* r = pick(b.name)) {
       b.radius = *r;
       b.overridden = true;
+      if (b.radius == 0.0) rig.removed_.emplace(b.canonical, b.name);
     } else if (const double* r2 = pick(b.canonical)) {
       b.radius = *r2;
       b.overridden = true;
+      if (b.radius == 0.0) rig.removed_.emplace(b.canonical, b.canonical);
     } else {
       auto it = default_bone_radii().find(b.canonical);
       b.radius = size * (it != default_bone_radii().end() ? it->second : default_bone_radii().at("default"));
@@ -163,6 +165,11 @@ CapsuleRig CapsuleRig::build(const Motion& motion, const std::map<std::string, d
     }
   }
   return rig;
+}
+
+std::string CapsuleRig::removed_by(const std::string& canonical) const {
+  const auto it = removed_.find(canonical);
+  return it == removed_.end() ? std::string() : it->second;
 }
 
 void CapsuleRig::capsule_poses(const std::vector<Transform>& global, std::vector<Transform>& poses) const {

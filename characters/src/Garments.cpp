@@ -156,6 +156,14 @@ struct GarmentFit {
   // The joint of the bone `canonical`; throws naming the garment when the skeleton has none.
   int need(const std::string& canonical) const {
     const int j = joint_of(rig, canonical);
+    const std::string removed = j < 0 ? rig.removed_by(canonical) : std::string();
+    if (!removed.empty()) {
+      const size_t g = where.find(".garments");
+      throw RemovedCapsule(
+          source, (g == std::string::npos ? std::string() : where.substr(0, g + 1)) + "radii." + removed,
+          "the " + spec.type + " (" + where + ") hangs from the " + canonical +
+              " capsule, which a radius of 0 removes; give it a radius > 0");
+    }
     if (j < 0)
       throw Error(source, where,
                   "a " + spec.type + " needs a '" + canonical + "' bone in " + motion.source());

@@ -862,6 +862,11 @@ void check_models(const JsonReader& r, const Scene& scene, const std::string& fi
 // and the explicit values that apply become its settings.
 void parse_world_tier(const JsonReader& r, Scene& scene) {
   if (scene.bodies.empty()) return;
+  // The bridge runs its own cloth-body contact in every tier (BulletCloth.h, Contacts).
+  if (r.has("body_contact"))
+    r.fail("body_contact",
+           "is not used in a Bullet world (a scene with 'bodies'), whose cloth-body contact is the Bullet "
+           "bridge's own whatever the quality (docs/bullet.md); remove it");
   WorldTier w = world_tier(scene.quality.name);
   const std::string method = scene.setup.solver.method;
   const bool solver_given = r.has("solver") && r.object("solver").has("method");

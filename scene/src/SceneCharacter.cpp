@@ -226,6 +226,8 @@ void parse_character(const JsonReader& root, Scene& scene) {
       const ch::Garment garment = [&] {
         try {
           return ch::make_garment(spec, character->motion, character->rig, file, g.path(), layers);
+        } catch (const ch::RemovedCapsule&) {
+          throw;  // names the radii entry
         } catch (const Error& e) {
           // An OBJ garment is its mesh and attach table (its message names them); a generated one is made
           // from the fields named here.

@@ -52,6 +52,23 @@ void parse_collision(const JsonReader& root, Scene& scene) {
   const QualityTier& tier = scene.quality;
   const std::string method =
       c.string("method", tier.realtime_self ? "proximity" : "exact", {"exact", "proximity"});
+  // A Bullet world (a scene with `bodies`) runs the exact stage whatever the tier (ScenePipeline.cpp): the
+  // proximity method and its keys, given there, would have no effect.
+  if (!scene.bodies.empty()) {
+    const std::string world =
+        "is not used in a Bullet world (a scene with 'bodies'), whose self- and cloth-cloth collision is "
+        "the exact stage whatever the quality";
+    if (c.has("method") && method == "proximity")
+      c.fail("method", "\"proximity\" " + world + "; remove it, or give \"exact\"");
+    for (const char* key : {"every", "padding"})
+      if (c.has(key)) c.fail(key, world + " (" + key + " is a setting of \"proximity\"); remove it");
+  }
+  if (method == "exact")
+    for (const char* key : {"every", "padding"})
+      if (c.has(key))
+        c.fail(key, std::string("is not used by the exact method (collision.method \"exact\", ") +
+                        (c.has("method") ? "given here" : "quality \"" + tier.name + "\"'s choice") +
+                        "): " + key + " is a setting of collision.method \"proximity\"");
   if (method == "proximity") {
     collision::RealtimeSelfSettings p;
     p.self = s.self;

@@ -647,8 +647,9 @@ TEST(HostileCompare, AMovingPinIsRefusedByFieldBeforeTheFolder) {
   EXPECT_FALSE(fs::exists(out));
 }
 
-// What the Bullet twins cannot carry (a start velocity, wind, drag, another force model, pressure, a second
-// cloth) is refused by field before the folder: the rows would otherwise compare different problems.
+// What the Bullet twins cannot carry (a start velocity, wind, drag, another force model, pressure,
+// self-collision, a second cloth) is refused by field before the folder: the rows would otherwise compare
+// different problems.
 TEST(HostileCompare, ValuesTheTwinsCannotCarryAreRefusedByField) {
   const fs::path out = test_dir() / "out";
   const std::string scene = std::string(LOOM_SOURCE_DIR) + "/scenes/trampoline.json";
@@ -657,6 +658,7 @@ TEST(HostileCompare, ValuesTheTwinsCannotCarryAreRefusedByField) {
       {"effects={\"wind\":{\"velocity\":[5,0,0]}}", "effects.wind: is set"},
       {"effects={\"drag\":{\"isotropic\":1}}", "effects.drag: is set"},
       {"cloths[0].model=corotated_fem", "cloths[0].model: is 'corotated_fem'"},
+      {"collision={\"self\":true}", "collision: is set (self-collision)"},
   };
   for (const auto& [set, expected] : cases) {
     const auto r = run_loom("compare " + scene + " --frames 2 --set '" + set + "' --out " + out.string());

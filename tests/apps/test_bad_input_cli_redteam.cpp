@@ -504,7 +504,7 @@ TEST(RedteamGuard, AFirstFrameRetryWithSelfCollisionStopsByTheGuard) {
 
 // A field that makes a garment impossible is refused by that field, never by the garment's first bad
 // triangle or vertex: a figure under 10 cm (height, scale), a capsule radius or clearance beyond a quarter of
-// the figure, a skirt flare outside [0.1, 10].
+// the figure, a skirt flare outside [0.1, 10], a radius of 0 on a bone the garment hangs from.
 TEST(RedteamCharacter, AGarmentFailureNamesTheFieldThatCausedIt) {
   const std::string dir = std::string(LOOM_SOURCE_DIR) + "/scenes/";
   const struct {
@@ -521,6 +521,13 @@ TEST(RedteamCharacter, AGarmentFailureNamesTheFieldThatCausedIt) {
        "must be <= 0.25 x the figure's size"},
       {"character_skirt.json", "character.garments[0].flare=1e308", "character.garments[0].flare",
        "must be in [0.1, 10]"},
+      // A radius of 0 removes the capsule a garment hangs from: named by the radii entry, not the clip.
+      {"character_cape.json", "character.radii={\"LeftArm\":0}", "character.radii.LeftArm",
+       "the cape (character.garments[0]) hangs from the LeftArm capsule, which a radius of 0 removes"},
+      {"character_skirt.json", "character.radii={\"RightUpLeg\":0}", "character.radii.RightUpLeg",
+       "the skirt (character.garments[0]) hangs from the RightUpLeg capsule, which a radius of 0 removes"},
+      {"character_shirt.json", "character.radii={\"RightArm\":0}", "character.radii.RightArm",
+       "the shirt (character.garments[0]) hangs from the RightArm capsule, which a radius of 0 removes"},
   };
   for (const auto& c : cases) {
     const fs::path out = test_dir() / "out";

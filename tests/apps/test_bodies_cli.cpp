@@ -116,6 +116,31 @@ TEST(BodiesCli, QualityPicksTheBridgeTier) {
   EXPECT_NE(unused.err.find("solver.compliance_scale"), std::string::npos) << unused.err;
 }
 
+// In a Bullet world `substeps` is the fewest cloth steps a frame runs (an explicit solver.substeps N gives
+// ceil(N / 4) per Bullet substep), `dt` the frame over it, and `cloth_steps` (adaptive steps included) at
+// least `substeps` per frame: the three agree, and asking for more steps never reports fewer.
+TEST(BodiesCli, SummaryStepsAgreeWithAnExplicitSubsteps) {
+  if (!have_bullet()) GTEST_SKIP() << "loom built without the Bullet bridge";
+  const std::string scene = std::string(LOOM_SOURCE_DIR) + "/scenes/trampoline.json";
+  const int frames = 3;
+  int last = 0;
+  for (const int n : {1, 4, 8, 13, 40}) {
+    const auto dir = test_dir() / ("n" + std::to_string(n));
+    const CliResult r =
+        run_loom("run " + scene + " --frames " + std::to_string(frames) +
+                 " --set cloths.0.mesh.nodes=[9,9] --set quality=realtime --set 'solver={\"substeps\":" +
+                 std::to_string(n) + "}' --out " + dir.string());
+    ASSERT_EQ(r.code, 0) << n << ": " << r.err;
+    const nlohmann::json s = nlohmann::json::parse(slurp(dir / "summary.json"));
+    const int per_frame = 4 * std::max(1, (n + 3) / 4);
+    EXPECT_EQ(s["substeps"], per_frame) << n;
+    EXPECT_DOUBLE_EQ(s["dt"].get<double>(), (1.0 / 60.0) / per_frame) << n;
+    EXPECT_GE(s["cloth_steps"].get<long>(), static_cast<long>(per_frame) * frames) << n;
+    EXPECT_GE(per_frame, last) << n;
+    last = per_frame;
+  }
+}
+
 TEST(BodiesCli, BodiesWithCollidersOrCheckpointsRefused) {
   if (!have_bullet()) GTEST_SKIP() << "loom built without the Bullet bridge";
   const std::string scene = std::string(LOOM_SOURCE_DIR) + "/scenes/trampoline.json";

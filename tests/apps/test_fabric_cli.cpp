@@ -159,6 +159,28 @@ TEST(FabricTestCli, CountsAreWholeNumbersInRange) {
   EXPECT_NE(r.err.find("--settle-frames"), std::string::npos) << r.err;
 }
 
+// An option of another test is refused naming the option and the test it belongs to, before the folder.
+TEST(FabricTestCli, AnOptionOfAnotherTestIsRefused) {
+  const fs::path out = loom::test::test_dir() / "other";
+  const struct {
+    const char* args;
+    const char* says;
+  } cases[] = {
+      {"fabric-test drape --span 0.5",
+       "--span: belongs to the catenary test; the drape test does not use it"},
+      {"fabric-test cantilever --span 0.5", "--span: belongs to the catenary test"},
+      {"fabric-test tensile --overhang-ratio 3",
+       "--overhang-ratio: belongs to the cantilever test; the tensile test does not use it"},
+      {"fabric-test catenary --overhang-ratio 3", "--overhang-ratio: belongs to the cantilever test"},
+  };
+  for (const auto& c : cases) {
+    const Result r = run(std::string(c.args) + " --out " + out.string());
+    EXPECT_EQ(r.code, 1) << c.args << ": " << r.err;
+    EXPECT_NE(r.err.find(c.says), std::string::npos) << r.err;
+    EXPECT_FALSE(fs::exists(out)) << c.args;
+  }
+}
+
 // A resolution inside the range whose specimen would not fit in memory is refused before anything is built
 // or written, with the estimate and the budget (here LOOM_MEMORY_LIMIT).
 TEST(FabricTestCli, AResolutionThatWouldNotFitInMemoryIsRefusedFirst) {

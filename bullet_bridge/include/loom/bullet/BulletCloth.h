@@ -142,6 +142,9 @@ class BulletCloth : public btActionInterface {
   double last_penetration() const { return last_penetration_; }
   long substeps() const { return substeps_; }        // Bullet substeps run
   long cloth_steps() const { return cloth_steps_; }  // cloth pipeline steps run (adaptive, see settings)
+  // Cloth pipeline steps per Bullet substep before the adaptive ones: cloth_substeps, or in Tier::realtime
+  // the larger of it and realtime_substeps (at most max_cloth_substeps more are taken near a moving body).
+  int min_cloth_steps() const;
   // The cloth simulation's statistics for the last Bullet substep (Simulation::step_frame).
   const cloth::FrameStats& last_stats() const { return last_stats_; }
   // Pose of `body` that the cloth used at the end of the last substep (interpolated for kinematic bodies).

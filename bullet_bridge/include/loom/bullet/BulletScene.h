@@ -59,6 +59,9 @@ class BulletScene {
   int bullet_substeps() const { return substeps_; }
   const BulletSceneOptions& options() const { return options_; }
   long cloth_steps() const;  // cloth pipeline steps run so far (adaptive: BulletClothSettings)
+  // The fewest cloth steps a frame runs: bullet_substeps x BulletCloth::min_cloth_steps (a frame runs more
+  // where a body moves near the cloth).
+  int min_cloth_steps_per_frame() const;
 
   cloth::Simulation& simulation();
   const cloth::Simulation& simulation() const;

@@ -70,9 +70,12 @@ class CapsuleRig {
                     double rate = 120.0);
   // Index of the first bone whose canonical name is `canonical` (-1 if none).
   int find(const std::string& canonical) const;
+  // The `radii` key whose radius 0 removed the bone of canonical name `canonical` (empty if none did).
+  std::string removed_by(const std::string& canonical) const;
 
  private:
   std::vector<Bone> bones_;
+  std::map<std::string, std::string> removed_;  // canonical name -> the `radii` key that gave it 0
 };
 
 }  // namespace loom::characters

@@ -20,6 +20,7 @@
 #include "loom/characters/CapsuleRig.h"
 #include "loom/characters/Motion.h"
 #include "loom/cloth/ClothMesh.h"
+#include "loom/cloth/Error.h"
 
 namespace loom::characters {
 
@@ -43,8 +44,14 @@ struct Garment {
   std::vector<int> attached_joints;    // the joint of each attached vertex
 };
 
+// A bone the garment hangs from has no capsule because its `radii` entry is 0: where = the radii entry
+// (`where`'s prefix before ".garments" + ".radii.<key>").
+struct RemovedCapsule : Error {
+  using Error::Error;
+};
+
 // Throws loom::Error (file = `source`, where = `where`) when the skeleton lacks a bone the garment needs,
-// an OBJ group is missing, or the mesh is invalid.
+// an OBJ group is missing, or the mesh is invalid; RemovedCapsule when the bone's capsule was removed.
 // `outside`: points the garment must also clear (the vertices of garments made before it: layers).
 Garment make_garment(const GarmentSpec& spec, const Motion& motion, const CapsuleRig& rig,
                      const std::string& source = "", const std::string& where = "",
