@@ -1,6 +1,9 @@
 #include "loom/cloth/StrainLimitStage.h"
 
+#include <algorithm>
 #include <cmath>
+#include <limits>
+#include <tuple>
 
 namespace loom::cloth {
 
@@ -61,11 +64,91 @@ long limit_stretch(const ClothMesh& mesh, const std::vector<int>& list, double m
   return corrections;
 }
 
+OutwardOrder outward_order(const ClothMesh& mesh, const std::vector<int>& list,
+                           const std::vector<double>& inv_mass) {
+  const auto& springs = mesh.springs();
+  const int nv = static_cast<int>(inv_mass.size());
+  const int far = std::numeric_limits<int>::max();
+  std::vector<int> dist(nv, far), queue;
+  for (int i = 0; i < nv; ++i)
+    if (inv_mass[i] == 0.0) {
+      dist[i] = 0;
+      queue.push_back(i);
+    }
+  OutwardOrder out;
+  if (queue.empty()) return out;
+  std::vector<std::vector<int>> adj(nv);
+  for (int k : list) {
+    adj[springs[k].i].push_back(springs[k].j);
+    adj[springs[k].j].push_back(springs[k].i);
+  }
+  for (size_t q = 0; q < queue.size(); ++q)  // breadth-first hop distances
+    for (int b : adj[queue[q]])
+      if (dist[b] == far) {
+        dist[b] = dist[queue[q]] + 1;
+        queue.push_back(b);
+      }
+  out.springs = list;
+  auto key = [&](int k) {
+    const int a = dist[springs[k].i], b = dist[springs[k].j];
+    return std::make_tuple(std::max(a, b), std::min(a, b), k);
+  };
+  std::sort(out.springs.begin(), out.springs.end(), [&](int x, int y) { return key(x) < key(y); });
+  for (int k : out.springs) {
+    const int a = dist[springs[k].i], b = dist[springs[k].j];
+    out.links.push_back({springs[k].i, springs[k].j, springs[k].rest_length, a < b ? 1 : b < a ? 2 : 0});
+  }
+  return out;
+}
+
+long limit_stretch_outward(const ClothMesh&, const OutwardOrder& order, double max_stretch, int sweeps,
+                           ClothState& s, std::vector<int>& moved) {
+  const double stretch = 1.0 + max_stretch;
+  const int m = static_cast<int>(order.springs.size());
+  long corrections = 0;
+  for (int it = 0; it < sweeps; ++it) {
+    long sweep_corrections = 0;
+    for (int q = 0; q < m; ++q) {
+      const OutwardOrder::Link& sp = order.links[q];
+      double wi = sp.lead == 1 ? 0.0 : s.inv_mass[sp.i], wj = sp.lead == 2 ? 0.0 : s.inv_mass[sp.j];
+      if (wi + wj == 0.0) continue;
+      const Vec3 d = s.x[sp.j] - s.x[sp.i];
+      const double l_max = stretch * sp.rest_length;
+      const double l2 = d.squaredNorm();
+      if (l2 < kSkip * l_max * l_max) continue;
+      const double l = std::sqrt(l2);
+      if (l <= l_max) continue;
+      const Vec3 corr = ((l - l_max) / ((wi + wj) * l)) * d;
+      s.x[sp.i] += wi * corr;
+      s.x[sp.j] -= wj * corr;
+      if (wi > 0.0) moved[sp.i] = it + 1;
+      if (wj > 0.0) moved[sp.j] = it + 1;
+      ++sweep_corrections;
+    }
+    corrections += sweep_corrections;
+    if (sweep_corrections == 0) break;
+  }
+  return corrections;
+}
+
 void StrainLimitStage::run(StageContext& ctx) {
   if (limited_.size() != ctx.cloths.size()) {
     limited_.assign(ctx.cloths.size(), {});
+    outward_.assign(ctx.cloths.size(), {});
+    outward_kinematic_.assign(ctx.cloths.size(), {});
     for (size_t c = 0; c < ctx.cloths.size(); ++c) limited_[c] = limited_springs(ctx.cloths[c]->mesh());
   }
+  // The outward order follows the kinematic vertices: rebuilt when a pin is added or released.
+  if (settings_.outward)
+    for (size_t c = 0; c < ctx.cloths.size(); ++c) {
+      const std::vector<double>& w = ctx.cloths[c]->state().inv_mass;
+      bool same = outward_kinematic_[c].size() == w.size();
+      for (size_t i = 0; i < w.size() && same; ++i) same = (outward_kinematic_[c][i] != 0) == (w[i] == 0.0);
+      if (same) continue;
+      outward_kinematic_[c].resize(w.size());
+      for (size_t i = 0; i < w.size(); ++i) outward_kinematic_[c][i] = w[i] == 0.0;
+      outward_[c] = outward_order(ctx.cloths[c]->mesh(), limited_[c], w);
+    }
   const double stretch = 1.0 + settings_.max_stretch;
   remaining_ = 0;
   const std::vector<char> none;
@@ -74,12 +157,18 @@ void StrainLimitStage::run(StageContext& ctx) {
     const auto& springs = ctx.cloths[c]->mesh().springs();
     const std::vector<int>& list = limited_[c];
     moved_.assign(s.size(), 0);
-    corrections_ += limit_stretch(ctx.cloths[c]->mesh(), list, settings_.max_stretch, settings_.iterations,
-                                  none, s, moved_);
+    const bool outward = settings_.outward && !outward_[c].springs.empty();
+    if (outward)
+      corrections_ += limit_stretch_outward(ctx.cloths[c]->mesh(), outward_[c], settings_.max_stretch,
+                                            settings_.iterations, s, moved_);
+    else
+      corrections_ += limit_stretch(ctx.cloths[c]->mesh(), list, settings_.max_stretch, settings_.iterations,
+                                    none, s, moved_);
     // The sweeps stopped early (no vertex moved by the last allowed one, moved_ < iterations everywhere):
     // the last sweep found every spring it tested within the limit and the others have not moved since
-    // theirs, so only springs between two kinematic vertices (never corrected) can be above it.
-    bool converged = true;
+    // theirs, so only springs between two kinematic vertices (never corrected) can be above it. The outward
+    // sweeps move one end only and make no such promise: their count tests every limited spring.
+    bool converged = !outward;
     for (int i = 0; i < s.size(); ++i) {
       if (!moved_[i]) continue;
       s.v[i] = (s.x[i] - s.x_prev[i]) / ctx.h;

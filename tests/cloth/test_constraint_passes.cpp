@@ -213,3 +213,47 @@ TEST(ConstraintPasses, TethersHold) {
 
 }  // namespace
 }  // namespace loom::cloth
+
+namespace loom::cloth {
+namespace {
+
+// The accuracy benchmark's sheet configuration at a smaller size: cotton, 0.2 kg, two corners pinned,
+// fast_xpbd at `substeps` substeps of one iteration, which alone stretches the springs far past 8 %.
+SimulationSetup fast_sheet(int n, int substeps) {
+  SimulationSetup s = test::hanging_sheet(n);
+  s.solver.method = "fast_xpbd";
+  s.solver.params = {{"iterations", 1}};
+  s.substeps = substeps;
+  s.guard.enabled = false;
+  return s;
+}
+
+// The structural springs' largest l/L - 1 over `frames` frames (FrameStats::max_strain), -1 if a frame
+// was not finite.
+double worst_strain(const SimulationSetup& s, int frames) {
+  Simulation sim(s);
+  double worst = 0.0;
+  for (int f = 0; f < frames; ++f) {
+    const FrameStats st = sim.step_frame();
+    if (!st.finite || !sim.cloths()[0]->state().is_finite()) return -1.0;
+    worst = std::max(worst, st.max_strain);
+  }
+  return worst;
+}
+
+TEST(ConstraintPasses, OutwardStrainLimitHoldsTheFastSheetWithinTheBound) {
+  // The benchmark's configuration (16 substeps, one outward sweep at 8 %), and two sweeps.
+  for (const auto& [substeps, sweeps] : {std::pair<int, int>{16, 1}, {16, 2}}) {
+    SimulationSetup s = fast_sheet(32, substeps);
+    const double free_run = worst_strain(s, 30);
+    s.strain_limit = StrainLimitSettings{0.08, sweeps, true};
+    const double limited = worst_strain(s, 30);
+    EXPECT_GT(free_run, 0.2) << substeps;
+    ASSERT_GE(limited, 0.0) << substeps;  // finite throughout
+    EXPECT_LT(limited, 0.0913) << substeps;
+    EXPECT_GT(limited, 0.0713) << substeps;
+  }
+}
+
+}  // namespace
+}  // namespace loom::cloth

@@ -180,6 +180,26 @@ SimulationSetup loom_setup(const Scene& s, const std::string& method, const Swee
     setup.tethers = cloth::TetherSettings{slack->second, true};
     setup.solver.params.erase(slack);
   }
+  // Provot's strain limit after the solver, every step (StrainLimitStage.h), as the configuration keys
+  // "strain_limit" (τ: largest l/L - 1 it leaves) and "strain_limit_sweeps" (Gauss-Seidel sweeps per step,
+  // default 4) and "strain_limit_outward" (1: sweeps outward from the pins), not the solver's.
+  auto limit = setup.solver.params.find("strain_limit");
+  if (limit != setup.solver.params.end()) {
+    cloth::StrainLimitSettings sl;
+    sl.max_stretch = limit->second;
+    setup.solver.params.erase(limit);
+    auto sweeps = setup.solver.params.find("strain_limit_sweeps");
+    if (sweeps != setup.solver.params.end()) {
+      sl.iterations = static_cast<int>(sweeps->second);
+      setup.solver.params.erase(sweeps);
+    }
+    auto outward = setup.solver.params.find("strain_limit_outward");
+    if (outward != setup.solver.params.end()) {
+      sl.outward = outward->second != 0.0;
+      setup.solver.params.erase(outward);
+    }
+    setup.strain_limit = sl;
+  }
   setup.frame_dt = kFrameDt;
   setup.substeps = c.substeps;
   setup.threads = threads;

@@ -82,6 +82,11 @@ std::map<std::string, std::vector<SweepConfig>> loom_sweep_table(int explicit_st
   t["fast_xpbd"] = grid({8, 12, 16, 20, 24, 32, 64, 128, 256}, "iterations", {1});
   // With the tier's long-range attachments to the pins (AccuracyRuns.cpp, loom_setup).
   append(t["fast_xpbd"], grid({8, 12, 16, 20}, "tether_slack", {0.08}, {{"iterations", 1}}));
+  // With the outward strain limit (StrainLimitStage.h, limit_stretch_outward; AccuracyRuns.cpp, loom_setup)
+  // at 8 %, one sweep per substep: within a point of the reference max strain at 16 substeps
+  // (docs/benchmarks.md).
+  append(t["fast_xpbd"], grid({12, 16}, "strain_limit", {0.08},
+                              {{"iterations", 1}, {"strain_limit_outward", 1}, {"strain_limit_sweeps", 1}}));
   t["projective"] = grid({1, 4, 16}, "iterations", {4, 16});
   append(t["projective"], grid({1}, "iterations", {4, 8}, {{"chebyshev", 1}}));
   append(t["projective"], grid({1, 4}, "iterations", {16}, {{"chebyshev", 1}}));

@@ -16,7 +16,37 @@ namespace loom::cloth {
 struct StrainLimitSettings {
   double max_stretch = 0.1;  // 1, τ: largest allowed l/L - 1
   int iterations = 4;        // Gauss-Seidel sweeps per step
+  // Sweeps outward from the kinematic vertices (limit_stretch_outward) instead of Provot's alternating
+  // sweeps; a cloth without kinematic vertices keeps the alternating ones.
+  bool outward = false;
 };
+
+// The springs of `springs` (indices into mesh.springs()) in outward order from the vertices with
+// inv_mass 0: by the larger hop distance of their ends (over `springs`) from such a vertex, then by the
+// smaller one (springs into a layer before the springs inside it), then by index. Empty when no vertex is
+// kinematic.
+struct OutwardOrder {
+  std::vector<int> springs;
+  // The same springs packed for the sweep: ends, rest length (m), lead: the end nearer the kinematic
+  // vertices (1: i, 2: j; 0: both as far).
+  struct Link {
+    int i, j;
+    double rest_length;
+    int lead;
+  };
+  std::vector<Link> links;
+};
+OutwardOrder outward_order(const ClothMesh& mesh, const std::vector<int>& springs,
+                           const std::vector<double>& inv_mass);
+
+// Outward strain limiting, the follow-the-leader idea of Müller et al. 2012 ("Fast simulation of
+// inextensible hair and fur", VRIPHYS) on Provot's projection: in `order`, a spring longer than (1 + τ) L
+// is shortened to (1 + τ) L by moving only its end farther from the kinematic vertices (both ends in
+// inverse-mass proportion when they are equally far). One sweep carries a pull from the pins to the free
+// edge instead of one spring per sweep; `sweeps` sweeps at most, stopping after one that corrected nothing.
+// moved: as limit_stretch. Returns the corrections made.
+long limit_stretch_outward(const ClothMesh& mesh, const OutwardOrder& order, double max_stretch, int sweeps,
+                           ClothState& state, std::vector<int>& moved);
 
 // The springs a strain limit acts on: indices into mesh.springs() of the structural and shear springs (grids)
 // or the edges (triangle meshes).
@@ -49,6 +79,8 @@ class StrainLimitStage final : public Stage {
   // kinematic_mass_ (recomputed when they change).
   std::vector<std::vector<int>> kinematic_;
   std::vector<std::vector<double>> kinematic_mass_;
+  std::vector<OutwardOrder> outward_;                 // per cloth (settings_.outward): the sweep order
+  std::vector<std::vector<char>> outward_kinematic_;  // per cloth: the inv_mass == 0 flags outward_ was built for
   long corrections_ = 0;
   long remaining_ = 0;
 };
