@@ -9,6 +9,27 @@ namespace loom::cloth {
 
 namespace {
 constexpr double kSkip = 1.0 - 1e-9;  // 1, squared-length margin below which a spring is within the limit
+
+// Provot 1995: moves the ends of spring (i, j) of rest length `rest` along it, in the ratio of the inverse
+// masses wi, wj, so that l = stretch x rest when it is longer; returns whether it moved them (moved[v] =
+// sweep + 1 for each end moved). Most springs are well within the limit: a squared test with a margin skips
+// their square root (the exact test decides the rest, so the result does not depend on the shortcut).
+bool clamp_spring(ClothState& s, int i, int j, double rest, double wi, double wj, double stretch, int sweep,
+                  std::vector<int>& moved) {
+  if (wi + wj == 0.0) return false;
+  const Vec3 d = s.x[j] - s.x[i];
+  const double l_max = stretch * rest;
+  const double l2 = d.squaredNorm();
+  if (l2 < kSkip * l_max * l_max) return false;
+  const double l = std::sqrt(l2);
+  if (l <= l_max) return false;
+  const Vec3 corr = ((l - l_max) / ((wi + wj) * l)) * d;
+  s.x[i] += wi * corr;
+  s.x[j] -= wj * corr;
+  if (wi > 0.0) moved[i] = sweep + 1;
+  if (wj > 0.0) moved[j] = sweep + 1;
+  return true;
+}
 }  // namespace
 
 std::vector<int> limited_springs(const ClothMesh& mesh) {
@@ -39,24 +60,8 @@ long limit_stretch(const ClothMesh& mesh, const std::vector<int>& list, double m
       // 1 + the last sweep that moved the vertex).
       if (it > 0 && moved[sp.i] < it && moved[sp.j] < it) continue;
       double wi = s.inv_mass[sp.i], wj = s.inv_mass[sp.j];
-      if (wi + wj == 0.0) continue;
-      const Vec3 d = s.x[sp.j] - s.x[sp.i];
-      const double l_max = stretch * sp.rest_length;
-      // Most springs are well within the limit: a squared test with a margin skips their square root
-      // (the exact test below decides the rest, so the result does not depend on the shortcut).
-      const double l2 = d.squaredNorm();
-      if (l2 < kSkip * l_max * l_max) continue;
-      const double l = std::sqrt(l2);
-      if (l <= l_max) continue;
       if (any_held && held[sp.i] != held[sp.j]) (held[sp.i] ? wi : wj) = 0.0;
-      if (wi + wj == 0.0) continue;
-      // Provot 1995: move the ends along the spring so that l = (1 + τ) L.
-      const Vec3 corr = ((l - l_max) / ((wi + wj) * l)) * d;
-      s.x[sp.i] += wi * corr;
-      s.x[sp.j] -= wj * corr;
-      if (wi > 0.0) moved[sp.i] = it + 1;
-      if (wj > 0.0) moved[sp.j] = it + 1;
-      ++sweep_corrections;
+      if (clamp_spring(s, sp.i, sp.j, sp.rest_length, wi, wj, stretch, it, moved)) ++sweep_corrections;
     }
     corrections += sweep_corrections;
     if (sweep_corrections == 0) break;
@@ -110,20 +115,8 @@ long limit_stretch_outward(const ClothMesh&, const OutwardOrder& order, double m
     long sweep_corrections = 0;
     for (int q = 0; q < m; ++q) {
       const OutwardOrder::Link& sp = order.links[q];
-      double wi = sp.lead == 1 ? 0.0 : s.inv_mass[sp.i], wj = sp.lead == 2 ? 0.0 : s.inv_mass[sp.j];
-      if (wi + wj == 0.0) continue;
-      const Vec3 d = s.x[sp.j] - s.x[sp.i];
-      const double l_max = stretch * sp.rest_length;
-      const double l2 = d.squaredNorm();
-      if (l2 < kSkip * l_max * l_max) continue;
-      const double l = std::sqrt(l2);
-      if (l <= l_max) continue;
-      const Vec3 corr = ((l - l_max) / ((wi + wj) * l)) * d;
-      s.x[sp.i] += wi * corr;
-      s.x[sp.j] -= wj * corr;
-      if (wi > 0.0) moved[sp.i] = it + 1;
-      if (wj > 0.0) moved[sp.j] = it + 1;
-      ++sweep_corrections;
+      const double wi = sp.lead == 1 ? 0.0 : s.inv_mass[sp.i], wj = sp.lead == 2 ? 0.0 : s.inv_mass[sp.j];
+      if (clamp_spring(s, sp.i, sp.j, sp.rest_length, wi, wj, stretch, it, moved)) ++sweep_corrections;
     }
     corrections += sweep_corrections;
     if (sweep_corrections == 0) break;

@@ -734,22 +734,37 @@ TEST(HostileBench, AccuracySizesAreEstimatedBeforeAllocating) {
   EXPECT_FALSE(fs::exists(out)) << "the folder was claimed before the estimate";
 }
 
+// A one-frame --render of the hanging sheet at size x size under LOOM_MEMORY_LIMIT=`limit`: its exit code
+// and stderr; `skipped` when this build or machine cannot render.
+struct RenderRefusal {
+  int code = -1;
+  std::string err;
+  bool skipped = false;
+};
+RenderRefusal render_under_limit(const std::string& limit, int size, const fs::path& out) {
+  const std::string cmd = "LOOM_MEMORY_LIMIT=" + limit + " " + std::string(LOOM_BINARY) + " run " +
+                          std::string(LOOM_SOURCE_DIR) + "/scenes/hanging_cloth.json --frames 1 --render " +
+                          "--set 'output.render={\"width\":" + std::to_string(size) +
+                          ",\"height\":" + std::to_string(size) + "}' --out " + out.string() + " 2>" +
+                          (test_dir() / "err.txt").string() + " >/dev/null";
+  const int status = std::system(cmd.c_str());
+  RenderRefusal r;
+  r.err = slurp(test_dir() / "err.txt");
+  r.skipped = r.err.find("offscreen renderer") != std::string::npos ||
+              r.err.find("ffmpeg not found") != std::string::npos;
+  r.code = WIFEXITED(status) ? WEXITSTATUS(status) : -1;
+  return r;
+}
+
 // --render estimates the recording and the supersampled images before the run: a size the memory cannot
 // hold is refused by field, with the figure, before the output folder (not after the simulation).
 TEST(HostileRender, ImageSizeIsEstimatedBeforeTheRun) {
   const fs::path out = test_dir() / "out";
-  const std::string cmd = "LOOM_MEMORY_LIMIT=1000000000 " + std::string(LOOM_BINARY) + " run " +
-                          std::string(LOOM_SOURCE_DIR) + "/scenes/hanging_cloth.json --frames 1 --render " +
-                          "--set 'output.render={\"width\":8192,\"height\":8192}' --out " + out.string() +
-                          " 2>" + (test_dir() / "err.txt").string() + " >/dev/null";
-  const int status = std::system(cmd.c_str());
-  const std::string err = slurp(test_dir() / "err.txt");
-  if (err.find("offscreen renderer") != std::string::npos ||
-      err.find("ffmpeg not found") != std::string::npos)
-    GTEST_SKIP() << "no renderer";
-  EXPECT_TRUE(WIFEXITED(status) && WEXITSTATUS(status) == 1) << err;
-  EXPECT_NE(err.find("output.render.width: --render at 8192x8192 px"), std::string::npos) << err;
-  EXPECT_NE(err.find("set by LOOM_MEMORY_LIMIT"), std::string::npos) << err;
+  const RenderRefusal r = render_under_limit("1000000000", 8192, out);
+  if (r.skipped) GTEST_SKIP() << "no renderer";
+  EXPECT_EQ(r.code, 1) << r.err;
+  EXPECT_NE(r.err.find("output.render.width: --render at 8192x8192 px"), std::string::npos) << r.err;
+  EXPECT_NE(r.err.find("set by LOOM_MEMORY_LIMIT"), std::string::npos) << r.err;
   EXPECT_FALSE(fs::exists(out)) << "the folder was claimed before the estimate";
 }
 
@@ -758,19 +773,13 @@ TEST(HostileRender, ImageSizeIsEstimatedBeforeTheRun) {
 // field before the folder is made (not found by a failed encoding after the simulation).
 TEST(HostileRender, TheEncodersMemoryIsEstimatedBeforeTheRun) {
   const fs::path out = test_dir() / "out";
-  const std::string cmd = "LOOM_MEMORY_LIMIT=600000000 " + std::string(LOOM_BINARY) + " run " +
-                          std::string(LOOM_SOURCE_DIR) + "/scenes/hanging_cloth.json --frames 1 --render " +
-                          "--set 'output.render={\"width\":2048,\"height\":2048}' --out " + out.string() +
-                          " 2>" + (test_dir() / "err.txt").string() + " >/dev/null";
-  const int status = std::system(cmd.c_str());
-  const std::string err = slurp(test_dir() / "err.txt");
-  if (err.find("offscreen renderer") != std::string::npos ||
-      err.find("ffmpeg not found") != std::string::npos)
-    GTEST_SKIP() << "no renderer";
-  EXPECT_TRUE(WIFEXITED(status) && WEXITSTATUS(status) == 1) << err;
-  EXPECT_NE(err.find("output.render.width: ffmpeg's encoding of 2048x2048 px frames with"), std::string::npos)
-      << err;
-  EXPECT_NE(err.find("set by LOOM_MEMORY_LIMIT"), std::string::npos) << err;
+  const RenderRefusal r = render_under_limit("600000000", 2048, out);
+  if (r.skipped) GTEST_SKIP() << "no renderer";
+  EXPECT_EQ(r.code, 1) << r.err;
+  EXPECT_NE(r.err.find("output.render.width: ffmpeg's encoding of 2048x2048 px frames with"),
+            std::string::npos)
+      << r.err;
+  EXPECT_NE(r.err.find("set by LOOM_MEMORY_LIMIT"), std::string::npos) << r.err;
   EXPECT_FALSE(fs::exists(out)) << "the folder was claimed before the estimate";
 }
 

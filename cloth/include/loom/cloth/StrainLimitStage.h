@@ -79,8 +79,9 @@ class StrainLimitStage final : public Stage {
   // kinematic_mass_ (recomputed when they change).
   std::vector<std::vector<int>> kinematic_;
   std::vector<std::vector<double>> kinematic_mass_;
-  std::vector<OutwardOrder> outward_;                 // per cloth (settings_.outward): the sweep order
-  std::vector<std::vector<char>> outward_kinematic_;  // per cloth: the inv_mass == 0 flags outward_ was built for
+  std::vector<OutwardOrder> outward_;  // per cloth (settings_.outward): the sweep order
+  std::vector<std::vector<char>>
+      outward_kinematic_;  // per cloth: the inv_mass == 0 flags outward_ was built for
   long corrections_ = 0;
   long remaining_ = 0;
 };
