@@ -406,8 +406,10 @@ SceneRun::SceneRun(const RunOptions& options) : o_(options) {
   for (const std::string& f : sc_.inputs) inputs_.push_back(fingerprint(f));
   if (o_.threads > 0) sc_.setup.threads = o_.threads;
   for (const std::string& w : sc_.start_warnings)
-    std::cerr << "loom: warning: " << printable(scene_path_) << ": " << printable(w)
-              << ": contact pushes it out in the first step (move them apart)\n";
+    std::cerr
+        << "loom: warning: " << printable(scene_path_) << ": " << printable(w)
+        << ": contact pushes it out from the first step, with a jump, and cannot free a cloth that lies "
+           "deeper inside than it can move (move them apart)\n";
   // Threads beyond the machine's only queue on the cores (and thousands exhaust the OpenMP runtime).
   const int hardware = std::max(1, static_cast<int>(std::thread::hardware_concurrency()));
   if (sc_.setup.threads > hardware) {

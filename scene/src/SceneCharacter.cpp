@@ -147,13 +147,16 @@ void parse_character(const JsonReader& root, Scene& scene) {
       spec.clearance = g.length("clearance", spec.clearance);
       if (spec.clearance > 0.25 * body)
         g.fail("clearance", "must be <= 0.25 x the figure's size (" + show_size(0.25 * body) + " m)");
-      spec.length = g.number("length", spec.length, 0.0);
-      if (spec.type == "cape") spec.width = g.number("width", spec.width, 0.0);
-      // A garment shorter than 1 cm would be degenerate: refused by its field, not by a triangle.
-      if (g.has("length") && !(spec.length >= 0.01 && spec.length <= 100.0))
-        g.fail("length", "must be in [0.01, 100] m");
-      if (spec.type == "cape" && g.has("width") && !(spec.width >= 0.01 && spec.width <= 100.0))
-        g.fail("width", "must be in [0.01, 100] m");
+      // 0 takes the size from the body; a garment shorter than 1 cm would be degenerate: refused by its
+      // field, not by a triangle.
+      auto size = [&g](const char* key, double fallback) {
+        const double v = g.number(key, fallback);
+        if (g.has(key) && !(v == 0.0 || (v >= 0.01 && v <= 100.0)))
+          g.fail(key, "must be 0 (from the body) or in [0.01, 100] m");
+        return v;
+      };
+      spec.length = size("length", spec.length);
+      if (spec.type == "cape") spec.width = size("width", spec.width);
       if (spec.type == "skirt") {
         spec.flare = g.number("flare", spec.flare, 0.0, true);
         if (!(spec.flare >= 0.1 && spec.flare <= 10.0))

@@ -477,6 +477,28 @@ TEST(ClipInput, AGarmentOutsideTheRegimeIsNamedByItsGarmentField) {
   EXPECT_EQ(advice.find("cloths["), std::string::npos) << advice;
 }
 
+// A generated garment's length and width of 0 take the size from the body (the scene format's own
+// example), for every garment type; a negative one is refused with the same rule.
+TEST(ClipInput, AGarmentSizeOfZeroTakesItFromTheBody) {
+  for (const std::string type : {"cape", "skirt", "shirt"}) {
+    const std::string garment = "character.garments=[{\"type\":\"" + type + "\",\"length\":0" +
+                                (type == "cape" ? ",\"width\":0" : "") + "}]";
+    EXPECT_EQ(error_of([&] {
+                loom::scene::load_scene(std::string(LOOM_SOURCE_DIR) + "/scenes/character_cape.json",
+                                        {garment, "duration=0.1"});
+              }),
+              "")
+        << type;
+    const std::string negative = "character.garments=[{\"type\":\"" + type + "\",\"length\":-1}]";
+    EXPECT_NE(error_of([&] {
+                loom::scene::load_scene(std::string(LOOM_SOURCE_DIR) + "/scenes/character_cape.json",
+                                        {negative, "duration=0.1"});
+              }).find("character.garments[0].length: must be 0 (from the body) or in [0.01, 100] m"),
+              std::string::npos)
+        << type;
+  }
+}
+
 // What loading a clip holds is estimated from the file before it is read: a BVH by Frames x its joints and
 // their CHANNELS (arm_swing.bvh: 511 frames of 31 joints, 6 + 30 x 3 channels), bounded by what its lines can
 // hold; a glTF by its JSON and the byteLength of its buffers; a FIFO is never opened.
