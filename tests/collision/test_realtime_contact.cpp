@@ -58,16 +58,24 @@ TEST(RealtimeContact, ASheetDrapedOverCapsulesAndASphereEndsEveryStepOutsideThem
   EXPECT_GT(contacts, 1000.0);  // it draped
 }
 
+// 30 small spheres of radius 0.05-0.07 m along a diagonal under the sheets below; `home`: their centres.
+std::shared_ptr<ColliderSet> sphere_field(std::vector<Vec3>* home = nullptr) {
+  auto set = std::make_shared<ColliderSet>();
+  for (int k = 0; k < 30; ++k) {
+    const Vec3 c(-0.45 + 0.03 * k, 0.2 + 0.004 * k, -0.4 + 0.027 * k);
+    set->push_back(shape(ShapeType::sphere, 0.05 + 0.01 * (k % 3)));
+    set->back().prev = set->back().curr = at(c);
+    if (home) home->push_back(c);
+  }
+  return set;
+}
+
 TEST(RealtimeContact, CullingDropsNoContact) {
   // 30 small spheres under a falling sheet: the culling (cloth box, collider grid, collider boxes) must not
   // drop a contact, so after every step every vertex is outside every sphere by the brute-force distance.
   SimulationSetup s = realtime(sheet(17, 1.0, cloth::GridPlane::kXZ, Vec3(-0.5, 0.4, -0.5)), 8);
   Simulation sim(s);
-  auto set = std::make_shared<ColliderSet>();
-  for (int k = 0; k < 30; ++k) {
-    set->push_back(shape(ShapeType::sphere, 0.05 + 0.01 * (k % 3)));
-    set->back().prev = set->back().curr = at(Vec3(-0.45 + 0.03 * k, 0.2 + 0.004 * k, -0.4 + 0.027 * k));
-  }
+  const auto set = sphere_field();
   sim.add_stage(std::make_unique<RealtimeBodyContactStage>(set));
   const double thickness = sim.cloths()[0]->material().thickness;
   long steps = 0;
@@ -79,20 +87,14 @@ TEST(RealtimeContact, CullingDropsNoContact) {
   EXPECT_EQ(steps, 30 * 8);
 }
 
-// Largest l/L - 1 over the springs a strain limit acts on.
 TEST(RealtimeContact, CullingDropsNoContactWhenCollidersJump) {
   // The stage keeps, per vertex, the colliders that may reach it over several steps (the collider masks);
   // colliders that jump between frames with no motion in their poses (prev = curr at the new place), by
   // more than any margin, must still be found: after every step every vertex is outside every sphere.
   SimulationSetup s = realtime(sheet(17, 1.0, cloth::GridPlane::kXZ, Vec3(-0.5, 0.4, -0.5)), 8);
   Simulation sim(s);
-  auto set = std::make_shared<ColliderSet>();
   std::vector<Vec3> home;
-  for (int k = 0; k < 30; ++k) {
-    set->push_back(shape(ShapeType::sphere, 0.05 + 0.01 * (k % 3)));
-    home.push_back(Vec3(-0.45 + 0.03 * k, 0.2 + 0.004 * k, -0.4 + 0.027 * k));
-    set->back().prev = set->back().curr = at(home.back());
-  }
+  const auto set = sphere_field(&home);
   auto stage = std::make_unique<RealtimeBodyContactStage>(set);
   const RealtimeBodyContactStage* rt = stage.get();
   sim.add_stage(std::move(stage));
@@ -119,6 +121,7 @@ TEST(RealtimeContact, CullingDropsNoContactWhenCollidersJump) {
   EXPECT_GT(contacts(), draped);  // the jumps met the sheet
 }
 
+// Largest l/L - 1 over the springs a strain limit acts on.
 double max_stretch(const cloth::Cloth& c) {
   double m = -1.0;
   const auto& springs = c.mesh().springs();
