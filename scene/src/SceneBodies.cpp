@@ -163,15 +163,7 @@ void parse_bodies(const JsonReader& root, Scene& scene) {
                          "]: body names must be unique (bodies.csv names its rows by them)");
     const std::string shape =
         r.string("shape", std::nullopt, {"plane", "sphere", "capsule", "box", "cylinder"});
-    // The size keys of the other shapes, given here, would have no effect.
-    for (const char* key : {"radius", "half_height", "half_extents"}) {
-      const std::string k = key;
-      const bool used = (k == "radius" && shape != "plane" && shape != "box") ||
-                        (k == "half_height" && (shape == "capsule" || shape == "cylinder")) ||
-                        (k == "half_extents" && shape == "box");
-      if (!used && r.has(k))
-        r.fail(k, "is not used by a " + shape + " body (shape \"" + shape + "\"); remove it");
-    }
+    refuse_other_shape_keys(r, shape, {"radius", "half_height", "half_extents"}, "body");
     if (shape == "plane") {
       b.shape.type = ShapeType::plane;
     } else if (shape == "sphere") {

@@ -245,17 +245,8 @@ void parse_colliders(const JsonReader& root, Scene& scene) {
     const std::string shape =
         r.string("shape", std::nullopt, {"plane", "sphere", "capsule", "box", "cylinder", "convex", "mesh"});
     collision::Shape& s = c.shape;
-    // The size and geometry keys of the other shapes, given here, would have no effect.
-    for (const char* key : {"radius", "half_height", "half_extents", "vertices", "obj", "triangles"}) {
-      const std::string k = key;
-      const bool listed = shape == "convex" || shape == "mesh";
-      const bool used = (k == "radius" && shape != "plane" && shape != "box" && !listed) ||
-                        (k == "half_height" && (shape == "capsule" || shape == "cylinder")) ||
-                        (k == "half_extents" && shape == "box") ||
-                        ((k == "vertices" || k == "obj") && listed) || (k == "triangles" && shape == "mesh");
-      if (!used && r.has(k))
-        r.fail(k, "is not used by a " + shape + " collider (shape \"" + shape + "\"); remove it");
-    }
+    refuse_other_shape_keys(
+        r, shape, {"radius", "half_height", "half_extents", "vertices", "obj", "triangles"}, "collider");
     if (shape == "plane") {
       s.type = ShapeType::plane;
     } else if (shape == "sphere") {

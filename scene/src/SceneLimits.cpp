@@ -165,6 +165,20 @@ void check_memory(const std::string& file, const std::string& field, double need
                     available_memory_text(budget) + ": " + advice);
 }
 
+void refuse_other_shape_keys(const JsonReader& r, const std::string& shape,
+                             std::initializer_list<const char*> keys, const std::string& kind) {
+  const bool listed = shape == "convex" || shape == "mesh";  // given by their vertices
+  for (const char* key : keys) {
+    const std::string k = key;
+    const bool used = (k == "radius" && shape != "plane" && shape != "box" && !listed) ||
+                      (k == "half_height" && (shape == "capsule" || shape == "cylinder")) ||
+                      (k == "half_extents" && shape == "box") ||
+                      ((k == "vertices" || k == "obj") && listed) || (k == "triangles" && shape == "mesh");
+    if (!used && r.has(k))
+      r.fail(k, "is not used by a " + shape + " " + kind + " (shape \"" + shape + "\"); remove it");
+  }
+}
+
 void reserve_vertices(Scene& scene, const std::string& field, double vertices) {
   scene.vertices += vertices;
   check_budget(scene, field,

@@ -330,10 +330,12 @@ std::vector<RegimeOutlier> regime_outliers(const Scene& scene) {
     at_start.shape = b.shape;
     at_start.prev = at_start.curr = b.motion ? b.motion(0.0) : b.pose;
     for (size_t i = 0; i < s.cloths.size(); ++i) {
-      std::vector<char> held(s.cloths[i].mesh->num_vertices(), 0);
+      std::vector<char> held;  // empty unless the body holds vertices of this cloth
       for (const collision::BodyAttachment& a : b.attachments)
-        if (a.cloth == static_cast<int>(i) && a.vertex >= 0 && a.vertex < static_cast<int>(held.size()))
+        if (a.cloth == static_cast<int>(i) && a.vertex >= 0 && a.vertex < s.cloths[i].mesh->num_vertices()) {
+          if (held.empty()) held.assign(s.cloths[i].mesh->num_vertices(), 0);
           held[a.vertex] = 1;
+        }
       const std::string where = start_inside(at_start, *s.cloths[i].mesh, cloth_box[i], held);
       if (!where.empty())
         out.push_back({scene.cloth_field(static_cast<int>(i)) + " starts inside bodies[" + std::to_string(k) +

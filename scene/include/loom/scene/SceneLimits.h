@@ -4,10 +4,12 @@
 // vertices against what the machine has. Every refusal names the scene file, the field and the figure.
 #include <cstddef>
 #include <cstdint>
+#include <initializer_list>
 #include <optional>
 #include <string>
 
 #include "loom/cloth/InputFile.h"
+#include "loom/scene/JsonReader.h"
 
 namespace loom::scene {
 
@@ -108,6 +110,11 @@ std::optional<std::uint64_t> memory_limit_env();
 // Adds `vertices` cloth vertices (of the cloth at JSON path `field`) to the scene's count and refuses when
 // the estimate kBytesPerVertex x count exceeds memory_budget().
 void reserve_vertices(Scene& scene, const std::string& field, double vertices);
+// The size and geometry keys of the shapes colliders and bodies share (Collider.h): refuses, by the key,
+// each of `keys` that `r` gives but `shape` does not use ("is not used by a plane body (shape "plane")").
+// `kind`: "body" or "collider". Keys of other shapes would otherwise be read by no one.
+void refuse_other_shape_keys(const JsonReader& r, const std::string& shape,
+                             std::initializer_list<const char*> keys, const std::string& kind);
 // "1.5 GB (set by LOOM_MEMORY_LIMIT) is available", "300 MB (under RLIMIT_AS, ulimit -v) is available":
 // a budget as every message that gives a memory figure says it.
 std::string available_memory_text(const MemoryBudget& budget);
